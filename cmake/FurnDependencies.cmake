@@ -1,0 +1,53 @@
+# Every dependency comes from a Debian 12 package. A missing one stops the
+# configure step with the package to install (tools/setup.sh installs them all).
+
+function(furn_missing what debian_package)
+  message(FATAL_ERROR
+    "Missing dependency ${what}: install the Debian package '${debian_package}' "
+    "(apt-get install ${debian_package}), or run tools/setup.sh")
+endfunction()
+
+macro(furn_find_package name debian_package)
+  find_package(${name} ${ARGN} QUIET)
+  if(NOT ${name}_FOUND)
+    furn_missing(${name} ${debian_package})
+  endif()
+endmacro()
+
+furn_find_package(Eigen3 libeigen3-dev 3.3 NO_MODULE)
+furn_find_package(PCL libpcl-dev 1.12 COMPONENTS common io search kdtree features filters
+                  segmentation sample_consensus surface)
+furn_find_package(assimp libassimp-dev 5)
+furn_find_package(embree libembree-dev 3)
+furn_find_package(OpenCV libopencv-dev 4 COMPONENTS core imgproc imgcodecs)
+furn_find_package(Ceres libceres-dev 2)
+furn_find_package(SQLite3 libsqlite3-dev)
+furn_find_package(nlohmann_json nlohmann-json3-dev 3)
+furn_find_package(CLI11 libcli11-dev)
+furn_find_package(Threads build-essential)
+
+find_package(PkgConfig QUIET)
+if(NOT PkgConfig_FOUND)
+  furn_missing(pkg-config pkg-config)
+endif()
+pkg_check_modules(OSMESA IMPORTED_TARGET osmesa)
+if(NOT OSMESA_FOUND)
+  furn_missing(OSMesa libosmesa6-dev)
+endif()
+# libzip's CMake config on Debian 12 names tool binaries the -dev package does
+# not ship, so it is found through pkg-config.
+pkg_check_modules(LIBZIP IMPORTED_TARGET libzip)
+if(NOT LIBZIP_FOUND)
+  furn_missing(libzip libzip-dev)
+endif()
+pkg_check_modules(XXHASH IMPORTED_TARGET libxxhash)
+if(NOT XXHASH_FOUND)
+  furn_missing(xxhash libxxhash-dev)
+endif()
+
+if(FURN_BUILD_TESTS)
+  furn_find_package(GTest libgtest-dev)
+endif()
+if(FURN_BUILD_BENCHMARKS)
+  furn_find_package(benchmark libbenchmark-dev)
+endif()

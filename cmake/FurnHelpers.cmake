@@ -1,0 +1,48 @@
+# Helpers shared by every folder: warnings and sanitizers on our own targets
+# only, one call to declare a layer library, one call to declare a test.
+
+function(furn_target_defaults target)
+  target_compile_options(${target} PRIVATE -Wall -Wextra -Wno-unknown-pragmas)
+  if(FURN_WERROR)
+    target_compile_options(${target} PRIVATE -Werror)
+  endif()
+  if(NOT FURN_SANITIZE STREQUAL "")
+    target_compile_options(${target} PRIVATE -fsanitize=${FURN_SANITIZE} -fno-omit-frame-pointer)
+    target_link_options(${target} PRIVATE -fsanitize=${FURN_SANITIZE})
+  endif()
+endfunction()
+
+# furn_add_library(NAME furn_core SOURCES a.cc b.cc PUBLIC_LINKS ... PRIVATE_LINKS ...)
+function(furn_add_library)
+  cmake_parse_arguments(ARG "" "NAME" "SOURCES;PUBLIC_LINKS;PRIVATE_LINKS" ${ARGN})
+  add_library(${ARG_NAME} STATIC ${ARG_SOURCES})
+  target_include_directories(${ARG_NAME} PUBLIC ${PROJECT_SOURCE_DIR})
+  target_link_libraries(${ARG_NAME} PUBLIC ${ARG_PUBLIC_LINKS} PRIVATE ${ARG_PRIVATE_LINKS})
+  furn_target_defaults(${ARG_NAME})
+  if(NOT FURN_SANITIZE STREQUAL "")
+    target_link_options(${ARG_NAME} INTERFACE -fsanitize=${FURN_SANITIZE})
+  endif()
+endfunction()
+
+# furn_add_test(FOLDER core NAME sgf SOURCES sgf_test.cc LINKS furn_core [LABELS slow])
+# builds tests/<folder>/<name>_test and registers each TEST as "<folder>/<name>.<Suite>.<Case>".
+function(furn_add_test)
+  cmake_parse_arguments(ARG "" "FOLDER;NAME;TIMEOUT" "SOURCES;LINKS;LABELS" ${ARGN})
+  set(target ${ARG_FOLDER}_${ARG_NAME}_test)
+  add_executable(${target} ${ARG_SOURCES})
+  target_link_libraries(${target} PRIVATE ${ARG_LINKS} furn_test_main GTest::gtest GTest::gmock)
+  target_compile_definitions(${target} PRIVATE
+    FURN_TEST_BINARY_DIR="${CMAKE_CURRENT_BINARY_DIR}"
+    FURN_SOURCE_DIR="${PROJECT_SOURCE_DIR}")
+  furn_target_defaults(${target})
+  if(NOT ARG_LABELS)
+    set(ARG_LABELS fast)
+  endif()
+  if(NOT ARG_TIMEOUT)
+    set(ARG_TIMEOUT 300)
+  endif()
+  gtest_discover_tests(${target}
+    TEST_PREFIX "${ARG_FOLDER}/${ARG_NAME}."
+    PROPERTIES LABELS "${ARG_LABELS}" TIMEOUT ${ARG_TIMEOUT}
+    DISCOVERY_TIMEOUT 60)
+endfunction()

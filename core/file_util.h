@@ -1,0 +1,44 @@
+// Small file helpers that every layer needs: reading a whole file with an
+// error that names it, and writing a file atomically so that an interrupted
+// or failed write never leaves a half-written output behind.
+//
+//   std::string bytes = ReadFileBytes("model.obj");
+//   WriteFileAtomically("out/summary.json", text);
+//   AtomicFile file("out/mesh.ply");      // write file.TempPath() ...
+//   file.Commit();                         // ... then rename into place
+#pragma once
+
+#include <string>
+
+namespace furn {
+
+// Throws InputError "<path>: cannot read (<reason>)".
+std::string ReadFileBytes(const std::string& path);
+
+// Writes to "<path>.tmp-<pid>" then renames over `path`; throws InputError
+// naming `path` on failure and removes the temporary file.
+void WriteFileAtomically(const std::string& path, const std::string& bytes);
+
+// For writers that need a path rather than bytes (assimp, OpenCV, PCL):
+// write to TempPath(), then Commit(). Destroyed without Commit(), the
+// temporary file is removed and `path` is untouched.
+class AtomicFile {
+ public:
+  explicit AtomicFile(std::string path);
+  ~AtomicFile();
+  AtomicFile(const AtomicFile&) = delete;
+  AtomicFile& operator=(const AtomicFile&) = delete;
+
+  const std::string& TempPath() const { return temp_path_; }
+  void Commit();
+
+ private:
+  std::string path_;
+  std::string temp_path_;
+  bool committed_ = false;
+};
+
+// Lower-case extension without the dot ("PLY" -> "ply"), "" when none.
+std::string FileExtension(const std::string& path);
+
+}  // namespace furn

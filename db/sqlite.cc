@@ -1,0 +1,135 @@
+#include "db/sqlite.h"
+
+#include <sqlite3.h>
+
+namespace furn {
+
+Database::Database(const std::string& path, Mode mode) : path_(path) {
+  const int flags = mode == Mode::kReadOnly ? SQLITE_OPEN_READONLY
+                                            : SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE;
+  const int code = sqlite3_open_v2(path.c_str(), &db_, flags, nullptr);
+  if (code != SQLITE_OK) {
+    const std::string message = db_ ? sqlite3_errmsg(db_) : sqlite3_errstr(code);
+    sqlite3_close(db_);
+    db_ = nullptr;
+    throw DbError(path + ": cannot open database: " + message);
+  }
+  sqlite3_extended_result_codes(db_, 1);
+  sqlite3_busy_timeout(db_, 10000);
+  Execute("PRAGMA foreign_keys = ON");
+  if (mode == Mode::kReadWrite) Execute("PRAGMA journal_mode = WAL");
+}
+
+Database::~Database() { sqlite3_close_v2(db_); }
+
+void Database::Check(int code, const std::string& what) const {
+  if (code == SQLITE_OK || code == SQLITE_ROW || code == SQLITE_DONE) return;
+  throw DbError(path_ + ": " + what + ": " + sqlite3_errmsg(db_));
+}
+
+void Database::Execute(const std::string& sql) {
+  char* error = nullptr;
+  const int code = sqlite3_exec(db_, sql.c_str(), nullptr, nullptr, &error);
+  if (code != SQLITE_OK) {
+    const std::string message = error ? error : sqlite3_errstr(code);
+    sqlite3_free(error);
+    throw DbError(path_ + ": " + message + " (in: " + sql.substr(0, 80) + ")");
+  }
+}
+
+int64_t Database::LastInsertRowId() const { return sqlite3_last_insert_rowid(db_); }
+
+Statement::Statement(Database* db, const std::string& sql) : db_(db), sql_(sql) {
+  db_->Check(sqlite3_prepare_v2(db_->handle(), sql.c_str(), -1, &statement_, nullptr),
+             "cannot prepare '" + sql.substr(0, 80) + "'");
+}
+
+Statement::~Statement() { sqlite3_finalize(statement_); }
+
+Statement& Statement::Bind(int index, int64_t value) {
+  db_->Check(sqlite3_bind_int64(statement_, index, value), "bind");
+  return *this;
+}
+
+Statement& Statement::Bind(int index, double value) {
+  db_->Check(sqlite3_bind_double(statement_, index, value), "bind");
+  return *this;
+}
+
+Statement& Statement::Bind(int index, const std::string& text) {
+  db_->Check(sqlite3_bind_text(statement_, index, text.data(), static_cast<int>(text.size()),
+                               SQLITE_TRANSIENT),
+             "bind");
+  return *this;
+}
+
+Statement& Statement::BindBlob(int index, const std::vector<uint8_t>& bytes) {
+  db_->Check(sqlite3_bind_blob(statement_, index, bytes.data(), static_cast<int>(bytes.size()),
+                               SQLITE_TRANSIENT),
+             "bind");
+  return *this;
+}
+
+Statement& Statement::BindNull(int index) {
+  db_->Check(sqlite3_bind_null(statement_, index), "bind");
+  return *this;
+}
+
+bool Statement::Step() {
+  const int code = sqlite3_step(statement_);
+  db_->Check(code, "'" + sql_.substr(0, 80) + "'");
+  return code == SQLITE_ROW;
+}
+
+void Statement::Run() {
+  while (Step()) {
+  }
+  Reset();
+}
+
+void Statement::Reset() {
+  sqlite3_reset(statement_);
+  sqlite3_clear_bindings(statement_);
+}
+
+int64_t Statement::ColumnInt(int column) const { return sqlite3_column_int64(statement_, column); }
+
+double Statement::ColumnDouble(int column) const {
+  return sqlite3_column_double(statement_, column);
+}
+
+std::string Statement::ColumnText(int column) const {
+  const auto* text = sqlite3_column_text(statement_, column);
+  return text ? std::string(reinterpret_cast<const char*>(text),
+                            sqlite3_column_bytes(statement_, column))
+              : std::string();
+}
+
+std::vector<uint8_t> Statement::ColumnBlob(int column) const {
+  const auto* data = static_cast<const uint8_t*>(sqlite3_column_blob(statement_, column));
+  return data ? std::vector<uint8_t>(data, data + sqlite3_column_bytes(statement_, column))
+              : std::vector<uint8_t>();
+}
+
+bool Statement::ColumnIsNull(int column) const {
+  return sqlite3_column_type(statement_, column) == SQLITE_NULL;
+}
+
+Transaction::Transaction(Database* db) : db_(db) { db_->Execute("BEGIN IMMEDIATE"); }
+
+Transaction::~Transaction() {
+  if (!done_) {
+    try {
+      db_->Execute("ROLLBACK");
+    } catch (const DbError&) {
+      // Nothing more can be done in a destructor; the transaction is void.
+    }
+  }
+}
+
+void Transaction::Commit() {
+  db_->Execute("COMMIT");
+  done_ = true;
+}
+
+}  // namespace furn

@@ -1,0 +1,208 @@
+#include "scenes/catalog.h"
+
+#include <algorithm>
+#include <filesystem>
+#include <map>
+
+#include "core/error.h"
+#include "core/progress.h"
+#include "scenes/class_map.h"
+#include "scenes/procedural_catalog.h"
+#include "scenes/sh3f_catalog.h"
+
+namespace furn {
+
+// Where an entry's model comes from: a .sh3f archive or a procedural model.
+struct Catalog::Source {
+  std::unique_ptr<Sh3fCatalog> archive;      // set for .sh3f sources
+  std::map<std::string, CadModel> prebuilt;  // procedural models by id
+};
+
+namespace {
+
+constexpr char kProceduralPrefix[] = "procedural";
+
+CatalogEntry EntryFromSh3f(const Sh3fEntry& sh3f, const std::string& source) {
+  CatalogEntry entry;
+  entry.id = sh3f.id;
+  entry.name = sh3f.name;
+  entry.category = sh3f.category;
+  entry.source = source;
+  entry.door_or_window = sh3f.door_or_window;
+  entry.size_m = Eigen::Vector3f(sh3f.width_cm, sh3f.depth_cm, sh3f.height_cm) / 100.0f;
+  return entry;
+}
+
+bool AllCatalogsPresent(const ClassMap& map, const std::string& dir) {
+  std::error_code ec;
+  return std::all_of(map.catalogs.begin(), map.catalogs.end(), [&](const std::string& name) {
+    return std::filesystem::is_regular_file(std::filesystem::path(dir) / name, ec);
+  });
+}
+
+// Edit distance, for "did you mean" suggestions.
+size_t EditDistance(const std::string& a, const std::string& b) {
+  std::vector<size_t> row(b.size() + 1);
+  for (size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (size_t i = 1; i <= a.size(); ++i) {
+    size_t diagonal = row[0];
+    row[0] = i;
+    for (size_t j = 1; j <= b.size(); ++j) {
+      const size_t up = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] != b[j - 1])});
+      diagonal = up;
+    }
+  }
+  return row[b.size()];
+}
+
+uint64_t ParseSeed(const std::string& text, const std::string& spec) {
+  Require(!text.empty() && text.find_first_not_of("0123456789") == std::string::npos &&
+              text.size() <= 19,
+          "catalog '" + spec + "': the seed after 'procedural:' must be a whole number");
+  return std::stoull(text);
+}
+
+}  // namespace
+
+Catalog::Catalog() = default;
+Catalog::~Catalog() = default;
+Catalog::Catalog(Catalog&&) noexcept = default;
+Catalog& Catalog::operator=(Catalog&&) noexcept = default;
+
+std::vector<const CatalogEntry*> Catalog::Classified() const {
+  std::vector<const CatalogEntry*> classified;
+  for (const CatalogEntry& entry : entries_) {
+    if (entry.furniture_class) classified.push_back(&entry);
+  }
+  return classified;
+}
+
+const CatalogEntry& Catalog::Get(const std::string& id) const {
+  for (const CatalogEntry& entry : entries_) {
+    if (entry.id == id) return entry;
+  }
+  std::vector<std::pair<size_t, std::string>> close;
+  for (const CatalogEntry& entry : entries_) {
+    close.emplace_back(EditDistance(id, entry.id), entry.id);
+  }
+  std::sort(close.begin(), close.end());
+  std::string hint;
+  for (size_t i = 0; i < std::min<size_t>(3, close.size()); ++i) {
+    hint += (i ? ", " : " (closest: ") + close[i].second;
+  }
+  if (!hint.empty()) hint += ")";
+  throw InputError("entry '" + id + "' is not in catalog " + description_ + hint);
+}
+
+CadModel Catalog::LoadModel(const std::string& id) const {
+  const CatalogEntry& entry = Get(id);
+  const size_t index = static_cast<size_t>(&entry - entries_.data());
+  const Source& source = *sources_[source_of_entry_[index]];
+  if (source.archive) return source.archive->LoadModel(*source.archive->Find(id));
+  return source.prebuilt.at(id);
+}
+
+LoadedModels Catalog::LoadModels(const std::vector<std::string>& ids) const {
+  LoadedModels loaded;
+  Progress progress("load models", ids.size(), "models");
+  for (const std::string& id : ids) {
+    try {
+      loaded.models.push_back(LoadModel(id));
+    } catch (const InputError& error) {
+      loaded.failures.push_back({id, error.what()});
+    }
+    progress.Advance();
+  }
+  return loaded;
+}
+
+Catalog OpenCatalog(const std::string& spec, const CatalogOpenOptions& options) {
+  Catalog catalog;
+  catalog.description_ = spec;
+  const std::string extension = std::filesystem::path(spec).extension().string();
+
+  if (spec == kProceduralPrefix || spec.rfind(std::string(kProceduralPrefix) + ":", 0) == 0) {
+    const uint64_t seed =
+        spec == kProceduralPrefix ? 1 : ParseSeed(spec.substr(sizeof(kProceduralPrefix)), spec);
+    ProceduralCatalogOptions procedural;
+    procedural.seed = seed;
+    auto source = std::make_unique<Catalog::Source>();
+    for (ProceduralModel& item : MakeProceduralCatalog(procedural)) {
+      CatalogEntry entry;
+      entry.id = item.model.id;
+      entry.name = item.model.name;
+      entry.category = "Procedural";
+      entry.source = item.model.source_path;
+      entry.furniture_class = item.furniture_class;
+      entry.size_m = BoundingBox(item.model.mesh).Size();
+      catalog.entries_.push_back(entry);
+      catalog.source_of_entry_.push_back(0);
+      source->prebuilt.emplace(entry.id, std::move(item.model));
+    }
+    catalog.sources_.push_back(std::move(source));
+    return catalog;
+  }
+
+  if (extension == ".sh3f") {
+    auto source = std::make_unique<Catalog::Source>();
+    source->archive = std::make_unique<Sh3fCatalog>(spec);
+    for (const Sh3fEntry& sh3f : source->archive->entries()) {
+      catalog.entries_.push_back(EntryFromSh3f(sh3f, spec));
+      catalog.source_of_entry_.push_back(0);
+    }
+    catalog.warnings_ = source->archive->problems();
+    catalog.sources_.push_back(std::move(source));
+    return catalog;
+  }
+
+  std::string class_map_path = spec;
+  if (spec == "default") {
+    class_map_path = (std::filesystem::path(options.data_dir) / "class_map.json").string();
+  } else {
+    Require(extension == ".json", "unknown catalog '" + spec +
+                                      "' (use default, procedural[:SEED], a class map .json "
+                                      "or a .sh3f file)");
+  }
+  const ClassMap map = LoadClassMap(class_map_path);
+  if (spec == "default" && options.allow_procedural_fallback &&
+      !AllCatalogsPresent(map, options.catalog_dir)) {
+    catalog = OpenCatalog("procedural", options);
+    catalog.description_ = "default (procedural fallback)";
+    catalog.warnings_.push_back("the Sweet Home 3D catalogs are not in " + options.catalog_dir +
+                                " (apt-get install sweethome3d-furniture): using the "
+                                "procedural catalog instead");
+    return catalog;
+  }
+
+  std::map<std::string, const ClassMapEntry*> classified;
+  for (const ClassMapEntry& entry : map.entries) classified[entry.id] = &entry;
+  for (const std::string& file_name : map.catalogs) {
+    const std::string path = (std::filesystem::path(options.catalog_dir) / file_name).string();
+    auto source = std::make_unique<Catalog::Source>();
+    source->archive = std::make_unique<Sh3fCatalog>(path);
+    for (const std::string& problem : source->archive->problems()) {
+      catalog.warnings_.push_back(problem);
+    }
+    for (const Sh3fEntry& sh3f : source->archive->entries()) {
+      CatalogEntry entry = EntryFromSh3f(sh3f, path);
+      const auto it = classified.find(entry.id);
+      if (it != classified.end()) {
+        entry.furniture_class = it->second->furniture_class;
+        entry.evaluation_only = it->second->evaluation_only;
+        classified.erase(it);
+      }
+      catalog.entries_.push_back(std::move(entry));
+      catalog.source_of_entry_.push_back(static_cast<int>(catalog.sources_.size()));
+    }
+    catalog.sources_.push_back(std::move(source));
+  }
+  if (!classified.empty()) {
+    const std::string id = classified.begin()->first;
+    throw InputError(class_map_path + ": entry '" + id + "' does not exist in catalog " +
+                     id.substr(0, id.find('/')) + ".sh3f (in " + options.catalog_dir + ")");
+  }
+  return catalog;
+}
+
+}  // namespace furn

@@ -1,0 +1,96 @@
+// A furniture catalog: the entries a job can use, classified or not, and the
+// way to load each one's model. Opened from a spec string:
+//   "default"          the repo's class map over Debian's sweethome3d-furniture
+//                      catalogs (the procedural catalog, with a warning, when
+//                      the package is not installed);
+//   "procedural[:SEED]" procedural furniture only;
+//   "<file>.json"      a class map (see class_map.h);
+//   "<file>.sh3f"      every entry of one Sweet Home 3D catalog, unclassified.
+// Entries outside the class map stay available (room clutter) but have no class.
+//
+//   Catalog catalog = OpenCatalog("default", CatalogOpenOptions{});
+//   for (const CatalogEntry* entry : catalog.Classified()) {
+//     CadModel model = catalog.LoadModel(entry->id);
+//   }
+#pragma once
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/furniture_class.h"
+#include "core/mesh.h"
+
+namespace furn {
+
+class Sh3fCatalog;
+
+struct CatalogEntry {
+  std::string id;        // unique, e.g. "Scopia/chair3"
+  std::string name;      // e.g. "Chair"
+  std::string category;  // the catalog's own category, e.g. "Living room"
+  std::string source;    // .sh3f path, or "procedural:<seed>"
+  std::optional<FurnitureClass> furniture_class;  // set for class-mapped entries
+  bool evaluation_only = false;                   // never trained on
+  bool door_or_window = false;
+  Eigen::Vector3f size_m = Eigen::Vector3f::Zero();  // width (x), depth (y), height (z)
+};
+
+struct ModelLoadFailure {
+  std::string id;
+  std::string message;
+};
+
+struct LoadedModels {
+  std::vector<CadModel> models;             // in the order asked, failures left out
+  std::vector<ModelLoadFailure> failures;   // reported, not fatal
+};
+
+struct CatalogOpenOptions {
+  // Where "default" and class maps find their .sh3f files.
+  std::string catalog_dir = "/usr/share/sweethome3d/furniture";
+  // Where "default" finds class_map.json.
+  std::string data_dir = FURN_DEFAULT_DATA_DIR;
+  // "default" falls back to the procedural catalog when catalog_dir lacks a
+  // listed catalog; otherwise that is an error.
+  bool allow_procedural_fallback = true;
+};
+
+class Catalog {
+ public:
+  Catalog();
+  ~Catalog();
+  Catalog(Catalog&&) noexcept;
+  Catalog& operator=(Catalog&&) noexcept;
+
+  // What was opened ("default", a path, ...), and a note when it fell back.
+  const std::string& description() const { return description_; }
+  const std::vector<std::string>& warnings() const { return warnings_; }
+
+  const std::vector<CatalogEntry>& entries() const { return entries_; }
+  std::vector<const CatalogEntry*> Classified() const;
+  // Throws InputError naming the id (and close ids) when it is not in the catalog.
+  const CatalogEntry& Get(const std::string& id) const;
+
+  // Throws InputError naming the entry when its model cannot be loaded.
+  CadModel LoadModel(const std::string& id) const;
+  // Loads several, skipping (and reporting) entries that fail; shows progress.
+  LoadedModels LoadModels(const std::vector<std::string>& ids) const;
+
+ private:
+  friend Catalog OpenCatalog(const std::string&, const CatalogOpenOptions&);
+  struct Source;
+
+  std::string description_;
+  std::vector<std::string> warnings_;
+  std::vector<CatalogEntry> entries_;
+  std::vector<int> source_of_entry_;  // index into sources_
+  std::vector<std::unique_ptr<Source>> sources_;
+};
+
+// Throws InputError for an unknown spec, a missing or corrupt file, a class map
+// naming an entry its catalogs do not have, or an unknown class.
+Catalog OpenCatalog(const std::string& spec, const CatalogOpenOptions& options = {});
+
+}  // namespace furn

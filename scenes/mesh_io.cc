@@ -1,0 +1,237 @@
+#include "scenes/mesh_io.h"
+
+#include <assimp/Exporter.hpp>
+#include <assimp/IOStream.hpp>
+#include <assimp/IOSystem.hpp>
+#include <assimp/Importer.hpp>
+#include <assimp/postprocess.h>
+#include <assimp/scene.h>
+
+#include <algorithm>
+#include <cstring>
+#include <filesystem>
+#include <set>
+#include <sstream>
+
+#include "core/error.h"
+#include "core/file_util.h"
+#include "scenes/zip_archive.h"
+
+namespace furn {
+namespace {
+
+constexpr unsigned kImportSteps = aiProcess_Triangulate | aiProcess_JoinIdenticalVertices |
+                                  aiProcess_PreTransformVertices | aiProcess_SortByPType;
+
+// An assimp stream over bytes held in memory.
+class MemoryStream : public Assimp::IOStream {
+ public:
+  explicit MemoryStream(std::string bytes) : bytes_(std::move(bytes)) {}
+  size_t Read(void* buffer, size_t size, size_t count) override {
+    if (size == 0) return 0;
+    const size_t items = std::min(count, (bytes_.size() - position_) / size);
+    std::memcpy(buffer, bytes_.data() + position_, items * size);
+    position_ += items * size;
+    return items;
+  }
+  size_t Write(const void*, size_t, size_t) override { return 0; }
+  aiReturn Seek(size_t offset, aiOrigin origin) override {
+    size_t target = offset;
+    if (origin == aiOrigin_CUR) target = position_ + offset;
+    if (origin == aiOrigin_END) target = bytes_.size() + offset;
+    if (target > bytes_.size()) return aiReturn_FAILURE;
+    position_ = target;
+    return aiReturn_SUCCESS;
+  }
+  size_t Tell() const override { return position_; }
+  size_t FileSize() const override { return bytes_.size(); }
+  void Flush() override {}
+
+ private:
+  std::string bytes_;
+  size_t position_ = 0;
+};
+
+// Lets assimp open the model and its MTL (or other side files) inside a zip.
+class ZipIoSystem : public Assimp::IOSystem {
+ public:
+  explicit ZipIoSystem(const ZipArchive& archive) : archive_(archive) {}
+  bool Exists(const char* path) const override { return archive_.Contains(Normalize(path)); }
+  char getOsSeparator() const override { return '/'; }
+  Assimp::IOStream* Open(const char* path, const char* mode) override {
+    if (mode != nullptr && std::strchr(mode, 'w') != nullptr) return nullptr;
+    const std::string name = Normalize(path);
+    if (!archive_.Contains(name)) return nullptr;
+    return new MemoryStream(archive_.Read(name));
+  }
+  void Close(Assimp::IOStream* stream) override { delete stream; }
+
+ private:
+  // Zip entry names have no leading '/', and OBJ files may say "./x.mtl".
+  static std::string Normalize(const std::string& path) {
+    std::string p = std::filesystem::path(path).lexically_normal().generic_string();
+    while (!p.empty() && p[0] == '/') p.erase(0, 1);
+    return p;
+  }
+  const ZipArchive& archive_;
+};
+
+TriangleMesh CollectTriangles(const aiScene& scene) {
+  TriangleMesh mesh;
+  for (unsigned m = 0; m < scene.mNumMeshes; ++m) {
+    const aiMesh& part = *scene.mMeshes[m];
+    if (!(part.mPrimitiveTypes & aiPrimitiveType_TRIANGLE)) continue;
+    const int offset = static_cast<int>(mesh.vertices.size());
+    for (unsigned v = 0; v < part.mNumVertices; ++v) {
+      const aiVector3D& p = part.mVertices[v];
+      mesh.vertices.emplace_back(p.x, p.y, p.z);
+    }
+    for (unsigned f = 0; f < part.mNumFaces; ++f) {
+      const aiFace& face = part.mFaces[f];
+      if (face.mNumIndices != 3) continue;
+      mesh.triangles.emplace_back(offset + static_cast<int>(face.mIndices[0]),
+                                  offset + static_cast<int>(face.mIndices[1]),
+                                  offset + static_cast<int>(face.mIndices[2]));
+    }
+  }
+  return mesh;
+}
+
+// Imports with `importer` (whose IO handler is already set) and checks faces.
+TriangleMesh ImportTriangles(Assimp::Importer* importer,
+                             const std::string& path_in_io,
+                             const std::string& where) {
+  importer->SetPropertyInteger(AI_CONFIG_PP_SBP_REMOVE, aiPrimitiveType_POINT | aiPrimitiveType_LINE);
+  const aiScene* scene = importer->ReadFile(path_in_io, kImportSteps);
+  if (scene == nullptr) {
+    const std::string reason = importer->GetErrorString();
+    // assimp reports a file with vertices but no faces as having no meshes.
+    if (reason.find("o meshes") != std::string::npos ||
+        reason.find("no faces") != std::string::npos) {
+      throw InputError(where + ": mesh has no faces (a model needs at least one triangle)");
+    }
+    throw InputError(where + ": cannot import (" + reason + ")");
+  }
+  TriangleMesh mesh = CollectTriangles(*scene);
+  CheckMeshValid(mesh, where);
+  return mesh;
+}
+
+bool IsYUpByDefault(const std::string& extension) {
+  static const std::set<std::string> kYUp = {"obj", "gltf", "glb", "dae", "fbx", "3ds"};
+  return kYUp.count(extension) > 0;
+}
+
+}  // namespace
+
+bool MeshLoadOptions::Check() const { return metres_per_unit > 0 && std::isfinite(metres_per_unit); }
+
+Eigen::Matrix3f ZUpFromYUp() {
+  Eigen::Matrix3f rotation;
+  rotation << 1, 0, 0,  //
+      0, 0, -1,         //
+      0, 1, 0;
+  return rotation;
+}
+
+std::vector<std::string> SupportedImportExtensions() {
+  Assimp::Importer importer;
+  std::string list;  // "*.3ds;*.obj;..."
+  importer.GetExtensionList(list);
+  std::vector<std::string> extensions;
+  std::stringstream stream(list);
+  std::string item;
+  while (std::getline(stream, item, ';')) {
+    if (item.rfind("*.", 0) == 0) extensions.push_back(item.substr(2));
+  }
+  std::sort(extensions.begin(), extensions.end());
+  return extensions;
+}
+
+CadModel LoadMeshFile(const std::string& path, const MeshLoadOptions& options) {
+  Require(options.Check(), "metres_per_unit " + std::to_string(options.metres_per_unit) +
+                               " must be a finite number > 0");
+  std::error_code ec;
+  Require(std::filesystem::is_regular_file(path, ec), path + ": file does not exist");
+  const std::string extension = FileExtension(path);
+  Assimp::Importer importer;
+  if (extension.empty() || !importer.IsExtensionSupported("." + extension)) {
+    throw InputError(path + ": unknown format '" + extension +
+                     "' (supported: obj, ply, stl, off, gltf, glb, dae, 3ds, fbx and other "
+                     "assimp formats)");
+  }
+  TriangleMesh mesh = ImportTriangles(&importer, path, path);
+  const bool y_up = options.up_axis == UpAxis::kY ||
+                    (options.up_axis == UpAxis::kFormatDefault && IsYUpByDefault(extension));
+  const Eigen::Matrix3f axes = y_up ? ZUpFromYUp() : Eigen::Matrix3f::Identity();
+  TransformMesh(static_cast<float>(options.metres_per_unit) * axes, Eigen::Vector3f::Zero(),
+                &mesh);
+  PlaceOnFloorCentred(&mesh);
+  CadModel model;
+  model.id = std::filesystem::path(path).stem().string();
+  model.name = model.id;
+  model.source_path = path;
+  model.content_hash = HashMesh(mesh);
+  model.mesh = std::move(mesh);
+  return model;
+}
+
+TriangleMesh ImportMeshFromZip(const ZipArchive& archive, const std::string& entry) {
+  const std::string where = archive.path() + "!/" + entry;
+  Require(archive.Contains(entry), where + ": no such entry in the archive");
+  Assimp::Importer importer;
+  importer.SetIOHandler(new ZipIoSystem(archive));  // the importer owns it
+  return ImportTriangles(&importer, entry, where);
+}
+
+void ExportMesh(const TriangleMesh& mesh, const std::string& path) {
+  CheckMeshValid(mesh, path);
+  const std::string extension = FileExtension(path);
+  std::string format_id;
+  if (extension == "ply") format_id = "plyb";
+  if (extension == "obj") format_id = "objnomtl";
+  if (extension == "stl") format_id = "stlb";
+  if (extension == "glb") format_id = "glb2";
+  Require(!format_id.empty(),
+          path + ": cannot export format '" + extension + "' (allowed: ply, obj, stl, glb)");
+  const Eigen::Matrix3f file_from_world =
+      IsYUpByDefault(extension) ? Eigen::Matrix3f(ZUpFromYUp().transpose())
+                                : Eigen::Matrix3f::Identity();
+
+  // aiScene's destructor frees everything allocated below.
+  aiScene scene;
+  scene.mRootNode = new aiNode();
+  scene.mRootNode->mNumMeshes = 1;
+  scene.mRootNode->mMeshes = new unsigned[1]{0};
+  scene.mNumMaterials = 1;
+  scene.mMaterials = new aiMaterial*[1]{new aiMaterial()};
+  scene.mNumMeshes = 1;
+  scene.mMeshes = new aiMesh*[1]{new aiMesh()};
+  aiMesh& out = *scene.mMeshes[0];
+  out.mPrimitiveTypes = aiPrimitiveType_TRIANGLE;
+  out.mMaterialIndex = 0;
+  out.mNumVertices = static_cast<unsigned>(mesh.vertices.size());
+  out.mVertices = new aiVector3D[out.mNumVertices];
+  for (unsigned v = 0; v < out.mNumVertices; ++v) {
+    const Eigen::Vector3f p = file_from_world * mesh.vertices[v];
+    out.mVertices[v] = aiVector3D(p.x(), p.y(), p.z());
+  }
+  out.mNumFaces = static_cast<unsigned>(mesh.triangles.size());
+  out.mFaces = new aiFace[out.mNumFaces];
+  for (unsigned f = 0; f < out.mNumFaces; ++f) {
+    out.mFaces[f].mNumIndices = 3;
+    out.mFaces[f].mIndices = new unsigned[3];
+    for (int k = 0; k < 3; ++k) {
+      out.mFaces[f].mIndices[k] = static_cast<unsigned>(mesh.triangles[f][k]);
+    }
+  }
+
+  AtomicFile file(path);
+  Assimp::Exporter exporter;
+  if (exporter.Export(&scene, format_id, file.TempPath()) != aiReturn_SUCCESS) {
+    throw InputError(path + ": cannot write (" + exporter.GetErrorString() + ")");
+  }
+  file.Commit();
+}
+
+}  // namespace furn

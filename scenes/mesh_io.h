@@ -1,0 +1,53 @@
+// Loading and saving triangle meshes with assimp.
+//
+// A loaded model is converted to the engine's convention (metres, z up, base
+// on z = 0, footprint centred on the origin). Files do not say which axis is
+// up, so each format has a documented default that MeshLoadOptions overrides:
+//   y up: obj, gltf, glb, dae, fbx, 3ds (assimp brings dae and 3ds to y up)
+//   z up: ply, stl, off
+// Export writes the inverse convention of the same format, so that
+// LoadMeshFile(ExportMesh(mesh)) gives the mesh back.
+//
+//   CadModel chair = LoadMeshFile("chair.obj", MeshLoadOptions{.metres_per_unit = 0.01});
+//   ExportMesh(chair.mesh, "chair.ply");
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "core/mesh.h"
+
+namespace furn {
+
+class ZipArchive;
+
+enum class UpAxis { kFormatDefault, kY, kZ };
+
+struct MeshLoadOptions {
+  // Metres per file unit (0.01 for a file in centimetres). Must be > 0.
+  double metres_per_unit = 1.0;
+  // Which file axis points up; kFormatDefault uses the table above.
+  UpAxis up_axis = UpAxis::kFormatDefault;
+
+  bool Check() const;
+};
+
+// Loads a model file, converts it, and checks it (faces present, all vertices
+// finite). Throws InputError naming the file and the rule that failed.
+CadModel LoadMeshFile(const std::string& path, const MeshLoadOptions& options = {});
+
+// Raw triangles of a file inside a zip archive (materials and other files it
+// references are read from the same archive), in the file's own axes and units.
+TriangleMesh ImportMeshFromZip(const ZipArchive& archive, const std::string& entry);
+
+// The file extensions assimp can import here, lower case, sorted.
+std::vector<std::string> SupportedImportExtensions();
+
+// Writes ply (binary), obj, stl (binary) or glb by extension, atomically.
+// Throws InputError for another extension or when writing fails.
+void ExportMesh(const TriangleMesh& mesh, const std::string& path);
+
+// Rotation taking y-up coordinates (x, y, z) to z-up (x, -z, y): +90 deg about x.
+Eigen::Matrix3f ZUpFromYUp();
+
+}  // namespace furn

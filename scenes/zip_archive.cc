@@ -1,0 +1,85 @@
+#include "scenes/zip_archive.h"
+
+#include <zip.h>
+
+#include "core/error.h"
+
+namespace furn {
+
+struct ZipArchive::Handle {
+  zip_t* zip = nullptr;
+};
+
+namespace {
+
+std::string ZipErrorText(int code) {
+  zip_error_t error;
+  zip_error_init_with_code(&error, code);
+  std::string text = zip_error_strerror(&error);
+  zip_error_fini(&error);
+  return text;
+}
+
+}  // namespace
+
+ZipArchive::ZipArchive(const std::string& path)
+    : path_(path), handle_(std::make_unique<Handle>()) {
+  int code = 0;
+  handle_->zip = zip_open(path.c_str(), ZIP_RDONLY | ZIP_CHECKCONS, &code);
+  if (handle_->zip == nullptr) {
+    if (code == ZIP_ER_NOENT) throw InputError(path + ": file does not exist");
+    throw InputError(path + ": not a readable zip archive (" + ZipErrorText(code) + ")");
+  }
+}
+
+ZipArchive::~ZipArchive() {
+  if (handle_->zip != nullptr) zip_discard(handle_->zip);
+}
+
+std::vector<std::string> ZipArchive::Names() const {
+  std::vector<std::string> names;
+  const zip_int64_t count = zip_get_num_entries(handle_->zip, 0);
+  for (zip_int64_t i = 0; i < count; ++i) {
+    const char* name = zip_get_name(handle_->zip, i, ZIP_FL_ENC_GUESS);
+    if (name != nullptr) names.emplace_back(name);
+  }
+  return names;
+}
+
+bool ZipArchive::Contains(const std::string& name) const {
+  return zip_name_locate(handle_->zip, name.c_str(), ZIP_FL_ENC_GUESS) >= 0;
+}
+
+std::string ZipArchive::Read(const std::string& name) const {
+  const std::string where = path_ + "!/" + name;
+  const zip_int64_t index = zip_name_locate(handle_->zip, name.c_str(), ZIP_FL_ENC_GUESS);
+  if (index < 0) throw InputError(where + ": no such entry in the archive");
+  zip_stat_t stat;
+  zip_stat_init(&stat);
+  if (zip_stat_index(handle_->zip, index, 0, &stat) != 0 || !(stat.valid & ZIP_STAT_SIZE)) {
+    throw InputError(where + ": cannot stat entry (" + zip_strerror(handle_->zip) + ")");
+  }
+  zip_file_t* file = zip_fopen_index(handle_->zip, index, 0);
+  if (file == nullptr) {
+    throw InputError(where + ": cannot open entry (" + zip_strerror(handle_->zip) + ")");
+  }
+  std::string bytes(stat.size, '\0');
+  zip_uint64_t done = 0;
+  while (done < stat.size) {
+    const zip_int64_t got = zip_fread(file, bytes.data() + done, stat.size - done);
+    if (got <= 0) {
+      const std::string reason = got < 0 ? zip_file_strerror(file) : "unexpected end of data";
+      zip_fclose(file);
+      throw InputError(where + ": corrupt entry (" + reason + ")");
+    }
+    done += static_cast<zip_uint64_t>(got);
+  }
+  // zip_fclose reports CRC mismatches of the data just read.
+  const int close_code = zip_fclose(file);
+  if (close_code != 0) {
+    throw InputError(where + ": corrupt entry (" + ZipErrorText(close_code) + ")");
+  }
+  return bytes;
+}
+
+}  // namespace furn

@@ -1,0 +1,10 @@
+// Entry points of the workbench subcommands: each parses its flags and calls
+// the library. They return the process exit code; errors a user can cause
+// throw and are printed as one line by main().
+#pragma once
+
+namespace furn {
+
+int RunCatalog(int argc, char** argv);
+
+}  // namespace furn
