@@ -25,6 +25,7 @@ furn_find_package(SQLite3 libsqlite3-dev)
 furn_find_package(nlohmann_json nlohmann-json3-dev 3)
 furn_find_package(CLI11 libcli11-dev)
 furn_find_package(Threads build-essential)
+furn_find_package(ZLIB zlib1g-dev)
 
 find_package(PkgConfig QUIET)
 if(NOT PkgConfig_FOUND)

@@ -62,9 +62,16 @@ class ZipIoSystem : public Assimp::IOSystem {
     if (mode != nullptr && std::strchr(mode, 'w') != nullptr) return nullptr;
     const std::string name = Normalize(path);
     if (!archive_.Contains(name)) return nullptr;
-    return new MemoryStream(archive_.Read(name));
+    try {
+      return new MemoryStream(archive_.Read(name));
+    } catch (const InputError& error) {
+      // assimp swallows exceptions; keep the first reason to report it.
+      if (first_error_.empty()) first_error_ = error.what();
+      return nullptr;
+    }
   }
   void Close(Assimp::IOStream* stream) override { delete stream; }
+  const std::string& first_error() const { return first_error_; }
 
  private:
   // Zip entry names have no leading '/', and OBJ files may say "./x.mtl".
@@ -74,6 +81,7 @@ class ZipIoSystem : public Assimp::IOSystem {
     return p;
   }
   const ZipArchive& archive_;
+  std::string first_error_;
 };
 
 TriangleMesh CollectTriangles(const aiScene& scene) {
@@ -106,8 +114,7 @@ TriangleMesh ImportTriangles(Assimp::Importer* importer,
   if (scene == nullptr) {
     const std::string reason = importer->GetErrorString();
     // assimp reports a file with vertices but no faces as having no meshes.
-    if (reason.find("o meshes") != std::string::npos ||
-        reason.find("no faces") != std::string::npos) {
+    if (reason.find("meshes") != std::string::npos || reason.find("faces") != std::string::npos) {
       throw InputError(where + ": mesh has no faces (a model needs at least one triangle)");
     }
     throw InputError(where + ": cannot import (" + reason + ")");
@@ -180,8 +187,14 @@ TriangleMesh ImportMeshFromZip(const ZipArchive& archive, const std::string& ent
   const std::string where = archive.path() + "!/" + entry;
   Require(archive.Contains(entry), where + ": no such entry in the archive");
   Assimp::Importer importer;
-  importer.SetIOHandler(new ZipIoSystem(archive));  // the importer owns it
-  return ImportTriangles(&importer, entry, where);
+  auto* io = new ZipIoSystem(archive);
+  importer.SetIOHandler(io);  // the importer owns it
+  try {
+    return ImportTriangles(&importer, entry, where);
+  } catch (const InputError&) {
+    if (!io->first_error().empty()) throw InputError(io->first_error());
+    throw;
+  }
 }
 
 void ExportMesh(const TriangleMesh& mesh, const std::string& path) {

@@ -1,6 +1,7 @@
 #include "scenes/zip_archive.h"
 
 #include <zip.h>
+#include <zlib.h>
 
 #include "core/error.h"
 
@@ -74,10 +75,15 @@ std::string ZipArchive::Read(const std::string& name) const {
     }
     done += static_cast<zip_uint64_t>(got);
   }
-  // zip_fclose reports CRC mismatches of the data just read.
   const int close_code = zip_fclose(file);
   if (close_code != 0) {
     throw InputError(where + ": corrupt entry (" + ZipErrorText(close_code) + ")");
+  }
+  // libzip does not check the CRC of stored (uncompressed) entries; do it for all.
+  if (stat.valid & ZIP_STAT_CRC) {
+    const uLong crc = crc32(crc32(0L, Z_NULL, 0), reinterpret_cast<const Bytef*>(bytes.data()),
+                            static_cast<uInt>(bytes.size()));
+    if (crc != stat.crc) throw InputError(where + ": corrupt entry (CRC error)");
   }
   return bytes;
 }

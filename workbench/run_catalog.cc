@@ -73,7 +73,7 @@ int RunCatalog(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& error) {
-    return app.exit(error);
+    return app.exit(error) == 0 ? 0 : 2;  // --help is 0; every usage mistake is 2
   }
   ApplyGlobalFlags(catalog_flags);
   if (!class_name.empty()) list_options.only_class = ParseFurnitureClass(class_name);
