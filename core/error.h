@@ -5,7 +5,8 @@
 //     returned in that algorithm's result struct, never thrown.
 // The CLI prints InputError::what() as one line and exits non-zero.
 //
-//   if (width <= 0) throw InputError("width " + std::to_string(width) + " must be > 0");
+//   if (width <= 0) throw InputError("width " + std::to_string(width) + " must
+//   be > 0");
 #pragma once
 
 #include <stdexcept>

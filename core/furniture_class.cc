@@ -6,11 +6,16 @@ namespace furn {
 
 const char* ClassName(FurnitureClass furniture_class) {
   switch (furniture_class) {
-    case FurnitureClass::kChair: return "chair";
-    case FurnitureClass::kArmchair: return "armchair";
-    case FurnitureClass::kTable: return "table";
-    case FurnitureClass::kSideboard: return "sideboard";
-    case FurnitureClass::kSofa: return "sofa";
+    case FurnitureClass::kChair:
+      return "chair";
+    case FurnitureClass::kArmchair:
+      return "armchair";
+    case FurnitureClass::kTable:
+      return "table";
+    case FurnitureClass::kSideboard:
+      return "sideboard";
+    case FurnitureClass::kSofa:
+      return "sofa";
   }
   return "unknown";
 }

@@ -54,15 +54,23 @@ void Progress::Draw(bool final_line) {
   const double eta = rate > 0 ? (total_ - done_) / rate : 0.0;
   const double fraction = static_cast<double>(done_) / total_;
   if (on_terminal_) {
-    if (!final_line && now - last_draw_ < std::chrono::milliseconds(100)) return;
+    if (!final_line && now - last_draw_ < std::chrono::milliseconds(100))
+      return;
     last_draw_ = now;
     constexpr int kWidth = 30;
     const int filled = static_cast<int>(fraction * kWidth);
     std::string bar(filled, '#');
     bar.resize(kWidth, '-');
-    std::fprintf(stderr, "\r%s [%s] %zu/%zu %s  %.1f %s/s  ETA %s   ",
-                 label_.c_str(), bar.c_str(), done_, total_, unit_.c_str(), rate,
-                 unit_.c_str(), FormatSeconds(eta).c_str());
+    std::fprintf(stderr,
+                 "\r%s [%s] %zu/%zu %s  %.1f %s/s  ETA %s   ",
+                 label_.c_str(),
+                 bar.c_str(),
+                 done_,
+                 total_,
+                 unit_.c_str(),
+                 rate,
+                 unit_.c_str(),
+                 FormatSeconds(eta).c_str());
     if (final_line) std::fputc('\n', stderr);
     return;
   }
@@ -71,9 +79,17 @@ void Progress::Draw(bool final_line) {
   if (final_line && done_ == last_logged_done_) return;
   last_logged_decile_ = decile;
   last_logged_done_ = done_;
-  std::fprintf(stderr, "%s: %zu/%zu %s (%.0f%%), %.1f %s/s, elapsed %s, ETA %s\n",
-               label_.c_str(), done_, total_, unit_.c_str(), 100 * fraction, rate,
-               unit_.c_str(), FormatSeconds(elapsed).c_str(), FormatSeconds(eta).c_str());
+  std::fprintf(stderr,
+               "%s: %zu/%zu %s (%.0f%%), %.1f %s/s, elapsed %s, ETA %s\n",
+               label_.c_str(),
+               done_,
+               total_,
+               unit_.c_str(),
+               100 * fraction,
+               rate,
+               unit_.c_str(),
+               FormatSeconds(elapsed).c_str(),
+               FormatSeconds(eta).c_str());
 }
 
 }  // namespace furn

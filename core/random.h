@@ -1,11 +1,11 @@
 // Deterministic random numbers. Every random choice in the engine takes an Rng
 // passed in (no global generator). The engine (std::mt19937_64) is specified by
-// the C++ standard, and the conversions below are ours, so a seed gives the same
-// numbers with every compiler and standard library.
+// the C++ standard, and the conversions below are ours, so a seed gives the
+// same numbers with every compiler and standard library.
 //
-//   Rng rng(DeriveSeed(master_seed, room_index));   // independent stream per room
-//   double x = rng.Uniform(0.4, 0.5);
-//   int k = rng.UniformInt(0, 3);                   // 0, 1, 2 or 3
+//   Rng rng(DeriveSeed(master_seed, room_index));   // independent stream per
+//   room double x = rng.Uniform(0.4, 0.5); int k = rng.UniformInt(0, 3); // 0,
+//   1, 2 or 3
 #pragma once
 
 #include <cstdint>
@@ -29,10 +29,14 @@ class Rng {
   uint64_t Next() { return engine_(); }
 
   // Uniform in [0, 1) with 53 random bits.
-  double Uniform01() { return static_cast<double>(engine_() >> 11) * 0x1.0p-53; }
+  double Uniform01() {
+    return static_cast<double>(engine_() >> 11) * 0x1.0p-53;
+  }
 
   // Uniform in [low, high).
-  double Uniform(double low, double high) { return low + (high - low) * Uniform01(); }
+  double Uniform(double low, double high) {
+    return low + (high - low) * Uniform01();
+  }
 
   // Uniform integer in [low, high] (both inclusive), without modulo bias.
   int64_t UniformInt(int64_t low, int64_t high) {

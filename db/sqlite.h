@@ -6,7 +6,8 @@
 //   Transaction transaction(&db);
 //   Statement insert(&db, "INSERT INTO scenes(id, seed) VALUES (?, ?)");
 //   insert.Bind(1, int64_t{7}).Bind(2, int64_t{42}).Run();
-//   transaction.Commit();                          // rolled back if never reached
+//   transaction.Commit();                          // rolled back if never
+//   reached
 //
 //   Statement query(&db, "SELECT id FROM scenes");
 //   while (query.Step()) int64_t id = query.ColumnInt(0);

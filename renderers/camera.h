@@ -2,9 +2,10 @@
 // caster. Camera frame is optical: x right, y down, z forward; pixel (u, v)
 // has its centre at integer coordinates.
 //
-//   CameraIntrinsics kinect = CameraIntrinsics::KinectV1();  // 640x480, f = 580
-//   kinect.Check();                                          // throws on bad values
-//   Eigen::Vector3f ray = kinect.RayThroughPixel(319.5, 239.5);  // (0, 0, 1)
+//   CameraIntrinsics kinect = CameraIntrinsics::KinectV1();  // 640x480, f =
+//   580 kinect.Check();                                          // throws on
+//   bad values Eigen::Vector3f ray = kinect.RayThroughPixel(319.5, 239.5);  //
+//   (0, 0, 1)
 #pragma once
 
 #include <Eigen/Core>
@@ -28,7 +29,9 @@ struct CameraIntrinsics {
 
   // Direction (not normalised, z = 1) of the ray through pixel (u, v).
   Eigen::Vector3f RayThroughPixel(double u, double v) const {
-    return Eigen::Vector3f(static_cast<float>((u - cx) / fx), static_cast<float>((v - cy) / fy), 1.0f);
+    return Eigen::Vector3f(static_cast<float>((u - cx) / fx),
+                           static_cast<float>((v - cy) / fy),
+                           1.0f);
   }
 
   // Pixel of a camera-frame point in front of the camera (z > 0).

@@ -3,8 +3,9 @@
 // contact sheet with a title and a subtitle under each tile. Used to check a
 // class map by eye and in reports.
 //
-//   std::vector<SheetTile> tiles = {{&chair.mesh, "Scopia/chair3", "chair 0.52x0.58x0.86 m"}};
-//   WriteMeshSheet(tiles, MeshSheetOptions{}, "catalog.png");
+//   std::vector<SheetTile> tiles = {{&chair.mesh, "Scopia/chair3", "chair
+//   0.52x0.58x0.86 m"}}; WriteMeshSheet(tiles, MeshSheetOptions{},
+//   "catalog.png");
 #pragma once
 
 #include <string>
@@ -21,10 +22,10 @@ struct SheetTile {
 };
 
 struct MeshSheetOptions {
-  int tile_px = 240;            // side of each tile's picture, pixels (32..2048)
-  int columns = 6;              // tiles per row (>= 1)
-  double azimuth_deg = -35;     // view direction turned from the front, degrees
-  double elevation_deg = 25;    // view direction above the horizon, degrees
+  int tile_px = 240;          // side of each tile's picture, pixels (32..2048)
+  int columns = 6;            // tiles per row (>= 1)
+  double azimuth_deg = -35;   // view direction turned from the front, degrees
+  double elevation_deg = 25;  // view direction above the horizon, degrees
 
   bool Check() const;
 };

@@ -6,7 +6,8 @@
 //   "procedural[:SEED]" procedural furniture only;
 //   "<file>.json"      a class map (see class_map.h);
 //   "<file>.sh3f"      every entry of one Sweet Home 3D catalog, unclassified.
-// Entries outside the class map stay available (room clutter) but have no class.
+// Entries outside the class map stay available (room clutter) but have no
+// class.
 //
 //   Catalog catalog = OpenCatalog("default", CatalogOpenOptions{});
 //   for (const CatalogEntry* entry : catalog.Classified()) {
@@ -31,10 +32,12 @@ struct CatalogEntry {
   std::string name;      // e.g. "Chair"
   std::string category;  // the catalog's own category, e.g. "Living room"
   std::string source;    // .sh3f path, or "procedural:<seed>"
-  std::optional<FurnitureClass> furniture_class;  // set for class-mapped entries
-  bool evaluation_only = false;                   // never trained on
+  std::optional<FurnitureClass>
+      furniture_class;           // set for class-mapped entries
+  bool evaluation_only = false;  // never trained on
   bool door_or_window = false;
-  Eigen::Vector3f size_m = Eigen::Vector3f::Zero();  // width (x), depth (y), height (z)
+  Eigen::Vector3f size_m =
+      Eigen::Vector3f::Zero();  // width (x), depth (y), height (z)
 };
 
 struct ModelLoadFailure {
@@ -43,8 +46,8 @@ struct ModelLoadFailure {
 };
 
 struct LoadedModels {
-  std::vector<CadModel> models;             // in the order asked, failures left out
-  std::vector<ModelLoadFailure> failures;   // reported, not fatal
+  std::vector<CadModel> models;  // in the order asked, failures left out
+  std::vector<ModelLoadFailure> failures;  // reported, not fatal
 };
 
 struct CatalogOpenOptions {
@@ -70,7 +73,8 @@ class Catalog {
 
   const std::vector<CatalogEntry>& entries() const { return entries_; }
   std::vector<const CatalogEntry*> Classified() const;
-  // Throws InputError naming the id (and close ids) when it is not in the catalog.
+  // Throws InputError naming the id (and close ids) when it is not in the
+  // catalog.
   const CatalogEntry& Get(const std::string& id) const;
 
   // Throws InputError naming the entry when its model cannot be loaded.
@@ -91,6 +95,7 @@ class Catalog {
 
 // Throws InputError for an unknown spec, a missing or corrupt file, a class map
 // naming an entry its catalogs do not have, or an unknown class.
-Catalog OpenCatalog(const std::string& spec, const CatalogOpenOptions& options = {});
+Catalog OpenCatalog(const std::string& spec,
+                    const CatalogOpenOptions& options = {});
 
 }  // namespace furn

@@ -5,7 +5,8 @@
 //     "catalogs": ["Scopia.sh3f", "BlendSwap-CC-0.sh3f"],
 //     "entries": [
 //       {"id": "Scopia/chair3", "class": "chair"},
-//       {"id": "BlendSwap-CC-0/table", "class": "table", "evaluation_only": true}
+//       {"id": "BlendSwap-CC-0/table", "class": "table", "evaluation_only":
+//       true}
 //     ]
 //   }
 //
@@ -30,8 +31,9 @@ struct ClassMapEntry {
 };
 
 struct ClassMap {
-  std::string path;                   // where it was read from
-  std::vector<std::string> catalogs;  // .sh3f file names, resolved against a catalog dir
+  std::string path;  // where it was read from
+  std::vector<std::string>
+      catalogs;  // .sh3f file names, resolved against a catalog dir
   std::vector<ClassMapEntry> entries;
 };
 

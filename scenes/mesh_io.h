@@ -8,8 +8,8 @@
 // Export writes the inverse convention of the same format, so that
 // LoadMeshFile(ExportMesh(mesh)) gives the mesh back.
 //
-//   CadModel chair = LoadMeshFile("chair.obj", MeshLoadOptions{.metres_per_unit = 0.01});
-//   ExportMesh(chair.mesh, "chair.ply");
+//   CadModel chair = LoadMeshFile("chair.obj", MeshLoadOptions{.metres_per_unit
+//   = 0.01}); ExportMesh(chair.mesh, "chair.ply");
 #pragma once
 
 #include <string>
@@ -34,11 +34,13 @@ struct MeshLoadOptions {
 
 // Loads a model file, converts it, and checks it (faces present, all vertices
 // finite). Throws InputError naming the file and the rule that failed.
-CadModel LoadMeshFile(const std::string& path, const MeshLoadOptions& options = {});
+CadModel LoadMeshFile(const std::string& path,
+                      const MeshLoadOptions& options = {});
 
 // Raw triangles of a file inside a zip archive (materials and other files it
 // references are read from the same archive), in the file's own axes and units.
-TriangleMesh ImportMeshFromZip(const ZipArchive& archive, const std::string& entry);
+TriangleMesh ImportMeshFromZip(const ZipArchive& archive,
+                               const std::string& entry);
 
 // The file extensions assimp can import here, lower case, sorted.
 std::vector<std::string> SupportedImportExtensions();
@@ -47,7 +49,8 @@ std::vector<std::string> SupportedImportExtensions();
 // Throws InputError for another extension or when writing fails.
 void ExportMesh(const TriangleMesh& mesh, const std::string& path);
 
-// Rotation taking y-up coordinates (x, y, z) to z-up (x, -z, y): +90 deg about x.
+// Rotation taking y-up coordinates (x, y, z) to z-up (x, -z, y): +90 deg about
+// x.
 Eigen::Matrix3f ZUpFromYUp();
 
 }  // namespace furn

@@ -20,9 +20,9 @@
 namespace furn {
 
 struct ProceduralCatalogOptions {
-  uint64_t seed = 1;         // every dimension is drawn from this
-  int models_per_class = 4;  // > 0, <= 100
-  bool include_sofa = false; // sofa is an optional class
+  uint64_t seed = 1;           // every dimension is drawn from this
+  int models_per_class = 4;    // > 0, <= 100
+  bool include_sofa = false;   // sofa is an optional class
   int cylinder_segments = 16;  // >= 3
 
   bool Check() const;
@@ -33,7 +33,8 @@ struct ProceduralModel {
   FurnitureClass furniture_class = FurnitureClass::kChair;
 };
 
-std::vector<ProceduralModel> MakeProceduralCatalog(const ProceduralCatalogOptions& options);
+std::vector<ProceduralModel> MakeProceduralCatalog(
+    const ProceduralCatalogOptions& options);
 
 // One model of a class, drawn from `seed`.
 ProceduralModel MakeProceduralModel(FurnitureClass furniture_class,

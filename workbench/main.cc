@@ -17,15 +17,22 @@ namespace {
 
 using Command = std::function<int(int, char**)>;
 
-const std::vector<std::pair<std::string, std::pair<Command, std::string>>>& Commands() {
-  static const std::vector<std::pair<std::string, std::pair<Command, std::string>>> kCommands = {
-      {"catalog", {furn::RunCatalog, "list, show, export and draw CAD catalog entries"}},
-  };
+const std::vector<std::pair<std::string, std::pair<Command, std::string>>>&
+Commands() {
+  static const std::vector<
+      std::pair<std::string, std::pair<Command, std::string>>>
+      kCommands = {
+          {"catalog",
+           {furn::RunCatalog,
+            "list, show, export and draw CAD catalog entries"}},
+      };
   return kCommands;
 }
 
 void PrintUsage() {
-  std::printf("usage: workbench <command> [options]   (workbench <command> --help)\n\ncommands:\n");
+  std::printf(
+      "usage: workbench <command> [options]   (workbench <command> "
+      "--help)\n\ncommands:\n");
   for (const auto& [name, command] : Commands()) {
     std::printf("  %-10s %s\n", name.c_str(), command.second.c_str());
   }
@@ -34,7 +41,8 @@ void PrintUsage() {
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc < 2 || std::strcmp(argv[1], "--help") == 0 || std::strcmp(argv[1], "-h") == 0) {
+  if (argc < 2 || std::strcmp(argv[1], "--help") == 0 ||
+      std::strcmp(argv[1], "-h") == 0) {
     PrintUsage();
     return argc < 2 ? 2 : 0;
   }
@@ -47,6 +55,8 @@ int main(int argc, char** argv) {
       return 1;
     }
   }
-  std::fprintf(stderr, "workbench: unknown command '%s' (see workbench --help)\n", argv[1]);
+  std::fprintf(stderr,
+               "workbench: unknown command '%s' (see workbench --help)\n",
+               argv[1]);
   return 2;
 }

@@ -18,7 +18,8 @@ TEST(Mesh, BoundingBoxOfBoxIsItsCorners) {
 }
 
 TEST(Mesh, BoxIsClosedWithOutwardFaces) {
-  // Divergence theorem: sum over faces of (centroid . normal) * area / 3 = volume.
+  // Divergence theorem: sum over faces of (centroid . normal) * area / 3 =
+  // volume.
   const TriangleMesh box = MakeBox({0, 0, 0}, {1, 2, 3});
   double volume = 0;
   for (const Eigen::Vector3i& t : box.triangles) {
@@ -36,11 +37,13 @@ TEST(Mesh, CylinderVolumeAndAreaApproachAnalyticValues) {
   double volume = 0;
   for (const Eigen::Vector3i& t : cylinder.triangles) {
     volume += cylinder.vertices[t[0]].cast<double>().dot(
-                  cylinder.vertices[t[1]].cast<double>().cross(cylinder.vertices[t[2]].cast<double>())) /
+                  cylinder.vertices[t[1]].cast<double>().cross(
+                      cylinder.vertices[t[2]].cast<double>())) /
               6.0;
   }
   EXPECT_NEAR(volume, M_PI * 0.25 * 2.0, 1e-3);
-  EXPECT_NEAR(SurfaceArea(cylinder), 2 * M_PI * 0.25 + 2 * M_PI * 0.5 * 2.0, 2e-3);
+  EXPECT_NEAR(
+      SurfaceArea(cylinder), 2 * M_PI * 0.25 + 2 * M_PI * 0.5 * 2.0, 2e-3);
   EXPECT_THROW(MakeCylinder({0, 0, 0}, 1, 1, 2), InputError);
 }
 
@@ -61,7 +64,8 @@ TEST(Mesh, MirrorTransformKeepsFacesOutward) {
   double volume = 0;
   for (const Eigen::Vector3i& t : mesh.triangles) {
     volume += mesh.vertices[t[0]].cast<double>().dot(
-                  mesh.vertices[t[1]].cast<double>().cross(mesh.vertices[t[2]].cast<double>())) /
+                  mesh.vertices[t[1]].cast<double>().cross(
+                      mesh.vertices[t[2]].cast<double>())) /
               6.0;
   }
   EXPECT_NEAR(volume, 1.0, 1e-6);  // negative if the winding were not flipped
@@ -92,7 +96,8 @@ TEST(Mesh, CheckRejectsEmptyNonFiniteAndOutOfRange) {
     CheckMeshValid(empty, "empty.obj");
     FAIL();
   } catch (const InputError& error) {
-    EXPECT_NE(std::string(error.what()).find("empty.obj: mesh has no faces"), std::string::npos);
+    EXPECT_NE(std::string(error.what()).find("empty.obj: mesh has no faces"),
+              std::string::npos);
   }
   TriangleMesh with_nan = mesh;
   with_nan.vertices[2].y() = std::nanf("");

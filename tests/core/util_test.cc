@@ -17,7 +17,8 @@ namespace {
 TEST(Random, SameSeedSameSequenceAndKnownValues) {
   Rng a(42), b(42);
   for (int i = 0; i < 100; ++i) ASSERT_EQ(a.Next(), b.Next());
-  // std::mt19937_64 is fully specified: its 10000th output for the default seed.
+  // std::mt19937_64 is fully specified: its 10000th output for the default
+  // seed.
   std::mt19937_64 reference;
   reference.discard(9999);
   EXPECT_EQ(reference(), 9981545732273789042ull);
@@ -40,19 +41,22 @@ TEST(Random, UniformStaysInRangeAndCoversIt) {
 
 TEST(Random, DerivedSeedsDiffer) {
   std::set<uint64_t> seeds;
-  for (uint64_t stream = 0; stream < 1000; ++stream) seeds.insert(DeriveSeed(1, stream));
+  for (uint64_t stream = 0; stream < 1000; ++stream)
+    seeds.insert(DeriveSeed(1, stream));
   EXPECT_EQ(seeds.size(), 1000u);
   EXPECT_NE(DeriveSeed(1, 0), DeriveSeed(2, 0));
   EXPECT_EQ(DeriveSeed(5, 9), DeriveSeed(5, 9));
 }
 
 TEST(FurnitureClass, NamesRoundTripAndUnknownIsRejected) {
-  for (FurnitureClass c : kAllClasses) EXPECT_EQ(ParseFurnitureClass(ClassName(c)), c);
+  for (FurnitureClass c : kAllClasses)
+    EXPECT_EQ(ParseFurnitureClass(ClassName(c)), c);
   try {
     ParseFurnitureClass("stool");
     FAIL();
   } catch (const InputError& error) {
-    EXPECT_NE(std::string(error.what()).find("unknown class 'stool'"), std::string::npos);
+    EXPECT_NE(std::string(error.what()).find("unknown class 'stool'"),
+              std::string::npos);
   }
 }
 
@@ -63,7 +67,9 @@ TEST(FileUtil, AtomicWriteReplacesAndLeavesNoTemporaryFile) {
   WriteFileAtomically(path, "second");
   EXPECT_EQ(ReadFileBytes(path), "second");
   int files = 0;
-  for ([[maybe_unused]] const auto& entry : std::filesystem::directory_iterator(dir)) ++files;
+  for ([[maybe_unused]] const auto& entry :
+       std::filesystem::directory_iterator(dir))
+    ++files;
   EXPECT_EQ(files, 1);
 }
 
@@ -72,9 +78,12 @@ TEST(FileUtil, ErrorsNameThePath) {
     ReadFileBytes("/nonexistent/file.obj");
     FAIL();
   } catch (const InputError& error) {
-    EXPECT_NE(std::string(error.what()).find("/nonexistent/file.obj: cannot read"), std::string::npos);
+    EXPECT_NE(
+        std::string(error.what()).find("/nonexistent/file.obj: cannot read"),
+        std::string::npos);
   }
-  EXPECT_THROW(WriteFileAtomically("/nonexistent/dir/out.txt", "x"), InputError);
+  EXPECT_THROW(WriteFileAtomically("/nonexistent/dir/out.txt", "x"),
+               InputError);
   EXPECT_EQ(FileExtension("a/b/Model.PLY"), "ply");
   EXPECT_EQ(FileExtension("noext"), "");
 }
@@ -88,7 +97,8 @@ TEST(FileUtil, UncommittedAtomicFileLeavesTargetUntouched) {
     testing::WriteText(file.TempPath(), "half-written");
   }  // no Commit(): as if the writer failed
   EXPECT_EQ(ReadFileBytes(path), "original");
-  EXPECT_FALSE(std::filesystem::exists(path + ".tmp-" + std::to_string(::getpid())));
+  EXPECT_FALSE(
+      std::filesystem::exists(path + ".tmp-" + std::to_string(::getpid())));
 }
 
 }  // namespace

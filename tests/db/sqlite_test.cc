@@ -13,7 +13,11 @@ TEST(Sqlite, InsertsAndReadsEveryType) {
   Database db(testing::ScratchDir() + "/t.db");
   db.Execute("CREATE TABLE t(i INTEGER, d REAL, s TEXT, b BLOB, n TEXT)");
   Statement insert(&db, "INSERT INTO t VALUES (?, ?, ?, ?, ?)");
-  insert.Bind(1, int64_t{42}).Bind(2, 2.5).Bind(3, std::string("chair")).BindBlob(4, {1, 0, 255}).BindNull(5);
+  insert.Bind(1, int64_t{42})
+      .Bind(2, 2.5)
+      .Bind(3, std::string("chair"))
+      .BindBlob(4, {1, 0, 255})
+      .BindNull(5);
   insert.Run();
   Statement query(&db, "SELECT i, d, s, b, n FROM t");
   ASSERT_TRUE(query.Step());
@@ -50,10 +54,14 @@ TEST(Sqlite, ErrorsCarrySqliteMessageAndPath) {
     FAIL();
   } catch (const DbError& error) {
     EXPECT_NE(std::string(error.what()).find(path), std::string::npos);
-    EXPECT_NE(std::string(error.what()).find("no such table: no_such_table"), std::string::npos);
+    EXPECT_NE(std::string(error.what()).find("no such table: no_such_table"),
+              std::string::npos);
   }
-  db.Execute("CREATE TABLE p(id INTEGER PRIMARY KEY); CREATE TABLE c(p INTEGER REFERENCES p(id))");
-  EXPECT_THROW(db.Execute("INSERT INTO c VALUES (7)"), DbError);  // foreign keys are on
+  db.Execute(
+      "CREATE TABLE p(id INTEGER PRIMARY KEY); CREATE TABLE c(p INTEGER "
+      "REFERENCES p(id))");
+  EXPECT_THROW(db.Execute("INSERT INTO c VALUES (7)"),
+               DbError);  // foreign keys are on
 }
 
 TEST(Sqlite, ReadOnlyOpenOfMissingFileFails) {

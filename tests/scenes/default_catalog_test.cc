@@ -48,15 +48,18 @@ TEST_F(DefaultCatalog, CoversTheRequiredClassesFromTheThreeCatalogs) {
 
 TEST_F(DefaultCatalog, EveryClassifiedModelLoadsAtCatalogSizeOnTheFloor) {
   std::vector<std::string> ids;
-  for (const CatalogEntry* entry : catalog_->Classified()) ids.push_back(entry->id);
+  for (const CatalogEntry* entry : catalog_->Classified())
+    ids.push_back(entry->id);
   const LoadedModels loaded = catalog_->LoadModels(ids);
-  for (const ModelLoadFailure& failure : loaded.failures) ADD_FAILURE() << failure.message;
+  for (const ModelLoadFailure& failure : loaded.failures)
+    ADD_FAILURE() << failure.message;
   ASSERT_EQ(loaded.models.size(), ids.size());
   for (const CadModel& model : loaded.models) {
     const Eigen::Vector3f expected = catalog_->Get(model.id).size_m;
     const Box3 box = BoundingBox(model.mesh);
     for (int axis = 0; axis < 3; ++axis) {
-      EXPECT_NEAR(box.Size()[axis], expected[axis], 0.01 * expected[axis]) << model.id << " axis " << axis;
+      EXPECT_NEAR(box.Size()[axis], expected[axis], 0.01 * expected[axis])
+          << model.id << " axis " << axis;
     }
     EXPECT_NEAR(box.min.z(), 0, 1e-5) << model.id;
     EXPECT_NEAR(box.Center().head<2>().norm(), 0, 1e-4) << model.id;

@@ -17,22 +17,27 @@ TriangleMesh MarkerMesh();
 
 // Expects `mesh` to be MarkerMesh() scaled to `size`, base on z = 0, footprint
 // centred, the post at +x, +y (so neither mirrored nor rotated).
-void ExpectMarkerPose(const TriangleMesh& mesh, const Eigen::Vector3f& size, float tolerance);
+void ExpectMarkerPose(const TriangleMesh& mesh,
+                      const Eigen::Vector3f& size,
+                      float tolerance);
 
 // Coordinates in the file = file_from_engine * engine coordinates.
 Eigen::Matrix3f YUpFromZUp();  // (x, y, z) -> (x, z, -y)
 
-std::string ObjText(const TriangleMesh& mesh, const Eigen::Matrix3f& file_from_engine,
+std::string ObjText(const TriangleMesh& mesh,
+                    const Eigen::Matrix3f& file_from_engine,
                     const std::string& mtllib = "");
 std::string PlyAsciiText(const TriangleMesh& mesh);
 std::string StlAsciiText(const TriangleMesh& mesh);
 std::string OffText(const TriangleMesh& mesh);
-std::string GltfEmbeddedText(const TriangleMesh& mesh);  // y up, as glTF requires
+std::string GltfEmbeddedText(
+    const TriangleMesh& mesh);  // y up, as glTF requires
 std::string ColladaZUpText(const TriangleMesh& mesh);
 
 // Writes a zip; entries named in `stored` are not compressed (so tests can
 // corrupt their bytes in place).
-void WriteZip(const std::string& path, const std::map<std::string, std::string>& files,
+void WriteZip(const std::string& path,
+              const std::map<std::string, std::string>& files,
               const std::set<std::string>& stored = {});
 
 }  // namespace furn::testing

@@ -1,0 +1,18 @@
+#!/usr/bin/env bash
+# The main job, end to end with what exists so far: import the default catalog
+# (the repo's class map over Debian's Sweet Home 3D catalogs), print its summary,
+# and draw every classified model on a contact sheet.
+set -euo pipefail
+repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+build_dir="${1:-$repo/build}"
+out_dir="${FURN_OUT_DIR:-$repo/out}"
+workbench="$build_dir/workbench/workbench"
+mkdir -p "$out_dir"
+
+echo "== catalog: import every classified model of the default catalog"
+"$workbench" catalog list --catalog default --load
+"$workbench" catalog list --catalog default --load --json --quiet > "$out_dir/catalog.json"
+echo "== catalog: contact sheet"
+"$workbench" catalog sheet --catalog default --out "$out_dir/catalog.png" --quiet
+echo
+echo "main job done: $out_dir/catalog.json (listing), $out_dir/catalog.png (contact sheet)"
