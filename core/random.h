@@ -8,6 +8,7 @@
 //   1, 2 or 3
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <random>
 
@@ -56,6 +57,61 @@ class Rng {
 
  private:
   std::mt19937_64 engine_;
+};
+
+// A small fast generator for per-pixel noise (xoshiro256**, Blackman and
+// Vigna 2018, seeded through SplitMix64) with a Marsaglia polar normal
+// sampler. Use one per image row, seeded by DeriveSeed(frame_seed, row), so the
+// result does not depend on how rows are spread over threads.
+class FastRng {
+ public:
+  explicit FastRng(uint64_t seed) {
+    for (uint64_t& word : state_) {
+      seed += 0x9E3779B97F4A7C15ull;
+      uint64_t z = seed;
+      z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+      z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+      word = z ^ (z >> 31);
+    }
+  }
+
+  uint64_t Next() {
+    const uint64_t result = Rotl(state_[1] * 5, 7) * 9;
+    const uint64_t t = state_[1] << 17;
+    state_[2] ^= state_[0];
+    state_[3] ^= state_[1];
+    state_[1] ^= state_[2];
+    state_[0] ^= state_[3];
+    state_[2] ^= t;
+    state_[3] = Rotl(state_[3], 45);
+    return result;
+  }
+
+  double Uniform01() { return static_cast<double>(Next() >> 11) * 0x1.0p-53; }
+
+  // Standard normal; the polar method makes two, the second is kept.
+  double Normal() {
+    if (has_spare_) {
+      has_spare_ = false;
+      return spare_;
+    }
+    double x, y, s;
+    do {
+      x = 2.0 * Uniform01() - 1.0;
+      y = 2.0 * Uniform01() - 1.0;
+      s = x * x + y * y;
+    } while (s >= 1.0 || s == 0.0);
+    const double factor = std::sqrt(-2.0 * std::log(s) / s);
+    spare_ = y * factor;
+    has_spare_ = true;
+    return x * factor;
+  }
+
+ private:
+  static uint64_t Rotl(uint64_t x, int k) { return (x << k) | (x >> (64 - k)); }
+  uint64_t state_[4];
+  double spare_ = 0;
+  bool has_spare_ = false;
 };
 
 }  // namespace furn

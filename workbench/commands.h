@@ -6,5 +6,6 @@
 namespace furn {
 
 int RunCatalog(int argc, char** argv);
+int RunRender(int argc, char** argv);
 
 }  // namespace furn

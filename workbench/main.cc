@@ -6,36 +6,32 @@
 #include <cstdio>
 #include <cstring>
 #include <exception>
-#include <functional>
-#include <string>
-#include <utility>
-#include <vector>
 
 #include "workbench/commands.h"
 
 namespace {
 
-using Command = std::function<int(int, char**)>;
+struct Command {
+  const char* name;
+  int (*run)(int argc, char** argv);
+  const char* help;
+};
 
-const std::vector<std::pair<std::string, std::pair<Command, std::string>>>&
-Commands() {
-  static const std::vector<
-      std::pair<std::string, std::pair<Command, std::string>>>
-      kCommands = {
-          {"catalog",
-           {furn::RunCatalog,
-            "list, show, export and draw CAD catalog entries"}},
-      };
-  return kCommands;
-}
+constexpr Command kCommands[] = {
+    {"catalog",
+     furn::RunCatalog,
+     "list, show, export and draw CAD catalog entries"},
+    {"render",
+     furn::RunRender,
+     "render one model as ideal and noisy Kinect v1 depth"},
+};
 
 void PrintUsage() {
   std::printf(
       "usage: workbench <command> [options]   (workbench <command> "
       "--help)\n\ncommands:\n");
-  for (const auto& [name, command] : Commands()) {
-    std::printf("  %-10s %s\n", name.c_str(), command.second.c_str());
-  }
+  for (const Command& command : kCommands)
+    std::printf("  %-10s %s\n", command.name, command.help);
 }
 
 }  // namespace
@@ -46,10 +42,10 @@ int main(int argc, char** argv) {
     PrintUsage();
     return argc < 2 ? 2 : 0;
   }
-  for (const auto& [name, command] : Commands()) {
-    if (name != argv[1]) continue;
+  for (const Command& command : kCommands) {
+    if (std::strcmp(command.name, argv[1]) != 0) continue;
     try {
-      return command.first(argc - 1, argv + 1);
+      return command.run(argc - 1, argv + 1);
     } catch (const std::exception& error) {
       std::fprintf(stderr, "workbench %s: error: %s\n", argv[1], error.what());
       return 1;

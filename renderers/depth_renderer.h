@@ -1,0 +1,49 @@
+// The interface both renderers implement (OSMesa rasteriser, Embree ray
+// caster): ideal depth, instance ids and normals of a scene seen by a pinhole
+// camera. Not thread-safe: use one renderer per thread.
+//
+//   std::unique_ptr<DepthRenderer> renderer =
+//   MakeRenderer(RendererKind::kOsMesa); DepthFrame frame =
+//   renderer->Render(scene, CameraIntrinsics::KinectV1(), world_from_camera);
+#pragma once
+
+#include <Eigen/Geometry>
+#include <memory>
+#include <string>
+
+#include "core/scene.h"
+#include "renderers/camera.h"
+#include "renderers/depth_frame.h"
+
+namespace furn {
+
+class DepthRenderer {
+ public:
+  virtual ~DepthRenderer() = default;
+  // Throws InputError for bad intrinsics, an empty scene, non-finite or absurd
+  // coordinates, or a camera inside an object (see CheckRenderRequest).
+  virtual DepthFrame Render(const Scene& scene,
+                            const CameraIntrinsics& camera,
+                            const Eigen::Isometry3d& world_from_camera) = 0;
+  virtual std::string Name() const = 0;
+};
+
+enum class RendererKind { kOsMesa, kEmbree };
+
+std::unique_ptr<DepthRenderer> MakeRenderer(RendererKind kind);
+// "osmesa" or "embree"; throws InputError otherwise.
+RendererKind ParseRendererKind(const std::string& name);
+
+// Validation shared by the renderers: intrinsics (Check()), a scene with at
+// least one triangle, finite poses, coordinates within 1 km of the origin, and
+// a camera outside every object (ray parity against the object's mesh).
+void CheckRenderRequest(const Scene& scene,
+                        const CameraIntrinsics& camera,
+                        const Eigen::Isometry3d& world_from_camera);
+
+// True when `point_in_object` is inside the closed surface of `mesh`: the
+// majority of three rays from it cross the surface an odd number of times.
+bool IsInsideMesh(const TriangleMesh& mesh,
+                  const Eigen::Vector3d& point_in_object);
+
+}  // namespace furn

@@ -1,0 +1,175 @@
+#include "renderers/embree_caster.h"
+
+#include <embree3/rtcore.h>
+
+#include <algorithm>
+#include <cstring>
+#include <limits>
+#include <stdexcept>
+
+namespace furn {
+namespace {
+
+constexpr int kPacket = 16;
+
+// What identifies a built scene: the meshes, their poses and ids.
+struct SceneKey {
+  std::vector<const TriangleMesh*> meshes;
+  std::vector<Eigen::Matrix<double, 3, 4>> poses;
+  std::vector<uint16_t> ids;
+  bool operator==(const SceneKey& other) const {
+    return meshes == other.meshes && ids == other.ids &&
+           poses.size() == other.poses.size() &&
+           std::equal(poses.begin(),
+                      poses.end(),
+                      other.poses.begin(),
+                      [](const auto& a, const auto& b) { return a == b; });
+  }
+};
+
+SceneKey KeyOf(const Scene& scene) {
+  SceneKey key;
+  for (const SceneObject& object : scene.objects) {
+    key.meshes.push_back(object.mesh.get());
+    key.poses.push_back(object.world_from_object.matrix().topRows<3>());
+    key.ids.push_back(object.instance_id);
+  }
+  return key;
+}
+
+}  // namespace
+
+struct EmbreeCaster::Impl {
+  RTCDevice device = nullptr;
+  RTCScene scene = nullptr;
+  SceneKey key;
+  std::vector<std::shared_ptr<const TriangleMesh>> keep_alive;
+  std::vector<uint16_t> id_of_geometry;
+
+  void ReleaseScene() {
+    if (scene != nullptr) rtcReleaseScene(scene);
+    scene = nullptr;
+    keep_alive.clear();
+    id_of_geometry.clear();
+  }
+};
+
+EmbreeCaster::EmbreeCaster() : impl_(std::make_unique<Impl>()) {
+  impl_->device = rtcNewDevice(nullptr);
+  if (impl_->device == nullptr)
+    throw std::runtime_error("Embree: cannot create a device");
+}
+
+EmbreeCaster::~EmbreeCaster() {
+  impl_->ReleaseScene();
+  rtcReleaseDevice(impl_->device);
+}
+
+void EmbreeCaster::SetScene(const Scene& scene) {
+  SceneKey key = KeyOf(scene);
+  if (impl_->scene != nullptr && key == impl_->key) return;
+  impl_->ReleaseScene();
+  impl_->scene = rtcNewScene(impl_->device);
+  rtcSetSceneBuildQuality(impl_->scene, RTC_BUILD_QUALITY_MEDIUM);
+  for (const SceneObject& object : scene.objects) {
+    if (object.mesh == nullptr || object.mesh->Empty()) continue;
+    const TriangleMesh& mesh = *object.mesh;
+    RTCGeometry geometry =
+        rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_TRIANGLE);
+    auto* vertices =
+        static_cast<float*>(rtcSetNewGeometryBuffer(geometry,
+                                                    RTC_BUFFER_TYPE_VERTEX,
+                                                    0,
+                                                    RTC_FORMAT_FLOAT3,
+                                                    3 * sizeof(float),
+                                                    mesh.vertices.size()));
+    const Eigen::Isometry3f world_from_object =
+        object.world_from_object.cast<float>();
+    for (size_t i = 0; i < mesh.vertices.size(); ++i) {
+      Eigen::Map<Eigen::Vector3f>(vertices + 3 * i) =
+          world_from_object * mesh.vertices[i];
+    }
+    auto* indices =
+        static_cast<unsigned*>(rtcSetNewGeometryBuffer(geometry,
+                                                       RTC_BUFFER_TYPE_INDEX,
+                                                       0,
+                                                       RTC_FORMAT_UINT3,
+                                                       3 * sizeof(unsigned),
+                                                       mesh.triangles.size()));
+    std::memcpy(indices,
+                mesh.triangles.data(),
+                mesh.triangles.size() * 3 * sizeof(unsigned));
+    rtcCommitGeometry(geometry);
+    const unsigned geometry_id = rtcAttachGeometry(impl_->scene, geometry);
+    rtcReleaseGeometry(geometry);
+    if (impl_->id_of_geometry.size() <= geometry_id)
+      impl_->id_of_geometry.resize(geometry_id + 1, 0);
+    impl_->id_of_geometry[geometry_id] = object.instance_id;
+    impl_->keep_alive.push_back(object.mesh);
+  }
+  rtcCommitScene(impl_->scene);
+  impl_->key = std::move(key);
+}
+
+DepthFrame EmbreeCaster::Render(const Scene& scene,
+                                const CameraIntrinsics& camera,
+                                const Eigen::Isometry3d& world_from_camera) {
+  CheckRenderRequest(scene, camera, world_from_camera);
+  SetScene(scene);
+  DepthFrame frame;
+  frame.Resize(camera.width, camera.height);
+  const Eigen::Matrix3f rotation = world_from_camera.linear().cast<float>();
+  const Eigen::Vector3f origin = world_from_camera.translation().cast<float>();
+  RTCScene rtc_scene = impl_->scene;
+  const std::vector<uint16_t>& id_of_geometry = impl_->id_of_geometry;
+
+#pragma omp parallel for schedule(dynamic, 4)
+  for (int v = 0; v < camera.height; ++v) {
+    RTCIntersectContext context;
+    rtcInitIntersectContext(&context);
+    alignas(64) RTCRayHit16 packet;
+    alignas(64) int valid[kPacket];
+    Eigen::Vector3f directions_in_camera[kPacket];
+    for (int u0 = 0; u0 < camera.width; u0 += kPacket) {
+      for (int k = 0; k < kPacket; ++k) {
+        const int u = u0 + k;
+        valid[k] = u < camera.width ? -1 : 0;
+        // z = 1 in the camera frame: the hit distance t is the optical-axis
+        // depth.
+        directions_in_camera[k] = camera.RayThroughPixel(u, v);
+        const Eigen::Vector3f direction = rotation * directions_in_camera[k];
+        packet.ray.org_x[k] = origin.x();
+        packet.ray.org_y[k] = origin.y();
+        packet.ray.org_z[k] = origin.z();
+        packet.ray.dir_x[k] = direction.x();
+        packet.ray.dir_y[k] = direction.y();
+        packet.ray.dir_z[k] = direction.z();
+        packet.ray.tnear[k] = 0.0f;
+        packet.ray.tfar[k] = std::numeric_limits<float>::infinity();
+        packet.ray.time[k] = 0.0f;
+        packet.ray.mask[k] = 0xFFFFFFFFu;
+        packet.ray.id[k] = static_cast<unsigned>(k);
+        packet.ray.flags[k] = 0;
+        packet.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
+        packet.hit.instID[0][k] = RTC_INVALID_GEOMETRY_ID;
+      }
+      rtcIntersect16(valid, rtc_scene, &context, &packet);
+      for (int k = 0; k < kPacket && u0 + k < camera.width; ++k) {
+        if (packet.hit.geomID[k] == RTC_INVALID_GEOMETRY_ID) continue;
+        const size_t index = frame.Index(u0 + k, v);
+        frame.depth[index] = packet.ray.tfar[k];
+        frame.instance_ids[index] = id_of_geometry[packet.hit.geomID[k]];
+        Eigen::Vector3f normal =
+            rotation.transpose() * Eigen::Vector3f(packet.hit.Ng_x[k],
+                                                   packet.hit.Ng_y[k],
+                                                   packet.hit.Ng_z[k]);
+        normal.normalize();
+        if (normal.dot(directions_in_camera[k]) > 0) normal = -normal;
+        frame.normals[index] = normal;
+      }
+    }
+  }
+  return frame;
+}
+
+}  // namespace furn

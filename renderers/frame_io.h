@@ -1,0 +1,44 @@
+// Files of depth frames: 16-bit PNG depth in millimetres (TUM/BOP convention,
+// 0 = no return), 16-bit PNG instance ids, organized PCD (PCL, camera frame,
+// NaN where there is no return), and a colourised preview for people.
+// Every writer is atomic: a failed write leaves no file behind.
+//
+//   WriteDepthPng(frame, "depth.png");                 // 1 unit = 1 mm
+//   DepthFrame back = ReadDepthPng("depth.png", 1000);  // depth only
+//   WriteOrganizedPcd(frame, CameraIntrinsics::KinectV1(), "cloud.pcd");
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "renderers/camera.h"
+#include "renderers/depth_frame.h"
+
+namespace furn {
+
+// units_per_metre: 1000 for our data (mm), 5000 for TUM RGB-D.
+void WriteDepthPng(const DepthFrame& frame,
+                   const std::string& path,
+                   double units_per_metre = 1000);
+// Throws InputError when the file is not a single-channel 16-bit PNG.
+DepthFrame ReadDepthPng(const std::string& path, double units_per_metre = 1000);
+void WriteIdPng(const DepthFrame& frame, const std::string& path);
+void WriteOrganizedPcd(const DepthFrame& frame,
+                       const CameraIntrinsics& camera,
+                       const std::string& path);
+
+struct PreviewPanel {
+  enum class Kind { kDepth, kShadedDepth, kIds };
+  const DepthFrame* frame = nullptr;
+  Kind kind = Kind::kDepth;
+  std::string title;
+};
+
+// Panels in a grid (`columns` wide) with titles. Depth panels share one colour
+// range (the 1st..99th percentile of the first depth panel); shaded panels
+// light the surface from its depth gradient, which shows noise and banding.
+void WritePreviewPng(const std::vector<PreviewPanel>& panels,
+                     int columns,
+                     const std::string& path);
+
+}  // namespace furn

@@ -1,0 +1,78 @@
+// Kinect v1 sensor model (SPEC.md §4): turns an ideal depth frame into what
+// the sensor would return. Each effect can be switched off; the result is a
+// pure function of (ideal frame, camera, options, seed).
+//
+//  1. projector shadow: the IR projector sits baseline_m to +x of the camera;
+//     a point it cannot light returns nothing. Found per image row from the
+//     ideal depth alone: a point at pixel u, depth z meets the projector at
+//     column u - fx*b/z, and is shadowed when a pixel to its right meets the
+//     projector at the same or a smaller column (it is in front on that ray);
+//  2. range: nothing below min_range_m or beyond max_range_m;
+//  3. incidence: nothing where the angle between the viewing ray and the
+//     normal exceeds max_incidence_deg; near depth edges, extra dropout;
+//  4. lateral noise (Nguyen, Izadi, Lovell 2012): each pixel samples the
+//     ideal image at a jittered position, sigma_L = 0.8 + 0.035*theta/(pi/2 -
+//     theta) px;
+//  5. axial noise (same paper): sigma_z = 0.0012 + 0.0019*(z - 0.4)^2 m, plus
+//     0.0001/sqrt(z) * theta^2/(pi/2 - theta)^2 above 60 degrees;
+//  6. disparity quantisation: d = fx*b/z rounded to 1/8 px, z' = fx*b/d.
+//
+//   KinectNoiseOptions options;          // published defaults, all effects on
+//   DepthFrame noisy = ApplyKinectNoise(ideal, CameraIntrinsics::KinectV1(),
+//   options, seed);
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "renderers/camera.h"
+#include "renderers/depth_frame.h"
+
+namespace furn {
+
+struct KinectNoiseOptions {
+  double baseline_m = 0.075;  // camera to IR projector along +x, metres (> 0)
+
+  bool projector_shadow = true;
+
+  bool range_limits = true;
+  double min_range_m = 0.5;  // no return closer than this (m)
+  double max_range_m = 4.5;  // no return beyond this (m)
+
+  bool incidence_dropout = true;
+  double max_incidence_deg =
+      78.0;  // no return above this angle (degrees, 0..90)
+
+  bool edge_dropout = true;
+  double edge_jump_m =
+      0.04;  // depth step to a 4-neighbour that makes an edge (m)
+  double edge_dropout_probability =
+      0.3;  // chance an edge pixel returns nothing (0..1)
+
+  bool lateral_noise = true;
+  bool axial_noise = true;
+
+  bool quantization = true;
+  double disparity_step_px = 0.125;  // disparity resolution (px, > 0)
+
+  // Throws InputError naming the field and the rule.
+  void Check() const;
+};
+
+// Standard deviations of the noise model (theta in radians, z in metres).
+double AxialNoiseSigma(double z, double theta);
+double LateralNoiseSigmaPx(double theta);
+
+// 1 where the projector cannot light the surface seen at that pixel.
+std::vector<uint8_t> ProjectorShadowMask(const DepthFrame& ideal,
+                                         const CameraIntrinsics& camera,
+                                         double baseline_m);
+
+// The noisy frame: depth with all enabled effects; ids and normals of the
+// surface each returned pixel sampled (0 where nothing returned).
+DepthFrame ApplyKinectNoise(const DepthFrame& ideal,
+                            const CameraIntrinsics& camera,
+                            const KinectNoiseOptions& options,
+                            uint64_t seed);
+
+}  // namespace furn

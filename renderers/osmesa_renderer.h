@@ -1,0 +1,34 @@
+// Offscreen OpenGL rasteriser (Mesa's OSMesa, llvmpipe: no display, no GPU).
+// One pass writes, per pixel, the camera-space depth (perspective-correct, so a
+// plane renders at its exact distance to float precision), the instance id and
+// the geometric normal, into a single float render target read back at once.
+// Meshes are uploaded once and cached while the renderer lives.
+//
+//   OsMesaRenderer renderer;
+//   DepthFrame frame = renderer.Render(scene, CameraIntrinsics::KinectV1(),
+//   world_from_camera);
+#pragma once
+
+#include <memory>
+
+#include "renderers/depth_renderer.h"
+
+namespace furn {
+
+class OsMesaRenderer : public DepthRenderer {
+ public:
+  // Throws std::runtime_error when no OpenGL 3.3 core context can be created.
+  OsMesaRenderer();
+  ~OsMesaRenderer() override;
+
+  DepthFrame Render(const Scene& scene,
+                    const CameraIntrinsics& camera,
+                    const Eigen::Isometry3d& world_from_camera) override;
+  std::string Name() const override { return "osmesa"; }
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace furn

@@ -1,0 +1,110 @@
+#include "renderers/frame_io.h"
+
+#include <gtest/gtest.h>
+#include <pcl/io/pcd_io.h>
+#include <pcl/point_types.h>
+
+#include <cmath>
+#include <filesystem>
+#include <opencv2/imgcodecs.hpp>
+
+#include "core/error.h"
+#include "renderers/depth_renderer.h"
+#include "renderers/kinect_noise.h"
+#include "tests/renderers/render_fixtures.h"
+#include "tests/test_util.h"
+
+namespace furn {
+namespace {
+
+DepthFrame BoxScene() {
+  Scene scene;
+  scene.objects.push_back(testing::WallAt(3.0));
+  scene.objects.push_back(testing::BoxAt(1.5, -0.2, 0.2, -0.2, 0.2, 42));
+  return MakeRenderer(RendererKind::kEmbree)
+      ->Render(scene,
+               CameraIntrinsics::KinectV1(),
+               testing::CameraAtOriginLookingAlongY());
+}
+
+TEST(FrameIo, DepthPngRoundTripsToTheMillimetre) {
+  const std::string dir = testing::ScratchDir();
+  DepthFrame frame = BoxScene();
+  frame.depth[0] = 0;  // no return stays no return
+  WriteDepthPng(frame, dir + "/d.png");
+  const DepthFrame back = ReadDepthPng(dir + "/d.png");
+  ASSERT_EQ(back.width, 640);
+  for (size_t i = 0; i < frame.depth.size(); i += 97) {
+    EXPECT_NEAR(back.depth[i], frame.depth[i], 0.0005f);
+  }
+  EXPECT_EQ(back.depth[0], 0.0f);
+  const cv::Mat raw = cv::imread(dir + "/d.png", cv::IMREAD_UNCHANGED);
+  EXPECT_EQ(raw.type(), CV_16UC1);
+  EXPECT_EQ(raw.at<uint16_t>(240, 320), 1500);
+  // TUM scale 5000: 1.5 m is 7500.
+  WriteDepthPng(frame, dir + "/tum.png", 5000);
+  EXPECT_EQ(
+      cv::imread(dir + "/tum.png", cv::IMREAD_UNCHANGED).at<uint16_t>(240, 320),
+      7500);
+  EXPECT_NEAR(
+      ReadDepthPng(dir + "/tum.png", 5000).DepthAt(320, 240), 1.5f, 1e-4f);
+}
+
+TEST(FrameIo, IdPngKeepsIds) {
+  const std::string dir = testing::ScratchDir();
+  WriteIdPng(BoxScene(), dir + "/ids.png");
+  const cv::Mat raw = cv::imread(dir + "/ids.png", cv::IMREAD_UNCHANGED);
+  EXPECT_EQ(raw.type(), CV_16UC1);
+  EXPECT_EQ(raw.at<uint16_t>(240, 320), 42);
+  EXPECT_EQ(raw.at<uint16_t>(5, 5), kWallId);
+}
+
+TEST(FrameIo, OrganizedPcdReadsBackInPcl) {
+  const std::string dir = testing::ScratchDir();
+  DepthFrame frame = BoxScene();
+  frame.depth[frame.Index(0, 0)] = 0;
+  WriteOrganizedPcd(frame, CameraIntrinsics::KinectV1(), dir + "/c.pcd");
+  pcl::PointCloud<pcl::PointXYZ> cloud;
+  ASSERT_EQ(pcl::io::loadPCDFile(dir + "/c.pcd", cloud), 0);
+  EXPECT_EQ(cloud.width, 640u);
+  EXPECT_EQ(cloud.height, 480u);
+  EXPECT_FALSE(cloud.is_dense);
+  EXPECT_TRUE(std::isnan(cloud.at(0, 0).z));
+  EXPECT_NEAR(cloud.at(320, 240).z, 1.5f, 1e-4f);
+  EXPECT_NEAR(cloud.at(320, 240).x, 0.5f * 1.5f / 580.0f, 1e-5f);
+}
+
+TEST(FrameIo, WrongImageTypeIsRejected) {
+  const std::string dir = testing::ScratchDir();
+  cv::imwrite(dir + "/rgb.png", cv::Mat(4, 4, CV_8UC3, cv::Scalar(1, 2, 3)));
+  try {
+    ReadDepthPng(dir + "/rgb.png");
+    FAIL();
+  } catch (const InputError& error) {
+    EXPECT_NE(std::string(error.what()).find("single-channel 16-bit PNG"),
+              std::string::npos);
+  }
+  testing::WriteText(dir + "/junk.png", "not an image");
+  EXPECT_THROW(ReadDepthPng(dir + "/junk.png"), InputError);
+  EXPECT_THROW(ReadDepthPng(dir + "/missing.png"), InputError);
+}
+
+TEST(FrameIo, PreviewHasEveryPanel) {
+  const std::string dir = testing::ScratchDir();
+  const DepthFrame ideal = BoxScene();
+  const DepthFrame noisy = ApplyKinectNoise(
+      ideal, CameraIntrinsics::KinectV1(), KinectNoiseOptions{}, 1);
+  WritePreviewPng({{&ideal, PreviewPanel::Kind::kDepth, "ideal"},
+                   {&noisy, PreviewPanel::Kind::kShadedDepth, "noisy"},
+                   {&noisy, PreviewPanel::Kind::kIds, "ids"}},
+                  2,
+                  dir + "/p.png");
+  const cv::Mat preview = cv::imread(dir + "/p.png");
+  EXPECT_EQ(preview.cols, 1280);
+  EXPECT_EQ(preview.rows, 2 * (480 + 26));
+  EXPECT_THROW(WritePreviewPng({}, 2, dir + "/q.png"), InputError);
+  EXPECT_FALSE(std::filesystem::exists(dir + "/q.png"));
+}
+
+}  // namespace
+}  // namespace furn

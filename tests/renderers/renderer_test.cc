@@ -1,0 +1,185 @@
+// Both renderers: exact depth on planes, ids and normals, agreement with each
+// other on a furnished room, and clear errors for bad requests.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "core/error.h"
+#include "renderers/depth_renderer.h"
+#include "tests/renderers/render_fixtures.h"
+
+namespace furn {
+namespace {
+
+class RendererTest : public ::testing::TestWithParam<RendererKind> {
+ protected:
+  std::unique_ptr<DepthRenderer> renderer_ = MakeRenderer(GetParam());
+  CameraIntrinsics camera_ = CameraIntrinsics::KinectV1();
+};
+
+TEST_P(RendererTest, FrontoParallelPlaneRendersAtItsDistanceEverywhere) {
+  Scene scene;
+  scene.objects.push_back(testing::WallAt(2.0));
+  const DepthFrame frame =
+      renderer_->Render(scene, camera_, testing::CameraAtOriginLookingAlongY());
+  ASSERT_EQ(frame.NumValid(), 307200u);
+  float worst = 0;
+  for (float z : frame.depth) worst = std::max(worst, std::abs(z - 2.0f));
+  EXPECT_LT(worst, 1e-4f) << "worst depth error " << worst << " m";
+  EXPECT_EQ(frame.IdAt(0, 0), kWallId);
+  EXPECT_TRUE(frame.normals[frame.Index(320, 240)].isApprox(
+      Eigen::Vector3f(0, 0, -1), 1e-4f));
+}
+
+TEST_P(RendererTest, TiltedPlaneMatchesAnalyticDepth) {
+  // The wall plane y = 2 seen by a camera yawed by 25 degrees and pitched
+  // by 10.
+  Scene scene;
+  scene.objects.push_back(testing::WallAt(2.0));
+  const double yaw = 25 * M_PI / 180, pitch = 10 * M_PI / 180;
+  const Eigen::Vector3d forward(std::sin(yaw) * std::cos(pitch),
+                                std::cos(yaw) * std::cos(pitch),
+                                -std::sin(pitch));
+  const Eigen::Isometry3d world_from_camera =
+      LookAlong(Eigen::Vector3d(0.1, -0.2, 1.0), forward);
+  const DepthFrame frame = renderer_->Render(scene, camera_, world_from_camera);
+  const Eigen::Vector3d normal_in_camera =
+      world_from_camera.linear().transpose() * Eigen::Vector3d::UnitY();
+  const double offset =
+      2.0 -
+      world_from_camera.translation().y();  // plane: n . X_camera = offset
+  double worst = 0;
+  for (int v = 0; v < camera_.height; v += 3) {
+    for (int u = 0; u < camera_.width; u += 3) {
+      const double expected =
+          offset /
+          normal_in_camera.dot(camera_.RayThroughPixel(u, v).cast<double>());
+      worst = std::max(worst, std::abs(frame.DepthAt(u, v) - expected));
+    }
+  }
+  EXPECT_LT(worst, 1e-4) << "worst depth error " << worst << " m";
+}
+
+TEST_P(RendererTest, IdsAndNormalsOfABoxInFrontOfAWall) {
+  Scene scene;
+  scene.objects.push_back(testing::WallAt(3.0));
+  scene.objects.push_back(testing::BoxAt(1.5, -0.2, 0.2, -0.2, 0.2, 42));
+  const DepthFrame frame =
+      renderer_->Render(scene, camera_, testing::CameraAtOriginLookingAlongY());
+  EXPECT_EQ(frame.IdAt(320, 240), 42);
+  EXPECT_NEAR(frame.DepthAt(320, 240), 1.5f, 1e-4f);
+  EXPECT_EQ(frame.IdAt(10, 10), kWallId);
+  EXPECT_NEAR(frame.DepthAt(10, 10), 3.0f, 1e-4f);
+  // The box spans x = +-0.2 m at 1.5 m: 580 * 0.2 / 1.5 = 77.3 px each side of
+  // the centre.
+  EXPECT_EQ(frame.IdAt(319 + 76, 240), 42);
+  EXPECT_EQ(frame.IdAt(319 + 79, 240), kWallId);
+  EXPECT_EQ(frame.IdAt(320 - 76, 240), 42);
+  EXPECT_EQ(frame.IdAt(320 - 79, 240), kWallId);
+}
+
+TEST_P(RendererTest, EmptySceneIsRejected) {
+  const Scene empty;
+  EXPECT_THROW(
+      renderer_->Render(empty, camera_, testing::CameraAtOriginLookingAlongY()),
+      InputError);
+}
+
+TEST_P(RendererTest, BadIntrinsicsAreRejected) {
+  Scene scene;
+  scene.objects.push_back(testing::WallAt(2.0));
+  for (CameraIntrinsics bad : {CameraIntrinsics{0, 480},
+                               CameraIntrinsics{640, -480},
+                               CameraIntrinsics{640, 480, -580.0},
+                               CameraIntrinsics{640, 480, 580, 0.0},
+                               CameraIntrinsics{100000, 480}}) {
+    EXPECT_THROW(
+        renderer_->Render(scene, bad, testing::CameraAtOriginLookingAlongY()),
+        InputError)
+        << bad.ToString();
+  }
+}
+
+TEST_P(RendererTest, CameraInsideGeometryIsRejected) {
+  Scene scene;
+  scene.objects.push_back(testing::WallAt(2.0));
+  scene.objects.push_back(
+      testing::BoxAt(-0.1, -0.5, 0.5, -0.5, 0.5, 11));  // encloses the origin
+  try {
+    renderer_->Render(scene, camera_, testing::CameraAtOriginLookingAlongY());
+    FAIL();
+  } catch (const InputError& error) {
+    EXPECT_NE(
+        std::string(error.what()).find("is inside scene object 1 (id 11)"),
+        std::string::npos)
+        << error.what();
+  }
+}
+
+TEST_P(RendererTest, AbsurdSizesAreRejected) {
+  Scene scene;
+  scene.objects.push_back(
+      {std::make_shared<TriangleMesh>(MakeBox({-1e6f, 5, -1}, {1e6f, 6, 1})),
+       Eigen::Isometry3d::Identity(),
+       3});
+  EXPECT_THROW(
+      renderer_->Render(scene, camera_, testing::CameraAtOriginLookingAlongY()),
+      InputError);
+  Scene fine;
+  fine.objects.push_back(testing::WallAt(2.0));
+  Eigen::Isometry3d far_away = testing::CameraAtOriginLookingAlongY();
+  far_away.translation().x() = 1e7;
+  EXPECT_THROW(renderer_->Render(fine, camera_, far_away), InputError);
+}
+
+INSTANTIATE_TEST_SUITE_P(Renderers,
+                         RendererTest,
+                         ::testing::Values(RendererKind::kOsMesa,
+                                           RendererKind::kEmbree),
+                         [](const auto& info) {
+                           return std::string(
+                               info.param == RendererKind::kOsMesa ? "OsMesa"
+                                                                   : "Embree");
+                         });
+
+TEST(RendererCrossCheck, OsMesaAndEmbreeAgreeOnAFurnishedRoom) {
+  const Scene scene = testing::FurnishedRoom(3);
+  const CameraIntrinsics camera = CameraIntrinsics::KinectV1();
+  const Eigen::Isometry3d world_from_camera = testing::FurnishedRoomCamera();
+  const DepthFrame raster = MakeRenderer(RendererKind::kOsMesa)
+                                ->Render(scene, camera, world_from_camera);
+  const DepthFrame rays = MakeRenderer(RendererKind::kEmbree)
+                              ->Render(scene, camera, world_from_camera);
+  size_t both = 0, depth_agree = 0, id_agree = 0, objects_seen = 0;
+  for (size_t i = 0; i < raster.depth.size(); ++i) {
+    if (raster.depth[i] <= 0 || rays.depth[i] <= 0) continue;
+    ++both;
+    depth_agree += std::abs(raster.depth[i] - rays.depth[i]) < 0.001f;
+    id_agree += raster.instance_ids[i] == rays.instance_ids[i];
+    objects_seen += raster.instance_ids[i] >= kFirstObjectId;
+  }
+  ASSERT_GT(both, 300000u);
+  EXPECT_GT(objects_seen, 30000u)
+      << "the furniture should fill a good part of the view";
+  EXPECT_GE(static_cast<double>(depth_agree) / both, 0.995)
+      << depth_agree << " of " << both;
+  EXPECT_GE(static_cast<double>(id_agree) / both, 0.995)
+      << id_agree << " of " << both;
+}
+
+TEST(RendererKinds, NamesParse) {
+  EXPECT_EQ(ParseRendererKind("osmesa"), RendererKind::kOsMesa);
+  EXPECT_EQ(ParseRendererKind("embree"), RendererKind::kEmbree);
+  EXPECT_THROW(ParseRendererKind("vulkan"), InputError);
+}
+
+TEST(InsideMesh, ParityTestOnABox) {
+  const TriangleMesh box = MakeBox({0, 0, 0}, {1, 2, 3});
+  EXPECT_TRUE(IsInsideMesh(box, {0.5, 1, 1.5}));
+  EXPECT_TRUE(IsInsideMesh(box, {0.01, 0.01, 0.01}));
+  EXPECT_FALSE(IsInsideMesh(box, {1.5, 1, 1.5}));
+  EXPECT_FALSE(IsInsideMesh(box, {-0.01, 1, 1}));
+}
+
+}  // namespace
+}  // namespace furn
