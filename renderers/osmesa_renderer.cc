@@ -23,48 +23,25 @@ constexpr char kVertexShader[] = R"(#version 330 core
 layout(location = 0) in vec3 position;
 uniform mat4 camera_from_object;
 uniform mat4 projection;
-out vec3 point_in_camera;
+out float depth_in_camera;
 void main() {
   vec4 p = camera_from_object * vec4(position, 1.0);
-  point_in_camera = p.xyz;
+  depth_in_camera = p.z;
   gl_Position = projection * p;
 }
 )";
 
-// Normal from screen-space derivatives of the camera-space position: both lie
-// in the triangle's plane (helper pixels extrapolate the same plane), so the
-// cross product is the exact geometric normal. Octahedral encoding packs it in
-// two floats.
+// The fragment writes only what interpolation must provide: the camera-space
+// depth (perspective-correct, so exact on planes), and which triangle of which
+// object is seen. Ids and exact face normals are filled in on the CPU.
 constexpr char kFragmentShader[] = R"(#version 330 core
-in vec3 point_in_camera;
-uniform float instance_id;
+in float depth_in_camera;
+uniform float object_index;
 layout(location = 0) out vec4 result;
-vec2 OctahedralEncode(vec3 n) {
-  n /= abs(n.x) + abs(n.y) + abs(n.z);
-  vec2 e = n.xy;
-  if (n.z < 0.0) {
-    e = (1.0 - abs(n.yx)) * vec2(n.x >= 0.0 ? 1.0 : -1.0, n.y >= 0.0 ? 1.0 : -1.0);
-  }
-  return e;
-}
 void main() {
-  vec3 n = cross(dFdx(point_in_camera), dFdy(point_in_camera));
-  float len = length(n);
-  n = len > 1e-30 ? n / len : -normalize(point_in_camera);
-  if (dot(n, point_in_camera) > 0.0) n = -n;
-  result = vec4(point_in_camera.z, instance_id, OctahedralEncode(n));
+  result = vec4(depth_in_camera, object_index, float(gl_PrimitiveID), 0.0);
 }
 )";
-
-Eigen::Vector3f OctahedralDecode(float x, float y) {
-  Eigen::Vector3f n(x, y, 1.0f - std::abs(x) - std::abs(y));
-  if (n.z() < 0) {
-    const float old_x = n.x();
-    n.x() = (1.0f - std::abs(n.y())) * (old_x >= 0 ? 1.0f : -1.0f);
-    n.y() = (1.0f - std::abs(old_x)) * (n.y() >= 0 ? 1.0f : -1.0f);
-  }
-  return n.normalized();
-}
 
 // OpenGL projection for a pinhole camera with optical axes (x right, y down, z
 // forward). Window x = u + 0.5 and window y = v + 0.5, so glReadPixels returns
@@ -98,10 +75,26 @@ GLuint CompileShader(GLenum type, const char* source) {
   return shader;
 }
 
+std::vector<Eigen::Vector3f> FaceNormals(const TriangleMesh& mesh) {
+  std::vector<Eigen::Vector3f> normals(mesh.triangles.size());
+  for (size_t i = 0; i < mesh.triangles.size(); ++i) {
+    const Eigen::Vector3i& t = mesh.triangles[i];
+    const Eigen::Vector3f n =
+        (mesh.vertices[t[1]] - mesh.vertices[t[0]])
+            .cross(mesh.vertices[t[2]] - mesh.vertices[t[0]]);
+    const float length = n.norm();
+    normals[i] =
+        length > 0 ? Eigen::Vector3f(n / length) : Eigen::Vector3f::Zero();
+  }
+  return normals;
+}
+
 struct GpuMesh {
   std::shared_ptr<const TriangleMesh> keep_alive;  // the cache key stays valid
   GLuint vertex_array = 0, vertex_buffer = 0, index_buffer = 0;
   GLsizei index_count = 0;
+  std::vector<Eigen::Vector3f>
+      face_normals;  // object frame, unit (zero if degenerate)
 };
 
 }  // namespace
@@ -111,7 +104,7 @@ struct OsMesaRenderer::Impl {
   unsigned char dummy_buffer[4 * 4 * 4] = {};
   GLuint program = 0;
   GLint camera_from_object_location = -1, projection_location = -1,
-        instance_id_location = -1;
+        object_index_location = -1;
   GLuint framebuffer = 0, colour_buffer = 0, depth_buffer = 0;
   int target_width = 0, target_height = 0;
   std::map<const TriangleMesh*, GpuMesh> meshes;
@@ -177,6 +170,7 @@ struct OsMesaRenderer::Impl {
                  mesh->triangles.data(),
                  GL_STATIC_DRAW);
     gpu.index_count = static_cast<GLsizei>(3 * mesh->triangles.size());
+    gpu.face_normals = FaceNormals(*mesh);
     glBindVertexArray(0);
     return meshes.emplace(mesh.get(), std::move(gpu)).first->second;
   }
@@ -224,22 +218,21 @@ OsMesaRenderer::OsMesaRenderer() : impl_(std::make_unique<Impl>()) {
       glGetUniformLocation(impl_->program, "camera_from_object");
   impl_->projection_location =
       glGetUniformLocation(impl_->program, "projection");
-  impl_->instance_id_location =
-      glGetUniformLocation(impl_->program, "instance_id");
+  impl_->object_index_location =
+      glGetUniformLocation(impl_->program, "object_index");
 }
 
 OsMesaRenderer::~OsMesaRenderer() {
-  if (impl_->context != nullptr) {
-    impl_->MakeCurrent();
-    impl_->ReleaseMeshes();
-    glDeleteProgram(impl_->program);
-    if (impl_->framebuffer != 0) {
-      glDeleteFramebuffers(1, &impl_->framebuffer);
-      glDeleteRenderbuffers(1, &impl_->colour_buffer);
-      glDeleteRenderbuffers(1, &impl_->depth_buffer);
-    }
-    OSMesaDestroyContext(impl_->context);
+  if (impl_->context == nullptr) return;
+  impl_->MakeCurrent();
+  impl_->ReleaseMeshes();
+  glDeleteProgram(impl_->program);
+  if (impl_->framebuffer != 0) {
+    glDeleteFramebuffers(1, &impl_->framebuffer);
+    glDeleteRenderbuffers(1, &impl_->colour_buffer);
+    glDeleteRenderbuffers(1, &impl_->depth_buffer);
   }
+  OSMesaDestroyContext(impl_->context);
 }
 
 DepthFrame OsMesaRenderer::Render(const Scene& scene,
@@ -260,18 +253,23 @@ DepthFrame OsMesaRenderer::Render(const Scene& scene,
   const Eigen::Matrix4f projection = ProjectionMatrix(camera);
   glUniformMatrix4fv(
       impl_->projection_location, 1, GL_FALSE, projection.data());
+
   const Eigen::Isometry3d camera_from_world = world_from_camera.inverse();
-  for (const SceneObject& object : scene.objects) {
+  std::vector<const GpuMesh*> drawn(scene.objects.size(), nullptr);
+  std::vector<Eigen::Matrix3f> camera_from_object_rotation(
+      scene.objects.size());
+  for (size_t k = 0; k < scene.objects.size(); ++k) {
+    const SceneObject& object = scene.objects[k];
     if (object.mesh->Empty()) continue;
     const GpuMesh& gpu = impl_->Upload(object.mesh);
-    const Eigen::Matrix4f camera_from_object =
-        (camera_from_world * object.world_from_object).matrix().cast<float>();
-    glUniformMatrix4fv(impl_->camera_from_object_location,
-                       1,
-                       GL_FALSE,
-                       camera_from_object.data());
-    glUniform1f(impl_->instance_id_location,
-                static_cast<float>(object.instance_id));
+    drawn[k] = &gpu;
+    const Eigen::Isometry3d camera_from_object =
+        camera_from_world * object.world_from_object;
+    camera_from_object_rotation[k] = camera_from_object.linear().cast<float>();
+    const Eigen::Matrix4f matrix = camera_from_object.matrix().cast<float>();
+    glUniformMatrix4fv(
+        impl_->camera_from_object_location, 1, GL_FALSE, matrix.data());
+    glUniform1f(impl_->object_index_location, static_cast<float>(k));
     glBindVertexArray(gpu.vertex_array);
     glDrawElements(GL_TRIANGLES, gpu.index_count, GL_UNSIGNED_INT, nullptr);
   }
@@ -288,12 +286,22 @@ DepthFrame OsMesaRenderer::Render(const Scene& scene,
 
   DepthFrame frame;
   frame.Resize(camera.width, camera.height);
-  const float* pixel = impl_->pixels.data();
-  for (size_t i = 0; i < count; ++i, pixel += 4) {
-    if (pixel[0] <= 0) continue;
-    frame.depth[i] = pixel[0];
-    frame.instance_ids[i] = static_cast<uint16_t>(pixel[1] + 0.5f);
-    frame.normals[i] = OctahedralDecode(pixel[2], pixel[3]);
+  const float* pixels = impl_->pixels.data();
+#pragma omp parallel for schedule(static)
+  for (int v = 0; v < camera.height; ++v) {
+    for (int u = 0; u < camera.width; ++u) {
+      const size_t i = static_cast<size_t>(v) * camera.width + u;
+      const float* pixel = pixels + 4 * i;
+      if (pixel[0] <= 0) continue;
+      const size_t object = static_cast<size_t>(pixel[1] + 0.5f);
+      const size_t triangle = static_cast<size_t>(pixel[2] + 0.5f);
+      frame.depth[i] = pixel[0];
+      frame.instance_ids[i] = scene.objects[object].instance_id;
+      Eigen::Vector3f normal = camera_from_object_rotation[object] *
+                               drawn[object]->face_normals[triangle];
+      if (normal.dot(camera.RayThroughPixel(u, v)) > 0) normal = -normal;
+      frame.normals[i] = normal;
+    }
   }
   return frame;
 }

@@ -1,0 +1,120 @@
+// Renderer speed on a furnished room of ~50k triangles at 640x480 (SPEC.md
+// §13): ideal depth + ids + normals by OSMesa (target <= 8 ms) and by Embree
+// (<= 10 ms, acceleration structure built once per room, its cost measured
+// apart), the sensor model alone, and a full noisy frame (<= 12 ms).
+//
+//   build/tests/benchmarks/renderer_benchmark
+#include <benchmark/benchmark.h>
+
+#include "renderers/embree_caster.h"
+#include "renderers/kinect_simulator.h"
+#include "renderers/osmesa_renderer.h"
+#include "tests/renderers/render_fixtures.h"
+
+namespace furn {
+namespace {
+
+constexpr size_t kTriangles = 50000;
+
+const Scene& Room() {
+  static const Scene room = testing::FurnishedRoom(1, kTriangles);
+  return room;
+}
+
+void SetCounters(benchmark::State& state) {
+  state.counters["triangles"] = static_cast<double>(Room().NumTriangles());
+  state.counters["frames/s"] =
+      benchmark::Counter(1, benchmark::Counter::kIsIterationInvariantRate);
+}
+
+void BM_OsMesaIdeal(benchmark::State& state) {
+  OsMesaRenderer renderer;
+  const CameraIntrinsics camera = CameraIntrinsics::KinectV1();
+  renderer.Render(
+      Room(), camera, testing::FurnishedRoomCamera());  // uploads the meshes
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(
+        renderer.Render(Room(), camera, testing::FurnishedRoomCamera()));
+  }
+  SetCounters(state);
+}
+BENCHMARK(BM_OsMesaIdeal)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+void BM_EmbreeIdeal(benchmark::State& state) {
+  EmbreeCaster caster;
+  const CameraIntrinsics camera = CameraIntrinsics::KinectV1();
+  caster.SetScene(Room());
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(
+        caster.Render(Room(), camera, testing::FurnishedRoomCamera()));
+  }
+  SetCounters(state);
+}
+BENCHMARK(BM_EmbreeIdeal)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+void BM_EmbreeBuildOncePerRoom(benchmark::State& state) {
+  for (auto _ : state) {
+    EmbreeCaster caster;
+    caster.SetScene(Room());
+  }
+  SetCounters(state);
+}
+BENCHMARK(BM_EmbreeBuildOncePerRoom)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+
+void BM_KinectNoiseOnly(benchmark::State& state) {
+  const CameraIntrinsics camera = CameraIntrinsics::KinectV1();
+  const DepthFrame ideal =
+      OsMesaRenderer().Render(Room(), camera, testing::FurnishedRoomCamera());
+  uint64_t seed = 0;
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(
+        ApplyKinectNoise(ideal, camera, KinectNoiseOptions{}, ++seed));
+  }
+  SetCounters(state);
+}
+BENCHMARK(BM_KinectNoiseOnly)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+void BM_FullNoisyFrameOsMesa(benchmark::State& state) {
+  OsMesaRenderer renderer;
+  const CameraIntrinsics camera = CameraIntrinsics::KinectV1();
+  renderer.Render(Room(), camera, testing::FurnishedRoomCamera());
+  uint64_t seed = 0;
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(CaptureKinect(&renderer,
+                                           Room(),
+                                           camera,
+                                           testing::FurnishedRoomCamera(),
+                                           KinectNoiseOptions{},
+                                           ++seed));
+  }
+  SetCounters(state);
+}
+BENCHMARK(BM_FullNoisyFrameOsMesa)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+
+void BM_FullNoisyFrameEmbree(benchmark::State& state) {
+  EmbreeCaster caster;
+  const CameraIntrinsics camera = CameraIntrinsics::KinectV1();
+  caster.SetScene(Room());
+  uint64_t seed = 0;
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(CaptureKinect(&caster,
+                                           Room(),
+                                           camera,
+                                           testing::FurnishedRoomCamera(),
+                                           KinectNoiseOptions{},
+                                           ++seed));
+  }
+  SetCounters(state);
+}
+BENCHMARK(BM_FullNoisyFrameEmbree)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+
+}  // namespace
+}  // namespace furn
+
+BENCHMARK_MAIN();
