@@ -16,8 +16,7 @@ namespace furn {
 
 class InputError : public std::runtime_error {
  public:
-  explicit InputError(const std::string& message)
-      : std::runtime_error(message) {}
+  explicit InputError(const std::string& message) : std::runtime_error(message) {}
 };
 
 // Throws InputError(message) when `condition` is false.

@@ -20,8 +20,7 @@ std::string ReadFileBytes(const std::string& path) {
     throw InputError(path + ": cannot read (is a directory)");
   }
   std::ifstream in(path, std::ios::binary);
-  if (!in)
-    throw InputError(path + ": cannot read (" + std::strerror(errno) + ")");
+  if (!in) throw InputError(path + ": cannot read (" + std::strerror(errno) + ")");
   std::ostringstream buffer;
   buffer << in.rdbuf();
   if (in.bad()) throw InputError(path + ": read error");
@@ -29,14 +28,11 @@ std::string ReadFileBytes(const std::string& path) {
 }
 
 AtomicFile::AtomicFile(std::string path)
-    : path_(std::move(path)),
-      temp_path_(path_ + ".tmp-" + std::to_string(::getpid())) {
-  const std::filesystem::path parent =
-      std::filesystem::path(path_).parent_path();
+    : path_(std::move(path)), temp_path_(path_ + ".tmp-" + std::to_string(::getpid())) {
+  const std::filesystem::path parent = std::filesystem::path(path_).parent_path();
   std::error_code ec;
   if (!parent.empty() && !std::filesystem::is_directory(parent, ec)) {
-    throw InputError(path_ + ": cannot write (directory " + parent.string() +
-                     " does not exist)");
+    throw InputError(path_ + ": cannot write (directory " + parent.string() + " does not exist)");
   }
 }
 
@@ -58,12 +54,10 @@ void WriteFileAtomically(const std::string& path, const std::string& bytes) {
   AtomicFile file(path);
   {
     std::ofstream out(file.TempPath(), std::ios::binary | std::ios::trunc);
-    if (!out)
-      throw InputError(path + ": cannot write (" + std::strerror(errno) + ")");
+    if (!out) throw InputError(path + ": cannot write (" + std::strerror(errno) + ")");
     out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
     out.flush();
-    if (!out)
-      throw InputError(path + ": cannot write (disk full or I/O error)");
+    if (!out) throw InputError(path + ": cannot write (disk full or I/O error)");
   }
   file.Commit();
 }

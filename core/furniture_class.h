@@ -11,12 +11,11 @@ namespace furn {
 
 enum class FurnitureClass { kChair = 0, kArmchair, kTable, kSideboard, kSofa };
 
-inline constexpr std::array<FurnitureClass, 5> kAllClasses = {
-    FurnitureClass::kChair,
-    FurnitureClass::kArmchair,
-    FurnitureClass::kTable,
-    FurnitureClass::kSideboard,
-    FurnitureClass::kSofa};
+inline constexpr std::array<FurnitureClass, 5> kAllClasses = {FurnitureClass::kChair,
+                                                              FurnitureClass::kArmchair,
+                                                              FurnitureClass::kTable,
+                                                              FurnitureClass::kSideboard,
+                                                              FurnitureClass::kSofa};
 
 const char* ClassName(FurnitureClass furniture_class);
 

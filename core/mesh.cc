@@ -37,8 +37,7 @@ void TransformMesh(const Eigen::Matrix3f& linear,
 
 void AppendMesh(const TriangleMesh& part, TriangleMesh* mesh) {
   const int offset = static_cast<int>(mesh->vertices.size());
-  mesh->vertices.insert(
-      mesh->vertices.end(), part.vertices.begin(), part.vertices.end());
+  mesh->vertices.insert(mesh->vertices.end(), part.vertices.begin(), part.vertices.end());
   for (const Eigen::Vector3i& triangle : part.triangles) {
     mesh->triangles.push_back(triangle.array() + offset);
   }
@@ -46,14 +45,12 @@ void AppendMesh(const TriangleMesh& part, TriangleMesh* mesh) {
 
 void PlaceOnFloorCentred(TriangleMesh* mesh) {
   const Box3 box = BoundingBox(*mesh);
-  const Eigen::Vector3f shift(
-      -box.Center().x(), -box.Center().y(), -box.min.z());
+  const Eigen::Vector3f shift(-box.Center().x(), -box.Center().y(), -box.min.z());
   TransformMesh(Eigen::Matrix3f::Identity(), shift, mesh);
 }
 
 void CheckMeshValid(const TriangleMesh& mesh, const std::string& what) {
-  Require(!mesh.Empty(),
-          what + ": mesh has no faces (a model needs at least one triangle)");
+  Require(!mesh.Empty(), what + ": mesh has no faces (a model needs at least one triangle)");
   for (size_t i = 0; i < mesh.vertices.size(); ++i) {
     Require(mesh.vertices[i].allFinite(),
             what + ": vertex " + std::to_string(i) +
@@ -63,20 +60,17 @@ void CheckMeshValid(const TriangleMesh& mesh, const std::string& what) {
   for (size_t i = 0; i < mesh.triangles.size(); ++i) {
     const Eigen::Vector3i& t = mesh.triangles[i];
     Require(t.minCoeff() >= 0 && t.maxCoeff() < n,
-            what + ": triangle " + std::to_string(i) +
-                " indexes a vertex outside 0.." + std::to_string(n - 1));
+            what + ": triangle " + std::to_string(i) + " indexes a vertex outside 0.." +
+                std::to_string(n - 1));
   }
 }
 
 std::string HashMesh(const TriangleMesh& mesh) {
   XXH3_state_t* state = XXH3_createState();
   XXH3_128bits_reset(state);
-  XXH3_128bits_update(state,
-                      mesh.vertices.data(),
-                      mesh.vertices.size() * sizeof(Eigen::Vector3f));
-  XXH3_128bits_update(state,
-                      mesh.triangles.data(),
-                      mesh.triangles.size() * sizeof(Eigen::Vector3i));
+  XXH3_128bits_update(state, mesh.vertices.data(), mesh.vertices.size() * sizeof(Eigen::Vector3f));
+  XXH3_128bits_update(
+      state, mesh.triangles.data(), mesh.triangles.size() * sizeof(Eigen::Vector3i));
   const XXH128_hash_t hash = XXH3_128bits_digest(state);
   XXH3_freeState(state);
   char text[33];
@@ -103,8 +97,7 @@ double SurfaceArea(const TriangleMesh& mesh) {
 
 namespace furn {
 
-TriangleMesh MakeBox(const Eigen::Vector3f& min_corner,
-                     const Eigen::Vector3f& max_corner) {
+TriangleMesh MakeBox(const Eigen::Vector3f& min_corner, const Eigen::Vector3f& max_corner) {
   TriangleMesh box;
   for (int i = 0; i < 8; ++i) {
     box.vertices.emplace_back((i & 1) ? max_corner.x() : min_corner.x(),
@@ -129,17 +122,14 @@ TriangleMesh MakeCylinder(const Eigen::Vector3f& base_center,
                           float radius,
                           float height,
                           int segments) {
-  Require(segments >= 3,
-          "cylinder segments " + std::to_string(segments) + " must be >= 3");
+  Require(segments >= 3, "cylinder segments " + std::to_string(segments) + " must be >= 3");
   TriangleMesh cylinder;
-  const Eigen::Vector3f top_center =
-      base_center + Eigen::Vector3f(0, 0, height);
+  const Eigen::Vector3f top_center = base_center + Eigen::Vector3f(0, 0, height);
   cylinder.vertices.push_back(base_center);  // 0
   cylinder.vertices.push_back(top_center);   // 1
   for (int i = 0; i < segments; ++i) {
     const double angle = 2.0 * M_PI * i / segments;
-    const Eigen::Vector3f offset(
-        radius * std::cos(angle), radius * std::sin(angle), 0);
+    const Eigen::Vector3f offset(radius * std::cos(angle), radius * std::sin(angle), 0);
     cylinder.vertices.push_back(base_center + offset);  // 2 + 2i
     cylinder.vertices.push_back(top_center + offset);   // 3 + 2i
   }

@@ -76,8 +76,7 @@ namespace furn {
 
 // Primitives for procedural furniture and rooms. Faces point outward.
 // Axis-aligned box between two corners.
-TriangleMesh MakeBox(const Eigen::Vector3f& min_corner,
-                     const Eigen::Vector3f& max_corner);
+TriangleMesh MakeBox(const Eigen::Vector3f& min_corner, const Eigen::Vector3f& max_corner);
 
 // Vertical cylinder standing on `base_center`, closed at both ends.
 TriangleMesh MakeCylinder(const Eigen::Vector3f& base_center,

@@ -54,8 +54,7 @@ void Progress::Draw(bool final_line) {
   const double eta = rate > 0 ? (total_ - done_) / rate : 0.0;
   const double fraction = static_cast<double>(done_) / total_;
   if (on_terminal_) {
-    if (!final_line && now - last_draw_ < std::chrono::milliseconds(100))
-      return;
+    if (!final_line && now - last_draw_ < std::chrono::milliseconds(100)) return;
     last_draw_ = now;
     constexpr int kWidth = 30;
     const int filled = static_cast<int>(fraction * kWidth);

@@ -30,14 +30,10 @@ class Rng {
   uint64_t Next() { return engine_(); }
 
   // Uniform in [0, 1) with 53 random bits.
-  double Uniform01() {
-    return static_cast<double>(engine_() >> 11) * 0x1.0p-53;
-  }
+  double Uniform01() { return static_cast<double>(engine_() >> 11) * 0x1.0p-53; }
 
   // Uniform in [low, high).
-  double Uniform(double low, double high) {
-    return low + (high - low) * Uniform01();
-  }
+  double Uniform(double low, double high) { return low + (high - low) * Uniform01(); }
 
   // Uniform integer in [low, high] (both inclusive), without modulo bias.
   int64_t UniformInt(int64_t low, int64_t high) {
@@ -89,29 +85,17 @@ class FastRng {
 
   double Uniform01() { return static_cast<double>(Next() >> 11) * 0x1.0p-53; }
 
-  // Standard normal; the polar method makes two, the second is kept.
-  double Normal() {
-    if (has_spare_) {
-      has_spare_ = false;
-      return spare_;
-    }
-    double x, y, s;
-    do {
-      x = 2.0 * Uniform01() - 1.0;
-      y = 2.0 * Uniform01() - 1.0;
-      s = x * x + y * y;
-    } while (s >= 1.0 || s == 0.0);
-    const double factor = std::sqrt(-2.0 * std::log(s) / s);
-    spare_ = y * factor;
-    has_spare_ = true;
-    return x * factor;
-  }
+  // Uniform in [0, 1) from 32 bits (for table look-ups where 32 bits suffice).
+  float Uniform01f() { return static_cast<float>(Next() >> 40) * 0x1.0p-24f; }
+
+  // Standard normal by the ziggurat method (Marsaglia and Tsang 2000, 128
+  // layers). The layer index and the value come from different bits of one
+  // 64-bit draw (Doornik 2005), which avoids the original's correlation.
+  double Normal();
 
  private:
   static uint64_t Rotl(uint64_t x, int k) { return (x << k) | (x >> (64 - k)); }
   uint64_t state_[4];
-  double spare_ = 0;
-  bool has_spare_ = false;
 };
 
 }  // namespace furn

@@ -4,8 +4,7 @@
 
 namespace furn {
 
-Eigen::Isometry3d LookAlong(const Eigen::Vector3d& position,
-                            const Eigen::Vector3d& forward) {
+Eigen::Isometry3d LookAlong(const Eigen::Vector3d& position, const Eigen::Vector3d& forward) {
   Require(forward.norm() > 1e-9, "camera forward direction must not be zero");
   const Eigen::Vector3d z = forward.normalized();
   Require(std::abs(z.z()) < 1 - 1e-9,

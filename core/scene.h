@@ -50,7 +50,6 @@ inline Eigen::Isometry3d PoseXYZYaw(double x, double y, double z, double yaw) {
 
 // world_from_camera for a camera at `position` looking along `forward` (world
 // frame) with no roll: camera x = right, y = down, z = forward.
-Eigen::Isometry3d LookAlong(const Eigen::Vector3d& position,
-                            const Eigen::Vector3d& forward);
+Eigen::Isometry3d LookAlong(const Eigen::Vector3d& position, const Eigen::Vector3d& forward);
 
 }  // namespace furn

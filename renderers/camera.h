@@ -29,9 +29,8 @@ struct CameraIntrinsics {
 
   // Direction (not normalised, z = 1) of the ray through pixel (u, v).
   Eigen::Vector3f RayThroughPixel(double u, double v) const {
-    return Eigen::Vector3f(static_cast<float>((u - cx) / fx),
-                           static_cast<float>((v - cy) / fy),
-                           1.0f);
+    return Eigen::Vector3f(
+        static_cast<float>((u - cx) / fx), static_cast<float>((v - cy) / fy), 1.0f);
   }
 
   // Pixel of a camera-frame point in front of the camera (z > 0).

@@ -15,10 +15,9 @@ namespace furn {
 struct DepthFrame {
   int width = 0;
   int height = 0;
-  std::vector<float> depth;  // metres along the optical axis; 0 = no return
-  std::vector<uint16_t> instance_ids;  // 0 = no object
-  std::vector<Eigen::Vector3f>
-      normals;  // camera frame, unit, facing the camera; 0 where none
+  std::vector<float> depth;              // metres along the optical axis; 0 = no return
+  std::vector<uint16_t> instance_ids;    // 0 = no object
+  std::vector<Eigen::Vector3f> normals;  // camera frame, unit, facing the camera; 0 where none
 
   void Resize(int new_width, int new_height) {
     width = new_width;
@@ -28,9 +27,7 @@ struct DepthFrame {
     instance_ids.assign(n, 0);
     normals.assign(n, Eigen::Vector3f::Zero());
   }
-  size_t Index(int u, int v) const {
-    return static_cast<size_t>(v) * width + u;
-  }
+  size_t Index(int u, int v) const { return static_cast<size_t>(v) * width + u; }
   float DepthAt(int u, int v) const { return depth[Index(u, v)]; }
   uint16_t IdAt(int u, int v) const { return instance_ids[Index(u, v)]; }
   size_t NumValid() const {

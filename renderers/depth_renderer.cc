@@ -36,10 +36,9 @@ bool RayCrossesTriangle(const Eigen::Vector3d& origin,
 bool IsInsideMesh(const TriangleMesh& mesh, const Eigen::Vector3d& point) {
   // Directions off the axes, so rays rarely graze the edges of axis-aligned
   // boxes.
-  const Eigen::Vector3d directions[3] = {
-      Eigen::Vector3d(0.5773, 0.5774, 0.5775).normalized(),
-      Eigen::Vector3d(-0.6123, 0.3535, -0.7071).normalized(),
-      Eigen::Vector3d(0.2673, -0.8018, 0.5345).normalized()};
+  const Eigen::Vector3d directions[3] = {Eigen::Vector3d(0.5773, 0.5774, 0.5775).normalized(),
+                                         Eigen::Vector3d(-0.6123, 0.3535, -0.7071).normalized(),
+                                         Eigen::Vector3d(0.2673, -0.8018, 0.5345).normalized()};
   int odd = 0;
   for (const Eigen::Vector3d& direction : directions) {
     int crossings = 0;
@@ -61,15 +60,14 @@ void CheckRenderRequest(const Scene& scene,
   camera.Check();
   Require(scene.NumTriangles() > 0, "scene is empty (no triangles to render)");
   const Eigen::Vector3d position = world_from_camera.translation();
-  Require(world_from_camera.matrix().allFinite() &&
-              position.norm() < kMaxCoordinate,
+  Require(world_from_camera.matrix().allFinite() && position.norm() < kMaxCoordinate,
           "camera position must be finite and within 1000 m of the origin");
   Require(std::abs(world_from_camera.linear().determinant() - 1) < 1e-6,
           "world_from_camera rotation must be a proper rotation (det = 1)");
   for (size_t i = 0; i < scene.objects.size(); ++i) {
     const SceneObject& object = scene.objects[i];
-    const std::string name = "scene object " + std::to_string(i) + " (id " +
-                             std::to_string(object.instance_id) + ")";
+    const std::string name =
+        "scene object " + std::to_string(i) + " (id " + std::to_string(object.instance_id) + ")";
     Require(object.mesh != nullptr, name + " has no mesh");
     Require(object.world_from_object.matrix().allFinite() &&
                 object.world_from_object.translation().norm() < kMaxCoordinate,
@@ -81,13 +79,12 @@ void CheckRenderRequest(const Scene& scene,
                 box.max.cwiseAbs().maxCoeff() < kMaxCoordinate,
             name + " has coordinates beyond 1000 m (is the mesh in metres?)");
     const Eigen::Vector3d local = object.world_from_object.inverse() * position;
-    const bool in_box =
-        (local.cast<float>().array() >= box.min.array()).all() &&
-        (local.cast<float>().array() <= box.max.array()).all();
+    const bool in_box = (local.cast<float>().array() >= box.min.array()).all() &&
+                        (local.cast<float>().array() <= box.max.array()).all();
     if (in_box && IsInsideMesh(*object.mesh, local)) {
       throw InputError("camera at (" + std::to_string(position.x()) + ", " +
-                       std::to_string(position.y()) + ", " +
-                       std::to_string(position.z()) + ") is inside " + name);
+                       std::to_string(position.y()) + ", " + std::to_string(position.z()) +
+                       ") is inside " + name);
     }
   }
 }

@@ -22,9 +22,18 @@ class DepthRenderer {
   virtual ~DepthRenderer() = default;
   // Throws InputError for bad intrinsics, an empty scene, non-finite or absurd
   // coordinates, or a camera inside an object (see CheckRenderRequest).
-  virtual DepthFrame Render(const Scene& scene,
-                            const CameraIntrinsics& camera,
-                            const Eigen::Isometry3d& world_from_camera) = 0;
+  DepthFrame Render(const Scene& scene,
+                    const CameraIntrinsics& camera,
+                    const Eigen::Isometry3d& world_from_camera) {
+    DepthFrame frame;
+    RenderInto(scene, camera, world_from_camera, &frame);
+    return frame;
+  }
+  // Same, into `frame`, reusing its memory (no page faults on a hot loop).
+  virtual void RenderInto(const Scene& scene,
+                          const CameraIntrinsics& camera,
+                          const Eigen::Isometry3d& world_from_camera,
+                          DepthFrame* frame) = 0;
   virtual std::string Name() const = 0;
 };
 
@@ -43,7 +52,6 @@ void CheckRenderRequest(const Scene& scene,
 
 // True when `point_in_object` is inside the closed surface of `mesh`: the
 // majority of three rays from it cross the surface an odd number of times.
-bool IsInsideMesh(const TriangleMesh& mesh,
-                  const Eigen::Vector3d& point_in_object);
+bool IsInsideMesh(const TriangleMesh& mesh, const Eigen::Vector3d& point_in_object);
 
 }  // namespace furn

@@ -18,12 +18,11 @@ struct SceneKey {
   std::vector<Eigen::Matrix<double, 3, 4>> poses;
   std::vector<uint16_t> ids;
   bool operator==(const SceneKey& other) const {
-    return meshes == other.meshes && ids == other.ids &&
-           poses.size() == other.poses.size() &&
-           std::equal(poses.begin(),
-                      poses.end(),
-                      other.poses.begin(),
-                      [](const auto& a, const auto& b) { return a == b; });
+    return meshes == other.meshes && ids == other.ids && poses.size() == other.poses.size() &&
+           std::equal(
+               poses.begin(), poses.end(), other.poses.begin(), [](const auto& a, const auto& b) {
+                 return a == b;
+               });
   }
 };
 
@@ -56,8 +55,7 @@ struct EmbreeCaster::Impl {
 
 EmbreeCaster::EmbreeCaster() : impl_(std::make_unique<Impl>()) {
   impl_->device = rtcNewDevice(nullptr);
-  if (impl_->device == nullptr)
-    throw std::runtime_error("Embree: cannot create a device");
+  if (impl_->device == nullptr) throw std::runtime_error("Embree: cannot create a device");
 }
 
 EmbreeCaster::~EmbreeCaster() {
@@ -74,31 +72,24 @@ void EmbreeCaster::SetScene(const Scene& scene) {
   for (const SceneObject& object : scene.objects) {
     if (object.mesh == nullptr || object.mesh->Empty()) continue;
     const TriangleMesh& mesh = *object.mesh;
-    RTCGeometry geometry =
-        rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_TRIANGLE);
-    auto* vertices =
-        static_cast<float*>(rtcSetNewGeometryBuffer(geometry,
-                                                    RTC_BUFFER_TYPE_VERTEX,
-                                                    0,
-                                                    RTC_FORMAT_FLOAT3,
-                                                    3 * sizeof(float),
-                                                    mesh.vertices.size()));
-    const Eigen::Isometry3f world_from_object =
-        object.world_from_object.cast<float>();
+    RTCGeometry geometry = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_TRIANGLE);
+    auto* vertices = static_cast<float*>(rtcSetNewGeometryBuffer(geometry,
+                                                                 RTC_BUFFER_TYPE_VERTEX,
+                                                                 0,
+                                                                 RTC_FORMAT_FLOAT3,
+                                                                 3 * sizeof(float),
+                                                                 mesh.vertices.size()));
+    const Eigen::Isometry3f world_from_object = object.world_from_object.cast<float>();
     for (size_t i = 0; i < mesh.vertices.size(); ++i) {
-      Eigen::Map<Eigen::Vector3f>(vertices + 3 * i) =
-          world_from_object * mesh.vertices[i];
+      Eigen::Map<Eigen::Vector3f>(vertices + 3 * i) = world_from_object * mesh.vertices[i];
     }
-    auto* indices =
-        static_cast<unsigned*>(rtcSetNewGeometryBuffer(geometry,
-                                                       RTC_BUFFER_TYPE_INDEX,
-                                                       0,
-                                                       RTC_FORMAT_UINT3,
-                                                       3 * sizeof(unsigned),
-                                                       mesh.triangles.size()));
-    std::memcpy(indices,
-                mesh.triangles.data(),
-                mesh.triangles.size() * 3 * sizeof(unsigned));
+    auto* indices = static_cast<unsigned*>(rtcSetNewGeometryBuffer(geometry,
+                                                                   RTC_BUFFER_TYPE_INDEX,
+                                                                   0,
+                                                                   RTC_FORMAT_UINT3,
+                                                                   3 * sizeof(unsigned),
+                                                                   mesh.triangles.size()));
+    std::memcpy(indices, mesh.triangles.data(), mesh.triangles.size() * 3 * sizeof(unsigned));
     rtcCommitGeometry(geometry);
     const unsigned geometry_id = rtcAttachGeometry(impl_->scene, geometry);
     rtcReleaseGeometry(geometry);
@@ -111,12 +102,13 @@ void EmbreeCaster::SetScene(const Scene& scene) {
   impl_->key = std::move(key);
 }
 
-DepthFrame EmbreeCaster::Render(const Scene& scene,
-                                const CameraIntrinsics& camera,
-                                const Eigen::Isometry3d& world_from_camera) {
+void EmbreeCaster::RenderInto(const Scene& scene,
+                              const CameraIntrinsics& camera,
+                              const Eigen::Isometry3d& world_from_camera,
+                              DepthFrame* out) {
   CheckRenderRequest(scene, camera, world_from_camera);
   SetScene(scene);
-  DepthFrame frame;
+  DepthFrame& frame = *out;
   frame.Resize(camera.width, camera.height);
   const Eigen::Matrix3f rotation = world_from_camera.linear().cast<float>();
   const Eigen::Vector3f origin = world_from_camera.translation().cast<float>();
@@ -160,16 +152,14 @@ DepthFrame EmbreeCaster::Render(const Scene& scene,
         frame.depth[index] = packet.ray.tfar[k];
         frame.instance_ids[index] = id_of_geometry[packet.hit.geomID[k]];
         Eigen::Vector3f normal =
-            rotation.transpose() * Eigen::Vector3f(packet.hit.Ng_x[k],
-                                                   packet.hit.Ng_y[k],
-                                                   packet.hit.Ng_z[k]);
+            rotation.transpose() *
+            Eigen::Vector3f(packet.hit.Ng_x[k], packet.hit.Ng_y[k], packet.hit.Ng_z[k]);
         normal.normalize();
         if (normal.dot(directions_in_camera[k]) > 0) normal = -normal;
         frame.normals[index] = normal;
       }
     }
   }
-  return frame;
 }
 
 }  // namespace furn

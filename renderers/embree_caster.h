@@ -21,9 +21,11 @@ class EmbreeCaster : public DepthRenderer {
   EmbreeCaster();
   ~EmbreeCaster() override;
 
-  DepthFrame Render(const Scene& scene,
-                    const CameraIntrinsics& camera,
-                    const Eigen::Isometry3d& world_from_camera) override;
+  void RenderInto(const Scene& scene,
+                  const CameraIntrinsics& camera,
+                  const Eigen::Isometry3d& world_from_camera,
+                  DepthFrame* frame) override;
+  using DepthRenderer::Render;
   std::string Name() const override { return "embree"; }
 
   // Builds (or keeps) the acceleration structure for `scene`; Render calls it.

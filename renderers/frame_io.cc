@@ -27,8 +27,7 @@ void WritePng(const cv::Mat& image, const std::string& path) {
 cv::Vec3b IdColour(uint16_t id) {
   if (id == 0) return cv::Vec3b(0, 0, 0);
   uint32_t h = id * 2654435761u;
-  return cv::Vec3b(
-      64 + (h & 0xBF), 64 + ((h >> 8) & 0xBF), 64 + ((h >> 16) & 0xBF));
+  return cv::Vec3b(64 + (h & 0xBF), 64 + ((h >> 8) & 0xBF), 64 + ((h >> 16) & 0xBF));
 }
 
 std::pair<float, float> DepthRange(const DepthFrame& frame) {
@@ -38,8 +37,7 @@ std::pair<float, float> DepthRange(const DepthFrame& frame) {
   }
   if (valid.empty()) return {0.5f, 4.5f};
   std::sort(valid.begin(), valid.end());
-  const float low = valid[valid.size() / 100],
-              high = valid[valid.size() * 99 / 100];
+  const float low = valid[valid.size() / 100], high = valid[valid.size() * 99 / 100];
   return {low, std::max(high, low + 0.1f)};
 }
 
@@ -48,8 +46,7 @@ cv::Mat ColouriseDepth(const DepthFrame& frame, std::pair<float, float> range) {
   for (int v = 0; v < frame.height; ++v) {
     for (int u = 0; u < frame.width; ++u) {
       const float z = frame.DepthAt(u, v);
-      const float t = std::clamp(
-          (z - range.first) / (range.second - range.first), 0.0f, 1.0f);
+      const float t = std::clamp((z - range.first) / (range.second - range.first), 0.0f, 1.0f);
       grey.at<uchar>(v, u) = static_cast<uchar>(255 * (1 - t));
     }
   }
@@ -57,8 +54,7 @@ cv::Mat ColouriseDepth(const DepthFrame& frame, std::pair<float, float> range) {
   cv::applyColorMap(grey, colour, cv::COLORMAP_TURBO);
   for (int v = 0; v < frame.height; ++v) {
     for (int u = 0; u < frame.width; ++u) {
-      if (frame.DepthAt(u, v) <= 0)
-        colour.at<cv::Vec3b>(v, u) = cv::Vec3b(0, 0, 0);
+      if (frame.DepthAt(u, v) <= 0) colour.at<cv::Vec3b>(v, u) = cv::Vec3b(0, 0, 0);
     }
   }
   return colour;
@@ -96,13 +92,12 @@ std::vector<float> SmoothValidDepth(const DepthFrame& frame, int radius) {
 cv::Mat ShadeDepth(const DepthFrame& frame) {
   const std::vector<float> smoothed = SmoothValidDepth(frame, 2);
   cv::Mat shaded(frame.height, frame.width, CV_8UC3, cv::Scalar(0, 0, 0));
-  const Eigen::Vector3f light =
-      Eigen::Vector3f(-0.3f, -0.5f, -1.0f).normalized();
+  const Eigen::Vector3f light = Eigen::Vector3f(-0.3f, -0.5f, -1.0f).normalized();
   auto depth = [&](int u, int v) { return smoothed[frame.Index(u, v)]; };
   for (int v = 1; v + 1 < frame.height; ++v) {
     for (int u = 1; u + 1 < frame.width; ++u) {
-      const float z = depth(u, v), zr = depth(u + 1, v), zl = depth(u - 1, v),
-                  zd = depth(u, v + 1), zu = depth(u, v - 1);
+      const float z = depth(u, v), zr = depth(u + 1, v), zl = depth(u - 1, v), zd = depth(u, v + 1),
+                  zu = depth(u, v - 1);
       if (z <= 0) continue;
       const bool interior = zr > 0 && zl > 0 && zd > 0 && zu > 0;
       Eigen::Vector3f n(0, 0, -1);
@@ -110,13 +105,11 @@ cv::Mat ShadeDepth(const DepthFrame& frame) {
         // Metres of depth per metre across: one pixel spans z / f metres (f ~
         // 580 px).
         const float scale = 580.0f / (2 * z);
-        n = Eigen::Vector3f((zr - zl) * scale, (zd - zu) * scale, -1.0f)
-                .normalized();
+        n = Eigen::Vector3f((zr - zl) * scale, (zd - zu) * scale, -1.0f).normalized();
       }
-      const float intensity = (interior ? 1.0f : 0.6f) *
-                              (0.15f + 0.85f * std::max(0.0f, n.dot(light)));
-      const uchar c =
-          static_cast<uchar>(255 * std::clamp(intensity, 0.0f, 1.0f));
+      const float intensity =
+          (interior ? 1.0f : 0.6f) * (0.15f + 0.85f * std::max(0.0f, n.dot(light)));
+      const uchar c = static_cast<uchar>(255 * std::clamp(intensity, 0.0f, 1.0f));
       shaded.at<cv::Vec3b>(v, u) = cv::Vec3b(c, c, c);
     }
   }
@@ -126,39 +119,32 @@ cv::Mat ShadeDepth(const DepthFrame& frame) {
 cv::Mat ColouriseIds(const DepthFrame& frame) {
   cv::Mat colour(frame.height, frame.width, CV_8UC3);
   for (int v = 0; v < frame.height; ++v) {
-    for (int u = 0; u < frame.width; ++u)
-      colour.at<cv::Vec3b>(v, u) = IdColour(frame.IdAt(u, v));
+    for (int u = 0; u < frame.width; ++u) colour.at<cv::Vec3b>(v, u) = IdColour(frame.IdAt(u, v));
   }
   return colour;
 }
 
 }  // namespace
 
-void WriteDepthPng(const DepthFrame& frame,
-                   const std::string& path,
-                   double units_per_metre) {
-  Require(units_per_metre > 0,
-          "depth scale " + std::to_string(units_per_metre) + " must be > 0");
+void WriteDepthPng(const DepthFrame& frame, const std::string& path, double units_per_metre) {
+  Require(units_per_metre > 0, "depth scale " + std::to_string(units_per_metre) + " must be > 0");
   cv::Mat image(frame.height, frame.width, CV_16UC1);
   for (int v = 0; v < frame.height; ++v) {
     for (int u = 0; u < frame.width; ++u) {
       const double units = std::round(frame.DepthAt(u, v) * units_per_metre);
-      image.at<uint16_t>(v, u) =
-          units > 0 && units <= 65535 ? static_cast<uint16_t>(units) : 0;
+      image.at<uint16_t>(v, u) = units > 0 && units <= 65535 ? static_cast<uint16_t>(units) : 0;
     }
   }
   WritePng(image, path);
 }
 
 DepthFrame ReadDepthPng(const std::string& path, double units_per_metre) {
-  Require(units_per_metre > 0,
-          "depth scale " + std::to_string(units_per_metre) + " must be > 0");
+  Require(units_per_metre > 0, "depth scale " + std::to_string(units_per_metre) + " must be > 0");
   const std::string bytes = ReadFileBytes(path);
-  const cv::Mat image = cv::imdecode(
-      std::vector<uchar>(bytes.begin(), bytes.end()), cv::IMREAD_UNCHANGED);
+  const cv::Mat image =
+      cv::imdecode(std::vector<uchar>(bytes.begin(), bytes.end()), cv::IMREAD_UNCHANGED);
   Require(!image.empty(), path + ": not a readable image");
-  Require(image.type() == CV_16UC1,
-          path + ": a depth image must be a single-channel 16-bit PNG");
+  Require(image.type() == CV_16UC1, path + ": a depth image must be a single-channel 16-bit PNG");
   DepthFrame frame;
   frame.Resize(image.cols, image.rows);
   for (int v = 0; v < image.rows; ++v) {
@@ -173,8 +159,7 @@ DepthFrame ReadDepthPng(const std::string& path, double units_per_metre) {
 void WriteIdPng(const DepthFrame& frame, const std::string& path) {
   cv::Mat image(frame.height, frame.width, CV_16UC1);
   for (int v = 0; v < frame.height; ++v) {
-    for (int u = 0; u < frame.width; ++u)
-      image.at<uint16_t>(v, u) = frame.IdAt(u, v);
+    for (int u = 0; u < frame.width; ++u) image.at<uint16_t>(v, u) = frame.IdAt(u, v);
   }
   WritePng(image, path);
 }
@@ -182,8 +167,7 @@ void WriteIdPng(const DepthFrame& frame, const std::string& path) {
 void WriteOrganizedPcd(const DepthFrame& frame,
                        const CameraIntrinsics& camera,
                        const std::string& path) {
-  Require(FileExtension(path) == "pcd",
-          path + ": point clouds are written as .pcd");
+  Require(FileExtension(path) == "pcd", path + ": point clouds are written as .pcd");
   Require(frame.width == camera.width && frame.height == camera.height,
           path + ": frame size does not match the camera");
   pcl::PointCloud<pcl::PointXYZ> cloud(frame.width, frame.height);
@@ -203,16 +187,14 @@ void WriteOrganizedPcd(const DepthFrame& frame,
     }
   }
   AtomicFile file(path);
-  Require(pcl::io::savePCDFileBinary(file.TempPath(), cloud) == 0,
-          path + ": cannot write PCD");
+  Require(pcl::io::savePCDFileBinary(file.TempPath(), cloud) == 0, path + ": cannot write PCD");
   file.Commit();
 }
 
 void WritePreviewPng(const std::vector<PreviewPanel>& panels,
                      int columns,
                      const std::string& path) {
-  Require(!panels.empty() && columns >= 1,
-          path + ": a preview needs at least one panel");
+  Require(!panels.empty() && columns >= 1, path + ": a preview needs at least one panel");
   const DepthFrame& first = *panels.front().frame;
   std::pair<float, float> range{0.5f, 4.5f};
   for (const PreviewPanel& panel : panels) {
@@ -223,32 +205,21 @@ void WritePreviewPng(const std::vector<PreviewPanel>& panels,
   }
   const int rows = static_cast<int>((panels.size() + columns - 1) / columns);
   const int cell_height = first.height + kTitleHeight;
-  cv::Mat sheet(rows * cell_height,
-                columns * first.width,
-                CV_8UC3,
-                cv::Scalar(255, 255, 255));
+  cv::Mat sheet(rows * cell_height, columns * first.width, CV_8UC3, cv::Scalar(255, 255, 255));
   for (size_t i = 0; i < panels.size(); ++i) {
     const PreviewPanel& panel = panels[i];
-    Require(panel.frame->width == first.width &&
-                panel.frame->height == first.height,
+    Require(panel.frame->width == first.width && panel.frame->height == first.height,
             path + ": preview panels must have the same size");
-    cv::Mat image = panel.kind == PreviewPanel::Kind::kDepth
-                        ? ColouriseDepth(*panel.frame, range)
-                    : panel.kind == PreviewPanel::Kind::kIds
-                        ? ColouriseIds(*panel.frame)
-                        : ShadeDepth(*panel.frame);
+    cv::Mat image = panel.kind == PreviewPanel::Kind::kDepth ? ColouriseDepth(*panel.frame, range)
+                    : panel.kind == PreviewPanel::Kind::kIds ? ColouriseIds(*panel.frame)
+                                                             : ShadeDepth(*panel.frame);
     const int x = static_cast<int>(i % columns) * first.width;
     const int y = static_cast<int>(i / columns) * cell_height;
-    image.copyTo(
-        sheet(cv::Rect(x, y + kTitleHeight, first.width, first.height)));
+    image.copyTo(sheet(cv::Rect(x, y + kTitleHeight, first.width, first.height)));
     std::string title = panel.title;
     if (panel.kind == PreviewPanel::Kind::kDepth) {
       char text[64];
-      std::snprintf(text,
-                    sizeof(text),
-                    "  [%.2f m red .. %.2f m blue]",
-                    range.first,
-                    range.second);
+      std::snprintf(text, sizeof(text), "  [%.2f m red .. %.2f m blue]", range.first, range.second);
       title += text;
     }
     cv::putText(sheet,

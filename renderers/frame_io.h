@@ -17,9 +17,7 @@
 namespace furn {
 
 // units_per_metre: 1000 for our data (mm), 5000 for TUM RGB-D.
-void WriteDepthPng(const DepthFrame& frame,
-                   const std::string& path,
-                   double units_per_metre = 1000);
+void WriteDepthPng(const DepthFrame& frame, const std::string& path, double units_per_metre = 1000);
 // Throws InputError when the file is not a single-channel 16-bit PNG.
 DepthFrame ReadDepthPng(const std::string& path, double units_per_metre = 1000);
 void WriteIdPng(const DepthFrame& frame, const std::string& path);
@@ -37,8 +35,6 @@ struct PreviewPanel {
 // Panels in a grid (`columns` wide) with titles. Depth panels share one colour
 // range (the 1st..99th percentile of the first depth panel); shaded panels
 // light the surface from its depth gradient, which shows noise and banding.
-void WritePreviewPng(const std::vector<PreviewPanel>& panels,
-                     int columns,
-                     const std::string& path);
+void WritePreviewPng(const std::vector<PreviewPanel>& panels, int columns, const std::string& path);
 
 }  // namespace furn

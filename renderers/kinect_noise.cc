@@ -14,15 +14,9 @@ constexpr double kHalfPi = M_PI / 2;
 constexpr uint64_t kDropoutStream = 0;
 constexpr uint64_t kNoiseStream = 1ull << 32;
 
-// Angle between the viewing ray through (u, v) and the surface normal.
-double IncidenceAngle(const CameraIntrinsics& camera,
-                      int u,
-                      int v,
-                      const Eigen::Vector3f& normal) {
-  const Eigen::Vector3f ray = camera.RayThroughPixel(u, v).normalized();
-  const double cosine =
-      std::min(1.0, static_cast<double>(std::abs(normal.dot(ray))));
-  return std::acos(cosine);
+bool SameCamera(const CameraIntrinsics& a, const CameraIntrinsics& b) {
+  return a.width == b.width && a.height == b.height && a.fx == b.fx && a.fy == b.fy &&
+         a.cx == b.cx && a.cy == b.cy;
 }
 
 bool IsDepthEdge(const DepthFrame& frame, int u, int v, double jump_m) {
@@ -37,49 +31,88 @@ bool IsDepthEdge(const DepthFrame& frame, int u, int v, double jump_m) {
   return false;
 }
 
-}  // namespace
+// Lateral noise moves where a pixel samples the ideal image by round(sigma_L *
+// N(0, 1)) pixels along each axis. sigma_L depends on the incidence angle only,
+// so the integer offset is drawn from a per-angle inverse-CDF table indexed by
+// 12 random bits: no normal variate, no branch. Probabilities are resolved to
+// 1/4096, which keeps offsets of up to 3 sigma.
+class LateralOffsetTable {
+ public:
+  static constexpr int kBins = 64;  // over the incidence cosine in [0, 1]
+  static constexpr int kBits = 12;
 
-void KinectNoiseOptions::Check() const {
-  Require(std::isfinite(baseline_m) && baseline_m > 0,
-          "baseline_m " + std::to_string(baseline_m) + " must be > 0");
-  Require(std::isfinite(min_range_m) && std::isfinite(max_range_m) &&
-              min_range_m >= 0 && max_range_m > min_range_m,
-          "range limits " + std::to_string(min_range_m) + ".." +
-              std::to_string(max_range_m) + " m must satisfy 0 <= min < max");
-  Require(max_incidence_deg > 0 && max_incidence_deg <= 90,
-          "max_incidence_deg " + std::to_string(max_incidence_deg) +
-              " must be in (0, 90]");
-  Require(edge_jump_m > 0,
-          "edge_jump_m " + std::to_string(edge_jump_m) + " must be > 0");
-  Require(edge_dropout_probability >= 0 && edge_dropout_probability <= 1,
-          "edge_dropout_probability " +
-              std::to_string(edge_dropout_probability) + " must be in [0, 1]");
-  Require(disparity_step_px > 0 && disparity_step_px <= 1,
-          "disparity_step_px " + std::to_string(disparity_step_px) +
-              " must be in (0, 1]");
-}
-
-double AxialNoiseSigma(double z, double theta) {
-  double sigma = 0.0012 + 0.0019 * (z - 0.4) * (z - 0.4);
-  if (theta > M_PI / 3) {
-    const double ratio = theta / (kHalfPi - theta);
-    sigma += 0.0001 / std::sqrt(z) * ratio * ratio;
+  LateralOffsetTable() {
+    for (int bin = 0; bin < kBins; ++bin) {
+      // Angles beyond 88 degrees are clamped: such pixels return nothing anyway.
+      const double cosine = std::max((bin + 0.5) / kBins, std::cos(88 * M_PI / 180));
+      const double sigma = LateralNoiseSigmaPx(std::acos(cosine));
+      int offset = -8;
+      for (int slot = 0; slot < (1 << kBits); ++slot) {
+        const double quantile = (slot + 0.5) / (1 << kBits);
+        // P(round(sigma * N) <= k) = Phi((k + 0.5) / sigma).
+        while (0.5 * std::erfc(-(offset + 0.5) / (sigma * M_SQRT2)) < quantile) ++offset;
+        offsets_[bin][slot] = static_cast<int8_t>(offset);
+      }
+    }
   }
-  return sigma;
+
+  // Two offsets (u, v) from 24 random bits.
+  void Draw(float cosine, uint64_t bits, int* du, int* dv) const {
+    const int8_t* table = offsets_[std::min(kBins - 1, static_cast<int>(cosine * kBins))];
+    *du = table[bits & ((1 << kBits) - 1)];
+    *dv = table[(bits >> kBits) & ((1 << kBits) - 1)];
+  }
+
+ private:
+  int8_t offsets_[kBins][1 << kBits];
+};
+
+const LateralOffsetTable& LateralOffsets() {
+  static const LateralOffsetTable table;
+  return table;
 }
 
-double LateralNoiseSigmaPx(double theta) {
-  return 0.8 + 0.035 * theta / (kHalfPi - theta);
+// The angle factor of the axial noise above 60 degrees, theta^2 / (pi/2 -
+// theta)^2, tabulated over the incidence cosine in [0, 0.5] (linear
+// interpolation; it is 0 below 60 degrees).
+class AxialAngleTable {
+ public:
+  static constexpr int kSize = 1024;
+  AxialAngleTable() {
+    for (int i = 0; i <= kSize; ++i) {
+      const double theta = std::acos(std::max(0.5 * i / kSize, std::cos(89.5 * M_PI / 180)));
+      const double ratio = theta / (kHalfPi - theta);
+      factor_[i] = static_cast<float>(ratio * ratio);
+    }
+  }
+  float Factor(float cosine) const {
+    if (cosine >= 0.5f) return 0.0f;
+    const float x = cosine * (2 * kSize);
+    const int i = static_cast<int>(x);
+    return factor_[i] + (x - i) * (factor_[i + 1] - factor_[i]);
+  }
+
+ private:
+  float factor_[kSize + 1];
+};
+
+const AxialAngleTable& AxialAngles() {
+  static const AxialAngleTable table;
+  return table;
 }
 
-std::vector<uint8_t> ProjectorShadowMask(const DepthFrame& ideal,
-                                         const CameraIntrinsics& camera,
-                                         double baseline_m) {
-  std::vector<uint8_t> shadow(ideal.depth.size(), 0);
+// Per image row, right to left: a point at column u and depth z meets the
+// projector at column u - fx*b/z; it is shadowed when a pixel to its right
+// already met the projector at the same or a smaller column.
+void ComputeProjectorShadow(const DepthFrame& ideal,
+                            const CameraIntrinsics& camera,
+                            double baseline_m,
+                            std::vector<uint8_t>* shadow_mask) {
+  std::vector<uint8_t>& shadow = *shadow_mask;
+  shadow.assign(ideal.depth.size(), 0);
   const double disparity_scale = camera.fx * baseline_m;
 #pragma omp parallel for schedule(static)
   for (int v = 0; v < ideal.height; ++v) {
-    // Scanning right to left, the smallest projector column met so far.
     double smallest_column = std::numeric_limits<double>::infinity();
     for (int u = ideal.width - 1; u >= 0; --u) {
       const float z = ideal.DepthAt(u, v);
@@ -92,31 +125,95 @@ std::vector<uint8_t> ProjectorShadowMask(const DepthFrame& ideal,
       }
     }
   }
+}
+
+}  // namespace
+
+void KinectNoiseOptions::Check() const {
+  Require(std::isfinite(baseline_m) && baseline_m > 0,
+          "baseline_m " + std::to_string(baseline_m) + " must be > 0");
+  Require(std::isfinite(min_range_m) && std::isfinite(max_range_m) && min_range_m >= 0 &&
+              max_range_m > min_range_m,
+          "range limits " + std::to_string(min_range_m) + ".." + std::to_string(max_range_m) +
+              " m must satisfy 0 <= min < max");
+  Require(max_incidence_deg > 0 && max_incidence_deg <= 90,
+          "max_incidence_deg " + std::to_string(max_incidence_deg) + " must be in (0, 90]");
+  Require(edge_jump_m > 0, "edge_jump_m " + std::to_string(edge_jump_m) + " must be > 0");
+  Require(edge_dropout_probability >= 0 && edge_dropout_probability <= 1,
+          "edge_dropout_probability " + std::to_string(edge_dropout_probability) +
+              " must be in [0, 1]");
+  Require(disparity_step_px > 0 && disparity_step_px <= 1,
+          "disparity_step_px " + std::to_string(disparity_step_px) + " must be in (0, 1]");
+}
+
+inline double AxialSigma(double z, double theta) {
+  double sigma = 0.0012 + 0.0019 * (z - 0.4) * (z - 0.4);
+  if (theta > M_PI / 3) {
+    const double ratio = theta / (kHalfPi - theta);
+    sigma += 0.0001 / std::sqrt(z) * ratio * ratio;
+  }
+  return sigma;
+}
+
+double AxialNoiseSigma(double z, double theta) { return AxialSigma(z, theta); }
+
+double LateralNoiseSigmaPx(double theta) { return 0.8 + 0.035 * theta / (kHalfPi - theta); }
+
+std::vector<uint8_t> ProjectorShadowMask(const DepthFrame& ideal,
+                                         const CameraIntrinsics& camera,
+                                         double baseline_m) {
+  std::vector<uint8_t> shadow;
+  ComputeProjectorShadow(ideal, camera, baseline_m, &shadow);
   return shadow;
+}
+
+KinectNoiseModel::KinectNoiseModel(const KinectNoiseOptions& options) : options_(options) {
+  options_.Check();
 }
 
 DepthFrame ApplyKinectNoise(const DepthFrame& ideal,
                             const CameraIntrinsics& camera,
                             const KinectNoiseOptions& options,
                             uint64_t seed) {
-  options.Check();
+  KinectNoiseModel model(options);
+  DepthFrame noisy;
+  model.Apply(ideal, camera, seed, &noisy);
+  return noisy;
+}
+
+void KinectNoiseModel::Apply(const DepthFrame& ideal,
+                             const CameraIntrinsics& camera,
+                             uint64_t seed,
+                             DepthFrame* noisy_frame) {
+  const KinectNoiseOptions& options = options_;
   camera.Check();
+  if (!SameCamera(camera, rays_camera_) || unit_rays_.empty()) {
+    unit_rays_.resize(static_cast<size_t>(camera.width) * camera.height);
+    for (int v = 0; v < camera.height; ++v) {
+      for (int u = 0; u < camera.width; ++u) {
+        unit_rays_[static_cast<size_t>(v) * camera.width + u] =
+            camera.RayThroughPixel(u, v).normalized();
+      }
+    }
+    rays_camera_ = camera;
+  }
   Require(ideal.width == camera.width && ideal.height == camera.height,
-          "depth frame " + std::to_string(ideal.width) + "x" +
-              std::to_string(ideal.height) + " does not match the camera " +
-              std::to_string(camera.width) + "x" +
+          "depth frame " + std::to_string(ideal.width) + "x" + std::to_string(ideal.height) +
+              " does not match the camera " + std::to_string(camera.width) + "x" +
               std::to_string(camera.height));
   const int width = ideal.width, height = ideal.height;
   const size_t count = ideal.depth.size();
 
-  // Stages 1-3 on the ideal image: which pixels return at all, and their angle.
-  std::vector<uint8_t> returns(count, 0);
-  std::vector<float> incidence(count, 0.0f);
-  const std::vector<uint8_t> shadow =
-      options.projector_shadow
-          ? ProjectorShadowMask(ideal, camera, options.baseline_m)
-          : std::vector<uint8_t>(count, 0);
-  const double max_incidence = options.max_incidence_deg * M_PI / 180;
+  // Stages 1-3 on the ideal image: which pixels return at all, and the cosine
+  // of their incidence angle.
+  returns_.assign(count, 0);
+  incidence_cosine_.assign(count, 1.0f);
+  if (options.projector_shadow) {
+    ComputeProjectorShadow(ideal, camera, options.baseline_m, &shadow_);
+  } else {
+    shadow_.assign(count, 0);
+  }
+  const float min_cosine = static_cast<float>(std::cos(options.max_incidence_deg * M_PI / 180));
 #pragma omp parallel for schedule(static)
   for (int v = 0; v < height; ++v) {
     FastRng rng(DeriveSeed(seed, kDropoutStream + v));
@@ -124,51 +221,52 @@ DepthFrame ApplyKinectNoise(const DepthFrame& ideal,
       const size_t i = ideal.Index(u, v);
       const float z = ideal.depth[i];
       if (z <= 0) continue;
-      incidence[i] =
-          static_cast<float>(IncidenceAngle(camera, u, v, ideal.normals[i]));
-      bool keep = !shadow[i];
-      if (options.range_limits)
-        keep = keep && z >= options.min_range_m && z <= options.max_range_m;
-      if (options.incidence_dropout)
-        keep = keep && incidence[i] <= max_incidence;
-      if (options.edge_dropout &&
-          IsDepthEdge(ideal, u, v, options.edge_jump_m)) {
-        // Draw whether or not the pixel is kept, so streams do not depend on
-        // other effects.
+      incidence_cosine_[i] = std::min(1.0f, std::abs(ideal.normals[i].dot(unit_rays_[i])));
+      bool keep = !shadow_[i];
+      if (options.range_limits) keep = keep && z >= options.min_range_m && z <= options.max_range_m;
+      if (options.incidence_dropout) keep = keep && incidence_cosine_[i] >= min_cosine;
+      if (options.edge_dropout && IsDepthEdge(ideal, u, v, options.edge_jump_m)) {
+        // Drawn whether or not the pixel is kept, so streams do not depend on other effects.
         keep = rng.Uniform01() >= options.edge_dropout_probability && keep;
       }
-      returns[i] = keep;
+      returns_[i] = keep;
     }
   }
 
   // Stages 4-6: resample at jittered positions, add axial noise, quantise.
-  DepthFrame noisy;
+  DepthFrame& noisy = *noisy_frame;
   noisy.Resize(width, height);
   const double disparity_scale = camera.fx * options.baseline_m;
+  const double steps_per_metre = disparity_scale / options.disparity_step_px;  // steps = this / z
+  const LateralOffsetTable& lateral = LateralOffsets();
+  const AxialAngleTable& axial_angle = AxialAngles();
 #pragma omp parallel for schedule(static)
   for (int v = 0; v < height; ++v) {
     FastRng rng(DeriveSeed(seed, kNoiseStream + v));
     for (int u = 0; u < width; ++u) {
       int su = u, sv = v;
       if (options.lateral_noise) {
-        const size_t own = ideal.Index(u, v);
-        const double sigma =
-            LateralNoiseSigmaPx(ideal.depth[own] > 0 ? incidence[own] : 0.0);
-        su = static_cast<int>(std::lround(u + sigma * rng.Normal()));
-        sv = static_cast<int>(std::lround(v + sigma * rng.Normal()));
+        int du, dv;
+        lateral.Draw(incidence_cosine_[ideal.Index(u, v)], rng.Next(), &du, &dv);
+        su += du;
+        sv += dv;
       }
-      const double axial_draw = options.axial_noise ? rng.Normal() : 0.0;
       if (su < 0 || sv < 0 || su >= width || sv >= height) continue;
       const size_t source = ideal.Index(su, sv);
-      if (!returns[source]) continue;
+      if (!returns_[source]) continue;
       double z = ideal.depth[source];
-      if (options.axial_noise)
-        z += AxialNoiseSigma(z, incidence[source]) * axial_draw;
+      if (options.axial_noise) {
+        // sigma_z of Nguyen et al.: the angle term applies above 60 degrees.
+        double sigma = 0.0012 + 0.0019 * (z - 0.4) * (z - 0.4);
+        const float angle_factor = axial_angle.Factor(incidence_cosine_[source]);
+        if (angle_factor > 0) sigma += 0.0001 / std::sqrt(z) * angle_factor;
+        z += sigma * rng.Normal();
+      }
       if (options.quantization) {
-        const double disparity = disparity_scale / z;
-        const double steps = std::round(disparity / options.disparity_step_px);
+        // Disparity is positive: adding 0.5 and truncating rounds (libm's round is slow).
+        const int64_t steps = static_cast<int64_t>(steps_per_metre / z + 0.5);
         if (steps < 1) continue;  // beyond the farthest representable depth
-        z = disparity_scale / (steps * options.disparity_step_px);
+        z = steps_per_metre / static_cast<double>(steps);
       }
       const size_t target = noisy.Index(u, v);
       noisy.depth[target] = static_cast<float>(z);
@@ -176,7 +274,6 @@ DepthFrame ApplyKinectNoise(const DepthFrame& ideal,
       noisy.normals[target] = ideal.normals[source];
     }
   }
-  return noisy;
 }
 
 }  // namespace furn

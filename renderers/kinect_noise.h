@@ -40,14 +40,11 @@ struct KinectNoiseOptions {
   double max_range_m = 4.5;  // no return beyond this (m)
 
   bool incidence_dropout = true;
-  double max_incidence_deg =
-      78.0;  // no return above this angle (degrees, 0..90)
+  double max_incidence_deg = 78.0;  // no return above this angle (degrees, 0..90)
 
   bool edge_dropout = true;
-  double edge_jump_m =
-      0.04;  // depth step to a 4-neighbour that makes an edge (m)
-  double edge_dropout_probability =
-      0.3;  // chance an edge pixel returns nothing (0..1)
+  double edge_jump_m = 0.04;              // depth step to a 4-neighbour that makes an edge (m)
+  double edge_dropout_probability = 0.3;  // chance an edge pixel returns nothing (0..1)
 
   bool lateral_noise = true;
   bool axial_noise = true;
@@ -68,8 +65,33 @@ std::vector<uint8_t> ProjectorShadowMask(const DepthFrame& ideal,
                                          const CameraIntrinsics& camera,
                                          double baseline_m);
 
-// The noisy frame: depth with all enabled effects; ids and normals of the
-// surface each returned pixel sampled (0 where nothing returned).
+// The sensor model with its working memory, for frame after frame without
+// fresh allocations (page faults on new buffers cost more than the maths).
+class KinectNoiseModel {
+ public:
+  // Throws InputError when the options fail Check().
+  explicit KinectNoiseModel(const KinectNoiseOptions& options);
+
+  // The noisy frame: depth with all enabled effects; ids and normals of the
+  // surface each returned pixel sampled (0 where nothing returned). Throws
+  // InputError when the frame does not match the camera.
+  void Apply(const DepthFrame& ideal,
+             const CameraIntrinsics& camera,
+             uint64_t seed,
+             DepthFrame* noisy);
+
+  const KinectNoiseOptions& options() const { return options_; }
+
+ private:
+  const KinectNoiseOptions options_;
+  std::vector<uint8_t> shadow_;
+  std::vector<uint8_t> returns_;
+  std::vector<float> incidence_cosine_;
+  std::vector<Eigen::Vector3f> unit_rays_;  // per pixel, for rays_camera_
+  CameraIntrinsics rays_camera_;
+};
+
+// One-off convenience form of KinectNoiseModel::Apply.
 DepthFrame ApplyKinectNoise(const DepthFrame& ideal,
                             const CameraIntrinsics& camera,
                             const KinectNoiseOptions& options,

@@ -47,8 +47,7 @@ void main() {
 // forward). Window x = u + 0.5 and window y = v + 0.5, so glReadPixels returns
 // image row v = 0 first and pixel centres sit where the intrinsics put them.
 Eigen::Matrix4f ProjectionMatrix(const CameraIntrinsics& camera) {
-  const float w = static_cast<float>(camera.width),
-              h = static_cast<float>(camera.height);
+  const float w = static_cast<float>(camera.width), h = static_cast<float>(camera.height);
   Eigen::Matrix4f p = Eigen::Matrix4f::Zero();
   p(0, 0) = static_cast<float>(2 * camera.fx / w);
   p(0, 2) = static_cast<float>(2 * (camera.cx + 0.5) / w - 1);
@@ -69,8 +68,7 @@ GLuint CompileShader(GLenum type, const char* source) {
   if (!ok) {
     char log[2048];
     glGetShaderInfoLog(shader, sizeof(log), nullptr, log);
-    throw std::runtime_error(std::string("OSMesa: shader does not compile: ") +
-                             log);
+    throw std::runtime_error(std::string("OSMesa: shader does not compile: ") + log);
   }
   return shader;
 }
@@ -79,12 +77,10 @@ std::vector<Eigen::Vector3f> FaceNormals(const TriangleMesh& mesh) {
   std::vector<Eigen::Vector3f> normals(mesh.triangles.size());
   for (size_t i = 0; i < mesh.triangles.size(); ++i) {
     const Eigen::Vector3i& t = mesh.triangles[i];
-    const Eigen::Vector3f n =
-        (mesh.vertices[t[1]] - mesh.vertices[t[0]])
-            .cross(mesh.vertices[t[2]] - mesh.vertices[t[0]]);
+    const Eigen::Vector3f n = (mesh.vertices[t[1]] - mesh.vertices[t[0]])
+                                  .cross(mesh.vertices[t[2]] - mesh.vertices[t[0]]);
     const float length = n.norm();
-    normals[i] =
-        length > 0 ? Eigen::Vector3f(n / length) : Eigen::Vector3f::Zero();
+    normals[i] = length > 0 ? Eigen::Vector3f(n / length) : Eigen::Vector3f::Zero();
   }
   return normals;
 }
@@ -93,8 +89,7 @@ struct GpuMesh {
   std::shared_ptr<const TriangleMesh> keep_alive;  // the cache key stays valid
   GLuint vertex_array = 0, vertex_buffer = 0, index_buffer = 0;
   GLsizei index_count = 0;
-  std::vector<Eigen::Vector3f>
-      face_normals;  // object frame, unit (zero if degenerate)
+  std::vector<Eigen::Vector3f> face_normals;  // object frame, unit (zero if degenerate)
 };
 
 }  // namespace
@@ -103,8 +98,7 @@ struct OsMesaRenderer::Impl {
   OSMesaContext context = nullptr;
   unsigned char dummy_buffer[4 * 4 * 4] = {};
   GLuint program = 0;
-  GLint camera_from_object_location = -1, projection_location = -1,
-        object_index_location = -1;
+  GLint camera_from_object_location = -1, projection_location = -1, object_index_location = -1;
   GLuint framebuffer = 0, colour_buffer = 0, depth_buffer = 0;
   int target_width = 0, target_height = 0;
   std::map<const TriangleMesh*, GpuMesh> meshes;
@@ -122,8 +116,7 @@ struct OsMesaRenderer::Impl {
     glGetIntegerv(GL_MAX_RENDERBUFFER_SIZE, &max_size);
     Require(width <= max_size && height <= max_size,
             "image " + std::to_string(width) + "x" + std::to_string(height) +
-                " exceeds OSMesa's largest render target " +
-                std::to_string(max_size));
+                " exceeds OSMesa's largest render target " + std::to_string(max_size));
     if (framebuffer == 0) {
       glGenFramebuffers(1, &framebuffer);
       glGenRenderbuffers(1, &colour_buffer);
@@ -132,13 +125,10 @@ struct OsMesaRenderer::Impl {
     glBindRenderbuffer(GL_RENDERBUFFER, colour_buffer);
     glRenderbufferStorage(GL_RENDERBUFFER, GL_RGBA32F, width, height);
     glBindRenderbuffer(GL_RENDERBUFFER, depth_buffer);
-    glRenderbufferStorage(
-        GL_RENDERBUFFER, GL_DEPTH_COMPONENT32F, width, height);
+    glRenderbufferStorage(GL_RENDERBUFFER, GL_DEPTH_COMPONENT32F, width, height);
     glBindFramebuffer(GL_FRAMEBUFFER, framebuffer);
-    glFramebufferRenderbuffer(
-        GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, colour_buffer);
-    glFramebufferRenderbuffer(
-        GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, depth_buffer);
+    glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, colour_buffer);
+    glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, depth_buffer);
     if (glCheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE) {
       throw std::runtime_error("OSMesa: float render target is not supported");
     }
@@ -160,8 +150,7 @@ struct OsMesaRenderer::Impl {
                  mesh->vertices.size() * sizeof(Eigen::Vector3f),
                  mesh->vertices.data(),
                  GL_STATIC_DRAW);
-    glVertexAttribPointer(
-        0, 3, GL_FLOAT, GL_FALSE, sizeof(Eigen::Vector3f), nullptr);
+    glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, sizeof(Eigen::Vector3f), nullptr);
     glEnableVertexAttribArray(0);
     glGenBuffers(1, &gpu.index_buffer);
     glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, gpu.index_buffer);
@@ -199,8 +188,7 @@ OsMesaRenderer::OsMesaRenderer() : impl_(std::make_unique<Impl>()) {
                             0};
   impl_->context = OSMesaCreateContextAttribs(attributes, nullptr);
   if (impl_->context == nullptr) {
-    throw std::runtime_error(
-        "OSMesa: cannot create an OpenGL 3.3 core context");
+    throw std::runtime_error("OSMesa: cannot create an OpenGL 3.3 core context");
   }
   impl_->MakeCurrent();
   const GLuint vertex = CompileShader(GL_VERTEX_SHADER, kVertexShader);
@@ -214,12 +202,9 @@ OsMesaRenderer::OsMesaRenderer() : impl_(std::make_unique<Impl>()) {
   GLint linked = 0;
   glGetProgramiv(impl_->program, GL_LINK_STATUS, &linked);
   if (!linked) throw std::runtime_error("OSMesa: shader program does not link");
-  impl_->camera_from_object_location =
-      glGetUniformLocation(impl_->program, "camera_from_object");
-  impl_->projection_location =
-      glGetUniformLocation(impl_->program, "projection");
-  impl_->object_index_location =
-      glGetUniformLocation(impl_->program, "object_index");
+  impl_->camera_from_object_location = glGetUniformLocation(impl_->program, "camera_from_object");
+  impl_->projection_location = glGetUniformLocation(impl_->program, "projection");
+  impl_->object_index_location = glGetUniformLocation(impl_->program, "object_index");
 }
 
 OsMesaRenderer::~OsMesaRenderer() {
@@ -235,9 +220,10 @@ OsMesaRenderer::~OsMesaRenderer() {
   OSMesaDestroyContext(impl_->context);
 }
 
-DepthFrame OsMesaRenderer::Render(const Scene& scene,
-                                  const CameraIntrinsics& camera,
-                                  const Eigen::Isometry3d& world_from_camera) {
+void OsMesaRenderer::RenderInto(const Scene& scene,
+                                const CameraIntrinsics& camera,
+                                const Eigen::Isometry3d& world_from_camera,
+                                DepthFrame* out) {
   CheckRenderRequest(scene, camera, world_from_camera);
   impl_->MakeCurrent();
   impl_->EnsureTarget(camera.width, camera.height);
@@ -251,24 +237,20 @@ DepthFrame OsMesaRenderer::Render(const Scene& scene,
   glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
   glUseProgram(impl_->program);
   const Eigen::Matrix4f projection = ProjectionMatrix(camera);
-  glUniformMatrix4fv(
-      impl_->projection_location, 1, GL_FALSE, projection.data());
+  glUniformMatrix4fv(impl_->projection_location, 1, GL_FALSE, projection.data());
 
   const Eigen::Isometry3d camera_from_world = world_from_camera.inverse();
   std::vector<const GpuMesh*> drawn(scene.objects.size(), nullptr);
-  std::vector<Eigen::Matrix3f> camera_from_object_rotation(
-      scene.objects.size());
+  std::vector<Eigen::Matrix3f> camera_from_object_rotation(scene.objects.size());
   for (size_t k = 0; k < scene.objects.size(); ++k) {
     const SceneObject& object = scene.objects[k];
     if (object.mesh->Empty()) continue;
     const GpuMesh& gpu = impl_->Upload(object.mesh);
     drawn[k] = &gpu;
-    const Eigen::Isometry3d camera_from_object =
-        camera_from_world * object.world_from_object;
+    const Eigen::Isometry3d camera_from_object = camera_from_world * object.world_from_object;
     camera_from_object_rotation[k] = camera_from_object.linear().cast<float>();
     const Eigen::Matrix4f matrix = camera_from_object.matrix().cast<float>();
-    glUniformMatrix4fv(
-        impl_->camera_from_object_location, 1, GL_FALSE, matrix.data());
+    glUniformMatrix4fv(impl_->camera_from_object_location, 1, GL_FALSE, matrix.data());
     glUniform1f(impl_->object_index_location, static_cast<float>(k));
     glBindVertexArray(gpu.vertex_array);
     glDrawElements(GL_TRIANGLES, gpu.index_count, GL_UNSIGNED_INT, nullptr);
@@ -276,17 +258,14 @@ DepthFrame OsMesaRenderer::Render(const Scene& scene,
   glBindVertexArray(0);
   const size_t count = static_cast<size_t>(camera.width) * camera.height;
   impl_->pixels.resize(4 * count);
-  glReadPixels(0,
-               0,
-               camera.width,
-               camera.height,
-               GL_RGBA,
-               GL_FLOAT,
-               impl_->pixels.data());
+  glReadPixels(0, 0, camera.width, camera.height, GL_RGBA, GL_FLOAT, impl_->pixels.data());
 
-  DepthFrame frame;
+  DepthFrame& frame = *out;
   frame.Resize(camera.width, camera.height);
   const float* pixels = impl_->pixels.data();
+  std::vector<float> ray_x(camera.width), ray_y(camera.height);
+  for (int u = 0; u < camera.width; ++u) ray_x[u] = camera.RayThroughPixel(u, 0).x();
+  for (int v = 0; v < camera.height; ++v) ray_y[v] = camera.RayThroughPixel(0, v).y();
 #pragma omp parallel for schedule(static)
   for (int v = 0; v < camera.height; ++v) {
     for (int u = 0; u < camera.width; ++u) {
@@ -297,13 +276,12 @@ DepthFrame OsMesaRenderer::Render(const Scene& scene,
       const size_t triangle = static_cast<size_t>(pixel[2] + 0.5f);
       frame.depth[i] = pixel[0];
       frame.instance_ids[i] = scene.objects[object].instance_id;
-      Eigen::Vector3f normal = camera_from_object_rotation[object] *
-                               drawn[object]->face_normals[triangle];
-      if (normal.dot(camera.RayThroughPixel(u, v)) > 0) normal = -normal;
+      Eigen::Vector3f normal =
+          camera_from_object_rotation[object] * drawn[object]->face_normals[triangle];
+      if (normal.dot(Eigen::Vector3f(ray_x[u], ray_y[v], 1.0f)) > 0) normal = -normal;
       frame.normals[i] = normal;
     }
   }
-  return frame;
 }
 
 }  // namespace furn

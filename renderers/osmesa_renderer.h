@@ -22,9 +22,11 @@ class OsMesaRenderer : public DepthRenderer {
   OsMesaRenderer();
   ~OsMesaRenderer() override;
 
-  DepthFrame Render(const Scene& scene,
-                    const CameraIntrinsics& camera,
-                    const Eigen::Isometry3d& world_from_camera) override;
+  void RenderInto(const Scene& scene,
+                  const CameraIntrinsics& camera,
+                  const Eigen::Isometry3d& world_from_camera,
+                  DepthFrame* frame) override;
+  using DepthRenderer::Render;
   std::string Name() const override { return "osmesa"; }
 
  private:

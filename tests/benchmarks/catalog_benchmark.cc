@@ -22,19 +22,16 @@ BENCHMARK(BM_OpenDefaultCatalog)->Unit(benchmark::kMillisecond);
 void BM_LoadAllClassifiedModels(benchmark::State& state) {
   const Catalog catalog = OpenCatalog("default");
   std::vector<std::string> ids;
-  for (const CatalogEntry* entry : catalog.Classified())
-    ids.push_back(entry->id);
+  for (const CatalogEntry* entry : catalog.Classified()) ids.push_back(entry->id);
   size_t triangles = 0;
   for (auto _ : state) {
     triangles = 0;
-    for (const std::string& id : ids)
-      triangles += catalog.LoadModel(id).mesh.NumTriangles();
+    for (const std::string& id : ids) triangles += catalog.LoadModel(id).mesh.NumTriangles();
   }
   state.counters["models"] = static_cast<double>(ids.size());
   state.counters["triangles"] = static_cast<double>(triangles);
-  state.counters["models/s"] =
-      benchmark::Counter(static_cast<double>(ids.size()),
-                         benchmark::Counter::kIsIterationInvariantRate);
+  state.counters["models/s"] = benchmark::Counter(static_cast<double>(ids.size()),
+                                                  benchmark::Counter::kIsIterationInvariantRate);
 }
 BENCHMARK(BM_LoadAllClassifiedModels)->Unit(benchmark::kMillisecond);
 

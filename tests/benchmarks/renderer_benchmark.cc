@@ -23,18 +23,17 @@ const Scene& Room() {
 
 void SetCounters(benchmark::State& state) {
   state.counters["triangles"] = static_cast<double>(Room().NumTriangles());
-  state.counters["frames/s"] =
-      benchmark::Counter(1, benchmark::Counter::kIsIterationInvariantRate);
+  state.counters["frames/s"] = benchmark::Counter(1, benchmark::Counter::kIsIterationInvariantRate);
 }
 
 void BM_OsMesaIdeal(benchmark::State& state) {
   OsMesaRenderer renderer;
   const CameraIntrinsics camera = CameraIntrinsics::KinectV1();
-  renderer.Render(
-      Room(), camera, testing::FurnishedRoomCamera());  // uploads the meshes
+  DepthFrame frame;
+  renderer.RenderInto(Room(), camera, testing::FurnishedRoomCamera(), &frame);  // uploads meshes
   for (auto _ : state) {
-    benchmark::DoNotOptimize(
-        renderer.Render(Room(), camera, testing::FurnishedRoomCamera()));
+    renderer.RenderInto(Room(), camera, testing::FurnishedRoomCamera(), &frame);
+    benchmark::DoNotOptimize(frame.depth.data());
   }
   SetCounters(state);
 }
@@ -44,9 +43,10 @@ void BM_EmbreeIdeal(benchmark::State& state) {
   EmbreeCaster caster;
   const CameraIntrinsics camera = CameraIntrinsics::KinectV1();
   caster.SetScene(Room());
+  DepthFrame frame;
   for (auto _ : state) {
-    benchmark::DoNotOptimize(
-        caster.Render(Room(), camera, testing::FurnishedRoomCamera()));
+    caster.RenderInto(Room(), camera, testing::FurnishedRoomCamera(), &frame);
+    benchmark::DoNotOptimize(frame.depth.data());
   }
   SetCounters(state);
 }
@@ -59,60 +59,39 @@ void BM_EmbreeBuildOncePerRoom(benchmark::State& state) {
   }
   SetCounters(state);
 }
-BENCHMARK(BM_EmbreeBuildOncePerRoom)
-    ->Unit(benchmark::kMillisecond)
-    ->UseRealTime();
+BENCHMARK(BM_EmbreeBuildOncePerRoom)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 void BM_KinectNoiseOnly(benchmark::State& state) {
   const CameraIntrinsics camera = CameraIntrinsics::KinectV1();
-  const DepthFrame ideal =
-      OsMesaRenderer().Render(Room(), camera, testing::FurnishedRoomCamera());
+  const DepthFrame ideal = OsMesaRenderer().Render(Room(), camera, testing::FurnishedRoomCamera());
+  KinectNoiseModel model{KinectNoiseOptions{}};
+  DepthFrame noisy;
   uint64_t seed = 0;
   for (auto _ : state) {
-    benchmark::DoNotOptimize(
-        ApplyKinectNoise(ideal, camera, KinectNoiseOptions{}, ++seed));
+    model.Apply(ideal, camera, ++seed, &noisy);
+    benchmark::DoNotOptimize(noisy.depth.data());
   }
   SetCounters(state);
 }
 BENCHMARK(BM_KinectNoiseOnly)->Unit(benchmark::kMillisecond)->UseRealTime();
 
-void BM_FullNoisyFrameOsMesa(benchmark::State& state) {
-  OsMesaRenderer renderer;
+// Render + sensor model, as the dataset generator runs them frame after frame.
+template <class Renderer>
+void BM_FullNoisyFrame(benchmark::State& state) {
+  Renderer renderer;
   const CameraIntrinsics camera = CameraIntrinsics::KinectV1();
-  renderer.Render(Room(), camera, testing::FurnishedRoomCamera());
+  KinectSimulator simulator(&renderer, KinectNoiseOptions{});
+  simulator.Capture(Room(), camera, testing::FurnishedRoomCamera(), 0);
   uint64_t seed = 0;
   for (auto _ : state) {
-    benchmark::DoNotOptimize(CaptureKinect(&renderer,
-                                           Room(),
-                                           camera,
-                                           testing::FurnishedRoomCamera(),
-                                           KinectNoiseOptions{},
-                                           ++seed));
+    benchmark::DoNotOptimize(
+        simulator.Capture(Room(), camera, testing::FurnishedRoomCamera(), ++seed)
+            .noisy.depth.data());
   }
   SetCounters(state);
 }
-BENCHMARK(BM_FullNoisyFrameOsMesa)
-    ->Unit(benchmark::kMillisecond)
-    ->UseRealTime();
-
-void BM_FullNoisyFrameEmbree(benchmark::State& state) {
-  EmbreeCaster caster;
-  const CameraIntrinsics camera = CameraIntrinsics::KinectV1();
-  caster.SetScene(Room());
-  uint64_t seed = 0;
-  for (auto _ : state) {
-    benchmark::DoNotOptimize(CaptureKinect(&caster,
-                                           Room(),
-                                           camera,
-                                           testing::FurnishedRoomCamera(),
-                                           KinectNoiseOptions{},
-                                           ++seed));
-  }
-  SetCounters(state);
-}
-BENCHMARK(BM_FullNoisyFrameEmbree)
-    ->Unit(benchmark::kMillisecond)
-    ->UseRealTime();
+BENCHMARK(BM_FullNoisyFrame<OsMesaRenderer>)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_FullNoisyFrame<EmbreeCaster>)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 }  // namespace
 }  // namespace furn
