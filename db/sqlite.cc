@@ -5,13 +5,11 @@
 namespace furn {
 
 Database::Database(const std::string& path, Mode mode) : path_(path) {
-  const int flags = mode == Mode::kReadOnly
-                        ? SQLITE_OPEN_READONLY
-                        : SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE;
+  const int flags =
+      mode == Mode::kReadOnly ? SQLITE_OPEN_READONLY : SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE;
   const int code = sqlite3_open_v2(path.c_str(), &db_, flags, nullptr);
   if (code != SQLITE_OK) {
-    const std::string message =
-        db_ ? sqlite3_errmsg(db_) : sqlite3_errstr(code);
+    const std::string message = db_ ? sqlite3_errmsg(db_) : sqlite3_errstr(code);
     sqlite3_close(db_);
     db_ = nullptr;
     throw DbError(path + ": cannot open database: " + message);
@@ -39,15 +37,11 @@ void Database::Execute(const std::string& sql) {
   }
 }
 
-int64_t Database::LastInsertRowId() const {
-  return sqlite3_last_insert_rowid(db_);
-}
+int64_t Database::LastInsertRowId() const { return sqlite3_last_insert_rowid(db_); }
 
-Statement::Statement(Database* db, const std::string& sql)
-    : db_(db), sql_(sql) {
-  db_->Check(
-      sqlite3_prepare_v2(db_->handle(), sql.c_str(), -1, &statement_, nullptr),
-      "cannot prepare '" + sql.substr(0, 80) + "'");
+Statement::Statement(Database* db, const std::string& sql) : db_(db), sql_(sql) {
+  db_->Check(sqlite3_prepare_v2(db_->handle(), sql.c_str(), -1, &statement_, nullptr),
+             "cannot prepare '" + sql.substr(0, 80) + "'");
 }
 
 Statement::~Statement() { sqlite3_finalize(statement_); }
@@ -63,21 +57,15 @@ Statement& Statement::Bind(int index, double value) {
 }
 
 Statement& Statement::Bind(int index, const std::string& text) {
-  db_->Check(sqlite3_bind_text(statement_,
-                               index,
-                               text.data(),
-                               static_cast<int>(text.size()),
-                               SQLITE_TRANSIENT),
+  db_->Check(sqlite3_bind_text(
+                 statement_, index, text.data(), static_cast<int>(text.size()), SQLITE_TRANSIENT),
              "bind");
   return *this;
 }
 
 Statement& Statement::BindBlob(int index, const std::vector<uint8_t>& bytes) {
-  db_->Check(sqlite3_bind_blob(statement_,
-                               index,
-                               bytes.data(),
-                               static_cast<int>(bytes.size()),
-                               SQLITE_TRANSIENT),
+  db_->Check(sqlite3_bind_blob(
+                 statement_, index, bytes.data(), static_cast<int>(bytes.size()), SQLITE_TRANSIENT),
              "bind");
   return *this;
 }
@@ -104,9 +92,7 @@ void Statement::Reset() {
   sqlite3_clear_bindings(statement_);
 }
 
-int64_t Statement::ColumnInt(int column) const {
-  return sqlite3_column_int64(statement_, column);
-}
+int64_t Statement::ColumnInt(int column) const { return sqlite3_column_int64(statement_, column); }
 
 double Statement::ColumnDouble(int column) const {
   return sqlite3_column_double(statement_, column);
@@ -120,10 +106,8 @@ std::string Statement::ColumnText(int column) const {
 }
 
 std::vector<uint8_t> Statement::ColumnBlob(int column) const {
-  const auto* data =
-      static_cast<const uint8_t*>(sqlite3_column_blob(statement_, column));
-  return data ? std::vector<uint8_t>(
-                    data, data + sqlite3_column_bytes(statement_, column))
+  const auto* data = static_cast<const uint8_t*>(sqlite3_column_blob(statement_, column));
+  return data ? std::vector<uint8_t>(data, data + sqlite3_column_bytes(statement_, column))
               : std::vector<uint8_t>();
 }
 
@@ -131,9 +115,7 @@ bool Statement::ColumnIsNull(int column) const {
   return sqlite3_column_type(statement_, column) == SQLITE_NULL;
 }
 
-Transaction::Transaction(Database* db) : db_(db) {
-  db_->Execute("BEGIN IMMEDIATE");
-}
+Transaction::Transaction(Database* db) : db_(db) { db_->Execute("BEGIN IMMEDIATE"); }
 
 Transaction::~Transaction() {
   if (!done_) {

@@ -115,21 +115,26 @@ void EmbreeCaster::RenderInto(const Scene& scene,
   RTCScene rtc_scene = impl_->scene;
   const std::vector<uint16_t>& id_of_geometry = impl_->id_of_geometry;
 
-#pragma omp parallel for schedule(dynamic, 4)
-  for (int v = 0; v < camera.height; ++v) {
+  // Packets of 4 x 4 pixels: neighbouring rays traverse the same nodes.
+  constexpr int kTile = 4;
+  const int tiles_x = (camera.width + kTile - 1) / kTile;
+  const int tiles_y = (camera.height + kTile - 1) / kTile;
+  std::vector<float> ray_x(tiles_x * kTile), ray_y(tiles_y * kTile);
+  for (size_t u = 0; u < ray_x.size(); ++u) ray_x[u] = camera.RayThroughPixel(u, 0).x();
+  for (size_t v = 0; v < ray_y.size(); ++v) ray_y[v] = camera.RayThroughPixel(0, v).y();
+#pragma omp parallel for schedule(dynamic, 1)
+  for (int tile_row = 0; tile_row < tiles_y; ++tile_row) {
     RTCIntersectContext context;
     rtcInitIntersectContext(&context);
+    context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
     alignas(64) RTCRayHit16 packet;
     alignas(64) int valid[kPacket];
-    Eigen::Vector3f directions_in_camera[kPacket];
-    for (int u0 = 0; u0 < camera.width; u0 += kPacket) {
+    for (int tile_column = 0; tile_column < tiles_x; ++tile_column) {
       for (int k = 0; k < kPacket; ++k) {
-        const int u = u0 + k;
-        valid[k] = u < camera.width ? -1 : 0;
-        // z = 1 in the camera frame: the hit distance t is the optical-axis
-        // depth.
-        directions_in_camera[k] = camera.RayThroughPixel(u, v);
-        const Eigen::Vector3f direction = rotation * directions_in_camera[k];
+        const int u = tile_column * kTile + k % kTile, v = tile_row * kTile + k / kTile;
+        valid[k] = u < camera.width && v < camera.height ? -1 : 0;
+        // z = 1 in the camera frame: the hit distance t is the optical-axis depth.
+        const Eigen::Vector3f direction = rotation * Eigen::Vector3f(ray_x[u], ray_y[v], 1.0f);
         packet.ray.org_x[k] = origin.x();
         packet.ray.org_y[k] = origin.y();
         packet.ray.org_z[k] = origin.z();
@@ -146,16 +151,17 @@ void EmbreeCaster::RenderInto(const Scene& scene,
         packet.hit.instID[0][k] = RTC_INVALID_GEOMETRY_ID;
       }
       rtcIntersect16(valid, rtc_scene, &context, &packet);
-      for (int k = 0; k < kPacket && u0 + k < camera.width; ++k) {
-        if (packet.hit.geomID[k] == RTC_INVALID_GEOMETRY_ID) continue;
-        const size_t index = frame.Index(u0 + k, v);
+      for (int k = 0; k < kPacket; ++k) {
+        if (!valid[k] || packet.hit.geomID[k] == RTC_INVALID_GEOMETRY_ID) continue;
+        const int u = tile_column * kTile + k % kTile, v = tile_row * kTile + k / kTile;
+        const size_t index = frame.Index(u, v);
         frame.depth[index] = packet.ray.tfar[k];
         frame.instance_ids[index] = id_of_geometry[packet.hit.geomID[k]];
         Eigen::Vector3f normal =
             rotation.transpose() *
             Eigen::Vector3f(packet.hit.Ng_x[k], packet.hit.Ng_y[k], packet.hit.Ng_z[k]);
         normal.normalize();
-        if (normal.dot(directions_in_camera[k]) > 0) normal = -normal;
+        if (normal.dot(Eigen::Vector3f(ray_x[u], ray_y[v], 1.0f)) > 0) normal = -normal;
         frame.normals[index] = normal;
       }
     }

@@ -5,6 +5,8 @@
 #include <GL/glext.h>
 #include <GL/osmesa.h>
 
+#include <algorithm>
+#include <cstring>
 #include <map>
 #include <stdexcept>
 
@@ -32,14 +34,16 @@ void main() {
 )";
 
 // The fragment writes only what interpolation must provide: the camera-space
-// depth (perspective-correct, so exact on planes), and which triangle of which
-// object is seen. Ids and exact face normals are filled in on the CPU.
+// depth (perspective-correct, so exact on planes), and which triangle is seen.
+// Ids and exact face normals are filled in on the CPU.
+// Two 32-bit integers per pixel: the depth's float bits, and the scene-wide
+// index of the triangle (first triangle of the object + gl_PrimitiveID).
 constexpr char kFragmentShader[] = R"(#version 330 core
 in float depth_in_camera;
-uniform float object_index;
-layout(location = 0) out vec4 result;
+uniform uint first_triangle;
+layout(location = 0) out uvec2 result;
 void main() {
-  result = vec4(depth_in_camera, object_index, float(gl_PrimitiveID), 0.0);
+  result = uvec2(floatBitsToUint(depth_in_camera), first_triangle + uint(gl_PrimitiveID));
 }
 )";
 
@@ -98,11 +102,11 @@ struct OsMesaRenderer::Impl {
   OSMesaContext context = nullptr;
   unsigned char dummy_buffer[4 * 4 * 4] = {};
   GLuint program = 0;
-  GLint camera_from_object_location = -1, projection_location = -1, object_index_location = -1;
+  GLint camera_from_object_location = -1, projection_location = -1, first_triangle_location = -1;
   GLuint framebuffer = 0, colour_buffer = 0, depth_buffer = 0;
   int target_width = 0, target_height = 0;
   std::map<const TriangleMesh*, GpuMesh> meshes;
-  std::vector<float> pixels;
+  std::vector<uint32_t> pixels;
 
   void MakeCurrent() {
     if (!OSMesaMakeCurrent(context, dummy_buffer, GL_UNSIGNED_BYTE, 4, 4)) {
@@ -123,14 +127,14 @@ struct OsMesaRenderer::Impl {
       glGenRenderbuffers(1, &depth_buffer);
     }
     glBindRenderbuffer(GL_RENDERBUFFER, colour_buffer);
-    glRenderbufferStorage(GL_RENDERBUFFER, GL_RGBA32F, width, height);
+    glRenderbufferStorage(GL_RENDERBUFFER, GL_RG32UI, width, height);
     glBindRenderbuffer(GL_RENDERBUFFER, depth_buffer);
     glRenderbufferStorage(GL_RENDERBUFFER, GL_DEPTH_COMPONENT32F, width, height);
     glBindFramebuffer(GL_FRAMEBUFFER, framebuffer);
     glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, colour_buffer);
     glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, depth_buffer);
     if (glCheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE) {
-      throw std::runtime_error("OSMesa: float render target is not supported");
+      throw std::runtime_error("OSMesa: RG32UI render target is not supported");
     }
     target_width = width;
     target_height = height;
@@ -204,7 +208,7 @@ OsMesaRenderer::OsMesaRenderer() : impl_(std::make_unique<Impl>()) {
   if (!linked) throw std::runtime_error("OSMesa: shader program does not link");
   impl_->camera_from_object_location = glGetUniformLocation(impl_->program, "camera_from_object");
   impl_->projection_location = glGetUniformLocation(impl_->program, "projection");
-  impl_->object_index_location = glGetUniformLocation(impl_->program, "object_index");
+  impl_->first_triangle_location = glGetUniformLocation(impl_->program, "first_triangle");
 }
 
 OsMesaRenderer::~OsMesaRenderer() {
@@ -232,18 +236,21 @@ void OsMesaRenderer::RenderInto(const Scene& scene,
   glEnable(GL_DEPTH_TEST);
   glDepthFunc(GL_LESS);
   glDisable(GL_CULL_FACE);
-  glClearColor(0, 0, 0, 0);
+  const GLuint clear_value[4] = {0, 0, 0, 0};  // depth bits 0 = no return
+  glClearBufferuiv(GL_COLOR, 0, clear_value);
   glClearDepth(1.0);
-  glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+  glClear(GL_DEPTH_BUFFER_BIT);
   glUseProgram(impl_->program);
   const Eigen::Matrix4f projection = ProjectionMatrix(camera);
   glUniformMatrix4fv(impl_->projection_location, 1, GL_FALSE, projection.data());
 
   const Eigen::Isometry3d camera_from_world = world_from_camera.inverse();
   std::vector<const GpuMesh*> drawn(scene.objects.size(), nullptr);
+  std::vector<uint32_t> first_triangle(scene.objects.size() + 1, 0);  // prefix sums
   std::vector<Eigen::Matrix3f> camera_from_object_rotation(scene.objects.size());
   for (size_t k = 0; k < scene.objects.size(); ++k) {
     const SceneObject& object = scene.objects[k];
+    first_triangle[k + 1] = first_triangle[k] + static_cast<uint32_t>(object.mesh->NumTriangles());
     if (object.mesh->Empty()) continue;
     const GpuMesh& gpu = impl_->Upload(object.mesh);
     drawn[k] = &gpu;
@@ -251,18 +258,19 @@ void OsMesaRenderer::RenderInto(const Scene& scene,
     camera_from_object_rotation[k] = camera_from_object.linear().cast<float>();
     const Eigen::Matrix4f matrix = camera_from_object.matrix().cast<float>();
     glUniformMatrix4fv(impl_->camera_from_object_location, 1, GL_FALSE, matrix.data());
-    glUniform1f(impl_->object_index_location, static_cast<float>(k));
+    glUniform1ui(impl_->first_triangle_location, first_triangle[k]);
     glBindVertexArray(gpu.vertex_array);
     glDrawElements(GL_TRIANGLES, gpu.index_count, GL_UNSIGNED_INT, nullptr);
   }
   glBindVertexArray(0);
   const size_t count = static_cast<size_t>(camera.width) * camera.height;
-  impl_->pixels.resize(4 * count);
-  glReadPixels(0, 0, camera.width, camera.height, GL_RGBA, GL_FLOAT, impl_->pixels.data());
+  impl_->pixels.resize(2 * count);
+  glReadPixels(
+      0, 0, camera.width, camera.height, GL_RG_INTEGER, GL_UNSIGNED_INT, impl_->pixels.data());
 
   DepthFrame& frame = *out;
   frame.Resize(camera.width, camera.height);
-  const float* pixels = impl_->pixels.data();
+  const uint32_t* pixels = impl_->pixels.data();
   std::vector<float> ray_x(camera.width), ray_y(camera.height);
   for (int u = 0; u < camera.width; ++u) ray_x[u] = camera.RayThroughPixel(u, 0).x();
   for (int v = 0; v < camera.height; ++v) ray_y[v] = camera.RayThroughPixel(0, v).y();
@@ -270,11 +278,16 @@ void OsMesaRenderer::RenderInto(const Scene& scene,
   for (int v = 0; v < camera.height; ++v) {
     for (int u = 0; u < camera.width; ++u) {
       const size_t i = static_cast<size_t>(v) * camera.width + u;
-      const float* pixel = pixels + 4 * i;
-      if (pixel[0] <= 0) continue;
-      const size_t object = static_cast<size_t>(pixel[1] + 0.5f);
-      const size_t triangle = static_cast<size_t>(pixel[2] + 0.5f);
-      frame.depth[i] = pixel[0];
+      const uint32_t* pixel = pixels + 2 * i;
+      float depth;
+      std::memcpy(&depth, &pixel[0], sizeof(depth));
+      if (!(depth > 0)) continue;
+      // The object whose triangle range holds the scene-wide triangle index.
+      const size_t object =
+          std::upper_bound(first_triangle.begin(), first_triangle.end(), pixel[1]) -
+          first_triangle.begin() - 1;
+      const size_t triangle = pixel[1] - first_triangle[object];
+      frame.depth[i] = depth;
       frame.instance_ids[i] = scene.objects[object].instance_id;
       Eigen::Vector3f normal =
           camera_from_object_rotation[object] * drawn[object]->face_normals[triangle];

@@ -1,7 +1,7 @@
 // Offscreen OpenGL rasteriser (Mesa's OSMesa, llvmpipe: no display, no GPU).
 // One pass writes, per pixel, the camera-space depth (perspective-correct, so a
 // plane renders at its exact distance to float precision) and which triangle of
-// which object is seen, into one float target read back at once; instance ids
+// which object is seen (two 32-bit integers per pixel), read back at once; ids
 // and exact face normals are then filled in on the CPU, in parallel.
 // Meshes are uploaded once and cached while the renderer lives.
 //

@@ -29,18 +29,15 @@ CatalogEntry EntryFromSh3f(const Sh3fEntry& sh3f, const std::string& source) {
   entry.category = sh3f.category;
   entry.source = source;
   entry.door_or_window = sh3f.door_or_window;
-  entry.size_m =
-      Eigen::Vector3f(sh3f.width_cm, sh3f.depth_cm, sh3f.height_cm) / 100.0f;
+  entry.size_m = Eigen::Vector3f(sh3f.width_cm, sh3f.depth_cm, sh3f.height_cm) / 100.0f;
   return entry;
 }
 
 bool AllCatalogsPresent(const ClassMap& map, const std::string& dir) {
   std::error_code ec;
-  return std::all_of(
-      map.catalogs.begin(), map.catalogs.end(), [&](const std::string& name) {
-        return std::filesystem::is_regular_file(
-            std::filesystem::path(dir) / name, ec);
-      });
+  return std::all_of(map.catalogs.begin(), map.catalogs.end(), [&](const std::string& name) {
+    return std::filesystem::is_regular_file(std::filesystem::path(dir) / name, ec);
+  });
 }
 
 // Edit distance, for "did you mean" suggestions.
@@ -52,8 +49,7 @@ size_t EditDistance(const std::string& a, const std::string& b) {
     row[0] = i;
     for (size_t j = 1; j <= b.size(); ++j) {
       const size_t up = row[j];
-      row[j] = std::min(
-          {row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] != b[j - 1])});
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] != b[j - 1])});
       diagonal = up;
     }
   }
@@ -61,11 +57,9 @@ size_t EditDistance(const std::string& a, const std::string& b) {
 }
 
 uint64_t ParseSeed(const std::string& text, const std::string& spec) {
-  Require(!text.empty() &&
-              text.find_first_not_of("0123456789") == std::string::npos &&
+  Require(!text.empty() && text.find_first_not_of("0123456789") == std::string::npos &&
               text.size() <= 19,
-          "catalog '" + spec +
-              "': the seed after 'procedural:' must be a whole number");
+          "catalog '" + spec + "': the seed after 'procedural:' must be a whole number");
   return std::stoull(text);
 }
 
@@ -98,16 +92,14 @@ const CatalogEntry& Catalog::Get(const std::string& id) const {
     hint += (i ? ", " : " (closest: ") + close[i].second;
   }
   if (!hint.empty()) hint += ")";
-  throw InputError("entry '" + id + "' is not in catalog " + description_ +
-                   hint);
+  throw InputError("entry '" + id + "' is not in catalog " + description_ + hint);
 }
 
 CadModel Catalog::LoadModel(const std::string& id) const {
   const CatalogEntry& entry = Get(id);
   const size_t index = static_cast<size_t>(&entry - entries_.data());
   const Source& source = *sources_[source_of_entry_[index]];
-  if (source.archive)
-    return source.archive->LoadModel(*source.archive->Find(id));
+  if (source.archive) return source.archive->LoadModel(*source.archive->Find(id));
   return source.prebuilt.at(id);
 }
 
@@ -125,19 +117,14 @@ LoadedModels Catalog::LoadModels(const std::vector<std::string>& ids) const {
   return loaded;
 }
 
-Catalog OpenCatalog(const std::string& spec,
-                    const CatalogOpenOptions& options) {
+Catalog OpenCatalog(const std::string& spec, const CatalogOpenOptions& options) {
   Catalog catalog;
   catalog.description_ = spec;
-  const std::string extension =
-      std::filesystem::path(spec).extension().string();
+  const std::string extension = std::filesystem::path(spec).extension().string();
 
-  if (spec == kProceduralPrefix ||
-      spec.rfind(std::string(kProceduralPrefix) + ":", 0) == 0) {
+  if (spec == kProceduralPrefix || spec.rfind(std::string(kProceduralPrefix) + ":", 0) == 0) {
     const uint64_t seed =
-        spec == kProceduralPrefix
-            ? 1
-            : ParseSeed(spec.substr(sizeof(kProceduralPrefix)), spec);
+        spec == kProceduralPrefix ? 1 : ParseSeed(spec.substr(sizeof(kProceduralPrefix)), spec);
     ProceduralCatalogOptions procedural;
     procedural.seed = seed;
     auto source = std::make_unique<Catalog::Source>();
@@ -171,8 +158,7 @@ Catalog OpenCatalog(const std::string& spec,
 
   std::string class_map_path = spec;
   if (spec == "default") {
-    class_map_path =
-        (std::filesystem::path(options.data_dir) / "class_map.json").string();
+    class_map_path = (std::filesystem::path(options.data_dir) / "class_map.json").string();
   } else {
     Require(extension == ".json",
             "unknown catalog '" + spec +
@@ -184,18 +170,16 @@ Catalog OpenCatalog(const std::string& spec,
       !AllCatalogsPresent(map, options.catalog_dir)) {
     catalog = OpenCatalog("procedural", options);
     catalog.description_ = "default (procedural fallback)";
-    catalog.warnings_.push_back(
-        "the Sweet Home 3D catalogs are not in " + options.catalog_dir +
-        " (apt-get install sweethome3d-furniture): using the "
-        "procedural catalog instead");
+    catalog.warnings_.push_back("the Sweet Home 3D catalogs are not in " + options.catalog_dir +
+                                " (apt-get install sweethome3d-furniture): using the "
+                                "procedural catalog instead");
     return catalog;
   }
 
   std::map<std::string, const ClassMapEntry*> classified;
   for (const ClassMapEntry& entry : map.entries) classified[entry.id] = &entry;
   for (const std::string& file_name : map.catalogs) {
-    const std::string path =
-        (std::filesystem::path(options.catalog_dir) / file_name).string();
+    const std::string path = (std::filesystem::path(options.catalog_dir) / file_name).string();
     auto source = std::make_unique<Catalog::Source>();
     source->archive = std::make_unique<Sh3fCatalog>(path);
     for (const std::string& problem : source->archive->problems()) {
@@ -210,16 +194,14 @@ Catalog OpenCatalog(const std::string& spec,
         classified.erase(it);
       }
       catalog.entries_.push_back(std::move(entry));
-      catalog.source_of_entry_.push_back(
-          static_cast<int>(catalog.sources_.size()));
+      catalog.source_of_entry_.push_back(static_cast<int>(catalog.sources_.size()));
     }
     catalog.sources_.push_back(std::move(source));
   }
   if (!classified.empty()) {
     const std::string id = classified.begin()->first;
-    throw InputError(
-        class_map_path + ": entry '" + id + "' does not exist in catalog " +
-        id.substr(0, id.find('/')) + ".sh3f (in " + options.catalog_dir + ")");
+    throw InputError(class_map_path + ": entry '" + id + "' does not exist in catalog " +
+                     id.substr(0, id.find('/')) + ".sh3f (in " + options.catalog_dir + ")");
   }
   return catalog;
 }

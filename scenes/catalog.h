@@ -28,16 +28,14 @@ namespace furn {
 class Sh3fCatalog;
 
 struct CatalogEntry {
-  std::string id;        // unique, e.g. "Scopia/chair3"
-  std::string name;      // e.g. "Chair"
-  std::string category;  // the catalog's own category, e.g. "Living room"
-  std::string source;    // .sh3f path, or "procedural:<seed>"
-  std::optional<FurnitureClass>
-      furniture_class;           // set for class-mapped entries
-  bool evaluation_only = false;  // never trained on
+  std::string id;                                 // unique, e.g. "Scopia/chair3"
+  std::string name;                               // e.g. "Chair"
+  std::string category;                           // the catalog's own category, e.g. "Living room"
+  std::string source;                             // .sh3f path, or "procedural:<seed>"
+  std::optional<FurnitureClass> furniture_class;  // set for class-mapped entries
+  bool evaluation_only = false;                   // never trained on
   bool door_or_window = false;
-  Eigen::Vector3f size_m =
-      Eigen::Vector3f::Zero();  // width (x), depth (y), height (z)
+  Eigen::Vector3f size_m = Eigen::Vector3f::Zero();  // width (x), depth (y), height (z)
 };
 
 struct ModelLoadFailure {
@@ -46,7 +44,7 @@ struct ModelLoadFailure {
 };
 
 struct LoadedModels {
-  std::vector<CadModel> models;  // in the order asked, failures left out
+  std::vector<CadModel> models;            // in the order asked, failures left out
   std::vector<ModelLoadFailure> failures;  // reported, not fatal
 };
 
@@ -95,7 +93,6 @@ class Catalog {
 
 // Throws InputError for an unknown spec, a missing or corrupt file, a class map
 // naming an entry its catalogs do not have, or an unknown class.
-Catalog OpenCatalog(const std::string& spec,
-                    const CatalogOpenOptions& options = {});
+Catalog OpenCatalog(const std::string& spec, const CatalogOpenOptions& options = {});
 
 }  // namespace furn

@@ -31,9 +31,8 @@ struct ClassMapEntry {
 };
 
 struct ClassMap {
-  std::string path;  // where it was read from
-  std::vector<std::string>
-      catalogs;  // .sh3f file names, resolved against a catalog dir
+  std::string path;                   // where it was read from
+  std::vector<std::string> catalogs;  // .sh3f file names, resolved against a catalog dir
   std::vector<ClassMapEntry> entries;
 };
 

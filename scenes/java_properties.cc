@@ -22,8 +22,7 @@ bool IsValidUtf8(const std::string& text) {
     } else {
       return false;
     }
-    if (i + continuation_bytes >= text.size() && continuation_bytes > 0)
-      return false;
+    if (i + continuation_bytes >= text.size() && continuation_bytes > 0) return false;
     for (int k = 1; k <= continuation_bytes; ++k) {
       if ((static_cast<unsigned char>(text[i + k]) >> 6) != 0x2) return false;
     }
@@ -69,8 +68,7 @@ std::vector<std::string> LogicalLines(const std::string& text) {
     if (end == std::string::npos) end = text.size();
     std::string line = text.substr(start, end - start);
     start = end + 1;
-    if (end < text.size() && text[end] == '\r' && start < text.size() &&
-        text[start] == '\n') {
+    if (end < text.size() && text[end] == '\r' && start < text.size() && text[start] == '\n') {
       ++start;
     }
     const size_t first = line.find_first_not_of(" \t\f");
@@ -80,8 +78,7 @@ std::vector<std::string> LogicalLines(const std::string& text) {
       continue;
     }
     size_t backslashes = 0;
-    while (backslashes < line.size() &&
-           line[line.size() - 1 - backslashes] == '\\') {
+    while (backslashes < line.size() && line[line.size() - 1 - backslashes] == '\\') {
       ++backslashes;
     }
     continuing = backslashes % 2 == 1;
@@ -119,12 +116,9 @@ std::string Unescape(const std::string& text) {
         out.push_back('\f');
         break;
       case 'u':
-        if (i + 4 < text.size() &&
-            text.substr(i + 1, 4).find_first_not_of("0123456789abcdefABCDEF") ==
-                std::string::npos) {
-          AppendUtf8(static_cast<uint32_t>(
-                         std::stoul(text.substr(i + 1, 4), nullptr, 16)),
-                     &out);
+        if (i + 4 < text.size() && text.substr(i + 1, 4).find_first_not_of(
+                                       "0123456789abcdefABCDEF") == std::string::npos) {
+          AppendUtf8(static_cast<uint32_t>(std::stoul(text.substr(i + 1, 4), nullptr, 16)), &out);
           i += 4;
         } else {
           out.push_back('u');
@@ -140,10 +134,8 @@ std::string Unescape(const std::string& text) {
 
 }  // namespace
 
-std::map<std::string, std::string> ParseJavaProperties(
-    const std::string& raw_text) {
-  const std::string text =
-      IsValidUtf8(raw_text) ? raw_text : Latin1ToUtf8(raw_text);
+std::map<std::string, std::string> ParseJavaProperties(const std::string& raw_text) {
+  const std::string text = IsValidUtf8(raw_text) ? raw_text : Latin1ToUtf8(raw_text);
   std::map<std::string, std::string> properties;
   for (const std::string& line : LogicalLines(text)) {
     size_t key_end = 0;
@@ -159,21 +151,17 @@ std::map<std::string, std::string> ParseJavaProperties(
     key_end = std::min(key_end, line.size());
     size_t value_start = key_end;
     while (value_start < line.size() &&
-           (line[value_start] == ' ' || line[value_start] == '\t' ||
-            line[value_start] == '\f')) {
+           (line[value_start] == ' ' || line[value_start] == '\t' || line[value_start] == '\f')) {
       ++value_start;
     }
-    if (value_start < line.size() &&
-        (line[value_start] == '=' || line[value_start] == ':')) {
+    if (value_start < line.size() && (line[value_start] == '=' || line[value_start] == ':')) {
       ++value_start;
       while (value_start < line.size() &&
-             (line[value_start] == ' ' || line[value_start] == '\t' ||
-              line[value_start] == '\f')) {
+             (line[value_start] == ' ' || line[value_start] == '\t' || line[value_start] == '\f')) {
         ++value_start;
       }
     }
-    properties[Unescape(line.substr(0, key_end))] =
-        Unescape(line.substr(value_start));
+    properties[Unescape(line.substr(0, key_end))] = Unescape(line.substr(value_start));
   }
   return properties;
 }

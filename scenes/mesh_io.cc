@@ -20,9 +20,8 @@
 namespace furn {
 namespace {
 
-constexpr unsigned kImportSteps =
-    aiProcess_Triangulate | aiProcess_JoinIdenticalVertices |
-    aiProcess_PreTransformVertices | aiProcess_SortByPType;
+constexpr unsigned kImportSteps = aiProcess_Triangulate | aiProcess_JoinIdenticalVertices |
+                                  aiProcess_PreTransformVertices | aiProcess_SortByPType;
 
 // An assimp stream over bytes held in memory.
 class MemoryStream : public Assimp::IOStream {
@@ -57,9 +56,7 @@ class MemoryStream : public Assimp::IOStream {
 class ZipIoSystem : public Assimp::IOSystem {
  public:
   explicit ZipIoSystem(const ZipArchive& archive) : archive_(archive) {}
-  bool Exists(const char* path) const override {
-    return archive_.Contains(Normalize(path));
-  }
+  bool Exists(const char* path) const override { return archive_.Contains(Normalize(path)); }
   char getOsSeparator() const override { return '/'; }
   Assimp::IOStream* Open(const char* path, const char* mode) override {
     if (mode != nullptr && std::strchr(mode, 'w') != nullptr) return nullptr;
@@ -79,8 +76,7 @@ class ZipIoSystem : public Assimp::IOSystem {
  private:
   // Zip entry names have no leading '/', and OBJ files may say "./x.mtl".
   static std::string Normalize(const std::string& path) {
-    std::string p =
-        std::filesystem::path(path).lexically_normal().generic_string();
+    std::string p = std::filesystem::path(path).lexically_normal().generic_string();
     while (!p.empty() && p[0] == '/') p.erase(0, 1);
     return p;
   }
@@ -119,10 +115,8 @@ TriangleMesh ImportTriangles(Assimp::Importer* importer,
   if (scene == nullptr) {
     const std::string reason = importer->GetErrorString();
     // assimp reports a file with vertices but no faces as having no meshes.
-    if (reason.find("meshes") != std::string::npos ||
-        reason.find("faces") != std::string::npos) {
-      throw InputError(
-          where + ": mesh has no faces (a model needs at least one triangle)");
+    if (reason.find("meshes") != std::string::npos || reason.find("faces") != std::string::npos) {
+      throw InputError(where + ": mesh has no faces (a model needs at least one triangle)");
     }
     throw InputError(where + ": cannot import (" + reason + ")");
   }
@@ -132,8 +126,7 @@ TriangleMesh ImportTriangles(Assimp::Importer* importer,
 }
 
 bool IsYUpByDefault(const std::string& extension) {
-  static const std::set<std::string> kYUp = {
-      "obj", "gltf", "glb", "dae", "fbx", "3ds"};
+  static const std::set<std::string> kYUp = {"obj", "gltf", "glb", "dae", "fbx", "3ds"};
   return kYUp.count(extension) > 0;
 }
 
@@ -170,25 +163,19 @@ CadModel LoadMeshFile(const std::string& path, const MeshLoadOptions& options) {
           "metres_per_unit " + std::to_string(options.metres_per_unit) +
               " must be a finite number > 0");
   std::error_code ec;
-  Require(std::filesystem::is_regular_file(path, ec),
-          path + ": file does not exist");
+  Require(std::filesystem::is_regular_file(path, ec), path + ": file does not exist");
   const std::string extension = FileExtension(path);
   Assimp::Importer importer;
   if (extension.empty() || !importer.IsExtensionSupported("." + extension)) {
-    throw InputError(
-        path + ": unknown format '" + extension +
-        "' (supported: obj, ply, stl, off, gltf, glb, dae, 3ds, fbx and other "
-        "assimp formats)");
+    throw InputError(path + ": unknown format '" + extension +
+                     "' (supported: obj, ply, stl, off, gltf, glb, dae, 3ds, fbx and other "
+                     "assimp formats)");
   }
   TriangleMesh mesh = ImportTriangles(&importer, path, path);
-  const bool y_up =
-      options.up_axis == UpAxis::kY ||
-      (options.up_axis == UpAxis::kFormatDefault && IsYUpByDefault(extension));
-  const Eigen::Matrix3f axes =
-      y_up ? ZUpFromYUp() : Eigen::Matrix3f::Identity();
-  TransformMesh(static_cast<float>(options.metres_per_unit) * axes,
-                Eigen::Vector3f::Zero(),
-                &mesh);
+  const bool y_up = options.up_axis == UpAxis::kY ||
+                    (options.up_axis == UpAxis::kFormatDefault && IsYUpByDefault(extension));
+  const Eigen::Matrix3f axes = y_up ? ZUpFromYUp() : Eigen::Matrix3f::Identity();
+  TransformMesh(static_cast<float>(options.metres_per_unit) * axes, Eigen::Vector3f::Zero(), &mesh);
   PlaceOnFloorCentred(&mesh);
   CadModel model;
   model.id = std::filesystem::path(path).stem().string();
@@ -199,8 +186,7 @@ CadModel LoadMeshFile(const std::string& path, const MeshLoadOptions& options) {
   return model;
 }
 
-TriangleMesh ImportMeshFromZip(const ZipArchive& archive,
-                               const std::string& entry) {
+TriangleMesh ImportMeshFromZip(const ZipArchive& archive, const std::string& entry) {
   const std::string where = archive.path() + "!/" + entry;
   Require(archive.Contains(entry), where + ": no such entry in the archive");
   Assimp::Importer importer;
@@ -223,11 +209,10 @@ void ExportMesh(const TriangleMesh& mesh, const std::string& path) {
   if (extension == "stl") format_id = "stlb";
   if (extension == "glb") format_id = "glb2";
   Require(!format_id.empty(),
-          path + ": cannot export format '" + extension +
-              "' (allowed: ply, obj, stl, glb)");
-  const Eigen::Matrix3f file_from_world =
-      IsYUpByDefault(extension) ? Eigen::Matrix3f(ZUpFromYUp().transpose())
-                                : Eigen::Matrix3f::Identity();
+          path + ": cannot export format '" + extension + "' (allowed: ply, obj, stl, glb)");
+  const Eigen::Matrix3f file_from_world = IsYUpByDefault(extension)
+                                              ? Eigen::Matrix3f(ZUpFromYUp().transpose())
+                                              : Eigen::Matrix3f::Identity();
 
   // aiScene's destructor frees everything allocated below.
   aiScene scene;
@@ -260,8 +245,7 @@ void ExportMesh(const TriangleMesh& mesh, const std::string& path) {
   AtomicFile file(path);
   Assimp::Exporter exporter;
   if (exporter.Export(&scene, format_id, file.TempPath()) != aiReturn_SUCCESS) {
-    throw InputError(path + ": cannot write (" + exporter.GetErrorString() +
-                     ")");
+    throw InputError(path + ": cannot write (" + exporter.GetErrorString() + ")");
   }
   file.Commit();
 }

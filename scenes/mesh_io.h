@@ -34,13 +34,11 @@ struct MeshLoadOptions {
 
 // Loads a model file, converts it, and checks it (faces present, all vertices
 // finite). Throws InputError naming the file and the rule that failed.
-CadModel LoadMeshFile(const std::string& path,
-                      const MeshLoadOptions& options = {});
+CadModel LoadMeshFile(const std::string& path, const MeshLoadOptions& options = {});
 
 // Raw triangles of a file inside a zip archive (materials and other files it
 // references are read from the same archive), in the file's own axes and units.
-TriangleMesh ImportMeshFromZip(const ZipArchive& archive,
-                               const std::string& entry);
+TriangleMesh ImportMeshFromZip(const ZipArchive& archive, const std::string& entry);
 
 // The file extensions assimp can import here, lower case, sorted.
 std::vector<std::string> SupportedImportExtensions();

@@ -33,8 +33,7 @@ struct ProceduralModel {
   FurnitureClass furniture_class = FurnitureClass::kChair;
 };
 
-std::vector<ProceduralModel> MakeProceduralCatalog(
-    const ProceduralCatalogOptions& options);
+std::vector<ProceduralModel> MakeProceduralCatalog(const ProceduralCatalogOptions& options);
 
 // One model of a class, drawn from `seed`.
 ProceduralModel MakeProceduralModel(FurnitureClass furniture_class,

@@ -17,16 +17,13 @@ namespace {
 constexpr char kPropertiesName[] = "PluginFurnitureCatalog.properties";
 
 // Numbers N that appear as a "key#N" suffix.
-std::set<int> EntryIndices(
-    const std::map<std::string, std::string>& properties) {
+std::set<int> EntryIndices(const std::map<std::string, std::string>& properties) {
   std::set<int> indices;
   for (const auto& [key, value] : properties) {
     const size_t hash = key.rfind('#');
     if (hash == std::string::npos || hash + 1 == key.size()) continue;
     const std::string suffix = key.substr(hash + 1);
-    if (suffix.find_first_not_of("0123456789") != std::string::npos ||
-        suffix.size() > 9)
-      continue;
+    if (suffix.find_first_not_of("0123456789") != std::string::npos || suffix.size() > 9) continue;
     indices.insert(std::stoi(suffix));
   }
   return indices;
@@ -43,17 +40,14 @@ float ParseNumber(const std::string& text, const std::string& what) {
   return static_cast<float>(value);
 }
 
-Eigen::Matrix3f ParseRotation(const std::string& text,
-                              const std::string& what) {
+Eigen::Matrix3f ParseRotation(const std::string& text, const std::string& what) {
   std::istringstream stream(text);
   std::vector<std::string> items;
   std::string item;
   while (stream >> item) items.push_back(item);
-  Require(items.size() == 9,
-          what + " '" + text + "' must have 9 numbers (row-major 3x3)");
+  Require(items.size() == 9, what + " '" + text + "' must have 9 numbers (row-major 3x3)");
   Eigen::Matrix3f rotation;
-  for (int i = 0; i < 9; ++i)
-    rotation(i / 3, i % 3) = ParseNumber(items[i], what);
+  for (int i = 0; i < 9; ++i) rotation(i / 3, i % 3) = ParseNumber(items[i], what);
   return rotation;
 }
 
@@ -71,10 +65,9 @@ Sh3fEntry ParseEntry(const std::map<std::string, std::string>& properties,
   entry.index = index;
   entry.sh3d_id = get("id");
   const size_t hash = entry.sh3d_id.rfind('#');
-  const std::string local_id = entry.sh3d_id.empty() ? std::to_string(index)
-                               : hash == std::string::npos
-                                   ? entry.sh3d_id
-                                   : entry.sh3d_id.substr(hash + 1);
+  const std::string local_id = entry.sh3d_id.empty()       ? std::to_string(index)
+                               : hash == std::string::npos ? entry.sh3d_id
+                                                           : entry.sh3d_id.substr(hash + 1);
   entry.id = stem + "/" + local_id;
   entry.name = get("name");
   entry.category = get("category");
@@ -82,24 +75,19 @@ Sh3fEntry ParseEntry(const std::map<std::string, std::string>& properties,
   entry.model_path = get("model");
   Require(!entry.model_path.empty(),
           entry_where + " (" + entry.id + "): no model" + suffix + " key");
-  while (!entry.model_path.empty() && entry.model_path[0] == '/')
-    entry.model_path.erase(0, 1);
+  while (!entry.model_path.empty() && entry.model_path[0] == '/') entry.model_path.erase(0, 1);
   entry.width_cm = ParseNumber(get("width"), entry_where + " width" + suffix);
   entry.depth_cm = ParseNumber(get("depth"), entry_where + " depth" + suffix);
-  entry.height_cm =
-      ParseNumber(get("height"), entry_where + " height" + suffix);
+  entry.height_cm = ParseNumber(get("height"), entry_where + " height" + suffix);
   Require(entry.width_cm > 0 && entry.depth_cm > 0 && entry.height_cm > 0,
-          entry_where + " (" + entry.id +
-              "): width, depth and height must be > 0 cm");
+          entry_where + " (" + entry.id + "): width, depth and height must be > 0 cm");
   const std::string elevation = get("elevation");
   if (!elevation.empty()) {
-    entry.elevation_cm =
-        ParseNumber(elevation, entry_where + " elevation" + suffix);
+    entry.elevation_cm = ParseNumber(elevation, entry_where + " elevation" + suffix);
   }
   const std::string rotation = get("modelRotation");
   if (!rotation.empty()) {
-    entry.model_rotation =
-        ParseRotation(rotation, entry_where + " modelRotation" + suffix);
+    entry.model_rotation = ParseRotation(rotation, entry_where + " modelRotation" + suffix);
   }
   entry.door_or_window = get("doorOrWindow") == "true";
   return entry;
@@ -116,8 +104,7 @@ TriangleMesh NormalizeSweetHome3dMesh(TriangleMesh mesh,
   TransformMesh(model_rotation, Eigen::Vector3f::Zero(), &mesh);
   const Eigen::Vector3f size = BoundingBox(mesh).Size();
   // Sweet Home 3D's axes: x = width, y = height (up), z = depth.
-  const Eigen::Vector3f target_m =
-      Eigen::Vector3f(width_cm, height_cm, depth_cm) / 100.0f;
+  const Eigen::Vector3f target_m = Eigen::Vector3f(width_cm, height_cm, depth_cm) / 100.0f;
   const char* axis_names[3] = {"width (x)", "height (y)", "depth (z)"};
   for (int axis = 0; axis < 3; ++axis) {
     Require(size[axis] > 1e-9f,
@@ -136,16 +123,15 @@ Sh3fCatalog::Sh3fCatalog(const std::string& path)
   Require(std::filesystem::exists(path, ec), path + ": file does not exist");
   zip_ = std::make_unique<ZipArchive>(path);
   Require(zip_->Contains(kPropertiesName),
-          path + ": no " + std::string(kPropertiesName) +
-              " in the archive (not a .sh3f catalog)");
+          path + ": no " + std::string(kPropertiesName) + " in the archive (not a .sh3f catalog)");
   const auto properties = ParseJavaProperties(zip_->Read(kPropertiesName));
   std::set<std::string> seen_ids;
   for (int index : EntryIndices(properties)) {
     try {
       Sh3fEntry entry = ParseEntry(properties, index, stem_, path);
       if (!seen_ids.insert(entry.id).second) {
-        problems_.push_back(path + " entry " + std::to_string(index) +
-                            ": duplicate id " + entry.id);
+        problems_.push_back(path + " entry " + std::to_string(index) + ": duplicate id " +
+                            entry.id);
         continue;
       }
       entries_.push_back(std::move(entry));
@@ -154,8 +140,7 @@ Sh3fCatalog::Sh3fCatalog(const std::string& path)
     }
   }
   Require(!entries_.empty(),
-          path + ": " + kPropertiesName +
-              " declares no models (no usable model#N entries)");
+          path + ": " + kPropertiesName + " declares no models (no usable model#N entries)");
 }
 
 Sh3fCatalog::~Sh3fCatalog() = default;
@@ -179,12 +164,8 @@ CadModel Sh3fCatalog::LoadModel(const Sh3fEntry& entry) const {
   model.id = entry.id;
   model.name = entry.name;
   model.source_path = path_ + "!/" + entry.model_path;
-  model.mesh = NormalizeSweetHome3dMesh(std::move(raw),
-                                        entry.model_rotation,
-                                        entry.width_cm,
-                                        entry.depth_cm,
-                                        entry.height_cm,
-                                        where);
+  model.mesh = NormalizeSweetHome3dMesh(
+      std::move(raw), entry.model_rotation, entry.width_cm, entry.depth_cm, entry.height_cm, where);
   model.content_hash = HashMesh(model.mesh);
   return model;
 }

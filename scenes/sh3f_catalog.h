@@ -27,7 +27,7 @@ namespace furn {
 class ZipArchive;
 
 struct Sh3fEntry {
-  std::string id;  // engine id "<catalog file stem>/<part of id#N after '#'>"
+  std::string id;          // engine id "<catalog file stem>/<part of id#N after '#'>"
   std::string sh3d_id;     // id#N as written, e.g. "Scopia#chair3"
   int index = 0;           // N
   std::string name;        // name#N

@@ -23,14 +23,12 @@ std::string ZipErrorText(int code) {
 
 }  // namespace
 
-ZipArchive::ZipArchive(const std::string& path)
-    : path_(path), handle_(std::make_unique<Handle>()) {
+ZipArchive::ZipArchive(const std::string& path) : path_(path), handle_(std::make_unique<Handle>()) {
   int code = 0;
   handle_->zip = zip_open(path.c_str(), ZIP_RDONLY | ZIP_CHECKCONS, &code);
   if (handle_->zip == nullptr) {
     if (code == ZIP_ER_NOENT) throw InputError(path + ": file does not exist");
-    throw InputError(path + ": not a readable zip archive (" +
-                     ZipErrorText(code) + ")");
+    throw InputError(path + ": not a readable zip archive (" + ZipErrorText(code) + ")");
   }
 }
 
@@ -54,29 +52,23 @@ bool ZipArchive::Contains(const std::string& name) const {
 
 std::string ZipArchive::Read(const std::string& name) const {
   const std::string where = path_ + "!/" + name;
-  const zip_int64_t index =
-      zip_name_locate(handle_->zip, name.c_str(), ZIP_FL_ENC_GUESS);
+  const zip_int64_t index = zip_name_locate(handle_->zip, name.c_str(), ZIP_FL_ENC_GUESS);
   if (index < 0) throw InputError(where + ": no such entry in the archive");
   zip_stat_t stat;
   zip_stat_init(&stat);
-  if (zip_stat_index(handle_->zip, index, 0, &stat) != 0 ||
-      !(stat.valid & ZIP_STAT_SIZE)) {
-    throw InputError(where + ": cannot stat entry (" +
-                     zip_strerror(handle_->zip) + ")");
+  if (zip_stat_index(handle_->zip, index, 0, &stat) != 0 || !(stat.valid & ZIP_STAT_SIZE)) {
+    throw InputError(where + ": cannot stat entry (" + zip_strerror(handle_->zip) + ")");
   }
   zip_file_t* file = zip_fopen_index(handle_->zip, index, 0);
   if (file == nullptr) {
-    throw InputError(where + ": cannot open entry (" +
-                     zip_strerror(handle_->zip) + ")");
+    throw InputError(where + ": cannot open entry (" + zip_strerror(handle_->zip) + ")");
   }
   std::string bytes(stat.size, '\0');
   zip_uint64_t done = 0;
   while (done < stat.size) {
-    const zip_int64_t got =
-        zip_fread(file, bytes.data() + done, stat.size - done);
+    const zip_int64_t got = zip_fread(file, bytes.data() + done, stat.size - done);
     if (got <= 0) {
-      const std::string reason =
-          got < 0 ? zip_file_strerror(file) : "unexpected end of data";
+      const std::string reason = got < 0 ? zip_file_strerror(file) : "unexpected end of data";
       zip_fclose(file);
       throw InputError(where + ": corrupt entry (" + reason + ")");
     }
@@ -84,8 +76,7 @@ std::string ZipArchive::Read(const std::string& name) const {
   }
   const int close_code = zip_fclose(file);
   if (close_code != 0) {
-    throw InputError(where + ": corrupt entry (" + ZipErrorText(close_code) +
-                     ")");
+    throw InputError(where + ": corrupt entry (" + ZipErrorText(close_code) + ")");
   }
   // libzip does not check the CRC of stored (uncompressed) entries; do it for
   // all.
@@ -93,8 +84,7 @@ std::string ZipArchive::Read(const std::string& name) const {
     const uLong crc = crc32(crc32(0L, Z_NULL, 0),
                             reinterpret_cast<const Bytef*>(bytes.data()),
                             static_cast<uInt>(bytes.size()));
-    if (crc != stat.crc)
-      throw InputError(where + ": corrupt entry (CRC error)");
+    if (crc != stat.crc) throw InputError(where + ": corrupt entry (CRC error)");
   }
   return bytes;
 }

@@ -8,9 +8,7 @@
 namespace {
 
 class ReseedListener : public ::testing::EmptyTestEventListener {
-  void OnTestStart(const ::testing::TestInfo& /*info*/) override {
-    std::srand(1);
-  }
+  void OnTestStart(const ::testing::TestInfo& /*info*/) override { std::srand(1); }
 };
 
 }  // namespace

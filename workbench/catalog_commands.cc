@@ -14,8 +14,7 @@ using nlohmann::ordered_json;
 
 std::string FormatSize(const Eigen::Vector3f& size) {
   char text[64];
-  std::snprintf(
-      text, sizeof(text), "%.2fx%.2fx%.2f", size.x(), size.y(), size.z());
+  std::snprintf(text, sizeof(text), "%.2fx%.2fx%.2f", size.x(), size.y(), size.z());
   return text;
 }
 
@@ -24,40 +23,33 @@ std::string ClassText(const CatalogEntry& entry) {
 }
 
 ordered_json SizeJson(const Eigen::Vector3f& size) {
-  return ordered_json{
-      {"width", size.x()}, {"depth", size.y()}, {"height", size.z()}};
+  return ordered_json{{"width", size.x()}, {"depth", size.y()}, {"height", size.z()}};
 }
 
 }  // namespace
 
-CatalogListing ListCatalog(const Catalog& catalog,
-                           const ListCatalogOptions& options) {
+CatalogListing ListCatalog(const Catalog& catalog, const ListCatalogOptions& options) {
   CatalogListing listing;
   listing.description = catalog.description();
   listing.warnings = catalog.warnings();
   for (const CatalogEntry& entry : catalog.entries()) {
     if (!options.all_entries && !entry.furniture_class) continue;
-    if (options.only_class && entry.furniture_class != options.only_class)
-      continue;
+    if (options.only_class && entry.furniture_class != options.only_class) continue;
     CatalogListingRow row;
     row.entry = &entry;
     listing.rows.push_back(row);
   }
   // Classified entries first, grouped by class; catalog order within a group.
   auto rank = [](const CatalogListingRow& row) {
-    return row.entry->furniture_class
-               ? static_cast<int>(*row.entry->furniture_class)
-               : 99;
+    return row.entry->furniture_class ? static_cast<int>(*row.entry->furniture_class) : 99;
   };
-  std::stable_sort(listing.rows.begin(),
-                   listing.rows.end(),
-                   [&](const CatalogListingRow& a, const CatalogListingRow& b) {
-                     return rank(a) < rank(b);
-                   });
+  std::stable_sort(
+      listing.rows.begin(),
+      listing.rows.end(),
+      [&](const CatalogListingRow& a, const CatalogListingRow& b) { return rank(a) < rank(b); });
   if (!options.load_models) return listing;
   std::vector<std::string> ids;
-  for (const CatalogListingRow& row : listing.rows)
-    ids.push_back(row.entry->id);
+  for (const CatalogListingRow& row : listing.rows) ids.push_back(row.entry->id);
   LoadedModels loaded = catalog.LoadModels(ids);
   std::map<std::string, const CadModel*> by_id;
   for (const CadModel& model : loaded.models) by_id[model.id] = &model;
@@ -76,8 +68,8 @@ std::string FormatCatalogTable(const CatalogListing& listing) {
   size_t id_width = 2;
   for (const CatalogListingRow& row : listing.rows)
     id_width = std::max(id_width, row.entry->id.size());
-  const bool loaded = std::any_of(
-      listing.rows.begin(), listing.rows.end(), [](const CatalogListingRow& r) {
+  const bool loaded =
+      std::any_of(listing.rows.begin(), listing.rows.end(), [](const CatalogListingRow& r) {
         return r.triangles.has_value();
       });
   std::ostringstream out;
@@ -117,14 +109,11 @@ std::string FormatCatalogTable(const CatalogListing& listing) {
     out << line;
     ++per_class[ClassText(entry)];
   }
-  out << listing.rows.size() << " entries in catalog " << listing.description
-      << ":";
-  for (const auto& [name, count] : per_class)
-    out << " " << count << " " << name;
+  out << listing.rows.size() << " entries in catalog " << listing.description << ":";
+  for (const auto& [name, count] : per_class) out << " " << count << " " << name;
   if (loaded) {
-    out << "; " << (listing.rows.size() - listing.failures.size())
-        << " models loaded, " << total_triangles << " triangles, "
-        << listing.failures.size() << " skipped";
+    out << "; " << (listing.rows.size() - listing.failures.size()) << " models loaded, "
+        << total_triangles << " triangles, " << listing.failures.size() << " skipped";
   }
   out << "\n";
   return out.str();
@@ -136,9 +125,7 @@ std::string CatalogListingToJson(const CatalogListing& listing) {
     const CatalogEntry& entry = *row.entry;
     ordered_json item{
         {"id", entry.id},
-        {"class",
-         entry.furniture_class ? json(ClassName(*entry.furniture_class))
-                               : json()},
+        {"class", entry.furniture_class ? json(ClassName(*entry.furniture_class)) : json()},
         {"name", entry.name},
         {"category", entry.category},
         {"size_m", SizeJson(entry.size_m)},
@@ -162,17 +149,13 @@ std::string CatalogListingToJson(const CatalogListing& listing) {
   return document.dump(2) + "\n";
 }
 
-std::string DescribeModel(const CatalogEntry& entry,
-                          const CadModel& model,
-                          bool as_json) {
+std::string DescribeModel(const CatalogEntry& entry, const CadModel& model, bool as_json) {
   const Box3 box = BoundingBox(model.mesh);
   if (as_json) {
     ordered_json document{
         {"id", entry.id},
         {"name", entry.name},
-        {"class",
-         entry.furniture_class ? json(ClassName(*entry.furniture_class))
-                               : json()},
+        {"class", entry.furniture_class ? json(ClassName(*entry.furniture_class)) : json()},
         {"category", entry.category},
         {"evaluation_only", entry.evaluation_only},
         {"source_path", model.source_path},
@@ -192,12 +175,10 @@ std::string DescribeModel(const CatalogEntry& entry,
       << (entry.evaluation_only ? " (evaluation only)" : "") << "\n"
       << "category:      " << entry.category << "\n"
       << "source:        " << model.source_path << "\n"
-      << "catalog size:  " << FormatSize(entry.size_m)
-      << " m (width x depth x height)\n"
-      << "mesh size:     " << FormatSize(box.Size())
-      << " m, base at z = " << box.min.z() << "\n"
-      << "triangles:     " << model.mesh.NumTriangles() << " ("
-      << model.mesh.vertices.size() << " vertices)\n"
+      << "catalog size:  " << FormatSize(entry.size_m) << " m (width x depth x height)\n"
+      << "mesh size:     " << FormatSize(box.Size()) << " m, base at z = " << box.min.z() << "\n"
+      << "triangles:     " << model.mesh.NumTriangles() << " (" << model.mesh.vertices.size()
+      << " vertices)\n"
       << "surface area:  " << SurfaceArea(model.mesh) << " m^2\n"
       << "content hash:  " << model.content_hash << "\n";
   return out.str();

@@ -17,8 +17,7 @@ namespace furn {
 struct ListCatalogOptions {
   bool all_entries = false;  // false: classified entries only
   std::optional<FurnitureClass> only_class;
-  bool load_models =
-      false;  // import every listed model (triangles, hash, failures)
+  bool load_models = false;  // import every listed model (triangles, hash, failures)
 };
 
 struct CatalogListingRow {
@@ -36,16 +35,13 @@ struct CatalogListing {
   std::vector<ModelLoadFailure> failures;  // skipped models (when loading)
 };
 
-CatalogListing ListCatalog(const Catalog& catalog,
-                           const ListCatalogOptions& options);
+CatalogListing ListCatalog(const Catalog& catalog, const ListCatalogOptions& options);
 
 // An aligned text table plus a per-class summary line.
 std::string FormatCatalogTable(const CatalogListing& listing);
 std::string CatalogListingToJson(const CatalogListing& listing);
 
 // `catalog show`: every fact about one entry and its loaded model.
-std::string DescribeModel(const CatalogEntry& entry,
-                          const CadModel& model,
-                          bool as_json);
+std::string DescribeModel(const CatalogEntry& entry, const CadModel& model, bool as_json);
 
 }  // namespace furn

@@ -8,28 +8,20 @@
 namespace furn {
 
 void AddCatalogFlags(CLI::App* app, CatalogFlags* flags) {
-  if (const char* env = std::getenv("FURN_CATALOG_DIR"))
-    flags->catalog_dir = env;
+  if (const char* env = std::getenv("FURN_CATALOG_DIR")) flags->catalog_dir = env;
   if (const char* env = std::getenv("FURN_DATA_DIR")) flags->data_dir = env;
   app->add_option(
-         "--catalog",
-         flags->spec,
-         "default, procedural[:SEED], a class map .json, or a .sh3f file")
+         "--catalog", flags->spec, "default, procedural[:SEED], a class map .json, or a .sh3f file")
       ->capture_default_str();
-  app->add_option("--catalog-dir",
-                  flags->catalog_dir,
-                  "Directory of the .sh3f files (env FURN_CATALOG_DIR)")
+  app->add_option(
+         "--catalog-dir", flags->catalog_dir, "Directory of the .sh3f files (env FURN_CATALOG_DIR)")
       ->capture_default_str();
-  app->add_option("--data-dir",
-                  flags->data_dir,
-                  "Directory of class_map.json (env FURN_DATA_DIR)")
+  app->add_option("--data-dir", flags->data_dir, "Directory of class_map.json (env FURN_DATA_DIR)")
       ->capture_default_str();
   app->add_flag("--quiet,-q", flags->quiet, "No progress output");
 }
 
-void ApplyGlobalFlags(const CatalogFlags& flags) {
-  Progress::SetQuiet(flags.quiet);
-}
+void ApplyGlobalFlags(const CatalogFlags& flags) { Progress::SetQuiet(flags.quiet); }
 
 CatalogOpenOptions MakeOpenOptions(const CatalogFlags& flags) {
   CatalogOpenOptions options;

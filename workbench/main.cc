@@ -18,27 +18,21 @@ struct Command {
 };
 
 constexpr Command kCommands[] = {
-    {"catalog",
-     furn::RunCatalog,
-     "list, show, export and draw CAD catalog entries"},
-    {"render",
-     furn::RunRender,
-     "render one model as ideal and noisy Kinect v1 depth"},
+    {"catalog", furn::RunCatalog, "list, show, export and draw CAD catalog entries"},
+    {"render", furn::RunRender, "render one model as ideal and noisy Kinect v1 depth"},
 };
 
 void PrintUsage() {
   std::printf(
       "usage: workbench <command> [options]   (workbench <command> "
       "--help)\n\ncommands:\n");
-  for (const Command& command : kCommands)
-    std::printf("  %-10s %s\n", command.name, command.help);
+  for (const Command& command : kCommands) std::printf("  %-10s %s\n", command.name, command.help);
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc < 2 || std::strcmp(argv[1], "--help") == 0 ||
-      std::strcmp(argv[1], "-h") == 0) {
+  if (argc < 2 || std::strcmp(argv[1], "--help") == 0 || std::strcmp(argv[1], "-h") == 0) {
     PrintUsage();
     return argc < 2 ? 2 : 0;
   }
@@ -51,8 +45,6 @@ int main(int argc, char** argv) {
       return 1;
     }
   }
-  std::fprintf(stderr,
-               "workbench: unknown command '%s' (see workbench --help)\n",
-               argv[1]);
+  std::fprintf(stderr, "workbench: unknown command '%s' (see workbench --help)\n", argv[1]);
   return 2;
 }

@@ -36,7 +36,6 @@ struct RenderOutputs {
   size_t noisy_valid = 0;
 };
 
-RenderOutputs RenderShowcase(const CadModel& model,
-                             const RenderShowcaseOptions& options);
+RenderOutputs RenderShowcase(const CadModel& model, const RenderShowcaseOptions& options);
 
 }  // namespace furn

@@ -20,10 +20,7 @@ void PrintWarnings(const std::vector<std::string>& warnings) {
 
 void PrintFailures(const std::vector<ModelLoadFailure>& failures) {
   for (const ModelLoadFailure& failure : failures) {
-    std::fprintf(stderr,
-                 "skipped %s: %s\n",
-                 failure.id.c_str(),
-                 failure.message.c_str());
+    std::fprintf(stderr, "skipped %s: %s\n", failure.id.c_str(), failure.message.c_str());
   }
 }
 
@@ -35,84 +32,66 @@ std::string SheetSubtitle(const CatalogEntry& entry) {
                 entry.size_m.x(),
                 entry.size_m.y(),
                 entry.size_m.z());
-  return (entry.furniture_class ? ClassName(*entry.furniture_class)
-                                : std::string("-")) +
-         size + " " + entry.name;
+  return (entry.furniture_class ? ClassName(*entry.furniture_class) : std::string("-")) + size +
+         " " + entry.name;
 }
 
 }  // namespace
 
 int RunCatalog(int argc, char** argv) {
-  CLI::App app{"List, show, export and draw CAD catalog entries",
-               "workbench catalog"};
+  CLI::App app{"List, show, export and draw CAD catalog entries", "workbench catalog"};
   app.require_subcommand(1);
   CatalogFlags catalog_flags;
 
-  CLI::App* list = app.add_subcommand(
-      "list", "List catalog entries (classified ones by default)");
+  CLI::App* list = app.add_subcommand("list", "List catalog entries (classified ones by default)");
   AddCatalogFlags(list, &catalog_flags);
   ListCatalogOptions list_options;
   bool json = false;
   std::string class_name;
-  list->add_flag(
-      "--all", list_options.all_entries, "Also list entries without a class");
-  list->add_option("--class",
-                   class_name,
-                   "Only this class (chair, armchair, table, sideboard, sofa)");
-  list->add_flag(
-      "--load",
-      list_options.load_models,
-      "Import every listed model: triangle counts, hashes, skipped models");
+  list->add_flag("--all", list_options.all_entries, "Also list entries without a class");
+  list->add_option(
+      "--class", class_name, "Only this class (chair, armchair, table, sideboard, sofa)");
+  list->add_flag("--load",
+                 list_options.load_models,
+                 "Import every listed model: triangle counts, hashes, skipped models");
   list->add_flag("--json", json, "JSON instead of a table");
 
-  CLI::App* show =
-      app.add_subcommand("show", "Load one entry and describe its model");
+  CLI::App* show = app.add_subcommand("show", "Load one entry and describe its model");
   AddCatalogFlags(show, &catalog_flags);
   std::string entry_id;
-  show->add_option("entry", entry_id, "Entry id, e.g. Scopia/chair3")
-      ->required();
+  show->add_option("entry", entry_id, "Entry id, e.g. Scopia/chair3")->required();
   show->add_flag("--json", json, "JSON instead of text");
 
-  CLI::App* export_command =
-      app.add_subcommand("export", "Write one entry's normalised mesh");
+  CLI::App* export_command = app.add_subcommand("export", "Write one entry's normalised mesh");
   AddCatalogFlags(export_command, &catalog_flags);
   std::string out_path;
   export_command->add_option("entry", entry_id, "Entry id")->required();
-  export_command
-      ->add_option("--out", out_path, "Output file: .ply, .obj, .stl or .glb")
+  export_command->add_option("--out", out_path, "Output file: .ply, .obj, .stl or .glb")
       ->required();
 
-  CLI::App* sheet =
-      app.add_subcommand("sheet", "Draw entries as a PNG contact sheet");
+  CLI::App* sheet = app.add_subcommand("sheet", "Draw entries as a PNG contact sheet");
   AddCatalogFlags(sheet, &catalog_flags);
   MeshSheetOptions sheet_options;
-  sheet->add_flag(
-      "--all", list_options.all_entries, "Also draw entries without a class");
+  sheet->add_flag("--all", list_options.all_entries, "Also draw entries without a class");
   sheet->add_option("--class", class_name, "Only this class");
   sheet->add_option("--out", out_path, "Output .png")->required();
-  sheet->add_option("--tile", sheet_options.tile_px, "Tile size in pixels")
-      ->capture_default_str();
-  sheet->add_option("--columns", sheet_options.columns, "Tiles per row")
-      ->capture_default_str();
+  sheet->add_option("--tile", sheet_options.tile_px, "Tile size in pixels")->capture_default_str();
+  sheet->add_option("--columns", sheet_options.columns, "Tiles per row")->capture_default_str();
 
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& error) {
-    return app.exit(error) == 0 ? 0
-                                : 2;  // --help is 0; every usage mistake is 2
+    return app.exit(error) == 0 ? 0 : 2;  // --help is 0; every usage mistake is 2
   }
   ApplyGlobalFlags(catalog_flags);
-  if (!class_name.empty())
-    list_options.only_class = ParseFurnitureClass(class_name);
-  const Catalog catalog =
-      OpenCatalog(catalog_flags.spec, MakeOpenOptions(catalog_flags));
+  if (!class_name.empty()) list_options.only_class = ParseFurnitureClass(class_name);
+  const Catalog catalog = OpenCatalog(catalog_flags.spec, MakeOpenOptions(catalog_flags));
   PrintWarnings(catalog.warnings());
 
   if (list->parsed()) {
     const CatalogListing listing = ListCatalog(catalog, list_options);
     PrintFailures(listing.failures);
-    std::cout << (json ? CatalogListingToJson(listing)
-                       : FormatCatalogTable(listing));
+    std::cout << (json ? CatalogListingToJson(listing) : FormatCatalogTable(listing));
     return 0;
   }
   if (show->parsed()) {
@@ -123,23 +102,19 @@ int RunCatalog(int argc, char** argv) {
   if (export_command->parsed()) {
     const CadModel model = catalog.LoadModel(entry_id);
     ExportMesh(model.mesh, out_path);
-    std::cout << "wrote " << out_path << " (" << model.mesh.NumTriangles()
-              << " triangles)\n";
+    std::cout << "wrote " << out_path << " (" << model.mesh.NumTriangles() << " triangles)\n";
     return 0;
   }
   // sheet
   const CatalogListing listing = ListCatalog(catalog, list_options);
-  Require(!listing.rows.empty(),
-          "catalog " + catalog.description() + " has no entries to draw");
+  Require(!listing.rows.empty(), "catalog " + catalog.description() + " has no entries to draw");
   std::vector<std::string> ids;
-  for (const CatalogListingRow& row : listing.rows)
-    ids.push_back(row.entry->id);
+  for (const CatalogListingRow& row : listing.rows) ids.push_back(row.entry->id);
   const LoadedModels loaded = catalog.LoadModels(ids);
   PrintFailures(loaded.failures);
   std::vector<SheetTile> tiles;
   for (const CadModel& model : loaded.models) {
-    tiles.push_back(
-        {&model.mesh, model.id, SheetSubtitle(catalog.Get(model.id))});
+    tiles.push_back({&model.mesh, model.id, SheetSubtitle(catalog.Get(model.id))});
   }
   WriteMeshSheet(tiles, sheet_options, out_path);
   std::cout << "wrote " << out_path << " (" << tiles.size() << " models)\n";

@@ -16,8 +16,7 @@
 
 namespace furn {
 
-RenderOutputs RenderShowcase(const CadModel& model,
-                             const RenderShowcaseOptions& options) {
+RenderOutputs RenderShowcase(const CadModel& model, const RenderShowcaseOptions& options) {
   Require(!options.out_dir.empty(), "render: --out directory is required");
   std::error_code ec;
   std::filesystem::create_directories(options.out_dir, ec);
@@ -29,12 +28,8 @@ RenderOutputs RenderShowcase(const CadModel& model,
   const Eigen::Isometry3d world_from_camera =
       ShowcaseCamera(options.distance_m, options.height_m, options.pitch_deg);
   std::unique_ptr<DepthRenderer> renderer = MakeRenderer(options.renderer);
-  const KinectCapture capture = CaptureKinect(renderer.get(),
-                                              scene,
-                                              options.camera,
-                                              world_from_camera,
-                                              options.noise,
-                                              options.seed);
+  const KinectCapture capture = CaptureKinect(
+      renderer.get(), scene, options.camera, world_from_camera, options.noise, options.seed);
 
   const std::filesystem::path dir(options.out_dir);
   RenderOutputs outputs;
@@ -49,34 +44,29 @@ RenderOutputs RenderShowcase(const CadModel& model,
   WriteOrganizedPcd(capture.ideal, options.camera, path("cloud_ideal.pcd"));
   WriteOrganizedPcd(capture.noisy, options.camera, path("cloud_noisy.pcd"));
   WritePreviewPng(
-      {{&capture.ideal,
-        PreviewPanel::Kind::kDepth,
-        "ideal depth (" + renderer->Name() + ")"},
-       {&capture.noisy,
-        PreviewPanel::Kind::kDepth,
-        "noisy depth (Kinect v1 model)"},
+      {{&capture.ideal, PreviewPanel::Kind::kDepth, "ideal depth (" + renderer->Name() + ")"},
+       {&capture.noisy, PreviewPanel::Kind::kDepth, "noisy depth (Kinect v1 model)"},
        {&capture.ideal, PreviewPanel::Kind::kShadedDepth, "ideal, shaded"},
        {&capture.noisy, PreviewPanel::Kind::kShadedDepth, "noisy, shaded"},
        {&capture.ideal, PreviewPanel::Kind::kIds, "ideal instance ids"},
        {&capture.noisy, PreviewPanel::Kind::kIds, "noisy instance ids"}},
       2,
       path("preview.png"));
-  nlohmann::ordered_json camera_json{
-      {"model", model.id},
-      {"renderer", renderer->Name()},
-      {"seed", options.seed},
-      {"intrinsics",
-       {{"width", options.camera.width},
-        {"height", options.camera.height},
-        {"fx", options.camera.fx},
-        {"fy", options.camera.fy},
-        {"cx", options.camera.cx},
-        {"cy", options.camera.cy}}},
-      {"depth_units_per_metre", 1000},
-      {"world_from_camera",
-       std::vector<double>(world_from_camera.matrix().data(),
-                           world_from_camera.matrix().data() + 16)},
-      {"world_from_camera_layout", "4x4 column-major"}};
+  nlohmann::ordered_json camera_json{{"model", model.id},
+                                     {"renderer", renderer->Name()},
+                                     {"seed", options.seed},
+                                     {"intrinsics",
+                                      {{"width", options.camera.width},
+                                       {"height", options.camera.height},
+                                       {"fx", options.camera.fx},
+                                       {"fy", options.camera.fy},
+                                       {"cx", options.camera.cx},
+                                       {"cy", options.camera.cy}}},
+                                     {"depth_units_per_metre", 1000},
+                                     {"world_from_camera",
+                                      std::vector<double>(world_from_camera.matrix().data(),
+                                                          world_from_camera.matrix().data() + 16)},
+                                     {"world_from_camera_layout", "4x4 column-major"}};
   WriteFileAtomically(path("camera.json"), camera_json.dump(2) + "\n");
   outputs.ideal_valid = capture.ideal.NumValid();
   outputs.noisy_valid = capture.noisy.NumValid();
@@ -92,37 +82,27 @@ int RunRender(int argc, char** argv) {
   AddCatalogFlags(&app, &catalog_flags);
   RenderShowcaseOptions options;
   std::string entry, renderer = "osmesa";
-  app.add_option("--entry", entry, "Catalog entry id, e.g. Scopia/chair3")
-      ->required();
-  app.add_option(
-         "--out", options.out_dir, "Output directory (created if missing)")
-      ->required();
-  app.add_option(
-         "--distance", options.distance_m, "Camera distance from the model (m)")
+  app.add_option("--entry", entry, "Catalog entry id, e.g. Scopia/chair3")->required();
+  app.add_option("--out", options.out_dir, "Output directory (created if missing)")->required();
+  app.add_option("--distance", options.distance_m, "Camera distance from the model (m)")
       ->capture_default_str();
-  app.add_option(
-         "--height", options.height_m, "Camera height above the floor (m)")
+  app.add_option("--height", options.height_m, "Camera height above the floor (m)")
       ->capture_default_str();
   app.add_option("--pitch", options.pitch_deg, "Camera pitch down (degrees)")
       ->capture_default_str();
   app.add_option("--yaw", options.yaw_deg, "Model rotation about z (degrees)")
       ->capture_default_str();
   app.add_option("--seed", options.seed, "Noise seed")->capture_default_str();
-  app.add_option("--renderer", renderer, "osmesa or embree")
-      ->capture_default_str();
-  bool no_shadow = false, no_range = false, no_incidence = false,
-       no_edges = false, no_lateral = false, no_axial = false,
-       no_quantization = false;
+  app.add_option("--renderer", renderer, "osmesa or embree")->capture_default_str();
+  bool no_shadow = false, no_range = false, no_incidence = false, no_edges = false,
+       no_lateral = false, no_axial = false, no_quantization = false;
   app.add_flag("--no-shadow", no_shadow, "Switch off the projector shadow");
   app.add_flag("--no-range", no_range, "Switch off the 0.5-4.5 m range limits");
-  app.add_flag(
-      "--no-incidence", no_incidence, "Switch off incidence-angle dropout");
+  app.add_flag("--no-incidence", no_incidence, "Switch off incidence-angle dropout");
   app.add_flag("--no-edges", no_edges, "Switch off dropout at depth edges");
   app.add_flag("--no-lateral", no_lateral, "Switch off lateral noise");
   app.add_flag("--no-axial", no_axial, "Switch off axial noise");
-  app.add_flag("--no-quantization",
-               no_quantization,
-               "Switch off disparity quantisation");
+  app.add_flag("--no-quantization", no_quantization, "Switch off disparity quantisation");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& error) {
@@ -137,14 +117,11 @@ int RunRender(int argc, char** argv) {
   options.noise.lateral_noise = !no_lateral;
   options.noise.axial_noise = !no_axial;
   options.noise.quantization = !no_quantization;
-  const Catalog catalog =
-      OpenCatalog(catalog_flags.spec, MakeOpenOptions(catalog_flags));
-  const RenderOutputs outputs =
-      RenderShowcase(catalog.LoadModel(entry), options);
-  for (const std::string& file : outputs.files)
-    std::cout << "wrote " << file << "\n";
-  std::cout << "valid pixels: ideal " << outputs.ideal_valid << ", noisy "
-            << outputs.noisy_valid << "\n";
+  const Catalog catalog = OpenCatalog(catalog_flags.spec, MakeOpenOptions(catalog_flags));
+  const RenderOutputs outputs = RenderShowcase(catalog.LoadModel(entry), options);
+  for (const std::string& file : outputs.files) std::cout << "wrote " << file << "\n";
+  std::cout << "valid pixels: ideal " << outputs.ideal_valid << ", noisy " << outputs.noisy_valid
+            << "\n";
   return 0;
 }
 

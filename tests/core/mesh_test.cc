@@ -36,14 +36,13 @@ TEST(Mesh, CylinderVolumeAndAreaApproachAnalyticValues) {
   const TriangleMesh cylinder = MakeCylinder({0, 0, 0}, 0.5f, 2.0f, 256);
   double volume = 0;
   for (const Eigen::Vector3i& t : cylinder.triangles) {
-    volume += cylinder.vertices[t[0]].cast<double>().dot(
-                  cylinder.vertices[t[1]].cast<double>().cross(
-                      cylinder.vertices[t[2]].cast<double>())) /
-              6.0;
+    volume +=
+        cylinder.vertices[t[0]].cast<double>().dot(
+            cylinder.vertices[t[1]].cast<double>().cross(cylinder.vertices[t[2]].cast<double>())) /
+        6.0;
   }
   EXPECT_NEAR(volume, M_PI * 0.25 * 2.0, 1e-3);
-  EXPECT_NEAR(
-      SurfaceArea(cylinder), 2 * M_PI * 0.25 + 2 * M_PI * 0.5 * 2.0, 2e-3);
+  EXPECT_NEAR(SurfaceArea(cylinder), 2 * M_PI * 0.25 + 2 * M_PI * 0.5 * 2.0, 2e-3);
   EXPECT_THROW(MakeCylinder({0, 0, 0}, 1, 1, 2), InputError);
 }
 
@@ -64,8 +63,7 @@ TEST(Mesh, MirrorTransformKeepsFacesOutward) {
   double volume = 0;
   for (const Eigen::Vector3i& t : mesh.triangles) {
     volume += mesh.vertices[t[0]].cast<double>().dot(
-                  mesh.vertices[t[1]].cast<double>().cross(
-                      mesh.vertices[t[2]].cast<double>())) /
+                  mesh.vertices[t[1]].cast<double>().cross(mesh.vertices[t[2]].cast<double>())) /
               6.0;
   }
   EXPECT_NEAR(volume, 1.0, 1e-6);  // negative if the winding were not flipped
@@ -96,8 +94,7 @@ TEST(Mesh, CheckRejectsEmptyNonFiniteAndOutOfRange) {
     CheckMeshValid(empty, "empty.obj");
     FAIL();
   } catch (const InputError& error) {
-    EXPECT_NE(std::string(error.what()).find("empty.obj: mesh has no faces"),
-              std::string::npos);
+    EXPECT_NE(std::string(error.what()).find("empty.obj: mesh has no faces"), std::string::npos);
   }
   TriangleMesh with_nan = mesh;
   with_nan.vertices[2].y() = std::nanf("");

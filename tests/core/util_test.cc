@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <cmath>
 #include <filesystem>
 #include <set>
 
@@ -41,22 +42,19 @@ TEST(Random, UniformStaysInRangeAndCoversIt) {
 
 TEST(Random, DerivedSeedsDiffer) {
   std::set<uint64_t> seeds;
-  for (uint64_t stream = 0; stream < 1000; ++stream)
-    seeds.insert(DeriveSeed(1, stream));
+  for (uint64_t stream = 0; stream < 1000; ++stream) seeds.insert(DeriveSeed(1, stream));
   EXPECT_EQ(seeds.size(), 1000u);
   EXPECT_NE(DeriveSeed(1, 0), DeriveSeed(2, 0));
   EXPECT_EQ(DeriveSeed(5, 9), DeriveSeed(5, 9));
 }
 
 TEST(FurnitureClass, NamesRoundTripAndUnknownIsRejected) {
-  for (FurnitureClass c : kAllClasses)
-    EXPECT_EQ(ParseFurnitureClass(ClassName(c)), c);
+  for (FurnitureClass c : kAllClasses) EXPECT_EQ(ParseFurnitureClass(ClassName(c)), c);
   try {
     ParseFurnitureClass("stool");
     FAIL();
   } catch (const InputError& error) {
-    EXPECT_NE(std::string(error.what()).find("unknown class 'stool'"),
-              std::string::npos);
+    EXPECT_NE(std::string(error.what()).find("unknown class 'stool'"), std::string::npos);
   }
 }
 
@@ -67,9 +65,7 @@ TEST(FileUtil, AtomicWriteReplacesAndLeavesNoTemporaryFile) {
   WriteFileAtomically(path, "second");
   EXPECT_EQ(ReadFileBytes(path), "second");
   int files = 0;
-  for ([[maybe_unused]] const auto& entry :
-       std::filesystem::directory_iterator(dir))
-    ++files;
+  for ([[maybe_unused]] const auto& entry : std::filesystem::directory_iterator(dir)) ++files;
   EXPECT_EQ(files, 1);
 }
 
@@ -78,12 +74,10 @@ TEST(FileUtil, ErrorsNameThePath) {
     ReadFileBytes("/nonexistent/file.obj");
     FAIL();
   } catch (const InputError& error) {
-    EXPECT_NE(
-        std::string(error.what()).find("/nonexistent/file.obj: cannot read"),
-        std::string::npos);
+    EXPECT_NE(std::string(error.what()).find("/nonexistent/file.obj: cannot read"),
+              std::string::npos);
   }
-  EXPECT_THROW(WriteFileAtomically("/nonexistent/dir/out.txt", "x"),
-               InputError);
+  EXPECT_THROW(WriteFileAtomically("/nonexistent/dir/out.txt", "x"), InputError);
   EXPECT_EQ(FileExtension("a/b/Model.PLY"), "ply");
   EXPECT_EQ(FileExtension("noext"), "");
 }
@@ -97,8 +91,34 @@ TEST(FileUtil, UncommittedAtomicFileLeavesTargetUntouched) {
     testing::WriteText(file.TempPath(), "half-written");
   }  // no Commit(): as if the writer failed
   EXPECT_EQ(ReadFileBytes(path), "original");
-  EXPECT_FALSE(
-      std::filesystem::exists(path + ".tmp-" + std::to_string(::getpid())));
+  EXPECT_FALSE(std::filesystem::exists(path + ".tmp-" + std::to_string(::getpid())));
+}
+
+}  // namespace
+}  // namespace furn
+
+namespace furn {
+namespace {
+
+TEST(Random, ZigguratNormalHasStandardMoments) {
+  FastRng rng(123);
+  constexpr int kSamples = 2000000;
+  double sum = 0, sum2 = 0, sum4 = 0;
+  int beyond3 = 0;
+  for (int i = 0; i < kSamples; ++i) {
+    const double x = rng.Normal();
+    sum += x;
+    sum2 += x * x;
+    sum4 += x * x * x * x;
+    beyond3 += std::abs(x) > 3;
+  }
+  const double mean = sum / kSamples, variance = sum2 / kSamples - mean * mean;
+  EXPECT_NEAR(mean, 0, 0.003);
+  EXPECT_NEAR(variance, 1, 0.005);
+  EXPECT_NEAR(sum4 / kSamples, 3, 0.03);                       // kurtosis of a normal
+  EXPECT_NEAR(beyond3 / double(kSamples), 0.0026998, 0.0003);  // tails beyond 3 sigma
+  FastRng a(9), b(9);
+  for (int i = 0; i < 1000; ++i) ASSERT_EQ(a.Normal(), b.Normal());
 }
 
 }  // namespace

@@ -54,8 +54,7 @@ TEST(Sqlite, ErrorsCarrySqliteMessageAndPath) {
     FAIL();
   } catch (const DbError& error) {
     EXPECT_NE(std::string(error.what()).find(path), std::string::npos);
-    EXPECT_NE(std::string(error.what()).find("no such table: no_such_table"),
-              std::string::npos);
+    EXPECT_NE(std::string(error.what()).find("no such table: no_such_table"), std::string::npos);
   }
   db.Execute(
       "CREATE TABLE p(id INTEGER PRIMARY KEY); CREATE TABLE c(p INTEGER "

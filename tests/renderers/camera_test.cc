@@ -22,8 +22,7 @@ TEST(Camera, ProjectInvertsRayThroughPixel) {
   const Eigen::Vector2d pixel = kinect.Project(2.7 * ray.cast<double>());
   EXPECT_NEAR(pixel.x(), 100.25, 1e-4);
   EXPECT_NEAR(pixel.y(), 400.5, 1e-4);
-  EXPECT_TRUE(
-      kinect.RayThroughPixel(319.5, 239.5).isApprox(Eigen::Vector3f(0, 0, 1)));
+  EXPECT_TRUE(kinect.RayThroughPixel(319.5, 239.5).isApprox(Eigen::Vector3f(0, 0, 1)));
 }
 
 TEST(Camera, BadIntrinsicsAreRejectedWithTheValue) {

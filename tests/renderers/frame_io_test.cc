@@ -22,9 +22,7 @@ DepthFrame BoxScene() {
   scene.objects.push_back(testing::WallAt(3.0));
   scene.objects.push_back(testing::BoxAt(1.5, -0.2, 0.2, -0.2, 0.2, 42));
   return MakeRenderer(RendererKind::kEmbree)
-      ->Render(scene,
-               CameraIntrinsics::KinectV1(),
-               testing::CameraAtOriginLookingAlongY());
+      ->Render(scene, CameraIntrinsics::KinectV1(), testing::CameraAtOriginLookingAlongY());
 }
 
 TEST(FrameIo, DepthPngRoundTripsToTheMillimetre) {
@@ -43,11 +41,8 @@ TEST(FrameIo, DepthPngRoundTripsToTheMillimetre) {
   EXPECT_EQ(raw.at<uint16_t>(240, 320), 1500);
   // TUM scale 5000: 1.5 m is 7500.
   WriteDepthPng(frame, dir + "/tum.png", 5000);
-  EXPECT_EQ(
-      cv::imread(dir + "/tum.png", cv::IMREAD_UNCHANGED).at<uint16_t>(240, 320),
-      7500);
-  EXPECT_NEAR(
-      ReadDepthPng(dir + "/tum.png", 5000).DepthAt(320, 240), 1.5f, 1e-4f);
+  EXPECT_EQ(cv::imread(dir + "/tum.png", cv::IMREAD_UNCHANGED).at<uint16_t>(240, 320), 7500);
+  EXPECT_NEAR(ReadDepthPng(dir + "/tum.png", 5000).DepthAt(320, 240), 1.5f, 1e-4f);
 }
 
 TEST(FrameIo, IdPngKeepsIds) {
@@ -81,8 +76,7 @@ TEST(FrameIo, WrongImageTypeIsRejected) {
     ReadDepthPng(dir + "/rgb.png");
     FAIL();
   } catch (const InputError& error) {
-    EXPECT_NE(std::string(error.what()).find("single-channel 16-bit PNG"),
-              std::string::npos);
+    EXPECT_NE(std::string(error.what()).find("single-channel 16-bit PNG"), std::string::npos);
   }
   testing::WriteText(dir + "/junk.png", "not an image");
   EXPECT_THROW(ReadDepthPng(dir + "/junk.png"), InputError);
@@ -92,8 +86,8 @@ TEST(FrameIo, WrongImageTypeIsRejected) {
 TEST(FrameIo, PreviewHasEveryPanel) {
   const std::string dir = testing::ScratchDir();
   const DepthFrame ideal = BoxScene();
-  const DepthFrame noisy = ApplyKinectNoise(
-      ideal, CameraIntrinsics::KinectV1(), KinectNoiseOptions{}, 1);
+  const DepthFrame noisy =
+      ApplyKinectNoise(ideal, CameraIntrinsics::KinectV1(), KinectNoiseOptions{}, 1);
   WritePreviewPng({{&ideal, PreviewPanel::Kind::kDepth, "ideal"},
                    {&noisy, PreviewPanel::Kind::kShadedDepth, "noisy"},
                    {&noisy, PreviewPanel::Kind::kIds, "ids"}},

@@ -33,9 +33,7 @@ DepthFrame WallFrame(double distance) {
   Scene scene;
   scene.objects.push_back(testing::WallAt(distance));
   return MakeRenderer(RendererKind::kEmbree)
-      ->Render(scene,
-               CameraIntrinsics::KinectV1(),
-               testing::CameraAtOriginLookingAlongY());
+      ->Render(scene, CameraIntrinsics::KinectV1(), testing::CameraAtOriginLookingAlongY());
 }
 
 double StdDev(const std::vector<float>& values) {
@@ -56,17 +54,14 @@ TEST(KinectNoise, AxialNoiseMatchesNguyenAt1_2_3Metres) {
   KinectNoiseOptions options = AllOff();
   options.axial_noise = true;
   for (double distance : {1.0, 2.0, 3.0}) {
-    const DepthFrame noisy =
-        ApplyKinectNoise(WallFrame(distance), camera, options, 7);
+    const DepthFrame noisy = ApplyKinectNoise(WallFrame(distance), camera, options, 7);
     // Off-axis rays meet the wall at up to ~29 degrees, below the 60-degree
     // term, so every pixel has sigma_z of the formula's first part.
     const double expected = AxialNoiseSigma(distance, 0.0);
     const double measured = StdDev(noisy.depth);
-    EXPECT_NEAR(measured, expected, 0.15 * expected)
-        << "at " << distance << " m";
+    EXPECT_NEAR(measured, expected, 0.15 * expected) << "at " << distance << " m";
   }
-  EXPECT_NEAR(
-      AxialNoiseSigma(1.0, 0.0), 0.0012 + 0.0019 * 0.36, 1e-12);  // not squared
+  EXPECT_NEAR(AxialNoiseSigma(1.0, 0.0), 0.0012 + 0.0019 * 0.36, 1e-12);  // not squared
   EXPECT_GT(AxialNoiseSigma(2.0, 70 * M_PI / 180), AxialNoiseSigma(2.0, 0.0));
   EXPECT_NEAR(LateralNoiseSigmaPx(0.0), 0.8, 1e-12);
 }
@@ -74,15 +69,14 @@ TEST(KinectNoise, AxialNoiseMatchesNguyenAt1_2_3Metres) {
 TEST(KinectNoise, QuantisationStepsAreOneEighthPixelOfDisparity) {
   // A floor seen obliquely: depths sweep 1..4 m, so many disparity steps occur.
   Scene scene;
-  scene.objects.push_back(
-      {std::make_shared<TriangleMesh>(MakeBox({-5, 0, -0.1f}, {5, 10, 0})),
-       Eigen::Isometry3d::Identity(),
-       kFloorId});
+  scene.objects.push_back({std::make_shared<TriangleMesh>(MakeBox({-5, 0, -0.1f}, {5, 10, 0})),
+                           Eigen::Isometry3d::Identity(),
+                           kFloorId});
   const CameraIntrinsics camera = CameraIntrinsics::KinectV1();
   const Eigen::Isometry3d world_from_camera =
       LookAlong(Eigen::Vector3d(0, -1, 1.0), Eigen::Vector3d(0, 1, -0.5));
-  const DepthFrame ideal = MakeRenderer(RendererKind::kOsMesa)
-                               ->Render(scene, camera, world_from_camera);
+  const DepthFrame ideal =
+      MakeRenderer(RendererKind::kOsMesa)->Render(scene, camera, world_from_camera);
   KinectNoiseOptions options = AllOff();
   options.quantization = true;
   const DepthFrame noisy = ApplyKinectNoise(ideal, camera, options, 1);
@@ -101,8 +95,7 @@ TEST(KinectNoise, QuantisationStepsAreOneEighthPixelOfDisparity) {
   for (size_t i = 0; i + 1 < sorted.size(); ++i) {
     const double z = 0.5 * (sorted[i] + sorted[i + 1]);
     const double predicted = z * z / (8 * fb);
-    EXPECT_NEAR(sorted[i + 1] - sorted[i], predicted, 0.02 * predicted)
-        << "at " << z << " m";
+    EXPECT_NEAR(sorted[i + 1] - sorted[i], predicted, 0.02 * predicted) << "at " << z << " m";
   }
   // At 2 m that step is the ~11.5 mm banding of real Kinect clouds.
   EXPECT_NEAR(4.0 / (8 * fb), 0.0115, 0.0002);
@@ -116,11 +109,10 @@ TEST(KinectNoise, BoxCastsProjectorShadowToItsLeftWithPredictedWidth) {
   const CameraIntrinsics camera = CameraIntrinsics::KinectV1();
   KinectNoiseOptions options = AllOff();
   options.projector_shadow = true;
-  const double predicted_px =
-      camera.fx * options.baseline_m * (1 / z_box - 1 / z_wall);  // 11.6 px
+  const double predicted_px = camera.fx * options.baseline_m * (1 / z_box - 1 / z_wall);  // 11.6 px
   for (RendererKind kind : {RendererKind::kOsMesa, RendererKind::kEmbree}) {
-    const DepthFrame ideal = MakeRenderer(kind)->Render(
-        scene, camera, testing::CameraAtOriginLookingAlongY());
+    const DepthFrame ideal =
+        MakeRenderer(kind)->Render(scene, camera, testing::CameraAtOriginLookingAlongY());
     const DepthFrame noisy = ApplyKinectNoise(ideal, camera, options, 1);
     for (int v : {200, 240, 280}) {
       int left_box_edge = -1, right_box_edge = -1;
@@ -132,17 +124,14 @@ TEST(KinectNoise, BoxCastsProjectorShadowToItsLeftWithPredictedWidth) {
       }
       ASSERT_GT(left_box_edge, 0);
       int shadow_left = 0, shadow_right = 0;
-      for (int u = 0; u < left_box_edge; ++u)
-        shadow_left += noisy.DepthAt(u, v) == 0;
+      for (int u = 0; u < left_box_edge; ++u) shadow_left += noisy.DepthAt(u, v) == 0;
       for (int u = right_box_edge + 1; u < camera.width; ++u)
         shadow_right += noisy.DepthAt(u, v) == 0;
       EXPECT_NEAR(shadow_left, predicted_px, 1.5) << "row " << v;
       EXPECT_EQ(shadow_right, 0) << "row " << v;
       // The shadow is next to the box, not elsewhere on the row.
       EXPECT_EQ(noisy.DepthAt(left_box_edge - 1, v), 0.0f);
-      EXPECT_GT(
-          noisy.DepthAt(left_box_edge - static_cast<int>(predicted_px) - 2, v),
-          0.0f);
+      EXPECT_GT(noisy.DepthAt(left_box_edge - static_cast<int>(predicted_px) - 2, v), 0.0f);
     }
   }
 }
@@ -151,24 +140,18 @@ TEST(KinectNoise, RangeAndIncidenceDropout) {
   const CameraIntrinsics camera = CameraIntrinsics::KinectV1();
   KinectNoiseOptions options = AllOff();
   options.range_limits = true;
-  EXPECT_EQ(ApplyKinectNoise(WallFrame(0.4), camera, options, 1).NumValid(),
-            0u);
-  EXPECT_EQ(ApplyKinectNoise(WallFrame(5.0), camera, options, 1).NumValid(),
-            0u);
-  EXPECT_EQ(ApplyKinectNoise(WallFrame(3.0), camera, options, 1).NumValid(),
-            307200u);
+  EXPECT_EQ(ApplyKinectNoise(WallFrame(0.4), camera, options, 1).NumValid(), 0u);
+  EXPECT_EQ(ApplyKinectNoise(WallFrame(5.0), camera, options, 1).NumValid(), 0u);
+  EXPECT_EQ(ApplyKinectNoise(WallFrame(3.0), camera, options, 1).NumValid(), 307200u);
   // A floor seen from 1 m up: incidence grows towards the horizon; beyond 78
   // degrees, no return.
   Scene scene;
-  scene.objects.push_back(
-      {std::make_shared<TriangleMesh>(MakeBox({-20, 0, -0.1f}, {20, 40, 0})),
-       Eigen::Isometry3d::Identity(),
-       kFloorId});
-  const DepthFrame ideal = MakeRenderer(RendererKind::kEmbree)
-                               ->Render(scene,
-                                        camera,
-                                        LookAlong(Eigen::Vector3d(0, 0, 1),
-                                                  Eigen::Vector3d(0, 1, -0.2)));
+  scene.objects.push_back({std::make_shared<TriangleMesh>(MakeBox({-20, 0, -0.1f}, {20, 40, 0})),
+                           Eigen::Isometry3d::Identity(),
+                           kFloorId});
+  const DepthFrame ideal =
+      MakeRenderer(RendererKind::kEmbree)
+          ->Render(scene, camera, LookAlong(Eigen::Vector3d(0, 0, 1), Eigen::Vector3d(0, 1, -0.2)));
   options = AllOff();
   options.incidence_dropout = true;
   const DepthFrame noisy = ApplyKinectNoise(ideal, camera, options, 1);
@@ -177,8 +160,8 @@ TEST(KinectNoise, RangeAndIncidenceDropout) {
     for (int u = 0; u < camera.width; ++u) {
       const size_t i = ideal.Index(u, v);
       if (ideal.depth[i] <= 0) continue;
-      const double cosine = std::abs(
-          ideal.normals[i].dot(camera.RayThroughPixel(u, v).normalized()));
+      const double cosine =
+          std::abs(ideal.normals[i].dot(camera.RayThroughPixel(u, v).normalized()));
       const double angle = std::acos(cosine) * 180 / M_PI;
       if (angle > 78.5) {
         (noisy.depth[i] == 0 ? dropped_steep : kept_steep)++;
@@ -197,9 +180,8 @@ TEST(KinectNoise, LateralNoiseMakesEdgesRagged) {
   scene.objects.push_back(testing::WallAt(3.0));
   scene.objects.push_back(testing::BoxAt(1.5, -0.2, 0.2, -0.2, 0.2, 42));
   const CameraIntrinsics camera = CameraIntrinsics::KinectV1();
-  const DepthFrame ideal =
-      MakeRenderer(RendererKind::kOsMesa)
-          ->Render(scene, camera, testing::CameraAtOriginLookingAlongY());
+  const DepthFrame ideal = MakeRenderer(RendererKind::kOsMesa)
+                               ->Render(scene, camera, testing::CameraAtOriginLookingAlongY());
   KinectNoiseOptions options = AllOff();
   options.lateral_noise = true;
   const DepthFrame noisy = ApplyKinectNoise(ideal, camera, options, 3);
@@ -221,38 +203,17 @@ TEST(KinectNoise, SameSeedSameBytesDifferentSeedDifferent) {
   const CameraIntrinsics camera = CameraIntrinsics::KinectV1();
   auto renderer = MakeRenderer(RendererKind::kOsMesa);
   const KinectNoiseOptions options;
-  const KinectCapture a = CaptureKinect(renderer.get(),
-                                        scene,
-                                        camera,
-                                        testing::FurnishedRoomCamera(),
-                                        options,
-                                        5);
-  const KinectCapture b = CaptureKinect(renderer.get(),
-                                        scene,
-                                        camera,
-                                        testing::FurnishedRoomCamera(),
-                                        options,
-                                        5);
-  const KinectCapture c = CaptureKinect(renderer.get(),
-                                        scene,
-                                        camera,
-                                        testing::FurnishedRoomCamera(),
-                                        options,
-                                        6);
+  const KinectCapture a =
+      CaptureKinect(renderer.get(), scene, camera, testing::FurnishedRoomCamera(), options, 5);
+  const KinectCapture b =
+      CaptureKinect(renderer.get(), scene, camera, testing::FurnishedRoomCamera(), options, 5);
+  const KinectCapture c =
+      CaptureKinect(renderer.get(), scene, camera, testing::FurnishedRoomCamera(), options, 6);
   ASSERT_EQ(a.noisy.depth.size(), b.noisy.depth.size());
-  EXPECT_EQ(
-      std::memcmp(
-          a.noisy.depth.data(), b.noisy.depth.data(), a.noisy.depth.size() * 4),
-      0);
+  EXPECT_EQ(std::memcmp(a.noisy.depth.data(), b.noisy.depth.data(), a.noisy.depth.size() * 4), 0);
   EXPECT_EQ(a.noisy.instance_ids, b.noisy.instance_ids);
-  EXPECT_EQ(
-      std::memcmp(
-          a.ideal.depth.data(), b.ideal.depth.data(), a.ideal.depth.size() * 4),
-      0);
-  EXPECT_NE(
-      std::memcmp(
-          a.noisy.depth.data(), c.noisy.depth.data(), a.noisy.depth.size() * 4),
-      0);
+  EXPECT_EQ(std::memcmp(a.ideal.depth.data(), b.ideal.depth.data(), a.ideal.depth.size() * 4), 0);
+  EXPECT_NE(std::memcmp(a.noisy.depth.data(), c.noisy.depth.data(), a.noisy.depth.size() * 4), 0);
 }
 
 TEST(KinectNoise, BadOptionsAndMismatchedFramesAreRejected) {
@@ -271,8 +232,7 @@ TEST(KinectNoise, BadOptionsAndMismatchedFramesAreRejected) {
   CameraIntrinsics smaller = camera;
   smaller.width = 320;
   smaller.cx = 159.5;
-  EXPECT_THROW(ApplyKinectNoise(wall, smaller, KinectNoiseOptions{}, 1),
-               InputError);
+  EXPECT_THROW(ApplyKinectNoise(wall, smaller, KinectNoiseOptions{}, 1), InputError);
 }
 
 }  // namespace

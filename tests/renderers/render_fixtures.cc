@@ -12,21 +12,16 @@ Eigen::Isometry3d CameraAtOriginLookingAlongY() {
 
 SceneObject WallAt(double distance) {
   const float d = static_cast<float>(distance);
-  return {std::make_shared<TriangleMesh>(
-              MakeBox({-20, d, -20}, {20, d + 0.2f, 20})),
+  return {std::make_shared<TriangleMesh>(MakeBox({-20, d, -20}, {20, d + 0.2f, 20})),
           Eigen::Isometry3d::Identity(),
           kWallId};
 }
 
-SceneObject BoxAt(double front,
-                  double x_min,
-                  double x_max,
-                  double z_min,
-                  double z_max,
-                  uint16_t id) {
-  return {std::make_shared<TriangleMesh>(MakeBox(
-              Eigen::Vector3d(x_min, front, z_min).cast<float>(),
-              Eigen::Vector3d(x_max, front + 0.3, z_max).cast<float>())),
+SceneObject BoxAt(
+    double front, double x_min, double x_max, double z_min, double z_max, uint16_t id) {
+  return {std::make_shared<TriangleMesh>(
+              MakeBox(Eigen::Vector3d(x_min, front, z_min).cast<float>(),
+                      Eigen::Vector3d(x_max, front + 0.3, z_max).cast<float>())),
           Eigen::Isometry3d::Identity(),
           id};
 }
@@ -38,9 +33,8 @@ TriangleMesh GridFloor(float half_size, int n) {
   TriangleMesh floor;
   for (int j = 0; j <= n; ++j) {
     for (int i = 0; i <= n; ++i) {
-      floor.vertices.emplace_back(-half_size + 2 * half_size * i / n,
-                                  -half_size + 2 * half_size * j / n,
-                                  0);
+      floor.vertices.emplace_back(
+          -half_size + 2 * half_size * i / n, -half_size + 2 * half_size * j / n, 0);
     }
   }
   for (int j = 0; j < n; ++j) {
@@ -79,30 +73,26 @@ Scene FurnishedRoom(uint64_t seed, size_t target_triangles) {
                                   {5, 0.0, 0.9, 0.2}};
   uint16_t id = kFirstObjectId;
   for (const Placement& p : placements) {
-    scene.objects.push_back(
-        {std::make_shared<TriangleMesh>(catalog[p.model].model.mesh),
-         PoseXYZYaw(p.x, p.y, 0, p.yaw),
-         id++});
+    scene.objects.push_back({std::make_shared<TriangleMesh>(catalog[p.model].model.mesh),
+                             PoseXYZYaw(p.x, p.y, 0, p.yaw),
+                             id++});
   }
   size_t furniture_triangles = scene.NumTriangles();
   int grid = 1;
   if (target_triangles > furniture_triangles + 60) {
-    grid = static_cast<int>(
-        std::sqrt((target_triangles - furniture_triangles - 48) / 2.0));
+    grid = static_cast<int>(std::sqrt((target_triangles - furniture_triangles - 48) / 2.0));
   }
-  scene.objects.push_back(
-      {std::make_shared<TriangleMesh>(GridFloor(4.0f, std::max(1, grid))),
-       PoseXYZYaw(0, 2.0, 0, 0),
-       kFloorId});
+  scene.objects.push_back({std::make_shared<TriangleMesh>(GridFloor(4.0f, std::max(1, grid))),
+                           PoseXYZYaw(0, 2.0, 0, 0),
+                           kFloorId});
   const float h = 2.6f;
   const TriangleMesh walls[] = {MakeBox({-4, 6, 0}, {4, 6.1f, h}),
                                 MakeBox({-4, -2.1f, 0}, {4, -2, h}),
                                 MakeBox({-4.1f, -2, 0}, {-4, 6, h}),
                                 MakeBox({4, -2, 0}, {4.1f, 6, h})};
   for (const TriangleMesh& wall : walls) {
-    scene.objects.push_back({std::make_shared<TriangleMesh>(wall),
-                             Eigen::Isometry3d::Identity(),
-                             kWallId});
+    scene.objects.push_back(
+        {std::make_shared<TriangleMesh>(wall), Eigen::Isometry3d::Identity(), kWallId});
   }
   return scene;
 }

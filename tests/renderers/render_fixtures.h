@@ -16,12 +16,8 @@ SceneObject WallAt(double distance);
 
 // A box with its front face at y = front and x in [x_min, x_max], z in
 // [z_min, z_max]; 0.3 m deep.
-SceneObject BoxAt(double front,
-                  double x_min,
-                  double x_max,
-                  double z_min,
-                  double z_max,
-                  uint16_t id);
+SceneObject BoxAt(
+    double front, double x_min, double x_max, double z_min, double z_max, uint16_t id);
 
 // A furnished room: floor, four walls, procedural furniture from `seed`
 // around a table (ids from kFirstObjectId). With `target_triangles` > 0 the

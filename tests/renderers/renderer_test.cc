@@ -27,8 +27,7 @@ TEST_P(RendererTest, FrontoParallelPlaneRendersAtItsDistanceEverywhere) {
   for (float z : frame.depth) worst = std::max(worst, std::abs(z - 2.0f));
   EXPECT_LT(worst, 1e-4f) << "worst depth error " << worst << " m";
   EXPECT_EQ(frame.IdAt(0, 0), kWallId);
-  EXPECT_TRUE(frame.normals[frame.Index(320, 240)].isApprox(
-      Eigen::Vector3f(0, 0, -1), 1e-4f));
+  EXPECT_TRUE(frame.normals[frame.Index(320, 240)].isApprox(Eigen::Vector3f(0, 0, -1), 1e-4f));
 }
 
 TEST_P(RendererTest, TiltedPlaneMatchesAnalyticDepth) {
@@ -37,23 +36,18 @@ TEST_P(RendererTest, TiltedPlaneMatchesAnalyticDepth) {
   Scene scene;
   scene.objects.push_back(testing::WallAt(2.0));
   const double yaw = 25 * M_PI / 180, pitch = 10 * M_PI / 180;
-  const Eigen::Vector3d forward(std::sin(yaw) * std::cos(pitch),
-                                std::cos(yaw) * std::cos(pitch),
-                                -std::sin(pitch));
-  const Eigen::Isometry3d world_from_camera =
-      LookAlong(Eigen::Vector3d(0.1, -0.2, 1.0), forward);
+  const Eigen::Vector3d forward(
+      std::sin(yaw) * std::cos(pitch), std::cos(yaw) * std::cos(pitch), -std::sin(pitch));
+  const Eigen::Isometry3d world_from_camera = LookAlong(Eigen::Vector3d(0.1, -0.2, 1.0), forward);
   const DepthFrame frame = renderer_->Render(scene, camera_, world_from_camera);
   const Eigen::Vector3d normal_in_camera =
       world_from_camera.linear().transpose() * Eigen::Vector3d::UnitY();
-  const double offset =
-      2.0 -
-      world_from_camera.translation().y();  // plane: n . X_camera = offset
+  const double offset = 2.0 - world_from_camera.translation().y();  // plane: n . X_camera = offset
   double worst = 0;
   for (int v = 0; v < camera_.height; v += 3) {
     for (int u = 0; u < camera_.width; u += 3) {
       const double expected =
-          offset /
-          normal_in_camera.dot(camera_.RayThroughPixel(u, v).cast<double>());
+          offset / normal_in_camera.dot(camera_.RayThroughPixel(u, v).cast<double>());
       worst = std::max(worst, std::abs(frame.DepthAt(u, v) - expected));
     }
   }
@@ -80,9 +74,8 @@ TEST_P(RendererTest, IdsAndNormalsOfABoxInFrontOfAWall) {
 
 TEST_P(RendererTest, EmptySceneIsRejected) {
   const Scene empty;
-  EXPECT_THROW(
-      renderer_->Render(empty, camera_, testing::CameraAtOriginLookingAlongY()),
-      InputError);
+  EXPECT_THROW(renderer_->Render(empty, camera_, testing::CameraAtOriginLookingAlongY()),
+               InputError);
 }
 
 TEST_P(RendererTest, BadIntrinsicsAreRejected) {
@@ -93,9 +86,7 @@ TEST_P(RendererTest, BadIntrinsicsAreRejected) {
                                CameraIntrinsics{640, 480, -580.0},
                                CameraIntrinsics{640, 480, 580, 0.0},
                                CameraIntrinsics{100000, 480}}) {
-    EXPECT_THROW(
-        renderer_->Render(scene, bad, testing::CameraAtOriginLookingAlongY()),
-        InputError)
+    EXPECT_THROW(renderer_->Render(scene, bad, testing::CameraAtOriginLookingAlongY()), InputError)
         << bad.ToString();
   }
 }
@@ -103,28 +94,23 @@ TEST_P(RendererTest, BadIntrinsicsAreRejected) {
 TEST_P(RendererTest, CameraInsideGeometryIsRejected) {
   Scene scene;
   scene.objects.push_back(testing::WallAt(2.0));
-  scene.objects.push_back(
-      testing::BoxAt(-0.1, -0.5, 0.5, -0.5, 0.5, 11));  // encloses the origin
+  scene.objects.push_back(testing::BoxAt(-0.1, -0.5, 0.5, -0.5, 0.5, 11));  // encloses the origin
   try {
     renderer_->Render(scene, camera_, testing::CameraAtOriginLookingAlongY());
     FAIL();
   } catch (const InputError& error) {
-    EXPECT_NE(
-        std::string(error.what()).find("is inside scene object 1 (id 11)"),
-        std::string::npos)
+    EXPECT_NE(std::string(error.what()).find("is inside scene object 1 (id 11)"), std::string::npos)
         << error.what();
   }
 }
 
 TEST_P(RendererTest, AbsurdSizesAreRejected) {
   Scene scene;
-  scene.objects.push_back(
-      {std::make_shared<TriangleMesh>(MakeBox({-1e6f, 5, -1}, {1e6f, 6, 1})),
-       Eigen::Isometry3d::Identity(),
-       3});
-  EXPECT_THROW(
-      renderer_->Render(scene, camera_, testing::CameraAtOriginLookingAlongY()),
-      InputError);
+  scene.objects.push_back({std::make_shared<TriangleMesh>(MakeBox({-1e6f, 5, -1}, {1e6f, 6, 1})),
+                           Eigen::Isometry3d::Identity(),
+                           3});
+  EXPECT_THROW(renderer_->Render(scene, camera_, testing::CameraAtOriginLookingAlongY()),
+               InputError);
   Scene fine;
   fine.objects.push_back(testing::WallAt(2.0));
   Eigen::Isometry3d far_away = testing::CameraAtOriginLookingAlongY();
@@ -134,22 +120,20 @@ TEST_P(RendererTest, AbsurdSizesAreRejected) {
 
 INSTANTIATE_TEST_SUITE_P(Renderers,
                          RendererTest,
-                         ::testing::Values(RendererKind::kOsMesa,
-                                           RendererKind::kEmbree),
+                         ::testing::Values(RendererKind::kOsMesa, RendererKind::kEmbree),
                          [](const auto& info) {
-                           return std::string(
-                               info.param == RendererKind::kOsMesa ? "OsMesa"
-                                                                   : "Embree");
+                           return std::string(info.param == RendererKind::kOsMesa ? "OsMesa"
+                                                                                  : "Embree");
                          });
 
 TEST(RendererCrossCheck, OsMesaAndEmbreeAgreeOnAFurnishedRoom) {
   const Scene scene = testing::FurnishedRoom(3);
   const CameraIntrinsics camera = CameraIntrinsics::KinectV1();
   const Eigen::Isometry3d world_from_camera = testing::FurnishedRoomCamera();
-  const DepthFrame raster = MakeRenderer(RendererKind::kOsMesa)
-                                ->Render(scene, camera, world_from_camera);
-  const DepthFrame rays = MakeRenderer(RendererKind::kEmbree)
-                              ->Render(scene, camera, world_from_camera);
+  const DepthFrame raster =
+      MakeRenderer(RendererKind::kOsMesa)->Render(scene, camera, world_from_camera);
+  const DepthFrame rays =
+      MakeRenderer(RendererKind::kEmbree)->Render(scene, camera, world_from_camera);
   size_t both = 0, depth_agree = 0, id_agree = 0, objects_seen = 0;
   for (size_t i = 0; i < raster.depth.size(); ++i) {
     if (raster.depth[i] <= 0 || rays.depth[i] <= 0) continue;
@@ -159,12 +143,9 @@ TEST(RendererCrossCheck, OsMesaAndEmbreeAgreeOnAFurnishedRoom) {
     objects_seen += raster.instance_ids[i] >= kFirstObjectId;
   }
   ASSERT_GT(both, 300000u);
-  EXPECT_GT(objects_seen, 30000u)
-      << "the furniture should fill a good part of the view";
-  EXPECT_GE(static_cast<double>(depth_agree) / both, 0.995)
-      << depth_agree << " of " << both;
-  EXPECT_GE(static_cast<double>(id_agree) / both, 0.995)
-      << id_agree << " of " << both;
+  EXPECT_GT(objects_seen, 30000u) << "the furniture should fill a good part of the view";
+  EXPECT_GE(static_cast<double>(depth_agree) / both, 0.995) << depth_agree << " of " << both;
+  EXPECT_GE(static_cast<double>(id_agree) / both, 0.995) << id_agree << " of " << both;
 }
 
 TEST(RendererKinds, NamesParse) {

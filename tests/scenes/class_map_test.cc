@@ -19,17 +19,16 @@ std::string ErrorOf(const std::function<void()>& action) {
   return "(no error)";
 }
 
-std::string MapJson(const std::string& entries,
-                    const std::string& catalogs = R"(["Test.sh3f"])") {
-  return R"({"format": "furnidet-class-map", "version": 1, "catalogs": )" +
-         catalogs + R"(, "entries": [)" + entries + "]}";
+std::string MapJson(const std::string& entries, const std::string& catalogs = R"(["Test.sh3f"])") {
+  return R"({"format": "furnidet-class-map", "version": 1, "catalogs": )" + catalogs +
+         R"(, "entries": [)" + entries + "]}";
 }
 
 TEST(ClassMap, ParsesEntriesAndFlags) {
-  const ClassMap map = ParseClassMap(
-      MapJson(R"({"id": "Test/marker", "class": "chair", "note": "x"},
+  const ClassMap map =
+      ParseClassMap(MapJson(R"({"id": "Test/marker", "class": "chair", "note": "x"},
                  {"id": "Test/rotated", "class": "table", "evaluation_only": true})"),
-      "map.json");
+                    "map.json");
   ASSERT_EQ(map.entries.size(), 2u);
   EXPECT_EQ(map.catalogs, std::vector<std::string>{"Test.sh3f"});
   EXPECT_EQ(map.entries[0].furniture_class, FurnitureClass::kChair);
@@ -39,10 +38,8 @@ TEST(ClassMap, ParsesEntriesAndFlags) {
 }
 
 TEST(ClassMap, UnknownClassNamesEntryAndClass) {
-  const std::string message = ErrorOf([] {
-    ParseClassMap(MapJson(R"({"id": "Test/marker", "class": "stool"})"),
-                  "map.json");
-  });
+  const std::string message = ErrorOf(
+      [] { ParseClassMap(MapJson(R"({"id": "Test/marker", "class": "stool"})"), "map.json"); });
   EXPECT_EQ(message,
             "map.json: entry 'Test/marker' has unknown class 'stool' (allowed: "
             "chair, armchair, table, "
@@ -50,31 +47,23 @@ TEST(ClassMap, UnknownClassNamesEntryAndClass) {
 }
 
 TEST(ClassMap, StructuralMistakesAreRejected) {
-  EXPECT_NE(ErrorOf([] {
-              ParseClassMap("{not json", "m.json");
-            }).find("m.json: not valid JSON"),
+  EXPECT_NE(ErrorOf([] { ParseClassMap("{not json", "m.json"); }).find("m.json: not valid JSON"),
+            std::string::npos);
+  EXPECT_NE(ErrorOf([] { ParseClassMap(MapJson(""), "m.json"); }).find("names no entries"),
             std::string::npos);
   EXPECT_NE(ErrorOf([] {
-              ParseClassMap(MapJson(""), "m.json");
-            }).find("names no entries"),
+              ParseClassMap(
+                  MapJson(R"({"id": "A/b", "class": "chair"},{"id": "A/b", "class": "table"})",
+                          R"(["A.sh3f"])"),
+                  "m.json");
+            }).find("'A/b' is listed twice"),
             std::string::npos);
-  EXPECT_NE(
-      ErrorOf([] {
-        ParseClassMap(
-            MapJson(
-                R"({"id": "A/b", "class": "chair"},{"id": "A/b", "class": "table"})",
-                R"(["A.sh3f"])"),
-            "m.json");
-      }).find("'A/b' is listed twice"),
-      std::string::npos);
   EXPECT_NE(ErrorOf([] {
-              ParseClassMap(MapJson(R"({"id": "Other/b", "class": "chair"})"),
-                            "m.json");
+              ParseClassMap(MapJson(R"({"id": "Other/b", "class": "chair"})"), "m.json");
             }).find("'Other/b' names no listed catalog"),
             std::string::npos);
   EXPECT_NE(ErrorOf([] {
-              ParseClassMap(MapJson(R"({"id": "Test/b", "klass": "chair"})"),
-                            "m.json");
+              ParseClassMap(MapJson(R"({"id": "Test/b", "klass": "chair"})"), "m.json");
             }).find("unknown field 'klass'"),
             std::string::npos);
   EXPECT_NE(ErrorOf([] {
@@ -90,8 +79,7 @@ TEST(ClassMap, StructuralMistakesAreRejected) {
 TEST(ClassMap, OpenCatalogClassifiesEntriesFromTheMap) {
   const std::string dir = testing::ScratchDir();
   testing::WriteTestSh3f(dir, "Test.sh3f");
-  testing::WriteText(dir + "/map.json",
-                     MapJson(R"({"id": "Test/marker", "class": "armchair"})"));
+  testing::WriteText(dir + "/map.json", MapJson(R"({"id": "Test/marker", "class": "armchair"})"));
   CatalogOpenOptions options;
   options.catalog_dir = dir;
   const Catalog catalog = OpenCatalog(dir + "/map.json", options);
@@ -99,22 +87,18 @@ TEST(ClassMap, OpenCatalogClassifiesEntriesFromTheMap) {
             3u);  // the unclassified ones stay as clutter
   ASSERT_EQ(catalog.Classified().size(), 1u);
   EXPECT_EQ(catalog.Classified()[0]->id, "Test/marker");
-  EXPECT_EQ(catalog.Classified()[0]->furniture_class,
-            FurnitureClass::kArmchair);
+  EXPECT_EQ(catalog.Classified()[0]->furniture_class, FurnitureClass::kArmchair);
   EXPECT_FALSE(catalog.Get("Test/rotated").furniture_class.has_value());
-  EXPECT_TRUE(catalog.Get("Test/rotated")
-                  .size_m.isApprox(Eigen::Vector3f(0.8f, 1.2f, 2.0f)));
+  EXPECT_TRUE(catalog.Get("Test/rotated").size_m.isApprox(Eigen::Vector3f(0.8f, 1.2f, 2.0f)));
 }
 
 TEST(ClassMap, EntryMissingFromTheCatalogIsRejected) {
   const std::string dir = testing::ScratchDir();
   testing::WriteTestSh3f(dir, "Test.sh3f");
-  testing::WriteText(dir + "/map.json",
-                     MapJson(R"({"id": "Test/sofa9", "class": "sofa"})"));
+  testing::WriteText(dir + "/map.json", MapJson(R"({"id": "Test/sofa9", "class": "sofa"})"));
   CatalogOpenOptions options;
   options.catalog_dir = dir;
-  const std::string message =
-      ErrorOf([&] { OpenCatalog(dir + "/map.json", options); });
+  const std::string message = ErrorOf([&] { OpenCatalog(dir + "/map.json", options); });
   EXPECT_EQ(message,
             dir +
                 "/map.json: entry 'Test/sofa9' does not exist in catalog "
@@ -126,8 +110,7 @@ TEST(ClassMap, UnknownEntryLookupSuggestsCloseIds) {
   const std::string dir = testing::ScratchDir();
   const Catalog catalog = OpenCatalog(testing::WriteTestSh3f(dir, "Test.sh3f"));
   const std::string message = ErrorOf([&] { catalog.Get("Test/markr"); });
-  EXPECT_NE(message.find("entry 'Test/markr' is not in catalog"),
-            std::string::npos);
+  EXPECT_NE(message.find("entry 'Test/markr' is not in catalog"), std::string::npos);
   EXPECT_NE(message.find("closest: Test/marker"), std::string::npos) << message;
 }
 
@@ -141,23 +124,17 @@ TEST(ClassMap, DefaultFallsBackToProceduralWithoutThePackage) {
   const Catalog catalog = OpenCatalog("default", options);
   EXPECT_EQ(catalog.description(), "default (procedural fallback)");
   ASSERT_EQ(catalog.warnings().size(), 1u);
-  EXPECT_NE(catalog.warnings()[0].find("sweethome3d-furniture"),
-            std::string::npos);
+  EXPECT_NE(catalog.warnings()[0].find("sweethome3d-furniture"), std::string::npos);
   EXPECT_EQ(catalog.Classified().size(), 16u);
   options.allow_procedural_fallback = false;
-  EXPECT_NE(ErrorOf([&] {
-              OpenCatalog("default", options);
-            }).find("file does not exist"),
+  EXPECT_NE(ErrorOf([&] { OpenCatalog("default", options); }).find("file does not exist"),
             std::string::npos);
 }
 
 TEST(ClassMap, UnknownCatalogSpecIsRejected) {
-  EXPECT_NE(
-      ErrorOf([] { OpenCatalog("bogus"); }).find("unknown catalog 'bogus'"),
-      std::string::npos);
-  EXPECT_NE(ErrorOf([] {
-              OpenCatalog("procedural:x1");
-            }).find("must be a whole number"),
+  EXPECT_NE(ErrorOf([] { OpenCatalog("bogus"); }).find("unknown catalog 'bogus'"),
+            std::string::npos);
+  EXPECT_NE(ErrorOf([] { OpenCatalog("procedural:x1"); }).find("must be a whole number"),
             std::string::npos);
 }
 

@@ -48,11 +48,9 @@ TEST_F(DefaultCatalog, CoversTheRequiredClassesFromTheThreeCatalogs) {
 
 TEST_F(DefaultCatalog, EveryClassifiedModelLoadsAtCatalogSizeOnTheFloor) {
   std::vector<std::string> ids;
-  for (const CatalogEntry* entry : catalog_->Classified())
-    ids.push_back(entry->id);
+  for (const CatalogEntry* entry : catalog_->Classified()) ids.push_back(entry->id);
   const LoadedModels loaded = catalog_->LoadModels(ids);
-  for (const ModelLoadFailure& failure : loaded.failures)
-    ADD_FAILURE() << failure.message;
+  for (const ModelLoadFailure& failure : loaded.failures) ADD_FAILURE() << failure.message;
   ASSERT_EQ(loaded.models.size(), ids.size());
   for (const CadModel& model : loaded.models) {
     const Eigen::Vector3f expected = catalog_->Get(model.id).size_m;

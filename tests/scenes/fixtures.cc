@@ -15,9 +15,7 @@ TriangleMesh MarkerMesh() {
   return mesh;
 }
 
-void ExpectMarkerPose(const TriangleMesh& mesh,
-                      const Eigen::Vector3f& size,
-                      float tolerance) {
+void ExpectMarkerPose(const TriangleMesh& mesh, const Eigen::Vector3f& size, float tolerance) {
   const Box3 box = BoundingBox(mesh);
   EXPECT_NEAR(box.Size().x(), size.x(), tolerance);
   EXPECT_NEAR(box.Size().y(), size.y(), tolerance);
@@ -58,8 +56,7 @@ std::string PlyAsciiText(const TriangleMesh& mesh) {
   std::ostringstream out;
   out << "ply\nformat ascii 1.0\nelement vertex " << mesh.vertices.size()
       << "\nproperty float x\nproperty float y\nproperty float z\nelement face "
-      << mesh.triangles.size()
-      << "\nproperty list uchar int vertex_indices\nend_header\n";
+      << mesh.triangles.size() << "\nproperty list uchar int vertex_indices\nend_header\n";
   for (const Eigen::Vector3f& v : mesh.vertices)
     out << v.x() << " " << v.y() << " " << v.z() << "\n";
   for (const Eigen::Vector3i& t : mesh.triangles)
@@ -84,8 +81,7 @@ std::string StlAsciiText(const TriangleMesh& mesh) {
 
 std::string OffText(const TriangleMesh& mesh) {
   std::ostringstream out;
-  out << "OFF\n"
-      << mesh.vertices.size() << " " << mesh.triangles.size() << " 0\n";
+  out << "OFF\n" << mesh.vertices.size() << " " << mesh.triangles.size() << " 0\n";
   for (const Eigen::Vector3f& v : mesh.vertices)
     out << v.x() << " " << v.y() << " " << v.z() << "\n";
   for (const Eigen::Vector3i& t : mesh.triangles)
@@ -96,13 +92,12 @@ std::string OffText(const TriangleMesh& mesh) {
 namespace {
 
 std::string Base64(const std::string& bytes) {
-  static const char* kAlphabet =
-      "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  static const char* kAlphabet = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
   std::string out;
   size_t i = 0;
   for (; i + 2 < bytes.size(); i += 3) {
-    const uint32_t n = (uint8_t(bytes[i]) << 16) |
-                       (uint8_t(bytes[i + 1]) << 8) | uint8_t(bytes[i + 2]);
+    const uint32_t n =
+        (uint8_t(bytes[i]) << 16) | (uint8_t(bytes[i + 1]) << 8) | uint8_t(bytes[i + 2]);
     for (int s = 18; s >= 0; s -= 6) out.push_back(kAlphabet[(n >> s) & 63]);
   }
   if (i < bytes.size()) {
@@ -138,18 +133,15 @@ std::string GltfEmbeddedText(const TriangleMesh& mesh) {
   out << R"({"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[0]}],"nodes":[{"mesh":0}],)"
       << R"("meshes":[{"primitives":[{"attributes":{"POSITION":0},"indices":1,"mode":4}]}],)"
       << R"("buffers":[{"byteLength":)" << buffer.size()
-      << R"(,"uri":"data:application/octet-stream;base64,)" << Base64(buffer)
-      << R"("}],)"
-      << R"("bufferViews":[{"buffer":0,"byteOffset":0,"byteLength":)"
-      << index_offset << R"(,"target":34962},{"buffer":0,"byteOffset":)"
-      << index_offset << R"(,"byteLength":)" << buffer.size() - index_offset
-      << R"(,"target":34963}],)"
-      << R"("accessors":[{"bufferView":0,"componentType":5126,"count":)"
-      << mesh.vertices.size() << R"(,"type":"VEC3","min":[)" << low.x() << ","
-      << low.y() << "," << low.z() << R"(],"max":[)" << high.x() << ","
-      << high.y() << "," << high.z() << R"(]},)"
-      << R"({"bufferView":1,"componentType":5125,"count":)"
-      << 3 * mesh.triangles.size() << R"(,"type":"SCALAR"}]})";
+      << R"(,"uri":"data:application/octet-stream;base64,)" << Base64(buffer) << R"("}],)"
+      << R"("bufferViews":[{"buffer":0,"byteOffset":0,"byteLength":)" << index_offset
+      << R"(,"target":34962},{"buffer":0,"byteOffset":)" << index_offset << R"(,"byteLength":)"
+      << buffer.size() - index_offset << R"(,"target":34963}],)"
+      << R"("accessors":[{"bufferView":0,"componentType":5126,"count":)" << mesh.vertices.size()
+      << R"(,"type":"VEC3","min":[)" << low.x() << "," << low.y() << "," << low.z()
+      << R"(],"max":[)" << high.x() << "," << high.y() << "," << high.z() << R"(]},)"
+      << R"({"bufferView":1,"componentType":5125,"count":)" << 3 * mesh.triangles.size()
+      << R"(,"type":"SCALAR"}]})";
   return out.str();
 }
 
@@ -165,16 +157,14 @@ std::string ColladaZUpText(const TriangleMesh& mesh) {
  <asset><unit name="meter" meter="1"/><up_axis>Z_UP</up_axis></asset>
  <library_geometries><geometry id="m" name="m"><mesh>
   <source id="m-pos"><float_array id="m-pos-array" count=")"
-      << 3 * mesh.vertices.size() << R"(">)" << positions.str()
-      << R"(</float_array>
+      << 3 * mesh.vertices.size() << R"(">)" << positions.str() << R"(</float_array>
    <technique_common><accessor source="#m-pos-array" count=")"
       << mesh.vertices.size() << R"(" stride="3">
     <param name="X" type="float"/><param name="Y" type="float"/><param name="Z" type="float"/>
    </accessor></technique_common></source>
   <vertices id="m-vtx"><input semantic="POSITION" source="#m-pos"/></vertices>
   <triangles count=")"
-      << mesh.triangles.size()
-      << R"("><input semantic="VERTEX" source="#m-vtx" offset="0"/><p>)"
+      << mesh.triangles.size() << R"("><input semantic="VERTEX" source="#m-vtx" offset="0"/><p>)"
       << indices.str() << R"(</p></triangles>
  </mesh></geometry></library_geometries>
  <library_visual_scenes><visual_scene id="s"><node id="n"><instance_geometry url="#m"/></node></visual_scene></library_visual_scenes>
@@ -191,14 +181,11 @@ void WriteZip(const std::string& path,
   zip_t* zip = zip_open(path.c_str(), ZIP_CREATE | ZIP_TRUNCATE, &error);
   ASSERT_NE(zip, nullptr) << "cannot create " << path;
   for (const auto& [name, bytes] : files) {
-    zip_source_t* source =
-        zip_source_buffer(zip, bytes.data(), bytes.size(), 0);
+    zip_source_t* source = zip_source_buffer(zip, bytes.data(), bytes.size(), 0);
     ASSERT_NE(source, nullptr);
-    const zip_int64_t index =
-        zip_file_add(zip, name.c_str(), source, ZIP_FL_OVERWRITE);
+    const zip_int64_t index = zip_file_add(zip, name.c_str(), source, ZIP_FL_OVERWRITE);
     ASSERT_GE(index, 0) << zip_strerror(zip);
-    if (stored.count(name))
-      zip_set_file_compression(zip, index, ZIP_CM_STORE, 0);
+    if (stored.count(name)) zip_set_file_compression(zip, index, ZIP_CM_STORE, 0);
   }
   ASSERT_EQ(zip_close(zip), 0) << "cannot write " << path;
 }
@@ -207,8 +194,7 @@ void WriteZip(const std::string& path,
 
 namespace furn::testing {
 
-std::string WriteTestSh3f(const std::string& dir,
-                          const std::string& file_name) {
+std::string WriteTestSh3f(const std::string& dir, const std::string& file_name) {
   const std::string stem = file_name.substr(0, file_name.rfind('.'));
   // ISO-8859-1 bytes (0xA9 = copyright sign) as in Debian's catalogs.
   const std::string properties =
@@ -248,11 +234,9 @@ std::string WriteTestSh3f(const std::string& dir,
   const std::string path = dir + "/" + file_name;
   WriteZip(path,
            {{"PluginFurnitureCatalog.properties", properties},
-            {"marker/marker.obj",
-             ObjText(MarkerMesh(), 37.0f * YUpFromZUp(), "marker.mtl")},
+            {"marker/marker.obj", ObjText(MarkerMesh(), 37.0f * YUpFromZUp(), "marker.mtl")},
             {"marker/marker.mtl", "newmtl wood\nKd 0.6 0.4 0.2\n"},
-            {"rotated/rotated.obj",
-             ObjText(MarkerMesh(), 50.0f * Eigen::Matrix3f::Identity())}},
+            {"rotated/rotated.obj", ObjText(MarkerMesh(), 50.0f * Eigen::Matrix3f::Identity())}},
            {"marker/marker.obj"});
   return path;
 }

@@ -17,9 +17,7 @@ TriangleMesh MarkerMesh();
 
 // Expects `mesh` to be MarkerMesh() scaled to `size`, base on z = 0, footprint
 // centred, the post at +x, +y (so neither mirrored nor rotated).
-void ExpectMarkerPose(const TriangleMesh& mesh,
-                      const Eigen::Vector3f& size,
-                      float tolerance);
+void ExpectMarkerPose(const TriangleMesh& mesh, const Eigen::Vector3f& size, float tolerance);
 
 // Coordinates in the file = file_from_engine * engine coordinates.
 Eigen::Matrix3f YUpFromZUp();  // (x, y, z) -> (x, z, -y)
@@ -30,8 +28,7 @@ std::string ObjText(const TriangleMesh& mesh,
 std::string PlyAsciiText(const TriangleMesh& mesh);
 std::string StlAsciiText(const TriangleMesh& mesh);
 std::string OffText(const TriangleMesh& mesh);
-std::string GltfEmbeddedText(
-    const TriangleMesh& mesh);  // y up, as glTF requires
+std::string GltfEmbeddedText(const TriangleMesh& mesh);  // y up, as glTF requires
 std::string ColladaZUpText(const TriangleMesh& mesh);
 
 // Writes a zip; entries named in `stored` are not compressed (so tests can

@@ -34,8 +34,8 @@ std::string ErrorOf(const std::function<void()>& action) {
 }
 
 TEST(MeshIo, ObjIsYUpByDefault) {
-  const CadModel model = LoadText(
-      "marker.obj", testing::ObjText(MarkerMesh(), testing::YUpFromZUp()));
+  const CadModel model =
+      LoadText("marker.obj", testing::ObjText(MarkerMesh(), testing::YUpFromZUp()));
   testing::ExpectMarkerPose(model.mesh, kMarkerSize, 1e-5f);
   EXPECT_EQ(model.mesh.NumTriangles(), 24u);
   EXPECT_EQ(model.id, "marker");
@@ -46,8 +46,7 @@ TEST(MeshIo, ObjInCentimetresScalesToMetres) {
   Eigen::Matrix3f to_cm = 100.0f * testing::YUpFromZUp();
   MeshLoadOptions options;
   options.metres_per_unit = 0.01;
-  const CadModel model =
-      LoadText("marker_cm.obj", testing::ObjText(MarkerMesh(), to_cm), options);
+  const CadModel model = LoadText("marker_cm.obj", testing::ObjText(MarkerMesh(), to_cm), options);
   testing::ExpectMarkerPose(model.mesh, kMarkerSize, 1e-4f);
 }
 
@@ -55,45 +54,33 @@ TEST(MeshIo, UpAxisOverrideReadsZUpObj) {
   MeshLoadOptions options;
   options.up_axis = UpAxis::kZ;
   const CadModel model =
-      LoadText("zup.obj",
-               testing::ObjText(MarkerMesh(), Eigen::Matrix3f::Identity()),
-               options);
+      LoadText("zup.obj", testing::ObjText(MarkerMesh(), Eigen::Matrix3f::Identity()), options);
   testing::ExpectMarkerPose(model.mesh, kMarkerSize, 1e-5f);
 }
 
 TEST(MeshIo, PlyIsZUp) {
   testing::ExpectMarkerPose(
-      LoadText("marker.ply", testing::PlyAsciiText(MarkerMesh())).mesh,
-      kMarkerSize,
-      1e-5f);
+      LoadText("marker.ply", testing::PlyAsciiText(MarkerMesh())).mesh, kMarkerSize, 1e-5f);
 }
 
 TEST(MeshIo, StlIsZUp) {
   testing::ExpectMarkerPose(
-      LoadText("marker.stl", testing::StlAsciiText(MarkerMesh())).mesh,
-      kMarkerSize,
-      1e-5f);
+      LoadText("marker.stl", testing::StlAsciiText(MarkerMesh())).mesh, kMarkerSize, 1e-5f);
 }
 
 TEST(MeshIo, OffIsZUp) {
   testing::ExpectMarkerPose(
-      LoadText("marker.off", testing::OffText(MarkerMesh())).mesh,
-      kMarkerSize,
-      1e-5f);
+      LoadText("marker.off", testing::OffText(MarkerMesh())).mesh, kMarkerSize, 1e-5f);
 }
 
 TEST(MeshIo, GltfIsYUp) {
   testing::ExpectMarkerPose(
-      LoadText("marker.gltf", testing::GltfEmbeddedText(MarkerMesh())).mesh,
-      kMarkerSize,
-      1e-5f);
+      LoadText("marker.gltf", testing::GltfEmbeddedText(MarkerMesh())).mesh, kMarkerSize, 1e-5f);
 }
 
 TEST(MeshIo, ColladaWithZUpAxisLoadsUpright) {
   testing::ExpectMarkerPose(
-      LoadText("marker.dae", testing::ColladaZUpText(MarkerMesh())).mesh,
-      kMarkerSize,
-      1e-5f);
+      LoadText("marker.dae", testing::ColladaZUpText(MarkerMesh())).mesh, kMarkerSize, 1e-5f);
 }
 
 TEST(MeshIo, ExportThenLoadGivesTheMeshBackInEveryFormat) {
@@ -112,10 +99,9 @@ TEST(MeshIo, ExportThenLoadGivesTheMeshBackInEveryFormat) {
 
 TEST(MeshIo, ExportRejectsUnknownFormatAndLeavesNothing) {
   const std::string dir = testing::ScratchDir();
-  EXPECT_NE(ErrorOf([&] {
-              ExportMesh(MarkerMesh(), dir + "/x.xyz");
-            }).find("cannot export format 'xyz'"),
-            std::string::npos);
+  EXPECT_NE(
+      ErrorOf([&] { ExportMesh(MarkerMesh(), dir + "/x.xyz"); }).find("cannot export format 'xyz'"),
+      std::string::npos);
   EXPECT_THROW(ExportMesh(MarkerMesh(), dir + "/missing/x.ply"), InputError);
   EXPECT_TRUE(std::filesystem::is_empty(dir));
 }
@@ -126,38 +112,31 @@ TEST(MeshIo, MissingFileIsNamed) {
 }
 
 TEST(MeshIo, UnknownFormatIsNamed) {
-  const std::string message =
-      ErrorOf([] { LoadText("chair.xyz", "whatever"); });
-  EXPECT_NE(message.find("chair.xyz: unknown format 'xyz'"), std::string::npos)
-      << message;
+  const std::string message = ErrorOf([] { LoadText("chair.xyz", "whatever"); });
+  EXPECT_NE(message.find("chair.xyz: unknown format 'xyz'"), std::string::npos) << message;
 }
 
 TEST(MeshIo, ObjWithoutFacesIsRejected) {
   const std::string message =
       ErrorOf([] { LoadText("points.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\n"); });
-  EXPECT_NE(message.find("points.obj: mesh has no faces"), std::string::npos)
-      << message;
+  EXPECT_NE(message.find("points.obj: mesh has no faces"), std::string::npos) << message;
 }
 
 TEST(MeshIo, ObjWithNanVerticesIsRejected) {
-  const std::string message = ErrorOf(
-      [] { LoadText("nan.obj", "v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n"); });
-  EXPECT_NE(message.find("nan.obj: vertex 1 is not finite"), std::string::npos)
-      << message;
+  const std::string message =
+      ErrorOf([] { LoadText("nan.obj", "v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n"); });
+  EXPECT_NE(message.find("nan.obj: vertex 1 is not finite"), std::string::npos) << message;
 }
 
 TEST(MeshIo, GarbageInAKnownFormatIsRejected) {
-  const std::string message =
-      ErrorOf([] { LoadText("broken.ply", "ply\nformat nonsense\n"); });
+  const std::string message = ErrorOf([] { LoadText("broken.ply", "ply\nformat nonsense\n"); });
   EXPECT_NE(message.find("broken.ply: "), std::string::npos) << message;
 }
 
 TEST(MeshIo, BadOptionsAreRejected) {
   MeshLoadOptions options;
   options.metres_per_unit = -1;
-  EXPECT_THROW(LoadText("m.obj",
-                        testing::ObjText(MarkerMesh(), testing::YUpFromZUp()),
-                        options),
+  EXPECT_THROW(LoadText("m.obj", testing::ObjText(MarkerMesh(), testing::YUpFromZUp()), options),
                InputError);
   EXPECT_GT(SupportedImportExtensions().size(), 20u);
 }

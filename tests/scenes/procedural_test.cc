@@ -55,16 +55,12 @@ TEST(Procedural, DimensionsArePlausibleForEachClass) {
       {FurnitureClass::kChair, {0.40f, 0.40f, 0.77f}, {0.50f, 0.50f, 0.98f}},
       {FurnitureClass::kArmchair, {0.65f, 0.65f, 0.73f}, {0.90f, 0.85f, 0.95f}},
       {FurnitureClass::kTable, {0.80f, 0.60f, 0.70f}, {1.80f, 1.20f, 0.78f}},
-      {FurnitureClass::kSideboard,
-       {1.00f, 0.40f, 0.70f},
-       {2.06f, 0.58f, 0.95f}},
+      {FurnitureClass::kSideboard, {1.00f, 0.40f, 0.70f}, {2.06f, 0.58f, 0.95f}},
   };
   for (const SizeRange& range : ranges) {
     for (uint64_t seed = 1; seed <= 30; ++seed) {
       const Eigen::Vector3f size =
-          BoundingBox(
-              MakeProceduralModel(range.furniture_class, seed).model.mesh)
-              .Size();
+          BoundingBox(MakeProceduralModel(range.furniture_class, seed).model.mesh).Size();
       for (int axis = 0; axis < 3; ++axis) {
         EXPECT_GE(size[axis], range.low[axis] - 1e-4f)
             << ClassName(range.furniture_class) << " axis " << axis;
@@ -77,8 +73,7 @@ TEST(Procedural, DimensionsArePlausibleForEachClass) {
 
 TEST(Procedural, ChairBackIsAtPlusYSoTheFrontFacesMinusY) {
   for (uint64_t seed = 1; seed <= 10; ++seed) {
-    const TriangleMesh mesh =
-        MakeProceduralModel(FurnitureClass::kChair, seed).model.mesh;
+    const TriangleMesh mesh = MakeProceduralModel(FurnitureClass::kChair, seed).model.mesh;
     const float top = BoundingBox(mesh).max.z();
     for (const Eigen::Vector3f& p : mesh.vertices) {
       if (p.z() > top - 0.05f) {

@@ -47,8 +47,7 @@ TEST(JavaProperties, Latin1IsConvertedToUtf8) {
 }
 
 TEST(Sh3f, ReadsEntriesAndReportsBadOnes) {
-  const std::string path =
-      testing::WriteTestSh3f(testing::ScratchDir(), "Test.sh3f");
+  const std::string path = testing::WriteTestSh3f(testing::ScratchDir(), "Test.sh3f");
   const Sh3fCatalog catalog(path);
   EXPECT_EQ(catalog.stem(), "Test");
   ASSERT_EQ(catalog.entries().size(), 3u);
@@ -61,46 +60,39 @@ TEST(Sh3f, ReadsEntriesAndReportsBadOnes) {
   EXPECT_FLOAT_EQ(marker->height_cm, 100);
   EXPECT_EQ(catalog.Find("Test/rotated")->name, "Rotated marker");
   ASSERT_EQ(catalog.problems().size(), 1u);
-  EXPECT_NE(catalog.problems()[0].find("width#4 'abc' is not a number"),
-            std::string::npos)
+  EXPECT_NE(catalog.problems()[0].find("width#4 'abc' is not a number"), std::string::npos)
       << catalog.problems()[0];
 }
 
 TEST(Sh3f, ImportsWithCatalogScaleAndOrientation) {
-  const std::string path =
-      testing::WriteTestSh3f(testing::ScratchDir(), "Test.sh3f");
+  const std::string path = testing::WriteTestSh3f(testing::ScratchDir(), "Test.sh3f");
   const Sh3fCatalog catalog(path);
   const CadModel marker = catalog.LoadModel(*catalog.Find("Test/marker"));
-  testing::ExpectMarkerPose(
-      marker.mesh, Eigen::Vector3f(0.4f, 0.6f, 1.0f), 1e-5f);
+  testing::ExpectMarkerPose(marker.mesh, Eigen::Vector3f(0.4f, 0.6f, 1.0f), 1e-5f);
   EXPECT_EQ(marker.source_path, path + "!/marker/marker.obj");
   EXPECT_EQ(marker.content_hash, HashMesh(marker.mesh));
 }
 
 TEST(Sh3f, AppliesModelRotationBeforeScaling) {
-  const std::string path =
-      testing::WriteTestSh3f(testing::ScratchDir(), "Test.sh3f");
+  const std::string path = testing::WriteTestSh3f(testing::ScratchDir(), "Test.sh3f");
   const Sh3fCatalog catalog(path);
   const CadModel rotated = catalog.LoadModel(*catalog.Find("Test/rotated"));
-  testing::ExpectMarkerPose(
-      rotated.mesh, Eigen::Vector3f(0.8f, 1.2f, 2.0f), 1e-5f);
+  testing::ExpectMarkerPose(rotated.mesh, Eigen::Vector3f(0.8f, 1.2f, 2.0f), 1e-5f);
 }
 
 TEST(Sh3f, EntryWithMissingModelIsReportedAndSkipped) {
   const std::string dir = testing::ScratchDir();
   const std::string path = testing::WriteTestSh3f(dir, "Test.sh3f");
   const Catalog catalog = OpenCatalog(path);
-  const LoadedModels loaded =
-      catalog.LoadModels({"Test/marker", "Test/missing", "Test/rotated"});
+  const LoadedModels loaded = catalog.LoadModels({"Test/marker", "Test/missing", "Test/rotated"});
   ASSERT_EQ(loaded.models.size(), 2u);
   EXPECT_EQ(loaded.models[0].id, "Test/marker");
   EXPECT_EQ(loaded.models[1].id, "Test/rotated");
   ASSERT_EQ(loaded.failures.size(), 1u);
   EXPECT_EQ(loaded.failures[0].id, "Test/missing");
   EXPECT_NE(loaded.failures[0].message.find("Test/missing"), std::string::npos);
-  EXPECT_NE(
-      loaded.failures[0].message.find("missing/missing.obj: no such entry"),
-      std::string::npos)
+  EXPECT_NE(loaded.failures[0].message.find("missing/missing.obj: no such entry"),
+            std::string::npos)
       << loaded.failures[0].message;
 }
 
@@ -113,21 +105,16 @@ TEST(Sh3f, CorruptZipIsRejected) {
   const std::string path = testing::ScratchDir() + "/corrupt.sh3f";
   testing::WriteText(path, std::string(4096, 'x'));
   const std::string message = ErrorOf([&] { Sh3fCatalog catalog(path); });
-  EXPECT_NE(message.find(path + ": not a readable zip archive"),
-            std::string::npos)
-      << message;
+  EXPECT_NE(message.find(path + ": not a readable zip archive"), std::string::npos) << message;
 }
 
 TEST(Sh3f, TruncatedZipIsRejected) {
   const std::string dir = testing::ScratchDir();
-  const std::string bytes =
-      ReadFileBytes(testing::WriteTestSh3f(dir, "Test.sh3f"));
+  const std::string bytes = ReadFileBytes(testing::WriteTestSh3f(dir, "Test.sh3f"));
   const std::string path = dir + "/truncated.sh3f";
   testing::WriteText(path, bytes.substr(0, bytes.size() * 2 / 3));
   const std::string message = ErrorOf([&] { Sh3fCatalog catalog(path); });
-  EXPECT_NE(message.find(path + ": not a readable zip archive"),
-            std::string::npos)
-      << message;
+  EXPECT_NE(message.find(path + ": not a readable zip archive"), std::string::npos) << message;
 }
 
 TEST(Sh3f, CorruptEntryDataFailsThatModelOnly) {
@@ -141,8 +128,7 @@ TEST(Sh3f, CorruptEntryDataFailsThatModelOnly) {
   const std::string path = dir + "/damaged.sh3f";
   testing::WriteText(path, bytes);
   const Sh3fCatalog catalog(path);
-  const std::string message =
-      ErrorOf([&] { catalog.LoadModel(*catalog.Find("damaged/marker")); });
+  const std::string message = ErrorOf([&] { catalog.LoadModel(*catalog.Find("damaged/marker")); });
   EXPECT_NE(message.find("corrupt entry"), std::string::npos) << message;
   EXPECT_NO_THROW(catalog.LoadModel(*catalog.Find("damaged/rotated")));
 }
@@ -151,16 +137,13 @@ TEST(Sh3f, ArchiveWithoutPropertiesIsRejected) {
   const std::string path = testing::ScratchDir() + "/plain.sh3f";
   testing::WriteZip(path, {{"readme.txt", "hello"}});
   const std::string message = ErrorOf([&] { Sh3fCatalog catalog(path); });
-  EXPECT_NE(message.find("no PluginFurnitureCatalog.properties"),
-            std::string::npos)
-      << message;
+  EXPECT_NE(message.find("no PluginFurnitureCatalog.properties"), std::string::npos) << message;
 }
 
 TEST(Sh3f, PropertiesWithoutModelsAreRejected) {
   const std::string path = testing::ScratchDir() + "/empty.sh3f";
   testing::WriteZip(path,
-                    {{"PluginFurnitureCatalog.properties",
-                      "id=X\nname=Nothing here\nname#1=A\n"}});
+                    {{"PluginFurnitureCatalog.properties", "id=X\nname=Nothing here\nname#1=A\n"}});
   const std::string message = ErrorOf([&] { Sh3fCatalog catalog(path); });
   EXPECT_NE(message.find("declares no models"), std::string::npos) << message;
 }
@@ -170,11 +153,9 @@ TEST(Sh3f, FlatModelCannotBeScaled) {
   flat.vertices = {{0, 0, 0}, {1, 0, 0}, {0, 0, 1}};
   flat.triangles = {{0, 1, 2}};
   const std::string message = ErrorOf([&] {
-    NormalizeSweetHome3dMesh(
-        flat, Eigen::Matrix3f::Identity(), 10, 10, 10, "flat entry");
+    NormalizeSweetHome3dMesh(flat, Eigen::Matrix3f::Identity(), 10, 10, 10, "flat entry");
   });
-  EXPECT_NE(message.find("flat entry: model is flat along its height"),
-            std::string::npos)
+  EXPECT_NE(message.find("flat entry: model is flat along its height"), std::string::npos)
       << message;
 }
 

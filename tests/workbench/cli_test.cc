@@ -22,8 +22,7 @@ struct RunResult {
 };
 
 RunResult RunWorkbench(const std::string& arguments) {
-  const std::string command =
-      std::string(FURN_WORKBENCH_BINARY) + " " + arguments + " 2>&1";
+  const std::string command = std::string(FURN_WORKBENCH_BINARY) + " " + arguments + " 2>&1";
   RunResult result;
   FILE* pipe = popen(command.c_str(), "r");
   if (pipe == nullptr) return result;
@@ -40,14 +39,12 @@ RunResult RunWorkbench(const std::string& arguments) {
 size_t CountErrorLines(const std::string& text) {
   size_t lines = 0;
   std::istringstream stream(text);
-  for (std::string line; std::getline(stream, line);)
-    lines += line.rfind("warning: ", 0) != 0;
+  for (std::string line; std::getline(stream, line);) lines += line.rfind("warning: ", 0) != 0;
   return lines;
 }
 
 TEST(Cli, ListsTheProceduralCatalogAsTableAndJson) {
-  const RunResult table =
-      RunWorkbench("catalog list --catalog procedural:3 --load --quiet");
+  const RunResult table = RunWorkbench("catalog list --catalog procedural:3 --load --quiet");
   ASSERT_EQ(table.exit_code, 0) << table.output;
   EXPECT_NE(table.output.find("procedural/chair-0"), std::string::npos);
   EXPECT_NE(table.output.find("16 entries in catalog procedural:3: 4 armchair "
@@ -55,8 +52,8 @@ TEST(Cli, ListsTheProceduralCatalogAsTableAndJson) {
                               "16 models loaded"),
             std::string::npos)
       << table.output;
-  const RunResult json = RunWorkbench(
-      "catalog list --catalog procedural:3 --json --class table --quiet");
+  const RunResult json =
+      RunWorkbench("catalog list --catalog procedural:3 --json --class table --quiet");
   ASSERT_EQ(json.exit_code, 0) << json.output;
   const auto document = nlohmann::json::parse(json.output);
   ASSERT_EQ(document["entries"].size(), 4u);
@@ -67,27 +64,21 @@ TEST(Cli, ListsTheProceduralCatalogAsTableAndJson) {
 TEST(Cli, ShowAndExportAnSh3fEntry) {
   const std::string dir = testing::ScratchDir();
   const std::string catalog = testing::WriteTestSh3f(dir, "Test.sh3f");
-  const RunResult show =
-      RunWorkbench("catalog show Test/marker --catalog " + catalog);
+  const RunResult show = RunWorkbench("catalog show Test/marker --catalog " + catalog);
   ASSERT_EQ(show.exit_code, 0) << show.output;
-  EXPECT_NE(show.output.find("mesh size:     0.40x0.60x1.00 m"),
-            std::string::npos)
-      << show.output;
-  EXPECT_NE(show.output.find("triangles:     24"), std::string::npos)
-      << show.output;
-  const RunResult exported =
-      RunWorkbench("catalog export Test/marker --catalog " + catalog +
-                   " --out " + dir + "/marker.ply");
+  EXPECT_NE(show.output.find("mesh size:     0.40x0.60x1.00 m"), std::string::npos) << show.output;
+  EXPECT_NE(show.output.find("triangles:     24"), std::string::npos) << show.output;
+  const RunResult exported = RunWorkbench("catalog export Test/marker --catalog " + catalog +
+                                          " --out " + dir + "/marker.ply");
   ASSERT_EQ(exported.exit_code, 0) << exported.output;
-  testing::ExpectMarkerPose(LoadMeshFile(dir + "/marker.ply").mesh,
-                            Eigen::Vector3f(0.4f, 0.6f, 1.0f),
-                            1e-5f);
+  testing::ExpectMarkerPose(
+      LoadMeshFile(dir + "/marker.ply").mesh, Eigen::Vector3f(0.4f, 0.6f, 1.0f), 1e-5f);
 }
 
 TEST(Cli, SheetWritesAPng) {
   const std::string dir = testing::ScratchDir();
-  const RunResult sheet = RunWorkbench(
-      "catalog sheet --catalog procedural --quiet --out " + dir + "/s.png");
+  const RunResult sheet =
+      RunWorkbench("catalog sheet --catalog procedural --quiet --out " + dir + "/s.png");
   ASSERT_EQ(sheet.exit_code, 0) << sheet.output;
   EXPECT_GT(std::filesystem::file_size(dir + "/s.png"), 10000u);
 }
@@ -100,25 +91,19 @@ TEST(Cli, UserMistakesGiveOneLineAndNonZeroExit) {
     std::string expected;
   };
   const Case cases[] = {
-      {"catalog show Test/nope --catalog " + catalog,
-       "entry 'Test/nope' is not in catalog"},
-      {"catalog list --catalog /nonexistent/x.sh3f",
-       "/nonexistent/x.sh3f: file does not exist"},
+      {"catalog show Test/nope --catalog " + catalog, "entry 'Test/nope' is not in catalog"},
+      {"catalog list --catalog /nonexistent/x.sh3f", "/nonexistent/x.sh3f: file does not exist"},
       {"catalog list --catalog bogus", "unknown catalog 'bogus'"},
-      {"catalog list --catalog procedural --class stool",
-       "unknown class 'stool'"},
-      {"catalog export Test/marker --catalog " + catalog + " --out " + dir +
-           "/m.xyz",
+      {"catalog list --catalog procedural --class stool", "unknown class 'stool'"},
+      {"catalog export Test/marker --catalog " + catalog + " --out " + dir + "/m.xyz",
        "cannot export format 'xyz'"},
-      {"catalog show Test/missing --catalog " + catalog,
-       "missing/missing.obj: no such entry"},
+      {"catalog show Test/missing --catalog " + catalog, "missing/missing.obj: no such entry"},
   };
   for (const Case& c : cases) {
     const RunResult result = RunWorkbench(c.arguments);
     EXPECT_EQ(result.exit_code, 1) << c.arguments;
     EXPECT_EQ(CountErrorLines(result.output), 1u) << result.output;
-    EXPECT_NE(result.output.find(c.expected), std::string::npos)
-        << result.output;
+    EXPECT_NE(result.output.find(c.expected), std::string::npos) << result.output;
   }
   EXPECT_FALSE(std::filesystem::exists(dir + "/m.xyz"));
 }
@@ -144,9 +129,58 @@ TEST(CatalogCommands, ListingCountsClassesAndLoadsModels) {
     EXPECT_GE(*row.triangles, 36u);
     EXPECT_TRUE(row.mesh_size_m.isApprox(row.entry->size_m, 1e-5f));
   }
-  EXPECT_NE(FormatCatalogTable(listing).find(
-                "4 entries in catalog procedural:5: 4 sideboard"),
+  EXPECT_NE(FormatCatalogTable(listing).find("4 entries in catalog procedural:5: 4 sideboard"),
             std::string::npos);
+}
+
+}  // namespace
+}  // namespace furn
+
+namespace furn {
+namespace {
+
+TEST(Cli, RenderWritesEveryOutput) {
+  const std::string dir = testing::ScratchDir();
+  for (const std::string renderer : {"osmesa", "embree"}) {
+    const std::string out = dir + "/" + renderer;
+    const RunResult result =
+        RunWorkbench("render --catalog procedural --entry procedural/chair-1 --quiet --renderer " +
+                     renderer + " --out " + out);
+    ASSERT_EQ(result.exit_code, 0) << result.output;
+    for (const char* name : {"depth_ideal.png",
+                             "depth_noisy.png",
+                             "ids_ideal.png",
+                             "ids_noisy.png",
+                             "cloud_ideal.pcd",
+                             "cloud_noisy.pcd",
+                             "preview.png",
+                             "camera.json"}) {
+      EXPECT_TRUE(std::filesystem::exists(out + "/" + name)) << name;
+    }
+    EXPECT_NE(result.output.find("valid pixels: ideal 307200"), std::string::npos) << result.output;
+  }
+}
+
+TEST(Cli, RenderRejectsBadRequests) {
+  const std::string dir = testing::ScratchDir();
+  const struct {
+    std::string arguments, expected;
+  } cases[] = {
+      {"--entry procedural/chair-0 --distance -1", "camera distance -1"},
+      {"--entry procedural/chair-0 --pitch 95", "camera pitch 95"},
+      {"--entry procedural/chair-0 --renderer vulkan", "unknown renderer 'vulkan'"},
+      {"--entry procedural/nope", "entry 'procedural/nope' is not in catalog"},
+      // A camera inside the top of table-2 (1.62 x 0.66 x 0.78 m, top >= 3 cm thick).
+      {"--entry procedural/table-2 --distance 0.1 --height 0.77 --pitch 0",
+       "is inside scene object"},
+  };
+  for (const auto& c : cases) {
+    const RunResult result =
+        RunWorkbench("render --catalog procedural --quiet --out " + dir + "/x " + c.arguments);
+    EXPECT_EQ(result.exit_code, 1) << c.arguments;
+    EXPECT_NE(result.output.find(c.expected), std::string::npos) << result.output;
+  }
+  EXPECT_FALSE(std::filesystem::exists(dir + "/x/preview.png"));
 }
 
 }  // namespace
