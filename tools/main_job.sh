@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The main job, end to end with what exists so far: import the default catalog
 # (the repo's class map over Debian's Sweet Home 3D catalogs), print its summary,
-# and draw every classified model on a contact sheet.
+# draw every classified model on a contact sheet, and render one model as a
+# Kinect v1 sees it.
 set -euo pipefail
 repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build_dir="${1:-$repo/build}"
@@ -14,5 +15,10 @@ echo "== catalog: import every classified model of the default catalog"
 "$workbench" catalog list --catalog default --load --json --quiet > "$out_dir/catalog.json"
 echo "== catalog: contact sheet"
 "$workbench" catalog sheet --catalog default --out "$out_dir/catalog.png" --quiet
+echo "== render: the first classified model as ideal and noisy Kinect v1 depth"
+"$workbench" render --catalog default --out "$out_dir/render" --quiet
 echo
-echo "main job done: $out_dir/catalog.json (listing), $out_dir/catalog.png (contact sheet)"
+echo "main job done:"
+echo "  $out_dir/catalog.json   listing of the classified models"
+echo "  $out_dir/catalog.png    contact sheet of the classified models"
+echo "  $out_dir/render/        depth/id PNGs, organized PCDs, preview.png (ideal | Kinect v1)"

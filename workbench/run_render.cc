@@ -82,7 +82,9 @@ int RunRender(int argc, char** argv) {
   AddCatalogFlags(&app, &catalog_flags);
   RenderShowcaseOptions options;
   std::string entry, renderer = "osmesa";
-  app.add_option("--entry", entry, "Catalog entry id, e.g. Scopia/chair3")->required();
+  app.add_option("--entry",
+                 entry,
+                 "Catalog entry id, e.g. Scopia/chair3 (default: the first classified entry)");
   app.add_option("--out", options.out_dir, "Output directory (created if missing)")->required();
   app.add_option("--distance", options.distance_m, "Camera distance from the model (m)")
       ->capture_default_str();
@@ -118,6 +120,11 @@ int RunRender(int argc, char** argv) {
   options.noise.axial_noise = !no_axial;
   options.noise.quantization = !no_quantization;
   const Catalog catalog = OpenCatalog(catalog_flags.spec, MakeOpenOptions(catalog_flags));
+  if (entry.empty()) {
+    Require(!catalog.Classified().empty(),
+            "catalog " + catalog.description() + " has no classified entry; name one with --entry");
+    entry = catalog.Classified().front()->id;
+  }
   const RenderOutputs outputs = RenderShowcase(catalog.LoadModel(entry), options);
   for (const std::string& file : outputs.files) std::cout << "wrote " << file << "\n";
   std::cout << "valid pixels: ideal " << outputs.ideal_valid << ", noisy " << outputs.noisy_valid
