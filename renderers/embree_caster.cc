@@ -7,6 +7,8 @@
 #include <limits>
 #include <stdexcept>
 
+#include "core/parallel.h"
+
 namespace furn {
 namespace {
 
@@ -122,8 +124,7 @@ void EmbreeCaster::RenderInto(const Scene& scene,
   std::vector<float> ray_x(tiles_x * kTile), ray_y(tiles_y * kTile);
   for (size_t u = 0; u < ray_x.size(); ++u) ray_x[u] = camera.RayThroughPixel(u, 0).x();
   for (size_t v = 0; v < ray_y.size(); ++v) ray_y[v] = camera.RayThroughPixel(0, v).y();
-#pragma omp parallel for schedule(dynamic, 1)
-  for (int tile_row = 0; tile_row < tiles_y; ++tile_row) {
+  ParallelFor(0, tiles_y, [&](int tile_row) {
     RTCIntersectContext context;
     rtcInitIntersectContext(&context);
     context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
@@ -165,7 +166,7 @@ void EmbreeCaster::RenderInto(const Scene& scene,
         frame.normals[index] = normal;
       }
     }
-  }
+  });
 }
 
 }  // namespace furn

@@ -4,6 +4,7 @@
 #include <limits>
 
 #include "core/error.h"
+#include "core/parallel.h"
 #include "core/random.h"
 
 namespace furn {
@@ -111,8 +112,7 @@ void ComputeProjectorShadow(const DepthFrame& ideal,
   std::vector<uint8_t>& shadow = *shadow_mask;
   shadow.assign(ideal.depth.size(), 0);
   const double disparity_scale = camera.fx * baseline_m;
-#pragma omp parallel for schedule(static)
-  for (int v = 0; v < ideal.height; ++v) {
+  ParallelFor(0, ideal.height, [&](int v) {
     double smallest_column = std::numeric_limits<double>::infinity();
     for (int u = ideal.width - 1; u >= 0; --u) {
       const float z = ideal.DepthAt(u, v);
@@ -124,7 +124,7 @@ void ComputeProjectorShadow(const DepthFrame& ideal,
         smallest_column = projector_column;
       }
     }
-  }
+  });
 }
 
 }  // namespace
@@ -214,8 +214,7 @@ void KinectNoiseModel::Apply(const DepthFrame& ideal,
     shadow_.assign(count, 0);
   }
   const float min_cosine = static_cast<float>(std::cos(options.max_incidence_deg * M_PI / 180));
-#pragma omp parallel for schedule(static)
-  for (int v = 0; v < height; ++v) {
+  ParallelFor(0, height, [&](int v) {
     FastRng rng(DeriveSeed(seed, kDropoutStream + v));
     for (int u = 0; u < width; ++u) {
       const size_t i = ideal.Index(u, v);
@@ -231,7 +230,7 @@ void KinectNoiseModel::Apply(const DepthFrame& ideal,
       }
       returns_[i] = keep;
     }
-  }
+  });
 
   // Stages 4-6: resample at jittered positions, add axial noise, quantise.
   DepthFrame& noisy = *noisy_frame;
@@ -240,8 +239,7 @@ void KinectNoiseModel::Apply(const DepthFrame& ideal,
   const double steps_per_metre = disparity_scale / options.disparity_step_px;  // steps = this / z
   const LateralOffsetTable& lateral = LateralOffsets();
   const AxialAngleTable& axial_angle = AxialAngles();
-#pragma omp parallel for schedule(static)
-  for (int v = 0; v < height; ++v) {
+  ParallelFor(0, height, [&](int v) {
     FastRng rng(DeriveSeed(seed, kNoiseStream + v));
     for (int u = 0; u < width; ++u) {
       int su = u, sv = v;
@@ -273,7 +271,7 @@ void KinectNoiseModel::Apply(const DepthFrame& ideal,
       noisy.instance_ids[target] = ideal.instance_ids[source];
       noisy.normals[target] = ideal.normals[source];
     }
-  }
+  });
 }
 
 }  // namespace furn

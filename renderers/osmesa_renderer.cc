@@ -11,6 +11,7 @@
 #include <stdexcept>
 
 #include "core/error.h"
+#include "core/parallel.h"
 
 namespace furn {
 namespace {
@@ -274,8 +275,7 @@ void OsMesaRenderer::RenderInto(const Scene& scene,
   std::vector<float> ray_x(camera.width), ray_y(camera.height);
   for (int u = 0; u < camera.width; ++u) ray_x[u] = camera.RayThroughPixel(u, 0).x();
   for (int v = 0; v < camera.height; ++v) ray_y[v] = camera.RayThroughPixel(0, v).y();
-#pragma omp parallel for schedule(static)
-  for (int v = 0; v < camera.height; ++v) {
+  ParallelFor(0, camera.height, [&](int v) {
     for (int u = 0; u < camera.width; ++u) {
       const size_t i = static_cast<size_t>(v) * camera.width + u;
       const uint32_t* pixel = pixels + 2 * i;
@@ -294,7 +294,7 @@ void OsMesaRenderer::RenderInto(const Scene& scene,
       if (normal.dot(Eigen::Vector3f(ray_x[u], ray_y[v], 1.0f)) > 0) normal = -normal;
       frame.normals[i] = normal;
     }
-  }
+  });
 }
 
 }  // namespace furn

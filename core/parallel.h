@@ -1,0 +1,24 @@
+// Parallel loops on a shared pool of worker threads that sleep while idle.
+//
+// OpenMP's idle workers spin; on a 2-core machine that steals a core from
+// other thread pools in the process (llvmpipe's rasteriser, Embree's
+// builder). These workers block on a condition variable instead.
+// Results must not depend on how the range is split: give each index its own
+// seeded generator (see FastRng), never a shared one.
+//
+//   ParallelFor(0, height, [&](int row) { ... });
+#pragma once
+
+#include <functional>
+
+namespace furn {
+
+// Calls body(i) for every i in [begin, end), spread over the shared pool (the
+// calling thread takes part). Nested calls from inside a body run serially.
+// An exception thrown by a body is rethrown in the caller after the loop.
+void ParallelFor(int begin, int end, const std::function<void(int)>& body);
+
+// Threads taking part in ParallelFor, the caller included (>= 1).
+int ParallelThreads();
+
+}  // namespace furn
