@@ -27,6 +27,16 @@ struct DepthFrame {
     instance_ids.assign(n, 0);
     normals.assign(n, Eigen::Vector3f::Zero());
   }
+  // Sets the size without clearing: for writers that fill every pixel. Keeps
+  // the memory of a frame reused in a loop.
+  void Reshape(int new_width, int new_height) {
+    width = new_width;
+    height = new_height;
+    const size_t n = static_cast<size_t>(width) * height;
+    depth.resize(n);
+    instance_ids.resize(n);
+    normals.resize(n);
+  }
   size_t Index(int u, int v) const { return static_cast<size_t>(v) * width + u; }
   float DepthAt(int u, int v) const { return depth[Index(u, v)]; }
   uint16_t IdAt(int u, int v) const { return instance_ids[Index(u, v)]; }

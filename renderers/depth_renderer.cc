@@ -54,9 +54,17 @@ bool IsInsideMesh(const TriangleMesh& mesh, const Eigen::Vector3d& point) {
   return odd >= 2;
 }
 
+const Box3& MeshBoundsCache::BoundsOf(const std::shared_ptr<const TriangleMesh>& mesh) {
+  if (entries_.size() > 65536) entries_.clear();
+  Entry& entry = entries_[mesh.get()];
+  if (entry.mesh.lock() != mesh) entry = Entry{mesh, BoundingBox(*mesh)};
+  return entry.bounds;
+}
+
 void CheckRenderRequest(const Scene& scene,
                         const CameraIntrinsics& camera,
-                        const Eigen::Isometry3d& world_from_camera) {
+                        const Eigen::Isometry3d& world_from_camera,
+                        MeshBoundsCache* bounds_cache) {
   camera.Check();
   Require(scene.NumTriangles() > 0, "scene is empty (no triangles to render)");
   const Eigen::Vector3d position = world_from_camera.translation();
@@ -73,7 +81,7 @@ void CheckRenderRequest(const Scene& scene,
                 object.world_from_object.translation().norm() < kMaxCoordinate,
             name + " pose must be finite and within 1000 m of the origin");
     if (object.mesh->Empty()) continue;
-    const Box3 box = BoundingBox(*object.mesh);
+    const Box3 box = bounds_cache ? bounds_cache->BoundsOf(object.mesh) : BoundingBox(*object.mesh);
     Require(box.min.allFinite() && box.max.allFinite() &&
                 box.min.cwiseAbs().maxCoeff() < kMaxCoordinate &&
                 box.max.cwiseAbs().maxCoeff() < kMaxCoordinate,

@@ -10,6 +10,7 @@
 #include <Eigen/Geometry>
 #include <memory>
 #include <string>
+#include <unordered_map>
 
 #include "core/scene.h"
 #include "renderers/camera.h"
@@ -43,12 +44,27 @@ std::unique_ptr<DepthRenderer> MakeRenderer(RendererKind kind);
 // "osmesa" or "embree"; throws InputError otherwise.
 RendererKind ParseRendererKind(const std::string& name);
 
+// Bounding boxes of meshes already seen, so a renderer checks each mesh's
+// coordinates once rather than every frame.
+class MeshBoundsCache {
+ public:
+  const Box3& BoundsOf(const std::shared_ptr<const TriangleMesh>& mesh);
+
+ private:
+  struct Entry {
+    std::weak_ptr<const TriangleMesh> mesh;  // detects a freed mesh whose address was reused
+    Box3 bounds;
+  };
+  std::unordered_map<const TriangleMesh*, Entry> entries_;
+};
+
 // Validation shared by the renderers: intrinsics (Check()), a scene with at
 // least one triangle, finite poses, coordinates within 1 km of the origin, and
 // a camera outside every object (ray parity against the object's mesh).
 void CheckRenderRequest(const Scene& scene,
                         const CameraIntrinsics& camera,
-                        const Eigen::Isometry3d& world_from_camera);
+                        const Eigen::Isometry3d& world_from_camera,
+                        MeshBoundsCache* bounds_cache = nullptr);
 
 // True when `point_in_object` is inside the closed surface of `mesh`: the
 // majority of three rays from it cross the surface an odd number of times.

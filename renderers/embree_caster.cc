@@ -46,6 +46,7 @@ struct EmbreeCaster::Impl {
   SceneKey key;
   std::vector<std::shared_ptr<const TriangleMesh>> keep_alive;
   std::vector<uint16_t> id_of_geometry;
+  MeshBoundsCache bounds_cache;
 
   void ReleaseScene() {
     if (scene != nullptr) rtcReleaseScene(scene);
@@ -108,10 +109,10 @@ void EmbreeCaster::RenderInto(const Scene& scene,
                               const CameraIntrinsics& camera,
                               const Eigen::Isometry3d& world_from_camera,
                               DepthFrame* out) {
-  CheckRenderRequest(scene, camera, world_from_camera);
+  CheckRenderRequest(scene, camera, world_from_camera, &impl_->bounds_cache);
   SetScene(scene);
   DepthFrame& frame = *out;
-  frame.Resize(camera.width, camera.height);
+  frame.Reshape(camera.width, camera.height);  // every pixel is written below
   const Eigen::Matrix3f rotation = world_from_camera.linear().cast<float>();
   const Eigen::Vector3f origin = world_from_camera.translation().cast<float>();
   RTCScene rtc_scene = impl_->scene;
@@ -153,9 +154,15 @@ void EmbreeCaster::RenderInto(const Scene& scene,
       }
       rtcIntersect16(valid, rtc_scene, &context, &packet);
       for (int k = 0; k < kPacket; ++k) {
-        if (!valid[k] || packet.hit.geomID[k] == RTC_INVALID_GEOMETRY_ID) continue;
+        if (!valid[k]) continue;
         const int u = tile_column * kTile + k % kTile, v = tile_row * kTile + k / kTile;
         const size_t index = frame.Index(u, v);
+        if (packet.hit.geomID[k] == RTC_INVALID_GEOMETRY_ID) {
+          frame.depth[index] = 0;
+          frame.instance_ids[index] = kNoObjectId;
+          frame.normals[index].setZero();
+          continue;
+        }
         frame.depth[index] = packet.ray.tfar[k];
         frame.instance_ids[index] = id_of_geometry[packet.hit.geomID[k]];
         Eigen::Vector3f normal =

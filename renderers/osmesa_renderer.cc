@@ -107,6 +107,7 @@ struct OsMesaRenderer::Impl {
   GLuint framebuffer = 0, colour_buffer = 0, depth_buffer = 0;
   int target_width = 0, target_height = 0;
   std::map<const TriangleMesh*, GpuMesh> meshes;
+  MeshBoundsCache bounds_cache;
   std::vector<uint32_t> pixels;
 
   void MakeCurrent() {
@@ -229,7 +230,7 @@ void OsMesaRenderer::RenderInto(const Scene& scene,
                                 const CameraIntrinsics& camera,
                                 const Eigen::Isometry3d& world_from_camera,
                                 DepthFrame* out) {
-  CheckRenderRequest(scene, camera, world_from_camera);
+  CheckRenderRequest(scene, camera, world_from_camera, &impl_->bounds_cache);
   impl_->MakeCurrent();
   impl_->EnsureTarget(camera.width, camera.height);
   glBindFramebuffer(GL_FRAMEBUFFER, impl_->framebuffer);
@@ -270,22 +271,30 @@ void OsMesaRenderer::RenderInto(const Scene& scene,
       0, 0, camera.width, camera.height, GL_RG_INTEGER, GL_UNSIGNED_INT, impl_->pixels.data());
 
   DepthFrame& frame = *out;
-  frame.Resize(camera.width, camera.height);
+  frame.Reshape(camera.width, camera.height);  // every pixel is written below
   const uint32_t* pixels = impl_->pixels.data();
   std::vector<float> ray_x(camera.width), ray_y(camera.height);
   for (int u = 0; u < camera.width; ++u) ray_x[u] = camera.RayThroughPixel(u, 0).x();
   for (int v = 0; v < camera.height; ++v) ray_y[v] = camera.RayThroughPixel(0, v).y();
   ParallelFor(0, camera.height, [&](int v) {
+    size_t object = 0;
     for (int u = 0; u < camera.width; ++u) {
       const size_t i = static_cast<size_t>(v) * camera.width + u;
       const uint32_t* pixel = pixels + 2 * i;
       float depth;
       std::memcpy(&depth, &pixel[0], sizeof(depth));
-      if (!(depth > 0)) continue;
-      // The object whose triangle range holds the scene-wide triangle index.
-      const size_t object =
-          std::upper_bound(first_triangle.begin(), first_triangle.end(), pixel[1]) -
-          first_triangle.begin() - 1;
+      if (!(depth > 0)) {
+        frame.depth[i] = 0;
+        frame.instance_ids[i] = kNoObjectId;
+        frame.normals[i].setZero();
+        continue;
+      }
+      // The object whose triangle range holds the scene-wide triangle index:
+      // usually the previous pixel's, else a binary search.
+      if (pixel[1] < first_triangle[object] || pixel[1] >= first_triangle[object + 1]) {
+        object = std::upper_bound(first_triangle.begin(), first_triangle.end(), pixel[1]) -
+                 first_triangle.begin() - 1;
+      }
       const size_t triangle = pixel[1] - first_triangle[object];
       frame.depth[i] = depth;
       frame.instance_ids[i] = scene.objects[object].instance_id;
