@@ -56,15 +56,21 @@ struct EmbreeCaster::Impl {
   }
 };
 
-EmbreeCaster::EmbreeCaster() : impl_(std::make_unique<Impl>()) {
-  impl_->device = rtcNewDevice(nullptr);
-  if (impl_->device == nullptr) throw std::runtime_error("Embree: cannot create a device");
+namespace {
+
+// One Embree device for the process: devices are thread-safe, and creating one
+// per caster would cost more than the small per-object scenes it serves.
+RTCDevice SharedDevice() {
+  static RTCDevice device = rtcNewDevice(nullptr);
+  if (device == nullptr) throw std::runtime_error("Embree: cannot create a device");
+  return device;
 }
 
-EmbreeCaster::~EmbreeCaster() {
-  impl_->ReleaseScene();
-  rtcReleaseDevice(impl_->device);
-}
+}  // namespace
+
+EmbreeCaster::EmbreeCaster() : impl_(std::make_unique<Impl>()) { impl_->device = SharedDevice(); }
+
+EmbreeCaster::~EmbreeCaster() { impl_->ReleaseScene(); }
 
 void EmbreeCaster::SetScene(const Scene& scene) {
   SceneKey key = KeyOf(scene);
@@ -174,6 +180,70 @@ void EmbreeCaster::RenderInto(const Scene& scene,
       }
     }
   });
+}
+
+EmbreeCaster::Coverage EmbreeCaster::CoverageIn(const Scene& scene,
+                                                const CameraIntrinsics& camera,
+                                                const Eigen::Isometry3d& world_from_camera,
+                                                const std::array<int, 4>& region) {
+  camera.Check();
+  SetScene(scene);
+  const int u0 = std::max(0, region[0]), v0 = std::max(0, region[1]);
+  const int u1 = std::min(camera.width - 1, region[2]), v1 = std::min(camera.height - 1, region[3]);
+  Coverage total;
+  if (u1 < u0 || v1 < v0) return total;
+  const Eigen::Matrix3f rotation = world_from_camera.linear().cast<float>();
+  const Eigen::Vector3f origin = world_from_camera.translation().cast<float>();
+  std::vector<Coverage> rows(v1 - v0 + 1);
+  RTCScene rtc_scene = impl_->scene;
+  ParallelFor(v0, v1 + 1, [&](int v) {
+    RTCIntersectContext context;
+    rtcInitIntersectContext(&context);
+    alignas(64) RTCRay16 packet;
+    alignas(64) int valid[kPacket];
+    Coverage& row = rows[v - v0];
+    for (int start = u0; start <= u1; start += kPacket) {
+      for (int k = 0; k < kPacket; ++k) {
+        const int u = start + k;
+        valid[k] = u <= u1 ? -1 : 0;
+        const Eigen::Vector3f direction = rotation * camera.RayThroughPixel(u, v);
+        packet.org_x[k] = origin.x();
+        packet.org_y[k] = origin.y();
+        packet.org_z[k] = origin.z();
+        packet.dir_x[k] = direction.x();
+        packet.dir_y[k] = direction.y();
+        packet.dir_z[k] = direction.z();
+        packet.tnear[k] = 0.0f;
+        packet.tfar[k] = std::numeric_limits<float>::infinity();
+        packet.time[k] = 0.0f;
+        packet.mask[k] = 0xFFFFFFFFu;
+        packet.id[k] = static_cast<unsigned>(k);
+        packet.flags[k] = 0;
+      }
+      rtcOccluded16(valid, rtc_scene, &context, &packet);
+      for (int k = 0; k < kPacket && start + k <= u1; ++k) {
+        if (packet.tfar[k] >= 0) continue;  // Embree sets tfar to -inf for a hit
+        const int u = start + k;
+        if (row.pixels == 0) row.box = {u, v, u, v};
+        ++row.pixels;
+        row.box[0] = std::min(row.box[0], u);
+        row.box[2] = std::max(row.box[2], u);
+      }
+    }
+  });
+  for (const Coverage& row : rows) {
+    if (row.pixels == 0) continue;
+    if (total.pixels == 0) {
+      total.box = row.box;
+    } else {
+      total.box = {std::min(total.box[0], row.box[0]),
+                   std::min(total.box[1], row.box[1]),
+                   std::max(total.box[2], row.box[2]),
+                   std::max(total.box[3], row.box[3])};
+    }
+    total.pixels += row.pixels;
+  }
+  return total;
 }
 
 }  // namespace furn

@@ -9,6 +9,7 @@
 //   world_from_camera);
 #pragma once
 
+#include <array>
 #include <memory>
 
 #include "renderers/depth_renderer.h"
@@ -30,6 +31,18 @@ class EmbreeCaster : public DepthRenderer {
 
   // Builds (or keeps) the acceleration structure for `scene`; Render calls it.
   void SetScene(const Scene& scene);
+
+  // Pixels of the inclusive region (u0, v0, u1, v1) whose ray hits the scene,
+  // and their bounding box (u1 < u0 when none): an object's amodal mask when
+  // the scene holds that object alone.
+  struct Coverage {
+    int64_t pixels = 0;
+    std::array<int, 4> box = {0, 0, -1, -1};
+  };
+  Coverage CoverageIn(const Scene& scene,
+                      const CameraIntrinsics& camera,
+                      const Eigen::Isometry3d& world_from_camera,
+                      const std::array<int, 4>& region);
 
  private:
   struct Impl;

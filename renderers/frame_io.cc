@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -124,9 +125,7 @@ cv::Mat ColouriseIds(const DepthFrame& frame) {
   return colour;
 }
 
-}  // namespace
-
-void WriteDepthPng(const DepthFrame& frame, const std::string& path, double units_per_metre) {
+cv::Mat DepthImage(const DepthFrame& frame, double units_per_metre) {
   Require(units_per_metre > 0, "depth scale " + std::to_string(units_per_metre) + " must be > 0");
   cv::Mat image(frame.height, frame.width, CV_16UC1);
   for (int v = 0; v < frame.height; ++v) {
@@ -135,16 +134,41 @@ void WriteDepthPng(const DepthFrame& frame, const std::string& path, double unit
       image.at<uint16_t>(v, u) = units > 0 && units <= 65535 ? static_cast<uint16_t>(units) : 0;
     }
   }
-  WritePng(image, path);
+  return image;
 }
 
-DepthFrame ReadDepthPng(const std::string& path, double units_per_metre) {
-  Require(units_per_metre > 0, "depth scale " + std::to_string(units_per_metre) + " must be > 0");
-  const std::string bytes = ReadFileBytes(path);
-  const cv::Mat image =
-      cv::imdecode(std::vector<uchar>(bytes.begin(), bytes.end()), cv::IMREAD_UNCHANGED);
-  Require(!image.empty(), path + ": not a readable image");
-  Require(image.type() == CV_16UC1, path + ": a depth image must be a single-channel 16-bit PNG");
+cv::Mat IdImage(const DepthFrame& frame) {
+  cv::Mat image(frame.height, frame.width, CV_16UC1);
+  std::memcpy(image.data, frame.instance_ids.data(), frame.instance_ids.size() * sizeof(uint16_t));
+  return image;
+}
+
+std::vector<uint8_t> FastPng(const cv::Mat& image) {
+  std::vector<uchar> bytes;
+  Require(cv::imencode(".png", image, bytes, {cv::IMWRITE_PNG_COMPRESSION, 1}),
+          "PNG encoding failed");
+  return bytes;
+}
+
+cv::Mat Decode16(const std::vector<uint8_t>& png, const std::string& what) {
+  const cv::Mat image = cv::imdecode(png, cv::IMREAD_UNCHANGED);
+  Require(!image.empty(), what + ": not a readable PNG");
+  Require(image.type() == CV_16UC1, what + ": expected a single-channel 16-bit PNG");
+  return image;
+}
+
+}  // namespace
+
+std::vector<uint8_t> EncodeDepthPng(const DepthFrame& frame, double units_per_metre) {
+  return FastPng(DepthImage(frame, units_per_metre));
+}
+
+std::vector<uint8_t> EncodeIdPng(const DepthFrame& frame) { return FastPng(IdImage(frame)); }
+
+DepthFrame DecodeDepthPng(const std::vector<uint8_t>& png,
+                          const std::string& what,
+                          double units_per_metre) {
+  const cv::Mat image = Decode16(png, what);
   DepthFrame frame;
   frame.Resize(image.cols, image.rows);
   for (int v = 0; v < image.rows; ++v) {
@@ -156,12 +180,26 @@ DepthFrame ReadDepthPng(const std::string& path, double units_per_metre) {
   return frame;
 }
 
+void DecodeIdPng(const std::vector<uint8_t>& png, const std::string& what, DepthFrame* frame) {
+  const cv::Mat image = Decode16(png, what);
+  Require(image.cols == frame->width && image.rows == frame->height,
+          what + ": id image size differs from depth");
+  std::memcpy(
+      frame->instance_ids.data(), image.data, frame->instance_ids.size() * sizeof(uint16_t));
+}
+
+void WriteDepthPng(const DepthFrame& frame, const std::string& path, double units_per_metre) {
+  WritePng(DepthImage(frame, units_per_metre), path);
+}
+
+DepthFrame ReadDepthPng(const std::string& path, double units_per_metre) {
+  Require(units_per_metre > 0, "depth scale " + std::to_string(units_per_metre) + " must be > 0");
+  const std::string bytes = ReadFileBytes(path);
+  return DecodeDepthPng(std::vector<uint8_t>(bytes.begin(), bytes.end()), path, units_per_metre);
+}
+
 void WriteIdPng(const DepthFrame& frame, const std::string& path) {
-  cv::Mat image(frame.height, frame.width, CV_16UC1);
-  for (int v = 0; v < frame.height; ++v) {
-    for (int u = 0; u < frame.width; ++u) image.at<uint16_t>(v, u) = frame.IdAt(u, v);
-  }
-  WritePng(image, path);
+  WritePng(IdImage(frame), path);
 }
 
 void WriteOrganizedPcd(const DepthFrame& frame,

@@ -25,6 +25,16 @@ void WriteOrganizedPcd(const DepthFrame& frame,
                        const CameraIntrinsics& camera,
                        const std::string& path);
 
+// The same images as bytes (PNG, zlib level 1: fast, for database BLOBs), and back.
+std::vector<uint8_t> EncodeDepthPng(const DepthFrame& frame, double units_per_metre = 1000);
+std::vector<uint8_t> EncodeIdPng(const DepthFrame& frame);
+// Throws InputError naming `what` when the bytes are not a 16-bit single-channel PNG.
+DepthFrame DecodeDepthPng(const std::vector<uint8_t>& png,
+                          const std::string& what,
+                          double units_per_metre = 1000);
+// Fills instance_ids of `frame` (which must have the image's size).
+void DecodeIdPng(const std::vector<uint8_t>& png, const std::string& what, DepthFrame* frame);
+
 struct PreviewPanel {
   enum class Kind { kDepth, kShadedDepth, kIds };
   const DepthFrame* frame = nullptr;

@@ -7,5 +7,7 @@ namespace furn {
 
 int RunCatalog(int argc, char** argv);
 int RunRender(int argc, char** argv);
+int RunGenerate(int argc, char** argv);
+int RunDataset(int argc, char** argv);
 
 }  // namespace furn

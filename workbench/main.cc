@@ -20,6 +20,10 @@ struct Command {
 constexpr Command kCommands[] = {
     {"catalog", furn::RunCatalog, "list, show, export and draw CAD catalog entries"},
     {"render", furn::RunRender, "render one model as ideal and noisy Kinect v1 depth"},
+    {"generate",
+     furn::RunGenerate,
+     "compose rooms, render Kinect frames, store ground truth in SQLite"},
+    {"dataset", furn::RunDataset, "info, preview of a dataset database"},
 };
 
 void PrintUsage() {

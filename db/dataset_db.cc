@@ -1,0 +1,364 @@
+#include "db/dataset_db.h"
+
+#include <sstream>
+
+namespace furn {
+namespace {
+
+constexpr char kSchemaV1[] = R"(
+CREATE TABLE meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);
+CREATE TABLE generation (
+  id INTEGER PRIMARY KEY CHECK (id = 1),
+  options_json TEXT NOT NULL);
+CREATE TABLE models (
+  id TEXT PRIMARY KEY,
+  class TEXT NOT NULL,
+  content_hash TEXT NOT NULL,
+  width REAL NOT NULL, depth REAL NOT NULL, height REAL NOT NULL,
+  evaluation_only INTEGER NOT NULL);
+CREATE TABLE rooms (
+  id INTEGER PRIMARY KEY,
+  seed INTEGER NOT NULL,
+  split TEXT NOT NULL CHECK (split IN ('train', 'val', 'test')),
+  width REAL NOT NULL, depth REAL NOT NULL,
+  requested_furniture INTEGER NOT NULL, placed_furniture INTEGER NOT NULL);
+CREATE TABLE objects (
+  room_id INTEGER NOT NULL REFERENCES rooms(id) ON DELETE CASCADE,
+  instance_id INTEGER NOT NULL,
+  model_id TEXT NOT NULL REFERENCES models(id),
+  class TEXT NOT NULL,
+  x REAL NOT NULL, y REAL NOT NULL, z REAL NOT NULL, yaw REAL NOT NULL,
+  reference_x REAL NOT NULL, reference_y REAL NOT NULL,
+  width REAL NOT NULL, depth REAL NOT NULL, height REAL NOT NULL,
+  PRIMARY KEY (room_id, instance_id));
+CREATE TABLE frames (
+  id INTEGER PRIMARY KEY,
+  room_id INTEGER NOT NULL REFERENCES rooms(id) ON DELETE CASCADE,
+  frame_index INTEGER NOT NULL,
+  seed INTEGER NOT NULL,
+  width INTEGER NOT NULL, height INTEGER NOT NULL,
+  fx REAL NOT NULL, fy REAL NOT NULL, cx REAL NOT NULL, cy REAL NOT NULL,
+  world_from_camera TEXT NOT NULL,
+  depth_ideal_png BLOB NOT NULL, depth_noisy_png BLOB NOT NULL,
+  ids_png BLOB NOT NULL, ids_noisy_png BLOB NOT NULL,
+  content_hash TEXT NOT NULL,
+  UNIQUE (room_id, frame_index));
+CREATE TABLE frame_objects (
+  frame_id INTEGER NOT NULL REFERENCES frames(id) ON DELETE CASCADE,
+  instance_id INTEGER NOT NULL,
+  visible_pixels INTEGER NOT NULL, amodal_pixels INTEGER NOT NULL, visibility REAL NOT NULL,
+  visible_u0 INTEGER NOT NULL, visible_v0 INTEGER NOT NULL, visible_u1 INTEGER NOT NULL, visible_v1 INTEGER NOT NULL,
+  amodal_u0 INTEGER NOT NULL, amodal_v0 INTEGER NOT NULL, amodal_u1 INTEGER NOT NULL, amodal_v1 INTEGER NOT NULL,
+  in_frustum INTEGER NOT NULL,
+  PRIMARY KEY (frame_id, instance_id));
+CREATE INDEX frames_by_room ON frames(room_id);
+)";
+
+int64_t AsSigned(uint64_t value) { return static_cast<int64_t>(value); }
+uint64_t AsUnsigned(int64_t value) { return static_cast<uint64_t>(value); }
+
+std::string PoseText(const Eigen::Isometry3d& pose) {
+  std::ostringstream text;
+  text.precision(17);
+  const Eigen::Matrix4d m = pose.matrix();
+  for (int r = 0; r < 4; ++r) {
+    for (int c = 0; c < 4; ++c) text << (r || c ? " " : "") << m(r, c);
+  }
+  return text.str();
+}
+
+Eigen::Isometry3d ParsePose(const std::string& text, const std::string& where) {
+  std::istringstream stream(text);
+  Eigen::Matrix4d m;
+  for (int r = 0; r < 4; ++r) {
+    for (int c = 0; c < 4; ++c) {
+      if (!(stream >> m(r, c))) throw DbError(where + ": world_from_camera is not 16 numbers");
+    }
+  }
+  Eigen::Isometry3d pose;
+  pose.matrix() = m;
+  return pose;
+}
+
+}  // namespace
+
+std::string SplitForSeed(uint64_t room_seed) {
+  // The top bits of a mixed seed, so neighbouring seeds spread over the splits.
+  const uint64_t mixed = (room_seed ^ (room_seed >> 31)) * 0x9E3779B97F4A7C15ull;
+  const uint64_t bucket = (mixed >> 40) % 10;
+  return bucket < 6 ? "train" : bucket < 8 ? "val" : "test";
+}
+
+DatasetDb::DatasetDb(const std::string& path, Mode mode)
+    : db_(path, mode == Mode::kReadOnly ? Database::Mode::kReadOnly : Database::Mode::kReadWrite) {
+  CreateOrMigrate(mode);
+}
+
+void DatasetDb::CreateOrMigrate(Mode mode) {
+  Statement tables(&db_, "SELECT count(*) FROM sqlite_master WHERE type = 'table'");
+  tables.Step();
+  const bool empty = tables.ColumnInt(0) == 0;
+  if (empty) {
+    if (mode == Mode::kReadOnly) throw DbError(db_.path() + ": not a dataset (no tables)");
+    Transaction transaction(&db_);
+    db_.Execute(kSchemaV1);
+    Statement version(
+        &db_,
+        "INSERT INTO meta(key, value) VALUES ('schema_version', ?), ('kind', 'furnidet-dataset')");
+    version.Bind(1, std::to_string(kDatasetSchemaVersion)).Run();
+    transaction.Commit();
+    return;
+  }
+  Statement kind(&db_, "SELECT count(*) FROM sqlite_master WHERE type = 'table' AND name = 'meta'");
+  kind.Step();
+  if (kind.ColumnInt(0) == 0)
+    throw DbError(db_.path() + ": not a furnidet dataset (no meta table)");
+  Statement version(&db_, "SELECT value FROM meta WHERE key = 'schema_version'");
+  if (!version.Step()) throw DbError(db_.path() + ": not a furnidet dataset (no schema version)");
+  const int found = std::stoi(version.ColumnText(0));
+  if (found > kDatasetSchemaVersion) {
+    throw DbError(db_.path() + ": dataset schema version " + std::to_string(found) +
+                  " is newer than this build reads (" + std::to_string(kDatasetSchemaVersion) +
+                  "); update furnidet");
+  }
+  if (found < 1)
+    throw DbError(db_.path() + ": unknown dataset schema version " + std::to_string(found));
+  // Migrations from older versions go here, one transaction per step.
+}
+
+std::optional<std::string> DatasetDb::GenerationOptions() {
+  Statement query(&db_, "SELECT options_json FROM generation WHERE id = 1");
+  if (!query.Step()) return std::nullopt;
+  return query.ColumnText(0);
+}
+
+void DatasetDb::SetGenerationOptions(const std::string& options_json) {
+  Statement insert(&db_, "INSERT INTO generation(id, options_json) VALUES (1, ?)");
+  insert.Bind(1, options_json).Run();
+}
+
+void DatasetDb::WriteModels(const std::vector<ModelRecord>& models) {
+  Transaction transaction(&db_);
+  Statement find(&db_, "SELECT content_hash FROM models WHERE id = ?");
+  Statement insert(
+      &db_,
+      "INSERT INTO models(id, class, content_hash, width, depth, height, evaluation_only) "
+      "VALUES (?, ?, ?, ?, ?, ?, ?)");
+  for (const ModelRecord& model : models) {
+    find.Bind(1, model.id);
+    if (find.Step()) {
+      const std::string hash = find.ColumnText(0);
+      find.Reset();
+      if (hash != model.content_hash) {
+        throw DbError(db_.path() + ": model " + model.id + " has content hash " + hash +
+                      " in the dataset but " + model.content_hash + " in the catalog");
+      }
+      continue;
+    }
+    find.Reset();
+    insert.Bind(1, model.id)
+        .Bind(2, model.furniture_class)
+        .Bind(3, model.content_hash)
+        .Bind(4, model.size_m.x())
+        .Bind(5, model.size_m.y())
+        .Bind(6, model.size_m.z())
+        .Bind(7, int64_t{model.evaluation_only})
+        .Run();
+  }
+  transaction.Commit();
+}
+
+std::vector<ModelRecord> DatasetDb::ReadModels() {
+  std::vector<ModelRecord> models;
+  Statement query(&db_,
+                  "SELECT id, class, content_hash, width, depth, height, evaluation_only FROM "
+                  "models ORDER BY id");
+  while (query.Step()) {
+    ModelRecord model;
+    model.id = query.ColumnText(0);
+    model.furniture_class = query.ColumnText(1);
+    model.content_hash = query.ColumnText(2);
+    model.size_m =
+        Eigen::Vector3d(query.ColumnDouble(3), query.ColumnDouble(4), query.ColumnDouble(5));
+    model.evaluation_only = query.ColumnInt(6) != 0;
+    models.push_back(model);
+  }
+  return models;
+}
+
+bool DatasetDb::HasRoom(int64_t room_id) {
+  Statement query(&db_, "SELECT 1 FROM rooms WHERE id = ?");
+  query.Bind(1, room_id);
+  return query.Step();
+}
+
+std::vector<int64_t> DatasetDb::RoomIds() {
+  std::vector<int64_t> ids;
+  Statement query(&db_, "SELECT id FROM rooms ORDER BY id");
+  while (query.Step()) ids.push_back(query.ColumnInt(0));
+  return ids;
+}
+
+void DatasetDb::WriteRoom(const RoomRecord& room) {
+  Transaction transaction(&db_);
+  Statement insert_room(
+      &db_,
+      "INSERT INTO rooms(id, seed, split, width, depth, requested_furniture, placed_furniture) "
+      "VALUES (?, ?, ?, ?, ?, ?, ?)");
+  insert_room.Bind(1, room.id)
+      .Bind(2, AsSigned(room.seed))
+      .Bind(3, room.split)
+      .Bind(4, room.width)
+      .Bind(5, room.depth)
+      .Bind(6, int64_t{room.requested_furniture})
+      .Bind(7, int64_t{room.placed_furniture})
+      .Run();
+  Statement insert_object(
+      &db_,
+      "INSERT INTO objects(room_id, instance_id, model_id, class, x, y, z, yaw, reference_x, "
+      "reference_y, width, depth, height) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
+  for (const ObjectRecord& object : room.objects) {
+    insert_object.Bind(1, room.id)
+        .Bind(2, int64_t{object.instance_id})
+        .Bind(3, object.model_id)
+        .Bind(4, object.furniture_class)
+        .Bind(5, object.x)
+        .Bind(6, object.y)
+        .Bind(7, object.z)
+        .Bind(8, object.yaw)
+        .Bind(9, object.reference_x)
+        .Bind(10, object.reference_y)
+        .Bind(11, object.width)
+        .Bind(12, object.depth)
+        .Bind(13, object.height)
+        .Run();
+  }
+  Statement insert_frame(
+      &db_,
+      "INSERT INTO frames(id, room_id, frame_index, seed, width, height, fx, fy, cx, cy, "
+      "world_from_camera, depth_ideal_png, depth_noisy_png, ids_png, ids_noisy_png, content_hash) "
+      "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
+  Statement insert_frame_object(
+      &db_,
+      "INSERT INTO frame_objects(frame_id, instance_id, visible_pixels, amodal_pixels, "
+      "visibility, visible_u0, visible_v0, visible_u1, visible_v1, amodal_u0, amodal_v0, "
+      "amodal_u1, amodal_v1, in_frustum) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
+  for (const FrameRecord& frame : room.frames) {
+    insert_frame.Bind(1, frame.id)
+        .Bind(2, room.id)
+        .Bind(3, int64_t{frame.frame_index})
+        .Bind(4, AsSigned(frame.seed))
+        .Bind(5, int64_t{frame.width})
+        .Bind(6, int64_t{frame.height})
+        .Bind(7, frame.fx)
+        .Bind(8, frame.fy)
+        .Bind(9, frame.cx)
+        .Bind(10, frame.cy)
+        .Bind(11, PoseText(frame.world_from_camera))
+        .BindBlob(12, frame.depth_ideal_png)
+        .BindBlob(13, frame.depth_noisy_png)
+        .BindBlob(14, frame.ids_png)
+        .BindBlob(15, frame.ids_noisy_png)
+        .Bind(16, frame.content_hash)
+        .Run();
+    for (const FrameObjectRecord& object : frame.objects) {
+      insert_frame_object.Bind(1, frame.id)
+          .Bind(2, int64_t{object.instance_id})
+          .Bind(3, object.visible_pixels)
+          .Bind(4, object.amodal_pixels)
+          .Bind(5, object.visibility);
+      for (int k = 0; k < 4; ++k) insert_frame_object.Bind(6 + k, int64_t{object.visible_box[k]});
+      for (int k = 0; k < 4; ++k) insert_frame_object.Bind(10 + k, int64_t{object.amodal_box[k]});
+      insert_frame_object.Bind(14, int64_t{object.in_frustum}).Run();
+    }
+  }
+  transaction.Commit();
+}
+
+RoomRecord DatasetDb::ReadRoom(int64_t room_id, bool with_images) {
+  RoomRecord room;
+  Statement query_room(&db_,
+                       "SELECT seed, split, width, depth, requested_furniture, placed_furniture "
+                       "FROM rooms WHERE id = ?");
+  query_room.Bind(1, room_id);
+  if (!query_room.Step()) throw DbError(db_.path() + ": no room " + std::to_string(room_id));
+  room.id = room_id;
+  room.seed = AsUnsigned(query_room.ColumnInt(0));
+  room.split = query_room.ColumnText(1);
+  room.width = query_room.ColumnDouble(2);
+  room.depth = query_room.ColumnDouble(3);
+  room.requested_furniture = static_cast<int>(query_room.ColumnInt(4));
+  room.placed_furniture = static_cast<int>(query_room.ColumnInt(5));
+  Statement query_objects(
+      &db_,
+      "SELECT instance_id, model_id, class, x, y, z, yaw, reference_x, reference_y, width, depth, "
+      "height FROM objects WHERE room_id = ? ORDER BY instance_id");
+  query_objects.Bind(1, room_id);
+  while (query_objects.Step()) {
+    ObjectRecord object;
+    object.instance_id = static_cast<int>(query_objects.ColumnInt(0));
+    object.model_id = query_objects.ColumnText(1);
+    object.furniture_class = query_objects.ColumnText(2);
+    object.x = query_objects.ColumnDouble(3);
+    object.y = query_objects.ColumnDouble(4);
+    object.z = query_objects.ColumnDouble(5);
+    object.yaw = query_objects.ColumnDouble(6);
+    object.reference_x = query_objects.ColumnDouble(7);
+    object.reference_y = query_objects.ColumnDouble(8);
+    object.width = query_objects.ColumnDouble(9);
+    object.depth = query_objects.ColumnDouble(10);
+    object.height = query_objects.ColumnDouble(11);
+    room.objects.push_back(object);
+  }
+  const std::string images = with_images
+                                 ? "depth_ideal_png, depth_noisy_png, ids_png, ids_noisy_png"
+                                 : "NULL, NULL, NULL, NULL";
+  Statement query_frames(
+      &db_,
+      "SELECT id, frame_index, seed, width, height, fx, fy, cx, cy, world_from_camera, " + images +
+          ", content_hash FROM frames WHERE room_id = ? ORDER BY frame_index");
+  Statement query_frame_objects(
+      &db_,
+      "SELECT instance_id, visible_pixels, amodal_pixels, visibility, visible_u0, "
+      "visible_v0, visible_u1, visible_v1, amodal_u0, amodal_v0, amodal_u1, amodal_v1, "
+      "in_frustum FROM frame_objects WHERE frame_id = ? ORDER BY instance_id");
+  query_frames.Bind(1, room_id);
+  while (query_frames.Step()) {
+    FrameRecord frame;
+    frame.id = query_frames.ColumnInt(0);
+    frame.frame_index = static_cast<int>(query_frames.ColumnInt(1));
+    frame.seed = AsUnsigned(query_frames.ColumnInt(2));
+    frame.width = static_cast<int>(query_frames.ColumnInt(3));
+    frame.height = static_cast<int>(query_frames.ColumnInt(4));
+    frame.fx = query_frames.ColumnDouble(5);
+    frame.fy = query_frames.ColumnDouble(6);
+    frame.cx = query_frames.ColumnDouble(7);
+    frame.cy = query_frames.ColumnDouble(8);
+    frame.world_from_camera =
+        ParsePose(query_frames.ColumnText(9), db_.path() + " frame " + std::to_string(frame.id));
+    frame.depth_ideal_png = query_frames.ColumnBlob(10);
+    frame.depth_noisy_png = query_frames.ColumnBlob(11);
+    frame.ids_png = query_frames.ColumnBlob(12);
+    frame.ids_noisy_png = query_frames.ColumnBlob(13);
+    frame.content_hash = query_frames.ColumnText(14);
+    query_frame_objects.Bind(1, frame.id);
+    while (query_frame_objects.Step()) {
+      FrameObjectRecord object;
+      object.instance_id = static_cast<int>(query_frame_objects.ColumnInt(0));
+      object.visible_pixels = query_frame_objects.ColumnInt(1);
+      object.amodal_pixels = query_frame_objects.ColumnInt(2);
+      object.visibility = query_frame_objects.ColumnDouble(3);
+      for (int k = 0; k < 4; ++k)
+        object.visible_box[k] = static_cast<int>(query_frame_objects.ColumnInt(4 + k));
+      for (int k = 0; k < 4; ++k)
+        object.amodal_box[k] = static_cast<int>(query_frame_objects.ColumnInt(8 + k));
+      object.in_frustum = query_frame_objects.ColumnInt(12) != 0;
+      frame.objects.push_back(object);
+    }
+    query_frame_objects.Reset();
+    room.frames.push_back(std::move(frame));
+  }
+  return room;
+}
+
+}  // namespace furn

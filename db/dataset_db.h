@@ -1,0 +1,111 @@
+// A labelled synthetic dataset in one SQLite file (SPEC.md §6).
+//
+// Tables: meta (schema version), generation (the options a dataset was made
+// with), models, rooms (seed, split, size), objects (pose, class, footprint per
+// room), frames (intrinsics, world_from_camera, ideal and noisy depth and id
+// images as 16-bit PNG BLOBs, a content hash), frame_objects (visible and
+// amodal pixels, visibility, boxes, in-frustum flag). A room and everything in
+// it is written in one transaction, so a killed run leaves only whole rooms.
+// Images live in the database (not beside it) so a dataset is one file to copy,
+// shard and merge.
+//
+//   DatasetDb dataset("synth.db", DatasetDb::Mode::kReadWrite);
+//   if (!dataset.HasRoom(7)) dataset.WriteRoom(room_record);
+#pragma once
+
+#include <Eigen/Geometry>
+#include <array>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "db/sqlite.h"
+
+namespace furn {
+
+inline constexpr int kDatasetSchemaVersion = 1;
+
+struct ModelRecord {
+  std::string id;
+  std::string furniture_class;  // empty: clutter
+  std::string content_hash;
+  Eigen::Vector3d size_m = Eigen::Vector3d::Zero();
+  bool evaluation_only = false;
+};
+
+struct ObjectRecord {
+  int instance_id = 0;
+  std::string model_id;
+  std::string furniture_class;              // empty: clutter, not a detection target
+  double x = 0, y = 0, z = 0, yaw = 0;      // world_from_object
+  double reference_x = 0, reference_y = 0;  // footprint centre on the floor (SPEC §3)
+  double width = 0, depth = 0, height = 0;  // m
+};
+
+struct FrameObjectRecord {
+  int instance_id = 0;
+  int64_t visible_pixels = 0;                       // pixels of the ideal id image showing it
+  int64_t amodal_pixels = 0;                        // pixels it covers when rendered alone
+  double visibility = 0;                            // visible / amodal (0 when amodal is 0)
+  std::array<int, 4> visible_box = {0, 0, -1, -1};  // u0, v0, u1, v1 inclusive; empty if u1 < u0
+  std::array<int, 4> amodal_box = {0, 0, -1, -1};
+  bool in_frustum = false;  // some of it projects into the image
+};
+
+struct FrameRecord {
+  int64_t id = 0;  // room_id * frames_per_room + frame_index: stable across shards
+  int frame_index = 0;
+  uint64_t seed = 0;
+  int width = 0, height = 0;
+  double fx = 0, fy = 0, cx = 0, cy = 0;
+  Eigen::Isometry3d world_from_camera = Eigen::Isometry3d::Identity();
+  std::vector<uint8_t> depth_ideal_png, depth_noisy_png, ids_png, ids_noisy_png;
+  std::string content_hash;
+  std::vector<FrameObjectRecord> objects;
+};
+
+struct RoomRecord {
+  int64_t id = 0;
+  uint64_t seed = 0;
+  std::string split;  // train, val or test
+  double width = 0, depth = 0;
+  int requested_furniture = 0, placed_furniture = 0;
+  std::vector<ObjectRecord> objects;
+  std::vector<FrameRecord> frames;
+};
+
+class DatasetDb {
+ public:
+  enum class Mode { kReadWrite, kReadOnly };
+  // kReadWrite creates the file and schema when missing. Throws DbError for a
+  // file that is not SQLite, or a schema newer than this build or unknown.
+  DatasetDb(const std::string& path, Mode mode);
+
+  const std::string& path() const { return db_.path(); }
+  Database* database() { return &db_; }
+
+  // The options JSON a dataset was generated with (none for a new file).
+  std::optional<std::string> GenerationOptions();
+  void SetGenerationOptions(const std::string& options_json);
+
+  // Inserts models not yet present; throws DbError when an id is present with
+  // another content hash (the catalog changed under the dataset).
+  void WriteModels(const std::vector<ModelRecord>& models);
+  std::vector<ModelRecord> ReadModels();
+
+  bool HasRoom(int64_t room_id);
+  // The room, its objects and frames, in one transaction.
+  void WriteRoom(const RoomRecord& room);
+  std::vector<int64_t> RoomIds();
+  RoomRecord ReadRoom(int64_t room_id, bool with_images);
+
+ private:
+  void CreateOrMigrate(Mode mode);
+  Database db_;
+};
+
+// "train", "val" or "test" for a room seed, by fixed ratios 0.6 / 0.2 / 0.2.
+std::string SplitForSeed(uint64_t room_seed);
+
+}  // namespace furn

@@ -1,0 +1,106 @@
+#include "reports/dataset_sheet.h"
+
+#include <algorithm>
+#include <map>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "core/error.h"
+#include "core/file_util.h"
+
+namespace furn {
+namespace {
+
+cv::Scalar ClassColour(const std::string& name) {
+  if (name == "chair") return cv::Scalar(60, 220, 60);
+  if (name == "armchair") return cv::Scalar(255, 160, 40);
+  if (name == "table") return cv::Scalar(40, 200, 255);
+  if (name == "sideboard") return cv::Scalar(230, 80, 230);
+  return cv::Scalar(255, 255, 255);
+}
+
+cv::Mat Tile(const SheetFrame& item, const DatasetSheetOptions& options) {
+  const FrameRecord& frame = *item.frame;
+  const cv::Mat depth = cv::imdecode(frame.depth_noisy_png, cv::IMREAD_UNCHANGED);
+  Require(!depth.empty() && depth.type() == CV_16UC1,
+          "frame " + std::to_string(frame.id) + ": noisy depth is not a 16-bit PNG");
+  // 0.5 m red .. 5 m blue (the Kinect's range), black for no return.
+  cv::Mat grey;
+  depth.convertTo(grey, CV_8UC1, -255.0 / 4500.0, 255.0 + 255.0 * 500.0 / 4500.0);
+  cv::Mat colour;
+  cv::applyColorMap(grey, colour, cv::COLORMAP_TURBO);
+  colour.setTo(cv::Scalar(0, 0, 0), depth == 0);
+  cv::Mat tile;
+  cv::resize(colour, tile, cv::Size(), options.scale, options.scale, cv::INTER_AREA);
+  std::map<int, const ObjectRecord*> objects;
+  for (const ObjectRecord& object : item.room->objects) objects[object.instance_id] = &object;
+  for (const FrameObjectRecord& seen : frame.objects) {
+    const auto it = objects.find(seen.instance_id);
+    if (it == objects.end() || it->second->furniture_class.empty() || seen.visible_pixels == 0)
+      continue;
+    const bool clear = seen.visibility >= options.min_visibility;
+    const cv::Scalar colour_of_box =
+        clear ? ClassColour(it->second->furniture_class) : cv::Scalar(150, 150, 150);
+    const cv::Rect box(cv::Point(static_cast<int>(seen.visible_box[0] * options.scale),
+                                 static_cast<int>(seen.visible_box[1] * options.scale)),
+                       cv::Point(static_cast<int>((seen.visible_box[2] + 1) * options.scale),
+                                 static_cast<int>((seen.visible_box[3] + 1) * options.scale)));
+    cv::rectangle(tile, box, colour_of_box, clear ? 2 : 1);
+    char label[64];
+    std::snprintf(
+        label, sizeof(label), "%s %.2f", it->second->furniture_class.c_str(), seen.visibility);
+    const cv::Point at(box.x + 2, std::max(12, box.y - 3));
+    cv::putText(
+        tile, label, at, cv::FONT_HERSHEY_SIMPLEX, 0.4, cv::Scalar(0, 0, 0), 3, cv::LINE_AA);
+    cv::putText(tile, label, at, cv::FONT_HERSHEY_SIMPLEX, 0.4, colour_of_box, 1, cv::LINE_AA);
+  }
+  char caption[96];
+  std::snprintf(caption,
+                sizeof(caption),
+                "frame %lld  room %lld (%s)",
+                static_cast<long long>(frame.id),
+                static_cast<long long>(item.room->id),
+                item.room->split.c_str());
+  cv::putText(tile,
+              caption,
+              cv::Point(4, tile.rows - 6),
+              cv::FONT_HERSHEY_SIMPLEX,
+              0.4,
+              cv::Scalar(0, 0, 0),
+              3,
+              cv::LINE_AA);
+  cv::putText(tile,
+              caption,
+              cv::Point(4, tile.rows - 6),
+              cv::FONT_HERSHEY_SIMPLEX,
+              0.4,
+              cv::Scalar(255, 255, 255),
+              1,
+              cv::LINE_AA);
+  return tile;
+}
+
+}  // namespace
+
+void WriteDatasetSheet(const std::vector<SheetFrame>& frames,
+                       const DatasetSheetOptions& options,
+                       const std::string& png_path) {
+  Require(options.Check(), "sheet options: columns >= 1, scale in [0.1, 1], min_visibility >= 0");
+  Require(!frames.empty(), png_path + ": the dataset has no frames to show");
+  Require(FileExtension(png_path) == "png", png_path + ": the sheet is written as .png");
+  std::vector<cv::Mat> tiles;
+  for (const SheetFrame& frame : frames) tiles.push_back(Tile(frame, options));
+  const int columns = std::min<int>(options.columns, static_cast<int>(tiles.size()));
+  const int rows = static_cast<int>((tiles.size() + columns - 1) / columns);
+  const int w = tiles[0].cols, h = tiles[0].rows;
+  cv::Mat sheet(rows * h, columns * w, CV_8UC3, cv::Scalar(255, 255, 255));
+  for (size_t i = 0; i < tiles.size(); ++i) {
+    tiles[i].copyTo(sheet(
+        cv::Rect(static_cast<int>(i % columns) * w, static_cast<int>(i / columns) * h, w, h)));
+  }
+  std::vector<uchar> bytes;
+  Require(cv::imencode(".png", sheet, bytes), png_path + ": PNG encoding failed");
+  WriteFileAtomically(png_path, std::string(bytes.begin(), bytes.end()));
+}
+
+}  // namespace furn

@@ -1,0 +1,359 @@
+#include "workbench/generate.h"
+
+#include <xxhash.h>
+
+#include <chrono>
+#include <map>
+#include <nlohmann/json.hpp>
+
+#include "core/error.h"
+#include "core/parallel.h"
+#include "core/progress.h"
+#include "core/random.h"
+#include "db/dataset_db.h"
+#include "renderers/embree_caster.h"
+#include "renderers/frame_io.h"
+#include "renderers/kinect_simulator.h"
+
+namespace furn {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double SecondsSince(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+// Pixels of an object's 3D bounding box in the image (inclusive), or the whole
+// image when a corner is behind the camera; empty (u1 < u0) when it is all out of view.
+std::array<int, 4> ProjectedRegion(const PlacedObject& object,
+                                   const CameraIntrinsics& camera,
+                                   const Eigen::Isometry3d& camera_from_world) {
+  const Eigen::Isometry3d camera_from_object = camera_from_world * object.WorldFromObject();
+  double u_min = 1e30, v_min = 1e30, u_max = -1e30, v_max = -1e30;
+  for (int corner = 0; corner < 8; ++corner) {
+    const Eigen::Vector3d p_object((corner & 1 ? 0.5 : -0.5) * object.size_m.x(),
+                                   (corner & 2 ? 0.5 : -0.5) * object.size_m.y(),
+                                   corner & 4 ? object.size_m.z() : 0.0);
+    const Eigen::Vector3d p = camera_from_object * p_object;
+    if (p.z() < 0.05) return {0, 0, camera.width - 1, camera.height - 1};
+    const Eigen::Vector2d pixel = camera.Project(p);
+    u_min = std::min(u_min, pixel.x());
+    u_max = std::max(u_max, pixel.x());
+    v_min = std::min(v_min, pixel.y());
+    v_max = std::max(v_max, pixel.y());
+  }
+  auto clamp = [](double x, int high) { return static_cast<int>(std::clamp(x, -1.0, high + 1.0)); };
+  return {clamp(std::floor(u_min) - 1, camera.width - 1),
+          clamp(std::floor(v_min) - 1, camera.height - 1),
+          clamp(std::ceil(u_max) + 1, camera.width - 1),
+          clamp(std::ceil(v_max) + 1, camera.height - 1)};
+}
+
+std::string HashFrame(const KinectCapture& capture) {
+  XXH3_state_t* state = XXH3_createState();
+  XXH3_128bits_reset(state);
+  for (const DepthFrame* frame : {&capture.ideal, &capture.noisy}) {
+    XXH3_128bits_update(state, frame->depth.data(), frame->depth.size() * sizeof(float));
+    XXH3_128bits_update(
+        state, frame->instance_ids.data(), frame->instance_ids.size() * sizeof(uint16_t));
+  }
+  const XXH128_hash_t hash = XXH3_128bits_digest(state);
+  XXH3_freeState(state);
+  char text[33];
+  std::snprintf(text,
+                sizeof(text),
+                "%016llx%016llx",
+                static_cast<unsigned long long>(hash.high64),
+                static_cast<unsigned long long>(hash.low64));
+  return text;
+}
+
+// Visible pixels and boxes of every object from the ideal id image.
+void CountVisible(const DepthFrame& ideal, std::vector<FrameObjectRecord>* objects) {
+  std::map<int, FrameObjectRecord*> by_id;
+  for (FrameObjectRecord& object : *objects) by_id[object.instance_id] = &object;
+  for (int v = 0; v < ideal.height; ++v) {
+    for (int u = 0; u < ideal.width; ++u) {
+      const auto it = by_id.find(ideal.IdAt(u, v));
+      if (it == by_id.end()) continue;
+      FrameObjectRecord& object = *it->second;
+      std::array<int, 4>& box = object.visible_box;
+      if (object.visible_pixels++ == 0) box = {u, v, u, v};
+      box = {std::min(box[0], u), std::min(box[1], v), std::max(box[2], u), std::max(box[3], v)};
+    }
+  }
+}
+
+class RoomGenerator {
+ public:
+  RoomGenerator(const Catalog& catalog, const GenerateOptions& options)
+      : catalog_(catalog),
+        options_(options),
+        composer_catalog_(ComposerCatalog::From(catalog, options.room.include_evaluation_only)),
+        renderer_(MakeRenderer(options.renderer)),
+        simulator_(renderer_.get(), options.noise) {}
+
+  RoomRecord Generate(int64_t room_index, GenerateSummary* summary) {
+    const uint64_t room_seed = DeriveSeed(options_.seed, static_cast<uint64_t>(room_index));
+    auto start = Clock::now();
+    const RoomLayout layout = ComposeRoom(composer_catalog_, options_.room, room_seed);
+    summary->compose_s += SecondsSince(start);
+    start = Clock::now();
+    const Scene scene = BuildRoomScene(layout, LoadMeshes(layout));
+    summary->load_s += SecondsSince(start);
+
+    RoomRecord room;
+    room.id = room_index;
+    room.seed = room_seed;
+    room.split = SplitForSeed(room_seed);
+    room.width = layout.width_m;
+    room.depth = layout.depth_m;
+    room.requested_furniture = layout.requested_furniture;
+    room.placed_furniture = layout.placed_furniture;
+    for (const PlacedObject& placed : layout.objects)
+      room.objects.push_back(ObjectRecordOf(placed));
+
+    // Each object alone, for its amodal mask.
+    std::vector<Scene> alone(layout.objects.size());
+    std::vector<std::unique_ptr<EmbreeCaster>> alone_casters(layout.objects.size());
+    for (size_t k = 0; k < layout.objects.size(); ++k) {
+      alone[k].objects.push_back(scene.objects[5 + k]);  // after the floor and four walls
+      alone_casters[k] = std::make_unique<EmbreeCaster>();
+    }
+    for (size_t j = 0; j < layout.world_from_cameras.size(); ++j) {
+      room.frames.push_back(
+          MakeFrame(room, layout, scene, alone, alone_casters, static_cast<int>(j), summary));
+    }
+    return room;
+  }
+
+ private:
+  ObjectRecord ObjectRecordOf(const PlacedObject& placed) const {
+    ObjectRecord object;
+    object.instance_id = placed.instance_id;
+    object.model_id = placed.model_id;
+    object.furniture_class = placed.furniture_class ? ClassName(*placed.furniture_class) : "";
+    object.x = placed.x;
+    object.y = placed.y;
+    object.yaw = placed.yaw;
+    object.reference_x = placed.x;  // the model origin is the footprint centre
+    object.reference_y = placed.y;
+    object.width = placed.size_m.x();
+    object.depth = placed.size_m.y();
+    object.height = placed.size_m.z();
+    return object;
+  }
+
+  std::map<std::string, std::shared_ptr<const TriangleMesh>> LoadMeshes(const RoomLayout& layout) {
+    std::map<std::string, std::shared_ptr<const TriangleMesh>> meshes;
+    for (const PlacedObject& object : layout.objects) {
+      auto it = mesh_cache_.find(object.model_id);
+      if (it == mesh_cache_.end()) {
+        CadModel model = catalog_.LoadModel(object.model_id);
+        models_[object.model_id] =
+            ModelRecord{model.id,
+                        object.furniture_class ? ClassName(*object.furniture_class) : "",
+                        model.content_hash,
+                        object.size_m,
+                        catalog_.Get(model.id).evaluation_only};
+        it = mesh_cache_
+                 .emplace(object.model_id, std::make_shared<TriangleMesh>(std::move(model.mesh)))
+                 .first;
+      }
+      meshes[object.model_id] = it->second;
+    }
+    return meshes;
+  }
+
+  FrameRecord MakeFrame(const RoomRecord& room,
+                        const RoomLayout& layout,
+                        const Scene& scene,
+                        const std::vector<Scene>& alone,
+                        const std::vector<std::unique_ptr<EmbreeCaster>>& alone_casters,
+                        int index,
+                        GenerateSummary* summary) {
+    const CameraIntrinsics& camera = options_.camera;
+    FrameRecord frame;
+    frame.frame_index = index;
+    frame.id = room.id * options_.room.frames_per_room + index;
+    frame.seed = DeriveSeed(room.seed, static_cast<uint64_t>(index) + 1);
+    frame.width = camera.width;
+    frame.height = camera.height;
+    frame.fx = camera.fx;
+    frame.fy = camera.fy;
+    frame.cx = camera.cx;
+    frame.cy = camera.cy;
+    frame.world_from_camera = layout.world_from_cameras[index];
+
+    auto start = Clock::now();
+    const KinectCapture& capture =
+        simulator_.Capture(scene, camera, frame.world_from_camera, frame.seed);
+    summary->render_s += SecondsSince(start);
+
+    start = Clock::now();
+    const Eigen::Isometry3d camera_from_world = frame.world_from_camera.inverse();
+    for (size_t k = 0; k < layout.objects.size(); ++k) {
+      FrameObjectRecord object;
+      object.instance_id = layout.objects[k].instance_id;
+      const std::array<int, 4> region =
+          ProjectedRegion(layout.objects[k], camera, camera_from_world);
+      const EmbreeCaster::Coverage amodal =
+          alone_casters[k]->CoverageIn(alone[k], camera, frame.world_from_camera, region);
+      object.amodal_pixels = amodal.pixels;
+      object.amodal_box = amodal.box;
+      object.in_frustum = amodal.pixels > 0;
+      frame.objects.push_back(object);
+    }
+    CountVisible(capture.ideal, &frame.objects);
+    for (FrameObjectRecord& object : frame.objects) {
+      object.visibility =
+          object.amodal_pixels > 0
+              ? std::min(1.0, static_cast<double>(object.visible_pixels) / object.amodal_pixels)
+              : 0.0;
+    }
+    frame.content_hash = HashFrame(capture);
+    summary->ground_truth_s += SecondsSince(start);
+
+    start = Clock::now();
+    std::vector<uint8_t>* outputs[4] = {
+        &frame.depth_ideal_png, &frame.depth_noisy_png, &frame.ids_png, &frame.ids_noisy_png};
+    ParallelFor(0, 4, [&](int k) {
+      *outputs[k] = k < 2 ? EncodeDepthPng(k == 0 ? capture.ideal : capture.noisy)
+                          : EncodeIdPng(k == 2 ? capture.ideal : capture.noisy);
+    });
+    summary->encode_s += SecondsSince(start);
+    return frame;
+  }
+
+ public:
+  std::vector<ModelRecord> TakeNewModels() {
+    std::vector<ModelRecord> models;
+    for (auto& [id, model] : models_) models.push_back(model);
+    models_.clear();
+    return models;
+  }
+
+ private:
+  const Catalog& catalog_;
+  const GenerateOptions& options_;
+  ComposerCatalog composer_catalog_;
+  std::unique_ptr<DepthRenderer> renderer_;
+  KinectSimulator simulator_;
+  std::map<std::string, std::shared_ptr<const TriangleMesh>> mesh_cache_;
+  std::map<std::string, ModelRecord> models_;  // loaded since the last TakeNewModels()
+};
+
+}  // namespace
+
+void GenerateOptions::Check() const {
+  Require(rooms >= 1 && rooms <= 1000000,
+          "rooms " + std::to_string(rooms) + " must be in 1..1000000");
+  Require(shard_count >= 1 && shard_index >= 0 && shard_index < shard_count,
+          "shard " + std::to_string(shard_index) + "/" + std::to_string(shard_count) +
+              " must satisfy 0 <= i < N");
+  room.Check();
+  noise.Check();
+  camera.Check();
+}
+
+std::string GenerateOptions::ContentJson() const {
+  nlohmann::ordered_json json{
+      {"catalog", catalog_spec},
+      {"rooms", rooms},
+      {"seed", seed},
+      {"renderer", renderer == RendererKind::kEmbree ? "embree" : "osmesa"},
+      {"camera", {camera.width, camera.height, camera.fx, camera.fy, camera.cx, camera.cy}},
+      {"room",
+       {{"min_side_m", room.min_side_m},
+        {"max_side_m", room.max_side_m},
+        {"min_furniture", room.min_furniture},
+        {"max_furniture", room.max_furniture},
+        {"min_clutter", room.min_clutter},
+        {"max_clutter", room.max_clutter},
+        {"clearance_m", room.clearance_m},
+        {"wall_height_m", room.wall_height_m},
+        {"frames_per_room", room.frames_per_room},
+        {"min_camera_height_m", room.min_camera_height_m},
+        {"max_camera_height_m", room.max_camera_height_m},
+        {"min_pitch_deg", room.min_pitch_deg},
+        {"max_pitch_deg", room.max_pitch_deg},
+        {"include_evaluation_only", room.include_evaluation_only}}},
+      {"noise",
+       {{"baseline_m", noise.baseline_m},
+        {"projector_shadow", noise.projector_shadow},
+        {"range_limits", noise.range_limits},
+        {"min_range_m", noise.min_range_m},
+        {"max_range_m", noise.max_range_m},
+        {"incidence_dropout", noise.incidence_dropout},
+        {"max_incidence_deg", noise.max_incidence_deg},
+        {"edge_dropout", noise.edge_dropout},
+        {"edge_jump_m", noise.edge_jump_m},
+        {"edge_dropout_probability", noise.edge_dropout_probability},
+        {"lateral_noise", noise.lateral_noise},
+        {"axial_noise", noise.axial_noise},
+        {"quantization", noise.quantization},
+        {"disparity_step_px", noise.disparity_step_px}}}};
+  return json.dump();
+}
+
+std::pair<int, int> ParseShard(const std::string& text) {
+  const size_t slash = text.find('/');
+  try {
+    size_t used_i = 0, used_n = 0;
+    const int i = std::stoi(text.substr(0, slash), &used_i);
+    const int n = slash == std::string::npos ? 0 : std::stoi(text.substr(slash + 1), &used_n);
+    if (slash != std::string::npos && used_i == slash && used_n == text.size() - slash - 1 &&
+        n >= 1 && i >= 0 && i < n) {
+      return {i, n};
+    }
+  } catch (const std::exception&) {
+  }
+  throw InputError("shard '" + text + "' must be i/N with 0 <= i < N, e.g. 0/4");
+}
+
+GenerateSummary GenerateDataset(const Catalog& catalog,
+                                const GenerateOptions& options,
+                                const std::string& db_path) {
+  options.Check();
+  const auto start = Clock::now();
+  DatasetDb dataset(db_path, DatasetDb::Mode::kReadWrite);
+  const std::string content = options.ContentJson();
+  if (const auto existing = dataset.GenerationOptions()) {
+    Require(*existing == content,
+            db_path +
+                ": was generated with other options; use a new file, or the same "
+                "options to resume (recorded: " +
+                *existing + ")");
+  } else {
+    dataset.SetGenerationOptions(content);
+  }
+  GenerateSummary summary;
+  std::vector<int64_t> todo;
+  for (int64_t k = options.shard_index; k < options.rooms; k += options.shard_count) {
+    ++summary.rooms_in_shard;
+    if (dataset.HasRoom(k)) {
+      ++summary.rooms_already_present;
+    } else {
+      todo.push_back(k);
+    }
+  }
+  RoomGenerator generator(catalog, options);
+  Progress progress("generate", todo.size(), "rooms");
+  for (int64_t k : todo) {
+    RoomRecord room = generator.Generate(k, &summary);
+    const auto insert_start = Clock::now();
+    dataset.WriteModels(generator.TakeNewModels());
+    dataset.WriteRoom(room);
+    summary.insert_s += SecondsSince(insert_start);
+    ++summary.rooms_written;
+    summary.frames_written += static_cast<int>(room.frames.size());
+    summary.rooms_short += room.placed_furniture < room.requested_furniture;
+    progress.Advance();
+  }
+  progress.Finish();
+  summary.seconds = SecondsSince(start);
+  return summary;
+}
+
+}  // namespace furn

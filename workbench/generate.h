@@ -1,0 +1,61 @@
+// `workbench generate`: labelled synthetic Kinect frames from a catalog, into
+// a dataset database (db/dataset_db.h).
+//
+// Room k of a run has seed DeriveSeed(seed, k) and frame j of it
+// DeriveSeed(room_seed, j + 1), so a room is the same whether generated alone,
+// in a batch or in a shard. Rooms already in the database are skipped, which
+// makes an interrupted run resumable by running it again.
+//
+//   GenerateOptions options;
+//   options.rooms = 50;
+//   GenerateSummary summary = GenerateDataset(catalog, options, "synth.db");
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include "renderers/camera.h"
+#include "renderers/depth_renderer.h"
+#include "renderers/kinect_noise.h"
+#include "scenes/catalog.h"
+#include "scenes/room_composer.h"
+
+namespace furn {
+
+struct GenerateOptions {
+  std::string catalog_spec = "default";  // recorded in the database
+  int rooms = 50;                        // rooms of the whole run, all shards (1..1000000)
+  uint64_t seed = 1;                     // master seed
+  int shard_index = 0;  // this process makes rooms k with k % shard_count == shard_index
+  int shard_count = 1;
+  RoomOptions room;
+  KinectNoiseOptions noise;
+  RendererKind renderer = RendererKind::kEmbree;
+  CameraIntrinsics camera = CameraIntrinsics::KinectV1();
+
+  // Throws InputError naming the field and the rule.
+  void Check() const;
+  // Everything that decides the content, as JSON (shard excluded, so shards
+  // of one run can be merged).
+  std::string ContentJson() const;
+};
+
+struct GenerateSummary {
+  int rooms_in_shard = 0;
+  int rooms_written = 0;
+  int rooms_already_present = 0;
+  int frames_written = 0;
+  int rooms_short = 0;  // rooms where fewer pieces fitted than were asked for
+  double seconds = 0;
+  // Seconds spent per stage, summed over rooms.
+  double compose_s = 0, load_s = 0, render_s = 0, ground_truth_s = 0, encode_s = 0, insert_s = 0;
+};
+
+GenerateSummary GenerateDataset(const Catalog& catalog,
+                                const GenerateOptions& options,
+                                const std::string& db_path);
+
+// "i/N" -> (i, N); throws InputError unless 0 <= i < N.
+std::pair<int, int> ParseShard(const std::string& text);
+
+}  // namespace furn

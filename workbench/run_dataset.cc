@@ -1,0 +1,124 @@
+#include <CLI/CLI.hpp>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+
+#include "core/error.h"
+#include "workbench/cli_common.h"
+#include "workbench/commands.h"
+#include "workbench/dataset_commands.h"
+#include "workbench/generate.h"
+
+namespace furn {
+
+int RunGenerate(int argc, char** argv) {
+  CLI::App app{
+      "Generate labelled synthetic Kinect frames of furnished rooms into a dataset database",
+      "workbench generate"};
+  CatalogFlags catalog_flags;
+  AddCatalogFlags(&app, &catalog_flags);
+  GenerateOptions options;
+  std::string out, shard = "0/1", renderer = "embree";
+  app.add_option("--rooms", options.rooms, "Rooms in the whole run (all shards)")
+      ->capture_default_str();
+  app.add_option("--frames", options.room.frames_per_room, "Frames per room")
+      ->capture_default_str();
+  app.add_option("--seed", options.seed, "Master seed")->capture_default_str();
+  app.add_option(
+         "--out", out, "Dataset database (.db); an existing one with the same options is resumed")
+      ->required();
+  app.add_option("--shard", shard, "i/N: make only rooms k with k % N == i")->capture_default_str();
+  app.add_option("--renderer", renderer, "embree or osmesa")->capture_default_str();
+  app.add_option("--min-side", options.room.min_side_m, "Smallest room side (m)")
+      ->capture_default_str();
+  app.add_option("--max-side", options.room.max_side_m, "Largest room side (m)")
+      ->capture_default_str();
+  app.add_option(
+         "--min-furniture", options.room.min_furniture, "Fewest class-mapped pieces per room")
+      ->capture_default_str();
+  app.add_option("--max-furniture", options.room.max_furniture, "Most class-mapped pieces per room")
+      ->capture_default_str();
+  app.add_option("--min-clutter", options.room.min_clutter, "Fewest clutter pieces per room")
+      ->capture_default_str();
+  app.add_option("--max-clutter", options.room.max_clutter, "Most clutter pieces per room")
+      ->capture_default_str();
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& error) {
+    return app.exit(error) == 0 ? 0 : 2;
+  }
+  ApplyGlobalFlags(catalog_flags);
+  std::tie(options.shard_index, options.shard_count) = ParseShard(shard);
+  options.renderer = ParseRendererKind(renderer);
+  options.catalog_spec = catalog_flags.spec;
+  options.Check();
+  Require(std::filesystem::path(out).extension() == ".db",
+          out + ": the dataset file must end in .db");
+  const Catalog catalog = OpenCatalog(catalog_flags.spec, MakeOpenOptions(catalog_flags));
+  for (const std::string& warning : catalog.warnings())
+    std::fprintf(stderr, "warning: %s\n", warning.c_str());
+  const GenerateSummary summary = GenerateDataset(catalog, options, out);
+  std::printf(
+      "%s: %d rooms in shard %d/%d: %d written, %d already present; %d frames in %.1f s (%.1f "
+      "frames/s)\n",
+      out.c_str(),
+      summary.rooms_in_shard,
+      options.shard_index,
+      options.shard_count,
+      summary.rooms_written,
+      summary.rooms_already_present,
+      summary.frames_written,
+      summary.seconds,
+      summary.seconds > 0 ? summary.frames_written / summary.seconds : 0.0);
+  std::printf(
+      "time per stage (s): compose %.2f, load models %.2f, render+noise %.2f, ground truth %.2f, "
+      "png %.2f, database %.2f\n",
+      summary.compose_s,
+      summary.load_s,
+      summary.render_s,
+      summary.ground_truth_s,
+      summary.encode_s,
+      summary.insert_s);
+  if (summary.rooms_short > 0) {
+    std::printf(
+        "note: in %d of %d rooms not every requested piece fitted (rooms too small for the "
+        "request; "
+        "placed what fits)\n",
+        summary.rooms_short,
+        summary.rooms_written);
+  }
+  return 0;
+}
+
+int RunDataset(int argc, char** argv) {
+  CLI::App app{"Inspect, preview, merge and export dataset databases", "workbench dataset"};
+  app.require_subcommand(1);
+  std::string db, out;
+  bool json = false;
+  CLI::App* info =
+      app.add_subcommand("info", "Counts per split and class, visibility histogram, size");
+  info->add_option("db", db, "Dataset database")->required();
+  info->add_flag("--json", json, "JSON instead of text");
+  CLI::App* preview =
+      app.add_subcommand("preview", "Contact sheet: noisy depth with ground-truth boxes");
+  preview->add_option("db", db, "Dataset database")->required();
+  preview->add_option("--out", out, "Output .png")->required();
+  int max_frames = 12;
+  preview->add_option("--frames", max_frames, "How many frames (spread over the dataset)")
+      ->capture_default_str();
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& error) {
+    return app.exit(error) == 0 ? 0 : 2;
+  }
+  if (info->parsed()) {
+    const DatasetInfo summary = ReadDatasetInfo(db);
+    std::cout << (json ? DatasetInfoJson(summary) : DatasetInfoText(summary));
+    return 0;
+  }
+  WriteDatasetPreview(db, max_frames, out);
+  std::cout << "wrote " << out << "\n";
+  return 0;
+}
+
+}  // namespace furn
