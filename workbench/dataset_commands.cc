@@ -144,3 +144,207 @@ void WriteDatasetPreview(const std::string& db_path, int max_frames, const std::
 }
 
 }  // namespace furn
+
+#include <fstream>
+
+#include "core/file_util.h"
+#include "core/scene.h"
+#include "renderers/camera.h"
+#include "renderers/frame_io.h"
+
+namespace furn {
+namespace {
+
+std::string SqlQuote(const std::string& text) {
+  std::string quoted = "'";
+  for (char c : text) quoted += c == '\'' ? std::string("''") : std::string(1, c);
+  return quoted + "'";
+}
+
+}  // namespace
+
+MergeSummary MergeDatasets(const std::vector<std::string>& inputs, const std::string& out) {
+  Require(inputs.size() >= 1, "merge needs at least one input dataset");
+  std::error_code ec;
+  Require(!std::filesystem::exists(out, ec), out + ": already exists (merge writes a new file)");
+  std::string options;
+  for (const std::string& input : inputs) {
+    DatasetDb dataset = OpenExisting(input);
+    const std::string these = dataset.GenerationOptions().value_or("");
+    if (options.empty()) options = these;
+    Require(these == options, input + ": generated with other options than " + inputs.front() +
+                                  " (only shards of one run can be merged)");
+  }
+  const std::string temp = out + ".partial";
+  std::filesystem::remove(temp, ec);
+  MergeSummary summary;
+  try {
+    DatasetDb merged(temp, DatasetDb::Mode::kReadWrite);
+    merged.SetGenerationOptions(options);
+    Database& db = *merged.database();
+    for (const std::string& input : inputs) {
+      {
+        DatasetDb source = OpenExisting(input);
+        merged.WriteModels(source.ReadModels());
+      }
+      db.Execute("ATTACH DATABASE " + SqlQuote(input) + " AS source");
+      int64_t conflicting = 0;
+      {  // statements on `source` must be finished before it is detached
+        Statement conflicts(&db,
+                            "SELECT count(*) FROM source.rooms s JOIN main.rooms m ON m.id = s.id "
+                            "WHERE m.seed != s.seed OR EXISTS (SELECT 1 FROM source.frames sf JOIN main.frames mf "
+                            "ON mf.id = sf.id WHERE sf.room_id = s.id AND sf.content_hash != mf.content_hash)");
+        conflicts.Step();
+        conflicting = conflicts.ColumnInt(0);
+        Statement duplicates(&db, "SELECT count(*) FROM source.rooms WHERE id IN (SELECT id FROM main.rooms)");
+        duplicates.Step();
+        summary.duplicate_rooms += static_cast<int>(duplicates.ColumnInt(0));
+      }
+      if (conflicting > 0) {
+        throw InputError(input + ": " + std::to_string(conflicting) +
+                         " rooms have the same id as rooms already merged but other content");
+      }
+      Transaction transaction(&db);
+      db.Execute("INSERT INTO main.rooms SELECT * FROM source.rooms WHERE id NOT IN (SELECT id FROM main.rooms)");
+      db.Execute(
+          "INSERT INTO main.objects SELECT * FROM source.objects WHERE (room_id, instance_id) NOT IN "
+          "(SELECT room_id, instance_id FROM main.objects)");
+      db.Execute("INSERT INTO main.frames SELECT * FROM source.frames WHERE id NOT IN (SELECT id FROM main.frames)");
+      db.Execute(
+          "INSERT INTO main.frame_objects SELECT * FROM source.frame_objects WHERE (frame_id, instance_id) NOT IN "
+          "(SELECT frame_id, instance_id FROM main.frame_objects)");
+      transaction.Commit();
+      db.Execute("DETACH DATABASE source");
+    }
+    summary.rooms = static_cast<int>(merged.RoomIds().size());
+    db.Execute("PRAGMA wal_checkpoint(TRUNCATE)");
+  } catch (...) {
+    for (const char* suffix : {"", "-wal", "-shm"}) std::filesystem::remove(temp + suffix, ec);
+    throw;
+  }
+  std::filesystem::rename(temp, out, ec);
+  Require(!ec, out + ": cannot write (" + ec.message() + ")");
+  std::filesystem::remove(temp + "-wal", ec);
+  std::filesystem::remove(temp + "-shm", ec);
+  return summary;
+}
+
+namespace {
+
+CameraIntrinsics IntrinsicsOf(const FrameRecord& frame) {
+  CameraIntrinsics camera;
+  camera.width = frame.width;
+  camera.height = frame.height;
+  camera.fx = frame.fx;
+  camera.fy = frame.fy;
+  camera.cx = frame.cx;
+  camera.cy = frame.cy;
+  return camera;
+}
+
+void WriteBytes(const std::string& path, const std::vector<uint8_t>& bytes) {
+  WriteFileAtomically(path, std::string(bytes.begin(), bytes.end()));
+}
+
+std::string Pad(int64_t value) {
+  char text[16];
+  std::snprintf(text, sizeof(text), "%06lld", static_cast<long long>(value));
+  return text;
+}
+
+nlohmann::json Rows(const Eigen::Matrix3d& m) {
+  return {m(0, 0), m(0, 1), m(0, 2), m(1, 0), m(1, 1), m(1, 2), m(2, 0), m(2, 1), m(2, 2)};
+}
+
+}  // namespace
+
+int ExportDataset(const std::string& db_path, const std::string& format, const std::string& out_dir) {
+  Require(format == "bop" || format == "png" || format == "pcd",
+          "export format '" + format + "' is not one of bop, png, pcd");
+  DatasetDb dataset = OpenExisting(db_path);
+  std::error_code ec;
+  std::filesystem::create_directories(out_dir, ec);
+  Require(std::filesystem::is_directory(out_dir, ec), out_dir + ": cannot create the output directory");
+  const std::filesystem::path root(out_dir);
+  std::map<std::string, int> bop_object_ids;  // model id -> 1-based BOP obj_id
+  nlohmann::ordered_json models = nlohmann::ordered_json::object();
+  for (const ModelRecord& model : dataset.ReadModels()) {
+    const int id = static_cast<int>(bop_object_ids.size()) + 1;
+    bop_object_ids[model.id] = id;
+    models[std::to_string(id)] = {{"model_id", model.id}, {"class", model.furniture_class}};
+  }
+  nlohmann::ordered_json png_index = nlohmann::ordered_json::array();
+  int written = 0;
+  for (int64_t room_id : dataset.RoomIds()) {
+    const RoomRecord room = dataset.ReadRoom(room_id, /*with_images=*/true);
+    std::map<int, const ObjectRecord*> objects;
+    for (const ObjectRecord& object : room.objects) objects[object.instance_id] = &object;
+    const std::filesystem::path scene_dir = root / room.split / Pad(room.id);
+    nlohmann::ordered_json scene_camera, scene_gt, scene_gt_info;
+    for (const FrameRecord& frame : room.frames) {
+      const std::string where = db_path + " frame " + std::to_string(frame.id);
+      if (format == "pcd") {
+        DepthFrame noisy = DecodeDepthPng(frame.depth_noisy_png, where);
+        WriteOrganizedPcd(noisy, IntrinsicsOf(frame), (root / (Pad(frame.id) + ".pcd")).string());
+      } else if (format == "png") {
+        std::filesystem::create_directories(root / "frames", ec);
+        WriteBytes((root / "frames" / (Pad(frame.id) + "_depth.png")).string(), frame.depth_noisy_png);
+        WriteBytes((root / "frames" / (Pad(frame.id) + "_depth_ideal.png")).string(), frame.depth_ideal_png);
+        WriteBytes((root / "frames" / (Pad(frame.id) + "_ids.png")).string(), frame.ids_png);
+        png_index.push_back({{"frame", frame.id},
+                             {"room", room.id},
+                             {"split", room.split},
+                             {"K", {frame.fx, 0, frame.cx, 0, frame.fy, frame.cy, 0, 0, 1}},
+                             {"world_from_camera", Rows(frame.world_from_camera.linear())},
+                             {"world_from_camera_t", {frame.world_from_camera.translation().x(),
+                                                      frame.world_from_camera.translation().y(),
+                                                      frame.world_from_camera.translation().z()}}});
+      } else {
+        for (const char* sub : {"depth", "depth_ideal", "mask_ids"}) std::filesystem::create_directories(scene_dir / sub, ec);
+        WriteBytes((scene_dir / "depth" / (Pad(frame.frame_index) + ".png")).string(), frame.depth_noisy_png);
+        WriteBytes((scene_dir / "depth_ideal" / (Pad(frame.frame_index) + ".png")).string(), frame.depth_ideal_png);
+        WriteBytes((scene_dir / "mask_ids" / (Pad(frame.frame_index) + ".png")).string(), frame.ids_png);
+        const Eigen::Isometry3d camera_from_world = frame.world_from_camera.inverse();
+        const Eigen::Vector3d t = camera_from_world.translation() * 1000.0;
+        const std::string key = std::to_string(frame.frame_index);
+        scene_camera[key] = {{"cam_K", {frame.fx, 0, frame.cx, 0, frame.fy, frame.cy, 0, 0, 1}},
+                             {"depth_scale", 1.0},
+                             {"cam_R_w2c", Rows(camera_from_world.linear())},
+                             {"cam_t_w2c", {t.x(), t.y(), t.z()}}};
+        nlohmann::ordered_json gt = nlohmann::ordered_json::array(), info = nlohmann::ordered_json::array();
+        for (const FrameObjectRecord& seen : frame.objects) {
+          const ObjectRecord& object = *objects.at(seen.instance_id);
+          const Eigen::Isometry3d camera_from_object =
+              camera_from_world * PoseXYZYaw(object.x, object.y, object.z, object.yaw);
+          const Eigen::Vector3d tm = camera_from_object.translation() * 1000.0;
+          gt.push_back({{"obj_id", bop_object_ids.at(object.model_id)},
+                        {"instance_id", seen.instance_id},
+                        {"cam_R_m2c", Rows(camera_from_object.linear())},
+                        {"cam_t_m2c", {tm.x(), tm.y(), tm.z()}}});
+          auto box = [](const std::array<int, 4>& b) {
+            return b[2] < b[0] ? nlohmann::json{-1, -1, -1, -1}
+                               : nlohmann::json{b[0], b[1], b[2] - b[0] + 1, b[3] - b[1] + 1};
+          };
+          info.push_back({{"bbox_obj", box(seen.amodal_box)},
+                          {"bbox_visib", box(seen.visible_box)},
+                          {"px_count_all", seen.amodal_pixels},
+                          {"px_count_visib", seen.visible_pixels},
+                          {"visib_fract", seen.visibility}});
+        }
+        scene_gt[key] = gt;
+        scene_gt_info[key] = info;
+      }
+      ++written;
+    }
+    if (format == "bop" && !room.frames.empty()) {
+      WriteFileAtomically((scene_dir / "scene_camera.json").string(), scene_camera.dump(1) + "\n");
+      WriteFileAtomically((scene_dir / "scene_gt.json").string(), scene_gt.dump(1) + "\n");
+      WriteFileAtomically((scene_dir / "scene_gt_info.json").string(), scene_gt_info.dump(1) + "\n");
+    }
+  }
+  if (format == "bop") WriteFileAtomically((root / "models.json").string(), models.dump(1) + "\n");
+  if (format == "png") WriteFileAtomically((root / "frames.json").string(), png_index.dump(1) + "\n");
+  return written;
+}
+
+}  // namespace furn

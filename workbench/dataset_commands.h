@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <map>
 #include <string>
+#include <vector>
 
 namespace furn {
 
@@ -28,5 +29,26 @@ std::string DatasetInfoJson(const DatasetInfo& info);
 
 // Up to `max_frames` frames spread evenly over the dataset, as a contact sheet.
 void WriteDatasetPreview(const std::string& db_path, int max_frames, const std::string& png_path);
+
+}  // namespace furn
+
+namespace furn {
+
+// Joins datasets made with the same generation options (e.g. the shards of
+// one run) into a new file. Throws InputError when `out` exists, the options
+// differ, or two inputs hold the same room with different content.
+struct MergeSummary {
+  int rooms = 0;
+  int duplicate_rooms = 0;  // present in several inputs, identical
+};
+MergeSummary MergeDatasets(const std::vector<std::string>& inputs, const std::string& out);
+
+// Writes every frame to `out_dir` as
+//   bop: <split>/<room>/depth/<frame>.png (noisy, mm), depth_ideal/, mask_ids/,
+//        scene_camera.json, scene_gt.json, scene_gt_info.json; models.json
+//   png: frames/<frame>_depth.png, _depth_ideal.png, _ids.png; frames.json
+//   pcd: <frame>.pcd (organized, camera frame, noisy)
+// Returns the number of frames written.
+int ExportDataset(const std::string& db_path, const std::string& format, const std::string& out_dir);
 
 }  // namespace furn

@@ -106,10 +106,30 @@ int RunDataset(int argc, char** argv) {
   int max_frames = 12;
   preview->add_option("--frames", max_frames, "How many frames (spread over the dataset)")
       ->capture_default_str();
+  CLI::App* merge = app.add_subcommand("merge", "Join datasets of one run (e.g. its shards) into a new file");
+  std::vector<std::string> inputs;
+  merge->add_option("inputs", inputs, "Input datasets")->required();
+  merge->add_option("--out", out, "New dataset file")->required();
+  CLI::App* export_command = app.add_subcommand("export", "Write frames as BOP, PNG or PCD files");
+  std::string format = "bop";
+  export_command->add_option("db", db, "Dataset database")->required();
+  export_command->add_option("--format", format, "bop, png or pcd")->capture_default_str();
+  export_command->add_option("--out", out, "Output directory")->required();
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& error) {
     return app.exit(error) == 0 ? 0 : 2;
+  }
+  if (merge->parsed()) {
+    const MergeSummary summary = MergeDatasets(inputs, out);
+    std::cout << "wrote " << out << ": " << summary.rooms << " rooms from " << inputs.size() << " datasets ("
+              << summary.duplicate_rooms << " duplicate rooms were identical)\n";
+    return 0;
+  }
+  if (export_command->parsed()) {
+    const int frames = ExportDataset(db, format, out);
+    std::cout << "wrote " << frames << " frames to " << out << " (" << format << ")\n";
+    return 0;
   }
   if (info->parsed()) {
     const DatasetInfo summary = ReadDatasetInfo(db);
