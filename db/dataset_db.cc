@@ -199,7 +199,7 @@ std::vector<int64_t> DatasetDb::RoomIds() {
   return ids;
 }
 
-void DatasetDb::WriteRoom(const RoomRecord& room) {
+void DatasetDb::WriteRoom(const RoomRecord& room, const std::function<void()>& before_commit) {
   Transaction transaction(&db_);
   Statement insert_room(
       &db_,
@@ -272,6 +272,7 @@ void DatasetDb::WriteRoom(const RoomRecord& room) {
       insert_frame_object.Bind(14, int64_t{object.in_frustum}).Run();
     }
   }
+  if (before_commit) before_commit();
   transaction.Commit();
 }
 

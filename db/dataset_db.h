@@ -16,6 +16,7 @@
 #include <Eigen/Geometry>
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -95,8 +96,9 @@ class DatasetDb {
   std::vector<ModelRecord> ReadModels();
 
   bool HasRoom(int64_t room_id);
-  // The room, its objects and frames, in one transaction.
-  void WriteRoom(const RoomRecord& room);
+  // The room, its objects and frames, in one transaction. `before_commit`
+  // runs inside it, after every row is written (tests use it to crash there).
+  void WriteRoom(const RoomRecord& room, const std::function<void()>& before_commit = {});
   std::vector<int64_t> RoomIds();
   RoomRecord ReadRoom(int64_t room_id, bool with_images);
 

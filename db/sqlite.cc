@@ -92,6 +92,8 @@ void Statement::Reset() {
   sqlite3_clear_bindings(statement_);
 }
 
+int Statement::ColumnCount() const { return sqlite3_column_count(statement_); }
+
 int64_t Statement::ColumnInt(int column) const { return sqlite3_column_int64(statement_, column); }
 
 double Statement::ColumnDouble(int column) const {

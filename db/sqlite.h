@@ -71,6 +71,7 @@ class Statement {
   void Run();
   void Reset();
 
+  int ColumnCount() const;
   int64_t ColumnInt(int column) const;
   double ColumnDouble(int column) const;
   std::string ColumnText(int column) const;

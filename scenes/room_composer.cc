@@ -223,6 +223,14 @@ RoomLayout ComposeRoom(const ComposerCatalog& catalog,
   room.requested_furniture =
       static_cast<int>(rng.UniformInt(options.min_furniture, options.max_furniture));
 
+  // A keep-out zone where the cameras will surely fit, however full the room.
+  PlacedObject camera_zone;
+  camera_zone.model_id = "(camera zone)";
+  camera_zone.size_m = Eigen::Vector3d(0.9, 0.9, 0);
+  camera_zone.x = rng.Uniform(-room.width_m / 2 + 0.5, room.width_m / 2 - 0.5);
+  camera_zone.y = rng.Uniform(-room.depth_m / 2 + 0.5, room.depth_m / 2 - 0.5);
+  room.objects.push_back(camera_zone);
+
   // Arrangements people make: a dining group, sideboards against walls, then
   // free-standing pieces of any class.
   int placed = 0;
@@ -252,6 +260,7 @@ RoomLayout ComposeRoom(const ComposerCatalog& catalog,
       }
     }
   }
+  room.objects.erase(room.objects.begin());  // the camera zone
   uint16_t next_id = kFirstObjectId;
   for (PlacedObject& object : room.objects) object.instance_id = next_id++;
 
@@ -261,8 +270,13 @@ RoomLayout ComposeRoom(const ComposerCatalog& catalog,
     for (int attempt = 0; attempt < 200; ++attempt) {
       PlacedObject probe;
       probe.size_m = Eigen::Vector3d(0.1, 0.1, 0);
-      probe.x = rng.Uniform(-room.width_m / 2 + 0.35, room.width_m / 2 - 0.35);
-      probe.y = rng.Uniform(-room.depth_m / 2 + 0.35, room.depth_m / 2 - 0.35);
+      if (attempt < 100) {
+        probe.x = rng.Uniform(-room.width_m / 2 + 0.35, room.width_m / 2 - 0.35);
+        probe.y = rng.Uniform(-room.depth_m / 2 + 0.35, room.depth_m / 2 - 0.35);
+      } else {  // inside the zone kept free for cameras
+        probe.x = camera_zone.x + rng.Uniform(-0.05, 0.05);
+        probe.y = camera_zone.y + rng.Uniform(-0.05, 0.05);
+      }
       if (!Fits(probe, room, 0.35)) continue;
       Eigen::Vector2d target(0, 0);
       std::vector<const PlacedObject*> targets;

@@ -3,6 +3,7 @@
 #include <xxhash.h>
 
 #include <chrono>
+#include <cstdlib>
 #include <map>
 #include <nlohmann/json.hpp>
 
@@ -114,16 +115,10 @@ class RoomGenerator {
     for (const PlacedObject& placed : layout.objects)
       room.objects.push_back(ObjectRecordOf(placed));
 
-    // Each object alone, for its amodal mask.
-    std::vector<Scene> alone(layout.objects.size());
-    std::vector<std::unique_ptr<EmbreeCaster>> alone_casters(layout.objects.size());
-    for (size_t k = 0; k < layout.objects.size(); ++k) {
-      alone[k].objects.push_back(scene.objects[5 + k]);  // after the floor and four walls
-      alone_casters[k] = std::make_unique<EmbreeCaster>();
-    }
+    ObjectGroundTruth ground_truth(layout, scene);
     for (size_t j = 0; j < layout.world_from_cameras.size(); ++j) {
       room.frames.push_back(
-          MakeFrame(room, layout, scene, alone, alone_casters, static_cast<int>(j), summary));
+          MakeFrame(room, layout, scene, &ground_truth, static_cast<int>(j), summary));
     }
     return room;
   }
@@ -169,8 +164,7 @@ class RoomGenerator {
   FrameRecord MakeFrame(const RoomRecord& room,
                         const RoomLayout& layout,
                         const Scene& scene,
-                        const std::vector<Scene>& alone,
-                        const std::vector<std::unique_ptr<EmbreeCaster>>& alone_casters,
+                        ObjectGroundTruth* ground_truth,
                         int index,
                         GenerateSummary* summary) {
     const CameraIntrinsics& camera = options_.camera;
@@ -192,26 +186,7 @@ class RoomGenerator {
     summary->render_s += SecondsSince(start);
 
     start = Clock::now();
-    const Eigen::Isometry3d camera_from_world = frame.world_from_camera.inverse();
-    for (size_t k = 0; k < layout.objects.size(); ++k) {
-      FrameObjectRecord object;
-      object.instance_id = layout.objects[k].instance_id;
-      const std::array<int, 4> region =
-          ProjectedRegion(layout.objects[k], camera, camera_from_world);
-      const EmbreeCaster::Coverage amodal =
-          alone_casters[k]->CoverageIn(alone[k], camera, frame.world_from_camera, region);
-      object.amodal_pixels = amodal.pixels;
-      object.amodal_box = amodal.box;
-      object.in_frustum = amodal.pixels > 0;
-      frame.objects.push_back(object);
-    }
-    CountVisible(capture.ideal, &frame.objects);
-    for (FrameObjectRecord& object : frame.objects) {
-      object.visibility =
-          object.amodal_pixels > 0
-              ? std::min(1.0, static_cast<double>(object.visible_pixels) / object.amodal_pixels)
-              : 0.0;
-    }
+    frame.objects = ground_truth->Compute(capture.ideal, camera, frame.world_from_camera);
     frame.content_hash = HashFrame(capture);
     summary->ground_truth_s += SecondsSince(start);
 
@@ -245,6 +220,48 @@ class RoomGenerator {
 };
 
 }  // namespace
+
+ObjectGroundTruth::ObjectGroundTruth(const RoomLayout& layout, const Scene& scene)
+    : layout_(layout) {
+  const size_t structure =
+      scene.objects.size() - layout.objects.size();  // floor and walls come first
+  for (size_t k = 0; k < layout.objects.size(); ++k) {
+    Scene alone;
+    alone.objects.push_back(scene.objects[structure + k]);
+    alone_.push_back(std::move(alone));
+    casters_.push_back(std::make_unique<EmbreeCaster>());
+  }
+}
+
+ObjectGroundTruth::~ObjectGroundTruth() = default;
+
+std::vector<FrameObjectRecord> ObjectGroundTruth::Compute(
+    const DepthFrame& ideal,
+    const CameraIntrinsics& camera,
+    const Eigen::Isometry3d& world_from_camera) {
+  std::vector<FrameObjectRecord> objects;
+  const Eigen::Isometry3d camera_from_world = world_from_camera.inverse();
+  for (size_t k = 0; k < layout_.objects.size(); ++k) {
+    FrameObjectRecord object;
+    object.instance_id = layout_.objects[k].instance_id;
+    const std::array<int, 4> region =
+        ProjectedRegion(layout_.objects[k], camera, camera_from_world);
+    const EmbreeCaster::Coverage amodal =
+        casters_[k]->CoverageIn(alone_[k], camera, world_from_camera, region);
+    object.amodal_pixels = amodal.pixels;
+    object.amodal_box = amodal.box;
+    object.in_frustum = amodal.pixels > 0;
+    objects.push_back(object);
+  }
+  CountVisible(ideal, &objects);
+  for (FrameObjectRecord& object : objects) {
+    object.visibility =
+        object.amodal_pixels > 0
+            ? std::min(1.0, static_cast<double>(object.visible_pixels) / object.amodal_pixels)
+            : 0.0;
+  }
+  return objects;
+}
 
 void GenerateOptions::Check() const {
   Require(rooms >= 1 && rooms <= 1000000,
@@ -320,11 +337,15 @@ GenerateSummary GenerateDataset(const Catalog& catalog,
   DatasetDb dataset(db_path, DatasetDb::Mode::kReadWrite);
   const std::string content = options.ContentJson();
   if (const auto existing = dataset.GenerationOptions()) {
-    Require(*existing == content,
-            db_path +
-                ": was generated with other options; use a new file, or the same "
-                "options to resume (recorded: " +
-                *existing + ")");
+    if (*existing != content) {
+      std::string fields;
+      for (const auto& change :
+           nlohmann::json::diff(nlohmann::json::parse(*existing), nlohmann::json::parse(content))) {
+        fields += (fields.empty() ? "" : ", ") + change["path"].get<std::string>();
+      }
+      throw InputError(db_path + ": was generated with other options (" + fields +
+                       " differ); use a new file, or the same options to resume");
+    }
   } else {
     dataset.SetGenerationOptions(content);
   }
@@ -344,7 +365,13 @@ GenerateSummary GenerateDataset(const Catalog& catalog,
     RoomRecord room = generator.Generate(k, &summary);
     const auto insert_start = Clock::now();
     dataset.WriteModels(generator.TakeNewModels());
-    dataset.WriteRoom(room);
+    dataset.WriteRoom(room, [&] {
+      // Test hook: die inside the room's transaction, as a killed run would.
+      if (const char* crash = std::getenv("FURN_TEST_CRASH_IN_ROOM");
+          crash && std::atoll(crash) == k) {
+        std::_Exit(3);
+      }
+    });
     summary.insert_s += SecondsSince(insert_start);
     ++summary.rooms_written;
     summary.frames_written += static_cast<int>(room.frames.size());

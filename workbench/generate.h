@@ -14,6 +14,7 @@
 #include <cstdint>
 #include <string>
 
+#include "db/dataset_db.h"
 #include "renderers/camera.h"
 #include "renderers/depth_renderer.h"
 #include "renderers/kinect_noise.h"
@@ -21,6 +22,8 @@
 #include "scenes/room_composer.h"
 
 namespace furn {
+
+class EmbreeCaster;
 
 struct GenerateOptions {
   std::string catalog_spec = "default";  // recorded in the database
@@ -54,6 +57,26 @@ struct GenerateSummary {
 GenerateSummary GenerateDataset(const Catalog& catalog,
                                 const GenerateOptions& options,
                                 const std::string& db_path);
+
+// Ground truth of every placed object in one view of a room: visible pixels
+// and box (from the ideal id image), amodal pixels and box (the object ray cast
+// alone over its projected bounding box), visibility = visible / amodal, and
+// whether any of it is in view. Keeps one ray-casting scene per object, so
+// construct it once per room and call it per frame.
+class ObjectGroundTruth {
+ public:
+  // `scene` is BuildRoomScene(layout, ...): structure first, then the objects.
+  ObjectGroundTruth(const RoomLayout& layout, const Scene& scene);
+  ~ObjectGroundTruth();
+  std::vector<FrameObjectRecord> Compute(const DepthFrame& ideal,
+                                         const CameraIntrinsics& camera,
+                                         const Eigen::Isometry3d& world_from_camera);
+
+ private:
+  const RoomLayout& layout_;
+  std::vector<Scene> alone_;
+  std::vector<std::unique_ptr<EmbreeCaster>> casters_;
+};
 
 // "i/N" -> (i, N); throws InputError unless 0 <= i < N.
 std::pair<int, int> ParseShard(const std::string& text);

@@ -1,0 +1,217 @@
+// Dataset generation end to end on the procedural catalog: ground truth,
+// determinism, shards, resuming after a crash, and clear errors.
+#include "workbench/generate.h"
+
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <opencv2/imgcodecs.hpp>
+
+#include "core/error.h"
+#include "db/dataset_db.h"
+#include "renderers/embree_caster.h"
+#include "scenes/procedural_catalog.h"
+#include "tests/test_util.h"
+#include "workbench/dataset_commands.h"
+
+namespace furn {
+namespace {
+
+GenerateOptions SmallRun(int rooms, uint64_t seed) {
+  GenerateOptions options;
+  options.catalog_spec = "procedural:2";
+  options.rooms = rooms;
+  options.seed = seed;
+  options.room.frames_per_room = 2;
+  options.room.max_side_m = 6;
+  return options;
+}
+
+// Every row of every table, as text, in key order.
+std::string Dump(const std::string& path) {
+  Database db(path, Database::Mode::kReadOnly);
+  std::string dump;
+  for (const char* table :
+       {"generation", "models", "rooms", "objects", "frames", "frame_objects"}) {
+    Statement rows(&db, std::string("SELECT * FROM ") + table + " ORDER BY 1, 2");
+    while (rows.Step()) {
+      for (int c = 0; c < rows.ColumnCount(); ++c) dump += rows.ColumnText(c) + "|";
+      dump += "\n";
+    }
+  }
+  return dump;
+}
+
+// One target in front of the camera, optionally half hidden by a wall panel.
+std::vector<FrameObjectRecord> ViewOfSideboard(bool half_hidden) {
+  RoomLayout layout;
+  layout.width_m = layout.depth_m = 8;
+  layout.wall_height_m = 2.6;
+  std::map<std::string, std::shared_ptr<const TriangleMesh>> meshes;
+  const ProceduralModel sideboard = MakeProceduralModel(FurnitureClass::kSideboard, 4);
+  meshes["sideboard"] = std::make_shared<TriangleMesh>(sideboard.model.mesh);
+  PlacedObject target;
+  target.model_id = "sideboard";
+  target.furniture_class = FurnitureClass::kSideboard;
+  target.instance_id = kFirstObjectId;
+  target.size_m = BoundingBox(sideboard.model.mesh).Size().cast<double>();
+  layout.objects.push_back(target);
+  if (half_hidden) {
+    // A panel from x = -3 to x = 0 between the camera (at x = 0) and the target:
+    // it hides exactly the target's left half in the image.
+    TriangleMesh panel = MakeBox({-3.0f, -0.01f, 0.0f}, {0.0f, 0.01f, 2.0f});
+    PlaceOnFloorCentred(&panel);
+    meshes["panel"] = std::make_shared<TriangleMesh>(panel);
+    PlacedObject occluder;
+    occluder.model_id = "panel";
+    occluder.instance_id = kFirstObjectId + 1;
+    occluder.x = -1.5;
+    occluder.y = -1.5;
+    occluder.size_m = Eigen::Vector3d(3, 0.02, 2);
+    layout.objects.push_back(occluder);
+  }
+  const Scene scene = BuildRoomScene(layout, meshes);
+  const CameraIntrinsics camera = CameraIntrinsics::KinectV1();
+  const Eigen::Isometry3d world_from_camera =
+      LookAlong(Eigen::Vector3d(0, -3, 0.5), Eigen::Vector3d(0, 1, -0.05));
+  EmbreeCaster caster;
+  const DepthFrame ideal = caster.Render(scene, camera, world_from_camera);
+  ObjectGroundTruth ground_truth(layout, scene);
+  return ground_truth.Compute(ideal, camera, world_from_camera);
+}
+
+TEST(GroundTruth, UnoccludedObjectIsFullyVisible) {
+  const std::vector<FrameObjectRecord> objects = ViewOfSideboard(false);
+  ASSERT_EQ(objects.size(), 1u);
+  EXPECT_TRUE(objects[0].in_frustum);
+  EXPECT_GT(objects[0].amodal_pixels, 10000);
+  EXPECT_GT(objects[0].visibility, 0.98);
+  EXPECT_EQ(objects[0].visible_box, objects[0].amodal_box);
+}
+
+TEST(GroundTruth, HalfHiddenObjectIsHalfVisible) {
+  const std::vector<FrameObjectRecord> objects = ViewOfSideboard(true);
+  ASSERT_EQ(objects.size(), 2u);
+  EXPECT_NEAR(objects[0].visibility, 0.5, 0.05);
+  // The visible box is the right half: it starts at the image centre.
+  EXPECT_NEAR(objects[0].visible_box[0], 319.5, 2);
+  EXPECT_LT(objects[0].amodal_box[0], 250);
+}
+
+TEST(Generate, SameSeedSameDatabaseDifferentSeedDifferent) {
+  const std::string dir = testing::ScratchDir();
+  const Catalog catalog = OpenCatalog("procedural:2");
+  const GenerateSummary summary = GenerateDataset(catalog, SmallRun(3, 7), dir + "/a.db");
+  EXPECT_EQ(summary.rooms_written, 3);
+  EXPECT_EQ(summary.frames_written, 6);
+  GenerateDataset(catalog, SmallRun(3, 7), dir + "/b.db");
+  GenerateDataset(catalog, SmallRun(3, 8), dir + "/c.db");
+  EXPECT_EQ(Dump(dir + "/a.db"), Dump(dir + "/b.db"));
+  EXPECT_NE(Dump(dir + "/a.db"), Dump(dir + "/c.db"));
+  // Running again resumes: nothing to do, nothing changes.
+  const GenerateSummary again = GenerateDataset(catalog, SmallRun(3, 7), dir + "/a.db");
+  EXPECT_EQ(again.rooms_written, 0);
+  EXPECT_EQ(again.rooms_already_present, 3);
+  EXPECT_EQ(Dump(dir + "/a.db"), Dump(dir + "/b.db"));
+}
+
+TEST(Generate, TwoShardsMergedEqualOneRun) {
+  const std::string dir = testing::ScratchDir();
+  const Catalog catalog = OpenCatalog("procedural:2");
+  GenerateOptions shard0 = SmallRun(5, 3), shard1 = SmallRun(5, 3);
+  shard0.shard_count = shard1.shard_count = 2;
+  shard1.shard_index = 1;
+  EXPECT_EQ(GenerateDataset(catalog, shard0, dir + "/s0.db").rooms_written, 3);
+  EXPECT_EQ(GenerateDataset(catalog, shard1, dir + "/s1.db").rooms_written, 2);
+  GenerateDataset(catalog, SmallRun(5, 3), dir + "/all.db");
+  const MergeSummary merged = MergeDatasets({dir + "/s0.db", dir + "/s1.db"}, dir + "/merged.db");
+  EXPECT_EQ(merged.rooms, 5);
+  EXPECT_EQ(Dump(dir + "/merged.db"), Dump(dir + "/all.db"));
+  // Merging into an existing file, or datasets of other runs, is refused.
+  EXPECT_THROW(MergeDatasets({dir + "/s0.db"}, dir + "/merged.db"), InputError);
+  GenerateDataset(catalog, SmallRun(2, 99), dir + "/other.db");
+  EXPECT_THROW(MergeDatasets({dir + "/s0.db", dir + "/other.db"}, dir + "/bad.db"), InputError);
+  EXPECT_FALSE(std::filesystem::exists(dir + "/bad.db"));
+  EXPECT_FALSE(std::filesystem::exists(dir + "/bad.db.partial"));
+}
+
+TEST(Generate, KilledInsideARoomThenRerunEqualsAnUninterruptedRun) {
+  const std::string dir = testing::ScratchDir();
+  const std::string command =
+      std::string(FURN_WORKBENCH_BINARY) +
+      " generate --catalog procedural:2 --rooms 3 --frames 2 --max-side 6 --seed 11 --quiet";
+  // The test hook ends the process inside room 1's transaction, as `kill -9` would.
+  int status =
+      std::system(("FURN_TEST_CRASH_IN_ROOM=1 " + command + " --out " + dir + "/crash.db").c_str());
+  ASSERT_TRUE(WIFEXITED(status));
+  ASSERT_EQ(WEXITSTATUS(status), 3);
+  {
+    DatasetDb crashed(dir + "/crash.db", DatasetDb::Mode::kReadOnly);
+    EXPECT_EQ(crashed.RoomIds(), std::vector<int64_t>{0});  // only whole rooms
+  }
+  status = std::system((command + " --out " + dir + "/crash.db > /dev/null").c_str());
+  ASSERT_EQ(WEXITSTATUS(status), 0);
+  status = std::system((command + " --out " + dir + "/clean.db > /dev/null").c_str());
+  ASSERT_EQ(WEXITSTATUS(status), 0);
+  EXPECT_EQ(Dump(dir + "/crash.db"), Dump(dir + "/clean.db"));
+}
+
+TEST(Generate, InfoPreviewAndExportDescribeTheDataset) {
+  const std::string dir = testing::ScratchDir();
+  GenerateDataset(OpenCatalog("procedural:2"), SmallRun(4, 5), dir + "/d.db");
+  const DatasetInfo info = ReadDatasetInfo(dir + "/d.db");
+  int rooms = 0;
+  for (const auto& [split, count] : info.rooms_per_split) rooms += count;
+  EXPECT_EQ(rooms, 4);
+  EXPECT_EQ(info.frames, 8);
+  int64_t views = 0, histogram = 0;
+  for (const auto& [name, count] : info.views_per_class) views += count;
+  for (int64_t count : info.visibility_histogram) histogram += count;
+  EXPECT_GT(views, 0);
+  EXPECT_EQ(views, histogram);
+  EXPECT_NE(DatasetInfoText(info).find("8 frames"), std::string::npos);
+  WriteDatasetPreview(dir + "/d.db", 4, dir + "/sheet.png");
+  const cv::Mat sheet = cv::imread(dir + "/sheet.png");
+  EXPECT_EQ(sheet.cols, 4 * 320);
+  EXPECT_EQ(sheet.rows, 240);
+  EXPECT_EQ(ExportDataset(dir + "/d.db", "bop", dir + "/bop"), 8);
+  EXPECT_EQ(ExportDataset(dir + "/d.db", "pcd", dir + "/pcd"), 8);
+  EXPECT_TRUE(std::filesystem::exists(dir + "/bop/models.json"));
+  EXPECT_THROW(ExportDataset(dir + "/d.db", "obj", dir + "/x"), InputError);
+}
+
+TEST(Generate, BadInputsAreRejectedClearly) {
+  const std::string dir = testing::ScratchDir();
+  const Catalog catalog = OpenCatalog("procedural:2");
+  GenerateDataset(catalog, SmallRun(1, 5), dir + "/d.db");
+  GenerateOptions other = SmallRun(1, 5);
+  other.room.frames_per_room = 3;
+  try {
+    GenerateDataset(catalog, other, dir + "/d.db");
+    FAIL();
+  } catch (const InputError& error) {
+    EXPECT_NE(std::string(error.what()).find("/room/frames_per_room"), std::string::npos)
+        << error.what();
+  }
+  // A dataset from a newer build is refused.
+  {
+    Database db(dir + "/d.db");
+    db.Execute("UPDATE meta SET value = '99' WHERE key = 'schema_version'");
+  }
+  EXPECT_THROW(DatasetDb(dir + "/d.db", DatasetDb::Mode::kReadOnly), DbError);
+  testing::WriteText(dir + "/junk.db", std::string(5000, 'x'));
+  EXPECT_THROW(DatasetDb(dir + "/junk.db", DatasetDb::Mode::kReadOnly), DbError);
+  EXPECT_THROW(GenerateDataset(catalog, SmallRun(1, 5), "/nonexistent/dir/d.db"), DbError);
+  EXPECT_THROW(ParseShard("2/2"), InputError);
+  EXPECT_THROW(ParseShard("a/b"), InputError);
+  EXPECT_EQ(ParseShard("1/4"), std::make_pair(1, 4));
+  GenerateOptions bad = SmallRun(0, 1);
+  EXPECT_THROW(GenerateDataset(catalog, bad, dir + "/e.db"), InputError);
+  EXPECT_FALSE(std::filesystem::exists(dir + "/e.db"));
+  EXPECT_THROW(ReadDatasetInfo(dir + "/missing.db"), InputError);
+}
+
+}  // namespace
+}  // namespace furn
