@@ -26,7 +26,7 @@ furn_find_package(nlohmann_json nlohmann-json3-dev 3)
 furn_find_package(CLI11 libcli11-dev)
 furn_find_package(Threads build-essential)
 furn_find_package(ZLIB zlib1g-dev)
-furn_find_package(OpenMP libgomp1)
+furn_find_package(PNG libpng-dev)
 
 find_package(PkgConfig QUIET)
 if(NOT PkgConfig_FOUND)

@@ -185,7 +185,8 @@ void EmbreeCaster::RenderInto(const Scene& scene,
 EmbreeCaster::Coverage EmbreeCaster::CoverageIn(const Scene& scene,
                                                 const CameraIntrinsics& camera,
                                                 const Eigen::Isometry3d& world_from_camera,
-                                                const std::array<int, 4>& region) {
+                                                const std::array<int, 4>& region,
+                                                KnownHits known_hits) {
   camera.Check();
   SetScene(scene);
   const int u0 = std::max(0, region[0]), v0 = std::max(0, region[1]);
@@ -203,9 +204,20 @@ EmbreeCaster::Coverage EmbreeCaster::CoverageIn(const Scene& scene,
     alignas(64) int valid[kPacket];
     Coverage& row = rows[v - v0];
     for (int start = u0; start <= u1; start += kPacket) {
+      int rays = 0;
       for (int k = 0; k < kPacket; ++k) {
         const int u = start + k;
-        valid[k] = u <= u1 ? -1 : 0;
+        const bool known =
+            u <= u1 && known_hits.ids != nullptr &&
+            (*known_hits.ids)[static_cast<size_t>(v) * camera.width + u] == known_hits.id;
+        valid[k] = u <= u1 && !known ? -1 : 0;
+        rays += valid[k] != 0;
+        if (known) {
+          if (row.pixels == 0) row.box = {u, v, u, v};
+          ++row.pixels;
+          row.box[0] = std::min(row.box[0], u);
+          row.box[2] = std::max(row.box[2], u);
+        }
         const Eigen::Vector3f direction = rotation * camera.RayThroughPixel(u, v);
         packet.org_x[k] = origin.x();
         packet.org_y[k] = origin.y();
@@ -220,9 +232,10 @@ EmbreeCaster::Coverage EmbreeCaster::CoverageIn(const Scene& scene,
         packet.id[k] = static_cast<unsigned>(k);
         packet.flags[k] = 0;
       }
+      if (rays == 0) continue;
       rtcOccluded16(valid, rtc_scene, &context, &packet);
       for (int k = 0; k < kPacket && start + k <= u1; ++k) {
-        if (packet.tfar[k] >= 0) continue;  // Embree sets tfar to -inf for a hit
+        if (!valid[k] || packet.tfar[k] >= 0) continue;  // Embree sets tfar to -inf for a hit
         const int u = start + k;
         if (row.pixels == 0) row.box = {u, v, u, v};
         ++row.pixels;

@@ -10,7 +10,9 @@
 #pragma once
 
 #include <array>
+#include <cstdint>
 #include <memory>
+#include <vector>
 
 #include "renderers/depth_renderer.h"
 
@@ -39,10 +41,24 @@ class EmbreeCaster : public DepthRenderer {
     int64_t pixels = 0;
     std::array<int, 4> box = {0, 0, -1, -1};
   };
+  // With `known_hits` (an id image and an id), pixels showing that id count
+  // as hits without a ray: an object seen first in the full scene is also hit
+  // when it is alone.
+  struct KnownHits {
+    const std::vector<uint16_t>* ids = nullptr;  // row-major, camera size
+    uint16_t id = 0;
+  };
   Coverage CoverageIn(const Scene& scene,
                       const CameraIntrinsics& camera,
                       const Eigen::Isometry3d& world_from_camera,
-                      const std::array<int, 4>& region);
+                      const std::array<int, 4>& region,
+                      KnownHits known_hits);
+  Coverage CoverageIn(const Scene& scene,
+                      const CameraIntrinsics& camera,
+                      const Eigen::Isometry3d& world_from_camera,
+                      const std::array<int, 4>& region) {
+    return CoverageIn(scene, camera, world_from_camera, region, KnownHits());
+  }
 
  private:
   struct Impl;

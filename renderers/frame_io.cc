@@ -3,6 +3,7 @@
 #include <pcl/io/pcd_io.h>
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
+#include <png.h>
 
 #include <algorithm>
 #include <cmath>
@@ -128,10 +129,14 @@ cv::Mat ColouriseIds(const DepthFrame& frame) {
 cv::Mat DepthImage(const DepthFrame& frame, double units_per_metre) {
   Require(units_per_metre > 0, "depth scale " + std::to_string(units_per_metre) + " must be > 0");
   cv::Mat image(frame.height, frame.width, CV_16UC1);
+  // Depths are >= 0: adding 0.5 and truncating rounds (libm's round is slow).
+  const float scale = static_cast<float>(units_per_metre);
   for (int v = 0; v < frame.height; ++v) {
+    uint16_t* row = image.ptr<uint16_t>(v);
+    const float* depth = frame.depth.data() + static_cast<size_t>(v) * frame.width;
     for (int u = 0; u < frame.width; ++u) {
-      const double units = std::round(frame.DepthAt(u, v) * units_per_metre);
-      image.at<uint16_t>(v, u) = units > 0 && units <= 65535 ? static_cast<uint16_t>(units) : 0;
+      const float units = depth[u] * scale + 0.5f;
+      row[u] = units >= 1.0f && units < 65535.5f ? static_cast<uint16_t>(units) : 0;
     }
   }
   return image;
@@ -143,11 +148,46 @@ cv::Mat IdImage(const DepthFrame& frame) {
   return image;
 }
 
+void AppendPngBytes(png_structp png, png_bytep data, png_size_t size) {
+  auto* out = static_cast<std::vector<uint8_t>*>(png_get_io_ptr(png));
+  out->insert(out->end(), data, data + size);
+}
+
+void FlushNothing(png_structp) {}
+
+// 16-bit grey PNG through libpng with no row filter and zlib level 1: twice
+// as fast as OpenCV's encoder (which tries every filter) and smaller on
+// Kinect depth. Any PNG decoder reads it.
 std::vector<uint8_t> FastPng(const cv::Mat& image) {
-  std::vector<uchar> bytes;
-  Require(cv::imencode(".png", image, bytes, {cv::IMWRITE_PNG_COMPRESSION, 1}),
-          "PNG encoding failed");
-  return bytes;
+  std::vector<uint8_t> out;
+  out.reserve(image.total() / 2);
+  png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
+  png_infop info = png != nullptr ? png_create_info_struct(png) : nullptr;
+  Require(png != nullptr && info != nullptr, "PNG encoder: out of memory");
+  if (setjmp(png_jmpbuf(png))) {
+    png_destroy_write_struct(&png, &info);
+    throw InputError("PNG encoding failed");
+  }
+  png_set_write_fn(png, &out, AppendPngBytes, FlushNothing);
+  png_set_IHDR(png,
+               info,
+               image.cols,
+               image.rows,
+               16,
+               PNG_COLOR_TYPE_GRAY,
+               PNG_INTERLACE_NONE,
+               PNG_COMPRESSION_TYPE_DEFAULT,
+               PNG_FILTER_TYPE_DEFAULT);
+  png_set_filter(png, 0, PNG_FILTER_NONE);
+  png_set_compression_level(png, 1);
+  png_write_info(png, info);
+  png_set_swap(png);  // PNG stores 16-bit samples big-endian
+  for (int row = 0; row < image.rows; ++row) {
+    png_write_row(png, const_cast<png_bytep>(reinterpret_cast<const png_byte*>(image.ptr(row))));
+  }
+  png_write_end(png, info);
+  png_destroy_write_struct(&png, &info);
+  return out;
 }
 
 cv::Mat Decode16(const std::vector<uint8_t>& png, const std::string& what) {

@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # The main job, end to end with what exists so far: import the default catalog
 # (the repo's class map over Debian's Sweet Home 3D catalogs), print its summary,
-# draw every classified model on a contact sheet, and render one model as a
-# Kinect v1 sees it.
+# draw every classified model on a contact sheet, render one model as a Kinect
+# v1 sees it, and generate a labelled synthetic dataset (FURN_ROOMS rooms).
 set -euo pipefail
 repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build_dir="${1:-$repo/build}"
@@ -17,8 +17,15 @@ echo "== catalog: contact sheet"
 "$workbench" catalog sheet --catalog default --out "$out_dir/catalog.png" --quiet
 echo "== render: the first classified model as ideal and noisy Kinect v1 depth"
 "$workbench" render --catalog default --out "$out_dir/render" --quiet
+echo "== generate: a labelled synthetic dataset from the default catalog (resumes if present)"
+"$workbench" generate --catalog default --rooms "${FURN_ROOMS:-24}" --frames 4 --seed 1 --out "$out_dir/synth.db"
+echo "== dataset: summary and contact sheet"
+"$workbench" dataset info "$out_dir/synth.db"
+"$workbench" dataset preview "$out_dir/synth.db" --out "$out_dir/synth_preview.png" --frames 12
 echo
 echo "main job done:"
 echo "  $out_dir/catalog.json   listing of the classified models"
 echo "  $out_dir/catalog.png    contact sheet of the classified models"
 echo "  $out_dir/render/        depth/id PNGs, organized PCDs, preview.png (ideal | Kinect v1)"
+echo "  $out_dir/synth.db       labelled synthetic Kinect frames (SQLite; see 'workbench dataset')"
+echo "  $out_dir/synth_preview.png  contact sheet: noisy depth with ground-truth boxes"

@@ -72,15 +72,14 @@ std::string HashFrame(const KinectCapture& capture) {
 
 // Visible pixels and boxes of every object from the ideal id image.
 void CountVisible(const DepthFrame& ideal, std::vector<FrameObjectRecord>* objects) {
-  std::map<int, FrameObjectRecord*> by_id;
+  std::vector<FrameObjectRecord*> by_id(65536, nullptr);  // instance ids are 16-bit
   for (FrameObjectRecord& object : *objects) by_id[object.instance_id] = &object;
   for (int v = 0; v < ideal.height; ++v) {
     for (int u = 0; u < ideal.width; ++u) {
-      const auto it = by_id.find(ideal.IdAt(u, v));
-      if (it == by_id.end()) continue;
-      FrameObjectRecord& object = *it->second;
-      std::array<int, 4>& box = object.visible_box;
-      if (object.visible_pixels++ == 0) box = {u, v, u, v};
+      FrameObjectRecord* object = by_id[ideal.IdAt(u, v)];
+      if (object == nullptr) continue;
+      std::array<int, 4>& box = object->visible_box;
+      if (object->visible_pixels++ == 0) box = {u, v, u, v};
       box = {std::min(box[0], u), std::min(box[1], v), std::max(box[2], u), std::max(box[3], v)};
     }
   }
@@ -246,8 +245,12 @@ std::vector<FrameObjectRecord> ObjectGroundTruth::Compute(
     object.instance_id = layout_.objects[k].instance_id;
     const std::array<int, 4> region =
         ProjectedRegion(layout_.objects[k], camera, camera_from_world);
-    const EmbreeCaster::Coverage amodal =
-        casters_[k]->CoverageIn(alone_[k], camera, world_from_camera, region);
+    const EmbreeCaster::Coverage amodal = casters_[k]->CoverageIn(
+        alone_[k],
+        camera,
+        world_from_camera,
+        region,
+        EmbreeCaster::KnownHits{&ideal.instance_ids, static_cast<uint16_t>(object.instance_id)});
     object.amodal_pixels = amodal.pixels;
     object.amodal_box = amodal.box;
     object.in_frustum = amodal.pixels > 0;
