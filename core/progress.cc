@@ -40,6 +40,11 @@ void Progress::Advance(size_t steps) {
   Draw(false);
 }
 
+void Progress::AddSecondary(size_t count, const std::string& unit) {
+  secondary_ += count;
+  secondary_unit_ = unit;
+}
+
 void Progress::Finish() {
   if (finished_) return;
   finished_ = true;
@@ -53,15 +58,19 @@ void Progress::Draw(bool final_line) {
   const double rate = elapsed > 0 ? done_ / elapsed : 0.0;
   const double eta = rate > 0 ? (total_ - done_) / rate : 0.0;
   const double fraction = static_cast<double>(done_) / total_;
+  char secondary[64] = "";
+  if (!secondary_unit_.empty() && elapsed > 0) {
+    std::snprintf(
+        secondary, sizeof(secondary), ", %.1f %s/s", secondary_ / elapsed, secondary_unit_.c_str());
+  }
   if (on_terminal_) {
     if (!final_line && now - last_draw_ < std::chrono::milliseconds(100)) return;
     last_draw_ = now;
     constexpr int kWidth = 30;
-    const int filled = static_cast<int>(fraction * kWidth);
-    std::string bar(filled, '#');
+    std::string bar(static_cast<size_t>(fraction * kWidth), '#');
     bar.resize(kWidth, '-');
     std::fprintf(stderr,
-                 "\r%s [%s] %zu/%zu %s  %.1f %s/s  ETA %s   ",
+                 "\r%s [%s] %zu/%zu %s  %.1f %s/s%s  ETA %s   ",
                  label_.c_str(),
                  bar.c_str(),
                  done_,
@@ -69,6 +78,7 @@ void Progress::Draw(bool final_line) {
                  unit_.c_str(),
                  rate,
                  unit_.c_str(),
+                 secondary,
                  FormatSeconds(eta).c_str());
     if (final_line) std::fputc('\n', stderr);
     return;
@@ -79,7 +89,7 @@ void Progress::Draw(bool final_line) {
   last_logged_decile_ = decile;
   last_logged_done_ = done_;
   std::fprintf(stderr,
-               "%s: %zu/%zu %s (%.0f%%), %.1f %s/s, elapsed %s, ETA %s\n",
+               "%s: %zu/%zu %s (%.0f%%), %.1f %s/s%s, elapsed %s, ETA %s\n",
                label_.c_str(),
                done_,
                total_,
@@ -87,6 +97,7 @@ void Progress::Draw(bool final_line) {
                100 * fraction,
                rate,
                unit_.c_str(),
+               secondary,
                FormatSeconds(elapsed).c_str(),
                FormatSeconds(eta).c_str());
 }

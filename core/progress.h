@@ -18,6 +18,8 @@ class Progress {
   ~Progress();
 
   void Advance(size_t steps = 1);
+  // A second count shown as a rate beside the main one (e.g. frames beside rooms).
+  void AddSecondary(size_t count, const std::string& unit);
   void Finish();
 
   // Set once by the CLI (--quiet); applies to every Progress.
@@ -30,6 +32,8 @@ class Progress {
   size_t total_;
   std::string unit_;
   size_t done_ = 0;
+  size_t secondary_ = 0;
+  std::string secondary_unit_;
   bool on_terminal_;
   bool finished_ = false;
   int last_logged_decile_ = -1;

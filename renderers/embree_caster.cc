@@ -207,10 +207,14 @@ EmbreeCaster::Coverage EmbreeCaster::CoverageIn(const Scene& scene,
       int rays = 0;
       for (int k = 0; k < kPacket; ++k) {
         const int u = start + k;
-        const bool known =
-            u <= u1 && known_hits.ids != nullptr &&
-            (*known_hits.ids)[static_cast<size_t>(v) * camera.width + u] == known_hits.id;
-        valid[k] = u <= u1 && !known ? -1 : 0;
+        bool known = false, known_miss = false;
+        if (u <= u1 && known_hits.ids != nullptr) {
+          const size_t i = static_cast<size_t>(v) * camera.width + u;
+          known = (*known_hits.ids)[i] == known_hits.id;
+          const float seen = (*known_hits.depth)[i];
+          known_miss = !known && (seen <= 0 || seen > known_hits.far_depth);
+        }
+        valid[k] = u <= u1 && !known && !known_miss ? -1 : 0;
         rays += valid[k] != 0;
         if (known) {
           if (row.pixels == 0) row.box = {u, v, u, v};

@@ -41,12 +41,17 @@ class EmbreeCaster : public DepthRenderer {
     int64_t pixels = 0;
     std::array<int, 4> box = {0, 0, -1, -1};
   };
-  // With `known_hits` (an id image and an id), pixels showing that id count
-  // as hits without a ray: an object seen first in the full scene is also hit
-  // when it is alone.
+  // Shortcuts from a full-scene render of the same view (`ids` and `depth`,
+  // row-major, camera size) for the scene object `id` whose depth in the
+  // camera is at most `far_depth`: a pixel showing `id` is a hit (seen first in
+  // the full scene, it is hit alone too); a pixel showing nothing, or a surface
+  // beyond `far_depth`, is a miss (the ray would have met the object first).
+  // Only pixels with something else in front are ray cast.
   struct KnownHits {
-    const std::vector<uint16_t>* ids = nullptr;  // row-major, camera size
+    const std::vector<uint16_t>* ids = nullptr;
+    const std::vector<float>* depth = nullptr;
     uint16_t id = 0;
+    float far_depth = 0;
   };
   Coverage CoverageIn(const Scene& scene,
                       const CameraIntrinsics& camera,

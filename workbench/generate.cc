@@ -70,6 +70,19 @@ std::string HashFrame(const KinectCapture& capture) {
   return text;
 }
 
+// Largest camera-frame depth of the object's 3D bounding box.
+float FarDepth(const PlacedObject& object, const Eigen::Isometry3d& camera_from_world) {
+  const Eigen::Isometry3d camera_from_object = camera_from_world * object.WorldFromObject();
+  double far = 0;
+  for (int corner = 0; corner < 8; ++corner) {
+    const Eigen::Vector3d p_object((corner & 1 ? 0.5 : -0.5) * object.size_m.x(),
+                                   (corner & 2 ? 0.5 : -0.5) * object.size_m.y(),
+                                   corner & 4 ? object.size_m.z() : 0.0);
+    far = std::max(far, (camera_from_object * p_object).z());
+  }
+  return static_cast<float>(far + 0.01);  // a centimetre of slack for float depth
+}
+
 // Visible pixels and boxes of every object from the ideal id image.
 void CountVisible(const DepthFrame& ideal, std::vector<FrameObjectRecord>* objects) {
   std::vector<FrameObjectRecord*> by_id(65536, nullptr);  // instance ids are 16-bit
@@ -250,7 +263,10 @@ std::vector<FrameObjectRecord> ObjectGroundTruth::Compute(
         camera,
         world_from_camera,
         region,
-        EmbreeCaster::KnownHits{&ideal.instance_ids, static_cast<uint16_t>(object.instance_id)});
+        EmbreeCaster::KnownHits{&ideal.instance_ids,
+                                &ideal.depth,
+                                static_cast<uint16_t>(object.instance_id),
+                                FarDepth(layout_.objects[k], camera_from_world)});
     object.amodal_pixels = amodal.pixels;
     object.amodal_box = amodal.box;
     object.in_frustum = amodal.pixels > 0;
@@ -379,6 +395,7 @@ GenerateSummary GenerateDataset(const Catalog& catalog,
     ++summary.rooms_written;
     summary.frames_written += static_cast<int>(room.frames.size());
     summary.rooms_short += room.placed_furniture < room.requested_furniture;
+    progress.AddSecondary(room.frames.size(), "frames");
     progress.Advance();
   }
   progress.Finish();
