@@ -65,14 +65,18 @@ void CheckMeshValid(const TriangleMesh& mesh, const std::string& what) {
   }
 }
 
-std::string HashMesh(const TriangleMesh& mesh) {
-  XXH3_state_t* state = XXH3_createState();
-  XXH3_128bits_reset(state);
-  XXH3_128bits_update(state, mesh.vertices.data(), mesh.vertices.size() * sizeof(Eigen::Vector3f));
-  XXH3_128bits_update(
-      state, mesh.triangles.data(), mesh.triangles.size() * sizeof(Eigen::Vector3i));
-  const XXH128_hash_t hash = XXH3_128bits_digest(state);
-  XXH3_freeState(state);
+ContentHasher::ContentHasher() : state_(XXH3_createState()) {
+  XXH3_128bits_reset(static_cast<XXH3_state_t*>(state_));
+}
+
+ContentHasher::~ContentHasher() { XXH3_freeState(static_cast<XXH3_state_t*>(state_)); }
+
+void ContentHasher::Update(const void* data, size_t bytes) {
+  XXH3_128bits_update(static_cast<XXH3_state_t*>(state_), data, bytes);
+}
+
+std::string ContentHasher::HexDigest() const {
+  const XXH128_hash_t hash = XXH3_128bits_digest(static_cast<XXH3_state_t*>(state_));
   char text[33];
   std::snprintf(text,
                 sizeof(text),
@@ -80,6 +84,13 @@ std::string HashMesh(const TriangleMesh& mesh) {
                 static_cast<unsigned long long>(hash.high64),
                 static_cast<unsigned long long>(hash.low64));
   return text;
+}
+
+std::string HashMesh(const TriangleMesh& mesh) {
+  ContentHasher hasher;
+  hasher.Update(mesh.vertices.data(), mesh.vertices.size() * sizeof(Eigen::Vector3f));
+  hasher.Update(mesh.triangles.data(), mesh.triangles.size() * sizeof(Eigen::Vector3i));
+  return hasher.HexDigest();
 }
 
 double SurfaceArea(const TriangleMesh& mesh) {

@@ -54,6 +54,20 @@ void PlaceOnFloorCentred(TriangleMesh* mesh);
 // non-finite vertex, or a triangle index out of range.
 void CheckMeshValid(const TriangleMesh& mesh, const std::string& what);
 
+// Incremental XXH3-128 content hash, as 32 hex digits.
+class ContentHasher {
+ public:
+  ContentHasher();
+  ~ContentHasher();
+  ContentHasher(const ContentHasher&) = delete;
+  ContentHasher& operator=(const ContentHasher&) = delete;
+  void Update(const void* data, size_t bytes);
+  std::string HexDigest() const;
+
+ private:
+  void* state_;
+};
+
 // 32 hex digits (XXH3-128) over the vertex and triangle buffers: two meshes
 // with the same geometry have the same hash on every machine.
 std::string HashMesh(const TriangleMesh& mesh);

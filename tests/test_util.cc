@@ -5,6 +5,8 @@
 #include <filesystem>
 #include <fstream>
 
+#include "core/error.h"
+
 namespace furn::testing {
 
 std::string ScratchDir() {
@@ -19,6 +21,15 @@ std::string ScratchDir() {
 void WriteText(const std::string& path, const std::string& text) {
   std::ofstream out(path, std::ios::binary);
   out << text;
+}
+
+std::string ErrorOf(const std::function<void()>& action) {
+  try {
+    action();
+  } catch (const InputError& error) {
+    return error.what();
+  }
+  return "(no error)";
 }
 
 }  // namespace furn::testing

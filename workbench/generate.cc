@@ -1,7 +1,5 @@
 #include "workbench/generate.h"
 
-#include <xxhash.h>
-
 #include <chrono>
 #include <cstdlib>
 #include <map>
@@ -25,18 +23,27 @@ double SecondsSince(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
 }
 
+// The 8 corners of an object's 3D bounding box in the camera frame.
+std::array<Eigen::Vector3d, 8> BoxCornersInCamera(const PlacedObject& object,
+                                                  const Eigen::Isometry3d& camera_from_world) {
+  const Eigen::Isometry3d camera_from_object = camera_from_world * object.WorldFromObject();
+  std::array<Eigen::Vector3d, 8> corners;
+  for (int corner = 0; corner < 8; ++corner) {
+    corners[corner] =
+        camera_from_object * Eigen::Vector3d((corner & 1 ? 0.5 : -0.5) * object.size_m.x(),
+                                             (corner & 2 ? 0.5 : -0.5) * object.size_m.y(),
+                                             corner & 4 ? object.size_m.z() : 0.0);
+  }
+  return corners;
+}
+
 // Pixels of an object's 3D bounding box in the image (inclusive), or the whole
 // image when a corner is behind the camera; empty (u1 < u0) when it is all out of view.
 std::array<int, 4> ProjectedRegion(const PlacedObject& object,
                                    const CameraIntrinsics& camera,
                                    const Eigen::Isometry3d& camera_from_world) {
-  const Eigen::Isometry3d camera_from_object = camera_from_world * object.WorldFromObject();
   double u_min = 1e30, v_min = 1e30, u_max = -1e30, v_max = -1e30;
-  for (int corner = 0; corner < 8; ++corner) {
-    const Eigen::Vector3d p_object((corner & 1 ? 0.5 : -0.5) * object.size_m.x(),
-                                   (corner & 2 ? 0.5 : -0.5) * object.size_m.y(),
-                                   corner & 4 ? object.size_m.z() : 0.0);
-    const Eigen::Vector3d p = camera_from_object * p_object;
+  for (const Eigen::Vector3d& p : BoxCornersInCamera(object, camera_from_world)) {
     if (p.z() < 0.05) return {0, 0, camera.width - 1, camera.height - 1};
     const Eigen::Vector2d pixel = camera.Project(p);
     u_min = std::min(u_min, pixel.x());
@@ -52,34 +59,19 @@ std::array<int, 4> ProjectedRegion(const PlacedObject& object,
 }
 
 std::string HashFrame(const KinectCapture& capture) {
-  XXH3_state_t* state = XXH3_createState();
-  XXH3_128bits_reset(state);
+  ContentHasher hasher;
   for (const DepthFrame* frame : {&capture.ideal, &capture.noisy}) {
-    XXH3_128bits_update(state, frame->depth.data(), frame->depth.size() * sizeof(float));
-    XXH3_128bits_update(
-        state, frame->instance_ids.data(), frame->instance_ids.size() * sizeof(uint16_t));
+    hasher.Update(frame->depth.data(), frame->depth.size() * sizeof(float));
+    hasher.Update(frame->instance_ids.data(), frame->instance_ids.size() * sizeof(uint16_t));
   }
-  const XXH128_hash_t hash = XXH3_128bits_digest(state);
-  XXH3_freeState(state);
-  char text[33];
-  std::snprintf(text,
-                sizeof(text),
-                "%016llx%016llx",
-                static_cast<unsigned long long>(hash.high64),
-                static_cast<unsigned long long>(hash.low64));
-  return text;
+  return hasher.HexDigest();
 }
 
 // Largest camera-frame depth of the object's 3D bounding box.
 float FarDepth(const PlacedObject& object, const Eigen::Isometry3d& camera_from_world) {
-  const Eigen::Isometry3d camera_from_object = camera_from_world * object.WorldFromObject();
   double far = 0;
-  for (int corner = 0; corner < 8; ++corner) {
-    const Eigen::Vector3d p_object((corner & 1 ? 0.5 : -0.5) * object.size_m.x(),
-                                   (corner & 2 ? 0.5 : -0.5) * object.size_m.y(),
-                                   corner & 4 ? object.size_m.z() : 0.0);
-    far = std::max(far, (camera_from_object * p_object).z());
-  }
+  for (const Eigen::Vector3d& p : BoxCornersInCamera(object, camera_from_world))
+    far = std::max(far, p.z());
   return static_cast<float>(far + 0.01);  // a centimetre of slack for float depth
 }
 

@@ -10,14 +10,7 @@
 namespace furn {
 namespace {
 
-std::string ErrorOf(const std::function<void()>& action) {
-  try {
-    action();
-  } catch (const InputError& error) {
-    return error.what();
-  }
-  return "(no error)";
-}
+using testing::ErrorOf;
 
 std::string MapJson(const std::string& entries, const std::string& catalogs = R"(["Test.sh3f"])") {
   return R"({"format": "furnidet-class-map", "version": 1, "catalogs": )" + catalogs +

@@ -11,6 +11,8 @@
 namespace furn {
 namespace {
 
+using testing::ErrorOf;
+
 using testing::MarkerMesh;
 
 const Eigen::Vector3f kMarkerSize(0.4f, 0.6f, 1.0f);
@@ -22,15 +24,6 @@ CadModel LoadText(const std::string& file_name,
   const std::string path = testing::ScratchDir() + "/" + file_name;
   testing::WriteText(path, text);
   return LoadMeshFile(path, options);
-}
-
-std::string ErrorOf(const std::function<void()>& action) {
-  try {
-    action();
-  } catch (const InputError& error) {
-    return error.what();
-  }
-  return "(no error)";
 }
 
 TEST(MeshIo, ObjIsYUpByDefault) {

@@ -14,14 +14,7 @@
 namespace furn {
 namespace {
 
-std::string ErrorOf(const std::function<void()>& action) {
-  try {
-    action();
-  } catch (const InputError& error) {
-    return error.what();
-  }
-  return "(no error)";
-}
+using testing::ErrorOf;
 
 TEST(JavaProperties, FollowsJavaRules) {
   const auto p = ParseJavaProperties(
