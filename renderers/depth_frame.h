@@ -18,6 +18,7 @@ struct DepthFrame {
   std::vector<float> depth;              // metres along the optical axis; 0 = no return
   std::vector<uint16_t> instance_ids;    // 0 = no object
   std::vector<Eigen::Vector3f> normals;  // camera frame, unit, facing the camera; 0 where none
+                                         // (empty when the renderer was asked for none)
 
   void Resize(int new_width, int new_height) {
     width = new_width;

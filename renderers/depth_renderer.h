@@ -36,6 +36,14 @@ class DepthRenderer {
                           const Eigen::Isometry3d& world_from_camera,
                           DepthFrame* frame) = 0;
   virtual std::string Name() const = 0;
+
+  // Normals cost a little; a user needing only depth and ids can switch them
+  // off (DepthFrame::normals is then empty). The sensor model needs them.
+  void set_compute_normals(bool compute) { compute_normals_ = compute; }
+  bool compute_normals() const { return compute_normals_; }
+
+ private:
+  bool compute_normals_ = true;
 };
 
 enum class RendererKind { kOsMesa, kEmbree };

@@ -119,6 +119,8 @@ void EmbreeCaster::RenderInto(const Scene& scene,
   SetScene(scene);
   DepthFrame& frame = *out;
   frame.Reshape(camera.width, camera.height);  // every pixel is written below
+  if (!compute_normals()) frame.normals.clear();
+  const bool normals = compute_normals();
   const Eigen::Matrix3f rotation = world_from_camera.linear().cast<float>();
   const Eigen::Vector3f origin = world_from_camera.translation().cast<float>();
   RTCScene rtc_scene = impl_->scene;
@@ -166,11 +168,12 @@ void EmbreeCaster::RenderInto(const Scene& scene,
         if (packet.hit.geomID[k] == RTC_INVALID_GEOMETRY_ID) {
           frame.depth[index] = 0;
           frame.instance_ids[index] = kNoObjectId;
-          frame.normals[index].setZero();
+          if (normals) frame.normals[index].setZero();
           continue;
         }
         frame.depth[index] = packet.ray.tfar[k];
         frame.instance_ids[index] = id_of_geometry[packet.hit.geomID[k]];
+        if (!normals) continue;
         Eigen::Vector3f normal =
             rotation.transpose() *
             Eigen::Vector3f(packet.hit.Ng_x[k], packet.hit.Ng_y[k], packet.hit.Ng_z[k]);

@@ -201,6 +201,8 @@ void KinectNoiseModel::Apply(const DepthFrame& ideal,
           "depth frame " + std::to_string(ideal.width) + "x" + std::to_string(ideal.height) +
               " does not match the camera " + std::to_string(camera.width) + "x" +
               std::to_string(camera.height));
+  Require(ideal.normals.size() == ideal.depth.size(),
+          "the sensor model needs normals: render with set_compute_normals(true)");
   const int width = ideal.width, height = ideal.height;
   const size_t count = ideal.depth.size();
 

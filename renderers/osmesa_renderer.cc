@@ -272,6 +272,8 @@ void OsMesaRenderer::RenderInto(const Scene& scene,
 
   DepthFrame& frame = *out;
   frame.Reshape(camera.width, camera.height);  // every pixel is written below
+  if (!compute_normals()) frame.normals.clear();
+  const bool normals = compute_normals();
   const uint32_t* pixels = impl_->pixels.data();
   std::vector<float> ray_x(camera.width), ray_y(camera.height);
   for (int u = 0; u < camera.width; ++u) ray_x[u] = camera.RayThroughPixel(u, 0).x();
@@ -286,7 +288,7 @@ void OsMesaRenderer::RenderInto(const Scene& scene,
       if (!(depth > 0)) {
         frame.depth[i] = 0;
         frame.instance_ids[i] = kNoObjectId;
-        frame.normals[i].setZero();
+        if (normals) frame.normals[i].setZero();
         continue;
       }
       // The object whose triangle range holds the scene-wide triangle index:
@@ -298,6 +300,7 @@ void OsMesaRenderer::RenderInto(const Scene& scene,
       const size_t triangle = pixel[1] - first_triangle[object];
       frame.depth[i] = depth;
       frame.instance_ids[i] = scene.objects[object].instance_id;
+      if (!normals) continue;
       Eigen::Vector3f normal =
           camera_from_object_rotation[object] * drawn[object]->face_normals[triangle];
       if (normal.dot(Eigen::Vector3f(ray_x[u], ray_y[v], 1.0f)) > 0) normal = -normal;

@@ -6,6 +6,7 @@
 
 #include "core/error.h"
 #include "renderers/depth_renderer.h"
+#include "renderers/kinect_noise.h"
 #include "tests/renderers/render_fixtures.h"
 
 namespace furn {
@@ -116,6 +117,17 @@ TEST_P(RendererTest, AbsurdSizesAreRejected) {
   Eigen::Isometry3d far_away = testing::CameraAtOriginLookingAlongY();
   far_away.translation().x() = 1e7;
   EXPECT_THROW(renderer_->Render(fine, camera_, far_away), InputError);
+}
+
+TEST_P(RendererTest, NormalsCanBeSwitchedOffWithoutChangingDepthOrIds) {
+  const Scene scene = testing::FurnishedRoom(2);
+  const DepthFrame with = renderer_->Render(scene, camera_, testing::FurnishedRoomCamera());
+  renderer_->set_compute_normals(false);
+  const DepthFrame without = renderer_->Render(scene, camera_, testing::FurnishedRoomCamera());
+  EXPECT_TRUE(without.normals.empty());
+  EXPECT_EQ(with.depth, without.depth);
+  EXPECT_EQ(with.instance_ids, without.instance_ids);
+  EXPECT_THROW(ApplyKinectNoise(without, camera_, KinectNoiseOptions{}, 1), InputError);
 }
 
 INSTANTIATE_TEST_SUITE_P(Renderers,
