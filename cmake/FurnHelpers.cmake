@@ -41,8 +41,12 @@ function(furn_add_test)
   if(NOT ARG_TIMEOUT)
     set(ARG_TIMEOUT 300)
   endif()
+  set(environment "")
+  if(FURN_SANITIZE MATCHES "address")
+    set(environment ENVIRONMENT "LSAN_OPTIONS=suppressions=${PROJECT_SOURCE_DIR}/tests/lsan_suppressions.txt")
+  endif()
   gtest_discover_tests(${target}
     TEST_PREFIX "${ARG_FOLDER}/${ARG_NAME}."
-    PROPERTIES LABELS "${ARG_LABELS}" TIMEOUT ${ARG_TIMEOUT}
+    PROPERTIES LABELS "${ARG_LABELS}" TIMEOUT ${ARG_TIMEOUT} ${environment}
     DISCOVERY_TIMEOUT 60)
 endfunction()
