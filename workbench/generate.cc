@@ -245,8 +245,10 @@ std::vector<FrameObjectRecord> ObjectGroundTruth::Compute(
     const Eigen::Isometry3d& world_from_camera) {
   std::vector<FrameObjectRecord> objects;
   const Eigen::Isometry3d camera_from_world = world_from_camera.inverse();
-  for (size_t k = 0; k < layout_.objects.size(); ++k) {
-    FrameObjectRecord object;
+  // One object per task: their ray-casting scenes are independent.
+  objects.resize(layout_.objects.size());
+  ParallelFor(0, static_cast<int>(layout_.objects.size()), [&](int k) {
+    FrameObjectRecord& object = objects[k];
     object.instance_id = layout_.objects[k].instance_id;
     const std::array<int, 4> region =
         ProjectedRegion(layout_.objects[k], camera, camera_from_world);
@@ -262,8 +264,7 @@ std::vector<FrameObjectRecord> ObjectGroundTruth::Compute(
     object.amodal_pixels = amodal.pixels;
     object.amodal_box = amodal.box;
     object.in_frustum = amodal.pixels > 0;
-    objects.push_back(object);
-  }
+  });
   CountVisible(ideal, &objects);
   for (FrameObjectRecord& object : objects) {
     object.visibility =
