@@ -172,8 +172,9 @@ MergeSummary MergeDatasets(const std::vector<std::string>& inputs, const std::st
     DatasetDb dataset = OpenExisting(input);
     const std::string these = dataset.GenerationOptions().value_or("");
     if (options.empty()) options = these;
-    Require(these == options, input + ": generated with other options than " + inputs.front() +
-                                  " (only shards of one run can be merged)");
+    Require(these == options,
+            input + ": generated with other options than " + inputs.front() +
+                " (only shards of one run can be merged)");
   }
   const std::string temp = out + ".partial";
   std::filesystem::remove(temp, ec);
@@ -190,13 +191,15 @@ MergeSummary MergeDatasets(const std::vector<std::string>& inputs, const std::st
       db.Execute("ATTACH DATABASE " + SqlQuote(input) + " AS source");
       int64_t conflicting = 0;
       {  // statements on `source` must be finished before it is detached
-        Statement conflicts(&db,
-                            "SELECT count(*) FROM source.rooms s JOIN main.rooms m ON m.id = s.id "
-                            "WHERE m.seed != s.seed OR EXISTS (SELECT 1 FROM source.frames sf JOIN main.frames mf "
-                            "ON mf.id = sf.id WHERE sf.room_id = s.id AND sf.content_hash != mf.content_hash)");
+        Statement conflicts(
+            &db,
+            "SELECT count(*) FROM source.rooms s JOIN main.rooms m ON m.id = s.id "
+            "WHERE m.seed != s.seed OR EXISTS (SELECT 1 FROM source.frames sf JOIN main.frames mf "
+            "ON mf.id = sf.id WHERE sf.room_id = s.id AND sf.content_hash != mf.content_hash)");
         conflicts.Step();
         conflicting = conflicts.ColumnInt(0);
-        Statement duplicates(&db, "SELECT count(*) FROM source.rooms WHERE id IN (SELECT id FROM main.rooms)");
+        Statement duplicates(
+            &db, "SELECT count(*) FROM source.rooms WHERE id IN (SELECT id FROM main.rooms)");
         duplicates.Step();
         summary.duplicate_rooms += static_cast<int>(duplicates.ColumnInt(0));
       }
@@ -205,13 +208,19 @@ MergeSummary MergeDatasets(const std::vector<std::string>& inputs, const std::st
                          " rooms have the same id as rooms already merged but other content");
       }
       Transaction transaction(&db);
-      db.Execute("INSERT INTO main.rooms SELECT * FROM source.rooms WHERE id NOT IN (SELECT id FROM main.rooms)");
       db.Execute(
-          "INSERT INTO main.objects SELECT * FROM source.objects WHERE (room_id, instance_id) NOT IN "
+          "INSERT INTO main.rooms SELECT * FROM source.rooms WHERE id NOT IN (SELECT id FROM "
+          "main.rooms)");
+      db.Execute(
+          "INSERT INTO main.objects SELECT * FROM source.objects WHERE (room_id, instance_id) NOT "
+          "IN "
           "(SELECT room_id, instance_id FROM main.objects)");
-      db.Execute("INSERT INTO main.frames SELECT * FROM source.frames WHERE id NOT IN (SELECT id FROM main.frames)");
       db.Execute(
-          "INSERT INTO main.frame_objects SELECT * FROM source.frame_objects WHERE (frame_id, instance_id) NOT IN "
+          "INSERT INTO main.frames SELECT * FROM source.frames WHERE id NOT IN (SELECT id FROM "
+          "main.frames)");
+      db.Execute(
+          "INSERT INTO main.frame_objects SELECT * FROM source.frame_objects WHERE (frame_id, "
+          "instance_id) NOT IN "
           "(SELECT frame_id, instance_id FROM main.frame_objects)");
       transaction.Commit();
       db.Execute("DETACH DATABASE source");
@@ -258,13 +267,16 @@ nlohmann::json Rows(const Eigen::Matrix3d& m) {
 
 }  // namespace
 
-int ExportDataset(const std::string& db_path, const std::string& format, const std::string& out_dir) {
+int ExportDataset(const std::string& db_path,
+                  const std::string& format,
+                  const std::string& out_dir) {
   Require(format == "bop" || format == "png" || format == "pcd",
           "export format '" + format + "' is not one of bop, png, pcd");
   DatasetDb dataset = OpenExisting(db_path);
   std::error_code ec;
   std::filesystem::create_directories(out_dir, ec);
-  Require(std::filesystem::is_directory(out_dir, ec), out_dir + ": cannot create the output directory");
+  Require(std::filesystem::is_directory(out_dir, ec),
+          out_dir + ": cannot create the output directory");
   const std::filesystem::path root(out_dir);
   std::map<std::string, int> bop_object_ids;  // model id -> 1-based BOP obj_id
   nlohmann::ordered_json models = nlohmann::ordered_json::object();
@@ -288,22 +300,29 @@ int ExportDataset(const std::string& db_path, const std::string& format, const s
         WriteOrganizedPcd(noisy, IntrinsicsOf(frame), (root / (Pad(frame.id) + ".pcd")).string());
       } else if (format == "png") {
         std::filesystem::create_directories(root / "frames", ec);
-        WriteBytes((root / "frames" / (Pad(frame.id) + "_depth.png")).string(), frame.depth_noisy_png);
-        WriteBytes((root / "frames" / (Pad(frame.id) + "_depth_ideal.png")).string(), frame.depth_ideal_png);
+        WriteBytes((root / "frames" / (Pad(frame.id) + "_depth.png")).string(),
+                   frame.depth_noisy_png);
+        WriteBytes((root / "frames" / (Pad(frame.id) + "_depth_ideal.png")).string(),
+                   frame.depth_ideal_png);
         WriteBytes((root / "frames" / (Pad(frame.id) + "_ids.png")).string(), frame.ids_png);
         png_index.push_back({{"frame", frame.id},
                              {"room", room.id},
                              {"split", room.split},
                              {"K", {frame.fx, 0, frame.cx, 0, frame.fy, frame.cy, 0, 0, 1}},
                              {"world_from_camera", Rows(frame.world_from_camera.linear())},
-                             {"world_from_camera_t", {frame.world_from_camera.translation().x(),
-                                                      frame.world_from_camera.translation().y(),
-                                                      frame.world_from_camera.translation().z()}}});
+                             {"world_from_camera_t",
+                              {frame.world_from_camera.translation().x(),
+                               frame.world_from_camera.translation().y(),
+                               frame.world_from_camera.translation().z()}}});
       } else {
-        for (const char* sub : {"depth", "depth_ideal", "mask_ids"}) std::filesystem::create_directories(scene_dir / sub, ec);
-        WriteBytes((scene_dir / "depth" / (Pad(frame.frame_index) + ".png")).string(), frame.depth_noisy_png);
-        WriteBytes((scene_dir / "depth_ideal" / (Pad(frame.frame_index) + ".png")).string(), frame.depth_ideal_png);
-        WriteBytes((scene_dir / "mask_ids" / (Pad(frame.frame_index) + ".png")).string(), frame.ids_png);
+        for (const char* sub : {"depth", "depth_ideal", "mask_ids"})
+          std::filesystem::create_directories(scene_dir / sub, ec);
+        WriteBytes((scene_dir / "depth" / (Pad(frame.frame_index) + ".png")).string(),
+                   frame.depth_noisy_png);
+        WriteBytes((scene_dir / "depth_ideal" / (Pad(frame.frame_index) + ".png")).string(),
+                   frame.depth_ideal_png);
+        WriteBytes((scene_dir / "mask_ids" / (Pad(frame.frame_index) + ".png")).string(),
+                   frame.ids_png);
         const Eigen::Isometry3d camera_from_world = frame.world_from_camera.inverse();
         const Eigen::Vector3d t = camera_from_world.translation() * 1000.0;
         const std::string key = std::to_string(frame.frame_index);
@@ -311,7 +330,8 @@ int ExportDataset(const std::string& db_path, const std::string& format, const s
                              {"depth_scale", 1.0},
                              {"cam_R_w2c", Rows(camera_from_world.linear())},
                              {"cam_t_w2c", {t.x(), t.y(), t.z()}}};
-        nlohmann::ordered_json gt = nlohmann::ordered_json::array(), info = nlohmann::ordered_json::array();
+        nlohmann::ordered_json gt = nlohmann::ordered_json::array(),
+                               info = nlohmann::ordered_json::array();
         for (const FrameObjectRecord& seen : frame.objects) {
           const ObjectRecord& object = *objects.at(seen.instance_id);
           const Eigen::Isometry3d camera_from_object =
@@ -339,11 +359,13 @@ int ExportDataset(const std::string& db_path, const std::string& format, const s
     if (format == "bop" && !room.frames.empty()) {
       WriteFileAtomically((scene_dir / "scene_camera.json").string(), scene_camera.dump(1) + "\n");
       WriteFileAtomically((scene_dir / "scene_gt.json").string(), scene_gt.dump(1) + "\n");
-      WriteFileAtomically((scene_dir / "scene_gt_info.json").string(), scene_gt_info.dump(1) + "\n");
+      WriteFileAtomically((scene_dir / "scene_gt_info.json").string(),
+                          scene_gt_info.dump(1) + "\n");
     }
   }
   if (format == "bop") WriteFileAtomically((root / "models.json").string(), models.dump(1) + "\n");
-  if (format == "png") WriteFileAtomically((root / "frames.json").string(), png_index.dump(1) + "\n");
+  if (format == "png")
+    WriteFileAtomically((root / "frames.json").string(), png_index.dump(1) + "\n");
   return written;
 }
 

@@ -49,6 +49,8 @@ MergeSummary MergeDatasets(const std::vector<std::string>& inputs, const std::st
 //   png: frames/<frame>_depth.png, _depth_ideal.png, _ids.png; frames.json
 //   pcd: <frame>.pcd (organized, camera frame, noisy)
 // Returns the number of frames written.
-int ExportDataset(const std::string& db_path, const std::string& format, const std::string& out_dir);
+int ExportDataset(const std::string& db_path,
+                  const std::string& format,
+                  const std::string& out_dir);
 
 }  // namespace furn

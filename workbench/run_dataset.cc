@@ -106,7 +106,8 @@ int RunDataset(int argc, char** argv) {
   int max_frames = 12;
   preview->add_option("--frames", max_frames, "How many frames (spread over the dataset)")
       ->capture_default_str();
-  CLI::App* merge = app.add_subcommand("merge", "Join datasets of one run (e.g. its shards) into a new file");
+  CLI::App* merge =
+      app.add_subcommand("merge", "Join datasets of one run (e.g. its shards) into a new file");
   std::vector<std::string> inputs;
   merge->add_option("inputs", inputs, "Input datasets")->required();
   merge->add_option("--out", out, "New dataset file")->required();
@@ -122,8 +123,8 @@ int RunDataset(int argc, char** argv) {
   }
   if (merge->parsed()) {
     const MergeSummary summary = MergeDatasets(inputs, out);
-    std::cout << "wrote " << out << ": " << summary.rooms << " rooms from " << inputs.size() << " datasets ("
-              << summary.duplicate_rooms << " duplicate rooms were identical)\n";
+    std::cout << "wrote " << out << ": " << summary.rooms << " rooms from " << inputs.size()
+              << " datasets (" << summary.duplicate_rooms << " duplicate rooms were identical)\n";
     return 0;
   }
   if (export_command->parsed()) {
