@@ -3,8 +3,10 @@
 #include <algorithm>
 #include <filesystem>
 #include <map>
+#include <mutex>
 
 #include "core/error.h"
+#include "core/parallel.h"
 #include "core/progress.h"
 #include "scenes/class_map.h"
 #include "scenes/procedural_catalog.h"
@@ -103,16 +105,29 @@ CadModel Catalog::LoadModel(const std::string& id) const {
   return source.prebuilt.at(id);
 }
 
-LoadedModels Catalog::LoadModels(const std::vector<std::string>& ids) const {
-  LoadedModels loaded;
-  Progress progress("load models", ids.size(), "models");
-  for (const std::string& id : ids) {
+LoadedModels Catalog::LoadModels(const std::vector<std::string>& ids, bool show_progress) const {
+  // Imported in parallel (zip reads are serialised, parsing is not), kept in
+  // the order asked.
+  std::vector<std::optional<CadModel>> models(ids.size());
+  std::vector<std::string> errors(ids.size());
+  Progress progress("load models", show_progress ? ids.size() : 0, "models");
+  std::mutex progress_mutex;
+  ParallelFor(0, static_cast<int>(ids.size()), [&](int i) {
     try {
-      loaded.models.push_back(LoadModel(id));
+      models[i] = LoadModel(ids[i]);
     } catch (const InputError& error) {
-      loaded.failures.push_back({id, error.what()});
+      errors[i] = error.what();
     }
+    std::lock_guard<std::mutex> lock(progress_mutex);
     progress.Advance();
+  });
+  LoadedModels loaded;
+  for (size_t i = 0; i < ids.size(); ++i) {
+    if (models[i]) {
+      loaded.models.push_back(std::move(*models[i]));
+    } else {
+      loaded.failures.push_back({ids[i], errors[i]});
+    }
   }
   return loaded;
 }

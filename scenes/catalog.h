@@ -77,8 +77,8 @@ class Catalog {
 
   // Throws InputError naming the entry when its model cannot be loaded.
   CadModel LoadModel(const std::string& id) const;
-  // Loads several, skipping (and reporting) entries that fail; shows progress.
-  LoadedModels LoadModels(const std::vector<std::string>& ids) const;
+  // Loads several in parallel, skipping (and reporting) entries that fail.
+  LoadedModels LoadModels(const std::vector<std::string>& ids, bool show_progress = true) const;
 
  private:
   friend Catalog OpenCatalog(const std::string&, const CatalogOpenOptions&);

@@ -1,14 +1,20 @@
 #include "scenes/zip_archive.h"
 
 #include <zip.h>
+
 #include <zlib.h>
+#include <mutex>
 
 #include "core/error.h"
 
 namespace furn {
 
+// libzip's archive handle is not thread-safe; every call on it takes `mutex`,
+// so models can be imported from one archive on several threads (the parsing
+// happens outside, on the bytes read).
 struct ZipArchive::Handle {
   zip_t* zip = nullptr;
+  std::mutex mutex;
 };
 
 namespace {
@@ -37,6 +43,7 @@ ZipArchive::~ZipArchive() {
 }
 
 std::vector<std::string> ZipArchive::Names() const {
+  std::lock_guard<std::mutex> lock(handle_->mutex);
   std::vector<std::string> names;
   const zip_int64_t count = zip_get_num_entries(handle_->zip, 0);
   for (zip_int64_t i = 0; i < count; ++i) {
@@ -47,10 +54,12 @@ std::vector<std::string> ZipArchive::Names() const {
 }
 
 bool ZipArchive::Contains(const std::string& name) const {
+  std::lock_guard<std::mutex> lock(handle_->mutex);
   return zip_name_locate(handle_->zip, name.c_str(), ZIP_FL_ENC_GUESS) >= 0;
 }
 
 std::string ZipArchive::Read(const std::string& name) const {
+  std::lock_guard<std::mutex> lock(handle_->mutex);
   const std::string where = path_ + "!/" + name;
   const zip_int64_t index = zip_name_locate(handle_->zip, name.c_str(), ZIP_FL_ENC_GUESS);
   if (index < 0) throw InputError(where + ": no such entry in the archive");

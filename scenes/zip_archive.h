@@ -1,4 +1,5 @@
 // Read-only access to a zip file (libzip), with errors that name the archive.
+// Safe to use from several threads.
 // Used for Sweet Home 3D .sh3f catalogs, which are zips of OBJ/MTL files and
 // a PluginFurnitureCatalog.properties.
 //

@@ -4,6 +4,7 @@
 #include <cstdlib>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <set>
 
 #include "core/error.h"
 #include "core/parallel.h"
@@ -144,23 +145,53 @@ class RoomGenerator {
     return object;
   }
 
+  // Imports, in parallel, the models of `layouts` not imported yet.
+  void ImportModels(const std::vector<RoomLayout>& layouts) {
+    std::vector<std::string> missing;
+    for (const RoomLayout& layout : layouts) {
+      for (const PlacedObject& object : layout.objects) {
+        if (mesh_cache_.count(object.model_id) == 0 &&
+            std::find(missing.begin(), missing.end(), object.model_id) == missing.end()) {
+          missing.push_back(object.model_id);
+        }
+      }
+    }
+    if (missing.empty()) return;
+    LoadedModels loaded = catalog_.LoadModels(missing, /*show_progress=*/false);
+    // A model the composer picked must load: generation stops, naming it.
+    if (!loaded.failures.empty()) throw InputError(loaded.failures.front().message);
+    for (CadModel& model : loaded.models) {
+      mesh_cache_[model.id] = {std::make_shared<TriangleMesh>(std::move(model.mesh)),
+                               model.content_hash};
+    }
+  }
+
+  // Imports the rooms' models ahead of time (all cores), so rendering does not wait.
+ public:
+  void Prefetch(const std::vector<int64_t>& room_indices) {
+    std::vector<RoomLayout> layouts;
+    for (int64_t k : room_indices) {
+      layouts.push_back(ComposeRoom(
+          composer_catalog_, options_.room, DeriveSeed(options_.seed, static_cast<uint64_t>(k))));
+    }
+    ImportModels(layouts);
+  }
+
+ private:
   std::map<std::string, std::shared_ptr<const TriangleMesh>> LoadMeshes(const RoomLayout& layout) {
+    ImportModels({layout});
     std::map<std::string, std::shared_ptr<const TriangleMesh>> meshes;
     for (const PlacedObject& object : layout.objects) {
-      auto it = mesh_cache_.find(object.model_id);
-      if (it == mesh_cache_.end()) {
-        CadModel model = catalog_.LoadModel(object.model_id);
+      const CachedModel& cached = mesh_cache_.at(object.model_id);
+      meshes[object.model_id] = cached.mesh;
+      if (recorded_.insert(object.model_id).second) {
         models_[object.model_id] =
-            ModelRecord{model.id,
+            ModelRecord{object.model_id,
                         object.furniture_class ? ClassName(*object.furniture_class) : "",
-                        model.content_hash,
+                        cached.content_hash,
                         object.size_m,
-                        catalog_.Get(model.id).evaluation_only};
-        it = mesh_cache_
-                 .emplace(object.model_id, std::make_shared<TriangleMesh>(std::move(model.mesh)))
-                 .first;
+                        catalog_.Get(object.model_id).evaluation_only};
       }
-      meshes[object.model_id] = it->second;
     }
     return meshes;
   }
@@ -219,8 +250,13 @@ class RoomGenerator {
   ComposerCatalog composer_catalog_;
   std::unique_ptr<DepthRenderer> renderer_;
   KinectSimulator simulator_;
-  std::map<std::string, std::shared_ptr<const TriangleMesh>> mesh_cache_;
-  std::map<std::string, ModelRecord> models_;  // loaded since the last TakeNewModels()
+  struct CachedModel {
+    std::shared_ptr<const TriangleMesh> mesh;
+    std::string content_hash;
+  };
+  std::map<std::string, CachedModel> mesh_cache_;
+  std::set<std::string> recorded_;             // models given to TakeNewModels() already
+  std::map<std::string, ModelRecord> models_;  // first used since the last TakeNewModels()
 };
 
 }  // namespace
@@ -373,7 +409,15 @@ GenerateSummary GenerateDataset(const Catalog& catalog,
   }
   RoomGenerator generator(catalog, options);
   Progress progress("generate", todo.size(), "rooms");
-  for (int64_t k : todo) {
+  constexpr size_t kPrefetchRooms = 8;
+  for (size_t t = 0; t < todo.size(); ++t) {
+    const int64_t k = todo[t];
+    if (t % kPrefetchRooms == 0) {
+      const auto load_start = Clock::now();
+      generator.Prefetch(std::vector<int64_t>(
+          todo.begin() + t, todo.begin() + std::min(todo.size(), t + kPrefetchRooms)));
+      summary.load_s += SecondsSince(load_start);
+    }
     RoomRecord room = generator.Generate(k, &summary);
     const auto insert_start = Clock::now();
     dataset.WriteModels(generator.TakeNewModels());
