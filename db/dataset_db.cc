@@ -95,9 +95,18 @@ DatasetDb::DatasetDb(const std::string& path, Mode mode)
 }
 
 void DatasetDb::CreateOrMigrate(Mode mode) {
-  Statement tables(&db_, "SELECT count(*) FROM sqlite_master WHERE type = 'table'");
-  tables.Step();
-  const bool empty = tables.ColumnInt(0) == 0;
+  int64_t table_count = 0;
+  try {
+    Statement tables(&db_, "SELECT count(*) FROM sqlite_master WHERE type = 'table'");
+    tables.Step();
+    table_count = tables.ColumnInt(0);
+  } catch (const DbError& error) {
+    // SQLite's reason comes last in the message ("file is not a database", ...).
+    const std::string message = error.what();
+    throw DbError(db_.path() + ": not a furnidet dataset (" +
+                  message.substr(message.rfind(": ") + 2) + ")");
+  }
+  const bool empty = table_count == 0;
   if (empty) {
     if (mode == Mode::kReadOnly) throw DbError(db_.path() + ": not a dataset (no tables)");
     Transaction transaction(&db_);
