@@ -85,6 +85,31 @@ class Vocabulary {
   int NumUsedWords() const { return used_words_; }
   VocabularyKind kind() const { return kind_; }
 
+  // The plain state, for model files.
+  struct State {
+    VocabularyKind kind = VocabularyKind::kKMeans;
+    std::vector<Eigen::VectorXd> centres;
+    Eigen::MatrixXd weights;
+    Eigen::VectorXd biases;
+    int activated_words = 3;
+    double min_probability = 1e-3;
+    int used_words = 0;
+  };
+  State GetState() const {
+    return {kind_, centres_, weights_, biases_, activated_words_, min_probability_, used_words_};
+  }
+  static Vocabulary FromState(const State& state) {
+    Vocabulary v;
+    v.kind_ = state.kind;
+    v.centres_ = state.centres;
+    v.weights_ = state.weights;
+    v.biases_ = state.biases;
+    v.activated_words_ = state.activated_words;
+    v.min_probability_ = state.min_probability;
+    v.used_words_ = state.used_words;
+    return v;
+  }
+
  private:
   VocabularyKind kind_ = VocabularyKind::kKMeans;
   std::vector<Eigen::VectorXd> centres_;  // k-means

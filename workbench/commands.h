@@ -9,5 +9,7 @@ int RunCatalog(int argc, char** argv);
 int RunRender(int argc, char** argv);
 int RunGenerate(int argc, char** argv);
 int RunDataset(int argc, char** argv);
+int RunTrain(int argc, char** argv);
+int RunModel(int argc, char** argv);
 
 }  // namespace furn

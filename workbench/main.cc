@@ -23,7 +23,9 @@ constexpr Command kCommands[] = {
     {"generate",
      furn::RunGenerate,
      "compose rooms, render Kinect frames, store ground truth in SQLite"},
-    {"dataset", furn::RunDataset, "info, preview of a dataset database"},
+    {"dataset", furn::RunDataset, "info, preview, merge and export dataset databases"},
+    {"train", furn::RunTrain, "learn the part vocabulary and shape model from virtual scans"},
+    {"model", furn::RunModel, "describe a trained model file"},
 };
 
 void PrintUsage() {

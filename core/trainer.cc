@@ -1,0 +1,338 @@
+#include "core/trainer.h"
+
+#include <cmath>
+#include <cstring>
+
+#include "core/error.h"
+#include "core/file_util.h"
+#include "core/parallel.h"
+
+namespace furn {
+namespace {
+
+constexpr char kMagic[8] = {'F', 'U', 'R', 'N', 'M', 'D', 'L', '\0'};
+constexpr uint32_t kFormatVersion = 1;
+
+// Little-endian binary writer and a bounds-checked reader for the model file.
+class Writer {
+ public:
+  void Bytes(const void* data, size_t size) { out_.append(static_cast<const char*>(data), size); }
+  void U32(uint32_t v) { Bytes(&v, sizeof(v)); }
+  void I32(int32_t v) { Bytes(&v, sizeof(v)); }
+  void F64(double v) { Bytes(&v, sizeof(v)); }
+  void F32(float v) { Bytes(&v, sizeof(v)); }
+  void String(const std::string& s) {
+    U32(static_cast<uint32_t>(s.size()));
+    Bytes(s.data(), s.size());
+  }
+  void Vector(const Eigen::VectorXd& v) {
+    U32(static_cast<uint32_t>(v.size()));
+    Bytes(v.data(), v.size() * sizeof(double));
+  }
+  const std::string& bytes() const { return out_; }
+
+ private:
+  std::string out_;
+};
+
+class Reader {
+ public:
+  Reader(const std::string& bytes, const std::string& path) : bytes_(bytes), path_(path) {}
+  void Bytes(void* data, size_t size) {
+    Require(position_ + size <= bytes_.size(), path_ + ": model file is truncated");
+    std::memcpy(data, bytes_.data() + position_, size);
+    position_ += size;
+  }
+  uint32_t U32() {
+    uint32_t v;
+    Bytes(&v, sizeof(v));
+    return v;
+  }
+  int32_t I32() {
+    int32_t v;
+    Bytes(&v, sizeof(v));
+    return v;
+  }
+  double F64() {
+    double v;
+    Bytes(&v, sizeof(v));
+    return v;
+  }
+  float F32() {
+    float v;
+    Bytes(&v, sizeof(v));
+    return v;
+  }
+  uint32_t Count(uint32_t limit) {
+    const uint32_t n = U32();
+    Require(n <= limit, path_ + ": model file is corrupt (a count of " + std::to_string(n) + ")");
+    return n;
+  }
+  std::string String() {
+    std::string s(Count(1u << 20), '\0');
+    Bytes(s.data(), s.size());
+    return s;
+  }
+  Eigen::VectorXd Vector() {
+    Eigen::VectorXd v(Count(1u << 24));
+    Bytes(v.data(), v.size() * sizeof(double));
+    return v;
+  }
+  bool AtEnd() const { return position_ == bytes_.size(); }
+
+ private:
+  const std::string& bytes_;
+  const std::string& path_;
+  size_t position_ = 0;
+};
+
+void WriteOptions(const TrainerOptions& o, Writer* w) {
+  w->F64(o.preprocess.voxel_size_m);
+  w->F64(o.preprocess.normal_radius_m);
+  w->I32(o.preprocess.min_neighbours);
+  w->F64(o.region_growing.delta_m);
+  w->F64(o.region_growing.alpha_deg);
+  w->I32(o.region_growing.min_segment_size);
+  w->F64(o.sgf.voxel_size_m);
+  w->F64(o.sgf.boundary_radius_m);
+  w->F64(o.sgf.boundary_angle_deg);
+  const VocabularyOptions& v = o.vocabulary;
+  w->I32(static_cast<int32_t>(v.kind));
+  w->I32(static_cast<int32_t>(v.rim_init));
+  w->I32(v.words);
+  w->I32(v.kmeans_restarts);
+  w->I32(v.kmeans_iterations);
+  w->F64(v.rim_lambda);
+  w->I32(v.rim_iterations);
+  w->I32(v.activated_words);
+  w->F64(v.min_probability);
+  w->Bytes(&v.seed, sizeof(v.seed));
+}
+
+TrainerOptions ReadOptions(Reader* r) {
+  TrainerOptions o;
+  o.preprocess.voxel_size_m = r->F64();
+  o.preprocess.normal_radius_m = r->F64();
+  o.preprocess.min_neighbours = r->I32();
+  o.region_growing.delta_m = r->F64();
+  o.region_growing.alpha_deg = r->F64();
+  o.region_growing.min_segment_size = r->I32();
+  o.sgf.voxel_size_m = r->F64();
+  o.sgf.boundary_radius_m = r->F64();
+  o.sgf.boundary_angle_deg = r->F64();
+  VocabularyOptions& v = o.vocabulary;
+  v.kind = static_cast<VocabularyKind>(r->I32());
+  v.rim_init = static_cast<RimInit>(r->I32());
+  v.words = r->I32();
+  v.kmeans_restarts = r->I32();
+  v.kmeans_iterations = r->I32();
+  v.rim_lambda = r->F64();
+  v.rim_iterations = r->I32();
+  v.activated_words = r->I32();
+  v.min_probability = r->F64();
+  r->Bytes(&v.seed, sizeof(v.seed));
+  return o;
+}
+
+}  // namespace
+
+void TrainerOptions::Check() const {
+  preprocess.Check();
+  region_growing.Check();
+  sgf.Check();
+  vocabulary.Check();
+}
+
+FeatureNormalizer FeatureNormalizer::Fit(const std::vector<SgfVector>& features) {
+  Require(!features.empty(), "feature normalisation needs at least one feature");
+  FeatureNormalizer normalizer;
+  normalizer.low = normalizer.high = features[0];
+  for (const SgfVector& f : features) {
+    for (int k = 0; k < kSgfCount; ++k) {
+      normalizer.low[k] = std::min(normalizer.low[k], f[k]);
+      normalizer.high[k] = std::max(normalizer.high[k], f[k]);
+    }
+  }
+  return normalizer;
+}
+
+Eigen::VectorXd FeatureNormalizer::Apply(const SgfVector& feature) const {
+  Eigen::VectorXd normalised(kSgfCount);
+  for (int k = 0; k < kSgfCount; ++k) {
+    const double range = high[k] - low[k];
+    normalised(k) = range > 0 ? std::clamp((feature[k] - low[k]) / range, 0.0, 1.0) : 0.0;
+  }
+  return normalised;
+}
+
+Eigen::Matrix2f ViewAlignedFromWorld(const Eigen::Vector3f& sensor,
+                                     const Eigen::Vector3f& centroid) {
+  Eigen::Vector2f x = (centroid - sensor).head<2>();
+  if (x.norm() < 1e-6f) x = Eigen::Vector2f::UnitX();
+  x.normalize();
+  Eigen::Matrix2f aligned_from_world;
+  aligned_from_world << x.x(), x.y(), -x.y(), x.x();
+  return aligned_from_world;
+}
+
+ViewSegments SegmentView(const std::vector<Eigen::Vector3f>& points,
+                         const Eigen::Vector3f& sensor_origin,
+                         const TrainerOptions& options) {
+  ViewSegments view;
+  view.cloud = Preprocess(points, sensor_origin, options.preprocess);
+  if (view.cloud.size() == 0) return view;
+  view.segments = GrowRegions(view.cloud, options.region_growing);
+  for (const std::vector<int>& segment : view.segments) {
+    view.features.push_back(ComputeSgf(view.cloud, segment, options.sgf));
+    Eigen::Vector3f centroid = Eigen::Vector3f::Zero();
+    for (int i : segment) centroid += view.cloud.points[i];
+    view.centroids.push_back(centroid / static_cast<float>(segment.size()));
+  }
+  return view;
+}
+
+TrainedModel TrainModel(const std::vector<TrainingView>& views,
+                        const std::vector<std::string>& model_names,
+                        const std::vector<FurnitureClass>& model_classes,
+                        const TrainerOptions& options) {
+  options.Check();
+  Require(!views.empty(), "training needs at least one view");
+  Require(model_names.size() == model_classes.size(), "training: one class per model name");
+  for (const TrainingView& view : views) {
+    Require(
+        view.model_index >= 0 && view.model_index < static_cast<int>(model_names.size()),
+        "training view names model " + std::to_string(view.model_index) + ", which does not exist");
+  }
+  // Views are independent: segment them on every core, keep the order.
+  std::vector<ViewSegments> segmented(views.size());
+  ParallelFor(0, static_cast<int>(views.size()), [&](int i) {
+    segmented[i] = SegmentView(views[i].points, views[i].sensor_origin, options);
+  });
+  std::vector<SgfVector> features;
+  for (const ViewSegments& view : segmented)
+    features.insert(features.end(), view.features.begin(), view.features.end());
+  Require(static_cast<int>(features.size()) >= options.vocabulary.words,
+          "training views yield " + std::to_string(features.size()) + " segments, fewer than the " +
+              std::to_string(options.vocabulary.words) +
+              " words asked for (more views, or a smaller vocabulary)");
+
+  TrainedModel model;
+  model.options = options;
+  model.model_names = model_names;
+  model.model_classes = model_classes;
+  model.normalizer = FeatureNormalizer::Fit(features);
+  std::vector<Eigen::VectorXd> normalised;
+  for (const SgfVector& f : features) normalised.push_back(model.normalizer.Apply(f));
+  model.vocabulary = Vocabulary::Train(normalised, options.vocabulary);
+  model.training_segments = static_cast<int>(features.size());
+
+  size_t next = 0;
+  for (size_t v = 0; v < views.size(); ++v) {
+    for (size_t s = 0; s < segmented[v].segments.size(); ++s, ++next) {
+      const Eigen::Vector3f& centroid = segmented[v].centroids[s];
+      // The reference point is the model origin (footprint centre on the floor).
+      const Eigen::Vector2f relation =
+          ViewAlignedFromWorld(views[v].sensor_origin, centroid) * (-centroid.head<2>());
+      for (const WordActivation& activation : model.vocabulary.Activate(normalised[next])) {
+        model.shape.push_back({activation.word,
+                               activation.probability,
+                               views[v].furniture_class,
+                               views[v].model_index,
+                               relation,
+                               centroid.z()});
+      }
+    }
+  }
+  return model;
+}
+
+void SaveTrainedModel(const TrainedModel& model, const std::string& path) {
+  Writer w;
+  w.Bytes(kMagic, sizeof(kMagic));
+  w.U32(kFormatVersion);
+  WriteOptions(model.options, &w);
+  w.U32(static_cast<uint32_t>(model.model_names.size()));
+  for (size_t i = 0; i < model.model_names.size(); ++i) {
+    w.String(model.model_names[i]);
+    w.I32(static_cast<int32_t>(model.model_classes[i]));
+  }
+  w.Bytes(model.normalizer.low.data(), sizeof(double) * kSgfCount);
+  w.Bytes(model.normalizer.high.data(), sizeof(double) * kSgfCount);
+  const Vocabulary::State state = model.vocabulary.GetState();
+  w.I32(static_cast<int32_t>(state.kind));
+  w.I32(state.activated_words);
+  w.F64(state.min_probability);
+  w.I32(state.used_words);
+  w.U32(static_cast<uint32_t>(state.centres.size()));
+  for (const Eigen::VectorXd& c : state.centres) w.Vector(c);
+  w.U32(static_cast<uint32_t>(state.weights.rows()));
+  for (Eigen::Index r = 0; r < state.weights.rows(); ++r)
+    w.Vector(state.weights.row(r).transpose());
+  w.Vector(state.biases);
+  w.I32(model.training_segments);
+  w.U32(static_cast<uint32_t>(model.shape.size()));
+  for (const ShapeEntry& e : model.shape) {
+    w.I32(e.word);
+    w.F64(e.probability);
+    w.I32(static_cast<int32_t>(e.furniture_class));
+    w.I32(e.model_index);
+    w.F32(e.relation.x());
+    w.F32(e.relation.y());
+    w.F32(e.height);
+  }
+  WriteFileAtomically(path, w.bytes());
+}
+
+TrainedModel LoadTrainedModel(const std::string& path) {
+  const std::string bytes = ReadFileBytes(path);
+  Reader r(bytes, path);
+  char magic[sizeof(kMagic)] = {};
+  Require(bytes.size() >= sizeof(kMagic), path + ": not a furnidet model file");
+  r.Bytes(magic, sizeof(magic));
+  Require(std::memcmp(magic, kMagic, sizeof(kMagic)) == 0, path + ": not a furnidet model file");
+  const uint32_t version = r.U32();
+  Require(version == kFormatVersion,
+          path + ": model file format version " + std::to_string(version) +
+              " is not the version this build reads (" + std::to_string(kFormatVersion) +
+              "); train it again");
+  TrainedModel model;
+  model.options = ReadOptions(&r);
+  const uint32_t models = r.Count(100000);
+  for (uint32_t i = 0; i < models; ++i) {
+    model.model_names.push_back(r.String());
+    model.model_classes.push_back(static_cast<FurnitureClass>(r.I32()));
+  }
+  r.Bytes(model.normalizer.low.data(), sizeof(double) * kSgfCount);
+  r.Bytes(model.normalizer.high.data(), sizeof(double) * kSgfCount);
+  Vocabulary::State state;
+  state.kind = static_cast<VocabularyKind>(r.I32());
+  state.activated_words = r.I32();
+  state.min_probability = r.F64();
+  state.used_words = r.I32();
+  const uint32_t centres = r.Count(100000);
+  for (uint32_t i = 0; i < centres; ++i) state.centres.push_back(r.Vector());
+  const uint32_t rows = r.Count(100000);
+  std::vector<Eigen::VectorXd> weight_rows;
+  for (uint32_t i = 0; i < rows; ++i) weight_rows.push_back(r.Vector());
+  state.weights.resize(rows, rows > 0 ? weight_rows[0].size() : 0);
+  for (uint32_t i = 0; i < rows; ++i) state.weights.row(i) = weight_rows[i].transpose();
+  state.biases = r.Vector();
+  model.vocabulary = Vocabulary::FromState(state);
+  model.training_segments = r.I32();
+  const uint32_t entries = r.Count(1u << 28);
+  model.shape.resize(entries);
+  for (ShapeEntry& e : model.shape) {
+    e.word = r.I32();
+    e.probability = r.F64();
+    e.furniture_class = static_cast<FurnitureClass>(r.I32());
+    e.model_index = r.I32();
+    e.relation.x() = r.F32();
+    e.relation.y() = r.F32();
+    e.height = r.F32();
+  }
+  Require(r.AtEnd(), path + ": model file has trailing bytes (corrupt)");
+  model.options.Check();
+  return model;
+}
+
+}  // namespace furn

@@ -1,0 +1,106 @@
+// Training (SPEC.md §7): from partial views of CAD models to a part
+// vocabulary and a shape model.
+//
+// Each view's points go through the shared preprocessing and region growing;
+// every segment gets its 24 SGFs, normalised to [0, 1] with the training set's
+// per-feature range (stored; detection clamps to it). The vocabulary is
+// learnt on the normalised features, and the shape model keeps, for every
+// training segment, the words it activates with their probabilities, its
+// class, CAD model and relation vector to the object reference point.
+//
+// Relation vectors are horizontal and view-aligned: expressed in a frame whose
+// x axis is the horizontal direction from the sensor to the segment, so votes
+// do not depend on the object's yaw (the paper's d = p - s is yaw-dependent).
+//
+//   TrainerOptions options;
+//   TrainedModel model = TrainModel(views, model_names, options);
+//   SaveTrainedModel(model, "model.fcm");
+#pragma once
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "core/furniture_class.h"
+#include "core/preprocess.h"
+#include "core/region_growing.h"
+#include "core/sgf.h"
+#include "core/vocabulary.h"
+
+namespace furn {
+
+struct TrainingView {
+  std::vector<Eigen::Vector3f> points;  // world frame; the model stands at the origin, yaw 0
+  Eigen::Vector3f sensor_origin = Eigen::Vector3f::Zero();
+  int model_index = 0;  // into the model names given to TrainModel
+  FurnitureClass furniture_class = FurnitureClass::kChair;
+};
+
+struct TrainerOptions {
+  PreprocessOptions preprocess;
+  RegionGrowingOptions region_growing;
+  SgfOptions sgf;
+  VocabularyOptions vocabulary;
+
+  void Check() const;
+};
+
+// Min/max of every feature over the training set; Apply maps to [0, 1] and
+// clamps (a scene's own features never widen the range: SPEC §14).
+struct FeatureNormalizer {
+  SgfVector low{};
+  SgfVector high{};
+
+  static FeatureNormalizer Fit(const std::vector<SgfVector>& features);
+  Eigen::VectorXd Apply(const SgfVector& feature) const;
+};
+
+struct ShapeEntry {
+  int word = 0;
+  double probability = 0;  // p(A_word | f) of the training segment
+  FurnitureClass furniture_class = FurnitureClass::kChair;
+  int model_index = 0;
+  Eigen::Vector2f relation = Eigen::Vector2f::Zero();  // view-aligned, metres
+  float height = 0;                                    // segment centroid height (m)
+};
+
+struct TrainedModel {
+  TrainerOptions options;
+  std::vector<std::string> model_names;
+  std::vector<FurnitureClass> model_classes;
+  FeatureNormalizer normalizer;
+  Vocabulary vocabulary;
+  std::vector<ShapeEntry> shape;  // every (segment, activated word)
+  int training_segments = 0;
+};
+
+// Throws InputError for no views, a view naming no model, or views that
+// yield fewer segments than the vocabulary has words.
+TrainedModel TrainModel(const std::vector<TrainingView>& views,
+                        const std::vector<std::string>& model_names,
+                        const std::vector<FurnitureClass>& model_classes,
+                        const TrainerOptions& options);
+
+// Segments and normalisation-free SGFs of one view (shared with detection).
+struct ViewSegments {
+  PointCloud cloud;
+  std::vector<std::vector<int>> segments;
+  std::vector<SgfVector> features;
+  std::vector<Eigen::Vector3f> centroids;
+};
+ViewSegments SegmentView(const std::vector<Eigen::Vector3f>& points,
+                         const Eigen::Vector3f& sensor_origin,
+                         const TrainerOptions& options);
+
+// The horizontal, view-aligned frame of a segment seen from `sensor`: x along
+// the horizontal sensor-to-segment direction, y to its left.
+Eigen::Matrix2f ViewAlignedFromWorld(const Eigen::Vector3f& sensor,
+                                     const Eigen::Vector3f& centroid);
+
+// One versioned binary file ("FURNMDL" + format version) holding everything;
+// the same model gives the same bytes. Load throws InputError naming the file
+// for a missing, foreign, truncated or newer-version file.
+void SaveTrainedModel(const TrainedModel& model, const std::string& path);
+TrainedModel LoadTrainedModel(const std::string& path);
+
+}  // namespace furn

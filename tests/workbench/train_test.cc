@@ -1,0 +1,100 @@
+// Training end to end on the procedural catalog with few views (fast).
+#include <gtest/gtest.h>
+
+#include "core/error.h"
+#include "core/file_util.h"
+#include "core/progress.h"
+#include "tests/test_util.h"
+#include "workbench/train_command.h"
+
+namespace furn {
+namespace {
+
+ScanOptions FewViews() {
+  ScanOptions scan;
+  scan.heights_m = {1.2};
+  scan.azimuths = 3;
+  return scan;
+}
+
+TrainerOptions SmallVocabulary(VocabularyKind kind) {
+  TrainerOptions options;
+  options.vocabulary.kind = kind;
+  options.vocabulary.words = 8;
+  options.vocabulary.rim_lambda = 1e-5;
+  return options;
+}
+
+TEST(Train, SameSeedGivesByteIdenticalModelFiles) {
+  Progress::SetQuiet(true);
+  const std::string dir = testing::ScratchDir();
+  const Catalog catalog = OpenCatalog("procedural:2");
+  const TrainSummary a =
+      TrainFromCatalog(catalog, FewViews(), SmallVocabulary(VocabularyKind::kRim), dir + "/a.fcm");
+  TrainFromCatalog(catalog, FewViews(), SmallVocabulary(VocabularyKind::kRim), dir + "/b.fcm");
+  EXPECT_EQ(a.models, 16);
+  EXPECT_EQ(a.views, 48);
+  EXPECT_GT(a.segments, 100);
+  EXPECT_GE(a.used_words, 2);
+  EXPECT_EQ(ReadFileBytes(dir + "/a.fcm"), ReadFileBytes(dir + "/b.fcm"));
+  // Load and save again: the same bytes.
+  const TrainedModel model = LoadTrainedModel(dir + "/a.fcm");
+  EXPECT_EQ(model.model_names.size(), 16u);
+  EXPECT_EQ(model.training_segments, a.segments);
+  SaveTrainedModel(model, dir + "/c.fcm");
+  EXPECT_EQ(ReadFileBytes(dir + "/a.fcm"), ReadFileBytes(dir + "/c.fcm"));
+  EXPECT_NE(DescribeTrainedModel(model).find("RIM (k-means init, 8 words"), std::string::npos);
+}
+
+TEST(Train, KMeansVocabularyAndOtherSeedDiffer) {
+  Progress::SetQuiet(true);
+  const std::string dir = testing::ScratchDir();
+  const Catalog catalog = OpenCatalog("procedural:2");
+  TrainerOptions options = SmallVocabulary(VocabularyKind::kKMeans);
+  TrainFromCatalog(catalog, FewViews(), options, dir + "/a.fcm");
+  options.vocabulary.seed = 2;
+  TrainFromCatalog(catalog, FewViews(), options, dir + "/b.fcm");
+  EXPECT_NE(ReadFileBytes(dir + "/a.fcm"), ReadFileBytes(dir + "/b.fcm"));
+  EXPECT_EQ(LoadTrainedModel(dir + "/a.fcm").vocabulary.NumWords(), 8);
+}
+
+TEST(Train, BadModelFilesAreRejected) {
+  const std::string dir = testing::ScratchDir();
+  testing::WriteText(dir + "/foreign.fcm", "this is not a model file at all");
+  EXPECT_NE(testing::ErrorOf([&] {
+              LoadTrainedModel(dir + "/foreign.fcm");
+            }).find("not a furnidet model file"),
+            std::string::npos);
+  EXPECT_NE(testing::ErrorOf([&] { LoadTrainedModel(dir + "/missing.fcm"); }).find("cannot read"),
+            std::string::npos);
+  Progress::SetQuiet(true);
+  TrainFromCatalog(OpenCatalog("procedural:2"),
+                   FewViews(),
+                   SmallVocabulary(VocabularyKind::kKMeans),
+                   dir + "/good.fcm");
+  const std::string bytes = ReadFileBytes(dir + "/good.fcm");
+  testing::WriteText(dir + "/truncated.fcm", bytes.substr(0, bytes.size() / 2));
+  EXPECT_NE(testing::ErrorOf([&] { LoadTrainedModel(dir + "/truncated.fcm"); }).find("truncated"),
+            std::string::npos);
+  std::string newer = bytes;
+  newer[8] = 9;  // format version
+  testing::WriteText(dir + "/newer.fcm", newer);
+  EXPECT_NE(
+      testing::ErrorOf([&] { LoadTrainedModel(dir + "/newer.fcm"); }).find("format version 9"),
+      std::string::npos);
+}
+
+TEST(Train, TooFewSegmentsForTheVocabularyIsRejected) {
+  Progress::SetQuiet(true);
+  TrainerOptions options = SmallVocabulary(VocabularyKind::kKMeans);
+  options.vocabulary.words = 1000;
+  const std::string message = testing::ErrorOf([&] {
+    TrainFromCatalog(
+        OpenCatalog("procedural:2"), FewViews(), options, testing::ScratchDir() + "/x.fcm");
+  });
+  EXPECT_NE(message.find("fewer than the 1000 words"), std::string::npos) << message;
+  EXPECT_THROW(TrainModel({}, {}, {}, TrainerOptions{}), InputError);
+}
+
+}  // namespace
+}  // namespace furn

@@ -1,0 +1,71 @@
+#include <CLI/CLI.hpp>
+#include <cstdio>
+#include <iostream>
+
+#include "core/error.h"
+#include "workbench/cli_common.h"
+#include "workbench/commands.h"
+#include "workbench/train_command.h"
+
+namespace furn {
+
+int RunTrain(int argc, char** argv) {
+  CLI::App app{"Learn a part vocabulary and shape model from virtual scans of the catalog's models",
+               "workbench train"};
+  CatalogFlags catalog_flags;
+  AddCatalogFlags(&app, &catalog_flags);
+  TrainerOptions trainer;
+  ScanOptions scan;
+  std::string out, vocab = "rim", init = "kmeans";
+  app.add_option("--out", out, "Model file (.fcm)")->required();
+  app.add_option("--vocab", vocab, "rim or kmeans")->capture_default_str();
+  app.add_option("--init", init, "RIM initialisation: kmeans or pca")->capture_default_str();
+  app.add_option("--words", trainer.vocabulary.words, "Vocabulary size")->capture_default_str();
+  app.add_option("--seed", trainer.vocabulary.seed, "Seed of clustering and scan noise")
+      ->capture_default_str();
+  app.add_option("--azimuths", scan.azimuths, "Views per ring")->capture_default_str();
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& error) {
+    return app.exit(error) == 0 ? 0 : 2;
+  }
+  ApplyGlobalFlags(catalog_flags);
+  Require(vocab == "rim" || vocab == "kmeans", "--vocab '" + vocab + "' must be rim or kmeans");
+  Require(init == "kmeans" || init == "pca", "--init '" + init + "' must be kmeans or pca");
+  trainer.vocabulary.kind = vocab == "rim" ? VocabularyKind::kRim : VocabularyKind::kKMeans;
+  trainer.vocabulary.rim_init = init == "pca" ? RimInit::kPcaSplit : RimInit::kKMeans;
+  scan.seed = trainer.vocabulary.seed;
+  const Catalog catalog = OpenCatalog(catalog_flags.spec, MakeOpenOptions(catalog_flags));
+  for (const std::string& warning : catalog.warnings())
+    std::fprintf(stderr, "warning: %s\n", warning.c_str());
+  const TrainSummary summary = TrainFromCatalog(catalog, scan, trainer, out);
+  std::printf(
+      "wrote %s: %d models, %d views, %d segments, %d of %d words used; scans %.1f s, training "
+      "%.1f s\n",
+      out.c_str(),
+      summary.models,
+      summary.views,
+      summary.segments,
+      summary.used_words,
+      trainer.vocabulary.words,
+      summary.scan_s,
+      summary.train_s);
+  return 0;
+}
+
+int RunModel(int argc, char** argv) {
+  CLI::App app{"Describe a trained model file", "workbench model"};
+  app.require_subcommand(1);
+  std::string path;
+  CLI::App* info = app.add_subcommand("info", "What the model file holds");
+  info->add_option("model", path, "Model file (.fcm)")->required();
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& error) {
+    return app.exit(error) == 0 ? 0 : 2;
+  }
+  std::cout << path << ":\n" << DescribeTrainedModel(LoadTrainedModel(path));
+  return 0;
+}
+
+}  // namespace furn

@@ -1,0 +1,50 @@
+// `workbench train`: virtual Kinect scans of every trainable class-mapped
+// model (Embree + the sensor model, rings of viewpoints around the model),
+// then core's TrainModel, saved as one model file.
+//
+//   TrainCommandOptions options;
+//   TrainSummary summary = TrainFromCatalog(catalog, options, "model.fcm");
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "core/trainer.h"
+#include "scenes/catalog.h"
+
+namespace furn {
+
+struct ScanOptions {
+  std::vector<double> heights_m = {0.9, 1.3, 1.7};  // camera heights, one ring each
+  int azimuths = 8;                                 // views per ring (>= 1)
+  double min_distance_m = 1.8;                      // ring radius grows with height (m)
+  double max_distance_m = 3.2;
+  uint64_t seed = 1;  // sensor noise
+
+  void Check() const;
+};
+
+// Partial views of one model standing at the origin, yaw 0.
+std::vector<TrainingView> ScanModel(const CadModel& model,
+                                    int model_index,
+                                    FurnitureClass furniture_class,
+                                    const ScanOptions& options);
+
+struct TrainSummary {
+  int models = 0;
+  int views = 0;
+  int segments = 0;
+  int used_words = 0;
+  double scan_s = 0, train_s = 0;
+};
+
+// Trains on the classified entries that are not evaluation-only.
+TrainSummary TrainFromCatalog(const Catalog& catalog,
+                              const ScanOptions& scan,
+                              const TrainerOptions& trainer,
+                              const std::string& out_path);
+
+// `model info`: what a model file holds, as text.
+std::string DescribeTrainedModel(const TrainedModel& model);
+
+}  // namespace furn
