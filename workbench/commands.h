@@ -11,5 +11,6 @@ int RunGenerate(int argc, char** argv);
 int RunDataset(int argc, char** argv);
 int RunTrain(int argc, char** argv);
 int RunModel(int argc, char** argv);
+int RunEvalParts(int argc, char** argv);
 
 }  // namespace furn

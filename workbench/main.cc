@@ -26,6 +26,7 @@ constexpr Command kCommands[] = {
     {"dataset", furn::RunDataset, "info, preview, merge and export dataset databases"},
     {"train", furn::RunTrain, "learn the part vocabulary and shape model from virtual scans"},
     {"model", furn::RunModel, "describe a trained model file"},
+    {"eval-parts", furn::RunEvalParts, "protocol C: part-subset classification accuracy"},
 };
 
 void PrintUsage() {

@@ -98,3 +98,42 @@ TEST(Train, TooFewSegmentsForTheVocabularyIsRejected) {
 
 }  // namespace
 }  // namespace furn
+
+#include <filesystem>
+
+#include "workbench/eval_parts.h"
+
+namespace furn {
+namespace {
+
+TEST(EvalParts, ClassifiesPartSubsetsBetterThanChanceAndReproducibly) {
+  Progress::SetQuiet(true);
+  const std::string dir = testing::ScratchDir();
+  const Catalog catalog = OpenCatalog("procedural:2");
+  TrainFromCatalog(catalog, FewViews(), SmallVocabulary(VocabularyKind::kKMeans), dir + "/m.fcm");
+  const TrainedModel model = LoadTrainedModel(dir + "/m.fcm");
+  PartEvaluationOptions options;
+  options.scan = FewViews();
+  options.scan.azimuths = 6;
+  options.repetitions = 3;
+  const PartEvaluation a = EvaluatePartSubsets(catalog, model, options);
+  const PartEvaluation b = EvaluatePartSubsets(catalog, model, options);
+  EXPECT_EQ(a.views, 96);
+  EXPECT_GT(a.subsets, 500);
+  EXPECT_EQ(a.model_accuracy, b.model_accuracy);
+  EXPECT_GT(a.category_mean, 0.5);    // chance is 0.25 with four classes
+  EXPECT_GT(a.model_mean, 1.0 / 16);  // chance over sixteen models
+  ASSERT_EQ(a.classes.size(), 4u);
+  int64_t total = 0;
+  for (const auto& row : a.confusion)
+    for (int64_t c : row) total += c;
+  EXPECT_GT(total, 0);
+  WritePartEvaluation(a, dir + "/out");
+  EXPECT_TRUE(std::filesystem::exists(dir + "/out/parts.json"));
+  EXPECT_TRUE(std::filesystem::exists(dir + "/out/confusion.png"));
+  options.repetitions = 0;
+  EXPECT_THROW(EvaluatePartSubsets(catalog, model, options), InputError);
+}
+
+}  // namespace
+}  // namespace furn

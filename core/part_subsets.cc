@@ -1,0 +1,124 @@
+#include "core/part_subsets.h"
+
+#include <pcl/features/vfh.h>
+#include <pcl/kdtree/kdtree_flann.h>
+#include <pcl/point_cloud.h>
+#include <pcl/point_types.h>
+#include <pcl/search/kdtree.h>
+
+#include <algorithm>
+#include <set>
+
+#include "core/error.h"
+
+namespace furn {
+
+void PartSubsetOptions::Check() const {
+  Require(max_subset_size >= 1 && max_subset_size <= 3, "max_subset_size must be in 1..3");
+  Require(max_subsets_per_view >= 1, "max_subsets_per_view must be >= 1");
+  Require(adjacency_m > 0, "adjacency_m must be > 0");
+}
+
+std::vector<std::vector<int>> PartSubsets(const ViewSegments& view,
+                                          const PartSubsetOptions& options) {
+  options.Check();
+  const int segments = static_cast<int>(view.segments.size());
+  std::vector<std::vector<int>> subsets;
+  for (int s = 0; s < segments; ++s) subsets.push_back({s});
+  if (options.max_subset_size == 1 || segments < 2) {
+    subsets.resize(std::min<size_t>(subsets.size(), options.max_subsets_per_view));
+    return subsets;
+  }
+  // Which segments touch: label every point, search each point's neighbourhood.
+  std::vector<int> label(view.cloud.size(), -1);
+  for (int s = 0; s < segments; ++s) {
+    for (int i : view.segments[s]) label[i] = s;
+  }
+  auto points = pcl::make_shared<pcl::PointCloud<pcl::PointXYZ>>();
+  for (const Eigen::Vector3f& p : view.cloud.points)
+    points->push_back(pcl::PointXYZ(p.x(), p.y(), p.z()));
+  pcl::search::KdTree<pcl::PointXYZ> tree;
+  tree.setInputCloud(points);
+  std::set<std::pair<int, int>> adjacent;
+  std::vector<int> neighbours;
+  std::vector<float> distances;
+  for (size_t i = 0; i < view.cloud.size(); ++i) {
+    if (label[i] < 0) continue;
+    tree.radiusSearch(static_cast<int>(i), options.adjacency_m, neighbours, distances);
+    for (int q : neighbours) {
+      if (label[q] >= 0 && label[q] != label[i])
+        adjacent.emplace(std::min(label[i], label[q]), std::max(label[i], label[q]));
+    }
+  }
+  for (const auto& [a, b] : adjacent) subsets.push_back({a, b});
+  if (options.max_subset_size == 3) {
+    std::set<std::vector<int>> triples;
+    for (const auto& [a, b] : adjacent) {
+      for (const auto& [c, d] : adjacent) {
+        // Connected triples: two pairs sharing one segment.
+        std::set<int> members = {a, b, c, d};
+        if (members.size() == 3) triples.insert(std::vector<int>(members.begin(), members.end()));
+      }
+    }
+    subsets.insert(subsets.end(), triples.begin(), triples.end());
+  }
+  subsets.resize(std::min<size_t>(subsets.size(), options.max_subsets_per_view));
+  return subsets;
+}
+
+VfhDescriptor ComputeVfh(const PointCloud& cloud,
+                         const std::vector<int>& indices,
+                         const Eigen::Vector3f& viewpoint) {
+  Require(indices.size() >= 3, "VFH needs at least 3 points");
+  auto points = pcl::make_shared<pcl::PointCloud<pcl::PointXYZ>>();
+  auto normals = pcl::make_shared<pcl::PointCloud<pcl::Normal>>();
+  for (int i : indices) {
+    const Eigen::Vector3f& p = cloud.points[i];
+    const Eigen::Vector3f& n = cloud.normals[i];
+    points->push_back(pcl::PointXYZ(p.x(), p.y(), p.z()));
+    normals->push_back(pcl::Normal(n.x(), n.y(), n.z()));
+  }
+  pcl::VFHEstimation<pcl::PointXYZ, pcl::Normal, pcl::VFHSignature308> vfh;
+  vfh.setInputCloud(points);
+  vfh.setInputNormals(normals);
+  vfh.setSearchMethod(pcl::make_shared<pcl::search::KdTree<pcl::PointXYZ>>());
+  vfh.setViewPoint(viewpoint.x(), viewpoint.y(), viewpoint.z());
+  pcl::PointCloud<pcl::VFHSignature308> signature;
+  vfh.compute(signature);
+  VfhDescriptor descriptor{};
+  if (!signature.empty())
+    std::copy(signature[0].histogram, signature[0].histogram + 308, descriptor.begin());
+  return descriptor;
+}
+
+struct PartSubsetIndex::Impl {
+  pcl::KdTreeFLANN<pcl::VFHSignature308> tree;
+  size_t size = 0;
+};
+
+PartSubsetIndex::PartSubsetIndex(const std::vector<VfhDescriptor>& descriptors)
+    : impl_(std::make_unique<Impl>()) {
+  Require(!descriptors.empty(), "a part-subset index needs at least one descriptor");
+  auto cloud = pcl::make_shared<pcl::PointCloud<pcl::VFHSignature308>>();
+  for (const VfhDescriptor& d : descriptors) {
+    pcl::VFHSignature308 signature;
+    std::copy(d.begin(), d.end(), signature.histogram);
+    cloud->push_back(signature);
+  }
+  impl_->tree.setInputCloud(cloud);
+  impl_->size = descriptors.size();
+}
+
+PartSubsetIndex::~PartSubsetIndex() = default;
+
+std::vector<int> PartSubsetIndex::Nearest(const VfhDescriptor& query, int k) const {
+  pcl::VFHSignature308 signature;
+  std::copy(query.begin(), query.end(), signature.histogram);
+  std::vector<int> indices;
+  std::vector<float> distances;
+  impl_->tree.nearestKSearch(
+      signature, std::min<int>(k, static_cast<int>(impl_->size)), indices, distances);
+  return indices;
+}
+
+}  // namespace furn

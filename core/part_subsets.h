@@ -1,0 +1,53 @@
+// Part subsets for CAD model ranking (Usenko et al. Sec. IV-E; SPEC.md §7.7):
+// from each view, subsets of 1 to 3 adjacent segments (adjacent: points of the
+// two lie within the adjacency distance), each described by PCL's Viewpoint
+// Feature Histogram and labelled with its CAD model and class; a nearest
+// neighbour index (L2, FLANN through PCL) ranks the models for a query.
+//
+//   std::vector<std::vector<int>> subsets = PartSubsets(view, PartSubsetOptions{});
+//   VfhDescriptor d = ComputeVfh(view.cloud, points_of(subset), sensor_origin);
+//   PartSubsetIndex index(descriptors);
+//   std::vector<int> nearest = index.Nearest(d, 5);
+#pragma once
+
+#include <array>
+#include <memory>
+#include <vector>
+
+#include "core/trainer.h"
+
+namespace furn {
+
+struct PartSubsetOptions {
+  int max_subset_size = 3;        // 1..3 segments
+  int max_subsets_per_view = 64;  // singletons first, then pairs, then triples (>= 1)
+  double adjacency_m = 0.05;      // segments touch within this distance (m, > 0)
+
+  void Check() const;
+};
+
+using VfhDescriptor = std::array<float, 308>;
+
+// Segment index lists of the view's subsets, in a fixed order.
+std::vector<std::vector<int>> PartSubsets(const ViewSegments& view,
+                                          const PartSubsetOptions& options);
+
+// VFH of the points (indices into `cloud`) seen from `viewpoint`.
+VfhDescriptor ComputeVfh(const PointCloud& cloud,
+                         const std::vector<int>& points,
+                         const Eigen::Vector3f& viewpoint);
+
+// Exact nearest neighbours (L2) over a set of descriptors.
+class PartSubsetIndex {
+ public:
+  explicit PartSubsetIndex(const std::vector<VfhDescriptor>& descriptors);
+  ~PartSubsetIndex();
+  // Indices of the k nearest descriptors, nearest first.
+  std::vector<int> Nearest(const VfhDescriptor& query, int k) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace furn
