@@ -2,7 +2,8 @@
 # The main job, end to end with what exists so far: import the default catalog
 # (the repo's class map over Debian's Sweet Home 3D catalogs), print its summary,
 # draw every classified model on a contact sheet, render one model as a Kinect
-# v1 sees it, and generate a labelled synthetic dataset (FURN_ROOMS rooms).
+# v1 sees it, generate a labelled synthetic dataset (FURN_ROOMS rooms), and
+# train the part vocabulary and shape model.
 set -euo pipefail
 repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build_dir="${1:-$repo/build}"
@@ -22,6 +23,9 @@ echo "== generate: a labelled synthetic dataset from the default catalog (resume
 echo "== dataset: summary and contact sheet"
 "$workbench" dataset info "$out_dir/synth.db"
 "$workbench" dataset preview "$out_dir/synth.db" --out "$out_dir/synth_preview.png" --frames 12
+echo "== train: part vocabulary and shape model from virtual scans of the catalog"
+"$workbench" train --catalog default --out "$out_dir/model.fcm" --quiet
+"$workbench" model info "$out_dir/model.fcm"
 echo
 echo "main job done:"
 echo "  $out_dir/catalog.json   listing of the classified models"
@@ -29,3 +33,4 @@ echo "  $out_dir/catalog.png    contact sheet of the classified models"
 echo "  $out_dir/render/        depth/id PNGs, organized PCDs, preview.png (ideal | Kinect v1)"
 echo "  $out_dir/synth.db       labelled synthetic Kinect frames (SQLite; see 'workbench dataset')"
 echo "  $out_dir/synth_preview.png  contact sheet: noisy depth with ground-truth boxes"
+echo "  $out_dir/model.fcm      trained model (see 'workbench model info', 'workbench eval-parts')"
