@@ -96,7 +96,16 @@ PartEvaluation EvaluatePartSubsets(const Catalog& catalog,
     int64_t tested = 0, model_hits = 0, class_hits = 0;
     for (const Subset& s : subsets) {
       if (!is_test[s.view]) continue;
-      const int predicted = library_model[index.Nearest(s.descriptor, 1)[0]];
+      // Majority of the k nearest; a tie goes to the model met first (nearer).
+      std::map<int, int> votes;
+      int predicted = -1, best_votes = 0;
+      for (int neighbour : index.Nearest(s.descriptor, options.neighbours)) {
+        const int candidate = library_model[neighbour];
+        if (++votes[candidate] > best_votes) {
+          best_votes = votes[candidate];
+          predicted = candidate;
+        }
+      }
       const FurnitureClass truth = model.model_classes[s.model_index];
       const FurnitureClass guess = model.model_classes[predicted];
       ++tested;

@@ -21,6 +21,7 @@ struct PartEvaluationOptions {
   PartSubsetOptions subsets;
   int repetitions = 10;        // (1..100)
   double test_fraction = 0.2;  // of the views (0..1)
+  int neighbours = 1;          // k of the k-NN vote; a tie goes to the nearer neighbour (1..50)
   uint64_t seed = 1;
 };
 

@@ -131,6 +131,11 @@ TEST(EvalParts, ClassifiesPartSubsetsBetterThanChanceAndReproducibly) {
   WritePartEvaluation(a, dir + "/out");
   EXPECT_TRUE(std::filesystem::exists(dir + "/out/parts.json"));
   EXPECT_TRUE(std::filesystem::exists(dir + "/out/confusion.png"));
+  options.neighbours = 3;  // a k-NN vote also works
+  EXPECT_GT(EvaluatePartSubsets(catalog, model, options).category_mean, 0.5);
+  options.neighbours = 0;
+  EXPECT_THROW(EvaluatePartSubsets(catalog, model, options), InputError);
+  options.neighbours = 1;
   options.repetitions = 0;
   EXPECT_THROW(EvaluatePartSubsets(catalog, model, options), InputError);
 }
