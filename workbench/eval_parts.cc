@@ -40,6 +40,7 @@ PartEvaluation EvaluatePartSubsets(const Catalog& catalog,
   Require(options.repetitions >= 1 && options.repetitions <= 100, "repetitions must be in 1..100");
   Require(options.test_fraction > 0 && options.test_fraction < 1,
           "test fraction must be in (0, 1)");
+  Require(options.neighbours >= 1 && options.neighbours <= 50, "neighbours (k) must be in 1..50");
   const LoadedModels loaded = catalog.LoadModels(model.model_names, /*show_progress=*/false);
   Require(loaded.failures.empty(), loaded.failures.empty() ? "" : loaded.failures.front().message);
   std::vector<TrainingView> views;
