@@ -15,6 +15,8 @@ namespace furn {
 
 void PartSubsetOptions::Check() const {
   Require(max_subset_size >= 1 && max_subset_size <= 3, "max_subset_size must be in 1..3");
+  Require(min_subset_size >= 1 && min_subset_size <= max_subset_size,
+          "min_subset_size must be in 1..max_subset_size");
   Require(max_subsets_per_view >= 1, "max_subsets_per_view must be >= 1");
   Require(adjacency_m > 0, "adjacency_m must be > 0");
 }
@@ -62,6 +64,12 @@ std::vector<std::vector<int>> PartSubsets(const ViewSegments& view,
     }
     subsets.insert(subsets.end(), triples.begin(), triples.end());
   }
+  subsets.erase(std::remove_if(subsets.begin(),
+                               subsets.end(),
+                               [&](const std::vector<int>& subset) {
+                                 return static_cast<int>(subset.size()) < options.min_subset_size;
+                               }),
+                subsets.end());
   subsets.resize(std::min<size_t>(subsets.size(), options.max_subsets_per_view));
   return subsets;
 }

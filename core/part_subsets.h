@@ -19,6 +19,7 @@
 namespace furn {
 
 struct PartSubsetOptions {
+  int min_subset_size = 1;        // 1..max_subset_size segments (2 leaves out lone generic parts)
   int max_subset_size = 3;        // 1..3 segments
   int max_subsets_per_view = 64;  // singletons first, then pairs, then triples (>= 1)
   double adjacency_m = 0.05;      // segments touch within this distance (m, > 0)

@@ -68,6 +68,8 @@ int RunEvalParts(int argc, char** argv) {
   app.add_option("--seed", options.seed, "Seed of the splits")->capture_default_str();
   app.add_option("--azimuths", options.scan.azimuths, "Views per ring")->capture_default_str();
   app.add_option("--k", options.neighbours, "Nearest neighbours voting")->capture_default_str();
+  app.add_option("--min-size", options.subsets.min_subset_size, "Smallest subset (segments)")
+      ->capture_default_str();
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& error) {

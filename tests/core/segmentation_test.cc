@@ -214,3 +214,46 @@ TEST(RegionGrowing, SplitsAScannedChairIntoSeatBackAndLegs) {
 
 }  // namespace
 }  // namespace furn
+
+#include "core/part_subsets.h"
+
+namespace furn {
+namespace {
+
+// Three touching strips side by side: segments 0-1 and 1-2 are adjacent.
+ViewSegments ThreeStrips() {
+  ViewSegments view;
+  for (int strip = 0; strip < 3; ++strip) {
+    std::vector<int> segment;
+    for (int i = 0; i < 10; ++i) {
+      for (int j = 0; j < 10; ++j) {
+        segment.push_back(static_cast<int>(view.cloud.points.size()));
+        view.cloud.points.emplace_back(0.1f * strip + 0.01f * i, 0.01f * j, 0.0f);
+        view.cloud.normals.push_back(Eigen::Vector3f::UnitZ());
+        view.cloud.curvature.push_back(0);
+      }
+    }
+    view.segments.push_back(segment);
+  }
+  return view;
+}
+
+TEST(PartSubsets, SingletonsAdjacentPairsAndConnectedTriples) {
+  const ViewSegments view = ThreeStrips();
+  const auto subsets = PartSubsets(view, PartSubsetOptions{});
+  const std::vector<std::vector<int>> expected = {{0}, {1}, {2}, {0, 1}, {1, 2}, {0, 1, 2}};
+  EXPECT_EQ(subsets, expected);  // 0 and 2 do not touch: no pair {0, 2}
+  PartSubsetOptions options;
+  options.min_subset_size = 2;
+  EXPECT_EQ(PartSubsets(view, options), (std::vector<std::vector<int>>{{0, 1}, {1, 2}, {0, 1, 2}}));
+  options.min_subset_size = 4;
+  EXPECT_THROW(PartSubsets(view, options), InputError);
+  // VFH of a subset: 308 bins that are not all zero.
+  const VfhDescriptor vfh = ComputeVfh(view.cloud, view.segments[0], Eigen::Vector3f(0, 0, 2));
+  float total = 0;
+  for (float bin : vfh) total += bin;
+  EXPECT_GT(total, 0);
+}
+
+}  // namespace
+}  // namespace furn
