@@ -30,4 +30,13 @@ CatalogOpenOptions MakeOpenOptions(const CatalogFlags& flags) {
   return options;
 }
 
+std::optional<int> ParseCommandLine(CLI::App* app, int argc, char** argv) {
+  try {
+    app->parse(argc, argv);
+  } catch (const CLI::ParseError& error) {
+    return app->exit(error) == 0 ? 0 : 2;
+  }
+  return std::nullopt;
+}
+
 }  // namespace furn

@@ -1,6 +1,7 @@
 // Flags shared by several subcommands, so each is spelled and checked once.
 #pragma once
 
+#include <optional>
 #include <string>
 
 #include "scenes/catalog.h"
@@ -23,5 +24,9 @@ void AddCatalogFlags(CLI::App* app, CatalogFlags* flags);
 // Applies --quiet (progress off) and the FURN_DATA_DIR environment override.
 void ApplyGlobalFlags(const CatalogFlags& flags);
 CatalogOpenOptions MakeOpenOptions(const CatalogFlags& flags);
+
+// Parses the command line. Returns the exit code when the command should stop
+// here: 0 after --help, 2 for every usage mistake (CLI11 prints the message).
+std::optional<int> ParseCommandLine(CLI::App* app, int argc, char** argv);
 
 }  // namespace furn

@@ -78,11 +78,7 @@ int RunCatalog(int argc, char** argv) {
   sheet->add_option("--tile", sheet_options.tile_px, "Tile size in pixels")->capture_default_str();
   sheet->add_option("--columns", sheet_options.columns, "Tiles per row")->capture_default_str();
 
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& error) {
-    return app.exit(error) == 0 ? 0 : 2;  // --help is 0; every usage mistake is 2
-  }
+  if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
   ApplyGlobalFlags(catalog_flags);
   if (!class_name.empty()) list_options.only_class = ParseFurnitureClass(class_name);
   const Catalog catalog = OpenCatalog(catalog_flags.spec, MakeOpenOptions(catalog_flags));

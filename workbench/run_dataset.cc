@@ -42,11 +42,7 @@ int RunGenerate(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--max-clutter", options.room.max_clutter, "Most clutter pieces per room")
       ->capture_default_str();
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& error) {
-    return app.exit(error) == 0 ? 0 : 2;
-  }
+  if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
   ApplyGlobalFlags(catalog_flags);
   std::tie(options.shard_index, options.shard_count) = ParseShard(shard);
   options.renderer = ParseRendererKind(renderer);
@@ -116,11 +112,7 @@ int RunDataset(int argc, char** argv) {
   export_command->add_option("db", db, "Dataset database")->required();
   export_command->add_option("--format", format, "bop, png or pcd")->capture_default_str();
   export_command->add_option("--out", out, "Output directory")->required();
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& error) {
-    return app.exit(error) == 0 ? 0 : 2;
-  }
+  if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
   if (merge->parsed()) {
     const MergeSummary summary = MergeDatasets(inputs, out);
     std::cout << "wrote " << out << ": " << summary.rooms << " rooms from " << inputs.size()

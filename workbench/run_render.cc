@@ -105,11 +105,7 @@ int RunRender(int argc, char** argv) {
   app.add_flag("--no-lateral", no_lateral, "Switch off lateral noise");
   app.add_flag("--no-axial", no_axial, "Switch off axial noise");
   app.add_flag("--no-quantization", no_quantization, "Switch off disparity quantisation");
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& error) {
-    return app.exit(error) == 0 ? 0 : 2;
-  }
+  if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
   ApplyGlobalFlags(catalog_flags);
   options.renderer = ParseRendererKind(renderer);
   options.noise.projector_shadow = !no_shadow;

@@ -25,11 +25,7 @@ int RunTrain(int argc, char** argv) {
   app.add_option("--seed", trainer.vocabulary.seed, "Seed of clustering and scan noise")
       ->capture_default_str();
   app.add_option("--azimuths", scan.azimuths, "Views per ring")->capture_default_str();
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& error) {
-    return app.exit(error) == 0 ? 0 : 2;
-  }
+  if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
   ApplyGlobalFlags(catalog_flags);
   Require(vocab == "rim" || vocab == "kmeans", "--vocab '" + vocab + "' must be rim or kmeans");
   Require(init == "kmeans" || init == "pca", "--init '" + init + "' must be kmeans or pca");
@@ -70,11 +66,7 @@ int RunEvalParts(int argc, char** argv) {
   app.add_option("--k", options.neighbours, "Nearest neighbours voting")->capture_default_str();
   app.add_option("--min-size", options.subsets.min_subset_size, "Smallest subset (segments)")
       ->capture_default_str();
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& error) {
-    return app.exit(error) == 0 ? 0 : 2;
-  }
+  if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
   ApplyGlobalFlags(catalog_flags);
   const TrainedModel model = LoadTrainedModel(model_path);
   options.scan.seed = model.options.vocabulary.seed;
@@ -103,11 +95,7 @@ int RunModel(int argc, char** argv) {
   std::string path;
   CLI::App* info = app.add_subcommand("info", "What the model file holds");
   info->add_option("model", path, "Model file (.fcm)")->required();
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& error) {
-    return app.exit(error) == 0 ? 0 : 2;
-  }
+  if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
   std::cout << path << ":\n" << DescribeTrainedModel(LoadTrainedModel(path));
   return 0;
 }
