@@ -67,6 +67,10 @@ uint64_t ParseSeed(const std::string& text, const std::string& spec) {
 
 }  // namespace
 
+void LoadedModels::RequireAll() const {
+  if (!failures.empty()) throw InputError(failures.front().message);
+}
+
 Catalog::Catalog() = default;
 Catalog::~Catalog() = default;
 Catalog::Catalog(Catalog&&) noexcept = default;

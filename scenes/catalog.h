@@ -46,6 +46,10 @@ struct ModelLoadFailure {
 struct LoadedModels {
   std::vector<CadModel> models;            // in the order asked, failures left out
   std::vector<ModelLoadFailure> failures;  // reported, not fatal
+
+  // For callers that need every model (training, generation): throws
+  // InputError with the first failure's message.
+  void RequireAll() const;
 };
 
 struct CatalogOpenOptions {

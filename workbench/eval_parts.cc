@@ -42,7 +42,7 @@ PartEvaluation EvaluatePartSubsets(const Catalog& catalog,
           "test fraction must be in (0, 1)");
   Require(options.neighbours >= 1 && options.neighbours <= 50, "neighbours (k) must be in 1..50");
   const LoadedModels loaded = catalog.LoadModels(model.model_names, /*show_progress=*/false);
-  Require(loaded.failures.empty(), loaded.failures.empty() ? "" : loaded.failures.front().message);
+  loaded.RequireAll();
   std::vector<TrainingView> views;
   for (size_t m = 0; m < loaded.models.size(); ++m) {
     std::vector<TrainingView> v =

@@ -158,8 +158,7 @@ class RoomGenerator {
     }
     if (missing.empty()) return;
     LoadedModels loaded = catalog_.LoadModels(missing, /*show_progress=*/false);
-    // A model the composer picked must load: generation stops, naming it.
-    if (!loaded.failures.empty()) throw InputError(loaded.failures.front().message);
+    loaded.RequireAll();  // a model the composer picked must load
     for (CadModel& model : loaded.models) {
       mesh_cache_[model.id] = {std::make_shared<TriangleMesh>(std::move(model.mesh)),
                                model.content_hash};

@@ -90,7 +90,7 @@ TrainSummary TrainFromCatalog(const Catalog& catalog,
   TrainSummary summary;
   auto start = std::chrono::steady_clock::now();
   LoadedModels loaded = catalog.LoadModels(ids);
-  Require(loaded.failures.empty(), loaded.failures.empty() ? "" : loaded.failures.front().message);
+  loaded.RequireAll();
   std::vector<TrainingView> views;
   Progress progress("scan", loaded.models.size(), "models");
   for (size_t i = 0; i < loaded.models.size(); ++i) {

@@ -83,6 +83,8 @@ TEST(Sh3f, EntryWithMissingModelIsReportedAndSkipped) {
   EXPECT_EQ(loaded.models[1].id, "Test/rotated");
   ASSERT_EQ(loaded.failures.size(), 1u);
   EXPECT_EQ(loaded.failures[0].id, "Test/missing");
+  EXPECT_THROW(loaded.RequireAll(), InputError);
+  EXPECT_NO_THROW(catalog.LoadModels({"Test/marker"}, false).RequireAll());
   EXPECT_NE(loaded.failures[0].message.find("Test/missing"), std::string::npos);
   EXPECT_NE(loaded.failures[0].message.find("missing/missing.obj: no such entry"),
             std::string::npos)
