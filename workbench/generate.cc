@@ -100,10 +100,25 @@ class RoomGenerator {
         renderer_(MakeRenderer(options.renderer)),
         simulator_(renderer_.get(), options.noise) {}
 
+  // Composes the rooms and imports their models ahead of time (all cores), so
+  // rendering does not wait; Generate then uses these layouts.
+  void Prefetch(const std::vector<int64_t>& room_indices) {
+    std::vector<const RoomLayout*> layouts;
+    for (int64_t k : room_indices)
+      layouts.push_back(&prefetched_.emplace(k, Compose(k)).first->second);
+    ImportModels(layouts);
+  }
+
   RoomRecord Generate(int64_t room_index, GenerateSummary* summary) {
     const uint64_t room_seed = DeriveSeed(options_.seed, static_cast<uint64_t>(room_index));
     auto start = Clock::now();
-    const RoomLayout layout = ComposeRoom(composer_catalog_, options_.room, room_seed);
+    RoomLayout layout;
+    if (auto it = prefetched_.find(room_index); it != prefetched_.end()) {
+      layout = std::move(it->second);
+      prefetched_.erase(it);
+    } else {
+      layout = Compose(room_index);
+    }
     summary->compose_s += SecondsSince(start);
     start = Clock::now();
     const Scene scene = BuildRoomScene(layout, LoadMeshes(layout));
@@ -128,6 +143,14 @@ class RoomGenerator {
     return room;
   }
 
+  // Models first used since the last call, for the database.
+  std::vector<ModelRecord> TakeNewModels() {
+    std::vector<ModelRecord> models;
+    for (auto& [id, model] : models_) models.push_back(model);
+    models_.clear();
+    return models;
+  }
+
  private:
   ObjectRecord ObjectRecordOf(const PlacedObject& placed) const {
     ObjectRecord object;
@@ -146,10 +169,10 @@ class RoomGenerator {
   }
 
   // Imports, in parallel, the models of `layouts` not imported yet.
-  void ImportModels(const std::vector<RoomLayout>& layouts) {
+  void ImportModels(const std::vector<const RoomLayout*>& layouts) {
     std::vector<std::string> missing;
-    for (const RoomLayout& layout : layouts) {
-      for (const PlacedObject& object : layout.objects) {
+    for (const RoomLayout* layout : layouts) {
+      for (const PlacedObject& object : layout->objects) {
         if (mesh_cache_.count(object.model_id) == 0 &&
             std::find(missing.begin(), missing.end(), object.model_id) == missing.end()) {
           missing.push_back(object.model_id);
@@ -165,20 +188,14 @@ class RoomGenerator {
     }
   }
 
-  // Imports the rooms' models ahead of time (all cores), so rendering does not wait.
- public:
-  void Prefetch(const std::vector<int64_t>& room_indices) {
-    std::vector<RoomLayout> layouts;
-    for (int64_t k : room_indices) {
-      layouts.push_back(ComposeRoom(
-          composer_catalog_, options_.room, DeriveSeed(options_.seed, static_cast<uint64_t>(k))));
-    }
-    ImportModels(layouts);
+  RoomLayout Compose(int64_t room_index) const {
+    return ComposeRoom(composer_catalog_,
+                       options_.room,
+                       DeriveSeed(options_.seed, static_cast<uint64_t>(room_index)));
   }
 
- private:
   std::map<std::string, std::shared_ptr<const TriangleMesh>> LoadMeshes(const RoomLayout& layout) {
-    ImportModels({layout});
+    ImportModels({&layout});
     std::map<std::string, std::shared_ptr<const TriangleMesh>> meshes;
     for (const PlacedObject& object : layout.objects) {
       const CachedModel& cached = mesh_cache_.at(object.model_id);
@@ -235,14 +252,6 @@ class RoomGenerator {
     return frame;
   }
 
- public:
-  std::vector<ModelRecord> TakeNewModels() {
-    std::vector<ModelRecord> models;
-    for (auto& [id, model] : models_) models.push_back(model);
-    models_.clear();
-    return models;
-  }
-
  private:
   const Catalog& catalog_;
   const GenerateOptions& options_;
@@ -256,6 +265,7 @@ class RoomGenerator {
   std::map<std::string, CachedModel> mesh_cache_;
   std::set<std::string> recorded_;             // models given to TakeNewModels() already
   std::map<std::string, ModelRecord> models_;  // first used since the last TakeNewModels()
+  std::map<int64_t, RoomLayout> prefetched_;   // composed by Prefetch, waiting for Generate
 };
 
 }  // namespace
