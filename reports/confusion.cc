@@ -1,11 +1,11 @@
 #include "reports/confusion.h"
 
 #include <algorithm>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "core/error.h"
 #include "core/file_util.h"
+#include "reports/png_file.h"
 
 namespace furn {
 
@@ -78,9 +78,7 @@ void WriteConfusionPng(const std::vector<std::string>& labels,
                   cv::LINE_AA);
     }
   }
-  std::vector<uchar> bytes;
-  Require(cv::imencode(".png", image, bytes), png_path + ": PNG encoding failed");
-  WriteFileAtomically(png_path, std::string(bytes.begin(), bytes.end()));
+  WritePngAtomically(image, png_path);
 }
 
 }  // namespace furn

@@ -7,6 +7,7 @@
 
 #include "core/error.h"
 #include "core/file_util.h"
+#include "reports/png_file.h"
 
 namespace furn {
 namespace {
@@ -98,9 +99,7 @@ void WriteDatasetSheet(const std::vector<SheetFrame>& frames,
     tiles[i].copyTo(sheet(
         cv::Rect(static_cast<int>(i % columns) * w, static_cast<int>(i / columns) * h, w, h)));
   }
-  std::vector<uchar> bytes;
-  Require(cv::imencode(".png", sheet, bytes), png_path + ": PNG encoding failed");
-  WriteFileAtomically(png_path, std::string(bytes.begin(), bytes.end()));
+  WritePngAtomically(sheet, png_path);
 }
 
 }  // namespace furn

@@ -3,11 +3,11 @@
 #include <algorithm>
 #include <cmath>
 #include <numeric>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "core/error.h"
 #include "core/file_util.h"
+#include "reports/png_file.h"
 
 namespace furn {
 namespace {
@@ -135,9 +135,7 @@ void WriteMeshSheet(const std::vector<SheetTile>& tiles,
             0.38,
             options.tile_px);
   }
-  std::vector<uchar> bytes;
-  Require(cv::imencode(".png", sheet, bytes), png_path + ": PNG encoding failed");
-  WriteFileAtomically(png_path, std::string(bytes.begin(), bytes.end()));
+  WritePngAtomically(sheet, png_path);
 }
 
 }  // namespace furn
