@@ -42,17 +42,6 @@ ZipArchive::~ZipArchive() {
   if (handle_->zip != nullptr) zip_discard(handle_->zip);
 }
 
-std::vector<std::string> ZipArchive::Names() const {
-  std::lock_guard<std::mutex> lock(handle_->mutex);
-  std::vector<std::string> names;
-  const zip_int64_t count = zip_get_num_entries(handle_->zip, 0);
-  for (zip_int64_t i = 0; i < count; ++i) {
-    const char* name = zip_get_name(handle_->zip, i, ZIP_FL_ENC_GUESS);
-    if (name != nullptr) names.emplace_back(name);
-  }
-  return names;
-}
-
 bool ZipArchive::Contains(const std::string& name) const {
   std::lock_guard<std::mutex> lock(handle_->mutex);
   return zip_name_locate(handle_->zip, name.c_str(), ZIP_FL_ENC_GUESS) >= 0;

@@ -24,7 +24,6 @@ class ZipArchive {
   ZipArchive& operator=(const ZipArchive&) = delete;
 
   const std::string& path() const { return path_; }
-  std::vector<std::string> Names() const;
   bool Contains(const std::string& name) const;
   // Whole entry; throws InputError naming archive and entry when it is missing
   // or its data is corrupt (CRC, truncated).
