@@ -104,10 +104,6 @@ double SurfaceArea(const TriangleMesh& mesh) {
   return area;
 }
 
-}  // namespace furn
-
-namespace furn {
-
 TriangleMesh MakeBox(const Eigen::Vector3f& min_corner, const Eigen::Vector3f& max_corner) {
   TriangleMesh box;
   for (int i = 0; i < 8; ++i) {

@@ -84,10 +84,6 @@ struct CadModel {
   TriangleMesh mesh;         // metres, z up, base on z = 0, footprint centred
 };
 
-}  // namespace furn
-
-namespace furn {
-
 // Primitives for procedural furniture and rooms. Faces point outward.
 // Axis-aligned box between two corners.
 TriangleMesh MakeBox(const Eigen::Vector3f& min_corner, const Eigen::Vector3f& max_corner);
