@@ -10,6 +10,7 @@
 #include <set>
 
 #include "core/error.h"
+#include "core/pcl_conversion.h"
 
 namespace furn {
 
@@ -36,9 +37,7 @@ std::vector<std::vector<int>> PartSubsets(const ViewSegments& view,
   for (int s = 0; s < segments; ++s) {
     for (int i : view.segments[s]) label[i] = s;
   }
-  auto points = pcl::make_shared<pcl::PointCloud<pcl::PointXYZ>>();
-  for (const Eigen::Vector3f& p : view.cloud.points)
-    points->push_back(pcl::PointXYZ(p.x(), p.y(), p.z()));
+  const auto points = ToPclPoints(view.cloud.points);
   pcl::search::KdTree<pcl::PointXYZ> tree;
   tree.setInputCloud(points);
   std::set<std::pair<int, int>> adjacent;
@@ -78,14 +77,7 @@ VfhDescriptor ComputeVfh(const PointCloud& cloud,
                          const std::vector<int>& indices,
                          const Eigen::Vector3f& viewpoint) {
   Require(indices.size() >= 3, "VFH needs at least 3 points");
-  auto points = pcl::make_shared<pcl::PointCloud<pcl::PointXYZ>>();
-  auto normals = pcl::make_shared<pcl::PointCloud<pcl::Normal>>();
-  for (int i : indices) {
-    const Eigen::Vector3f& p = cloud.points[i];
-    const Eigen::Vector3f& n = cloud.normals[i];
-    points->push_back(pcl::PointXYZ(p.x(), p.y(), p.z()));
-    normals->push_back(pcl::Normal(n.x(), n.y(), n.z()));
-  }
+  const auto [points, normals] = ToPclPointsWithNormals(cloud, indices);
   pcl::VFHEstimation<pcl::PointXYZ, pcl::Normal, pcl::VFHSignature308> vfh;
   vfh.setInputCloud(points);
   vfh.setInputNormals(normals);

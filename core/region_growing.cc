@@ -9,6 +9,7 @@
 #include <numeric>
 
 #include "core/error.h"
+#include "core/pcl_conversion.h"
 
 namespace furn {
 
@@ -28,10 +29,7 @@ std::vector<std::vector<int>> GrowRegions(const PointCloud& cloud,
           "region growing needs a normal and a curvature per point");
   std::vector<std::vector<int>> segments;
   if (cloud.size() == 0) return segments;
-  auto points = pcl::make_shared<pcl::PointCloud<pcl::PointXYZ>>();
-  points->reserve(cloud.size());
-  for (const Eigen::Vector3f& p : cloud.points)
-    points->push_back(pcl::PointXYZ(p.x(), p.y(), p.z()));
+  const auto points = ToPclPoints(cloud.points);
   pcl::search::KdTree<pcl::PointXYZ> tree;
   tree.setInputCloud(points);
 

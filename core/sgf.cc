@@ -12,6 +12,7 @@
 #include <tuple>
 
 #include "core/error.h"
+#include "core/pcl_conversion.h"
 
 namespace furn {
 namespace {
@@ -25,14 +26,7 @@ double SafeRatio(double numerator, double denominator) {
 double BoundaryProportion(const PointCloud& cloud,
                           const std::vector<int>& segment,
                           const SgfOptions& options) {
-  auto points = pcl::make_shared<pcl::PointCloud<pcl::PointXYZ>>();
-  auto normals = pcl::make_shared<pcl::PointCloud<pcl::Normal>>();
-  for (int i : segment) {
-    const Eigen::Vector3f& p = cloud.points[i];
-    const Eigen::Vector3f& n = cloud.normals[i];
-    points->push_back(pcl::PointXYZ(p.x(), p.y(), p.z()));
-    normals->push_back(pcl::Normal(n.x(), n.y(), n.z()));
-  }
+  const auto [points, normals] = ToPclPointsWithNormals(cloud, segment);
   pcl::BoundaryEstimation<pcl::PointXYZ, pcl::Normal, pcl::Boundary> estimator;
   estimator.setInputCloud(points);
   estimator.setInputNormals(normals);
