@@ -3,11 +3,12 @@
 #include <pcl/io/pcd_io.h>
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
-#include <png.h>
+#include <libdeflate.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <memory>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -148,46 +149,54 @@ cv::Mat IdImage(const DepthFrame& frame) {
   return image;
 }
 
-void AppendPngBytes(png_structp png, png_bytep data, png_size_t size) {
-  auto* out = static_cast<std::vector<uint8_t>*>(png_get_io_ptr(png));
-  out->insert(out->end(), data, data + size);
+void AppendBigEndian32(uint32_t value, std::vector<uint8_t>* out) {
+  for (int shift = 24; shift >= 0; shift -= 8) out->push_back(static_cast<uint8_t>(value >> shift));
 }
 
-void FlushNothing(png_structp) {}
+// Appends one PNG chunk: length, type, data, CRC of type and data.
+void AppendChunk(const char type[4], const uint8_t* data, size_t size, std::vector<uint8_t>* out) {
+  AppendBigEndian32(static_cast<uint32_t>(size), out);
+  const size_t type_at = out->size();
+  out->insert(out->end(), type, type + 4);
+  out->insert(out->end(), data, data + size);
+  AppendBigEndian32(libdeflate_crc32(0, out->data() + type_at, size + 4), out);
+}
 
-// 16-bit grey PNG through libpng with no row filter and zlib level 1: twice
-// as fast as OpenCV's encoder (which tries every filter) and smaller on
-// Kinect depth. Any PNG decoder reads it.
+// 16-bit grey PNG, rows unfiltered, compressed by libdeflate at level 1: about
+// three times faster than libpng with zlib at level 1, and smaller on Kinect
+// depth. The container is written here (signature, IHDR, one IDAT, IEND); any
+// PNG decoder reads it.
 std::vector<uint8_t> FastPng(const cv::Mat& image) {
-  std::vector<uint8_t> out;
-  out.reserve(image.total() / 2);
-  png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
-  png_infop info = png != nullptr ? png_create_info_struct(png) : nullptr;
-  Require(png != nullptr && info != nullptr, "PNG encoder: out of memory");
-  if (setjmp(png_jmpbuf(png))) {
-    png_destroy_write_struct(&png, &info);
-    throw InputError("PNG encoding failed");
-  }
-  png_set_write_fn(png, &out, AppendPngBytes, FlushNothing);
-  png_set_IHDR(png,
-               info,
-               image.cols,
-               image.rows,
-               16,
-               PNG_COLOR_TYPE_GRAY,
-               PNG_INTERLACE_NONE,
-               PNG_COMPRESSION_TYPE_DEFAULT,
-               PNG_FILTER_TYPE_DEFAULT);
-  png_set_filter(png, 0, PNG_FILTER_NONE);
-  png_set_compression_level(png, 1);
-  png_write_info(png, info);
-  png_set_swap(png);  // PNG stores 16-bit samples big-endian
+  const size_t row_bytes = 1 + 2 * static_cast<size_t>(image.cols);
+  std::vector<uint8_t> raw(row_bytes * image.rows);
   for (int row = 0; row < image.rows; ++row) {
-    png_write_row(png, const_cast<png_bytep>(reinterpret_cast<const png_byte*>(image.ptr(row))));
+    uint8_t* out = &raw[row * row_bytes];
+    *out++ = 0;  // filter type None
+    const uint16_t* in = image.ptr<uint16_t>(row);
+    for (int col = 0; col < image.cols; ++col) {  // PNG samples are big-endian
+      *out++ = static_cast<uint8_t>(in[col] >> 8);
+      *out++ = static_cast<uint8_t>(in[col]);
+    }
   }
-  png_write_end(png, info);
-  png_destroy_write_struct(&png, &info);
-  return out;
+  thread_local std::unique_ptr<libdeflate_compressor, void (*)(libdeflate_compressor*)> compressor(
+      libdeflate_alloc_compressor(1), libdeflate_free_compressor);
+  Require(compressor != nullptr, "PNG encoder: out of memory");
+  std::vector<uint8_t> idat(libdeflate_zlib_compress_bound(compressor.get(), raw.size()));
+  idat.resize(libdeflate_zlib_compress(
+      compressor.get(), raw.data(), raw.size(), idat.data(), idat.size()));
+  Require(!idat.empty(), "PNG encoding failed");
+
+  static constexpr uint8_t kSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+  std::vector<uint8_t> header;
+  AppendBigEndian32(static_cast<uint32_t>(image.cols), &header);
+  AppendBigEndian32(static_cast<uint32_t>(image.rows), &header);
+  header.insert(header.end(), {16, 0, 0, 0, 0});  // 16-bit grey, deflate, adaptive, no interlace
+  std::vector<uint8_t> png(std::begin(kSignature), std::end(kSignature));
+  png.reserve(idat.size() + 64);
+  AppendChunk("IHDR", header.data(), header.size(), &png);
+  AppendChunk("IDAT", idat.data(), idat.size(), &png);
+  AppendChunk("IEND", nullptr, 0, &png);
+  return png;
 }
 
 cv::Mat Decode16(const std::vector<uint8_t>& png, const std::string& what) {

@@ -6,7 +6,7 @@ packages=(
   build-essential cmake ninja-build ccache pkg-config git
   libeigen3-dev libpcl-dev libassimp-dev libembree-dev libosmesa6-dev libopencv-dev
   libceres-dev libsqlite3-dev libgtest-dev libgmock-dev libbenchmark-dev
-  nlohmann-json3-dev libcli11-dev libzip-dev zlib1g-dev libpng-dev libxxhash-dev
+  nlohmann-json3-dev libcli11-dev libzip-dev zlib1g-dev libxxhash-dev libdeflate-dev
   sweethome3d-furniture
 )
 
