@@ -1,12 +1,13 @@
 #include "core/part_subsets.h"
 
 #include <pcl/features/vfh.h>
-#include <pcl/kdtree/kdtree_flann.h>
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
 #include <pcl/search/kdtree.h>
 
+#include <Eigen/Eigenvalues>
 #include <algorithm>
+#include <numeric>
 #include <set>
 
 #include "core/error.h"
@@ -92,33 +93,49 @@ VfhDescriptor ComputeVfh(const PointCloud& cloud,
 }
 
 struct PartSubsetIndex::Impl {
-  pcl::KdTreeFLANN<pcl::VFHSignature308> tree;
-  size_t size = 0;
+  Eigen::RowVectorXf mean;                                         // 1 x 308
+  Eigen::MatrixXf basis;                                           // 308 x d
+  Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic> projected;  // n x d
 };
 
-PartSubsetIndex::PartSubsetIndex(const std::vector<VfhDescriptor>& descriptors)
+PartSubsetIndex::PartSubsetIndex(const std::vector<VfhDescriptor>& descriptors, int dimensions)
     : impl_(std::make_unique<Impl>()) {
   Require(!descriptors.empty(), "a part-subset index needs at least one descriptor");
-  auto cloud = pcl::make_shared<pcl::PointCloud<pcl::VFHSignature308>>();
-  for (const VfhDescriptor& d : descriptors) {
-    pcl::VFHSignature308 signature;
-    std::copy(d.begin(), d.end(), signature.histogram);
-    cloud->push_back(signature);
-  }
-  impl_->tree.setInputCloud(cloud);
-  impl_->size = descriptors.size();
+  constexpr int kBins = static_cast<int>(std::tuple_size<VfhDescriptor>::value);
+  Require(dimensions >= 1 && dimensions <= kBins, "index dimensions must be in 1..308");
+  const Eigen::Index n = static_cast<Eigen::Index>(descriptors.size());
+  Eigen::MatrixXf all(n, kBins);
+  for (Eigen::Index i = 0; i < n; ++i)
+    all.row(i) = Eigen::Map<const Eigen::RowVectorXf>(descriptors[i].data(), kBins);
+  impl_->mean = all.colwise().mean();
+  // Principal components from an even subsample of at most 4000 descriptors.
+  const Eigen::Index stride = std::max<Eigen::Index>(1, n / 4000);
+  Eigen::MatrixXd sample((n + stride - 1) / stride, kBins);
+  for (Eigen::Index i = 0, r = 0; i < n; i += stride, ++r)
+    sample.row(r) = (all.row(i) - impl_->mean).cast<double>();
+  const Eigen::MatrixXd covariance =
+      sample.transpose() * sample / std::max<Eigen::Index>(1, sample.rows());
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> solver(covariance);
+  // Eigenvalues ascend: the last columns are the strongest components.
+  impl_->basis = solver.eigenvectors().rightCols(dimensions).rowwise().reverse().cast<float>();
+  impl_->projected = (all.rowwise() - impl_->mean) * impl_->basis;
 }
 
 PartSubsetIndex::~PartSubsetIndex() = default;
 
 std::vector<int> PartSubsetIndex::Nearest(const VfhDescriptor& query, int k) const {
-  pcl::VFHSignature308 signature;
-  std::copy(query.begin(), query.end(), signature.histogram);
-  std::vector<int> indices;
-  std::vector<float> distances;
-  impl_->tree.nearestKSearch(
-      signature, std::min<int>(k, static_cast<int>(impl_->size)), indices, distances);
-  return indices;
+  constexpr int kBins = static_cast<int>(std::tuple_size<VfhDescriptor>::value);
+  const Eigen::RowVectorXf q =
+      (Eigen::Map<const Eigen::RowVectorXf>(query.data(), kBins) - impl_->mean) * impl_->basis;
+  const Eigen::VectorXf distances = (impl_->projected.rowwise() - q).rowwise().squaredNorm();
+  std::vector<int> order(distances.size());
+  std::iota(order.begin(), order.end(), 0);
+  const size_t count = std::min<size_t>(std::max(k, 0), order.size());
+  std::partial_sort(order.begin(), order.begin() + count, order.end(), [&](int a, int b) {
+    return distances[a] != distances[b] ? distances[a] < distances[b] : a < b;
+  });
+  order.resize(count);
+  return order;
 }
 
 }  // namespace furn

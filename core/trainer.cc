@@ -1,7 +1,9 @@
 #include "core/trainer.h"
 
+#include <chrono>
 #include <cmath>
 #include <cstring>
+#include <unordered_set>
 
 #include "core/error.h"
 #include "core/file_util.h"
@@ -11,7 +13,7 @@ namespace furn {
 namespace {
 
 constexpr char kMagic[8] = {'F', 'U', 'R', 'N', 'M', 'D', 'L', '\0'};
-constexpr uint32_t kFormatVersion = 1;
+constexpr uint32_t kFormatVersion = 2;  // 2: part-subset library and model shapes
 
 // Little-endian binary writer and a bounds-checked reader for the model file.
 class Writer {
@@ -107,6 +109,12 @@ void WriteOptions(const TrainerOptions& o, Writer* w) {
   w->I32(v.activated_words);
   w->F64(v.min_probability);
   w->Bytes(&v.seed, sizeof(v.seed));
+  const PartSubsetOptions& p = o.part_subsets;
+  w->I32(p.min_subset_size);
+  w->I32(p.max_subset_size);
+  w->I32(p.max_subsets_per_view);
+  w->F64(p.adjacency_m);
+  w->F64(o.shape_voxel_m);
 }
 
 TrainerOptions ReadOptions(Reader* r) {
@@ -131,16 +139,76 @@ TrainerOptions ReadOptions(Reader* r) {
   v.activated_words = r->I32();
   v.min_probability = r->F64();
   r->Bytes(&v.seed, sizeof(v.seed));
+  PartSubsetOptions& p = o.part_subsets;
+  p.min_subset_size = r->I32();
+  p.max_subset_size = r->I32();
+  p.max_subsets_per_view = r->I32();
+  p.adjacency_m = r->F64();
+  o.shape_voxel_m = r->F64();
   return o;
 }
 
+// Per model: the union of its views' preprocessed points, one per voxel.
+std::vector<ModelShape> BuildModelShapes(const std::vector<TrainingView>& views,
+                                         const std::vector<ViewSegments>& segmented,
+                                         size_t models,
+                                         double voxel_m) {
+  std::vector<ModelShape> shapes(models);
+  std::vector<std::unordered_set<uint64_t>> taken(models);
+  for (size_t v = 0; v < views.size(); ++v) {
+    const int m = views[v].model_index;
+    const PointCloud& cloud = segmented[v].cloud;
+    for (size_t i = 0; i < cloud.size(); ++i) {
+      const Eigen::Vector3f& p = cloud.points[i];
+      // 21 bits per axis, centred: models are far smaller than the 40 km range.
+      uint64_t key = 0;
+      for (int axis = 0; axis < 3; ++axis) {
+        const auto cell = static_cast<uint64_t>(std::floor(p[axis] / voxel_m) + (1 << 20));
+        key = (key << 21) | (cell & ((1u << 21) - 1));
+      }
+      if (!taken[m].insert(key).second) continue;
+      shapes[m].points.push_back(p);
+      shapes[m].normals.push_back(cloud.normals[i]);
+    }
+  }
+  for (ModelShape& shape : shapes) {
+    if (shape.points.empty()) continue;
+    shape.low = shape.high = shape.points[0];
+    for (const Eigen::Vector3f& p : shape.points) {
+      shape.low = shape.low.cwiseMin(p);
+      shape.high = shape.high.cwiseMax(p);
+    }
+  }
+  return shapes;
+}
+
+void WriteVector3(const Eigen::Vector3f& v, Writer* w) {
+  for (int k = 0; k < 3; ++k) w->F32(v[k]);
+}
+
+Eigen::Vector3f ReadVector3(Reader* r) {
+  Eigen::Vector3f v;
+  for (int k = 0; k < 3; ++k) v[k] = r->F32();
+  return v;
+}
+
 }  // namespace
+
+std::vector<int> PointsOfSegments(const ViewSegments& view, const std::vector<int>& segments) {
+  std::vector<int> points;
+  for (int s : segments)
+    points.insert(points.end(), view.segments[s].begin(), view.segments[s].end());
+  return points;
+}
 
 void TrainerOptions::Check() const {
   preprocess.Check();
   region_growing.Check();
   sgf.Check();
   vocabulary.Check();
+  part_subsets.Check();
+  Require(shape_voxel_m >= 0.005 && shape_voxel_m <= 0.1,
+          "shape_voxel_m " + std::to_string(shape_voxel_m) + " must be in 0.005..0.1 m");
 }
 
 FeatureNormalizer FeatureNormalizer::Fit(const std::vector<SgfVector>& features) {
@@ -177,17 +245,27 @@ Eigen::Matrix2f ViewAlignedFromWorld(const Eigen::Vector3f& sensor,
 
 ViewSegments SegmentView(const std::vector<Eigen::Vector3f>& points,
                          const Eigen::Vector3f& sensor_origin,
-                         const TrainerOptions& options) {
+                         const TrainerOptions& options,
+                         SegmentTimings* timings) {
+  using Clock = std::chrono::steady_clock;
+  auto lap = [last = Clock::now()](double* ms) mutable {
+    const auto now = Clock::now();
+    if (ms != nullptr) *ms = std::chrono::duration<double, std::milli>(now - last).count();
+    last = now;
+  };
   ViewSegments view;
   view.cloud = Preprocess(points, sensor_origin, options.preprocess);
+  lap(timings ? &timings->preprocess_ms : nullptr);
   if (view.cloud.size() == 0) return view;
   view.segments = GrowRegions(view.cloud, options.region_growing);
+  lap(timings ? &timings->segment_ms : nullptr);
   for (const std::vector<int>& segment : view.segments) {
     view.features.push_back(ComputeSgf(view.cloud, segment, options.sgf));
     Eigen::Vector3f centroid = Eigen::Vector3f::Zero();
     for (int i : segment) centroid += view.cloud.points[i];
     view.centroids.push_back(centroid / static_cast<float>(segment.size()));
   }
+  lap(timings ? &timings->features_ms : nullptr);
   return view;
 }
 
@@ -203,10 +281,18 @@ TrainedModel TrainModel(const std::vector<TrainingView>& views,
         view.model_index >= 0 && view.model_index < static_cast<int>(model_names.size()),
         "training view names model " + std::to_string(view.model_index) + ", which does not exist");
   }
-  // Views are independent: segment them on every core, keep the order.
+  // Views are independent: segment them and describe their part subsets on
+  // every core, keep the order.
   std::vector<ViewSegments> segmented(views.size());
+  std::vector<std::vector<PartSubsetEntry>> subsets(views.size());
   ParallelFor(0, static_cast<int>(views.size()), [&](int i) {
     segmented[i] = SegmentView(views[i].points, views[i].sensor_origin, options);
+    for (const std::vector<int>& subset : PartSubsets(segmented[i], options.part_subsets)) {
+      subsets[i].push_back(
+          {ComputeVfh(
+               segmented[i].cloud, PointsOfSegments(segmented[i], subset), views[i].sensor_origin),
+           views[i].model_index});
+    }
   });
   std::vector<SgfVector> features;
   for (const ViewSegments& view : segmented)
@@ -225,6 +311,10 @@ TrainedModel TrainModel(const std::vector<TrainingView>& views,
   for (const SgfVector& f : features) normalised.push_back(model.normalizer.Apply(f));
   model.vocabulary = Vocabulary::Train(normalised, options.vocabulary);
   model.training_segments = static_cast<int>(features.size());
+  for (const std::vector<PartSubsetEntry>& view : subsets)
+    model.part_library.insert(model.part_library.end(), view.begin(), view.end());
+  model.model_shapes =
+      BuildModelShapes(views, segmented, model_names.size(), options.shape_voxel_m);
 
   size_t next = 0;
   for (size_t v = 0; v < views.size(); ++v) {
@@ -280,6 +370,20 @@ void SaveTrainedModel(const TrainedModel& model, const std::string& path) {
     w.F32(e.relation.y());
     w.F32(e.height);
   }
+  for (const ModelShape& shape : model.model_shapes) {
+    w.U32(static_cast<uint32_t>(shape.points.size()));
+    for (size_t i = 0; i < shape.points.size(); ++i) {
+      WriteVector3(shape.points[i], &w);
+      WriteVector3(shape.normals[i], &w);
+    }
+    WriteVector3(shape.low, &w);
+    WriteVector3(shape.high, &w);
+  }
+  w.U32(static_cast<uint32_t>(model.part_library.size()));
+  for (const PartSubsetEntry& entry : model.part_library) {
+    w.I32(entry.model_index);
+    w.Bytes(entry.descriptor.data(), sizeof(float) * entry.descriptor.size());
+  }
   WriteFileAtomically(path, w.bytes());
 }
 
@@ -329,6 +433,25 @@ TrainedModel LoadTrainedModel(const std::string& path) {
     e.relation.x() = r.F32();
     e.relation.y() = r.F32();
     e.height = r.F32();
+  }
+  model.model_shapes.resize(model.model_names.size());
+  for (ModelShape& shape : model.model_shapes) {
+    shape.points.resize(r.Count(1u << 26));
+    shape.normals.resize(shape.points.size());
+    for (size_t i = 0; i < shape.points.size(); ++i) {
+      shape.points[i] = ReadVector3(&r);
+      shape.normals[i] = ReadVector3(&r);
+    }
+    shape.low = ReadVector3(&r);
+    shape.high = ReadVector3(&r);
+  }
+  model.part_library.resize(r.Count(1u << 26));
+  for (PartSubsetEntry& entry : model.part_library) {
+    entry.model_index = r.I32();
+    Require(
+        entry.model_index >= 0 && entry.model_index < static_cast<int>(model.model_names.size()),
+        path + ": model file is corrupt (a part subset names no model)");
+    r.Bytes(entry.descriptor.data(), sizeof(float) * entry.descriptor.size());
   }
   Require(r.AtEnd(), path + ": model file has trailing bytes (corrupt)");
   model.options.Check();

@@ -22,9 +22,11 @@
 #include <vector>
 
 #include "core/furniture_class.h"
+#include "core/part_subsets.h"
 #include "core/preprocess.h"
 #include "core/region_growing.h"
 #include "core/sgf.h"
+#include "core/view_segments.h"
 #include "core/vocabulary.h"
 
 namespace furn {
@@ -41,6 +43,8 @@ struct TrainerOptions {
   RegionGrowingOptions region_growing;
   SgfOptions sgf;
   VocabularyOptions vocabulary;
+  PartSubsetOptions part_subsets;  // the part-subset library for CAD model ranking
+  double shape_voxel_m = 0.02;     // grid of the stored model shapes (m, 0.005..0.1)
 
   void Check() const;
 };
@@ -64,6 +68,23 @@ struct ShapeEntry {
   float height = 0;                                    // segment centroid height (m)
 };
 
+// A CAD model as its training scans saw it, in the model frame (origin at the
+// footprint centre on the floor, yaw 0): the union of its views' points and
+// normals, one per shape voxel (the first in view order). Pose fitting and
+// visibility verification use it.
+struct ModelShape {
+  std::vector<Eigen::Vector3f> points;
+  std::vector<Eigen::Vector3f> normals;
+  Eigen::Vector3f low = Eigen::Vector3f::Zero();  // bounding box of the points
+  Eigen::Vector3f high = Eigen::Vector3f::Zero();
+};
+
+// One part subset of a training view: its VFH and the CAD model it came from.
+struct PartSubsetEntry {
+  VfhDescriptor descriptor{};
+  int model_index = 0;
+};
+
 struct TrainedModel {
   TrainerOptions options;
   std::vector<std::string> model_names;
@@ -72,6 +93,8 @@ struct TrainedModel {
   Vocabulary vocabulary;
   std::vector<ShapeEntry> shape;  // every (segment, activated word)
   int training_segments = 0;
+  std::vector<ModelShape> model_shapes;       // one per model name
+  std::vector<PartSubsetEntry> part_library;  // every part subset of every view
 };
 
 // Throws InputError for no views, a view naming no model, or views that
@@ -82,15 +105,16 @@ TrainedModel TrainModel(const std::vector<TrainingView>& views,
                         const TrainerOptions& options);
 
 // Segments and normalisation-free SGFs of one view (shared with detection).
-struct ViewSegments {
-  PointCloud cloud;
-  std::vector<std::vector<int>> segments;
-  std::vector<SgfVector> features;
-  std::vector<Eigen::Vector3f> centroids;
+struct SegmentTimings {
+  double preprocess_ms = 0, segment_ms = 0, features_ms = 0;
 };
 ViewSegments SegmentView(const std::vector<Eigen::Vector3f>& points,
                          const Eigen::Vector3f& sensor_origin,
-                         const TrainerOptions& options);
+                         const TrainerOptions& options,
+                         SegmentTimings* timings = nullptr);
+
+// The cloud indices of the points of some of a view's segments.
+std::vector<int> PointsOfSegments(const ViewSegments& view, const std::vector<int>& segments);
 
 // The horizontal, view-aligned frame of a segment seen from `sensor`: x along
 // the horizontal sensor-to-segment direction, y to its left.

@@ -208,6 +208,13 @@ std::vector<int64_t> DatasetDb::RoomIds() {
   return ids;
 }
 
+std::optional<int64_t> DatasetDb::RoomOfFrame(int64_t frame_id) {
+  Statement query(&db_, "SELECT room_id FROM frames WHERE id = ?");
+  query.Bind(1, frame_id);
+  if (!query.Step()) return std::nullopt;
+  return query.ColumnInt(0);
+}
+
 void DatasetDb::WriteRoom(const RoomRecord& room, const std::function<void()>& before_commit) {
   Transaction transaction(&db_);
   Statement insert_room(

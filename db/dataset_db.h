@@ -100,6 +100,8 @@ class DatasetDb {
   // runs inside it, after every row is written (tests use it to crash there).
   void WriteRoom(const RoomRecord& room, const std::function<void()>& before_commit = {});
   std::vector<int64_t> RoomIds();
+  // The room holding a frame, or nothing when no frame has that id.
+  std::optional<int64_t> RoomOfFrame(int64_t frame_id);
   RoomRecord ReadRoom(int64_t room_id, bool with_images);
 
  private:

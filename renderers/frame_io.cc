@@ -1,9 +1,11 @@
 #include "renderers/frame_io.h"
 
+#include <libdeflate.h>
+#include <pcl/conversions.h>
 #include <pcl/io/pcd_io.h>
+#include <pcl/io/ply_io.h>
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
-#include <libdeflate.h>
 
 #include <algorithm>
 #include <cmath>
@@ -182,8 +184,8 @@ std::vector<uint8_t> FastPng(const cv::Mat& image) {
       libdeflate_alloc_compressor(1), libdeflate_free_compressor);
   Require(compressor != nullptr, "PNG encoder: out of memory");
   std::vector<uint8_t> idat(libdeflate_zlib_compress_bound(compressor.get(), raw.size()));
-  idat.resize(libdeflate_zlib_compress(
-      compressor.get(), raw.data(), raw.size(), idat.data(), idat.size()));
+  idat.resize(
+      libdeflate_zlib_compress(compressor.get(), raw.data(), raw.size(), idat.data(), idat.size()));
   Require(!idat.empty(), "PNG encoding failed");
 
   static constexpr uint8_t kSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
@@ -249,6 +251,51 @@ DepthFrame ReadDepthPng(const std::string& path, double units_per_metre) {
 
 void WriteIdPng(const DepthFrame& frame, const std::string& path) {
   WritePng(IdImage(frame), path);
+}
+
+std::vector<Eigen::Vector3f> BackProject(const DepthFrame& frame, const CameraIntrinsics& camera) {
+  Require(frame.width == camera.width && frame.height == camera.height,
+          "depth image is " + std::to_string(frame.width) + "x" + std::to_string(frame.height) +
+              " but the intrinsics are for " + std::to_string(camera.width) + "x" +
+              std::to_string(camera.height));
+  std::vector<Eigen::Vector3f> points;
+  points.reserve(static_cast<size_t>(frame.width) * frame.height);
+  for (int v = 0; v < frame.height; ++v) {
+    for (int u = 0; u < frame.width; ++u) {
+      const float z = frame.DepthAt(u, v);
+      points.push_back(z > 0 ? Eigen::Vector3f(z * camera.RayThroughPixel(u, v))
+                             : Eigen::Vector3f::Constant(std::numeric_limits<float>::quiet_NaN()));
+    }
+  }
+  return points;
+}
+
+ScanCloud ReadPointCloudFile(const std::string& path) {
+  const std::string extension = FileExtension(path);
+  Require(extension == "pcd" || extension == "ply",
+          path + ": point clouds are read from .pcd or .ply files");
+  ReadFileBytes(path);  // a clear error for a missing or unreadable file
+  pcl::PCLPointCloud2 blob;
+  const int status =
+      extension == "pcd" ? pcl::io::loadPCDFile(path, blob) : pcl::io::loadPLYFile(path, blob);
+  Require(status >= 0, path + ": not a readable " + extension + " point cloud");
+  bool has_xyz = true;
+  for (const char* field : {"x", "y", "z"}) {
+    has_xyz &= std::any_of(blob.fields.begin(),
+                           blob.fields.end(),
+                           [&](const pcl::PCLPointField& f) { return f.name == field; });
+  }
+  Require(has_xyz, path + ": the cloud has no x, y, z fields");
+  pcl::PointCloud<pcl::PointXYZ> cloud;
+  pcl::fromPCLPointCloud2(blob, cloud);
+  ScanCloud scan;
+  scan.points.reserve(cloud.size());
+  for (const pcl::PointXYZ& p : cloud) scan.points.emplace_back(p.x, p.y, p.z);
+  if (cloud.height > 1) {
+    scan.width = static_cast<int>(cloud.width);
+    scan.height = static_cast<int>(cloud.height);
+  }
+  return scan;
 }
 
 void WriteOrganizedPcd(const DepthFrame& frame,

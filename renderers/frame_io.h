@@ -35,6 +35,20 @@ DepthFrame DecodeDepthPng(const std::vector<uint8_t>& png,
 // Fills instance_ids of `frame` (which must have the image's size).
 void DecodeIdPng(const std::vector<uint8_t>& png, const std::string& what, DepthFrame* frame);
 
+// Camera-frame points of a depth frame, one per pixel in row order (an
+// organised cloud), NaN where there is no return.
+std::vector<Eigen::Vector3f> BackProject(const DepthFrame& frame, const CameraIntrinsics& camera);
+
+// A point cloud file: PCD or PLY (by extension), organised or not. Points are
+// taken as they are (camera frame, metres, for detection).
+struct ScanCloud {
+  std::vector<Eigen::Vector3f> points;
+  int width = 0, height = 0;  // organised size, or 0 x 0
+};
+// Throws InputError naming the file when it is missing, unreadable, of
+// another extension, or holds no x/y/z fields.
+ScanCloud ReadPointCloudFile(const std::string& path);
+
 struct PreviewPanel {
   enum class Kind { kDepth, kShadedDepth, kIds };
   const DepthFrame* frame = nullptr;

@@ -12,14 +12,6 @@
 namespace furn {
 namespace {
 
-cv::Scalar ClassColour(const std::string& name) {
-  if (name == "chair") return cv::Scalar(60, 220, 60);
-  if (name == "armchair") return cv::Scalar(255, 160, 40);
-  if (name == "table") return cv::Scalar(40, 200, 255);
-  if (name == "sideboard") return cv::Scalar(230, 80, 230);
-  return cv::Scalar(255, 255, 255);
-}
-
 cv::Mat Tile(const SheetFrame& item, const DatasetSheetOptions& options) {
   const FrameRecord& frame = *item.frame;
   const cv::Mat depth = cv::imdecode(frame.depth_noisy_png, cv::IMREAD_UNCHANGED);
@@ -51,9 +43,7 @@ cv::Mat Tile(const SheetFrame& item, const DatasetSheetOptions& options) {
     std::snprintf(
         label, sizeof(label), "%s %.2f", it->second->furniture_class.c_str(), seen.visibility);
     const cv::Point at(box.x + 2, std::max(12, box.y - 3));
-    cv::putText(
-        tile, label, at, cv::FONT_HERSHEY_SIMPLEX, 0.4, cv::Scalar(0, 0, 0), 3, cv::LINE_AA);
-    cv::putText(tile, label, at, cv::FONT_HERSHEY_SIMPLEX, 0.4, colour_of_box, 1, cv::LINE_AA);
+    DrawLabel(&tile, label, at, colour_of_box);
   }
   char caption[96];
   std::snprintf(caption,
@@ -62,22 +52,7 @@ cv::Mat Tile(const SheetFrame& item, const DatasetSheetOptions& options) {
                 static_cast<long long>(frame.id),
                 static_cast<long long>(item.room->id),
                 item.room->split.c_str());
-  cv::putText(tile,
-              caption,
-              cv::Point(4, tile.rows - 6),
-              cv::FONT_HERSHEY_SIMPLEX,
-              0.4,
-              cv::Scalar(0, 0, 0),
-              3,
-              cv::LINE_AA);
-  cv::putText(tile,
-              caption,
-              cv::Point(4, tile.rows - 6),
-              cv::FONT_HERSHEY_SIMPLEX,
-              0.4,
-              cv::Scalar(255, 255, 255),
-              1,
-              cv::LINE_AA);
+  DrawLabel(&tile, caption, cv::Point(4, tile.rows - 6), cv::Scalar(255, 255, 255));
   return tile;
 }
 

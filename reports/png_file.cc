@@ -1,6 +1,7 @@
 #include "reports/png_file.h"
 
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <vector>
 
 #include "core/error.h"
@@ -12,6 +13,21 @@ void WritePngAtomically(const cv::Mat& image, const std::string& png_path) {
   std::vector<uchar> bytes;
   Require(cv::imencode(".png", image, bytes), png_path + ": PNG encoding failed");
   WriteFileAtomically(png_path, std::string(bytes.begin(), bytes.end()));
+}
+
+cv::Scalar ClassColour(const std::string& name) {
+  if (name == "chair") return cv::Scalar(60, 220, 60);
+  if (name == "armchair") return cv::Scalar(255, 160, 40);
+  if (name == "table") return cv::Scalar(40, 200, 255);
+  if (name == "sideboard") return cv::Scalar(230, 80, 230);
+  return cv::Scalar(255, 255, 255);
+}
+
+void DrawLabel(
+    cv::Mat* image, const std::string& text, cv::Point at, const cv::Scalar& colour, double scale) {
+  cv::putText(
+      *image, text, at, cv::FONT_HERSHEY_SIMPLEX, scale, cv::Scalar(0, 0, 0), 3, cv::LINE_AA);
+  cv::putText(*image, text, at, cv::FONT_HERSHEY_SIMPLEX, scale, colour, 1, cv::LINE_AA);
 }
 
 }  // namespace furn

@@ -12,5 +12,6 @@ int RunDataset(int argc, char** argv);
 int RunTrain(int argc, char** argv);
 int RunModel(int argc, char** argv);
 int RunEvalParts(int argc, char** argv);
+int RunDetect(int argc, char** argv);
 
 }  // namespace furn

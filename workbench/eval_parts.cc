@@ -57,11 +57,10 @@ PartEvaluation EvaluatePartSubsets(const Catalog& catalog,
     const ViewSegments segmented =
         SegmentView(views[v].points, views[v].sensor_origin, model.options);
     for (const std::vector<int>& subset : PartSubsets(segmented, options.subsets)) {
-      std::vector<int> points;
-      for (int s : subset)
-        points.insert(points.end(), segmented.segments[s].begin(), segmented.segments[s].end());
       per_view[v].push_back(
-          {ComputeVfh(segmented.cloud, points, views[v].sensor_origin), v, views[v].model_index});
+          {ComputeVfh(segmented.cloud, PointsOfSegments(segmented, subset), views[v].sensor_origin),
+           v,
+           views[v].model_index});
     }
     std::lock_guard<std::mutex> lock(progress_mutex);
     progress.Advance();

@@ -27,6 +27,7 @@ constexpr Command kCommands[] = {
     {"train", furn::RunTrain, "learn the part vocabulary and shape model from virtual scans"},
     {"model", furn::RunModel, "describe a trained model file"},
     {"eval-parts", furn::RunEvalParts, "protocol C: part-subset classification accuracy"},
+    {"detect", furn::RunDetect, "detect furniture in a depth scan (cloud, depth PNG, DB frame)"},
 };
 
 void PrintUsage() {

@@ -1,0 +1,582 @@
+#include "core/detector.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <mutex>
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+#include <unordered_set>
+
+#include "core/error.h"
+#include "core/occupancy.h"
+#include "core/parallel.h"
+#include "core/random.h"
+
+namespace furn {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+constexpr int kClasses = static_cast<int>(kAllClasses.size());
+
+// One Hough vote, kept to find the segments behind a maximum.
+struct Vote {
+  int segment = 0;
+  int class_index = 0;
+  float x = 0, y = 0;
+  float weight = 0;
+};
+
+class StageTimer {
+ public:
+  explicit StageTimer(std::vector<std::pair<std::string, double>>* out) : out_(out) {}
+  void Lap(const std::string& stage) {
+    const auto now = Clock::now();
+    out_->emplace_back(stage, std::chrono::duration<double, std::milli>(now - last_).count());
+    last_ = now;
+  }
+  void Restart() { last_ = Clock::now(); }
+  void Total() {
+    out_->emplace_back("total",
+                       std::chrono::duration<double, std::milli>(Clock::now() - start_).count());
+  }
+
+ private:
+  std::vector<std::pair<std::string, double>>* out_;
+  Clock::time_point start_ = Clock::now();
+  Clock::time_point last_ = start_;
+};
+
+// Largest extent of a segment's points along x, y or z.
+float SegmentExtent(const PointCloud& cloud, const std::vector<int>& segment) {
+  Eigen::Vector3f low = cloud.points[segment[0]], high = low;
+  for (int i : segment) {
+    low = low.cwiseMin(cloud.points[i]);
+    high = high.cwiseMax(cloud.points[i]);
+  }
+  return (high - low).maxCoeff();
+}
+
+// One point per voxel (the first): the ray ends of the occupancy grid.
+std::vector<Eigen::Vector3f> ThinOut(const std::vector<Eigen::Vector3f>& points, double voxel_m) {
+  std::unordered_set<uint64_t> taken;
+  std::vector<Eigen::Vector3f> kept;
+  for (const Eigen::Vector3f& p : points) {
+    uint64_t key = 0;
+    for (int axis = 0; axis < 3; ++axis) {
+      const auto cell = static_cast<uint64_t>(std::floor(p[axis] / voxel_m) + (1 << 20));
+      key = (key << 21) | (cell & ((1u << 21) - 1));
+    }
+    if (taken.insert(key).second) kept.push_back(p);
+  }
+  return kept;
+}
+
+// The footprint of `shape` posed at `pose`, as an OpenCV rotated rectangle.
+cv::RotatedRect Footprint(const ModelShape& shape, const PlanarPose& pose) {
+  const Eigen::Vector3f centre = pose.Apply((shape.low + shape.high) / 2);
+  const Eigen::Vector3f size = shape.high - shape.low;
+  return cv::RotatedRect(cv::Point2f(centre.x(), centre.y()),
+                         cv::Size2f(size.x(), size.y()),
+                         static_cast<float>(pose.yaw * 180 / M_PI));
+}
+
+// Intersection area of two footprints over the smaller one's area.
+double FootprintOverlap(const cv::RotatedRect& a, const cv::RotatedRect& b) {
+  std::vector<cv::Point2f> region;
+  if (cv::rotatedRectangleIntersection(a, b, region) == cv::INTERSECT_NONE || region.size() < 3)
+    return 0;
+  std::vector<cv::Point2f> hull;
+  cv::convexHull(region, hull);
+  const double smaller = std::min(a.size.area(), b.size.area());
+  return smaller > 0 ? cv::contourArea(hull) / smaller : 0;
+}
+
+}  // namespace
+
+void DetectorOptions::Check() const {
+  Require(max_range_m > 0, "max range " + std::to_string(max_range_m) + " m must be > 0");
+  Require(floor_band_m >= 0 && floor_band_m < 0.5, "floor band must be in 0..0.5 m");
+  floor.Check();
+  Require(max_segment_extent_m > 0, "max segment extent must be > 0");
+  Require(cell_m >= 0.005 && cell_m <= 0.2,
+          "vote cell " + std::to_string(cell_m) + " m must be in 0.005..0.2");
+  Require(vote_sigma_m >= 0 && vote_sigma_m <= 0.5, "vote sigma must be in 0..0.5 m");
+  Require(vote_height_tolerance_m >= 0, "vote height tolerance must be >= 0");
+  Require(relative_threshold >= 0 && relative_threshold <= 1,
+          "relative threshold " + std::to_string(relative_threshold) + " must be in 0..1");
+  Require(absolute_threshold >= 0, "absolute threshold must be >= 0");
+  Require(max_hypotheses_per_class >= 1, "max hypotheses per class must be >= 1");
+  Require(support_radius_m > 0, "support radius must be > 0");
+  Require(neighbours >= 1 && neighbours <= 1000, "neighbours must be in 1..1000");
+  Require(top_models >= 1, "top models must be >= 1");
+  fit.Check();
+  Require(min_covered_fraction >= 0 && min_covered_fraction <= 1,
+          "min covered fraction must be in 0..1");
+  Require(occupancy_voxel_m >= 0.01 && occupancy_voxel_m <= 0.5,
+          "occupancy voxel " + std::to_string(occupancy_voxel_m) + " m must be in 0.01..0.5");
+  Require(occupied_weight > 0, "occupied weight must be > 0");
+  Require(min_verification >= 0 && min_verification <= 1,
+          "min verification " + std::to_string(min_verification) + " must be in 0..1");
+  Require(max_footprint_overlap >= 0 && max_footprint_overlap <= 1,
+          "max footprint overlap must be in 0..1");
+  Require(max_shared_support >= 0 && max_shared_support <= 1, "max shared support must be in 0..1");
+}
+
+struct Detector::Impl {
+  TrainedModel model;
+  DetectorOptions options;
+  std::vector<std::vector<int>> entries_of_word;             // shape entries per word
+  std::vector<std::array<int, kClasses>> entries_per_class;  // #(A_i, o)
+  std::array<double, kClasses> class_width{};                // widest footprint per class (m)
+  std::vector<ModelFitter> fitters;                          // one per model
+  std::unique_ptr<PartSubsetIndex> parts;
+
+  // The hypotheses of one class from its smoothed grid.
+  std::vector<DetectionDebug::Hypothesis> Maxima(const cv::Mat& grid,
+                                                 int class_index,
+                                                 const Eigen::Vector2f& origin,
+                                                 DetectionDebug::VoteGrid* debug) const;
+  // The segments behind a hypothesis and its candidate CAD models.
+  void Rank(const std::vector<Vote>& votes,
+            const std::vector<std::vector<int>>& segment_neighbours,
+            DetectionDebug::Hypothesis* hypothesis) const;
+  // The best-scoring fit of the candidates, if it passes the checks.
+  void FitAndVerify(const ViewSegments& view,
+                    const OccupancyGrid& occupancy,
+                    int hypothesis_index,
+                    DetectionDebug::Hypothesis* hypothesis,
+                    std::optional<Detection>* detection,
+                    std::vector<Eigen::Vector3f>* fitted,
+                    std::vector<int>* support) const;
+};
+
+Detector::Detector(TrainedModel model, const DetectorOptions& options)
+    : impl_(std::make_unique<Impl>()) {
+  options.Check();
+  Impl& impl = *impl_;
+  impl.model = std::move(model);
+  impl.options = options;
+  const TrainedModel& m = impl.model;
+  Require(m.model_shapes.size() == m.model_names.size() && !m.part_library.empty(),
+          "the trained model has no shapes or part subsets (train it again)");
+  impl.entries_of_word.resize(m.vocabulary.NumWords());
+  impl.entries_per_class.assign(m.vocabulary.NumWords(), {});
+  for (size_t e = 0; e < m.shape.size(); ++e) {
+    const ShapeEntry& entry = m.shape[e];
+    impl.entries_of_word[entry.word].push_back(static_cast<int>(e));
+    ++impl.entries_per_class[entry.word][static_cast<int>(entry.furniture_class)];
+  }
+  for (size_t k = 0; k < m.model_names.size(); ++k) {
+    const ModelShape& shape = m.model_shapes[k];
+    Require(!shape.points.empty(), "model " + m.model_names[k] + " has an empty shape");
+    double& width = impl.class_width[static_cast<int>(m.model_classes[k])];
+    width = std::max<double>(width, (shape.high - shape.low).head<2>().maxCoeff());
+    impl.fitters.emplace_back(shape, options.fit);
+  }
+  std::vector<VfhDescriptor> descriptors;
+  for (const PartSubsetEntry& entry : m.part_library) descriptors.push_back(entry.descriptor);
+  impl.parts = std::make_unique<PartSubsetIndex>(descriptors);
+}
+
+Detector::~Detector() = default;
+
+const TrainedModel& Detector::model() const { return impl_->model; }
+const DetectorOptions& Detector::options() const { return impl_->options; }
+
+std::vector<DetectionDebug::Hypothesis> Detector::Impl::Maxima(
+    const cv::Mat& grid,
+    int class_index,
+    const Eigen::Vector2f& origin,
+    DetectionDebug::VoteGrid* debug) const {
+  double low = 0, high = 0;
+  cv::minMaxLoc(grid, &low, &high);
+  const double threshold =
+      std::max(low + options.relative_threshold * (high - low), options.absolute_threshold);
+  debug->threshold = threshold;
+  std::vector<DetectionDebug::Hypothesis> maxima;
+  if (high <= 0) return maxima;
+  // Local maxima in a window of half the class's width: equal to the grid's
+  // maximum filter there.
+  const int half =
+      std::max(1, static_cast<int>(std::lround(0.25 * class_width[class_index] / options.cell_m)));
+  cv::Mat dilated;
+  cv::dilate(
+      grid, dilated, cv::getStructuringElement(cv::MORPH_RECT, {2 * half + 1, 2 * half + 1}));
+  std::vector<std::pair<float, int>> candidates;  // value, cell
+  for (int r = 0; r < grid.rows; ++r) {
+    const float* g = grid.ptr<float>(r);
+    const float* d = dilated.ptr<float>(r);
+    for (int c = 0; c < grid.cols; ++c) {
+      if (g[c] > 0 && g[c] >= threshold && g[c] >= d[c])
+        candidates.emplace_back(g[c], r * grid.cols + c);
+    }
+  }
+  std::sort(candidates.begin(), candidates.end(), [](const auto& a, const auto& b) {
+    return a.first != b.first ? a.first > b.first : a.second < b.second;
+  });
+  for (const auto& [value, cell] : candidates) {
+    const int r = cell / grid.cols, c = cell % grid.cols;
+    // Plateaus give several equal cells: keep the first of each window.
+    bool near_kept = false;
+    for (const DetectionDebug::Hypothesis& kept : maxima) {
+      const double dc = (kept.x - origin.x()) / options.cell_m - 0.5 - c;
+      const double dr = (kept.y - origin.y()) / options.cell_m - 0.5 - r;
+      near_kept |= std::abs(dc) <= half && std::abs(dr) <= half;
+    }
+    if (near_kept) continue;
+    DetectionDebug::Hypothesis hypothesis;
+    hypothesis.furniture_class = kAllClasses[class_index];
+    hypothesis.x = origin.x() + (c + 0.5) * options.cell_m;
+    hypothesis.y = origin.y() + (r + 0.5) * options.cell_m;
+    hypothesis.vote_weight = value;
+    maxima.push_back(hypothesis);
+    if (static_cast<int>(maxima.size()) >= options.max_hypotheses_per_class) break;
+  }
+  return maxima;
+}
+
+void Detector::Impl::Rank(const std::vector<Vote>& votes,
+                          const std::vector<std::vector<int>>& segment_neighbours,
+                          DetectionDebug::Hypothesis* hypothesis) const {
+  const int class_index = static_cast<int>(hypothesis->furniture_class);
+  // Segments that voted for this class near the maximum, with their weight there.
+  const float radius2 = static_cast<float>(options.support_radius_m * options.support_radius_m);
+  std::map<int, double> support;
+  for (const Vote& vote : votes) {
+    if (vote.class_index != class_index) continue;
+    const float dx = vote.x - static_cast<float>(hypothesis->x);
+    const float dy = vote.y - static_cast<float>(hypothesis->y);
+    if (dx * dx + dy * dy <= radius2) support[vote.segment] += vote.weight;
+  }
+  for (const auto& [segment, weight] : support) hypothesis->segments.push_back(segment);
+  if (support.empty()) {
+    hypothesis->outcome = "no supporting segment";
+    return;
+  }
+  // CAD models of this class ranked by the part subsets nearest to each
+  // supporting segment: a neighbour at rank r adds weight / (r + 1).
+  std::map<int, double> model_score;
+  for (const auto& [segment, weight] : support) {
+    const std::vector<int>& neighbours = segment_neighbours[segment];
+    for (size_t r = 0; r < neighbours.size(); ++r) {
+      const int m = model.part_library[neighbours[r]].model_index;
+      if (model.model_classes[m] == hypothesis->furniture_class) model_score[m] += weight / (r + 1);
+    }
+  }
+  std::vector<std::pair<double, int>> ranked;
+  for (const auto& [m, score] : model_score) ranked.emplace_back(-score, m);
+  std::sort(ranked.begin(), ranked.end());
+  for (const auto& [negative_score, m] : ranked) {
+    if (static_cast<int>(hypothesis->candidate_models.size()) < options.top_models)
+      hypothesis->candidate_models.push_back(m);
+  }
+  // Too few ranked: the class's other models, in catalog order.
+  for (size_t m = 0; m < model.model_classes.size(); ++m) {
+    if (static_cast<int>(hypothesis->candidate_models.size()) >= options.top_models) break;
+    if (model.model_classes[m] == hypothesis->furniture_class && model_score.count(m) == 0)
+      hypothesis->candidate_models.push_back(static_cast<int>(m));
+  }
+}
+
+void Detector::Impl::FitAndVerify(const ViewSegments& view,
+                                  const OccupancyGrid& occupancy,
+                                  int hypothesis_index,
+                                  DetectionDebug::Hypothesis* hypothesis,
+                                  std::optional<Detection>* detection,
+                                  std::vector<Eigen::Vector3f>* fitted,
+                                  std::vector<int>* support) const {
+  if (hypothesis->candidate_models.empty()) return;
+  // Scene points around the maximum, within reach of the largest candidate.
+  float reach = 0;
+  for (int m : hypothesis->candidate_models) {
+    const ModelShape& shape = model.model_shapes[m];
+    reach = std::max({reach,
+                      shape.low.head<2>().norm(),
+                      shape.high.head<2>().norm(),
+                      Eigen::Vector2f(shape.low.x(), shape.high.y()).norm(),
+                      Eigen::Vector2f(shape.high.x(), shape.low.y()).norm()});
+  }
+  reach += static_cast<float>(options.fit.max_offset_m);
+  std::vector<Eigen::Vector3f> scene_points, scene_normals;
+  std::vector<int> region;  // cloud indices of the points within reach
+  for (size_t i = 0; i < view.cloud.size(); ++i) {
+    const Eigen::Vector3f& p = view.cloud.points[i];
+    if (Eigen::Vector2f(p.x() - hypothesis->x, p.y() - hypothesis->y).norm() <= reach) {
+      scene_points.push_back(p);
+      scene_normals.push_back(view.cloud.normals[i]);
+      region.push_back(static_cast<int>(i));
+    }
+  }
+  std::vector<Eigen::Vector3f> region_points = scene_points;
+  constexpr size_t kMaxFitPoints = 800;  // an even subsample keeps RANSAC scoring cheap
+  if (scene_points.size() > kMaxFitPoints) {
+    const double stride = static_cast<double>(scene_points.size()) / kMaxFitPoints;
+    for (size_t k = 0; k < kMaxFitPoints; ++k) {
+      scene_points[k] = scene_points[static_cast<size_t>(k * stride)];
+      scene_normals[k] = scene_normals[static_cast<size_t>(k * stride)];
+    }
+    scene_points.resize(kMaxFitPoints);
+    scene_normals.resize(kMaxFitPoints);
+  }
+  const Eigen::Vector2f hint(static_cast<float>(hypothesis->x), static_cast<float>(hypothesis->y));
+  double best_score = -1;
+  std::string outcome = "no fit";
+  for (size_t c = 0; c < hypothesis->candidate_models.size(); ++c) {
+    const int m = hypothesis->candidate_models[c];
+    const PoseFit fit =
+        fitters[m].Fit(scene_points,
+                       scene_normals,
+                       hint,
+                       DeriveSeed(options.seed, static_cast<uint64_t>(hypothesis_index) * 64 + c));
+    if (!fit.found) continue;
+    const double covered = fit.Explained();
+    std::vector<Eigen::Vector3f> posed;
+    posed.reserve(model.model_shapes[m].points.size());
+    for (const Eigen::Vector3f& p : model.model_shapes[m].points)
+      posed.push_back(fit.pose.Apply(p));
+    const double verification = VisibilityScore(
+        occupancy, posed, options.occupied_weight, static_cast<float>(options.floor_band_m));
+    const double score = verification * covered;
+    hypothesis->fits.push_back(
+        {m, fit.pose.x, fit.pose.y, fit.pose.yaw, covered, verification, score});
+    if (score <= best_score) continue;
+    best_score = score;
+    char text[96];
+    if (covered < options.min_covered_fraction) {
+      std::snprintf(text, sizeof(text), "covers %.2f of the points", covered);
+      outcome = text;
+      detection->reset();
+      continue;
+    }
+    if (verification < options.min_verification) {
+      std::snprintf(text, sizeof(text), "verification %.2f", verification);
+      outcome = text;
+      detection->reset();
+      continue;
+    }
+    outcome = "detected";
+    Detection d;
+    d.furniture_class = hypothesis->furniture_class;
+    d.x = fit.pose.x;
+    d.y = fit.pose.y;
+    d.z = 0;
+    d.yaw = fit.pose.yaw;
+    d.model_index = m;
+    d.model_name = model.model_names[m];
+    d.score = score;
+    d.vote_weight = hypothesis->vote_weight;
+    d.verification = verification;
+    d.covered_fraction = covered;
+    *detection = d;
+    *fitted = std::move(posed);
+    support->clear();
+    for (int k : fitters[m].CoveredIndices(region_points, fit.pose)) support->push_back(region[k]);
+  }
+  hypothesis->outcome = outcome;
+}
+
+DetectionResult Detector::Detect(const DetectionInput& input, bool keep_debug) const {
+  const Impl& impl = *impl_;
+  const DetectorOptions& options = impl.options;
+  const TrainedModel& model = impl.model;
+  DetectionResult result;
+  StageTimer timer(&result.timings_ms);
+  Require(input.width * input.height == 0 ||
+              static_cast<size_t>(input.width) * input.height == input.points.size(),
+          "organised cloud of " + std::to_string(input.points.size()) + " points is not " +
+              std::to_string(input.width) + "x" + std::to_string(input.height));
+
+  // 1. World frame, range, floor.
+  std::vector<Eigen::Vector3f> in_range;
+  in_range.reserve(input.points.size());
+  const float max_range2 = static_cast<float>(options.max_range_m * options.max_range_m);
+  for (const Eigen::Vector3f& p : input.points) {
+    if (p.allFinite() && p.squaredNorm() > 0 && p.squaredNorm() <= max_range2)
+      in_range.push_back(p);
+  }
+  result.input_points = static_cast<int>(in_range.size());
+  Require(!in_range.empty(),
+          "the scan has no finite point within " + std::to_string(options.max_range_m) +
+              " m of the sensor");
+  if (input.world_from_camera) {
+    result.world_from_camera = *input.world_from_camera;
+  } else {
+    result.world_from_camera = FindFloor(in_range, options.floor);
+    result.floor_estimated = true;
+  }
+  const Eigen::Matrix3f rotation = result.world_from_camera.linear().cast<float>();
+  const Eigen::Vector3f translation = result.world_from_camera.translation().cast<float>();
+  const Eigen::Vector3f sensor = translation;
+  std::vector<Eigen::Vector3f> world, above_floor;
+  world.reserve(in_range.size());
+  for (const Eigen::Vector3f& p : in_range) {
+    world.push_back(rotation * p + translation);
+    if (world.back().z() >= options.floor_band_m) above_floor.push_back(world.back());
+  }
+  timer.Lap("floor");
+
+  // 2. Segments and features, exactly as in training.
+  SegmentTimings segment_timings;
+  const ViewSegments view = SegmentView(above_floor, sensor, model.options, &segment_timings);
+  result.points = static_cast<int>(view.cloud.size());
+  result.segments = static_cast<int>(view.segments.size());
+  result.timings_ms.emplace_back("preprocess", segment_timings.preprocess_ms);
+  result.timings_ms.emplace_back("segment", segment_timings.segment_ms);
+  result.timings_ms.emplace_back("features", segment_timings.features_ms);
+  timer.Restart();  // the three stages above cover the time since the last lap
+
+  // Occupancy for verification, from every point in range (floor included).
+  const OccupancyGrid occupancy(
+      ThinOut(world, options.occupancy_voxel_m / 2), sensor, options.occupancy_voxel_m);
+  timer.Lap("occupancy");
+
+  // 3. Hough voting on per-class grids covering the scene plus a margin.
+  Eigen::Vector2f low(1e9f, 1e9f), high(-1e9f, -1e9f);
+  for (const Eigen::Vector3f& p : view.cloud.points) {
+    low = low.cwiseMin(p.head<2>());
+    high = high.cwiseMax(p.head<2>());
+  }
+  std::vector<Vote> votes;
+  std::vector<cv::Mat> grids(kClasses);
+  Eigen::Vector2f origin = Eigen::Vector2f::Zero();
+  int cols = 0, rows = 0;
+  if (!view.segments.empty()) {
+    const float margin = 1.0f;
+    origin = low - Eigen::Vector2f::Constant(margin);
+    cols = std::min(
+        2000, static_cast<int>(std::ceil((high.x() - low.x() + 2 * margin) / options.cell_m)));
+    rows = std::min(
+        2000, static_cast<int>(std::ceil((high.y() - low.y() + 2 * margin) / options.cell_m)));
+    for (cv::Mat& grid : grids) grid = cv::Mat::zeros(rows, cols, CV_32F);
+    for (size_t s = 0; s < view.segments.size(); ++s) {
+      if (SegmentExtent(view.cloud, view.segments[s]) > options.max_segment_extent_m) continue;
+      const Eigen::Vector3f& centroid = view.centroids[s];
+      // Relations were stored in the view-aligned frame: back to world.
+      const Eigen::Matrix2f world_from_aligned = ViewAlignedFromWorld(sensor, centroid).transpose();
+      for (const WordActivation& activation :
+           model.vocabulary.Activate(model.normalizer.Apply(view.features[s]))) {
+        for (int e : impl.entries_of_word[activation.word]) {
+          const ShapeEntry& entry = model.shape[e];
+          if (options.vote_height_tolerance_m > 0 &&
+              std::abs(entry.height - centroid.z()) > options.vote_height_tolerance_m) {
+            continue;
+          }
+          const int class_index = static_cast<int>(entry.furniture_class);
+          const Eigen::Vector2f at = centroid.head<2>() + world_from_aligned * entry.relation;
+          const int c = static_cast<int>(std::floor((at.x() - origin.x()) / options.cell_m));
+          const int r = static_cast<int>(std::floor((at.y() - origin.y()) / options.cell_m));
+          if (c < 0 || r < 0 || c >= cols || r >= rows) continue;
+          const auto weight = static_cast<float>(
+              activation.probability / impl.entries_per_class[activation.word][class_index]);
+          grids[class_index].at<float>(r, c) += weight;
+          votes.push_back({static_cast<int>(s), class_index, at.x(), at.y(), weight});
+        }
+      }
+    }
+    if (options.vote_sigma_m > 0) {
+      const double sigma = options.vote_sigma_m / options.cell_m;
+      for (cv::Mat& grid : grids) cv::GaussianBlur(grid, grid, cv::Size(0, 0), sigma, sigma);
+    }
+  }
+  timer.Lap("vote");
+
+  // 4. Maxima per class.
+  std::vector<DetectionDebug::Hypothesis> hypotheses;
+  std::vector<DetectionDebug::VoteGrid> debug_grids;
+  for (int k = 0; k < kClasses; ++k) {
+    if (impl.class_width[k] <= 0 || grids[k].empty()) continue;
+    DetectionDebug::VoteGrid debug_grid;
+    debug_grid.furniture_class = kAllClasses[k];
+    debug_grid.origin = origin;
+    debug_grid.cell_m = options.cell_m;
+    debug_grid.cols = cols;
+    debug_grid.rows = rows;
+    for (auto& h : impl.Maxima(grids[k], k, origin, &debug_grid)) hypotheses.push_back(h);
+    if (keep_debug) {
+      debug_grid.values.assign(grids[k].begin<float>(), grids[k].end<float>());
+      debug_grids.push_back(std::move(debug_grid));
+    }
+  }
+  timer.Lap("maxima");
+
+  // 5-7. Rank, fit and verify every hypothesis (independent: all cores).
+  std::vector<std::optional<Detection>> found(hypotheses.size());
+  std::vector<std::vector<Eigen::Vector3f>> fitted(hypotheses.size());
+  std::vector<std::vector<int>> support(hypotheses.size());  // cloud points each fit explains
+  // Each voting segment's nearest part subsets, once for all hypotheses.
+  std::vector<char> voted(view.segments.size(), 0);
+  for (const Vote& vote : votes) voted[vote.segment] = 1;
+  std::vector<std::vector<int>> segment_neighbours(view.segments.size());
+  ParallelFor(0, static_cast<int>(view.segments.size()), [&](int s) {
+    if (voted[s] && view.segments[s].size() >= 3) {
+      segment_neighbours[s] =
+          impl.parts->Nearest(ComputeVfh(view.cloud, view.segments[s], sensor), options.neighbours);
+    }
+  });
+  for (DetectionDebug::Hypothesis& hypothesis : hypotheses)
+    impl.Rank(votes, segment_neighbours, &hypothesis);
+  timer.Lap("rank");
+  ParallelFor(0, static_cast<int>(hypotheses.size()), [&](int h) {
+    impl.FitAndVerify(view, occupancy, h, &hypotheses[h], &found[h], &fitted[h], &support[h]);
+  });
+  timer.Lap("fit+verify");
+
+  // Suppression, best score first: a detection is dropped when kept ones
+  // already explain more than max_shared_support of the points it explains,
+  // or when its footprint overlaps a kept one's by more than
+  // max_footprint_overlap (of the smaller footprint).
+  std::vector<int> order;
+  for (size_t h = 0; h < found.size(); ++h) {
+    if (found[h]) order.push_back(static_cast<int>(h));
+  }
+  std::stable_sort(
+      order.begin(), order.end(), [&](int a, int b) { return found[a]->score > found[b]->score; });
+  std::vector<int> kept;
+  std::vector<char> explained(view.cloud.size(), 0);
+  for (int h : order) {
+    const Detection& d = *found[h];
+    size_t shared = 0;
+    for (int i : support[h]) shared += explained[i];
+    const double shared_fraction =
+        support[h].empty() ? 1.0 : static_cast<double>(shared) / support[h].size();
+    const cv::RotatedRect footprint =
+        Footprint(model.model_shapes[d.model_index], PlanarPose{d.x, d.y, d.yaw});
+    double overlap = 0;
+    for (int k : kept) {
+      const Detection& other = *found[k];
+      overlap = std::max(overlap,
+                         FootprintOverlap(footprint,
+                                          Footprint(model.model_shapes[other.model_index],
+                                                    PlanarPose{other.x, other.y, other.yaw})));
+    }
+    if (shared_fraction > options.max_shared_support || overlap > options.max_footprint_overlap) {
+      char text[96];
+      std::snprintf(
+          text, sizeof(text), "suppressed (shares %.2f, overlaps %.2f)", shared_fraction, overlap);
+      hypotheses[h].outcome = text;
+      continue;
+    }
+    for (int i : support[h]) explained[i] = 1;
+    kept.push_back(h);
+    result.detections.push_back(d);
+  }
+  timer.Lap("suppress");
+  timer.Total();
+
+  if (keep_debug) {
+    DetectionDebug& debug = result.debug;
+    debug.points = view.cloud.points;
+    debug.segment_of_point.assign(view.cloud.size(), -1);
+    for (size_t s = 0; s < view.segments.size(); ++s) {
+      for (int i : view.segments[s]) debug.segment_of_point[i] = static_cast<int>(s);
+    }
+    debug.grids = std::move(debug_grids);
+    debug.hypotheses = hypotheses;
+    for (int h : kept) debug.fitted_points.push_back(fitted[h]);
+  }
+  return result;
+}
+
+}  // namespace furn

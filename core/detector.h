@@ -1,0 +1,148 @@
+// Detection (SPEC.md §8; Usenko et al. Sec. IV): furniture in one depth scan.
+//
+//   1. points in the world frame (floor z = 0; found by RANSAC when the camera
+//      pose is unknown), farther than max_range_m from the sensor dropped,
+//      floor points (z < floor_band_m) set aside;
+//   2. segments and SGFs through SegmentView, the training code path;
+//   3. probabilistic Hough voting: each segment activates words; every shape
+//      entry (class o, relation d) of word A_i whose training height matches
+//      votes at the segment centroid + d (view-aligned, as trained) with
+//      weight p(A_i | f) / #(A_i, o), on a per-class xy grid, then smoothed;
+//   4. local maxima per class in a window of half the class's width, above
+//      (max - min) * t + min of the grid (paper eq. 8) and an absolute floor;
+//   5. the segments that voted near a maximum -> VFH -> k nearest part subsets
+//      -> the top-M CAD models of that class;
+//   6. each candidate fitted by 3-DOF RANSAC + ICP (pose_fit.h);
+//   7. the fit verified against the scene's occupancy grid (occupancy.h);
+//      a detection whose points better ones already explain, or whose
+//      footprint overlaps a better one's, is dropped.
+//
+// The shared preprocessing projects points onto their MLS quadric, which is
+// the smoothing SPEC §8.1 asks for; training and detection both get it.
+//
+//   Detector detector(LoadTrainedModel("model.fcm"), DetectorOptions{});
+//   DetectionResult result = detector.Detect(input);
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <array>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/floor.h"
+#include "core/pose_fit.h"
+#include "core/trainer.h"
+
+namespace furn {
+
+struct DetectorOptions {
+  double max_range_m = 3.0;               // points farther from the sensor are dropped (m, > 0)
+  double floor_band_m = 0.03;             // points below this height are floor (m, >= 0)
+  FloorOptions floor;                     // used when the camera pose is unknown
+  double max_segment_extent_m = 2.5;      // larger segments (walls) do not vote (m, > 0)
+  double cell_m = 0.02;                   // vote grid cell (m, 0.005..0.2)
+  double vote_sigma_m = 0.03;             // Gaussian smoothing of the vote grids (m, >= 0)
+  double vote_height_tolerance_m = 0.15;  // entries vote only near their training height (0: off)
+  double relative_threshold = 0.3;        // t of paper eq. 8 (0..1)
+  double absolute_threshold = 0.0;        // minimum smoothed vote weight of a maximum (>= 0)
+  int max_hypotheses_per_class = 6;       // strongest maxima kept per class (>= 1)
+  double support_radius_m = 0.12;         // segments voting this close to a maximum support it (m)
+  int neighbours = 20;                    // part subsets retrieved per hypothesis (>= 1)
+  int top_models = 3;                     // CAD models fitted per hypothesis (M, >= 1)
+  FitOptions fit;
+  double min_covered_fraction = 0.5;  // fits explaining less of the points in their box are dropped
+  double occupancy_voxel_m = 0.05;    // verification grid (m)
+  double occupied_weight = 5;         // w of the visibility score (> 0)
+  double min_verification = 0.6;      // detections below this visibility score are rejected
+  // Suppression of weaker detections: by the share of their points that
+  // better ones already explain, and by footprint overlap with a better one
+  // (of the smaller footprint). Both in 0..1.
+  double max_shared_support = 0.5;
+  double max_footprint_overlap = 0.6;
+  uint64_t seed = 1;  // RANSAC draws
+
+  // Throws InputError naming the field and the rule.
+  void Check() const;
+};
+
+struct DetectionInput {
+  // Camera frame (optical: x right, y down, z forward), metres; non-finite
+  // points are ignored. Organised clouds may keep their NaNs.
+  std::vector<Eigen::Vector3f> points;
+  int width = 0, height = 0;                           // organised size, or 0 when unorganised
+  std::optional<Eigen::Isometry3d> world_from_camera;  // floor at z = 0, z up
+};
+
+struct Detection {
+  FurnitureClass furniture_class = FurnitureClass::kChair;
+  double x = 0, y = 0, z = 0, yaw = 0;  // reference point and yaw, world frame
+  int model_index = -1;                 // into the trained model's names
+  std::string model_name;
+  double score = 0;             // ranking score: verification x covered fraction
+  double vote_weight = 0;       // smoothed Hough value at the maximum
+  double verification = 0;      // visibility score vs
+  double covered_fraction = 0;  // of the scene points inside the fitted box, those it explains
+};
+
+// Everything a report needs to show how the detections came about.
+struct DetectionDebug {
+  struct VoteGrid {
+    FurnitureClass furniture_class = FurnitureClass::kChair;
+    Eigen::Vector2f origin = Eigen::Vector2f::Zero();  // world xy of the grid's corner
+    double cell_m = 0;
+    int cols = 0, rows = 0;
+    std::vector<float> values;  // smoothed votes, row-major, row = y
+    double threshold = 0;       // of the maxima
+  };
+  struct Hypothesis {
+    FurnitureClass furniture_class = FurnitureClass::kChair;
+    double x = 0, y = 0, vote_weight = 0;
+    std::vector<int> segments;          // that voted for it
+    std::vector<int> candidate_models;  // ranked by the part subsets
+    struct Fit {
+      int model_index = -1;
+      double x = 0, y = 0, yaw = 0;
+      double covered_fraction = 0, verification = 0, score = 0;
+    };
+    std::vector<Fit> fits;  // of the candidates that gave a pose
+    std::string outcome;    // "detected", "no fit", "verification 0.41", ...
+  };
+  std::vector<Eigen::Vector3f> points;  // preprocessed, floor removed, world frame
+  std::vector<int> segment_of_point;    // -1 when in no segment
+  std::vector<VoteGrid> grids;          // one per class
+  std::vector<Hypothesis> hypotheses;
+  std::vector<std::vector<Eigen::Vector3f>> fitted_points;  // per detection, world frame
+};
+
+struct DetectionResult {
+  std::vector<Detection> detections;  // best score first
+  Eigen::Isometry3d world_from_camera = Eigen::Isometry3d::Identity();
+  bool floor_estimated = false;  // world_from_camera came from FindFloor
+  int input_points = 0, points = 0, segments = 0;
+  std::vector<std::pair<std::string, double>> timings_ms;  // per stage, in order, then "total"
+  DetectionDebug debug;                                    // filled when asked for
+};
+
+class Detector {
+ public:
+  // Checks the options; indexes the shape model and part-subset library.
+  Detector(TrainedModel model, const DetectorOptions& options);
+  ~Detector();
+
+  // Throws InputError for an input with no finite point, or no floor when
+  // the pose is unknown. Uses both cores; the same input gives the same result.
+  DetectionResult Detect(const DetectionInput& input, bool keep_debug = false) const;
+
+  const TrainedModel& model() const;
+  const DetectorOptions& options() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace furn

@@ -1,0 +1,106 @@
+#include "core/floor.h"
+
+#include <pcl/ModelCoefficients.h>
+#include <pcl/point_cloud.h>
+#include <pcl/point_types.h>
+#include <pcl/sample_consensus/method_types.h>
+#include <pcl/sample_consensus/model_types.h>
+#include <pcl/segmentation/sac_segmentation.h>
+
+#include <cmath>
+
+#include "core/error.h"
+#include "core/pcl_conversion.h"
+
+namespace furn {
+
+void FloorOptions::Check() const {
+  Require(distance_m >= 0.002 && distance_m <= 0.2,
+          "floor distance " + std::to_string(distance_m) + " m must be in 0.002..0.2");
+  Require(iterations >= 10, "floor RANSAC iterations must be >= 10");
+  Require(max_tilt_deg >= 1 && max_tilt_deg <= 89, "floor max tilt must be in 1..89 degrees");
+  Require(min_fraction > 0 && min_fraction < 1, "floor min fraction must be in (0, 1)");
+  Require(min_camera_height_m >= 0, "floor min camera height must be >= 0");
+}
+
+Eigen::Isometry3d FindFloor(const std::vector<Eigen::Vector3f>& points_in_camera,
+                            const FloorOptions& options) {
+  options.Check();
+  std::vector<Eigen::Vector3f> finite;
+  finite.reserve(points_in_camera.size());
+  for (const Eigen::Vector3f& p : points_in_camera) {
+    if (p.allFinite()) finite.push_back(p);
+  }
+  Require(finite.size() >= 100,
+          "floor: " + std::to_string(finite.size()) + " finite points; at least 100 are needed");
+  // RANSAC on a fixed subsample keeps it fast and deterministic.
+  const size_t stride = std::max<size_t>(1, finite.size() / 20000);
+  std::vector<Eigen::Vector3f> sample;
+  for (size_t i = 0; i < finite.size(); i += stride) sample.push_back(finite[i]);
+  auto cloud = ToPclPoints(sample);
+
+  pcl::SACSegmentation<pcl::PointXYZ> ransac;
+  ransac.setOptimizeCoefficients(true);
+  ransac.setModelType(pcl::SACMODEL_PERPENDICULAR_PLANE);
+  ransac.setMethodType(pcl::SAC_RANSAC);
+  ransac.setAxis(Eigen::Vector3f(0, -1, 0));  // camera up
+  ransac.setEpsAngle(options.max_tilt_deg * M_PI / 180);
+  ransac.setDistanceThreshold(options.distance_m);
+  ransac.setMaxIterations(options.iterations);
+  ransac.setInputCloud(cloud);
+  // Planes are taken largest first; walls and table tops are skipped by the
+  // axis test or by lying above other points, so try a few.
+  std::vector<bool> removed(sample.size(), false);
+  for (int attempt = 0; attempt < 4; ++attempt) {
+    auto indices = pcl::make_shared<pcl::Indices>();
+    for (size_t i = 0; i < sample.size(); ++i) {
+      if (!removed[i]) indices->push_back(static_cast<int>(i));
+    }
+    if (indices->size() < 3) break;
+    ransac.setIndices(indices);
+    pcl::PointIndices inliers;
+    pcl::ModelCoefficients coefficients;
+    ransac.segment(inliers, coefficients);
+    if (inliers.indices.size() < options.min_fraction * sample.size() ||
+        coefficients.values.size() != 4) {
+      break;
+    }
+    Eigen::Vector3d normal(coefficients.values[0], coefficients.values[1], coefficients.values[2]);
+    double offset = coefficients.values[3];
+    const double length = normal.norm();
+    normal /= length;
+    offset /= length;
+    if (offset < 0) {  // orient towards the camera: n.c + d > 0 at c = 0
+      normal = -normal;
+      offset = -offset;
+    }
+    // The floor has (almost) nothing below it; a table top has legs and floor.
+    size_t below = 0;
+    for (size_t i = 0; i < sample.size(); ++i) {
+      below += normal.dot(sample[i].cast<double>()) + offset < -3 * options.distance_m;
+    }
+    if (offset >= options.min_camera_height_m && below < 0.02 * sample.size()) {
+      // World frame: z = normal, x = camera forward projected on the floor.
+      const Eigen::Vector3d z = normal;
+      Eigen::Vector3d x = Eigen::Vector3d::UnitZ() - z * z.z();
+      if (x.norm() < 1e-6) x = Eigen::Vector3d::UnitX() - z * z.x();
+      x.normalize();
+      const Eigen::Vector3d y = z.cross(x);
+      Eigen::Matrix3d world_from_camera_rotation;
+      world_from_camera_rotation.row(0) = x.transpose();
+      world_from_camera_rotation.row(1) = y.transpose();
+      world_from_camera_rotation.row(2) = z.transpose();
+      Eigen::Isometry3d world_from_camera = Eigen::Isometry3d::Identity();
+      world_from_camera.linear() = world_from_camera_rotation;
+      world_from_camera.translation() = Eigen::Vector3d(0, 0, offset);
+      return world_from_camera;
+    }
+    for (int i : inliers.indices) removed[i] = true;
+  }
+  throw InputError("no floor found: no plane within " + std::to_string(options.max_tilt_deg) +
+                   " degrees of the camera's up direction holds " +
+                   std::to_string(static_cast<int>(100 * options.min_fraction)) +
+                   "% of the points with nothing below it");
+}
+
+}  // namespace furn

@@ -1,0 +1,280 @@
+#include "reports/detection_debug.h"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "core/error.h"
+#include "core/file_util.h"
+#include "reports/png_file.h"
+
+namespace furn {
+namespace {
+
+// A distinct, stable colour per segment (golden-angle hues).
+cv::Scalar SegmentColour(int segment) {
+  cv::Mat hsv(1, 1, CV_8UC3, cv::Scalar(static_cast<int>(segment * 137.508) % 180, 200, 255));
+  cv::Mat bgr;
+  cv::cvtColor(hsv, bgr, cv::COLOR_HSV2BGR);
+  const cv::Vec3b c = bgr.at<cv::Vec3b>(0, 0);
+  return cv::Scalar(c[0], c[1], c[2]);
+}
+
+// Camera-view canvas: projects world points through the inverse pose.
+class CameraView {
+ public:
+  CameraView(const CameraIntrinsics& camera, const Eigen::Isometry3d& world_from_camera)
+      : camera_(camera),
+        camera_from_world_(world_from_camera.inverse().cast<float>()),
+        image_(camera.height, camera.width, CV_8UC3, cv::Scalar(0, 0, 0)),
+        depth_(camera.height, camera.width, CV_32F, cv::Scalar(1e9f)) {}
+
+  // Draws a 2x2 dot unless something nearer is already there.
+  void Dot(const Eigen::Vector3f& world, const cv::Scalar& colour) {
+    const Eigen::Vector3f p = camera_from_world_ * world;
+    if (p.z() <= 0.05f) return;
+    const Eigen::Vector2d pixel = camera_.Project(p.cast<double>());
+    const int u = static_cast<int>(pixel.x()), v = static_cast<int>(pixel.y());
+    for (int dv = 0; dv < 2; ++dv) {
+      for (int du = 0; du < 2; ++du) {
+        const int x = u + du, y = v + dv;
+        if (x < 0 || y < 0 || x >= image_.cols || y >= image_.rows) continue;
+        float& nearest = depth_.at<float>(y, x);
+        if (p.z() > nearest) continue;
+        nearest = p.z();
+        image_.at<cv::Vec3b>(y, x) = cv::Vec3b(colour[0], colour[1], colour[2]);
+      }
+    }
+  }
+  std::optional<cv::Point> Pixel(const Eigen::Vector3f& world) const {
+    const Eigen::Vector3f p = camera_from_world_ * world;
+    if (p.z() <= 0.05f) return std::nullopt;
+    const Eigen::Vector2d pixel = camera_.Project(p.cast<double>());
+    return cv::Point(static_cast<int>(pixel.x()), static_cast<int>(pixel.y()));
+  }
+  cv::Mat& image() { return image_; }
+
+ private:
+  CameraIntrinsics camera_;
+  Eigen::Isometry3f camera_from_world_;
+  cv::Mat image_;
+  cv::Mat depth_;
+};
+
+cv::Scalar GreyForDistance(float distance) {
+  const int level = static_cast<int>(std::clamp(230.0f - 45.0f * distance, 60.0f, 230.0f));
+  return cv::Scalar(level, level, level);
+}
+
+// Top-down canvas over a world xy rectangle, y up, `pixels_per_metre`.
+class TopDown {
+ public:
+  TopDown(const Eigen::Vector2f& low, const Eigen::Vector2f& high, double pixels_per_metre)
+      : low_(low), high_(high), scale_(pixels_per_metre) {
+    image_ = cv::Mat(static_cast<int>((high.y() - low.y()) * scale_) + 1,
+                     static_cast<int>((high.x() - low.x()) * scale_) + 1,
+                     CV_8UC3,
+                     cv::Scalar(24, 24, 24));
+  }
+  cv::Point At(double x, double y) const {
+    return cv::Point(static_cast<int>((x - low_.x()) * scale_),
+                     static_cast<int>((high_.y() - y) * scale_));
+  }
+  // The footprint rectangle of a posed box (model-frame corners low/high).
+  void Footprint(const PlanarPose& pose,
+                 const Eigen::Vector2f& low,
+                 const Eigen::Vector2f& high,
+                 const cv::Scalar& colour,
+                 int thickness) {
+    std::vector<cv::Point> corners;
+    for (const Eigen::Vector2f& corner :
+         {low, Eigen::Vector2f(high.x(), low.y()), high, Eigen::Vector2f(low.x(), high.y())}) {
+      const Eigen::Vector3f w = pose.Apply(Eigen::Vector3f(corner.x(), corner.y(), 0));
+      corners.push_back(At(w.x(), w.y()));
+    }
+    cv::polylines(image_, corners, true, colour, thickness, cv::LINE_AA);
+    // Front (-y in the model frame) marked by a tick from the centre.
+    const Eigen::Vector3f front = pose.Apply(Eigen::Vector3f(0, low.y(), 0));
+    cv::line(image_, At(pose.x, pose.y), At(front.x(), front.y()), colour, 1, cv::LINE_AA);
+  }
+  cv::Mat& image() { return image_; }
+
+ private:
+  Eigen::Vector2f low_, high_;
+  double scale_;
+  cv::Mat image_;
+};
+
+void Caption(cv::Mat* image, const std::string& text) {
+  DrawLabel(image, text, cv::Point(6, 16), cv::Scalar(255, 255, 255), 0.45);
+}
+
+}  // namespace
+
+void WriteDetectionDebug(const DetectionResult& result,
+                         const TrainedModel& model,
+                         const CameraIntrinsics& camera,
+                         const std::vector<GroundTruthFootprint>& ground_truth,
+                         const std::string& dir) {
+  std::error_code error;
+  std::filesystem::create_directories(dir, error);
+  Require(!error, dir + ": cannot create the debug directory (" + error.message() + ")");
+  const DetectionDebug& debug = result.debug;
+  const Eigen::Vector3f sensor = result.world_from_camera.translation().cast<float>();
+  auto path = [&](const std::string& name) { return (std::filesystem::path(dir) / name).string(); };
+
+  // Segments, from the camera.
+  {
+    CameraView view(camera, result.world_from_camera);
+    for (size_t i = 0; i < debug.points.size(); ++i) {
+      const int s = debug.segment_of_point[i];
+      view.Dot(debug.points[i], s < 0 ? cv::Scalar(90, 90, 90) : SegmentColour(s));
+    }
+    Caption(&view.image(),
+            std::to_string(result.segments) + " segments of " + std::to_string(result.points) +
+                " points (floor removed)");
+    WritePngAtomically(view.image(), path("segments.png"));
+  }
+
+  // Fitted models over the scan, from the camera.
+  {
+    CameraView view(camera, result.world_from_camera);
+    for (const Eigen::Vector3f& p : debug.points) view.Dot(p, GreyForDistance((p - sensor).norm()));
+    for (size_t d = 0; d < result.detections.size(); ++d) {
+      const cv::Scalar colour = ClassColour(ClassName(result.detections[d].furniture_class));
+      for (const Eigen::Vector3f& p : debug.fitted_points[d]) view.Dot(p, colour);
+    }
+    for (const Detection& d : result.detections) {
+      const ModelShape& shape = model.model_shapes[d.model_index];
+      const PlanarPose pose{d.x, d.y, d.yaw};
+      if (const auto at = view.Pixel(pose.Apply(Eigen::Vector3f(0, 0, shape.high.z())))) {
+        char text[96];
+        std::snprintf(text, sizeof(text), "%s %.2f", ClassName(d.furniture_class), d.score);
+        DrawLabel(&view.image(),
+                  text,
+                  *at + cv::Point(-30, -6),
+                  ClassColour(ClassName(d.furniture_class)));
+      }
+    }
+    Caption(&view.image(), std::to_string(result.detections.size()) + " detections: fitted models");
+    WritePngAtomically(view.image(), path("fitted.png"));
+  }
+
+  // Vote heat maps, one per class, top-down with y up.
+  for (const DetectionDebug::VoteGrid& grid : debug.grids) {
+    if (grid.values.empty()) continue;
+    cv::Mat values(grid.rows, grid.cols, CV_32F, const_cast<float*>(grid.values.data()));
+    double high = 0;
+    cv::minMaxLoc(values, nullptr, &high);
+    cv::Mat grey;
+    values.convertTo(grey, CV_8U, high > 0 ? 255.0 / high : 0.0);
+    cv::Mat flipped, heat;
+    cv::flip(grey, flipped, 0);
+    cv::applyColorMap(flipped, heat, cv::COLORMAP_INFERNO);
+    const double scale = std::clamp(700.0 / std::max(grid.cols, grid.rows), 1.0, 4.0);
+    cv::resize(heat, heat, cv::Size(), scale, scale, cv::INTER_NEAREST);
+    const double pixels_per_metre = scale / grid.cell_m;
+    auto at = [&](double x, double y) {
+      return cv::Point(static_cast<int>((x - grid.origin.x()) * pixels_per_metre),
+                       heat.rows - static_cast<int>((y - grid.origin.y()) * pixels_per_metre));
+    };
+    for (size_t i = 0; i < debug.points.size(); i += 3) {  // faint scene outline
+      const cv::Point p = at(debug.points[i].x(), debug.points[i].y());
+      if (p.x >= 0 && p.y >= 0 && p.x < heat.cols && p.y < heat.rows)
+        heat.at<cv::Vec3b>(p) = cv::Vec3b(110, 110, 110);
+    }
+    cv::circle(heat, at(sensor.x(), sensor.y()), 5, cv::Scalar(255, 255, 255), cv::FILLED);
+    int maxima = 0;
+    for (const DetectionDebug::Hypothesis& h : debug.hypotheses) {
+      if (h.furniture_class != grid.furniture_class) continue;
+      ++maxima;
+      const bool detected = h.outcome == "detected";
+      const cv::Scalar colour = detected ? cv::Scalar(80, 255, 80) : cv::Scalar(200, 200, 200);
+      cv::circle(heat, at(h.x, h.y), detected ? 9 : 6, colour, 2, cv::LINE_AA);
+      char text[96];
+      std::snprintf(text, sizeof(text), "%.2f %s", h.vote_weight, h.outcome.c_str());
+      DrawLabel(&heat, text, at(h.x, h.y) + cv::Point(10, 4), colour, 0.38);
+    }
+    char caption[160];
+    std::snprintf(caption,
+                  sizeof(caption),
+                  "%s votes: max %.2f, threshold %.2f, %d maxima (green: detected)",
+                  ClassName(grid.furniture_class),
+                  high,
+                  grid.threshold,
+                  maxima);
+    Caption(&heat, caption);
+    WritePngAtomically(heat,
+                       path(std::string("votes_") + ClassName(grid.furniture_class) + ".png"));
+  }
+
+  // Top-down: points, ground truth (white), detections (class colour).
+  {
+    Eigen::Vector2f low = sensor.head<2>(), high = sensor.head<2>();
+    for (const Eigen::Vector3f& p : debug.points) {
+      low = low.cwiseMin(p.head<2>());
+      high = high.cwiseMax(p.head<2>());
+    }
+    for (const GroundTruthFootprint& g : ground_truth) {
+      low = low.cwiseMin(Eigen::Vector2f(g.x, g.y));
+      high = high.cwiseMax(Eigen::Vector2f(g.x, g.y));
+    }
+    low -= Eigen::Vector2f::Constant(0.5f);
+    high += Eigen::Vector2f::Constant(0.5f);
+    const double pixels_per_metre = std::clamp(700.0 / (high - low).maxCoeff(), 40.0, 200.0);
+    TopDown top(low, high, pixels_per_metre);
+    for (const Eigen::Vector3f& p : debug.points)
+      cv::circle(top.image(), top.At(p.x(), p.y()), 0, GreyForDistance(2.5f - p.z() * 1.5f), 1);
+    cv::circle(
+        top.image(), top.At(sensor.x(), sensor.y()), 6, cv::Scalar(255, 255, 255), cv::FILLED);
+    for (const GroundTruthFootprint& g : ground_truth) {
+      const Eigen::Vector2f half(static_cast<float>(g.width / 2), static_cast<float>(g.depth / 2));
+      top.Footprint(
+          PlanarPose{g.x, g.y, g.yaw},
+          -half,
+          half,
+          g.furniture_class.empty() ? cv::Scalar(110, 110, 110) : cv::Scalar(255, 255, 255),
+          1);
+    }
+    for (const Detection& d : result.detections) {
+      const ModelShape& shape = model.model_shapes[d.model_index];
+      const cv::Scalar colour = ClassColour(ClassName(d.furniture_class));
+      top.Footprint(
+          PlanarPose{d.x, d.y, d.yaw}, shape.low.head<2>(), shape.high.head<2>(), colour, 2);
+      char text[64];
+      std::snprintf(text, sizeof(text), "%s %.2f", ClassName(d.furniture_class), d.score);
+      DrawLabel(&top.image(), text, top.At(d.x, d.y) + cv::Point(6, -6), colour, 0.4);
+    }
+    Caption(&top.image(), "top-down: detections (class colour) and ground truth (white)");
+    WritePngAtomically(top.image(), path("topdown.png"));
+  }
+
+  nlohmann::ordered_json hypotheses = nlohmann::ordered_json::array();
+  for (const DetectionDebug::Hypothesis& h : debug.hypotheses) {
+    nlohmann::ordered_json candidates = nlohmann::ordered_json::array();
+    for (int m : h.candidate_models) candidates.push_back(model.model_names[m]);
+    nlohmann::ordered_json fits = nlohmann::ordered_json::array();
+    for (const DetectionDebug::Hypothesis::Fit& f : h.fits) {
+      fits.push_back({{"model", model.model_names[f.model_index]},
+                      {"x", f.x},
+                      {"y", f.y},
+                      {"yaw", f.yaw},
+                      {"covered_fraction", f.covered_fraction},
+                      {"verification", f.verification},
+                      {"score", f.score}});
+    }
+    hypotheses.push_back({{"class", ClassName(h.furniture_class)},
+                          {"x", h.x},
+                          {"y", h.y},
+                          {"vote_weight", h.vote_weight},
+                          {"segments", h.segments},
+                          {"candidates", candidates},
+                          {"fits", fits},
+                          {"outcome", h.outcome}});
+  }
+  WriteFileAtomically(path("hypotheses.json"), hypotheses.dump(2) + "\n");
+}
+
+}  // namespace furn

@@ -1,0 +1,34 @@
+// The debug bundle of one detection run as PNGs (issue 6, SPEC.md §8.8):
+//   segments.png      preprocessed points seen from the camera, one colour per segment;
+//   votes_<class>.png per-class Hough vote heat map (top-down) with its maxima,
+//                     each marked by outcome (detected / rejected);
+//   fitted.png        the fitted models' points over the scan, from the camera;
+//   topdown.png       scene points from above, fitted footprints and ground truth;
+//   hypotheses.json   every hypothesis: class, position, votes, candidates, outcome.
+//
+//   WriteDetectionDebug(result, detector.model(), camera, ground_truth, "debug/");
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "core/detector.h"
+#include "renderers/camera.h"
+
+namespace furn {
+
+// A true object for the top-down view (from a dataset frame).
+struct GroundTruthFootprint {
+  std::string furniture_class;  // empty for clutter
+  double x = 0, y = 0, yaw = 0, width = 0, depth = 0;
+};
+
+// `camera` projects the camera-frame points (Kinect v1 when the input had no
+// intrinsics). Creates `dir`; every file is written atomically.
+void WriteDetectionDebug(const DetectionResult& result,
+                         const TrainedModel& model,
+                         const CameraIntrinsics& camera,
+                         const std::vector<GroundTruthFootprint>& ground_truth,
+                         const std::string& dir);
+
+}  // namespace furn

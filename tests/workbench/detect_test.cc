@@ -1,0 +1,250 @@
+// Detection end to end on rendered rooms: procedural furniture placed at
+// known poses, a Kinect v1 frame from Embree and the sensor model, then the
+// detector with a model trained on the same procedural catalog.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <map>
+#include <nlohmann/json.hpp>
+
+#include "core/detector.h"
+#include "core/error.h"
+#include "core/file_util.h"
+#include "core/progress.h"
+#include "renderers/embree_caster.h"
+#include "renderers/frame_io.h"
+#include "renderers/kinect_simulator.h"
+#include "scenes/room_composer.h"
+#include "tests/test_util.h"
+#include "workbench/detect_command.h"
+#include "workbench/train_command.h"
+
+namespace furn {
+namespace {
+
+constexpr char kCatalog[] = "procedural:4";
+
+// One model trained for the whole file (training takes a few seconds).
+class DetectTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    Progress::SetQuiet(true);
+    catalog_ = new Catalog(OpenCatalog(kCatalog));
+    ScanOptions scan;
+    scan.heights_m = {1.0, 1.5};
+    scan.azimuths = 8;
+    TrainerOptions trainer;
+    trainer.vocabulary.words = 20;
+    trainer.vocabulary.kind = VocabularyKind::kKMeans;
+    const std::filesystem::path dir =
+        std::filesystem::temp_directory_path() / "furn_tests" / "DetectTest";
+    std::filesystem::create_directories(dir);
+    model_path_ = new std::string((dir / "model.fcm").string());
+    TrainFromCatalog(*catalog_, scan, trainer, *model_path_);
+    DetectorOptions options;
+    options.max_range_m = 4;  // the far pieces stand 3 to 3.8 m from the camera
+    detector_ = new Detector(LoadTrainedModel(*model_path_), options);
+  }
+  static void TearDownTestSuite() {
+    delete detector_;
+    delete model_path_;
+    delete catalog_;
+  }
+
+  // The id of the k-th model of a class in the catalog.
+  static std::string ModelOf(FurnitureClass furniture_class, int k) {
+    int seen = 0;
+    for (const CatalogEntry* entry : catalog_->Classified()) {
+      if (*entry->furniture_class == furniture_class && seen++ == k) return entry->id;
+    }
+    throw InputError("no such model");
+  }
+
+  struct Placement {
+    std::string model_id;
+    double x, y, yaw_deg;
+    bool target = true;
+  };
+
+  // A 6 x 6 m room with the pieces, seen from (0, -2.6, 1.8) looking along +y,
+  // pitched down 33 degrees.
+  static DetectionInput Render(const std::vector<Placement>& placements,
+                               const std::vector<CadModel>& extra_meshes = {}) {
+    RoomLayout layout;
+    layout.width_m = 6;
+    layout.depth_m = 6;
+    layout.wall_height_m = 2.5;
+    std::map<std::string, std::shared_ptr<const TriangleMesh>> meshes;
+    uint16_t instance = kFirstObjectId;
+    for (const Placement& p : placements) {
+      PlacedObject object;
+      object.model_id = p.model_id;
+      object.x = p.x;
+      object.y = p.y;
+      object.yaw = p.yaw_deg * M_PI / 180;
+      object.instance_id = instance++;
+      bool found = false;
+      for (const CadModel& extra : extra_meshes) {
+        if (extra.id == p.model_id) {
+          meshes[p.model_id] = std::make_shared<TriangleMesh>(extra.mesh);
+          found = true;
+        }
+      }
+      if (!found) {
+        LoadedModels loaded = catalog_->LoadModels({p.model_id}, false);
+        loaded.RequireAll();
+        object.furniture_class = catalog_->Get(p.model_id).furniture_class;
+        meshes[p.model_id] = std::make_shared<TriangleMesh>(loaded.models[0].mesh);
+      }
+      layout.objects.push_back(object);
+    }
+    const Scene scene = BuildRoomScene(layout, meshes);
+    const double pitch = 33 * M_PI / 180;
+    const Eigen::Isometry3d world_from_camera = LookAlong(
+        Eigen::Vector3d(0, -2.6, 1.8), Eigen::Vector3d(0, std::cos(pitch), -std::sin(pitch)));
+    EmbreeCaster caster;
+    const KinectCapture capture = CaptureKinect(
+        &caster, scene, CameraIntrinsics::KinectV1(), world_from_camera, KinectNoiseOptions{}, 7);
+    if (std::getenv("FURN_TEST_DEBUG_DIR") != nullptr) {  // how much of each piece is in view
+      std::map<int, int> pixels;
+      for (uint16_t id : capture.ideal.instance_ids) ++pixels[id];
+      for (const PlacedObject& object : layout.objects)
+        std::printf("%s: %d pixels\n", object.model_id.c_str(), pixels[object.instance_id]);
+    }
+    DetectionInput input;
+    input.points = BackProject(capture.noisy, CameraIntrinsics::KinectV1());
+    input.width = 640;
+    input.height = 480;
+    input.world_from_camera = world_from_camera;
+    return input;
+  }
+
+  static double YawErrorDeg(double a, double b) {
+    const double d = std::fmod(std::abs(a - b), 2 * M_PI);
+    return std::min(d, 2 * M_PI - d) * 180 / M_PI;
+  }
+
+  // FURN_TEST_DEBUG_DIR=dir writes each test's debug PNGs there, to look at.
+  static void MaybeWriteDebug(const DetectionResult& result) {
+    if (const char* dir = std::getenv("FURN_TEST_DEBUG_DIR")) {
+      const ::testing::TestInfo* info = ::testing::UnitTest::GetInstance()->current_test_info();
+      WriteDetectionDebug(result,
+                          detector_->model(),
+                          CameraIntrinsics::KinectV1(),
+                          {},
+                          std::string(dir) + "/" + info->name());
+    }
+  }
+
+  static std::string Describe(const DetectionResult& result) {
+    MaybeWriteDebug(result);
+    std::string text;
+    for (const DetectionDebug::Hypothesis& h : result.debug.hypotheses) {
+      char line[200];
+      std::snprintf(line,
+                    sizeof(line),
+                    "\n hypothesis %s at (%.2f, %.2f) votes %.3f: %s",
+                    ClassName(h.furniture_class),
+                    h.x,
+                    h.y,
+                    h.vote_weight,
+                    h.outcome.c_str());
+      text += line;
+      for (const auto& f : h.fits) {
+        std::snprintf(line,
+                      sizeof(line),
+                      "\n   %s (%.2f, %.2f) yaw %.0f covered %.2f vs %.2f",
+                      detector_->model().model_names[f.model_index].c_str(),
+                      f.x,
+                      f.y,
+                      f.yaw * 180 / M_PI,
+                      f.covered_fraction,
+                      f.verification);
+        text += line;
+      }
+    }
+    for (const Detection& d : result.detections) {
+      char line[200];
+      std::snprintf(line,
+                    sizeof(line),
+                    "\n  %s at (%.2f, %.2f) yaw %.0f score %.2f %s",
+                    ClassName(d.furniture_class),
+                    d.x,
+                    d.y,
+                    d.yaw * 180 / M_PI,
+                    d.score,
+                    d.model_name.c_str());
+      text += line;
+    }
+    return text;
+  }
+
+  static Catalog* catalog_;
+  static std::string* model_path_;
+  static Detector* detector_;
+};
+
+Catalog* DetectTest::catalog_ = nullptr;
+std::string* DetectTest::model_path_ = nullptr;
+Detector* DetectTest::detector_ = nullptr;
+
+TEST_F(DetectTest, OneChairIsFoundWithItsPoseClassAndModel) {
+  const std::string chair = ModelOf(FurnitureClass::kChair, 1);
+  const DetectionResult result = detector_->Detect(Render({{chair, 0.2, 0.1, 30}}), true);
+  ASSERT_EQ(result.detections.size(), 1u) << Describe(result);
+  const Detection& d = result.detections[0];
+  EXPECT_EQ(d.furniture_class, FurnitureClass::kChair);
+  EXPECT_LT(std::hypot(d.x - 0.2, d.y - 0.1), 0.05) << Describe(result);
+  EXPECT_LT(YawErrorDeg(d.yaw, 30 * M_PI / 180), 10) << Describe(result);
+  EXPECT_EQ(d.model_name, chair);
+}
+
+TEST_F(DetectTest, TwoTablesAndFourChairsAreAllFoundAndNothingElse) {
+  const std::string square_table = ModelOf(FurnitureClass::kTable, 1);
+  const std::string long_table = ModelOf(FurnitureClass::kTable, 3);
+  // Everything in view and within range; chairs around and between the tables.
+  const std::vector<Placement> truth = {{square_table, -0.55, 0.35, 0},
+                                        {long_table, 0.75, 0.3, 90},
+                                        {ModelOf(FurnitureClass::kChair, 0), -0.55, -0.4, 180},
+                                        {ModelOf(FurnitureClass::kChair, 2), -1.25, 0.35, 90},
+                                        {ModelOf(FurnitureClass::kChair, 1), 0.12, 0.45, 270},
+                                        {ModelOf(FurnitureClass::kChair, 3), 0.75, -0.75, 180}};
+  const DetectionResult result = detector_->Detect(Render(truth), true);
+  std::vector<bool> matched(truth.size(), false);
+  for (const Detection& d : result.detections) {
+    bool any = false;
+    for (size_t k = 0; k < truth.size(); ++k) {
+      const FurnitureClass c = *catalog_->Get(truth[k].model_id).furniture_class;
+      if (!matched[k] && c == d.furniture_class &&
+          std::hypot(d.x - truth[k].x, d.y - truth[k].y) < 0.10) {
+        matched[k] = any = true;
+        break;
+      }
+    }
+    EXPECT_TRUE(any) << "false positive " << ClassName(d.furniture_class) << " at " << d.x << ", "
+                     << d.y << Describe(result);
+  }
+  for (size_t k = 0; k < truth.size(); ++k)
+    EXPECT_TRUE(matched[k]) << truth[k].model_id << " at " << truth[k].x << ", " << truth[k].y
+                            << " missed" << Describe(result);
+}
+
+TEST_F(DetectTest, EmptyRoomAndClutterGiveNothing) {
+  EXPECT_TRUE(detector_->Detect(Render({})).detections.empty());
+  CadModel box{"clutter/box",
+               "box",
+               "",
+               "",
+               MakeBox(Eigen::Vector3f(-0.25f, -0.2f, 0), Eigen::Vector3f(0.25f, 0.2f, 0.35f))};
+  CadModel tall{
+      "clutter/column", "column", "", "", MakeCylinder(Eigen::Vector3f::Zero(), 0.15f, 1.2f, 24)};
+  const DetectionResult clutter = detector_->Detect(
+      Render({{"clutter/box", 0.3, -0.3, 20, false}, {"clutter/column", -0.8, 0.4, 0, false}},
+             {box, tall}),
+      true);
+  EXPECT_TRUE(clutter.detections.empty()) << Describe(clutter);
+}
+
+}  // namespace
+}  // namespace furn
