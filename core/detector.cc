@@ -121,6 +121,8 @@ void DetectorOptions::Check() const {
           "min verification " + std::to_string(min_verification) + " must be in 0..1");
   Require(max_footprint_overlap >= 0 && max_footprint_overlap <= 1,
           "max footprint overlap must be in 0..1");
+  Require(min_score >= 0 && min_score <= 1, "min score must be in 0..1");
+  Require(min_seen_occupied >= 0 && min_seen_occupied <= 1, "min seen occupied must be in 0..1");
   Require(max_shared_support >= 0 && max_shared_support <= 1, "max shared support must be in 0..1");
 }
 
@@ -129,8 +131,8 @@ struct Detector::Impl {
   DetectorOptions options;
   std::vector<std::vector<int>> entries_of_word;             // shape entries per word
   std::vector<std::array<int, kClasses>> entries_per_class;  // #(A_i, o)
-  std::array<double, kClasses> class_width{};                // widest footprint per class (m)
-  std::vector<ModelFitter> fitters;                          // one per model
+  std::array<double, kClasses> class_width{};  // median footprint width per class (m); 0: none
+  std::vector<ModelFitter> fitters;            // one per model
   std::unique_ptr<PartSubsetIndex> parts;
 
   // The hypotheses of one class from its smoothed grid.
@@ -168,12 +170,18 @@ Detector::Detector(TrainedModel model, const DetectorOptions& options)
     impl.entries_of_word[entry.word].push_back(static_cast<int>(e));
     ++impl.entries_per_class[entry.word][static_cast<int>(entry.furniture_class)];
   }
+  std::array<std::vector<double>, kClasses> widths;
   for (size_t k = 0; k < m.model_names.size(); ++k) {
     const ModelShape& shape = m.model_shapes[k];
     Require(!shape.points.empty(), "model " + m.model_names[k] + " has an empty shape");
-    double& width = impl.class_width[static_cast<int>(m.model_classes[k])];
-    width = std::max<double>(width, (shape.high - shape.low).head<2>().maxCoeff());
+    widths[static_cast<int>(m.model_classes[k])].push_back(
+        (shape.high - shape.low).head<2>().maxCoeff());
     impl.fitters.emplace_back(shape, options.fit);
+  }
+  for (int c = 0; c < kClasses; ++c) {  // the median model's width
+    if (widths[c].empty()) continue;
+    std::sort(widths[c].begin(), widths[c].end());
+    impl.class_width[c] = widths[c][widths[c].size() / 2];
   }
   std::vector<VfhDescriptor> descriptors;
   for (const PartSubsetEntry& entry : m.part_library) descriptors.push_back(entry.descriptor);
@@ -197,8 +205,8 @@ std::vector<DetectionDebug::Hypothesis> Detector::Impl::Maxima(
   debug->threshold = threshold;
   std::vector<DetectionDebug::Hypothesis> maxima;
   if (high <= 0) return maxima;
-  // Local maxima in a window of half the class's width: equal to the grid's
-  // maximum filter there.
+  // Local maxima in a window half the class's (median) width across: equal
+  // to the grid's maximum filter there (the paper's window).
   const int half =
       std::max(1, static_cast<int>(std::lround(0.25 * class_width[class_index] / options.cell_m)));
   cv::Mat dilated;
@@ -336,9 +344,13 @@ void Detector::Impl::FitAndVerify(const ViewSegments& view,
     posed.reserve(model.model_shapes[m].points.size());
     for (const Eigen::Vector3f& p : model.model_shapes[m].points)
       posed.push_back(fit.pose.Apply(p));
-    const double verification = VisibilityScore(
-        occupancy, posed, options.occupied_weight, static_cast<float>(options.floor_band_m));
-    const double score = verification * covered;
+    const VisibilityCounts counts =
+        CountVisibility(occupancy, posed, static_cast<float>(options.floor_band_m));
+    const double verification = counts.Score(options.occupied_weight);
+    // Ranking: the paper's visibility score, times the share of the points in
+    // the model's box it explains, times the share of its observable surface
+    // the sensor actually saw (occluded points neither help nor hurt).
+    const double score = verification * covered * counts.SeenOccupied();
     hypothesis->fits.push_back(
         {m, fit.pose.x, fit.pose.y, fit.pose.yaw, covered, verification, score});
     if (score <= best_score) continue;
@@ -352,6 +364,18 @@ void Detector::Impl::FitAndVerify(const ViewSegments& view,
     }
     if (verification < options.min_verification) {
       std::snprintf(text, sizeof(text), "verification %.2f", verification);
+      outcome = text;
+      detection->reset();
+      continue;
+    }
+    if (counts.SeenOccupied() < options.min_seen_occupied) {
+      std::snprintf(text, sizeof(text), "seen occupied %.2f", counts.SeenOccupied());
+      outcome = text;
+      detection->reset();
+      continue;
+    }
+    if (score < options.min_score) {
+      std::snprintf(text, sizeof(text), "score %.2f", score);
       outcome = text;
       detection->reset();
       continue;

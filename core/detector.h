@@ -40,29 +40,53 @@
 namespace furn {
 
 struct DetectorOptions {
-  double max_range_m = 3.0;               // points farther from the sensor are dropped (m, > 0)
-  double floor_band_m = 0.03;             // points below this height are floor (m, >= 0)
-  FloorOptions floor;                     // used when the camera pose is unknown
-  double max_segment_extent_m = 2.5;      // larger segments (walls) do not vote (m, > 0)
-  double cell_m = 0.02;                   // vote grid cell (m, 0.005..0.2)
-  double vote_sigma_m = 0.03;             // Gaussian smoothing of the vote grids (m, >= 0)
-  double vote_height_tolerance_m = 0.15;  // entries vote only near their training height (0: off)
-  double relative_threshold = 0.3;        // t of paper eq. 8 (0..1)
-  double absolute_threshold = 0.0;        // minimum smoothed vote weight of a maximum (>= 0)
-  int max_hypotheses_per_class = 6;       // strongest maxima kept per class (>= 1)
-  double support_radius_m = 0.12;         // segments voting this close to a maximum support it (m)
-  int neighbours = 20;                    // part subsets retrieved per hypothesis (>= 1)
-  int top_models = 3;                     // CAD models fitted per hypothesis (M, >= 1)
+  // Input (m): points farther from the sensor are dropped; points below the
+  // floor band are floor. FindFloor's options apply when the pose is unknown.
+  double max_range_m = 3.0;
+  double floor_band_m = 0.03;
+  FloorOptions floor;
+
+  // Voting: segments larger than max_segment_extent_m (walls) do not vote;
+  // grid cell and Gaussian smoothing (m); a shape entry votes only when its
+  // training height is within the tolerance of the segment's (0: off).
+  double max_segment_extent_m = 2.5;
+  double cell_m = 0.02;
+  double vote_sigma_m = 0.03;
+  double vote_height_tolerance_m = 0.15;
+
+  // Hypotheses: t of paper eq. 8 (0..1), an absolute floor on the smoothed
+  // vote weight, the strongest maxima kept per class, and the radius (m)
+  // within which a segment's votes make it support a maximum.
+  double relative_threshold = 0.15;
+  double absolute_threshold = 0.0;
+  int max_hypotheses_per_class = 20;
+  double support_radius_m = 0.12;
+
+  // Ranking: part subsets retrieved per supporting segment; CAD models
+  // fitted per hypothesis (M).
+  int neighbours = 20;
+  int top_models = 3;
+
   FitOptions fit;
-  double min_covered_fraction = 0.5;  // fits explaining less of the points in their box are dropped
-  double occupancy_voxel_m = 0.05;    // verification grid (m)
-  double occupied_weight = 5;         // w of the visibility score (> 0)
-  double min_verification = 0.6;      // detections below this visibility score are rejected
+
+  // Verification (all shares in 0..1): the fit must explain min_covered of
+  // the scene points in its box; occupancy voxel (m) and w of the visibility
+  // score vs, which must reach min_verification; of the fit's observable
+  // surface the sensor must have seen min_seen_occupied; and the ranking
+  // score (vs x covered x seen) must reach min_score.
+  double min_covered_fraction = 0.75;
+  double occupancy_voxel_m = 0.05;
+  double occupied_weight = 5;
+  double min_verification = 0.6;
+  double min_seen_occupied = 0.75;
+  double min_score = 0.4;
+
   // Suppression of weaker detections: by the share of their points that
   // better ones already explain, and by footprint overlap with a better one
   // (of the smaller footprint). Both in 0..1.
   double max_shared_support = 0.5;
   double max_footprint_overlap = 0.6;
+
   uint64_t seed = 1;  // RANSAC draws
 
   // Throws InputError naming the field and the rule.

@@ -82,33 +82,60 @@ Occupancy OccupancyGrid::At(const Eigen::Vector3f& p) const {
   return Cell(p, &cell) ? cells_[Index(cell)] : Occupancy::kUnknown;
 }
 
+bool OccupancyGrid::OccupiedBeside(const Eigen::Vector3f& p) const {
+  Eigen::Vector3i cell;
+  if (!Cell(p, &cell)) return false;
+  for (int axis = 0; axis < 3; ++axis) {
+    for (int step : {-1, 1}) {
+      Eigen::Vector3i c = cell;
+      c[axis] += step;
+      if (c[axis] < 0 || c[axis] >= size_[axis]) continue;
+      if (cells_[Index(c)] == Occupancy::kOccupied) return true;
+    }
+  }
+  return false;
+}
+
 size_t OccupancyGrid::Count(Occupancy state) const {
   size_t n = 0;
   for (Occupancy c : cells_) n += c == state;
   return n;
 }
 
-double VisibilityScore(const OccupancyGrid& grid,
-                       const std::vector<Eigen::Vector3f>& model_points,
-                       double occupied_weight,
-                       float min_z) {
-  double occupied = 0, occluded = 0, free = 0;
+double VisibilityCounts::Score(double occupied_weight) const {
+  const double denominator = occupied * occupied_weight + occluded + free;
+  return denominator > 0 ? (occupied * occupied_weight + occluded) / denominator : 0.0;
+}
+
+double VisibilityCounts::SeenOccupied() const {
+  return occupied + free > 0 ? static_cast<double>(occupied) / (occupied + free) : 0.0;
+}
+
+VisibilityCounts CountVisibility(const OccupancyGrid& grid,
+                                 const std::vector<Eigen::Vector3f>& model_points,
+                                 float min_z) {
+  VisibilityCounts counts;
   for (const Eigen::Vector3f& p : model_points) {
     if (p.z() < min_z) continue;
     switch (grid.At(p)) {
       case Occupancy::kOccupied:
-        occupied += 1;
+        ++counts.occupied;
         break;
       case Occupancy::kUnknown:
-        occluded += 1;
+        ++counts.occluded;
         break;
       case Occupancy::kFree:
-        free += 1;
+        // A free voxel beside an occupied one: within a voxel of the surface,
+        // which pose error and thin parts (legs) make common.
+        if (grid.OccupiedBeside(p)) {
+          ++counts.occupied;
+        } else {
+          ++counts.free;
+        }
         break;
     }
   }
-  const double denominator = occupied * occupied_weight + occluded + free;
-  return denominator > 0 ? (occupied * occupied_weight + occluded) / denominator : 0.0;
+  return counts;
 }
 
 }  // namespace furn

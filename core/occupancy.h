@@ -23,6 +23,8 @@ class OccupancyGrid {
                 double voxel_m);
 
   Occupancy At(const Eigen::Vector3f& p) const;  // kUnknown outside the grid
+  // Whether one of the six voxels sharing a face with p's is occupied.
+  bool OccupiedBeside(const Eigen::Vector3f& p) const;
   double voxel_m() const { return voxel_; }
   // Voxels per state, for reports and tests.
   size_t Count(Occupancy state) const;
@@ -39,12 +41,20 @@ class OccupancyGrid {
   std::vector<Occupancy> cells_;
 };
 
-// SPEC.md §8.7: vs = (occupied * w + occluded) / (occupied * w + occluded + free)
-// over the given model points (world frame); points below `min_z` are skipped
-// (the floor is removed from the scene). 0 when no point counts.
-double VisibilityScore(const OccupancyGrid& grid,
-                       const std::vector<Eigen::Vector3f>& model_points,
-                       double occupied_weight,
-                       float min_z);
+// How the posed model's points (world frame) fall in the grid; points below
+// `min_z` are skipped (the floor is removed from the scene). A point in a
+// free voxel next to an occupied one counts as occupied (a voxel of slack).
+struct VisibilityCounts {
+  int occupied = 0, occluded = 0, free = 0;
+
+  // SPEC.md §8.7: vs = (occupied w + occluded) / (occupied w + occluded + free);
+  // 0 when no point counts.
+  double Score(double occupied_weight) const;
+  // Of the points the sensor could have seen (not occluded), the share it did.
+  double SeenOccupied() const;
+};
+VisibilityCounts CountVisibility(const OccupancyGrid& grid,
+                                 const std::vector<Eigen::Vector3f>& model_points,
+                                 float min_z);
 
 }  // namespace furn

@@ -93,9 +93,10 @@ VfhDescriptor ComputeVfh(const PointCloud& cloud,
 }
 
 struct PartSubsetIndex::Impl {
-  Eigen::RowVectorXf mean;                                         // 1 x 308
-  Eigen::MatrixXf basis;                                           // 308 x d
-  Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic> projected;  // n x d
+  Eigen::RowVectorXf mean;        // 1 x 308
+  Eigen::MatrixXf basis;          // 308 x d
+  Eigen::MatrixXf projected;      // n x d
+  Eigen::VectorXf squared_norms;  // of the projected rows
 };
 
 PartSubsetIndex::PartSubsetIndex(const std::vector<VfhDescriptor>& descriptors, int dimensions)
@@ -119,6 +120,7 @@ PartSubsetIndex::PartSubsetIndex(const std::vector<VfhDescriptor>& descriptors, 
   // Eigenvalues ascend: the last columns are the strongest components.
   impl_->basis = solver.eigenvectors().rightCols(dimensions).rowwise().reverse().cast<float>();
   impl_->projected = (all.rowwise() - impl_->mean) * impl_->basis;
+  impl_->squared_norms = impl_->projected.rowwise().squaredNorm();
 }
 
 PartSubsetIndex::~PartSubsetIndex() = default;
@@ -127,7 +129,10 @@ std::vector<int> PartSubsetIndex::Nearest(const VfhDescriptor& query, int k) con
   constexpr int kBins = static_cast<int>(std::tuple_size<VfhDescriptor>::value);
   const Eigen::RowVectorXf q =
       (Eigen::Map<const Eigen::RowVectorXf>(query.data(), kBins) - impl_->mean) * impl_->basis;
-  const Eigen::VectorXf distances = (impl_->projected.rowwise() - q).rowwise().squaredNorm();
+  // |p - q|^2 = |p|^2 - 2 p.q + |q|^2: one matrix-vector product; |q|^2 is
+  // the same for every p and left out.
+  const Eigen::VectorXf distances =
+      impl_->squared_norms - 2.0f * (impl_->projected * q.transpose());
   std::vector<int> order(distances.size());
   std::iota(order.begin(), order.end(), 0);
   const size_t count = std::min<size_t>(std::max(k, 0), order.size());

@@ -1,13 +1,9 @@
 #include "core/pose_fit.h"
 
-#include <pcl/kdtree/kdtree_flann.h>
-#include <pcl/point_cloud.h>
-#include <pcl/point_types.h>
-
 #include <cmath>
+#include <limits>
 
 #include "core/error.h"
-#include "core/pcl_conversion.h"
 #include "core/random.h"
 
 namespace furn {
@@ -47,28 +43,31 @@ void FitOptions::Check() const {
   Require(inlier_m > 0 && inlier_m < 1, "fit inlier distance must be in (0, 1) m");
   Require(max_offset_m > 0, "fit max offset must be > 0");
   Require(refine_iterations >= 0, "fit refine iterations must be >= 0");
+  Require(above_m >= 0 && above_m <= 2, "fit above_m must be in 0..2 m");
 }
 
 struct ModelFitter::Impl {
-  // Voxels (inlier_m / 2) within inlier_m of a model point: O(1) coverage tests.
+  // Voxels (inlier_m / 2) within inlier_m of a model point hold the index of
+  // the model point nearest their centre (-1 elsewhere): O(1) coverage tests
+  // and ICP correspondences.
   float cell = 0;
   Eigen::Vector3f origin;
   Eigen::Vector3i size;
-  std::vector<uint8_t> near;
+  std::vector<int32_t> nearest;
   // Model point indices by height bucket (height_tolerance_m).
   int first_bucket = 0;
   std::vector<std::vector<int>> by_height;
-  pcl::KdTreeFLANN<pcl::PointXYZ> tree;
 
-  bool Near(const Eigen::Vector3f& q) const {
+  int NearestTo(const Eigen::Vector3f& q) const {
     Eigen::Vector3i c;
     for (int axis = 0; axis < 3; ++axis) {
       const float f = std::floor((q[axis] - origin[axis]) / cell);
-      if (!(f >= 0 && f < size[axis])) return false;
+      if (!(f >= 0 && f < size[axis])) return -1;
       c[axis] = static_cast<int>(f);
     }
-    return near[(static_cast<size_t>(c.z()) * size.y() + c.y()) * size.x() + c.x()] != 0;
+    return nearest[(static_cast<size_t>(c.z()) * size.y() + c.y()) * size.x() + c.x()];
   }
+  bool Near(const Eigen::Vector3f& q) const { return NearestTo(q) >= 0; }
 };
 
 ModelFitter::ModelFitter(const ModelShape& shape, const FitOptions& options)
@@ -83,21 +82,26 @@ ModelFitter::ModelFitter(const ModelShape& shape, const FitOptions& options)
       shape.high - impl.origin + Eigen::Vector3f::Constant(inlier + impl.cell);
   for (int axis = 0; axis < 3; ++axis)
     impl.size[axis] = static_cast<int>(std::ceil(extent[axis] / impl.cell)) + 1;
-  impl.near.assign(static_cast<size_t>(impl.size.prod()), 0);
-  const int reach = static_cast<int>(std::ceil(inlier / impl.cell)) + 1;
-  for (const Eigen::Vector3f& p : shape.points) {
-    const Eigen::Vector3f local = (p - impl.origin) / impl.cell;
+  const size_t cells = static_cast<size_t>(impl.size.prod());
+  impl.nearest.assign(cells, -1);
+  std::vector<float> best(cells, std::numeric_limits<float>::max());  // squared, in cells
+  const int reach = static_cast<int>(std::ceil(inlier / impl.cell));
+  const float limit = (inlier / impl.cell + 0.5f) * (inlier / impl.cell + 0.5f);
+  for (size_t i = 0; i < shape.points.size(); ++i) {
+    const Eigen::Vector3f local = (shape.points[i] - impl.origin) / impl.cell;
     const Eigen::Vector3i centre = local.array().floor().cast<int>();
     for (int dz = -reach; dz <= reach; ++dz) {
       for (int dy = -reach; dy <= reach; ++dy) {
         for (int dx = -reach; dx <= reach; ++dx) {
           const Eigen::Vector3i c = centre + Eigen::Vector3i(dx, dy, dz);
           if ((c.array() < 0).any() || (c.array() >= impl.size.array()).any()) continue;
-          // Distance from the point to the voxel's centre, less half its diagonal.
-          const Eigen::Vector3f centre_of_cell = (c.cast<float>().array() + 0.5f).matrix();
-          if ((centre_of_cell - local).norm() * impl.cell > inlier + 0.5f * impl.cell) continue;
-          impl.near[(static_cast<size_t>(c.z()) * impl.size.y() + c.y()) * impl.size.x() + c.x()] =
-              1;
+          // Within inlier_m of the voxel's centre, plus half a voxel of slack.
+          const float d2 = ((c.cast<float>().array() + 0.5f).matrix() - local).squaredNorm();
+          const size_t k =
+              (static_cast<size_t>(c.z()) * impl.size.y() + c.y()) * impl.size.x() + c.x();
+          if (d2 > limit || d2 >= best[k]) continue;
+          best[k] = d2;
+          impl.nearest[k] = static_cast<int32_t>(i);
         }
       }
     }
@@ -110,7 +114,6 @@ ModelFitter::ModelFitter(const ModelShape& shape, const FitOptions& options)
     const int bucket = static_cast<int>(std::floor(shape.points[i].z() / tolerance));
     impl.by_height[bucket - impl.first_bucket].push_back(static_cast<int>(i));
   }
-  impl.tree.setInputCloud(ToPclPoints(shape.points));
 }
 
 ModelFitter::~ModelFitter() = default;
@@ -123,7 +126,11 @@ int ModelFitter::Covered(const std::vector<Eigen::Vector3f>& scene_points,
               s = static_cast<float>(std::sin(pose.yaw));
   const float x = static_cast<float>(pose.x), y = static_cast<float>(pose.y);
   const Eigen::Vector3f margin = Eigen::Vector3f::Constant(static_cast<float>(options_.inlier_m));
-  const Eigen::Vector3f low = shape_->low - margin, high = shape_->high + margin;
+  const Eigen::Vector3f low = shape_->low - margin;
+  // Points just above the model count too: a column taller than a sideboard
+  // is not explained by the sideboard.
+  const Eigen::Vector3f high =
+      shape_->high + margin + Eigen::Vector3f(0, 0, static_cast<float>(options_.above_m));
   int covered = 0, in_box = 0;
   for (const Eigen::Vector3f& p : scene_points) {
     const float dx = p.x() - x, dy = p.y() - y;  // PlanarPose::Inverse, sin and cos hoisted
@@ -147,7 +154,9 @@ std::vector<int> ModelFitter::CoveredIndices(const std::vector<Eigen::Vector3f>&
 
 namespace {
 
-constexpr size_t kScoringPoints = 200;
+constexpr size_t kScoringPoints = 200;  // points a candidate pose is scored on
+constexpr int kHintYaws = 24;           // yaws tried at the hint (every 15 degrees)
+constexpr size_t kRefined = 4;          // best candidates refined by ICP
 
 // Horizontal azimuth of a normal, or NaN when it is near vertical.
 double Azimuth(const Eigen::Vector3f& normal) {
@@ -157,71 +166,24 @@ double Azimuth(const Eigen::Vector3f& normal) {
 
 }  // namespace
 
-PoseFit ModelFitter::Fit(const std::vector<Eigen::Vector3f>& scene_points,
-                         const std::vector<Eigen::Vector3f>& scene_normals,
-                         const Eigen::Vector2f& hint,
-                         uint64_t seed) const {
-  Require(scene_points.size() == scene_normals.size(), "fit: one normal per scene point");
-  PoseFit best;
-  best.scene_points = static_cast<int>(scene_points.size());
-  if (scene_points.empty()) return best;
+PoseFit ModelFitter::Refine(const std::vector<Eigen::Vector3f>& scene_points,
+                            const PlanarPose& start) const {
   const Impl& impl = *impl_;
   const ModelShape& shape = *shape_;
-  const double tolerance = options_.height_tolerance_m;
-  Rng rng(seed);
-  // Draws are scored on an even subsample; the best pose is then rescored
-  // and refined on every point.
-  std::vector<Eigen::Vector3f> scoring;
-  const size_t stride = std::max<size_t>(1, scene_points.size() / kScoringPoints);
-  for (size_t i = 0; i < scene_points.size(); i += stride) scoring.push_back(scene_points[i]);
-  for (int it = 0; it < options_.iterations; ++it) {
-    const size_t i = static_cast<size_t>(rng.UniformInt(0, scene_points.size() - 1));
-    const Eigen::Vector3f& s = scene_points[i];
-    const int bucket = static_cast<int>(std::floor(s.z() / tolerance)) - impl.first_bucket;
-    // A model point at the same height: a random one of the bucket's and its
-    // neighbours' points, retried when it is out of tolerance.
-    int model_index = -1;
-    for (int attempt = 0; attempt < 4 && model_index < 0; ++attempt) {
-      const int b = bucket + static_cast<int>(rng.UniformInt(-1, 1));
-      if (b < 0 || b >= static_cast<int>(impl.by_height.size()) || impl.by_height[b].empty())
-        continue;
-      const int candidate = impl.by_height[b][rng.UniformInt(0, impl.by_height[b].size() - 1)];
-      if (std::abs(shape.points[candidate].z() - s.z()) <= tolerance) model_index = candidate;
-    }
-    if (model_index < 0) continue;
-    const double scene_azimuth = Azimuth(scene_normals[i]);
-    const double model_azimuth = Azimuth(shape.normals[model_index]);
-    const double yaw = std::isnan(scene_azimuth) || std::isnan(model_azimuth)
-                           ? rng.Uniform(0, 2 * M_PI)
-                           : scene_azimuth - model_azimuth;
-    const PlanarPose pose = PoseFromPair(s, shape.points[model_index], yaw);
-    if (Eigen::Vector2f(pose.x - hint.x(), pose.y - hint.y()).norm() > options_.max_offset_m)
-      continue;
-    const int covered = Covered(scoring, pose);
-    if (!best.found || covered > best.covered) {
-      best.pose = pose;
-      best.covered = covered;
-      best.found = true;
-    }
-  }
-  if (!best.found) return best;
-  best.covered = Covered(scene_points, best.pose, &best.inside);
-
-  // ICP over (x, y, yaw): nearest model point of every covered scene point,
-  // then the closed-form 2D rigid alignment of the pairs.
-  std::vector<int> nearest(1);
-  std::vector<float> distance(1);
-  const float max_pair = static_cast<float>(2 * options_.inlier_m);
+  PoseFit best;
+  best.scene_points = static_cast<int>(scene_points.size());
+  best.found = true;
+  best.pose = start;
+  best.covered = Covered(scene_points, start, &best.inside);
+  // ICP over (x, y, yaw): the model point nearest each covered scene point
+  // (from the grid), then the closed-form 2D rigid alignment of the pairs.
   for (int it = 0; it < options_.refine_iterations; ++it) {
     Eigen::Vector2d model_mean = Eigen::Vector2d::Zero(), scene_mean = Eigen::Vector2d::Zero();
     std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>> pairs;
     for (const Eigen::Vector3f& p : scene_points) {
-      const Eigen::Vector3f q = best.pose.Inverse(p);
-      if (impl.tree.nearestKSearch(pcl::PointXYZ(q.x(), q.y(), q.z()), 1, nearest, distance) < 1 ||
-          distance[0] > max_pair * max_pair) {
-        continue;
-      }
-      const Eigen::Vector2d m = shape.points[nearest[0]].head<2>().cast<double>();
+      const int nearest = impl.NearestTo(best.pose.Inverse(p));
+      if (nearest < 0) continue;
+      const Eigen::Vector2d m = shape.points[nearest].head<2>().cast<double>();
       const Eigen::Vector2d s = p.head<2>().cast<double>();
       pairs.emplace_back(m, s);
       model_mean += m;
@@ -250,6 +212,76 @@ PoseFit ModelFitter::Fit(const std::vector<Eigen::Vector3f>& scene_points,
     best.covered = covered;
     best.inside = inside;
     if (converged) break;
+  }
+  return best;
+}
+
+PoseFit ModelFitter::Fit(const std::vector<Eigen::Vector3f>& scene_points,
+                         const std::vector<Eigen::Vector3f>& scene_normals,
+                         const Eigen::Vector2f& hint,
+                         uint64_t seed) const {
+  Require(scene_points.size() == scene_normals.size(), "fit: one normal per scene point");
+  PoseFit none;
+  none.scene_points = static_cast<int>(scene_points.size());
+  if (scene_points.empty()) return none;
+  const Impl& impl = *impl_;
+  const ModelShape& shape = *shape_;
+  const double tolerance = options_.height_tolerance_m;
+  Rng rng(seed);
+  // Candidate poses are scored on an even subsample; the best few are then
+  // refined and rescored on every point.
+  std::vector<Eigen::Vector3f> scoring;
+  const size_t stride = std::max<size_t>(1, scene_points.size() / kScoringPoints);
+  for (size_t i = 0; i < scene_points.size(); i += stride) scoring.push_back(scene_points[i]);
+  std::vector<std::pair<int, PlanarPose>> candidates;  // covered on the subsample, pose
+  auto consider = [&](const PlanarPose& pose) {
+    if (Eigen::Vector2f(pose.x - hint.x(), pose.y - hint.y()).norm() > options_.max_offset_m)
+      return;
+    candidates.emplace_back(Covered(scoring, pose), pose);
+  };
+  // The hint itself at every yaw step: tables and other shapes whose
+  // normals say little about their yaw are found from these.
+  for (int k = 0; k < kHintYaws; ++k)
+    consider(PlanarPose{hint.x(), hint.y(), 2 * M_PI * k / kHintYaws});
+  // Points with a horizontal normal fix the yaw; those with a vertical one
+  // only give a random guess, so most draws take the former.
+  std::vector<size_t> oriented;
+  for (size_t i = 0; i < scene_points.size(); ++i) {
+    if (!std::isnan(Azimuth(scene_normals[i]))) oriented.push_back(i);
+  }
+  for (int it = 0; it < options_.iterations; ++it) {
+    const size_t i = !oriented.empty() && rng.Bernoulli(0.8)
+                         ? oriented[rng.UniformInt(0, oriented.size() - 1)]
+                         : static_cast<size_t>(rng.UniformInt(0, scene_points.size() - 1));
+    const Eigen::Vector3f& s = scene_points[i];
+    const int bucket = static_cast<int>(std::floor(s.z() / tolerance)) - impl.first_bucket;
+    // A model point at the same height: a random one of the bucket's and its
+    // neighbours' points, retried when it is out of tolerance.
+    int model_index = -1;
+    for (int attempt = 0; attempt < 4 && model_index < 0; ++attempt) {
+      const int b = bucket + static_cast<int>(rng.UniformInt(-1, 1));
+      if (b < 0 || b >= static_cast<int>(impl.by_height.size()) || impl.by_height[b].empty())
+        continue;
+      const int candidate = impl.by_height[b][rng.UniformInt(0, impl.by_height[b].size() - 1)];
+      if (std::abs(shape.points[candidate].z() - s.z()) <= tolerance) model_index = candidate;
+    }
+    if (model_index < 0) continue;
+    const double scene_azimuth = Azimuth(scene_normals[i]);
+    const double model_azimuth = Azimuth(shape.normals[model_index]);
+    const double yaw = std::isnan(scene_azimuth) || std::isnan(model_azimuth)
+                           ? rng.Uniform(0, 2 * M_PI)
+                           : scene_azimuth - model_azimuth;
+    consider(PoseFromPair(s, shape.points[model_index], yaw));
+  }
+  if (candidates.empty()) return none;
+  // The best few (by subsample coverage, then draw order) refined by ICP.
+  std::stable_sort(candidates.begin(), candidates.end(), [](const auto& a, const auto& b) {
+    return a.first > b.first;
+  });
+  PoseFit best = none;
+  for (size_t k = 0; k < std::min<size_t>(kRefined, candidates.size()); ++k) {
+    const PoseFit refined = Refine(scene_points, candidates[k].second);
+    if (!best.found || refined.covered > best.covered) best = refined;
   }
   return best;
 }

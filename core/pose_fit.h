@@ -3,8 +3,10 @@
 // scene point s and a model point m at the same height, takes the yaw from
 // the difference of their normals' azimuths (uniform over [0, 2 pi) when a
 // normal is near vertical), sets t = s - R m (SPEC §14: never s - m), and
-// scores the pose by the scene points it covers; the best pose is refined by
-// point-to-point ICP restricted to (x, y, yaw).
+// scores the pose by the scene points it covers. The hint (the Hough
+// maximum) at 24 yaws joins the draws, for shapes whose normals say little
+// about their yaw (tables); the best few poses are refined by point-to-point
+// ICP restricted to (x, y, yaw).
 //
 //   ModelFitter fitter(model.model_shapes[k], FitOptions{});
 //   PoseFit fit = fitter.Fit(scene_points, scene_normals, hint_xy, seed);
@@ -34,11 +36,12 @@ PlanarPose PoseFromPair(const Eigen::Vector3f& scene, const Eigen::Vector3f& mod
 double WrapAngle(double radians);
 
 struct FitOptions {
-  int iterations = 250;              // RANSAC draws (>= 1)
+  int iterations = 400;              // RANSAC draws (>= 1)
   double height_tolerance_m = 0.01;  // |s.z - m.z| of a drawn pair (m, > 0)
   double inlier_m = 0.03;            // a scene point is covered within this of the model (m, > 0)
-  double max_offset_m = 0.35;        // poses whose origin is farther from the hint are skipped
+  double max_offset_m = 0.5;         // poses whose origin is farther from the hint are skipped
   int refine_iterations = 6;         // ICP iterations after RANSAC (>= 0)
+  double above_m = 0.4;  // the box whose points a fit must explain reaches this far above it
 
   void Check() const;
 };
@@ -46,7 +49,7 @@ struct FitOptions {
 struct PoseFit {
   PlanarPose pose;
   int covered = 0;  // scene points within inlier_m of the posed model
-  int inside = 0;   // scene points inside its bounding box grown by inlier_m
+  int inside = 0;   // scene points inside its bounding box grown by inlier_m (and above_m up)
   int scene_points = 0;
 
   // Of the scene points inside the posed model's box, the share it explains.
@@ -64,6 +67,9 @@ class ModelFitter {
               const std::vector<Eigen::Vector3f>& scene_normals,
               const Eigen::Vector2f& hint,
               uint64_t seed) const;
+
+  // ICP over (x, y, yaw) from `start`, stopping when coverage would drop.
+  PoseFit Refine(const std::vector<Eigen::Vector3f>& scene_points, const PlanarPose& start) const;
 
   // Scene points within inlier_m of the model posed at `pose`, and (when
   // `inside` is given) those inside its bounding box grown by inlier_m.

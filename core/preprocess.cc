@@ -1,13 +1,16 @@
 #include "core/preprocess.h"
 
-#include <pcl/features/normal_3d.h>
 #include <pcl/filters/voxel_grid.h>
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
-#include <pcl/search/kdtree.h>
-#include <pcl/surface/mls.h>
+
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
 
 #include "core/error.h"
+#include "core/neighbour_grid.h"
+#include "core/parallel.h"
 
 namespace furn {
 
@@ -43,47 +46,93 @@ PointCloud Preprocess(const std::vector<Eigen::Vector3f>& points,
     sampled = input;
   }
 
-  // Quadric (MLS) fit: points projected onto the local surface, with its normal.
-  auto tree = pcl::make_shared<pcl::search::KdTree<pcl::PointXYZ>>();
-  pcl::MovingLeastSquares<pcl::PointXYZ, pcl::PointNormal> mls;
-  mls.setInputCloud(sampled);
-  mls.setSearchMethod(tree);
-  mls.setSearchRadius(options.normal_radius_m);
-  mls.setPolynomialOrder(2);
-  mls.setComputeNormals(true);
-  pcl::PointCloud<pcl::PointNormal> fitted;
-  mls.process(fitted);
+  std::vector<Eigen::Vector3f> base;
+  base.reserve(sampled->size());
+  for (const pcl::PointXYZ& p : *sampled) base.emplace_back(p.x, p.y, p.z);
+  const float radius = static_cast<float>(options.normal_radius_m);
+  const NeighbourGrid grid(base, radius);
 
-  // Curvature from the covariance of the fitted points' neighbourhoods.
-  auto fitted_xyz = pcl::make_shared<pcl::PointCloud<pcl::PointXYZ>>();
-  fitted_xyz->reserve(fitted.size());
-  for (const pcl::PointNormal& p : fitted) fitted_xyz->push_back(pcl::PointXYZ(p.x, p.y, p.z));
-  pcl::NormalEstimation<pcl::PointXYZ, pcl::Normal> estimation;
-  estimation.setInputCloud(fitted_xyz);
-  estimation.setSearchMethod(pcl::make_shared<pcl::search::KdTree<pcl::PointXYZ>>());
-  estimation.setRadiusSearch(options.normal_radius_m);
-  pcl::PointCloud<pcl::Normal> covariance_normals;
-  estimation.compute(covariance_normals);
-
-  pcl::search::KdTree<pcl::PointXYZ> counter;
-  counter.setInputCloud(fitted_xyz);
-  std::vector<int> indices;
-  std::vector<float> distances;
-  for (size_t i = 0; i < fitted.size(); ++i) {
-    const pcl::PointNormal& p = fitted[i];
-    Eigen::Vector3f normal(p.normal_x, p.normal_y, p.normal_z);
-    const float curvature = covariance_normals[i].curvature;
-    if (!normal.allFinite() || normal.norm() < 0.5f || !std::isfinite(curvature)) continue;
-    if (counter.radiusSearch(static_cast<int>(i), options.normal_radius_m, indices, distances) <
-        options.min_neighbours) {
-      continue;
+  // Per point: the plane of its neighbourhood (covariance: normal and
+  // curvature = smallest eigenvalue / sum), then the MLS quadric over that
+  // plane with Gaussian weights exp(-d^2 / r^2); the point is projected onto
+  // the quadric and takes its normal. Every point on its own: all cores.
+  struct Fitted {
+    bool kept = false;
+    Eigen::Vector3f point, normal;
+    float curvature = 0;
+  };
+  std::vector<Fitted> fitted(base.size());
+  constexpr int kChunk = 256;
+  ParallelFor(0, static_cast<int>((base.size() + kChunk - 1) / kChunk), [&](int chunk) {
+    std::vector<std::pair<int, float>> neighbours;
+    const size_t end = std::min(base.size(), static_cast<size_t>(chunk + 1) * kChunk);
+    for (size_t i = static_cast<size_t>(chunk) * kChunk; i < end; ++i) {
+      const Eigen::Vector3f& p = base[i];
+      neighbours.clear();
+      grid.ForEachNeighbourOf(
+          static_cast<int>(i), radius, [&](int j, float d2) { neighbours.emplace_back(j, d2); });
+      if (static_cast<int>(neighbours.size()) < options.min_neighbours) continue;
+      Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+      for (const auto& [j, d2] : neighbours) mean += base[j].cast<double>();
+      mean /= static_cast<double>(neighbours.size());
+      Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
+      for (const auto& [j, d2] : neighbours) {
+        const Eigen::Vector3d d = base[j].cast<double>() - mean;
+        covariance += d * d.transpose();
+      }
+      covariance /= static_cast<double>(neighbours.size());
+      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver;
+      solver.computeDirect(covariance);
+      const Eigen::Vector3d eigenvalues = solver.eigenvalues().cwiseMax(0.0);  // ascending
+      const double sum = eigenvalues.sum();
+      if (!(sum > 0)) continue;
+      const Eigen::Vector3d normal = solver.eigenvectors().col(0);
+      const Eigen::Vector3d u_axis = solver.eigenvectors().col(2);
+      const Eigen::Vector3d v_axis = normal.cross(u_axis);
+      // Quadric w = c0 + c1 u + c2 v + c3 u^2 + c4 u v + c5 v^2, weighted least squares.
+      Eigen::Matrix<double, 6, 6> normal_matrix = Eigen::Matrix<double, 6, 6>::Zero();
+      Eigen::Matrix<double, 6, 1> rhs = Eigen::Matrix<double, 6, 1>::Zero();
+      const double inverse_h2 = 1.0 / (static_cast<double>(radius) * radius);
+      for (const auto& [j, d2] : neighbours) {
+        const Eigen::Vector3d d = base[j].cast<double>() - mean;
+        const double u = d.dot(u_axis), v = d.dot(v_axis), w = d.dot(normal);
+        const double weight = std::exp(-d2 * inverse_h2);
+        Eigen::Matrix<double, 6, 1> basis;
+        basis << 1, u, v, u * u, u * v, v * v;
+        normal_matrix += weight * basis * basis.transpose();
+        rhs += weight * w * basis;
+      }
+      const Eigen::Vector3d q = p.cast<double>() - mean;
+      const double u = q.dot(u_axis), v = q.dot(v_axis);
+      double w = 0, w_u = 0, w_v = 0;  // on the plane when the quadric is ill-posed
+      if (neighbours.size() >= 6) {
+        const Eigen::LDLT<Eigen::Matrix<double, 6, 6>> ldlt(normal_matrix);
+        if (ldlt.info() == Eigen::Success && ldlt.isPositive()) {
+          const Eigen::Matrix<double, 6, 1> c = ldlt.solve(rhs);
+          if (c.allFinite()) {
+            w = c[0] + c[1] * u + c[2] * v + c[3] * u * u + c[4] * u * v + c[5] * v * v;
+            w_u = c[1] + 2 * c[3] * u + c[4] * v;
+            w_v = c[2] + c[4] * u + 2 * c[5] * v;
+          }
+        }
+      }
+      Fitted& out = fitted[i];
+      const Eigen::Vector3d projected = mean + u * u_axis + v * v_axis + w * normal;
+      Eigen::Vector3d surface_normal = (normal - w_u * u_axis - w_v * v_axis).normalized();
+      if (!projected.allFinite() || !surface_normal.allFinite()) continue;
+      if (surface_normal.dot(sensor_origin.cast<double>() - projected) < 0)
+        surface_normal = -surface_normal;
+      out.kept = true;
+      out.point = projected.cast<float>();
+      out.normal = surface_normal.cast<float>();
+      out.curvature = static_cast<float>(eigenvalues[0] / sum);
     }
-    const Eigen::Vector3f point(p.x, p.y, p.z);
-    normal.normalize();
-    if (normal.dot(sensor_origin - point) < 0) normal = -normal;
-    cloud.points.push_back(point);
-    cloud.normals.push_back(normal);
-    cloud.curvature.push_back(curvature);
+  });
+  for (const Fitted& f : fitted) {
+    if (!f.kept) continue;
+    cloud.points.push_back(f.point);
+    cloud.normals.push_back(f.normal);
+    cloud.curvature.push_back(f.curvature);
   }
   return cloud;
 }

@@ -1,15 +1,11 @@
 #include "core/region_growing.h"
 
-#include <pcl/point_cloud.h>
-#include <pcl/point_types.h>
-#include <pcl/search/kdtree.h>
-
 #include <algorithm>
 #include <cmath>
 #include <numeric>
 
 #include "core/error.h"
-#include "core/pcl_conversion.h"
+#include "core/neighbour_grid.h"
 
 namespace furn {
 
@@ -29,9 +25,8 @@ std::vector<std::vector<int>> GrowRegions(const PointCloud& cloud,
           "region growing needs a normal and a curvature per point");
   std::vector<std::vector<int>> segments;
   if (cloud.size() == 0) return segments;
-  const auto points = ToPclPoints(cloud.points);
-  pcl::search::KdTree<pcl::PointXYZ> tree;
-  tree.setInputCloud(points);
+  const float delta = static_cast<float>(options.delta_m);
+  const NeighbourGrid grid(cloud.points, delta);
 
   // Seeds by increasing curvature; ties by index, so the result is deterministic.
   std::vector<int> order(cloud.size());
@@ -41,8 +36,6 @@ std::vector<std::vector<int>> GrowRegions(const PointCloud& cloud,
   });
   const float min_cosine = static_cast<float>(std::cos(options.alpha_deg * M_PI / 180));
   std::vector<int> label(cloud.size(), -1);
-  std::vector<int> neighbours;
-  std::vector<float> distances;
   int next_label = 0;
   for (int seed : order) {
     if (label[seed] != -1) continue;
@@ -50,12 +43,11 @@ std::vector<std::vector<int>> GrowRegions(const PointCloud& cloud,
     std::vector<int> segment = {seed};
     label[seed] = next_label;
     for (size_t head = 0; head < segment.size(); ++head) {
-      tree.radiusSearch(segment[head], options.delta_m, neighbours, distances);
-      for (int q : neighbours) {
-        if (label[q] != -1 || cloud.normals[q].dot(seed_normal) < min_cosine) continue;
+      grid.ForEachNeighbourOf(segment[head], delta, [&](int q, float) {
+        if (label[q] != -1 || cloud.normals[q].dot(seed_normal) < min_cosine) return;
         label[q] = next_label;
         segment.push_back(q);
-      }
+      });
     }
     ++next_label;
     if (static_cast<int>(segment.size()) < options.min_segment_size) continue;

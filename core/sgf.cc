@@ -1,18 +1,12 @@
 #include "core/sgf.h"
 
-#include <pcl/features/boundary.h>
-#include <pcl/point_cloud.h>
-#include <pcl/point_types.h>
-#include <pcl/search/kdtree.h>
-
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
-#include <set>
-#include <tuple>
+#include <cstdint>
 
 #include "core/error.h"
-#include "core/pcl_conversion.h"
+#include "core/neighbour_grid.h"
 
 namespace furn {
 namespace {
@@ -21,23 +15,47 @@ double SafeRatio(double numerator, double denominator) {
   return denominator > 1e-15 ? numerator / denominator : 0.0;
 }
 
-// Fraction of points PCL's boundary estimator marks (a gap in the angular
-// distribution of neighbours larger than the threshold).
+// Fraction of boundary points, by PCL's angle criterion (BoundaryEstimation):
+// the segment's neighbours of a point, projected on its tangent plane, leave
+// an angular gap larger than the threshold. Written on the neighbour grid:
+// PCL's kd-tree version was the slowest part of detection.
 double BoundaryProportion(const PointCloud& cloud,
                           const std::vector<int>& segment,
                           const SgfOptions& options) {
-  const auto [points, normals] = ToPclPointsWithNormals(cloud, segment);
-  pcl::BoundaryEstimation<pcl::PointXYZ, pcl::Normal, pcl::Boundary> estimator;
-  estimator.setInputCloud(points);
-  estimator.setInputNormals(normals);
-  estimator.setSearchMethod(pcl::make_shared<pcl::search::KdTree<pcl::PointXYZ>>());
-  estimator.setRadiusSearch(options.boundary_radius_m);
-  estimator.setAngleThreshold(static_cast<float>(options.boundary_angle_deg * M_PI / 180));
-  pcl::PointCloud<pcl::Boundary> boundary;
-  estimator.compute(boundary);
-  size_t count = 0;
-  for (const pcl::Boundary& b : boundary) count += b.boundary_point != 0;
-  return static_cast<double>(count) / segment.size();
+  std::vector<Eigen::Vector3f> points;
+  points.reserve(segment.size());
+  for (int i : segment) points.push_back(cloud.points[i]);
+  const float radius = static_cast<float>(options.boundary_radius_m);
+  const NeighbourGrid grid(points, radius);
+  const double threshold = options.boundary_angle_deg * M_PI / 180;
+  std::vector<double> angles;
+  size_t count = 0, tested = 0;
+  // A proportion: estimated on at most kBoundarySamples evenly spread points
+  // (walls have tens of thousands).
+  constexpr size_t kBoundarySamples = 1500;
+  const size_t stride = (points.size() + kBoundarySamples - 1) / kBoundarySamples;
+  for (size_t k = 0; k < points.size(); k += stride) {
+    ++tested;
+    const Eigen::Vector3f& normal = cloud.normals[segment[k]];
+    // A tangent basis: u perpendicular to the normal, v = n x u.
+    Eigen::Vector3f u = normal.unitOrthogonal();
+    const Eigen::Vector3f v = normal.cross(u);
+    angles.clear();
+    grid.ForEachNeighbourOf(static_cast<int>(k), radius, [&](int j, float) {
+      if (j == static_cast<int>(k)) return;
+      const Eigen::Vector3f d = points[j] - points[k];
+      angles.push_back(std::atan2(d.dot(v), d.dot(u)));
+    });
+    if (angles.size() < 2) {
+      ++count;  // isolated: nothing around it on any side
+      continue;
+    }
+    std::sort(angles.begin(), angles.end());
+    double gap = angles.front() + 2 * M_PI - angles.back();
+    for (size_t a = 1; a < angles.size(); ++a) gap = std::max(gap, angles[a] - angles[a - 1]);
+    count += gap > threshold;
+  }
+  return static_cast<double>(count) / tested;
 }
 
 }  // namespace
@@ -84,7 +102,8 @@ SgfVector ComputeSgf(const PointCloud& cloud,
 
   // Projections: extents both ways and variances along each axis.
   double plus[3] = {0, 0, 0}, minus[3] = {0, 0, 0}, variance[3] = {0, 0, 0};
-  std::set<std::tuple<int, int, int>> voxels;
+  std::vector<uint64_t> voxels;  // packed cell coordinates, counted once sorted
+  voxels.reserve(segment.size());
   double curvature_sum = 0;
   for (int i : segment) {
     const Eigen::Vector3d d = cloud.points[i].cast<double>() - centroid;
@@ -95,13 +114,18 @@ SgfVector ComputeSgf(const PointCloud& cloud,
       variance[k] += t * t / n;
     }
     const Eigen::Vector3f& p = cloud.points[i];
-    voxels.emplace(static_cast<int>(std::floor(p.x() / options.voxel_size_m)),
-                   static_cast<int>(std::floor(p.y() / options.voxel_size_m)),
-                   static_cast<int>(std::floor(p.z() / options.voxel_size_m)));
+    uint64_t key = 0;
+    for (int k = 0; k < 3; ++k) {
+      const auto cell = static_cast<int64_t>(std::floor(p[k] / options.voxel_size_m)) + (1 << 20);
+      key = (key << 21) | (static_cast<uint64_t>(cell) & ((1u << 21) - 1));
+    }
+    voxels.push_back(key);
     curvature_sum += cloud.curvature[i];
   }
   const double voxel_volume = std::pow(options.voxel_size_m, 3);
-  const double occupied_volume = voxels.size() * voxel_volume;
+  std::sort(voxels.begin(), voxels.end());
+  const size_t occupied = std::unique(voxels.begin(), voxels.end()) - voxels.begin();
+  const double occupied_volume = occupied * voxel_volume;
   double extent[3];
   for (int k = 0; k < 3; ++k) extent[k] = plus[k] + minus[k];
 

@@ -259,12 +259,15 @@ ViewSegments SegmentView(const std::vector<Eigen::Vector3f>& points,
   if (view.cloud.size() == 0) return view;
   view.segments = GrowRegions(view.cloud, options.region_growing);
   lap(timings ? &timings->segment_ms : nullptr);
-  for (const std::vector<int>& segment : view.segments) {
-    view.features.push_back(ComputeSgf(view.cloud, segment, options.sgf));
+  view.features.resize(view.segments.size());
+  view.centroids.resize(view.segments.size());
+  ParallelFor(0, static_cast<int>(view.segments.size()), [&](int s) {
+    const std::vector<int>& segment = view.segments[s];
+    view.features[s] = ComputeSgf(view.cloud, segment, options.sgf);
     Eigen::Vector3f centroid = Eigen::Vector3f::Zero();
     for (int i : segment) centroid += view.cloud.points[i];
-    view.centroids.push_back(centroid / static_cast<float>(segment.size()));
-  }
+    view.centroids[s] = centroid / static_cast<float>(segment.size());
+  });
   lap(timings ? &timings->features_ms : nullptr);
   return view;
 }
