@@ -1,6 +1,7 @@
 #include "core/floor.h"
 
 #include <pcl/ModelCoefficients.h>
+#include <pcl/console/print.h>
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
 #include <pcl/sample_consensus/method_types.h>
@@ -39,6 +40,9 @@ Eigen::Isometry3d FindFloor(const std::vector<Eigen::Vector3f>& points_in_camera
   for (size_t i = 0; i < finite.size(); i += stride) sample.push_back(finite[i]);
   auto cloud = ToPclPoints(sample);
 
+  // PCL prints its own complaints when a plane is not found; ours is the one
+  // line the user sees.
+  pcl::console::setVerbosityLevel(pcl::console::L_ALWAYS);
   pcl::SACSegmentation<pcl::PointXYZ> ransac;
   ransac.setOptimizeCoefficients(true);
   ransac.setModelType(pcl::SACMODEL_PERPENDICULAR_PLANE);

@@ -1,6 +1,7 @@
 #include "renderers/frame_io.h"
 
 #include <libdeflate.h>
+#include <pcl/console/print.h>
 #include <pcl/conversions.h>
 #include <pcl/io/pcd_io.h>
 #include <pcl/io/ply_io.h>
@@ -274,8 +275,22 @@ ScanCloud ReadPointCloudFile(const std::string& path) {
   const std::string extension = FileExtension(path);
   Require(extension == "pcd" || extension == "ply",
           path + ": point clouds are read from .pcd or .ply files");
-  ReadFileBytes(path);  // a clear error for a missing or unreadable file
+  const std::string bytes = ReadFileBytes(path);  // a clear error for a missing file
+  // PCL 1.13's PCD reader crashes on some malformed headers, so the header
+  // is checked here first: PLY's magic line, or every PCD header field.
+  if (extension == "ply") {
+    Require(bytes.rfind("ply", 0) == 0, path + ": not a PLY file (no 'ply' magic line)");
+  } else {
+    const std::string header = bytes.substr(0, std::min<size_t>(bytes.size(), 8192));
+    for (const char* field : {"FIELDS", "SIZE", "TYPE", "WIDTH", "HEIGHT", "POINTS", "DATA"}) {
+      Require(header.rfind(std::string(field) + " ", 0) == 0 ||
+                  header.find("\n" + std::string(field) + " ") != std::string::npos,
+              path + ": not a PCD file (its header lacks " + field + ")");
+    }
+  }
   pcl::PCLPointCloud2 blob;
+  // PCL prints its own reasons; ours below is the one line the user sees.
+  pcl::console::setVerbosityLevel(pcl::console::L_ALWAYS);
   const int status =
       extension == "pcd" ? pcl::io::loadPCDFile(path, blob) : pcl::io::loadPLYFile(path, blob);
   Require(status >= 0, path + ": not a readable " + extension + " point cloud");

@@ -14,4 +14,12 @@ void WriteText(const std::string& path, const std::string& text);
 // The message of the InputError `action` throws, or "(no error)".
 std::string ErrorOf(const std::function<void()>& action);
 
+// Runs a shell command; stdout and stderr together, and the exit code (-1
+// when it did not exit normally).
+struct CommandResult {
+  int exit_code = -1;
+  std::string output;
+};
+CommandResult RunCommand(const std::string& command);
+
 }  // namespace furn::testing

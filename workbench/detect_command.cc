@@ -40,9 +40,6 @@ CameraIntrinsics ParseIntrinsics(const std::string& text, int width, int height)
   camera.cx = values[2];
   camera.cy = values[3];
   camera.Check();
-  Require(camera.cx >= 0 && camera.cx <= width && camera.cy >= 0 && camera.cy <= height,
-          "intrinsics '" + text + "': the principal point lies outside the " +
-              std::to_string(width) + "x" + std::to_string(height) + " image");
   return camera;
 }
 

@@ -16,23 +16,10 @@
 namespace furn {
 namespace {
 
-struct RunResult {
-  int exit_code = -1;
-  std::string output;  // stdout and stderr together
-};
+using RunResult = testing::CommandResult;
 
 RunResult RunWorkbench(const std::string& arguments) {
-  const std::string command = std::string(FURN_WORKBENCH_BINARY) + " " + arguments + " 2>&1";
-  RunResult result;
-  FILE* pipe = popen(command.c_str(), "r");
-  if (pipe == nullptr) return result;
-  std::array<char, 4096> buffer;
-  size_t got;
-  while ((got = fread(buffer.data(), 1, buffer.size(), pipe)) > 0)
-    result.output.append(buffer.data(), got);
-  const int status = pclose(pipe);
-  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return result;
+  return testing::RunCommand(std::string(FURN_WORKBENCH_BINARY) + " " + arguments);
 }
 
 // Lines that are not catalog warnings (the test catalog has one bad entry).

@@ -8,6 +8,8 @@
 #include <map>
 #include <nlohmann/json.hpp>
 
+#include <opencv2/imgcodecs.hpp>
+
 #include "core/detector.h"
 #include "core/error.h"
 #include "core/file_util.h"
@@ -244,6 +246,100 @@ TEST_F(DetectTest, EmptyRoomAndClutterGiveNothing) {
              {box, tall}),
       true);
   EXPECT_TRUE(clutter.detections.empty()) << Describe(clutter);
+}
+
+}  // namespace
+}  // namespace furn
+
+namespace furn {
+namespace {
+
+TEST_F(DetectTest, BadScansAreClearErrors) {
+  DetectionInput empty;
+  EXPECT_NE(testing::ErrorOf([&] { detector_->Detect(empty); }).find("no finite point"),
+            std::string::npos);
+  DetectionInput nans;
+  nans.points.assign(640 * 480, Eigen::Vector3f::Constant(std::nanf("")));
+  nans.width = 640;
+  nans.height = 480;
+  EXPECT_NE(testing::ErrorOf([&] { detector_->Detect(nans); }).find("no finite point"),
+            std::string::npos);
+  DetectionInput wrong_size = nans;
+  wrong_size.width = 320;
+  EXPECT_NE(testing::ErrorOf([&] { detector_->Detect(wrong_size); }).find("is not 320x480"),
+            std::string::npos);
+  // Without a pose, a scan of a wall alone has no floor.
+  DetectionInput wall;
+  for (float x = -1; x <= 1; x += 0.01f) {
+    for (float y = -0.8f; y <= 0.8f; y += 0.01f) wall.points.emplace_back(x, y, 2.0f);
+  }
+  EXPECT_NE(testing::ErrorOf([&] { detector_->Detect(wall); }).find("no floor found"),
+            std::string::npos);
+}
+
+TEST_F(DetectTest, BadFilesAndIntrinsicsAreClearErrors) {
+  const std::string dir = testing::ScratchDir();
+  ScanSource source;
+  EXPECT_NE(testing::ErrorOf([&] { LoadScan(source); }).find("exactly one of"), std::string::npos);
+  // An 8-bit PNG is not a depth image.
+  const std::string eight_bit = dir + "/grey.png";
+  cv::imwrite(eight_bit, cv::Mat(480, 640, CV_8UC1, cv::Scalar(100)));
+  source.depth_path = eight_bit;
+  EXPECT_NE(testing::ErrorOf([&] { LoadScan(source); }).find("16-bit"), std::string::npos);
+  // Kinect intrinsics for an image of another size.
+  DepthFrame small;
+  small.Resize(320, 240);
+  WriteDepthPng(small, dir + "/small.png");
+  source.depth_path = dir + "/small.png";
+  EXPECT_NE(testing::ErrorOf([&] { LoadScan(source); }).find("kinect1 are for 640x480"),
+            std::string::npos);
+  source.intrinsics = "525,525,400,100";  // principal point outside the image
+  EXPECT_NE(testing::ErrorOf([&] { LoadScan(source); }).find("must lie in the image"), std::string::npos);
+  source.intrinsics = "fx=525";
+  EXPECT_NE(testing::ErrorOf([&] { LoadScan(source); }).find("four numbers"), std::string::npos);
+  // A cloud file that is not one.
+  ScanSource cloud;
+  cloud.cloud_path = dir + "/broken.pcd";
+  testing::WriteText(cloud.cloud_path, "not a point cloud\n");
+  EXPECT_NE(testing::ErrorOf([&] { LoadScan(cloud); }).find("broken.pcd"), std::string::npos);
+  cloud.cloud_path = dir + "/scan.xyz";
+  EXPECT_NE(testing::ErrorOf([&] { LoadScan(cloud); }).find(".pcd or .ply"), std::string::npos);
+  // A model file of another format version.
+  std::string bytes = ReadFileBytes(*model_path_);
+  bytes[8] = 1;
+  testing::WriteText(dir + "/v1.fcm", bytes);
+  EXPECT_NE(testing::ErrorOf([&] { LoadTrainedModel(dir + "/v1.fcm"); }).find("version 1"),
+            std::string::npos);
+}
+
+TEST_F(DetectTest, CommandLineOnAPcdWritesJsonAndDebugPngs) {
+  const std::string dir = testing::ScratchDir();
+  // An organised PCD of one chair, camera frame, as a Kinect driver writes it.
+  const DetectionInput input = Render({{ModelOf(FurnitureClass::kChair, 1), 0.2, 0.1, 30}});
+  DepthFrame frame;
+  frame.Resize(640, 480);
+  for (size_t i = 0; i < input.points.size(); ++i)
+    frame.depth[i] = input.points[i].allFinite() ? input.points[i].z() : 0.0f;
+  WriteOrganizedPcd(frame, CameraIntrinsics::KinectV1(), dir + "/scan.pcd");
+  const testing::CommandResult run = testing::RunCommand(
+      std::string(FURN_WORKBENCH_BINARY) + " detect --model " + *model_path_ + " --cloud " + dir +
+      "/scan.pcd --out " + dir + "/det.json --debug-dir " + dir + "/debug --timings");
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  const nlohmann::json json = nlohmann::json::parse(ReadFileBytes(dir + "/det.json"));
+  EXPECT_TRUE(json["floor_estimated"].get<bool>());  // no pose given: found by RANSAC
+  ASSERT_EQ(json["detections"].size(), 1u) << run.output;
+  EXPECT_EQ(json["detections"][0]["class"], "chair");
+  EXPECT_NE(run.output.find("total"), std::string::npos);  // --timings
+  for (const char* png : {"segments.png", "fitted.png", "topdown.png", "votes_chair.png"}) {
+    const cv::Mat image = cv::imread(dir + "/debug/" + png);
+    EXPECT_FALSE(image.empty()) << png;
+  }
+  // A mistake in the command: one line, exit code 1.
+  const testing::CommandResult bad =
+      testing::RunCommand(std::string(FURN_WORKBENCH_BINARY) + " detect --model " + dir +
+                          "/missing.fcm --cloud " + dir + "/scan.pcd");
+  EXPECT_EQ(bad.exit_code, 1);
+  EXPECT_NE(bad.output.find("missing.fcm"), std::string::npos);
 }
 
 }  // namespace

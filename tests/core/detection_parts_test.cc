@@ -1,0 +1,192 @@
+// The pieces of detection on analytic data: the 3-DOF transform, the pose
+// fit over the whole circle of yaws, the occupancy grid and its visibility
+// score, the floor finder, and the neighbour grid.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "core/error.h"
+#include "core/floor.h"
+#include "core/neighbour_grid.h"
+#include "core/occupancy.h"
+#include "core/pose_fit.h"
+#include "core/random.h"
+#include "tests/test_util.h"
+
+namespace furn {
+namespace {
+
+double AngleError(double a, double b) {
+  const double d = std::fmod(std::abs(a - b), 2 * M_PI);
+  return std::min(d, 2 * M_PI - d);
+}
+
+TEST(PoseFromPair, MapsTheModelPointOntoTheScenePointForEveryYaw) {
+  const Eigen::Vector3f model(0.3f, -0.2f, 0.45f);
+  for (int k = 0; k < 36; ++k) {
+    const double yaw = 2 * M_PI * k / 36 + 0.01;
+    const PlanarPose truth{1.5, -0.7, yaw};
+    const Eigen::Vector3f scene = truth.Apply(model);
+    const PlanarPose pose = PoseFromPair(scene, model, yaw);
+    EXPECT_NEAR(pose.x, 1.5, 1e-5) << "yaw " << yaw;  // t = s - R m, not s - m
+    EXPECT_NEAR(pose.y, -0.7, 1e-5);
+    EXPECT_NEAR(AngleError(pose.yaw, yaw), 0, 1e-9);
+    EXPECT_TRUE(pose.Apply(model).isApprox(scene, 1e-5f));
+    EXPECT_TRUE(pose.Inverse(scene).isApprox(model, 1e-5f));
+  }
+  EXPECT_NEAR(WrapAngle(-M_PI / 2), 1.5 * M_PI, 1e-12);
+  EXPECT_NEAR(WrapAngle(5 * M_PI), M_PI, 1e-12);
+}
+
+// An L-shaped "piece": two walls of different length with normals, 1 cm apart.
+ModelShape LShape() {
+  ModelShape shape;
+  for (float z = 0.02f; z < 0.6f; z += 0.02f) {
+    for (float x = -0.4f; x <= 0.4f; x += 0.01f) {
+      shape.points.emplace_back(x, -0.25f, z);
+      shape.normals.emplace_back(0, -1, 0);
+    }
+    for (float y = -0.25f; y <= 0.25f; y += 0.01f) {
+      shape.points.emplace_back(-0.4f, y, z);
+      shape.normals.emplace_back(-1, 0, 0);
+    }
+  }
+  shape.low = shape.high = shape.points[0];
+  for (const Eigen::Vector3f& p : shape.points) {
+    shape.low = shape.low.cwiseMin(p);
+    shape.high = shape.high.cwiseMax(p);
+  }
+  return shape;
+}
+
+TEST(ModelFitter, RecoversPosesOverTheWholeCircle) {
+  const ModelShape shape = LShape();
+  const ModelFitter fitter(shape, FitOptions{});
+  Rng noise(3);
+  for (double yaw_deg : {10.0, 100.0, 190.0, 250.0, 345.0}) {
+    const PlanarPose truth{0.8, 1.9, yaw_deg * M_PI / 180};
+    std::vector<Eigen::Vector3f> points, normals;
+    for (size_t i = 0; i < shape.points.size(); i += 2) {
+      Eigen::Vector3f p = truth.Apply(shape.points[i]);
+      p.x() += static_cast<float>(noise.Uniform(-0.003, 0.003));
+      points.push_back(p);
+      normals.push_back(PlanarPose{0, 0, truth.yaw}.Apply(shape.normals[i]));
+    }
+    const PoseFit fit = fitter.Fit(points, normals, Eigen::Vector2f(0.95f, 1.8f), 11);
+    ASSERT_TRUE(fit.found);
+    EXPECT_NEAR(fit.pose.x, truth.x, 0.01) << "yaw " << yaw_deg;
+    EXPECT_NEAR(fit.pose.y, truth.y, 0.01) << "yaw " << yaw_deg;
+    EXPECT_LT(AngleError(fit.pose.yaw, truth.yaw) * 180 / M_PI, 1.0) << "yaw " << yaw_deg;
+    EXPECT_GT(fit.Explained(), 0.95);
+  }
+  EXPECT_NE(testing::ErrorOf([] {
+              FitOptions bad;
+              bad.inlier_m = 0;
+              bad.Check();
+            }).find("inlier"),
+            std::string::npos);
+}
+
+TEST(OccupancyGrid, FreeBeforeASurfaceOccupiedOnItUnknownBehind) {
+  // A wall at x = 2 m seen from the origin.
+  std::vector<Eigen::Vector3f> wall;
+  for (float y = -0.5f; y <= 0.5f; y += 0.02f) {
+    for (float z = -0.5f; z <= 0.5f; z += 0.02f) wall.emplace_back(2.0f, y, z);
+  }
+  const OccupancyGrid grid(wall, Eigen::Vector3f::Zero(), 0.05);
+  EXPECT_EQ(grid.At(Eigen::Vector3f(1.0f, 0, 0)), Occupancy::kFree);
+  EXPECT_EQ(grid.At(Eigen::Vector3f(2.0f, 0.1f, 0.1f)), Occupancy::kOccupied);
+  EXPECT_EQ(grid.At(Eigen::Vector3f(2.3f, 0, 0)), Occupancy::kUnknown);
+  EXPECT_EQ(grid.At(Eigen::Vector3f(50, 0, 0)), Occupancy::kUnknown);  // outside the grid
+  // Model points in front of the wall are in free space: a low score; on it
+  // and behind it: a high one (vs = (5 occ + occl) / (5 occ + occl + free)).
+  std::vector<Eigen::Vector3f> floating, on_wall;
+  for (float y = -0.2f; y <= 0.2f; y += 0.05f) {
+    floating.emplace_back(1.0f, y, 0);
+    on_wall.emplace_back(2.0f, y, 0);
+    on_wall.emplace_back(2.3f, y, 0);
+  }
+  const VisibilityCounts in_front = CountVisibility(grid, floating, -10);
+  EXPECT_EQ(in_front.free, static_cast<int>(floating.size()));
+  EXPECT_DOUBLE_EQ(in_front.Score(5), 0.0);
+  const VisibilityCounts behind = CountVisibility(grid, on_wall, -10);
+  EXPECT_EQ(behind.free, 0);
+  EXPECT_EQ(behind.occupied, behind.occluded);
+  EXPECT_DOUBLE_EQ(behind.Score(5), 1.0);
+  EXPECT_DOUBLE_EQ(behind.SeenOccupied(), 1.0);
+}
+
+// Camera-frame points of a floor 1.3 m below a camera pitched down 25
+// degrees, plus a box standing on it.
+std::vector<Eigen::Vector3f> FloorScan(bool with_floor) {
+  const double pitch = 25 * M_PI / 180;
+  // World: z up, camera at (0, 0, 1.3) looking along +y, pitched down.
+  const Eigen::Vector3d forward(0, std::cos(pitch), -std::sin(pitch));
+  const Eigen::Vector3d right(1, 0, 0);
+  const Eigen::Vector3d down = forward.cross(right);
+  Eigen::Matrix3d camera_from_world;
+  camera_from_world.row(0) = right.transpose();
+  camera_from_world.row(1) = down.transpose();
+  camera_from_world.row(2) = forward.transpose();
+  const Eigen::Vector3d eye(0, 0, 1.3);
+  std::vector<Eigen::Vector3f> points;
+  for (double x = -1.5; x <= 1.5; x += 0.03) {
+    for (double y = 1.0; y <= 4.0; y += 0.03) {
+      if (with_floor)
+        points.push_back((camera_from_world * (Eigen::Vector3d(x, y, 0) - eye)).cast<float>());
+    }
+    for (double z = 0.0; z <= 2.4; z += 0.03)  // the far wall
+      points.push_back((camera_from_world * (Eigen::Vector3d(x, 4.0, z) - eye)).cast<float>());
+  }
+  for (double x = -0.2; x <= 0.2; x += 0.02) {  // a box's top at 0.5 m
+    for (double y = 2.0; y <= 2.4; y += 0.02)
+      points.push_back((camera_from_world * (Eigen::Vector3d(x, y, 0.5) - eye)).cast<float>());
+  }
+  return points;
+}
+
+TEST(FindFloor, FindsTheFloorAndTheCameraHeight) {
+  const Eigen::Isometry3d world_from_camera = FindFloor(FloorScan(true), FloorOptions{});
+  EXPECT_NEAR(world_from_camera.translation().z(), 1.3, 0.01);
+  // The camera's optical axis points 25 degrees below the horizon.
+  const Eigen::Vector3d axis = world_from_camera.linear() * Eigen::Vector3d::UnitZ();
+  EXPECT_NEAR(std::asin(-axis.z()) * 180 / M_PI, 25, 0.5);
+  // A floor point lands on z = 0.
+  const Eigen::Vector3f any_floor_point = FloorScan(true)[0];
+  EXPECT_NEAR((world_from_camera * any_floor_point.cast<double>()).z(), 0, 0.01);
+}
+
+TEST(FindFloor, NoFloorAndTooFewPointsAreErrors) {
+  EXPECT_NE(
+      testing::ErrorOf([] { FindFloor(FloorScan(false), FloorOptions{}); }).find("no floor found"),
+      std::string::npos);
+  EXPECT_NE(testing::ErrorOf([] {
+              FindFloor(std::vector<Eigen::Vector3f>(10, Eigen::Vector3f(0, 1, 2)), FloorOptions{});
+            }).find("at least 100"),
+            std::string::npos);
+}
+
+TEST(NeighbourGrid, MatchesBruteForce) {
+  Rng rng(5);
+  std::vector<Eigen::Vector3f> points;
+  for (int i = 0; i < 2000; ++i) {
+    points.emplace_back(rng.Uniform(-0.5, 0.5), rng.Uniform(-0.5, 0.5), rng.Uniform(-0.1, 0.1));
+  }
+  const NeighbourGrid grid(points, 0.05f);
+  for (int i = 0; i < 2000; i += 97) {
+    std::vector<int> fast, slow;
+    grid.ForEachNeighbourOf(i, 0.05f, [&](int j, float) { fast.push_back(j); });
+    std::vector<int> by_point;
+    grid.ForEachWithin(points[i], 0.05f, [&](int j, float) { by_point.push_back(j); });
+    for (int j = 0; j < 2000; ++j) {
+      if ((points[j] - points[i]).norm() <= 0.05f) slow.push_back(j);
+    }
+    std::sort(fast.begin(), fast.end());
+    std::sort(by_point.begin(), by_point.end());
+    EXPECT_EQ(fast, slow);
+    EXPECT_EQ(by_point, slow);
+  }
+}
+
+}  // namespace
+}  // namespace furn
