@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <iterator>
 #include <mutex>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
@@ -19,6 +20,7 @@ namespace {
 using Clock = std::chrono::steady_clock;
 
 constexpr int kClasses = static_cast<int>(kAllClasses.size());
+constexpr double kSameSupport = 0.8;  // shared share of segments making two maxima one
 
 // One Hough vote, kept to find the segments behind a maximum.
 struct Vote {
@@ -342,8 +344,9 @@ void Detector::Impl::FitAndVerify(const ViewSegments& view,
     const double covered = fit.Explained();
     std::vector<Eigen::Vector3f> posed;
     posed.reserve(model.model_shapes[m].points.size());
+    const PlanarTransform transform(fit.pose);
     for (const Eigen::Vector3f& p : model.model_shapes[m].points)
-      posed.push_back(fit.pose.Apply(p));
+      posed.push_back(transform.Apply(p));
     const VisibilityCounts counts =
         CountVisibility(occupancy, posed, static_cast<float>(options.floor_band_m));
     const double verification = counts.Score(options.occupied_weight);
@@ -541,6 +544,26 @@ DetectionResult Detector::Detect(const DetectionInput& input, bool keep_debug) c
   });
   for (DetectionDebug::Hypothesis& hypothesis : hypotheses)
     impl.Rank(votes, segment_neighbours, &hypothesis);
+  // Maxima of one class backed by (almost) the same segments would give the
+  // same fit: only the strongest is fitted (hypotheses are strongest first
+  // within a class).
+  for (size_t h = 0; h < hypotheses.size(); ++h) {
+    for (size_t k = 0; k < h; ++k) {
+      if (hypotheses[k].furniture_class != hypotheses[h].furniture_class ||
+          hypotheses[k].candidate_models.empty()) {
+        continue;
+      }
+      const std::vector<int>& a = hypotheses[k].segments;
+      const std::vector<int>& b = hypotheses[h].segments;
+      std::vector<int> common;
+      std::set_intersection(a.begin(), a.end(), b.begin(), b.end(), std::back_inserter(common));
+      if (common.size() >= kSameSupport * std::max(a.size(), b.size())) {
+        hypotheses[h].candidate_models.clear();
+        hypotheses[h].outcome = "same support as a stronger maximum";
+        break;
+      }
+    }
+  }
   timer.Lap("rank");
   ParallelFor(0, static_cast<int>(hypotheses.size()), [&](int h) {
     impl.FitAndVerify(view, occupancy, h, &hypotheses[h], &found[h], &fitted[h], &support[h]);

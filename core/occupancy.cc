@@ -10,7 +10,7 @@ namespace furn {
 OccupancyGrid::OccupancyGrid(const std::vector<Eigen::Vector3f>& points,
                              const Eigen::Vector3f& sensor_origin,
                              double voxel_m)
-    : voxel_(static_cast<float>(voxel_m)) {
+    : voxel_(static_cast<float>(voxel_m)), inverse_voxel_(1 / voxel_) {
   Require(voxel_m >= 0.005 && voxel_m <= 1,
           "occupancy voxel " + std::to_string(voxel_m) + " m must be in 0.005..1");
   Eigen::Vector3f low = sensor_origin, high = sensor_origin;
@@ -70,7 +70,7 @@ OccupancyGrid::OccupancyGrid(const std::vector<Eigen::Vector3f>& points,
 
 bool OccupancyGrid::Cell(const Eigen::Vector3f& p, Eigen::Vector3i* cell) const {
   for (int axis = 0; axis < 3; ++axis) {
-    const float f = std::floor((p[axis] - origin_[axis]) / voxel_);
+    const float f = std::floor((p[axis] - origin_[axis]) * inverse_voxel_);
     if (!(f >= 0 && f < size_[axis])) return false;
     (*cell)[axis] = static_cast<int>(f);
   }

@@ -36,6 +36,7 @@ class OccupancyGrid {
   }
 
   float voxel_;
+  float inverse_voxel_;
   Eigen::Vector3f origin_;  // corner of voxel (0, 0, 0)
   Eigen::Vector3i size_;
   std::vector<Occupancy> cells_;

@@ -21,6 +21,12 @@ Eigen::Vector3f PlanarPose::Inverse(const Eigen::Vector3f& p) const {
   return Eigen::Vector3f(c * dx + s * dy, -s * dx + c * dy, p.z());
 }
 
+PlanarTransform::PlanarTransform(const PlanarPose& pose)
+    : c_(static_cast<float>(std::cos(pose.yaw))),
+      s_(static_cast<float>(std::sin(pose.yaw))),
+      x_(static_cast<float>(pose.x)),
+      y_(static_cast<float>(pose.y)) {}
+
 double WrapAngle(double radians) {
   double wrapped = std::fmod(radians, 2 * M_PI);
   if (wrapped < 0) wrapped += 2 * M_PI;
@@ -50,7 +56,7 @@ struct ModelFitter::Impl {
   // Voxels (inlier_m / 2) within inlier_m of a model point hold the index of
   // the model point nearest their centre (-1 elsewhere): O(1) coverage tests
   // and ICP correspondences.
-  float cell = 0;
+  float cell = 0, inverse_cell = 0;
   Eigen::Vector3f origin;
   Eigen::Vector3i size;
   std::vector<int32_t> nearest;
@@ -61,7 +67,7 @@ struct ModelFitter::Impl {
   int NearestTo(const Eigen::Vector3f& q) const {
     Eigen::Vector3i c;
     for (int axis = 0; axis < 3; ++axis) {
-      const float f = std::floor((q[axis] - origin[axis]) / cell);
+      const float f = std::floor((q[axis] - origin[axis]) * inverse_cell);
       if (!(f >= 0 && f < size[axis])) return -1;
       c[axis] = static_cast<int>(f);
     }
@@ -77,6 +83,7 @@ ModelFitter::ModelFitter(const ModelShape& shape, const FitOptions& options)
   Impl& impl = *impl_;
   const float inlier = static_cast<float>(options.inlier_m);
   impl.cell = inlier / 2;
+  impl.inverse_cell = 1 / impl.cell;
   impl.origin = shape.low - Eigen::Vector3f::Constant(inlier + impl.cell);
   const Eigen::Vector3f extent =
       shape.high - impl.origin + Eigen::Vector3f::Constant(inlier + impl.cell);
@@ -122,9 +129,7 @@ ModelFitter::ModelFitter(ModelFitter&&) noexcept = default;
 int ModelFitter::Covered(const std::vector<Eigen::Vector3f>& scene_points,
                          const PlanarPose& pose,
                          int* inside) const {
-  const float c = static_cast<float>(std::cos(pose.yaw)),
-              s = static_cast<float>(std::sin(pose.yaw));
-  const float x = static_cast<float>(pose.x), y = static_cast<float>(pose.y);
+  const PlanarTransform transform(pose);
   const Eigen::Vector3f margin = Eigen::Vector3f::Constant(static_cast<float>(options_.inlier_m));
   const Eigen::Vector3f low = shape_->low - margin;
   // Points just above the model count too: a column taller than a sideboard
@@ -133,8 +138,7 @@ int ModelFitter::Covered(const std::vector<Eigen::Vector3f>& scene_points,
       shape_->high + margin + Eigen::Vector3f(0, 0, static_cast<float>(options_.above_m));
   int covered = 0, in_box = 0;
   for (const Eigen::Vector3f& p : scene_points) {
-    const float dx = p.x() - x, dy = p.y() - y;  // PlanarPose::Inverse, sin and cos hoisted
-    const Eigen::Vector3f q(c * dx + s * dy, -s * dx + c * dy, p.z());
+    const Eigen::Vector3f q = transform.Inverse(p);
     covered += impl_->Near(q);
     if (inside != nullptr)
       in_box += (q.array() >= low.array()).all() && (q.array() <= high.array()).all();
@@ -145,16 +149,17 @@ int ModelFitter::Covered(const std::vector<Eigen::Vector3f>& scene_points,
 
 std::vector<int> ModelFitter::CoveredIndices(const std::vector<Eigen::Vector3f>& scene_points,
                                              const PlanarPose& pose) const {
+  const PlanarTransform transform(pose);
   std::vector<int> covered;
   for (size_t i = 0; i < scene_points.size(); ++i) {
-    if (impl_->Near(pose.Inverse(scene_points[i]))) covered.push_back(static_cast<int>(i));
+    if (impl_->Near(transform.Inverse(scene_points[i]))) covered.push_back(static_cast<int>(i));
   }
   return covered;
 }
 
 namespace {
 
-constexpr size_t kScoringPoints = 200;  // points a candidate pose is scored on
+constexpr size_t kScoringPoints = 150;  // points a candidate pose is scored on
 constexpr int kHintYaws = 24;           // yaws tried at the hint (every 15 degrees)
 constexpr size_t kRefined = 4;          // best candidates refined by ICP
 
@@ -180,8 +185,9 @@ PoseFit ModelFitter::Refine(const std::vector<Eigen::Vector3f>& scene_points,
   for (int it = 0; it < options_.refine_iterations; ++it) {
     Eigen::Vector2d model_mean = Eigen::Vector2d::Zero(), scene_mean = Eigen::Vector2d::Zero();
     std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>> pairs;
+    const PlanarTransform transform(best.pose);
     for (const Eigen::Vector3f& p : scene_points) {
-      const int nearest = impl.NearestTo(best.pose.Inverse(p));
+      const int nearest = impl.NearestTo(transform.Inverse(p));
       if (nearest < 0) continue;
       const Eigen::Vector2d m = shape.points[nearest].head<2>().cast<double>();
       const Eigen::Vector2d s = p.head<2>().cast<double>();

@@ -29,6 +29,22 @@ struct PlanarPose {
   Eigen::Vector3f Inverse(const Eigen::Vector3f& world_point) const;  // world -> model
 };
 
+// A PlanarPose with its sine and cosine computed once, for loops over points.
+class PlanarTransform {
+ public:
+  explicit PlanarTransform(const PlanarPose& pose);
+  Eigen::Vector3f Apply(const Eigen::Vector3f& m) const {
+    return Eigen::Vector3f(c_ * m.x() - s_ * m.y() + x_, s_ * m.x() + c_ * m.y() + y_, m.z());
+  }
+  Eigen::Vector3f Inverse(const Eigen::Vector3f& p) const {
+    const float dx = p.x() - x_, dy = p.y() - y_;
+    return Eigen::Vector3f(c_ * dx + s_ * dy, -s_ * dx + c_ * dy, p.z());
+  }
+
+ private:
+  float c_, s_, x_, y_;
+};
+
 // The pose that rotates `model` by `yaw` and puts it on `scene` (t = s - R m).
 PlanarPose PoseFromPair(const Eigen::Vector3f& scene, const Eigen::Vector3f& model, double yaw);
 

@@ -2,8 +2,8 @@
 # The main job, end to end with what exists so far: import the default catalog
 # (the repo's class map over Debian's Sweet Home 3D catalogs), print its summary,
 # draw every classified model on a contact sheet, render one model as a Kinect
-# v1 sees it, generate a labelled synthetic dataset (FURN_ROOMS rooms), and
-# train the part vocabulary and shape model.
+# v1 sees it, generate a labelled synthetic dataset (FURN_ROOMS rooms), train
+# the part vocabulary and shape model, and detect furniture in a dataset frame.
 set -euo pipefail
 repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build_dir="${1:-$repo/build}"
@@ -26,6 +26,9 @@ echo "== dataset: summary and contact sheet"
 echo "== train: part vocabulary and shape model from virtual scans of the catalog"
 "$workbench" train --catalog default --out "$out_dir/model.fcm" --quiet
 "$workbench" model info "$out_dir/model.fcm"
+echo "== detect: furniture in one frame of the dataset, with the debug PNGs"
+"$workbench" detect --model "$out_dir/model.fcm" --db "$out_dir/synth.db" --frame 8 \
+  --out "$out_dir/detect/detections.json" --debug-dir "$out_dir/detect" --timings
 echo
 echo "main job done:"
 echo "  $out_dir/catalog.json   listing of the classified models"
@@ -34,3 +37,4 @@ echo "  $out_dir/render/        depth/id PNGs, organized PCDs, preview.png (idea
 echo "  $out_dir/synth.db       labelled synthetic Kinect frames (SQLite; see 'workbench dataset')"
 echo "  $out_dir/synth_preview.png  contact sheet: noisy depth with ground-truth boxes"
 echo "  $out_dir/model.fcm      trained model (see 'workbench model info', 'workbench eval-parts')"
+echo "  $out_dir/detect/        detections.json and debug PNGs (segments, votes, fits, top-down)"

@@ -1,0 +1,73 @@
+// Detection of one 640x480 frame end to end (world frame, preprocessing,
+// segmentation, features, occupancy, voting, maxima, ranking, fitting,
+// verification, suppression) over frames of a generated dataset, with the
+// model the main job trains. Target (SPEC.md §13): median <= 100 ms on
+// 2 cores. Reports the median total and per-stage medians as counters.
+//
+//   bash tools/quickstart.sh main      # makes out/model.fcm and out/synth.db
+//   build/tests/benchmarks/detect_benchmark
+//   FURN_BENCH_MODEL=m.fcm FURN_BENCH_DB=d.db build/tests/benchmarks/detect_benchmark
+#include <benchmark/benchmark.h>
+
+#include <algorithm>
+#include <cstdlib>
+#include <filesystem>
+#include <map>
+
+#include "core/detector.h"
+#include "db/dataset_db.h"
+#include "workbench/detect_command.h"
+
+namespace furn {
+namespace {
+
+std::string FromEnv(const char* name, const std::string& fallback) {
+  const char* value = std::getenv(name);
+  return value != nullptr ? value : fallback;
+}
+
+double Median(std::vector<double> values) {
+  std::nth_element(values.begin(), values.begin() + values.size() / 2, values.end());
+  return values[values.size() / 2];
+}
+
+void BM_DetectFrame(benchmark::State& state) {
+  const std::string model_path = FromEnv("FURN_BENCH_MODEL", FURN_SOURCE_DIR "/out/model.fcm");
+  const std::string db_path = FromEnv("FURN_BENCH_DB", FURN_SOURCE_DIR "/out/synth.db");
+  if (!std::filesystem::exists(model_path) || !std::filesystem::exists(db_path)) {
+    state.SkipWithError(("needs " + model_path + " and " + db_path +
+                         " (run the main job, or set FURN_BENCH_MODEL / FURN_BENCH_DB)")
+                            .c_str());
+    return;
+  }
+  const Detector detector(LoadTrainedModel(model_path), DetectorOptions{});
+  // Every 4th frame of the dataset (up to 24), loaded once.
+  std::vector<LoadedScan> scans;
+  {
+    DatasetDb db(db_path, DatasetDb::Mode::kReadOnly);
+    for (int64_t room : db.RoomIds()) {
+      for (const FrameRecord& frame : db.ReadRoom(room, false).frames) {
+        if (frame.id % 4 != 0 || scans.size() >= 24) continue;
+        ScanSource source;
+        source.db_path = db_path;
+        source.frame_id = frame.id;
+        scans.push_back(LoadScan(source));
+      }
+    }
+  }
+  std::map<std::string, std::vector<double>> stages;
+  size_t next = 0;
+  for (auto _ : state) {
+    const DetectionResult result = detector.Detect(scans[next++ % scans.size()].input);
+    for (const auto& [stage, ms] : result.timings_ms) stages[stage].push_back(ms);
+    benchmark::DoNotOptimize(result.detections.size());
+  }
+  state.counters["frames"] = static_cast<double>(scans.size());
+  for (const auto& [stage, ms] : stages) state.counters[stage + "_ms"] = Median(ms);
+}
+BENCHMARK(BM_DetectFrame)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(72);
+
+}  // namespace
+}  // namespace furn
+
+BENCHMARK_MAIN();
