@@ -194,13 +194,13 @@ void WriteDetectionDebug(const DetectionResult& result,
       const cv::Scalar colour = detected ? cv::Scalar(80, 255, 80) : cv::Scalar(200, 200, 200);
       cv::circle(heat, at(h.x, h.y), detected ? 9 : 6, colour, 2, cv::LINE_AA);
       char text[96];
-      std::snprintf(text, sizeof(text), "%.2f %s", h.vote_weight, h.outcome.c_str());
+      std::snprintf(text, sizeof(text), "%.3g %s", h.vote_weight, h.outcome.c_str());
       DrawLabel(&heat, text, at(h.x, h.y) + cv::Point(10, 4), colour, 0.38);
     }
     char caption[160];
     std::snprintf(caption,
                   sizeof(caption),
-                  "%s votes: max %.2f, threshold %.2f, %d maxima (green: detected)",
+                  "%s votes: max %.3g, threshold %.3g, %d maxima (green: detected)",
                   ClassName(grid.furniture_class),
                   high,
                   grid.threshold,

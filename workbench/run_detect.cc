@@ -57,14 +57,14 @@ int RunDetect(int argc, char** argv) {
     result = detector.Detect(scan.input, /*keep_debug=*/!debug_dir.empty() && k == repeat - 1);
     for (const auto& [stage, ms] : result.timings_ms) stage_times[stage].push_back(ms);
   }
+  if (!debug_dir.empty()) {  // first: --out may name a file inside it
+    WriteDetectionDebug(result, detector.model(), scan.camera, scan.ground_truth, debug_dir);
+  }
   const std::string json = DetectionJson(result, scan);
   if (!out.empty()) {
     WriteFileAtomically(out, json);
   } else if (!quiet) {
     std::fputs(json.c_str(), stdout);
-  }
-  if (!debug_dir.empty()) {
-    WriteDetectionDebug(result, detector.model(), scan.camera, scan.ground_truth, debug_dir);
   }
   if (!quiet) {
     std::fprintf(stderr, "%s: %zu detections", scan.description.c_str(), result.detections.size());
