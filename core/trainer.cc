@@ -275,7 +275,16 @@ ViewSegments SegmentView(const std::vector<Eigen::Vector3f>& points,
 TrainedModel TrainModel(const std::vector<TrainingView>& views,
                         const std::vector<std::string>& model_names,
                         const std::vector<FurnitureClass>& model_classes,
-                        const TrainerOptions& options) {
+                        const TrainerOptions& options,
+                        TrainStageTimes* times) {
+  using Clock = std::chrono::steady_clock;
+  TrainStageTimes local;
+  if (times == nullptr) times = &local;
+  auto lap = [last = Clock::now()](double* seconds) mutable {
+    const auto now = Clock::now();
+    *seconds = std::chrono::duration<double>(now - last).count();
+    last = now;
+  };
   options.Check();
   Require(!views.empty(), "training needs at least one view");
   Require(model_names.size() == model_classes.size(), "training: one class per model name");
@@ -284,12 +293,16 @@ TrainedModel TrainModel(const std::vector<TrainingView>& views,
         view.model_index >= 0 && view.model_index < static_cast<int>(model_names.size()),
         "training view names model " + std::to_string(view.model_index) + ", which does not exist");
   }
-  // Views are independent: segment them and describe their part subsets on
-  // every core, keep the order.
+  // Views are independent: segment them, then describe their part subsets,
+  // on every core, keeping the order.
   std::vector<ViewSegments> segmented(views.size());
   std::vector<std::vector<PartSubsetEntry>> subsets(views.size());
+  lap(&times->segment_s);
   ParallelFor(0, static_cast<int>(views.size()), [&](int i) {
     segmented[i] = SegmentView(views[i].points, views[i].sensor_origin, options);
+  });
+  lap(&times->segment_s);
+  ParallelFor(0, static_cast<int>(views.size()), [&](int i) {
     for (const std::vector<int>& subset : PartSubsets(segmented[i], options.part_subsets)) {
       subsets[i].push_back(
           {ComputeVfh(
@@ -297,6 +310,7 @@ TrainedModel TrainModel(const std::vector<TrainingView>& views,
            views[i].model_index});
     }
   });
+  lap(&times->part_subsets_s);
   std::vector<SgfVector> features;
   for (const ViewSegments& view : segmented)
     features.insert(features.end(), view.features.begin(), view.features.end());
@@ -313,6 +327,7 @@ TrainedModel TrainModel(const std::vector<TrainingView>& views,
   std::vector<Eigen::VectorXd> normalised;
   for (const SgfVector& f : features) normalised.push_back(model.normalizer.Apply(f));
   model.vocabulary = Vocabulary::Train(normalised, options.vocabulary);
+  lap(&times->vocabulary_s);
   model.training_segments = static_cast<int>(features.size());
   for (const std::vector<PartSubsetEntry>& view : subsets)
     model.part_library.insert(model.part_library.end(), view.begin(), view.end());
@@ -336,6 +351,7 @@ TrainedModel TrainModel(const std::vector<TrainingView>& views,
       }
     }
   }
+  lap(&times->shape_s);
   return model;
 }
 

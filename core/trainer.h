@@ -97,12 +97,21 @@ struct TrainedModel {
   std::vector<PartSubsetEntry> part_library;  // every part subset of every view
 };
 
+// Wall-clock seconds of TrainModel's stages.
+struct TrainStageTimes {
+  double segment_s = 0;       // preprocessing, region growing, SGFs (all views)
+  double part_subsets_s = 0;  // subsets and their VFHs (all views)
+  double vocabulary_s = 0;    // normalisation and k-means or RIM
+  double shape_s = 0;         // model shapes and the shape model's entries
+};
+
 // Throws InputError for no views, a view naming no model, or views that
 // yield fewer segments than the vocabulary has words.
 TrainedModel TrainModel(const std::vector<TrainingView>& views,
                         const std::vector<std::string>& model_names,
                         const std::vector<FurnitureClass>& model_classes,
-                        const TrainerOptions& options);
+                        const TrainerOptions& options,
+                        TrainStageTimes* times = nullptr);
 
 // Segments and normalisation-free SGFs of one view (shared with detection).
 struct SegmentTimings {

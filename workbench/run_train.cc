@@ -47,6 +47,13 @@ int RunTrain(int argc, char** argv) {
       trainer.vocabulary.words,
       summary.scan_s,
       summary.train_s);
+  std::printf(
+      "  training stages (s): segmentation + features %.1f, part subsets + VFH %.1f, "
+      "vocabulary %.1f, shape model %.1f\n",
+      summary.stages.segment_s,
+      summary.stages.part_subsets_s,
+      summary.stages.vocabulary_s,
+      summary.stages.shape_s);
   return 0;
 }
 

@@ -104,7 +104,7 @@ TrainSummary TrainFromCatalog(const Catalog& catalog,
   progress.Finish();
   summary.scan_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   start = std::chrono::steady_clock::now();
-  const TrainedModel model = TrainModel(views, ids, classes, trainer);
+  const TrainedModel model = TrainModel(views, ids, classes, trainer, &summary.stages);
   SaveTrainedModel(model, out_path);
   summary.train_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   summary.models = static_cast<int>(ids.size());

@@ -35,7 +35,8 @@ struct TrainSummary {
   int views = 0;
   int segments = 0;
   int used_words = 0;
-  double scan_s = 0, train_s = 0;
+  double scan_s = 0, train_s = 0;  // train_s: TrainModel and saving
+  TrainStageTimes stages;
 };
 
 // Trains on the classified entries that are not evaluation-only.
