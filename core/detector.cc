@@ -241,6 +241,7 @@ std::vector<DetectionDebug::Hypothesis> Detector::Impl::Maxima(
     hypothesis.x = origin.x() + (c + 0.5) * options.cell_m;
     hypothesis.y = origin.y() + (r + 0.5) * options.cell_m;
     hypothesis.vote_weight = value;
+    hypothesis.relative_weight = high > low ? (value - low) / (high - low) : 0.0;
     maxima.push_back(hypothesis);
     if (static_cast<int>(maxima.size()) >= options.max_hypotheses_per_class) break;
   }
@@ -611,6 +612,7 @@ DetectionResult Detector::Detect(const DetectionInput& input, bool keep_debug) c
   }
   timer.Lap("suppress");
   timer.Total();
+  result.debug.hypotheses = hypotheses;  // small: kept for evaluation (protocol A) too
 
   if (keep_debug) {
     DetectionDebug& debug = result.debug;
@@ -620,7 +622,6 @@ DetectionResult Detector::Detect(const DetectionInput& input, bool keep_debug) c
       for (int i : view.segments[s]) debug.segment_of_point[i] = static_cast<int>(s);
     }
     debug.grids = std::move(debug_grids);
-    debug.hypotheses = hypotheses;
     for (int h : kept) debug.fitted_points.push_back(fitted[h]);
   }
   return result;

@@ -125,6 +125,7 @@ struct DetectionDebug {
   struct Hypothesis {
     FurnitureClass furniture_class = FurnitureClass::kChair;
     double x = 0, y = 0, vote_weight = 0;
+    double relative_weight = 0;         // (vote - min) / (max - min) of the class grid
     std::vector<int> segments;          // that voted for it
     std::vector<int> candidate_models;  // ranked by the part subsets
     struct Fit {
@@ -148,7 +149,7 @@ struct DetectionResult {
   bool floor_estimated = false;  // world_from_camera came from FindFloor
   int input_points = 0, points = 0, segments = 0;
   std::vector<std::pair<std::string, double>> timings_ms;  // per stage, in order, then "total"
-  DetectionDebug debug;                                    // filled when asked for
+  DetectionDebug debug;  // hypotheses always; points, grids and fits when asked for
 };
 
 class Detector {

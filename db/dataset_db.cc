@@ -54,6 +54,44 @@ CREATE TABLE frame_objects (
 CREATE INDEX frames_by_room ON frames(room_id);
 )";
 
+// Version 2: evaluation runs (SPEC.md §6, §10), one row per `evaluate` or
+// tuning trial, its metrics, detections and per-frame timings.
+constexpr char kSchemaV2[] = R"(
+CREATE TABLE runs (
+  id INTEGER PRIMARY KEY,
+  kind TEXT NOT NULL,
+  label TEXT NOT NULL,
+  started TEXT NOT NULL,
+  git_commit TEXT NOT NULL,
+  git_dirty INTEGER NOT NULL,
+  model_path TEXT NOT NULL,
+  model_hash TEXT NOT NULL,
+  dataset_hash TEXT NOT NULL,
+  split TEXT NOT NULL,
+  options_json TEXT NOT NULL,
+  results_json TEXT NOT NULL);
+CREATE TABLE run_metrics (
+  run_id INTEGER NOT NULL REFERENCES runs(id) ON DELETE CASCADE,
+  name TEXT NOT NULL,
+  value REAL NOT NULL,
+  PRIMARY KEY (run_id, name));
+CREATE TABLE run_detections (
+  run_id INTEGER NOT NULL REFERENCES runs(id) ON DELETE CASCADE,
+  frame_id INTEGER NOT NULL,
+  class TEXT NOT NULL,
+  x REAL NOT NULL, y REAL NOT NULL, z REAL NOT NULL, yaw REAL NOT NULL,
+  model_id TEXT NOT NULL,
+  score REAL NOT NULL, vote_weight REAL NOT NULL, verification REAL NOT NULL,
+  covered_fraction REAL NOT NULL);
+CREATE INDEX run_detections_by_run ON run_detections(run_id, frame_id);
+CREATE TABLE run_frames (
+  run_id INTEGER NOT NULL REFERENCES runs(id) ON DELETE CASCADE,
+  frame_id INTEGER NOT NULL,
+  total_ms REAL NOT NULL,
+  timings_json TEXT NOT NULL,
+  PRIMARY KEY (run_id, frame_id));
+)";
+
 int64_t AsSigned(uint64_t value) { return static_cast<int64_t>(value); }
 uint64_t AsUnsigned(int64_t value) { return static_cast<uint64_t>(value); }
 
@@ -111,6 +149,7 @@ void DatasetDb::CreateOrMigrate(Mode mode) {
     if (mode == Mode::kReadOnly) throw DbError(db_.path() + ": not a dataset (no tables)");
     Transaction transaction(&db_);
     db_.Execute(kSchemaV1);
+    db_.Execute(kSchemaV2);
     Statement version(
         &db_,
         "INSERT INTO meta(key, value) VALUES ('schema_version', ?), ('kind', 'furnidet-dataset')");
@@ -132,7 +171,112 @@ void DatasetDb::CreateOrMigrate(Mode mode) {
   }
   if (found < 1)
     throw DbError(db_.path() + ": unknown dataset schema version " + std::to_string(found));
-  // Migrations from older versions go here, one transaction per step.
+  // Migrations, one transaction per step; a read-only open reads older
+  // versions as they are (they have no runs).
+  if (found < 2 && mode == Mode::kReadWrite) {
+    Transaction transaction(&db_);
+    db_.Execute(kSchemaV2);
+    db_.Execute("UPDATE meta SET value = '2' WHERE key = 'schema_version'");
+    transaction.Commit();
+  }
+}
+
+bool DatasetDb::HasRuns() {
+  Statement query(&db_,
+                  "SELECT count(*) FROM sqlite_master WHERE type = 'table' AND name = 'runs'");
+  query.Step();
+  return query.ColumnInt(0) > 0;
+}
+
+int64_t DatasetDb::WriteRun(const RunRecord& run,
+                            const std::map<std::string, double>& metrics,
+                            const std::vector<RunDetectionRecord>& detections,
+                            const std::vector<RunFrameRecord>& frames) {
+  Transaction transaction(&db_);
+  Statement insert(&db_,
+                   "INSERT INTO runs(kind, label, started, git_commit, git_dirty, model_path, "
+                   "model_hash, dataset_hash, split, options_json, results_json) "
+                   "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
+  insert.Bind(1, run.kind)
+      .Bind(2, run.label)
+      .Bind(3, run.started)
+      .Bind(4, run.git_commit)
+      .Bind(5, int64_t{run.git_dirty})
+      .Bind(6, run.model_path)
+      .Bind(7, run.model_hash)
+      .Bind(8, run.dataset_hash)
+      .Bind(9, run.split)
+      .Bind(10, run.options_json)
+      .Bind(11, run.results_json)
+      .Run();
+  const int64_t id = db_.LastInsertRowId();
+  Statement metric(&db_, "INSERT INTO run_metrics(run_id, name, value) VALUES (?, ?, ?)");
+  for (const auto& [name, value] : metrics) {
+    metric.Reset();
+    metric.Bind(1, id).Bind(2, name).Bind(3, value).Run();
+  }
+  Statement detection(&db_,
+                      "INSERT INTO run_detections(run_id, frame_id, class, x, y, z, yaw, model_id, "
+                      "score, vote_weight, verification, covered_fraction) "
+                      "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
+  for (const RunDetectionRecord& d : detections) {
+    detection.Reset();
+    detection.Bind(1, id)
+        .Bind(2, d.frame_id)
+        .Bind(3, d.furniture_class)
+        .Bind(4, d.x)
+        .Bind(5, d.y)
+        .Bind(6, d.z)
+        .Bind(7, d.yaw)
+        .Bind(8, d.model_id)
+        .Bind(9, d.score)
+        .Bind(10, d.vote_weight)
+        .Bind(11, d.verification)
+        .Bind(12, d.covered_fraction)
+        .Run();
+  }
+  Statement frame(
+      &db_, "INSERT INTO run_frames(run_id, frame_id, total_ms, timings_json) VALUES (?, ?, ?, ?)");
+  for (const RunFrameRecord& f : frames) {
+    frame.Reset();
+    frame.Bind(1, id).Bind(2, f.frame_id).Bind(3, f.total_ms).Bind(4, f.timings_json).Run();
+  }
+  transaction.Commit();
+  return id;
+}
+
+std::vector<RunRecord> DatasetDb::Runs() {
+  std::vector<RunRecord> runs;
+  if (!HasRuns()) return runs;
+  Statement query(&db_,
+                  "SELECT id, kind, label, started, git_commit, git_dirty, model_path, model_hash, "
+                  "dataset_hash, split, options_json, results_json FROM runs ORDER BY id");
+  while (query.Step()) {
+    RunRecord run;
+    run.id = query.ColumnInt(0);
+    run.kind = query.ColumnText(1);
+    run.label = query.ColumnText(2);
+    run.started = query.ColumnText(3);
+    run.git_commit = query.ColumnText(4);
+    run.git_dirty = query.ColumnInt(5) != 0;
+    run.model_path = query.ColumnText(6);
+    run.model_hash = query.ColumnText(7);
+    run.dataset_hash = query.ColumnText(8);
+    run.split = query.ColumnText(9);
+    run.options_json = query.ColumnText(10);
+    run.results_json = query.ColumnText(11);
+    runs.push_back(std::move(run));
+  }
+  return runs;
+}
+
+std::map<std::string, double> DatasetDb::RunMetrics(int64_t run_id) {
+  std::map<std::string, double> metrics;
+  if (!HasRuns()) return metrics;
+  Statement query(&db_, "SELECT name, value FROM run_metrics WHERE run_id = ? ORDER BY name");
+  query.Bind(1, run_id);
+  while (query.Step()) metrics[query.ColumnText(0)] = query.ColumnDouble(1);
+  return metrics;
 }
 
 std::optional<std::string> DatasetDb::GenerationOptions() {

@@ -17,6 +17,7 @@
 #include <array>
 #include <cstdint>
 #include <functional>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -25,7 +26,7 @@
 
 namespace furn {
 
-inline constexpr int kDatasetSchemaVersion = 1;
+inline constexpr int kDatasetSchemaVersion = 2;  // 2: evaluation runs
 
 struct ModelRecord {
   std::string id;
@@ -76,6 +77,33 @@ struct RoomRecord {
   std::vector<FrameRecord> frames;
 };
 
+// One evaluation run (or tuning trial): where its numbers came from.
+struct RunRecord {
+  int64_t id = 0;
+  std::string kind = "evaluate";  // evaluate, tune, ...
+  std::string label;
+  std::string started;  // UTC, ISO 8601
+  std::string git_commit;
+  bool git_dirty = false;
+  std::string model_path, model_hash, dataset_hash;
+  std::string split;
+  std::string options_json;  // every option used
+  std::string results_json;  // PR curves and confusion, for reports
+};
+
+struct RunDetectionRecord {
+  int64_t frame_id = 0;
+  std::string furniture_class, model_id;
+  double x = 0, y = 0, z = 0, yaw = 0;
+  double score = 0, vote_weight = 0, verification = 0, covered_fraction = 0;
+};
+
+struct RunFrameRecord {
+  int64_t frame_id = 0;
+  double total_ms = 0;
+  std::string timings_json;  // stage -> ms
+};
+
 class DatasetDb {
  public:
   enum class Mode { kReadWrite, kReadOnly };
@@ -100,6 +128,16 @@ class DatasetDb {
   // runs inside it, after every row is written (tests use it to crash there).
   void WriteRoom(const RoomRecord& room, const std::function<void()>& before_commit = {});
   std::vector<int64_t> RoomIds();
+  // Runs (schema 2). WriteRun stores one run in one transaction and returns
+  // its id; Runs lists them by id (none for an older, read-only dataset).
+  bool HasRuns();
+  int64_t WriteRun(const RunRecord& run,
+                   const std::map<std::string, double>& metrics,
+                   const std::vector<RunDetectionRecord>& detections,
+                   const std::vector<RunFrameRecord>& frames);
+  std::vector<RunRecord> Runs();
+  std::map<std::string, double> RunMetrics(int64_t run_id);
+
   // The room holding a frame, or nothing when no frame has that id.
   std::optional<int64_t> RoomOfFrame(int64_t frame_id);
   RoomRecord ReadRoom(int64_t room_id, bool with_images);

@@ -13,5 +13,7 @@ int RunTrain(int argc, char** argv);
 int RunModel(int argc, char** argv);
 int RunEvalParts(int argc, char** argv);
 int RunDetect(int argc, char** argv);
+int RunEvaluate(int argc, char** argv);
+int RunRegress(int argc, char** argv);
 
 }  // namespace furn

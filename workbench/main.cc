@@ -28,6 +28,8 @@ constexpr Command kCommands[] = {
     {"model", furn::RunModel, "describe a trained model file"},
     {"eval-parts", furn::RunEvalParts, "protocol C: part-subset classification accuracy"},
     {"detect", furn::RunDetect, "detect furniture in a depth scan (cloud, depth PNG, DB frame)"},
+    {"evaluate", furn::RunEvaluate, "detect over a dataset split; metrics stored as a run"},
+    {"regress", furn::RunRegress, "compare a run with a baseline; exit 1 when worse"},
 };
 
 void PrintUsage() {

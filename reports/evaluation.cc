@@ -1,0 +1,272 @@
+#include "reports/evaluation.h"
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <numeric>
+
+#include "core/error.h"
+
+namespace furn {
+namespace {
+
+std::string CentimetreName(double metres) {
+  return std::to_string(static_cast<int>(std::lround(metres * 100))) + "cm";
+}
+
+double Percentile(std::vector<double> values, double q) {
+  if (values.empty()) return 0;
+  std::sort(values.begin(), values.end());
+  const double position = q * (values.size() - 1);
+  const size_t low = static_cast<size_t>(std::floor(position));
+  const size_t high = std::min(values.size() - 1, low + 1);
+  return values[low] + (position - low) * (values[high] - values[low]);
+}
+
+// Yaw difference in degrees, modulo 360 / symmetry.
+double YawErrorDeg(double a, double b, int symmetry) {
+  const double period = 2 * M_PI / std::max(1, symmetry);
+  double d = std::fmod(std::abs(a - b), period);
+  d = std::min(d, period - d);
+  return d * 180 / M_PI;
+}
+
+enum class Role { kTarget, kIgnore, kAbsent };
+
+struct Matching {
+  std::vector<PrPoint> curve;
+  int targets = 0;
+  std::vector<std::pair<const ScoredDetection*, const TruthObject*>> true_positives;
+};
+
+// Protocol B for one class and distance; `role` says how each true object counts.
+Matching MatchClass(const std::vector<FrameOutcome>& frames,
+                    const std::string& furniture_class,
+                    double distance,
+                    const std::function<Role(const TruthObject&)>& role) {
+  Matching result;
+  struct Candidate {
+    double score;
+    size_t frame;
+    const ScoredDetection* detection;
+  };
+  std::vector<Candidate> candidates;
+  for (size_t f = 0; f < frames.size(); ++f) {
+    for (const TruthObject& t : frames[f].truth) {
+      result.targets += t.furniture_class == furniture_class && role(t) == Role::kTarget;
+    }
+    for (const ScoredDetection& d : frames[f].detections) {
+      if (d.furniture_class == furniture_class) candidates.push_back({d.score, f, &d});
+    }
+  }
+  std::stable_sort(candidates.begin(),
+                   candidates.end(),
+                   [](const Candidate& a, const Candidate& b) { return a.score > b.score; });
+  std::vector<std::vector<bool>> used(frames.size());
+  for (size_t f = 0; f < frames.size(); ++f) used[f].assign(frames[f].truth.size(), false);
+  int tp = 0, fp = 0;
+  for (const Candidate& c : candidates) {
+    const FrameOutcome& frame = frames[c.frame];
+    int best = -1;
+    double best_distance = distance;
+    for (size_t k = 0; k < frame.truth.size(); ++k) {
+      const TruthObject& t = frame.truth[k];
+      if (used[c.frame][k] || t.furniture_class != furniture_class || role(t) == Role::kAbsent)
+        continue;
+      const double d = std::hypot(t.x - c.detection->x, t.y - c.detection->y);
+      if (d <= best_distance) {
+        best_distance = d;
+        best = static_cast<int>(k);
+      }
+    }
+    if (best >= 0) {
+      used[c.frame][best] = true;
+      if (role(frame.truth[best]) == Role::kIgnore) continue;  // neither TP nor FP
+      ++tp;
+      result.true_positives.emplace_back(c.detection, &frame.truth[best]);
+    } else {
+      ++fp;
+    }
+    result.curve.push_back({result.targets > 0 ? static_cast<double>(tp) / result.targets : 0,
+                            static_cast<double>(tp) / (tp + fp),
+                            c.score});
+  }
+  return result;
+}
+
+}  // namespace
+
+double AveragePrecision(const std::vector<PrPoint>& curve) {
+  // Precision envelope from the right, then the area over recall steps.
+  double ap = 0, previous_recall = 0;
+  std::vector<double> envelope(curve.size());
+  double best = 0;
+  for (size_t i = curve.size(); i-- > 0;) {
+    best = std::max(best, curve[i].precision);
+    envelope[i] = best;
+  }
+  for (size_t i = 0; i < curve.size(); ++i) {
+    if (curve[i].recall > previous_recall) {
+      ap += (curve[i].recall - previous_recall) * envelope[i];
+      previous_recall = curve[i].recall;
+    }
+  }
+  return ap;
+}
+
+bool HigherIsBetter(const std::string& metric) {
+  return metric.find("error") == std::string::npos && metric.rfind("latency", 0) != 0;
+}
+
+EvaluationResult EvaluateFrames(const std::vector<FrameOutcome>& frames,
+                                const EvaluationOptions& options) {
+  Require(!frames.empty(), "evaluation needs at least one frame");
+  EvaluationResult result;
+  std::map<std::string, double>& m = result.metrics;
+  auto in_reach = [&](const TruthObject& t) {
+    return t.visibility >= options.min_visibility && t.distance_m <= options.max_distance_m;
+  };
+  auto all_objects = [&](const TruthObject& t) {
+    if (t.visibility <= 0) return Role::kAbsent;
+    return in_reach(t) ? Role::kTarget : Role::kIgnore;
+  };
+  int objects = 0;
+  for (const FrameOutcome& f : frames) {
+    for (const TruthObject& t : f.truth)
+      objects += !t.furniture_class.empty() && all_objects(t) == Role::kTarget;
+  }
+  m["frames"] = static_cast<double>(frames.size());
+  m["objects"] = objects;
+
+  for (double distance : options.distances_m) {
+    double sum = 0;
+    int classes = 0;
+    for (const std::string& c : options.classes) {
+      const Matching matching = MatchClass(frames, c, distance, all_objects);
+      if (matching.targets == 0) continue;
+      const double ap = AveragePrecision(matching.curve);
+      m["AP/" + c + "@" + CentimetreName(distance)] = ap;
+      sum += ap;
+      ++classes;
+      if (std::abs(distance - 0.10) < 1e-9) {
+        result.curves["B/" + c + "@10cm"] = matching.curve;
+      }
+    }
+    if (classes > 0) m["mAP@" + CentimetreName(distance)] = sum / classes;
+  }
+
+  // Pose errors and CAD identification for TPs at 10 cm.
+  double xy_sum = 0, yaw_sum = 0;
+  int tps = 0, identified = 0, identifiable = 0;
+  for (const std::string& c : options.classes) {
+    for (const auto& [d, t] : MatchClass(frames, c, 0.10, all_objects).true_positives) {
+      xy_sum += std::hypot(d->x - t->x, d->y - t->y);
+      yaw_sum += YawErrorDeg(d->yaw, t->yaw, d->symmetry);
+      ++tps;
+      if (t->seen_in_training) {
+        ++identifiable;
+        identified += d->model_id == t->model_id;
+      }
+    }
+  }
+  if (tps > 0) {
+    m["xy_error_mean_m"] = xy_sum / tps;
+    m["yaw_error_mean_deg"] = yaw_sum / tps;
+  }
+  if (identifiable > 0) m["cad_identified"] = static_cast<double>(identified) / identifiable;
+
+  // Seen and unseen CAD models: the other group's objects become "ignore".
+  for (const bool seen : {true, false}) {
+    double sum = 0;
+    int classes = 0;
+    for (const std::string& c : options.classes) {
+      const Matching matching = MatchClass(frames, c, 0.10, [&](const TruthObject& t) {
+        const Role role = all_objects(t);
+        return role == Role::kTarget && t.seen_in_training != seen ? Role::kIgnore : role;
+      });
+      if (matching.targets == 0) continue;
+      sum += AveragePrecision(matching.curve);
+      ++classes;
+    }
+    if (classes > 0) m[seen ? "mAP_seen@10cm" : "mAP_unseen@10cm"] = sum / classes;
+  }
+
+  // Confusion at 10 cm: each detection against the nearest target object.
+  for (const FrameOutcome& f : frames) {
+    for (const ScoredDetection& d : f.detections) {
+      std::string truth = "background";
+      double best = 0.10;
+      for (const TruthObject& t : f.truth) {
+        if (t.furniture_class.empty() || all_objects(t) == Role::kAbsent) continue;
+        const double distance = std::hypot(t.x - d.x, t.y - d.y);
+        if (distance <= best) {
+          best = distance;
+          truth = t.furniture_class;
+        }
+      }
+      ++result.confusion[d.furniture_class][truth];
+    }
+  }
+
+  // Protocol A: maxima in a square window around the objects, threshold swept.
+  std::vector<double> thresholds = options.paper_thresholds;
+  if (thresholds.empty()) {
+    for (int k = 0; k <= 20; ++k) thresholds.push_back(k * 0.05);
+  }
+  for (const std::string& c : options.classes) {
+    std::vector<PrPoint> curve;
+    double best_f1 = 0;
+    int class_objects = 0;
+    for (double t : thresholds) {
+      int tp = 0, fp = 0, found = 0;
+      class_objects = 0;
+      for (const FrameOutcome& f : frames) {
+        std::vector<bool> hit(f.truth.size(), false);
+        for (const HoughMaximum& h : f.maxima) {
+          if (h.furniture_class != c || h.relative < t) continue;
+          bool inside = false;
+          for (size_t k = 0; k < f.truth.size(); ++k) {
+            const TruthObject& o = f.truth[k];
+            if (o.furniture_class != c || all_objects(o) == Role::kAbsent) continue;
+            if (std::abs(o.x - h.x) <= options.paper_window_m &&
+                std::abs(o.y - h.y) <= options.paper_window_m) {
+              inside = true;
+              hit[k] = true;
+            }
+          }
+          inside ? ++tp : ++fp;
+        }
+        for (size_t k = 0; k < f.truth.size(); ++k) {
+          if (f.truth[k].furniture_class != c || all_objects(f.truth[k]) != Role::kTarget) continue;
+          ++class_objects;
+          found += hit[k];
+        }
+      }
+      if (class_objects == 0) break;
+      const double recall = static_cast<double>(found) / class_objects;
+      const double precision = tp + fp > 0 ? static_cast<double>(tp) / (tp + fp) : 1.0;
+      curve.push_back({recall, precision, t});
+      if (precision + recall > 0)
+        best_f1 = std::max(best_f1, 2 * precision * recall / (precision + recall));
+    }
+    if (class_objects == 0) continue;
+    result.curves["A/" + c] = curve;
+    m["paper/" + c + "/best_f1"] = best_f1;
+  }
+
+  // Latency.
+  std::vector<double> totals;
+  std::map<std::string, std::vector<double>> stages;
+  for (const FrameOutcome& f : frames) {
+    totals.push_back(f.total_ms);
+    for (const auto& [stage, ms] : f.stage_ms) stages[stage].push_back(ms);
+  }
+  m["latency_p50_ms"] = Percentile(totals, 0.5);
+  m["latency_p90_ms"] = Percentile(totals, 0.9);
+  m["latency_p99_ms"] = Percentile(totals, 0.99);
+  for (const auto& [stage, values] : stages)
+    m["latency_" + stage + "_p50_ms"] = Percentile(values, 0.5);
+  return result;
+}
+
+}  // namespace furn

@@ -1,0 +1,98 @@
+// Evaluation protocols A and B of SPEC.md §9 over a set of frames, as pure
+// functions of ground truth and detector output.
+//
+// B (detection): per class and match distance, detections sorted by score are
+// matched greedily to the nearest unmatched true object of their class within
+// the distance. True objects seen below min_visibility, or whose reference
+// point lies beyond the detector's range, are "ignore": neither TP nor FN, and
+// matching one is not an FP. AP is all-point interpolated (the area under the
+// precision envelope); mAP averages the classes with at least one object to
+// find. For TPs: xy error, yaw error modulo the model's rotational symmetry,
+// and whether the CAD model was identified. Metrics are also computed over
+// objects whose CAD model was seen in training and over unseen ones.
+//
+// A (the paper's): per class, a local maximum within a square window (5 cm)
+// of a true object's reference point is a TP; other maxima are FPs; objects
+// with no maximum in their window are FNs; the relative threshold is swept.
+//
+//   EvaluationResult result = EvaluateFrames(frames, EvaluationOptions{});
+//   result.metrics["mAP@10cm"];
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <string>
+#include <vector>
+
+namespace furn {
+
+struct TruthObject {
+  std::string furniture_class;  // empty: clutter, never a target
+  std::string model_id;
+  double x = 0, y = 0, yaw = 0;  // reference point and yaw, world frame
+  double visibility = 0;         // visible / amodal pixels in this frame
+  double distance_m = 0;         // from the camera to the reference point
+  bool seen_in_training = true;  // false for evaluation-only CAD models
+};
+
+struct ScoredDetection {
+  std::string furniture_class;
+  std::string model_id;
+  double x = 0, y = 0, yaw = 0;
+  double score = 0;
+  int symmetry = 1;  // rotational symmetry order of the detected model (1, 2 or 4)
+};
+
+struct HoughMaximum {
+  std::string furniture_class;
+  double x = 0, y = 0;
+  double relative = 0;  // (value - min) / (max - min) of its class grid
+};
+
+struct FrameOutcome {
+  int64_t frame_id = 0;
+  std::vector<TruthObject> truth;
+  std::vector<ScoredDetection> detections;
+  std::vector<HoughMaximum> maxima;
+  double total_ms = 0;
+  std::map<std::string, double> stage_ms;
+};
+
+struct EvaluationOptions {
+  std::vector<std::string> classes = {"chair", "armchair", "table", "sideboard"};
+  std::vector<double> distances_m = {0.05, 0.10, 0.20};
+  double min_visibility = 0.25;
+  double max_distance_m = 3.0;           // objects farther from the camera are "ignore"
+  double paper_window_m = 0.05;          // protocol A: half the window's side
+  std::vector<double> paper_thresholds;  // protocol A sweep; empty: 0, 0.05, .., 1
+};
+
+struct PrPoint {
+  double recall = 0, precision = 0, threshold = 0;
+};
+
+struct EvaluationResult {
+  // Flat, named metrics (see EvaluateFrames); what runs store and compare.
+  std::map<std::string, double> metrics;
+  // PR curves: "B/<class>@10cm" (by score) and "A/<class>" (by threshold).
+  std::map<std::string, std::vector<PrPoint>> curves;
+  // Confusion of detected class against the class of the true object it lies
+  // within 10 cm of ("background" when none): counts[detected][true].
+  std::map<std::string, std::map<std::string, int>> confusion;
+};
+
+// Metric names: AP/<class>@<d>cm, mAP@<d>cm, mAP_seen@10cm, mAP_unseen@10cm
+// (when such objects exist), xy_error_mean_m, yaw_error_mean_deg,
+// cad_identified (TPs at 10 cm whose model is the true one, seen models only),
+// latency_p50_ms, latency_p90_ms, latency_p99_ms, latency_<stage>_p50_ms,
+// paper/<class>/best_f1, frames, objects.
+EvaluationResult EvaluateFrames(const std::vector<FrameOutcome>& frames,
+                                const EvaluationOptions& options);
+
+// All-point interpolated average precision of a PR curve sorted by recall.
+double AveragePrecision(const std::vector<PrPoint>& curve);
+
+// Whether a higher value of the metric is better (false for errors and latency).
+bool HigherIsBetter(const std::string& metric);
+
+}  // namespace furn

@@ -1,0 +1,275 @@
+#include "workbench/evaluate_command.h"
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <ctime>
+#include <nlohmann/json.hpp>
+
+#include "core/error.h"
+#include "core/file_util.h"
+#include "core/mesh.h"
+#include "core/pose_fit.h"
+#include "core/progress.h"
+#include "db/dataset_db.h"
+#include "renderers/frame_io.h"
+
+namespace furn {
+namespace {
+
+std::string CommandOutput(const std::string& command) {
+  std::string output;
+  FILE* pipe = popen((command + " 2>/dev/null").c_str(), "r");
+  if (pipe == nullptr) return output;
+  char buffer[256];
+  while (std::fgets(buffer, sizeof(buffer), pipe) != nullptr) output += buffer;
+  if (pclose(pipe) != 0) return "";
+  while (!output.empty() && (output.back() == '\n' || output.back() == '\r')) output.pop_back();
+  return output;
+}
+
+std::string UtcNow() {
+  const std::time_t now = std::time(nullptr);
+  std::tm utc{};
+  gmtime_r(&now, &utc);
+  char text[32];
+  std::strftime(text, sizeof(text), "%Y-%m-%dT%H:%M:%SZ", &utc);
+  return text;
+}
+
+nlohmann::json CurvesJson(const EvaluationResult& result) {
+  nlohmann::json curves = nlohmann::json::object();
+  for (const auto& [name, curve] : result.curves) {
+    nlohmann::json points = nlohmann::json::array();
+    for (const PrPoint& p : curve) points.push_back({p.recall, p.precision, p.threshold});
+    curves[name] = points;
+  }
+  return {{"curves", curves},
+          {"curve_layout", "recall, precision, threshold"},
+          {"confusion", result.confusion}};
+}
+
+}  // namespace
+
+std::string DetectorOptionsJson(const DetectorOptions& o) {
+  const nlohmann::ordered_json json{{"max_range_m", o.max_range_m},
+                                    {"floor_band_m", o.floor_band_m},
+                                    {"floor",
+                                     {{"distance_m", o.floor.distance_m},
+                                      {"iterations", o.floor.iterations},
+                                      {"max_tilt_deg", o.floor.max_tilt_deg},
+                                      {"min_fraction", o.floor.min_fraction},
+                                      {"min_camera_height_m", o.floor.min_camera_height_m}}},
+                                    {"max_segment_extent_m", o.max_segment_extent_m},
+                                    {"cell_m", o.cell_m},
+                                    {"vote_sigma_m", o.vote_sigma_m},
+                                    {"vote_height_tolerance_m", o.vote_height_tolerance_m},
+                                    {"relative_threshold", o.relative_threshold},
+                                    {"absolute_threshold", o.absolute_threshold},
+                                    {"max_hypotheses_per_class", o.max_hypotheses_per_class},
+                                    {"support_radius_m", o.support_radius_m},
+                                    {"neighbours", o.neighbours},
+                                    {"top_models", o.top_models},
+                                    {"fit",
+                                     {{"iterations", o.fit.iterations},
+                                      {"height_tolerance_m", o.fit.height_tolerance_m},
+                                      {"inlier_m", o.fit.inlier_m},
+                                      {"max_offset_m", o.fit.max_offset_m},
+                                      {"refine_iterations", o.fit.refine_iterations},
+                                      {"above_m", o.fit.above_m}}},
+                                    {"min_covered_fraction", o.min_covered_fraction},
+                                    {"occupancy_voxel_m", o.occupancy_voxel_m},
+                                    {"occupied_weight", o.occupied_weight},
+                                    {"min_verification", o.min_verification},
+                                    {"min_seen_occupied", o.min_seen_occupied},
+                                    {"min_score", o.min_score},
+                                    {"max_shared_support", o.max_shared_support},
+                                    {"max_footprint_overlap", o.max_footprint_overlap},
+                                    {"seed", o.seed}};
+  return json.dump();
+}
+
+int SymmetryOrder(const ModelShape& shape) {
+  if (shape.points.empty()) return 1;
+  const ModelFitter fitter(shape, FitOptions{});
+  auto maps_onto_itself = [&](double angle) {
+    return fitter.Covered(shape.points, PlanarPose{0, 0, angle}) >= 0.9 * shape.points.size();
+  };
+  if (maps_onto_itself(M_PI / 2)) return 4;
+  if (maps_onto_itself(M_PI)) return 2;
+  return 1;
+}
+
+EvaluateSummary EvaluateModel(const std::string& model_path,
+                              const std::string& db_path,
+                              const EvaluateCommandOptions& options) {
+  Require(options.split == "train" || options.split == "val" || options.split == "test" ||
+              options.split == "all",
+          "split '" + options.split + "' must be train, val, test or all");
+  Require(options.max_frames >= 0, "max frames must be >= 0");
+  const auto start = std::chrono::steady_clock::now();
+  const std::string model_bytes = ReadFileBytes(model_path);
+  const Detector detector(LoadTrainedModel(model_path), options.detector);
+  const TrainedModel& model = detector.model();
+  std::vector<int> symmetry;
+  for (const ModelShape& shape : model.model_shapes) symmetry.push_back(SymmetryOrder(shape));
+
+  DatasetDb dataset(db_path, DatasetDb::Mode::kReadWrite);
+  std::map<std::string, bool> evaluation_only;
+  for (const ModelRecord& m : dataset.ReadModels()) evaluation_only[m.id] = m.evaluation_only;
+  // The frames to run: ids of the split's rooms, in order.
+  std::vector<int64_t> rooms;
+  int total_frames = 0;
+  for (int64_t id : dataset.RoomIds()) {
+    const RoomRecord room = dataset.ReadRoom(id, /*with_images=*/false);
+    if (options.split != "all" && room.split != options.split) continue;
+    rooms.push_back(id);
+    total_frames += static_cast<int>(room.frames.size());
+  }
+  if (options.max_frames > 0) total_frames = std::min(total_frames, options.max_frames);
+  Require(total_frames > 0, db_path + ": no frames in split '" + options.split + "'");
+
+  std::vector<FrameOutcome> outcomes;
+  std::vector<RunDetectionRecord> detections;
+  std::vector<RunFrameRecord> frame_records;
+  ContentHasher dataset_hash;
+  Progress progress("evaluate", total_frames, "frames");
+  for (int64_t room_id : rooms) {
+    if (static_cast<int>(outcomes.size()) >= total_frames) break;
+    const RoomRecord room = dataset.ReadRoom(room_id, /*with_images=*/true);
+    for (const FrameRecord& frame : room.frames) {
+      if (static_cast<int>(outcomes.size()) >= total_frames) break;
+      dataset_hash.Update(frame.content_hash.data(), frame.content_hash.size());
+      CameraIntrinsics camera;
+      camera.width = frame.width;
+      camera.height = frame.height;
+      camera.fx = frame.fx;
+      camera.fy = frame.fy;
+      camera.cx = frame.cx;
+      camera.cy = frame.cy;
+      const DepthFrame depth = DecodeDepthPng(
+          frame.depth_noisy_png, db_path + " frame " + std::to_string(frame.id) + " noisy depth");
+      DetectionInput input;
+      input.points = BackProject(depth, camera);
+      input.width = frame.width;
+      input.height = frame.height;
+      input.world_from_camera = frame.world_from_camera;
+      const DetectionResult result = detector.Detect(input);
+
+      FrameOutcome outcome;
+      outcome.frame_id = frame.id;
+      const Eigen::Vector3d eye = frame.world_from_camera.translation();
+      for (const ObjectRecord& object : room.objects) {
+        TruthObject truth;
+        truth.furniture_class = object.furniture_class;
+        truth.model_id = object.model_id;
+        truth.x = object.reference_x;
+        truth.y = object.reference_y;
+        truth.yaw = object.yaw;
+        truth.distance_m =
+            (Eigen::Vector3d(object.reference_x, object.reference_y, 0) - eye).norm();
+        truth.seen_in_training = !evaluation_only[object.model_id];
+        for (const FrameObjectRecord& seen : frame.objects) {
+          if (seen.instance_id == object.instance_id) truth.visibility = seen.visibility;
+        }
+        outcome.truth.push_back(truth);
+      }
+      for (const Detection& d : result.detections) {
+        outcome.detections.push_back({ClassName(d.furniture_class),
+                                      d.model_name,
+                                      d.x,
+                                      d.y,
+                                      d.yaw,
+                                      d.score,
+                                      symmetry[d.model_index]});
+        detections.push_back({frame.id,
+                              ClassName(d.furniture_class),
+                              d.model_name,
+                              d.x,
+                              d.y,
+                              d.z,
+                              d.yaw,
+                              d.score,
+                              d.vote_weight,
+                              d.verification,
+                              d.covered_fraction});
+      }
+      for (const DetectionDebug::Hypothesis& h : result.debug.hypotheses) {
+        outcome.maxima.push_back({ClassName(h.furniture_class), h.x, h.y, h.relative_weight});
+      }
+      nlohmann::ordered_json timings = nlohmann::ordered_json::object();
+      for (const auto& [stage, ms] : result.timings_ms) {
+        timings[stage] = ms;
+        if (stage == "total") {
+          outcome.total_ms = ms;
+        } else {
+          outcome.stage_ms[stage] = ms;
+        }
+      }
+      frame_records.push_back({frame.id, outcome.total_ms, timings.dump()});
+      outcomes.push_back(std::move(outcome));
+      progress.Advance();
+    }
+  }
+  progress.Finish();
+
+  EvaluateSummary summary;
+  summary.frames = static_cast<int>(outcomes.size());
+  EvaluationOptions evaluation = options.evaluation;
+  evaluation.max_distance_m = options.detector.max_range_m;
+  summary.result = EvaluateFrames(outcomes, evaluation);
+
+  RunRecord run;
+  run.kind = options.kind;
+  run.label = options.label;
+  run.started = UtcNow();
+  run.git_commit = CommandOutput("git -C '" FURN_SOURCE_DIR "' rev-parse HEAD");
+  if (run.git_commit.empty()) run.git_commit = "unknown";
+  run.git_dirty =
+      !CommandOutput("git -C '" FURN_SOURCE_DIR "' status --porcelain --untracked-files=no")
+           .empty();
+  run.model_path = model_path;
+  ContentHasher model_hash;
+  model_hash.Update(model_bytes.data(), model_bytes.size());
+  run.model_hash = model_hash.HexDigest();
+  run.dataset_hash = dataset_hash.HexDigest();
+  run.split = options.split;
+  run.options_json =
+      nlohmann::ordered_json{
+          {"detector", nlohmann::json::parse(DetectorOptionsJson(options.detector))},
+          {"max_frames", options.max_frames},
+          {"min_visibility", evaluation.min_visibility},
+          {"paper_window_m", evaluation.paper_window_m}}
+          .dump();
+  run.results_json = CurvesJson(summary.result).dump();
+  summary.run_id = dataset.WriteRun(run, summary.result.metrics, detections, frame_records);
+  summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return summary;
+}
+
+std::vector<Regression> FindRegressions(const std::map<std::string, double>& run,
+                                        const std::map<std::string, double>& baseline,
+                                        double tolerance,
+                                        const std::map<std::string, double>& overrides,
+                                        double latency_tolerance) {
+  std::vector<Regression> regressions;
+  for (const auto& [metric, base] : baseline) {
+    const auto it = run.find(metric);
+    const bool latency = metric.rfind("latency", 0) == 0;
+    if (latency && latency_tolerance <= 0) continue;
+    if (metric == "frames" || metric == "objects") continue;  // sizes, not quality
+    if (it == run.end()) {
+      regressions.push_back({metric, std::nan(""), base, 0});  // a metric that vanished
+      continue;
+    }
+    const auto override_it = overrides.find(metric);
+    const double allowed = override_it != overrides.end() ? override_it->second
+                           : latency                      ? latency_tolerance * std::abs(base)
+                                                          : tolerance;
+    const double worse = HigherIsBetter(metric) ? base - it->second : it->second - base;
+    if (worse > allowed) regressions.push_back({metric, it->second, base, allowed});
+  }
+  return regressions;
+}
+
+}  // namespace furn

@@ -1,0 +1,65 @@
+// `workbench evaluate`: detection over the frames of a dataset split (both
+// cores per frame, a progress bar), protocols A and B (reports/evaluation.h),
+// and one run stored in the dataset: git commit and dirty flag, time, model
+// and dataset hashes, every option, detections, per-frame stage timings,
+// metrics, PR curves and confusion. `workbench regress` compares a run's
+// metrics with a baseline (another run or a JSON file).
+//
+//   EvaluateCommandOptions options;
+//   options.split = "test";
+//   EvaluateSummary summary = EvaluateModel("model.fcm", "synth.db", options);
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "core/detector.h"
+#include "reports/evaluation.h"
+
+namespace furn {
+
+struct EvaluateCommandOptions {
+  std::string split = "test";  // train, val, test or all
+  int max_frames = 0;          // 0: every frame of the split
+  std::string label;           // free text stored with the run
+  std::string kind = "evaluate";
+  DetectorOptions detector;
+  EvaluationOptions evaluation;
+};
+
+struct EvaluateSummary {
+  int64_t run_id = 0;
+  EvaluationResult result;
+  int frames = 0;
+  double seconds = 0;
+};
+
+// Throws InputError for a missing model or dataset, or a split with no frames.
+EvaluateSummary EvaluateModel(const std::string& model_path,
+                              const std::string& db_path,
+                              const EvaluateCommandOptions& options);
+
+// Every detector option as JSON (stored with each run).
+std::string DetectorOptionsJson(const DetectorOptions& options);
+
+// Rotational symmetry order (4, 2 or 1) of a model shape about its origin:
+// the largest order whose rotation maps 90 % of its points onto itself.
+int SymmetryOrder(const ModelShape& shape);
+
+struct Regression {
+  std::string metric;
+  double value = 0, baseline = 0, tolerance = 0;
+};
+
+// Metrics of `run` that are worse than `baseline` by more than the tolerance
+// (absolute; per-metric overrides win). Latency metrics are compared only
+// when `latency_tolerance` (relative, e.g. 0.5 = 50 % slower) is positive.
+std::vector<Regression> FindRegressions(const std::map<std::string, double>& run,
+                                        const std::map<std::string, double>& baseline,
+                                        double tolerance,
+                                        const std::map<std::string, double>& overrides,
+                                        double latency_tolerance);
+
+}  // namespace furn

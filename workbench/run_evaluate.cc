@@ -1,0 +1,169 @@
+#include <CLI/CLI.hpp>
+#include <cmath>
+#include <cstdio>
+#include <nlohmann/json.hpp>
+
+#include "core/error.h"
+#include "core/file_util.h"
+#include "core/progress.h"
+#include "db/dataset_db.h"
+#include "workbench/cli_common.h"
+#include "workbench/commands.h"
+#include "workbench/evaluate_command.h"
+
+namespace furn {
+namespace {
+
+void PrintHeadline(const EvaluateSummary& summary) {
+  const std::map<std::string, double>& m = summary.result.metrics;
+  auto get = [&](const std::string& name) {
+    const auto it = m.find(name);
+    return it == m.end() ? std::nan("") : it->second;
+  };
+  std::printf("run %lld: %d frames in %.1f s, %g objects to find\n",
+              static_cast<long long>(summary.run_id),
+              summary.frames,
+              summary.seconds,
+              get("objects"));
+  std::printf("  mAP@5cm %.3f  mAP@10cm %.3f  mAP@20cm %.3f  (seen %.3f, unseen %.3f)\n",
+              get("mAP@5cm"),
+              get("mAP@10cm"),
+              get("mAP@20cm"),
+              get("mAP_seen@10cm"),
+              get("mAP_unseen@10cm"));
+  for (const char* c : {"chair", "armchair", "table", "sideboard"}) {
+    std::printf("  %-9s AP@10cm %.3f   paper protocol best F1 %.3f\n",
+                c,
+                get(std::string("AP/") + c + "@10cm"),
+                get(std::string("paper/") + c + "/best_f1"));
+  }
+  std::printf("  pose error: xy %.3f m, yaw %.1f deg; CAD model identified %.3f\n",
+              get("xy_error_mean_m"),
+              get("yaw_error_mean_deg"),
+              get("cad_identified"));
+  std::printf("  latency per frame: p50 %.1f ms, p90 %.1f ms, p99 %.1f ms\n",
+              get("latency_p50_ms"),
+              get("latency_p90_ms"),
+              get("latency_p99_ms"));
+}
+
+}  // namespace
+
+int RunEvaluate(int argc, char** argv) {
+  CLI::App app{"Run detection over a dataset split and store the metrics as a run",
+               "workbench evaluate"};
+  std::string model_path, db_path;
+  EvaluateCommandOptions options;
+  bool quiet = false;
+  app.add_option("--model", model_path, "Model file (.fcm)")->required();
+  app.add_option("--db", db_path, "Dataset database")->required();
+  app.add_option("--split", options.split, "train, val, test or all")->capture_default_str();
+  app.add_option("--max-frames", options.max_frames, "Evaluate at most N frames (0: all)")
+      ->capture_default_str();
+  app.add_option("--label", options.label, "Free text stored with the run");
+  app.add_option("--threshold", options.detector.relative_threshold, "Relative vote threshold t")
+      ->capture_default_str();
+  app.add_option(
+         "--min-verification", options.detector.min_verification, "Minimum visibility score")
+      ->capture_default_str();
+  app.add_option("--min-score", options.detector.min_score, "Minimum detection score")
+      ->capture_default_str();
+  app.add_option("--seed", options.detector.seed, "Seed of the RANSAC draws")
+      ->capture_default_str();
+  app.add_flag("--quiet", quiet, "No progress bar");
+  if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
+  Progress::SetQuiet(quiet);
+  options.detector.Check();
+  const EvaluateSummary summary = EvaluateModel(model_path, db_path, options);
+  PrintHeadline(summary);
+  return 0;
+}
+
+int RunRegress(int argc, char** argv) {
+  CLI::App app{"Compare a run's metrics with a baseline; exit 1 when any got worse",
+               "workbench regress"};
+  std::string db_path, baseline, write_baseline;
+  int64_t run_id = 0;
+  double tolerance = 0.02, latency_tolerance = 0;
+  app.add_option("--db", db_path, "Dataset database holding the run")->required();
+  app.add_option("--run", run_id, "Run id (0: the latest)")->capture_default_str();
+  app.add_option("--baseline", baseline, "Run id, or a baseline JSON file");
+  app.add_option("--tolerance", tolerance, "Allowed absolute worsening of a metric")
+      ->capture_default_str();
+  app.add_option("--latency-tolerance",
+                 latency_tolerance,
+                 "Allowed relative latency growth (0: latency not compared)")
+      ->capture_default_str();
+  app.add_option("--write-baseline", write_baseline, "Write the run's metrics as a baseline file");
+  if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
+  Require(tolerance >= 0, "--tolerance must be >= 0");
+  Require(!baseline.empty() || !write_baseline.empty(),
+          "give --baseline to compare, or --write-baseline to record one");
+  DatasetDb dataset(db_path, DatasetDb::Mode::kReadOnly);
+  const std::vector<RunRecord> runs = dataset.Runs();
+  Require(!runs.empty(), db_path + ": has no runs (run 'workbench evaluate' first)");
+  if (run_id == 0) run_id = runs.back().id;
+  const std::map<std::string, double> metrics = dataset.RunMetrics(run_id);
+  Require(!metrics.empty(), db_path + ": no run with id " + std::to_string(run_id));
+  if (!write_baseline.empty()) {
+    nlohmann::ordered_json json{{"run", run_id},
+                                {"db", db_path},
+                                {"metrics", metrics},
+                                {"tolerances", nlohmann::json::object()}};
+    WriteFileAtomically(write_baseline, json.dump(2) + "\n");
+    std::printf("wrote %s: %zu metrics of run %lld\n",
+                write_baseline.c_str(),
+                metrics.size(),
+                static_cast<long long>(run_id));
+    if (baseline.empty()) return 0;
+  }
+  std::map<std::string, double> base, overrides;
+  std::string base_name;
+  if (!baseline.empty() && baseline.find_first_not_of("0123456789") == std::string::npos) {
+    base = dataset.RunMetrics(std::stoll(baseline));
+    Require(!base.empty(), db_path + ": no baseline run with id " + baseline);
+    base_name = "run " + baseline;
+  } else {
+    nlohmann::json json;
+    try {
+      json = nlohmann::json::parse(ReadFileBytes(baseline));
+      base = json.at("metrics").get<std::map<std::string, double>>();
+      if (json.contains("tolerances"))
+        overrides = json["tolerances"].get<std::map<std::string, double>>();
+    } catch (const nlohmann::json::exception& error) {
+      throw InputError(baseline +
+                       ": not a baseline file ({\"metrics\": {name: value}}): " + error.what());
+    }
+    base_name = baseline;
+  }
+  const std::vector<Regression> regressions =
+      FindRegressions(metrics, base, tolerance, overrides, latency_tolerance);
+  if (regressions.empty()) {
+    std::printf("run %lld: no metric worse than %s beyond tolerance (%zu compared)\n",
+                static_cast<long long>(run_id),
+                base_name.c_str(),
+                base.size());
+    return 0;
+  }
+  for (const Regression& r : regressions) {
+    if (std::isnan(r.value)) {
+      std::printf("REGRESSION %s: missing from run %lld (baseline %.4f)\n",
+                  r.metric.c_str(),
+                  static_cast<long long>(run_id),
+                  r.baseline);
+    } else {
+      std::printf("REGRESSION %s: %.4f, baseline %.4f (allowed %.4f worse)\n",
+                  r.metric.c_str(),
+                  r.value,
+                  r.baseline,
+                  r.tolerance);
+    }
+  }
+  std::printf("run %lld: %zu metrics worse than %s\n",
+              static_cast<long long>(run_id),
+              regressions.size(),
+              base_name.c_str());
+  return 1;
+}
+
+}  // namespace furn
