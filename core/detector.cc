@@ -457,7 +457,7 @@ DetectionResult Detector::Detect(const DetectionInput& input, bool keep_debug) c
 
   // Occupancy for verification, from every point in range (floor included).
   const OccupancyGrid occupancy(
-      ThinOut(world, options.occupancy_voxel_m / 2), sensor, options.occupancy_voxel_m);
+      ThinOut(world, options.occupancy_voxel_m), sensor, options.occupancy_voxel_m);
   timer.Lap("occupancy");
 
   // 3. Hough voting on per-class grids covering the scene plus a margin.

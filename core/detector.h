@@ -59,7 +59,7 @@ struct DetectorOptions {
   // within which a segment's votes make it support a maximum.
   double relative_threshold = 0.15;
   double absolute_threshold = 0.0;
-  int max_hypotheses_per_class = 20;
+  int max_hypotheses_per_class = 12;
   double support_radius_m = 0.12;
 
   // Ranking: part subsets retrieved per supporting segment; CAD models

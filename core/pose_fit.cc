@@ -1,5 +1,6 @@
 #include "core/pose_fit.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -147,6 +148,19 @@ int ModelFitter::Covered(const std::vector<Eigen::Vector3f>& scene_points,
   return covered;
 }
 
+int ModelFitter::CoveredAtLeast(const std::vector<Eigen::Vector3f>& scene_points,
+                                const PlanarPose& pose,
+                                int needed) const {
+  const PlanarTransform transform(pose);
+  const int n = static_cast<int>(scene_points.size());
+  int covered = 0;
+  for (int i = 0; i < n; ++i) {
+    covered += impl_->Near(transform.Inverse(scene_points[i]));
+    if (covered + (n - 1 - i) < needed) return -1;  // cannot reach it any more
+  }
+  return covered;
+}
+
 std::vector<int> ModelFitter::CoveredIndices(const std::vector<Eigen::Vector3f>& scene_points,
                                              const PlanarPose& pose) const {
   const PlanarTransform transform(pose);
@@ -239,11 +253,21 @@ PoseFit ModelFitter::Fit(const std::vector<Eigen::Vector3f>& scene_points,
   std::vector<Eigen::Vector3f> scoring;
   const size_t stride = std::max<size_t>(1, scene_points.size() / kScoringPoints);
   for (size_t i = 0; i < scene_points.size(); i += stride) scoring.push_back(scene_points[i]);
-  std::vector<std::pair<int, PlanarPose>> candidates;  // covered on the subsample, pose
+  // The kRefined best so far (by subsample coverage, then draw order); a
+  // candidate that cannot beat the last of them stops being counted early.
+  std::vector<std::pair<int, PlanarPose>> candidates;
   auto consider = [&](const PlanarPose& pose) {
     if (Eigen::Vector2f(pose.x - hint.x(), pose.y - hint.y()).norm() > options_.max_offset_m)
       return;
-    candidates.emplace_back(Covered(scoring, pose), pose);
+    const int needed = candidates.size() < kRefined ? 0 : candidates.back().first + 1;
+    const int covered = CoveredAtLeast(scoring, pose, needed);
+    if (covered < needed) return;
+    auto at = std::upper_bound(
+        candidates.begin(), candidates.end(), covered, [](int value, const auto& c) {
+          return value > c.first;
+        });
+    candidates.insert(at, {covered, pose});
+    if (candidates.size() > kRefined) candidates.pop_back();
   };
   // The hint itself at every yaw step: tables and other shapes whose
   // normals say little about their yaw are found from these.
@@ -280,10 +304,7 @@ PoseFit ModelFitter::Fit(const std::vector<Eigen::Vector3f>& scene_points,
     consider(PoseFromPair(s, shape.points[model_index], yaw));
   }
   if (candidates.empty()) return none;
-  // The best few (by subsample coverage, then draw order) refined by ICP.
-  std::stable_sort(candidates.begin(), candidates.end(), [](const auto& a, const auto& b) {
-    return a.first > b.first;
-  });
+  // The best few refined by ICP.
   PoseFit best = none;
   for (size_t k = 0; k < std::min<size_t>(kRefined, candidates.size()); ++k) {
     const PoseFit refined = Refine(scene_points, candidates[k].second);

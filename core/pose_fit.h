@@ -93,6 +93,11 @@ class ModelFitter {
               const PlanarPose& pose,
               int* inside = nullptr) const;
 
+  // Covered(), or -1 as soon as it is clear the count cannot reach `needed`.
+  int CoveredAtLeast(const std::vector<Eigen::Vector3f>& scene_points,
+                     const PlanarPose& pose,
+                     int needed) const;
+
   // Indices of the scene points within inlier_m of the model posed at `pose`.
   std::vector<int> CoveredIndices(const std::vector<Eigen::Vector3f>& scene_points,
                                   const PlanarPose& pose) const;

@@ -70,6 +70,13 @@ int RunEvaluate(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--seed", options.detector.seed, "Seed of the RANSAC draws")
       ->capture_default_str();
+  app.add_option("--max-hypotheses", options.detector.max_hypotheses_per_class,
+                 "Strongest maxima fitted per class")
+      ->capture_default_str();
+  app.add_option("--top-models", options.detector.top_models, "CAD models fitted per maximum")
+      ->capture_default_str();
+  app.add_option("--fit-iterations", options.detector.fit.iterations, "RANSAC draws per fit")
+      ->capture_default_str();
   app.add_flag("--quiet", quiet, "No progress bar");
   if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
   Progress::SetQuiet(quiet);
