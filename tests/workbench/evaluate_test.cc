@@ -1,0 +1,75 @@
+// generate -> train -> evaluate -> regress through the CLI on a small
+// procedural dataset; the run is gated by the committed baseline
+// tests/baselines/small_eval.json (the CI evaluation).
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+
+#include "core/file_util.h"
+#include "db/dataset_db.h"
+#include "tests/test_util.h"
+
+namespace furn {
+namespace {
+
+testing::CommandResult Workbench(const std::string& arguments) {
+  return testing::RunCommand(std::string(FURN_WORKBENCH_BINARY) + " " + arguments);
+}
+
+TEST(Evaluate, SmallRunIsStoredAndGatedByTheCommittedBaseline) {
+  const std::string dir = testing::ScratchDir();
+  const std::string db = dir + "/small.db", model = dir + "/small.fcm";
+  ASSERT_EQ(
+      Workbench("generate --catalog procedural:4 --rooms 4 --frames 2 --seed 5 --quiet --out " + db)
+          .exit_code,
+      0);
+  ASSERT_EQ(Workbench("train --catalog procedural:4 --vocab kmeans --words 20 --azimuths 8 --quiet "
+                      "--out " +
+                      model)
+                .exit_code,
+            0);
+  const testing::CommandResult run =
+      Workbench("evaluate --quiet --split all --model " + model + " --db " + db);
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_NE(run.output.find("mAP@10cm"), std::string::npos) << run.output;
+
+  {  // The run row: provenance, options, metrics, detections, timings.
+    DatasetDb dataset(db, DatasetDb::Mode::kReadOnly);
+    const std::vector<RunRecord> runs = dataset.Runs();
+    ASSERT_EQ(runs.size(), 1u);
+    EXPECT_EQ(runs[0].git_commit.size(), 40u);  // a commit hash
+    EXPECT_EQ(runs[0].model_hash.size(), 32u);
+    EXPECT_NE(runs[0].options_json.find("relative_threshold"), std::string::npos);
+    EXPECT_NE(runs[0].results_json.find("A/chair"), std::string::npos);
+    EXPECT_EQ(dataset.RunMetrics(runs[0].id).at("frames"), 8);
+  }
+
+  // The CI gate: no metric worse than the committed baseline.
+  const testing::CommandResult gate = Workbench(
+      "regress --db " + db + " --baseline " FURN_SOURCE_DIR "/tests/baselines/small_eval.json");
+  EXPECT_EQ(gate.exit_code, 0) << gate.output;
+
+  // A deliberately worse threshold: regress names what got worse.
+  ASSERT_EQ(
+      Workbench("evaluate --quiet --split all --min-score 0.99 --model " + model + " --db " + db)
+          .exit_code,
+      0);
+  const testing::CommandResult worse = Workbench("regress --db " + db + " --run 2 --baseline 1");
+  EXPECT_EQ(worse.exit_code, 1) << worse.output;
+  EXPECT_NE(worse.output.find("REGRESSION mAP@10cm"), std::string::npos) << worse.output;
+  EXPECT_EQ(Workbench("regress --db " + db + " --run 1 --baseline 1").exit_code, 0);
+
+  // Bad baselines and runs: one line, exit 1.
+  testing::WriteText(dir + "/bad.json", "{\"not\": \"metrics\"}");
+  const testing::CommandResult bad =
+      Workbench("regress --db " + db + " --baseline " + dir + "/bad.json");
+  EXPECT_EQ(bad.exit_code, 1);
+  EXPECT_NE(bad.output.find("not a baseline file"), std::string::npos) << bad.output;
+  EXPECT_EQ(Workbench("regress --db " + db + " --run 99 --baseline 1").exit_code, 1);
+  EXPECT_NE(Workbench("evaluate --model " + model + " --db " + db + " --split nope")
+                .output.find("must be train, val, test or all"),
+            std::string::npos);
+}
+
+}  // namespace
+}  // namespace furn
