@@ -24,10 +24,11 @@ function(furn_add_library)
   endif()
 endfunction()
 
-# furn_add_test(FOLDER core NAME sgf SOURCES sgf_test.cc LINKS furn_core [LABELS slow])
-# builds tests/<folder>/<name>_test and registers each TEST as "<folder>/<name>.<Suite>.<Case>".
+# furn_add_test(FOLDER core NAME sgf SOURCES sgf_test.cc LINKS furn_core [LABELS slow] [WHOLE])
+# builds tests/<folder>/<name>_test and registers each TEST as "<folder>/<name>.<Suite>.<Case>";
+# WHOLE registers the binary as one test instead (for suites with a costly shared setup).
 function(furn_add_test)
-  cmake_parse_arguments(ARG "" "FOLDER;NAME;TIMEOUT" "SOURCES;LINKS;LABELS" ${ARGN})
+  cmake_parse_arguments(ARG "WHOLE" "FOLDER;NAME;TIMEOUT" "SOURCES;LINKS;LABELS" ${ARGN})
   set(target ${ARG_FOLDER}_${ARG_NAME}_test)
   add_executable(${target} ${ARG_SOURCES})
   target_link_libraries(${target} PRIVATE ${ARG_LINKS} furn_test_main GTest::gtest GTest::gmock)
@@ -44,6 +45,12 @@ function(furn_add_test)
   set(environment "")
   if(FURN_SANITIZE MATCHES "address")
     set(environment ENVIRONMENT "LSAN_OPTIONS=suppressions=${PROJECT_SOURCE_DIR}/tests/lsan_suppressions.txt")
+  endif()
+  if(ARG_WHOLE)
+    add_test(NAME "${ARG_FOLDER}/${ARG_NAME}" COMMAND ${target})
+    set_tests_properties("${ARG_FOLDER}/${ARG_NAME}" PROPERTIES
+      LABELS "${ARG_LABELS}" TIMEOUT ${ARG_TIMEOUT} ${environment})
+    return()
   endif()
   gtest_discover_tests(${target}
     TEST_PREFIX "${ARG_FOLDER}/${ARG_NAME}."

@@ -137,6 +137,8 @@ class DatasetDb {
                    const std::vector<RunFrameRecord>& frames);
   std::vector<RunRecord> Runs();
   std::map<std::string, double> RunMetrics(int64_t run_id);
+  std::vector<RunDetectionRecord> RunDetections(int64_t run_id);
+  std::vector<RunFrameRecord> RunFrames(int64_t run_id);
 
   // The room holding a frame, or nothing when no frame has that id.
   std::optional<int64_t> RoomOfFrame(int64_t frame_id);

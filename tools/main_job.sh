@@ -3,7 +3,8 @@
 # (the repo's class map over Debian's Sweet Home 3D catalogs), print its summary,
 # draw every classified model on a contact sheet, render one model as a Kinect
 # v1 sees it, generate a labelled synthetic dataset (FURN_ROOMS rooms), train
-# the part vocabulary and shape model, and detect furniture in a dataset frame.
+# the part vocabulary and shape model, evaluate detection on the test split
+# (a run in the dataset, and its HTML report), and detect in one frame.
 set -euo pipefail
 repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build_dir="${1:-$repo/build}"
@@ -26,6 +27,10 @@ echo "== dataset: summary and contact sheet"
 echo "== train: part vocabulary and shape model from virtual scans of the catalog"
 "$workbench" train --catalog default --out "$out_dir/model.fcm" --quiet
 "$workbench" model info "$out_dir/model.fcm"
+echo "== evaluate: detection over the test split, stored as a run; then its report"
+"$workbench" evaluate --model "$out_dir/model.fcm" --db "$out_dir/synth.db" --split test --quiet \
+  | tee "$out_dir/evaluate.txt"
+"$workbench" report --db "$out_dir/synth.db" --out "$out_dir/report"
 echo "== detect: furniture in one frame of the dataset, with the debug PNGs"
 "$workbench" detect --model "$out_dir/model.fcm" --db "$out_dir/synth.db" --frame 8 \
   --out "$out_dir/detect/detections.json" --debug-dir "$out_dir/detect" --timings
@@ -38,3 +43,7 @@ echo "  $out_dir/synth.db       labelled synthetic Kinect frames (SQLite; see 'w
 echo "  $out_dir/synth_preview.png  contact sheet: noisy depth with ground-truth boxes"
 echo "  $out_dir/model.fcm      trained model (see 'workbench model info', 'workbench eval-parts')"
 echo "  $out_dir/detect/        detections.json and debug PNGs (segments, votes, fits, top-down)"
+echo "  $out_dir/report/index.html  evaluation report of the test split (open it in a browser)"
+echo
+echo "headline metrics (test split):"
+cat "$out_dir/evaluate.txt"

@@ -15,5 +15,6 @@ int RunEvalParts(int argc, char** argv);
 int RunDetect(int argc, char** argv);
 int RunEvaluate(int argc, char** argv);
 int RunRegress(int argc, char** argv);
+int RunReport(int argc, char** argv);
 
 }  // namespace furn

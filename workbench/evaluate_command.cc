@@ -4,6 +4,8 @@
 #include <cmath>
 #include <cstdio>
 #include <ctime>
+#include <filesystem>
+#include <functional>
 #include <nlohmann/json.hpp>
 
 #include "core/error.h"
@@ -13,6 +15,9 @@
 #include "core/progress.h"
 #include "db/dataset_db.h"
 #include "renderers/frame_io.h"
+#include "reports/detection_debug.h"
+#include "reports/run_report.h"
+#include "workbench/detect_command.h"
 
 namespace furn {
 namespace {
@@ -87,6 +92,91 @@ std::string DetectorOptionsJson(const DetectorOptions& o) {
                                     {"max_footprint_overlap", o.max_footprint_overlap},
                                     {"seed", o.seed}};
   return json.dump();
+}
+
+DetectorOptions DetectorOptionsFromJson(const std::string& text, const std::string& what) {
+  nlohmann::json json;
+  try {
+    json = nlohmann::json::parse(text);
+  } catch (const nlohmann::json::exception& error) {
+    throw InputError(what + ": not JSON (" + error.what() + ")");
+  }
+  if (json.contains("detector")) json = json["detector"];  // a run's options_json
+  Require(json.is_object(), what + ": detector options must be a JSON object");
+  DetectorOptions o;
+  // Reads key into field when present; a key not listed is an error.
+  std::function<void(const nlohmann::json&,
+                     const std::string&,
+                     const std::map<std::string, std::function<void(const nlohmann::json&)>>&)>
+      read = [&](const nlohmann::json& object,
+                 const std::string& prefix,
+                 const std::map<std::string, std::function<void(const nlohmann::json&)>>& fields) {
+        for (const auto& [key, value] : object.items()) {
+          const auto it = fields.find(key);
+          Require(it != fields.end(), what + ": unknown detector option '" + prefix + key + "'");
+          try {
+            it->second(value);
+          } catch (const nlohmann::json::exception&) {
+            throw InputError(what + ": detector option '" + prefix + key + "' has the wrong type");
+          }
+        }
+      };
+  auto number = [](double* field) {
+    return [field](const nlohmann::json& v) { *field = v.get<double>(); };
+  };
+  auto integer = [](int* field) {
+    return [field](const nlohmann::json& v) { *field = v.get<int>(); };
+  };
+  read(json,
+       "",
+       {{"max_range_m", number(&o.max_range_m)},
+        {"floor_band_m", number(&o.floor_band_m)},
+        {"floor",
+         [&](const nlohmann::json& v) {
+           read(v,
+                "floor.",
+                {{"distance_m", number(&o.floor.distance_m)},
+                 {"iterations", integer(&o.floor.iterations)},
+                 {"max_tilt_deg", number(&o.floor.max_tilt_deg)},
+                 {"min_fraction", number(&o.floor.min_fraction)},
+                 {"min_camera_height_m", number(&o.floor.min_camera_height_m)}});
+         }},
+        {"max_segment_extent_m", number(&o.max_segment_extent_m)},
+        {"cell_m", number(&o.cell_m)},
+        {"vote_sigma_m", number(&o.vote_sigma_m)},
+        {"vote_height_tolerance_m", number(&o.vote_height_tolerance_m)},
+        {"relative_threshold", number(&o.relative_threshold)},
+        {"absolute_threshold", number(&o.absolute_threshold)},
+        {"max_hypotheses_per_class", integer(&o.max_hypotheses_per_class)},
+        {"support_radius_m", number(&o.support_radius_m)},
+        {"neighbours", integer(&o.neighbours)},
+        {"top_models", integer(&o.top_models)},
+        {"fit",
+         [&](const nlohmann::json& v) {
+           read(v,
+                "fit.",
+                {{"iterations", integer(&o.fit.iterations)},
+                 {"height_tolerance_m", number(&o.fit.height_tolerance_m)},
+                 {"inlier_m", number(&o.fit.inlier_m)},
+                 {"max_offset_m", number(&o.fit.max_offset_m)},
+                 {"refine_iterations", integer(&o.fit.refine_iterations)},
+                 {"above_m", number(&o.fit.above_m)}});
+         }},
+        {"min_covered_fraction", number(&o.min_covered_fraction)},
+        {"occupancy_voxel_m", number(&o.occupancy_voxel_m)},
+        {"occupied_weight", number(&o.occupied_weight)},
+        {"min_verification", number(&o.min_verification)},
+        {"min_seen_occupied", number(&o.min_seen_occupied)},
+        {"min_score", number(&o.min_score)},
+        {"max_shared_support", number(&o.max_shared_support)},
+        {"max_footprint_overlap", number(&o.max_footprint_overlap)},
+        {"seed", [&](const nlohmann::json& v) { o.seed = v.get<uint64_t>(); }}});
+  try {
+    o.Check();
+  } catch (const InputError& error) {
+    throw InputError(what + ": " + error.what());
+  }
+  return o;
 }
 
 int SymmetryOrder(const ModelShape& shape) {
@@ -245,6 +335,116 @@ EvaluateSummary EvaluateModel(const std::string& model_path,
   summary.run_id = dataset.WriteRun(run, summary.result.metrics, detections, frame_records);
   summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return summary;
+}
+
+void WriteReportForRun(const std::string& db_path, int64_t run_id, const std::string& out_dir) {
+  DatasetDb dataset(db_path, DatasetDb::Mode::kReadOnly);
+  const std::vector<RunRecord> runs = dataset.Runs();
+  Require(!runs.empty(), db_path + ": has no runs (run 'workbench evaluate' first)");
+  if (run_id == 0) run_id = runs.back().id;
+  const RunRecord* run = nullptr;
+  for (const RunRecord& r : runs) {
+    if (r.id == run_id) run = &r;
+  }
+  Require(run != nullptr, db_path + ": no run with id " + std::to_string(run_id));
+  RunReportInput input;
+  input.run = *run;
+  input.metrics = dataset.RunMetrics(run_id);
+  for (const RunFrameRecord& f : dataset.RunFrames(run_id)) input.frame_ms.push_back(f.total_ms);
+
+  // Errors per frame at 10 cm (greedy by score, the protocol's ignore rule).
+  const DetectorOptions options =
+      DetectorOptionsFromJson(run->options_json, db_path + " run options");
+  std::map<int64_t, std::vector<RunDetectionRecord>> detections;
+  for (RunDetectionRecord& d : dataset.RunDetections(run_id)) detections[d.frame_id].push_back(d);
+  struct Errors {
+    int64_t frame_id, room_id;
+    int fp, fn;
+  };
+  std::vector<Errors> errors;
+  for (const RunFrameRecord& f : dataset.RunFrames(run_id)) {
+    const std::optional<int64_t> room_id = dataset.RoomOfFrame(f.frame_id);
+    if (!room_id) continue;
+    const RoomRecord room = dataset.ReadRoom(*room_id, false);
+    const FrameRecord* frame = nullptr;
+    for (const FrameRecord& candidate : room.frames) {
+      if (candidate.id == f.frame_id) frame = &candidate;
+    }
+    if (frame == nullptr) continue;
+    std::vector<const ObjectRecord*> targets, ignored;
+    const Eigen::Vector3d eye = frame->world_from_camera.translation();
+    for (const ObjectRecord& object : room.objects) {
+      if (object.furniture_class.empty()) continue;
+      double visibility = 0;
+      for (const FrameObjectRecord& seen : frame->objects) {
+        if (seen.instance_id == object.instance_id) visibility = seen.visibility;
+      }
+      if (visibility <= 0) continue;
+      const double distance =
+          (Eigen::Vector3d(object.reference_x, object.reference_y, 0) - eye).norm();
+      (visibility >= 0.25 && distance <= options.max_range_m ? targets : ignored)
+          .push_back(&object);
+    }
+    std::vector<RunDetectionRecord>& found = detections[f.frame_id];
+    std::sort(
+        found.begin(), found.end(), [](const auto& a, const auto& b) { return a.score > b.score; });
+    std::vector<bool> used(targets.size() + ignored.size(), false);
+    int fp = 0, tp = 0;
+    for (const RunDetectionRecord& d : found) {
+      int best = -1;
+      double best_distance = 0.10;
+      for (size_t k = 0; k < targets.size() + ignored.size(); ++k) {
+        const ObjectRecord* o = k < targets.size() ? targets[k] : ignored[k - targets.size()];
+        const double distance = std::hypot(o->reference_x - d.x, o->reference_y - d.y);
+        if (!used[k] && o->furniture_class == d.furniture_class && distance <= best_distance) {
+          best = static_cast<int>(k);
+          best_distance = distance;
+        }
+      }
+      if (best < 0) {
+        ++fp;
+      } else {
+        used[best] = true;
+        tp += best < static_cast<int>(targets.size());
+      }
+    }
+    errors.push_back({f.frame_id, *room_id, fp, static_cast<int>(targets.size()) - tp});
+  }
+  std::stable_sort(errors.begin(), errors.end(), [](const Errors& a, const Errors& b) {
+    return a.fp + a.fn > b.fp + b.fn;
+  });
+  // The gallery: detection rerun (deterministic: the same result) with debug PNGs.
+  std::unique_ptr<Detector> detector;
+  if (std::filesystem::exists(run->model_path)) {
+    detector = std::make_unique<Detector>(LoadTrainedModel(run->model_path), options);
+  }
+  constexpr size_t kGallery = 6;
+  for (size_t k = 0; k < std::min(kGallery, errors.size()) && detector; ++k) {
+    if (errors[k].fp + errors[k].fn == 0) break;
+    ScanSource source;
+    source.db_path = db_path;
+    source.frame_id = errors[k].frame_id;
+    const LoadedScan scan = LoadScan(source);
+    const DetectionResult result = detector->Detect(scan.input, /*keep_debug=*/true);
+    GalleryFrame g;
+    g.frame_id = errors[k].frame_id;
+    g.false_positives = errors[k].fp;
+    g.false_negatives = errors[k].fn;
+    g.dir = "frames/" + std::to_string(g.frame_id);
+    WriteDetectionDebug(result,
+                        detector->model(),
+                        scan.camera,
+                        scan.ground_truth,
+                        (std::filesystem::path(out_dir) / g.dir).string());
+    g.pngs = {"fitted.png", "topdown.png", "segments.png"};
+    for (const char* c : {"chair", "armchair", "table", "sideboard"}) {
+      if (std::filesystem::exists(std::filesystem::path(out_dir) / g.dir /
+                                  (std::string("votes_") + c + ".png")))
+        g.pngs.push_back(std::string("votes_") + c + ".png");
+    }
+    input.gallery.push_back(std::move(g));
+  }
+  WriteRunReport(input, out_dir);
 }
 
 std::vector<Regression> FindRegressions(const std::map<std::string, double>& run,

@@ -41,8 +41,15 @@ EvaluateSummary EvaluateModel(const std::string& model_path,
                               const std::string& db_path,
                               const EvaluateCommandOptions& options);
 
-// Every detector option as JSON (stored with each run).
+// Every detector option as JSON (stored with each run), and back: absent
+// keys keep their defaults; unknown keys and wrong types are InputErrors
+// naming the key; the result is Check()ed.
 std::string DetectorOptionsJson(const DetectorOptions& options);
+DetectorOptions DetectorOptionsFromJson(const std::string& json, const std::string& what);
+
+// `workbench report`: the run's report folder, with a gallery of the frames
+// with the most errors (detection rerun with the run's options and model).
+void WriteReportForRun(const std::string& db_path, int64_t run_id, const std::string& out_dir);
 
 // Rotational symmetry order (4, 2 or 1) of a model shape about its origin:
 // the largest order whose rotation maps 90 % of its points onto itself.

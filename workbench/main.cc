@@ -30,6 +30,7 @@ constexpr Command kCommands[] = {
     {"detect", furn::RunDetect, "detect furniture in a depth scan (cloud, depth PNG, DB frame)"},
     {"evaluate", furn::RunEvaluate, "detect over a dataset split; metrics stored as a run"},
     {"regress", furn::RunRegress, "compare a run with a baseline; exit 1 when worse"},
+    {"report", furn::RunReport, "HTML and PNG report of an evaluation run"},
 };
 
 void PrintUsage() {

@@ -70,7 +70,8 @@ int RunEvaluate(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--seed", options.detector.seed, "Seed of the RANSAC draws")
       ->capture_default_str();
-  app.add_option("--max-hypotheses", options.detector.max_hypotheses_per_class,
+  app.add_option("--max-hypotheses",
+                 options.detector.max_hypotheses_per_class,
                  "Strongest maxima fitted per class")
       ->capture_default_str();
   app.add_option("--top-models", options.detector.top_models, "CAD models fitted per maximum")
@@ -83,6 +84,19 @@ int RunEvaluate(int argc, char** argv) {
   options.detector.Check();
   const EvaluateSummary summary = EvaluateModel(model_path, db_path, options);
   PrintHeadline(summary);
+  return 0;
+}
+
+int RunReport(int argc, char** argv) {
+  CLI::App app{"Write the HTML/PNG report of an evaluation run", "workbench report"};
+  std::string db_path, out;
+  int64_t run_id = 0;
+  app.add_option("--db", db_path, "Dataset database holding the run")->required();
+  app.add_option("--run", run_id, "Run id (0: the latest)")->capture_default_str();
+  app.add_option("--out", out, "Report directory (index.html and PNGs)")->required();
+  if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
+  WriteReportForRun(db_path, run_id, out);
+  std::printf("wrote %s/index.html\n", out.c_str());
   return 0;
 }
 

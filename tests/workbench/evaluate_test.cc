@@ -3,6 +3,7 @@
 // tests/baselines/small_eval.json (the CI evaluation).
 #include <gtest/gtest.h>
 
+#include <cstdio>
 #include <nlohmann/json.hpp>
 
 #include "core/file_util.h"
@@ -42,6 +43,36 @@ TEST(Evaluate, SmallRunIsStoredAndGatedByTheCommittedBaseline) {
     EXPECT_NE(runs[0].options_json.find("relative_threshold"), std::string::npos);
     EXPECT_NE(runs[0].results_json.find("A/chair"), std::string::npos);
     EXPECT_EQ(dataset.RunMetrics(runs[0].id).at("frames"), 8);
+  }
+
+  // The report: a folder that opens offline, every image present and loaded
+  // in headless Chromium with no console error.
+  const std::string report = dir + "/report";
+  const testing::CommandResult wrote = Workbench("report --db " + db + " --out " + report);
+  ASSERT_EQ(wrote.exit_code, 0) << wrote.output;
+  const std::string html = ReadFileBytes(report + "/index.html");
+  for (const char* png : {"pr_detection.png", "pr_paper.png", "confusion.png", "latency.png"}) {
+    EXPECT_NE(html.find(std::string("src=\"") + png), std::string::npos) << png;
+    EXPECT_GT(ReadFileBytes(report + "/" + png).size(), 1000u) << png;
+  }
+  EXPECT_EQ(html.find("http://"), std::string::npos);  // nothing from the network
+  EXPECT_EQ(html.find("https://"), std::string::npos);
+  if (testing::RunCommand("command -v chromium").exit_code != 0) {
+    ADD_FAILURE() << "chromium is missing (tools/install_deps.sh installs it)";
+  } else {
+    const testing::CommandResult browser = testing::RunCommand(
+        "chromium --headless --no-sandbox --disable-gpu --enable-logging=stderr --v=0 "
+        "--virtual-time-budget=5000 --dump-dom file://" +
+        report + "/index.html");
+    ASSERT_EQ(browser.exit_code, 0) << browser.output;
+    const size_t at = browser.output.find("images loaded: ");
+    ASSERT_NE(at, std::string::npos) << browser.output;
+    int loaded = -1, total = -2;
+    std::sscanf(browser.output.c_str() + at, "images loaded: %d of %d", &loaded, &total);
+    EXPECT_GT(total, 4);
+    EXPECT_EQ(loaded, total);
+    EXPECT_EQ(browser.output.find("CONSOLE"), std::string::npos) << browser.output;
+    EXPECT_EQ(browser.output.find("Uncaught"), std::string::npos) << browser.output;
   }
 
   // The CI gate: no metric worse than the committed baseline.

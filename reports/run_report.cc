@@ -1,0 +1,229 @@
+#include "reports/run_report.h"
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "core/error.h"
+#include "core/file_util.h"
+#include "reports/confusion.h"
+
+namespace furn {
+namespace {
+
+const std::vector<std::string> kClasses = {"chair", "armchair", "table", "sideboard"};
+
+std::string Escape(const std::string& text) {
+  std::string out;
+  for (char c : text) {
+    switch (c) {
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '&':
+        out += "&amp;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      default:
+        out += c;
+    }
+  }
+  return out;
+}
+
+std::string Number(double value, int digits = 3) {
+  if (std::isnan(value)) return "–";
+  char text[32];
+  std::snprintf(text, sizeof(text), "%.*f", digits, value);
+  return text;
+}
+
+double Get(const std::map<std::string, double>& m, const std::string& name) {
+  const auto it = m.find(name);
+  return it == m.end() ? std::nan("") : it->second;
+}
+
+// A PR plot of the named curves (recall, precision) from the run's results.
+void PlotCurves(const nlohmann::json& curves,
+                const std::string& prefix,
+                const std::string& suffix,
+                const std::string& title,
+                const std::string& png_path) {
+  std::ostringstream script, plot;
+  script << "set terminal pngcairo size 640,420 font 'sans,10'\n"
+         << "set title '" << title << "'\nset xlabel 'recall'\nset ylabel 'precision'\n"
+         << "set xrange [0:1]\nset yrange [0:1.02]\nset grid\nset key bottom left\n";
+  bool any = false;
+  for (const std::string& c : kClasses) {
+    const std::string name = prefix + c + suffix;
+    if (!curves.contains(name) || curves[name].empty()) continue;
+    script << "$" << c << " << EOD\n";
+    for (const auto& p : curves[name])
+      script << p[0].get<double>() << " " << p[1].get<double>() << "\n";
+    script << "EOD\n";
+    plot << (any ? ", " : "plot ") << "$" << c << " using 1:2 with linespoints pt 7 ps 0.5 title '"
+         << c << "'";
+    any = true;
+  }
+  if (!any) plot << "plot 2 title 'no objects of these classes'";
+  script << plot.str() << "\n";
+  RunGnuplot(script.str(), png_path);
+}
+
+}  // namespace
+
+void RunGnuplot(const std::string& script, const std::string& png_path) {
+  const std::string temporary = png_path + ".partial";
+  const std::string command = "gnuplot > /dev/null 2>&1";
+  FILE* pipe = popen(command.c_str(), "w");
+  Require(pipe != nullptr, png_path + ": cannot start gnuplot (apt install gnuplot-nox)");
+  const std::string full = "set output '" + temporary + "'\n" + script + "\nunset output\n";
+  std::fwrite(full.data(), 1, full.size(), pipe);
+  const int status = pclose(pipe);
+  std::error_code error;
+  if (status != 0 || !std::filesystem::exists(temporary)) {
+    std::filesystem::remove(temporary, error);
+    throw InputError(png_path + ": gnuplot failed (exit status " + std::to_string(status) +
+                     "; is gnuplot-nox installed?)");
+  }
+  std::filesystem::rename(temporary, png_path, error);
+  Require(!error, png_path + ": cannot write (" + error.message() + ")");
+}
+
+void WriteRunReport(const RunReportInput& input, const std::string& dir) {
+  std::error_code error;
+  std::filesystem::create_directories(dir, error);
+  Require(!error, dir + ": cannot create the report directory (" + error.message() + ")");
+  auto path = [&](const std::string& name) { return (std::filesystem::path(dir) / name).string(); };
+  const nlohmann::json results = nlohmann::json::parse(input.run.results_json);
+  const nlohmann::json curves = results.value("curves", nlohmann::json::object());
+  const std::map<std::string, double>& m = input.metrics;
+
+  PlotCurves(
+      curves, "B/", "@10cm", "protocol B: detections by score, 10 cm", path("pr_detection.png"));
+  PlotCurves(curves,
+             "A/",
+             "",
+             "protocol A (paper): Hough maxima, 5 cm window, threshold swept",
+             path("pr_paper.png"));
+  {  // Latency histogram (10 ms bins).
+    std::ostringstream script;
+    script << "set terminal pngcairo size 640,360 font 'sans,10'\n"
+           << "set title 'detection time per frame (" << input.frame_ms.size() << " frames)'\n"
+           << "set xlabel 'ms'\nset ylabel 'frames'\nset style fill solid 0.6\nset boxwidth 9\n"
+           << "set grid ytics\n$t << EOD\n";
+    for (double ms : input.frame_ms) script << ms << "\n";
+    script
+        << "EOD\nbin(x) = 10 * floor(x / 10) + 5\n"
+        << "plot $t using (bin($1)):(1.0) smooth frequency with boxes lc rgb '#4477aa' notitle\n";
+    RunGnuplot(script.str(), path("latency.png"));
+  }
+  {  // Confusion of detected class against the true class at 10 cm.
+    std::vector<std::string> labels = kClasses;
+    labels.push_back("background");
+    std::vector<std::vector<int64_t>> counts(labels.size(), std::vector<int64_t>(labels.size(), 0));
+    const nlohmann::json confusion = results.value("confusion", nlohmann::json::object());
+    for (size_t predicted = 0; predicted < labels.size(); ++predicted) {
+      if (!confusion.contains(labels[predicted])) continue;
+      for (size_t truth = 0; truth < labels.size(); ++truth) {
+        counts[truth][predicted] = confusion[labels[predicted]].value(labels[truth], 0);
+      }
+    }
+    WriteConfusionPng(labels, counts, "detections at 10 cm", path("confusion.png"));
+  }
+
+  std::ostringstream html;
+  html << "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">\n"
+       << "<title>furnidet run " << input.run.id << "</title>\n<style>\n"
+       << "body{font-family:sans-serif;margin:24px;max-width:1400px;color:#222}"
+       << "table{border-collapse:collapse;margin:8px 0 20px}td,th{border:1px solid #ccc;"
+       << "padding:4px 10px;text-align:right}th{background:#f0f0f0}td:first-child,th:first-child"
+       << "{text-align:left}img{max-width:100%;border:1px solid #ddd}.row{display:flex;gap:16px;"
+       << "flex-wrap:wrap}.row>div{flex:1 1 420px}pre{background:#f7f7f7;padding:10px;"
+       << "overflow-x:auto;font-size:12px}.gallery img{width:300px}\n</style></head><body>\n";
+  html << "<h1>Evaluation run " << input.run.id << "</h1>\n<table>"
+       << "<tr><th>started</th><td>" << Escape(input.run.started) << "</td></tr>"
+       << "<tr><th>commit</th><td>" << Escape(input.run.git_commit)
+       << (input.run.git_dirty ? " (dirty)" : "") << "</td></tr>"
+       << "<tr><th>split</th><td>" << Escape(input.run.split) << "</td></tr>"
+       << "<tr><th>model</th><td>" << Escape(input.run.model_path) << " · "
+       << Escape(input.run.model_hash) << "</td></tr>"
+       << "<tr><th>dataset hash</th><td>" << Escape(input.run.dataset_hash) << "</td></tr>"
+       << "<tr><th>label</th><td>" << Escape(input.run.label) << "</td></tr></table>\n";
+  html << "<h2>Summary</h2>\n<table><tr><th>metric</th><th>value</th></tr>";
+  for (const char* name : {"frames",
+                           "objects",
+                           "mAP@5cm",
+                           "mAP@10cm",
+                           "mAP@20cm",
+                           "mAP_seen@10cm",
+                           "mAP_unseen@10cm",
+                           "xy_error_mean_m",
+                           "yaw_error_mean_deg",
+                           "cad_identified",
+                           "latency_p50_ms",
+                           "latency_p90_ms",
+                           "latency_p99_ms"}) {
+    const bool count = std::string(name) == "frames" || std::string(name) == "objects";
+    html << "<tr><td>" << name << "</td><td>" << Number(Get(m, name), count ? 0 : 3)
+         << "</td></tr>";
+  }
+  html << "</table>\n<h2>Per class</h2>\n<table><tr><th>class</th><th>AP@5cm</th><th>AP@10cm</th>"
+       << "<th>AP@20cm</th><th>paper best F1</th></tr>";
+  for (const std::string& c : kClasses) {
+    html << "<tr><td>" << c << "</td>";
+    for (const char* d : {"@5cm", "@10cm", "@20cm"})
+      html << "<td>" << Number(Get(m, "AP/" + c + d)) << "</td>";
+    html << "<td>" << Number(Get(m, "paper/" + c + "/best_f1")) << "</td></tr>";
+  }
+  html
+      << "</table>\n<div class=\"row\"><div><h3>PR, protocol B</h3><img src=\"pr_detection.png\" "
+      << "alt=\"protocol B PR curves\"></div><div><h3>PR, protocol A</h3><img src=\"pr_paper.png\" "
+      << "alt=\"protocol A PR curves\"></div></div>\n<div class=\"row\"><div><h3>Confusion (10 cm)"
+      << "</h3><img src=\"confusion.png\" alt=\"confusion matrix\"></div><div><h3>Latency</h3>"
+      << "<img src=\"latency.png\" alt=\"latency histogram\"><table><tr><th>stage</th>"
+      << "<th>p50 ms</th></tr>";
+  for (const auto& [name, value] : m) {
+    if (name.rfind("latency_", 0) == 0 && name.find("_p50_ms") != std::string::npos &&
+        name != "latency_p50_ms") {
+      html << "<tr><td>" << Escape(name.substr(8, name.size() - 8 - 7)) << "</td><td>"
+           << Number(value, 1) << "</td></tr>";
+    }
+  }
+  html << "</table></div></div>\n<h2>Frames with the most errors</h2>\n";
+  if (input.gallery.empty())
+    html << "<p>No gallery (no frame had an error, or the model file is gone).</p>\n";
+  for (const GalleryFrame& g : input.gallery) {
+    html << "<h3>frame " << g.frame_id << ": " << g.false_positives << " false positive(s), "
+         << g.false_negatives << " missed</h3>\n<div class=\"gallery row\">";
+    for (const std::string& png : g.pngs) {
+      html << "<a href=\"" << Escape(g.dir + "/" + png) << "\"><img src=\""
+           << Escape(g.dir + "/" + png) << "\" alt=\"" << Escape(png) << "\"></a>";
+    }
+    html << "</div>\n";
+  }
+  html << "<h2>Options</h2>\n<pre>" << Escape(nlohmann::json::parse(input.run.options_json).dump(2))
+       << "</pre>\n"
+       << "<h2>All metrics</h2>\n<table><tr><th>metric</th><th>value</th></tr>";
+  for (const auto& [name, value] : m)
+    html << "<tr><td>" << Escape(name) << "</td><td>" << Number(value, 4) << "</td></tr>";
+  // A self-check a headless browser can read back (--dump-dom): how many
+  // images loaded with a size.
+  html << "</table>\n<p id=\"image-check\">images not checked</p>\n<script>\n"
+       << "window.addEventListener('load', function () {\n"
+       << "  var images = document.images, loaded = 0;\n"
+       << "  for (var i = 0; i < images.length; ++i) if (images[i].naturalWidth > 0) ++loaded;\n"
+       << "  document.getElementById('image-check').textContent =\n"
+       << "      'images loaded: ' + loaded + ' of ' + images.length;\n"
+       << "});\n</script>\n</body></html>\n";
+  WriteFileAtomically(path("index.html"), html.str());
+}
+
+}  // namespace furn

@@ -1,0 +1,41 @@
+// The report of one evaluation run (SPEC.md §10): a self-contained folder
+// (index.html plus PNGs, no network) with provenance, headline and per-class
+// tables, PR curves of protocols A and B, the confusion matrix, the latency
+// histogram, the options used, and a gallery of the frames with the most
+// errors (their detection debug PNGs, made by the caller). Plots are drawn
+// by gnuplot (pngcairo terminal).
+//
+//   RunReportInput input{run, metrics, frame_ms, gallery};
+//   WriteRunReport(input, "report/");
+#pragma once
+
+#include <map>
+#include <string>
+#include <vector>
+
+#include "db/dataset_db.h"
+
+namespace furn {
+
+struct GalleryFrame {
+  int64_t frame_id = 0;
+  int false_positives = 0, false_negatives = 0;
+  std::string dir;  // relative to the report folder, holding the debug PNGs
+  std::vector<std::string> pngs;
+};
+
+struct RunReportInput {
+  RunRecord run;
+  std::map<std::string, double> metrics;
+  std::vector<double> frame_ms;  // total detection time per frame
+  std::vector<GalleryFrame> gallery;
+};
+
+// Writes index.html and the plots into `dir` (created). Throws InputError
+// when gnuplot is missing or fails, naming the plot.
+void WriteRunReport(const RunReportInput& input, const std::string& dir);
+
+// Runs gnuplot on a script (data inline) that writes `png_path`.
+void RunGnuplot(const std::string& script, const std::string& png_path);
+
+}  // namespace furn
