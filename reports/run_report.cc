@@ -1,5 +1,6 @@
 #include "reports/run_report.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -57,7 +58,7 @@ void PlotCurves(const nlohmann::json& curves,
                 const std::string& title,
                 const std::string& png_path) {
   std::ostringstream script, plot;
-  script << "set terminal pngcairo size 640,420 font 'sans,10'\n"
+  script << "set terminal pngcairo noenhanced size 640,420 font 'sans,10'\n"
          << "set title '" << title << "'\nset xlabel 'recall'\nset ylabel 'precision'\n"
          << "set xrange [0:1]\nset yrange [0:1.02]\nset grid\nset key bottom left\n";
   bool any = false;
@@ -97,6 +98,59 @@ void RunGnuplot(const std::string& script, const std::string& png_path) {
   Require(!error, png_path + ": cannot write (" + error.message() + ")");
 }
 
+void WriteHistoryReport(const std::vector<RunRecord>& runs,
+                        const std::vector<std::map<std::string, double>>& metrics,
+                        const std::string& dir) {
+  Require(!runs.empty() && runs.size() == metrics.size(), "history needs at least one run");
+  std::error_code error;
+  std::filesystem::create_directories(dir, error);
+  Require(!error, dir + ": cannot create the history directory (" + error.message() + ")");
+  auto path = [&](const std::string& name) { return (std::filesystem::path(dir) / name).string(); };
+  const std::vector<std::string> plotted = {
+      "mAP@10cm", "mAP@5cm", "mAP@20cm", "cad_identified", "xy_error_mean_m", "latency_p50_ms"};
+  for (size_t p = 0; p < plotted.size(); ++p) {
+    std::ostringstream script;
+    script << "set terminal pngcairo noenhanced size 560,320 font 'sans,10'\nset title '" << plotted[p]
+           << " by run'\nset xlabel 'run'\nset grid\nset key off\nset xtics 1\n$d << EOD\n";
+    for (size_t r = 0; r < runs.size(); ++r) {
+      const auto it = metrics[r].find(plotted[p]);
+      if (it != metrics[r].end()) script << runs[r].id << " " << it->second << "\n";
+    }
+    script << "EOD\nplot $d using 1:2 with linespoints pt 7 lc rgb '#aa3377'\n";
+    RunGnuplot(script.str(), path("history_" + std::to_string(p) + ".png"));
+  }
+  std::vector<std::string> names;  // every metric any run has, sorted
+  for (const auto& m : metrics) {
+    for (const auto& [name, value] : m) names.push_back(name);
+  }
+  std::sort(names.begin(), names.end());
+  names.erase(std::unique(names.begin(), names.end()), names.end());
+  std::ostringstream html;
+  html << "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>furnidet "
+       << "history</title>\n<style>body{font-family:sans-serif;margin:24px}table{border-collapse:"
+       << "collapse;font-size:12px}td,th{border:1px solid #ccc;padding:3px 8px;text-align:right}"
+       << "th{background:#f0f0f0;position:sticky;top:0}td:nth-child(-n+5),th:nth-child(-n+5)"
+       << "{text-align:left}img{border:1px solid #ddd;margin:4px}</style></head><body>\n"
+       << "<h1>Metric history (" << runs.size() << " runs)</h1>\n<div>";
+  for (size_t p = 0; p < plotted.size(); ++p)
+    html << "<img src=\"history_" << p << ".png\" alt=\"" << Escape(plotted[p]) << "\">";
+  html << "</div>\n<table><tr><th>run</th><th>started</th><th>commit</th><th>kind</th>"
+       << "<th>label</th>";
+  for (const std::string& name : names) html << "<th>" << Escape(name) << "</th>";
+  html << "</tr>\n";
+  for (size_t r = 0; r < runs.size(); ++r) {
+    html << "<tr><td>" << runs[r].id << "</td><td>" << Escape(runs[r].started) << "</td><td>"
+         << Escape(runs[r].git_commit.substr(0, 10)) << (runs[r].git_dirty ? "+" : "")
+         << "</td><td>" << Escape(runs[r].kind) << "</td><td>" << Escape(runs[r].label) << "</td>";
+    for (const std::string& name : names)
+      html << "<td>" << Number(Get(metrics[r], name), 3) << "</td>";
+    html << "</tr>\n";
+  }
+  html << "</table>\n<p>+ after a commit: run on a working tree with uncommitted changes.</p>\n"
+       << "</body></html>\n";
+  WriteFileAtomically(path("history.html"), html.str());
+}
+
 void WriteRunReport(const RunReportInput& input, const std::string& dir) {
   std::error_code error;
   std::filesystem::create_directories(dir, error);
@@ -115,7 +169,7 @@ void WriteRunReport(const RunReportInput& input, const std::string& dir) {
              path("pr_paper.png"));
   {  // Latency histogram (10 ms bins).
     std::ostringstream script;
-    script << "set terminal pngcairo size 640,360 font 'sans,10'\n"
+    script << "set terminal pngcairo noenhanced size 640,360 font 'sans,10'\n"
            << "set title 'detection time per frame (" << input.frame_ms.size() << " frames)'\n"
            << "set xlabel 'ms'\nset ylabel 'frames'\nset style fill solid 0.6\nset boxwidth 9\n"
            << "set grid ytics\n$t << EOD\n";

@@ -35,6 +35,12 @@ struct RunReportInput {
 // when gnuplot is missing or fails, naming the plot.
 void WriteRunReport(const RunReportInput& input, const std::string& dir);
 
+// Every metric across runs (and the commits they ran on): history.html with
+// one table row per run and a plot per headline metric, in `dir`.
+void WriteHistoryReport(const std::vector<RunRecord>& runs,
+                        const std::vector<std::map<std::string, double>>& metrics,
+                        const std::string& dir);
+
 // Runs gnuplot on a script (data inline) that writes `png_path`.
 void RunGnuplot(const std::string& script, const std::string& png_path);
 

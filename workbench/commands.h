@@ -16,5 +16,6 @@ int RunDetect(int argc, char** argv);
 int RunEvaluate(int argc, char** argv);
 int RunRegress(int argc, char** argv);
 int RunReport(int argc, char** argv);
+int RunHistory(int argc, char** argv);
 
 }  // namespace furn

@@ -31,6 +31,7 @@ constexpr Command kCommands[] = {
     {"evaluate", furn::RunEvaluate, "detect over a dataset split; metrics stored as a run"},
     {"regress", furn::RunRegress, "compare a run with a baseline; exit 1 when worse"},
     {"report", furn::RunReport, "HTML and PNG report of an evaluation run"},
+    {"history", furn::RunHistory, "every metric across runs and commits, plots and a table"},
 };
 
 void PrintUsage() {

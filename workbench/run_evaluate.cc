@@ -7,6 +7,7 @@
 #include "core/file_util.h"
 #include "core/progress.h"
 #include "db/dataset_db.h"
+#include "reports/run_report.h"
 #include "workbench/cli_common.h"
 #include "workbench/commands.h"
 #include "workbench/evaluate_command.h"
@@ -97,6 +98,22 @@ int RunReport(int argc, char** argv) {
   if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
   WriteReportForRun(db_path, run_id, out);
   std::printf("wrote %s/index.html\n", out.c_str());
+  return 0;
+}
+
+int RunHistory(int argc, char** argv) {
+  CLI::App app{"Every metric across runs and commits, as plots and a table", "workbench history"};
+  std::string db_path, out;
+  app.add_option("--db", db_path, "Dataset database holding the runs")->required();
+  app.add_option("--out", out, "Directory for history.html and its plots")->required();
+  if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
+  DatasetDb dataset(db_path, DatasetDb::Mode::kReadOnly);
+  const std::vector<RunRecord> runs = dataset.Runs();
+  Require(!runs.empty(), db_path + ": has no runs (run 'workbench evaluate' first)");
+  std::vector<std::map<std::string, double>> metrics;
+  for (const RunRecord& run : runs) metrics.push_back(dataset.RunMetrics(run.id));
+  WriteHistoryReport(runs, metrics, out);
+  std::printf("wrote %s/history.html: %zu runs\n", out.c_str(), runs.size());
   return 0;
 }
 

@@ -90,6 +90,14 @@ TEST(Evaluate, SmallRunIsStoredAndGatedByTheCommittedBaseline) {
   EXPECT_NE(worse.output.find("REGRESSION mAP@10cm"), std::string::npos) << worse.output;
   EXPECT_EQ(Workbench("regress --db " + db + " --run 1 --baseline 1").exit_code, 0);
 
+  // History over the two runs.
+  const testing::CommandResult history =
+      Workbench("history --db " + db + " --out " + dir + "/history");
+  ASSERT_EQ(history.exit_code, 0) << history.output;
+  const std::string table = ReadFileBytes(dir + "/history/history.html");
+  EXPECT_NE(table.find("mAP@10cm"), std::string::npos);
+  EXPECT_GT(ReadFileBytes(dir + "/history/history_0.png").size(), 1000u);
+
   // Bad baselines and runs: one line, exit 1.
   testing::WriteText(dir + "/bad.json", "{\"not\": \"metrics\"}");
   const testing::CommandResult bad =
