@@ -11,6 +11,7 @@
 #include "workbench/cli_common.h"
 #include "workbench/commands.h"
 #include "workbench/evaluate_command.h"
+#include "workbench/train_command.h"
 
 namespace furn {
 namespace {
@@ -50,13 +51,77 @@ void PrintHeadline(const EvaluateSummary& summary) {
 
 }  // namespace
 
+// Protocol D: the three vocabularies over several seeds, each trained on the
+// catalog and evaluated as its own run; mean and spread of the headline metrics.
+int CompareVocabularies(const CatalogFlags& catalog_flags,
+                        const std::string& db_path,
+                        const std::string& work_dir,
+                        int seeds,
+                        EvaluateCommandOptions options) {
+  Require(seeds >= 1 && seeds <= 20, "--seeds must be in 1..20");
+  Require(!work_dir.empty(), "--compare-vocab needs --work-dir for the trained models");
+  const Catalog catalog = OpenCatalog(catalog_flags.spec, MakeOpenOptions(catalog_flags));
+  struct Variant {
+    const char* name;
+    VocabularyKind kind;
+    RimInit init;
+  };
+  const Variant variants[] = {{"kmeans", VocabularyKind::kKMeans, RimInit::kKMeans},
+                              {"rim-kmeans-init", VocabularyKind::kRim, RimInit::kKMeans},
+                              {"rim-pca-init", VocabularyKind::kRim, RimInit::kPcaSplit}};
+  std::printf("%-16s %5s %10s %10s %10s %12s\n",
+              "vocabulary",
+              "seed",
+              "mAP@10cm",
+              "mAP@5cm",
+              "chair F1",
+              "run");
+  for (const Variant& variant : variants) {
+    std::vector<double> map10;
+    for (int seed = 1; seed <= seeds; ++seed) {
+      TrainerOptions trainer;
+      trainer.vocabulary.kind = variant.kind;
+      trainer.vocabulary.rim_init = variant.init;
+      trainer.vocabulary.seed = static_cast<uint64_t>(seed);
+      ScanOptions scan;
+      scan.seed = trainer.vocabulary.seed;
+      const std::string model = work_dir + "/" + variant.name + "-" + std::to_string(seed) + ".fcm";
+      TrainFromCatalog(catalog, scan, trainer, model);
+      options.kind = "compare-vocab";
+      options.label = std::string(variant.name) + " seed " + std::to_string(seed);
+      const EvaluateSummary summary = EvaluateModel(model, db_path, options);
+      const auto& m = summary.result.metrics;
+      auto get = [&](const char* name) {
+        const auto it = m.find(name);
+        return it == m.end() ? std::nan("") : it->second;
+      };
+      map10.push_back(get("mAP@10cm"));
+      std::printf("%-16s %5d %10.3f %10.3f %10.3f %12lld\n",
+                  variant.name,
+                  seed,
+                  get("mAP@10cm"),
+                  get("mAP@5cm"),
+                  get("paper/chair/best_f1"),
+                  static_cast<long long>(summary.run_id));
+    }
+    double mean = 0, square = 0;
+    for (double v : map10) mean += v / map10.size();
+    for (double v : map10) square += (v - mean) * (v - mean) / map10.size();
+    std::printf("%-16s  mean mAP@10cm %.3f +- %.3f over %d seeds\n",
+                variant.name,
+                mean,
+                std::sqrt(square),
+                seeds);
+  }
+  return 0;
+}
+
 int RunEvaluate(int argc, char** argv) {
   CLI::App app{"Run detection over a dataset split and store the metrics as a run",
                "workbench evaluate"};
   std::string model_path, db_path;
   EvaluateCommandOptions options;
-  bool quiet = false;
-  app.add_option("--model", model_path, "Model file (.fcm)")->required();
+  app.add_option("--model", model_path, "Model file (.fcm)");
   app.add_option("--db", db_path, "Dataset database")->required();
   app.add_option("--split", options.split, "train, val, test or all")->capture_default_str();
   app.add_option("--max-frames", options.max_frames, "Evaluate at most N frames (0: all)")
@@ -79,10 +144,23 @@ int RunEvaluate(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--fit-iterations", options.detector.fit.iterations, "RANSAC draws per fit")
       ->capture_default_str();
-  app.add_flag("--quiet", quiet, "No progress bar");
+  bool compare_vocab = false;
+  int seeds = 3;
+  std::string work_dir;
+  CatalogFlags catalog_flags;
+  AddCatalogFlags(&app, &catalog_flags);
+  app.add_flag("--compare-vocab",
+               compare_vocab,
+               "Protocol D: train k-means, RIM (k-means init) and RIM (PCA init) on --catalog "
+               "for each seed and evaluate each (instead of --model)");
+  app.add_option("--seeds", seeds, "Seeds per vocabulary (with --compare-vocab)")
+      ->capture_default_str();
+  app.add_option("--work-dir", work_dir, "Where --compare-vocab writes its models");
   if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
-  Progress::SetQuiet(quiet);
+  ApplyGlobalFlags(catalog_flags);  // --quiet: no progress bar
   options.detector.Check();
+  if (compare_vocab) return CompareVocabularies(catalog_flags, db_path, work_dir, seeds, options);
+  Require(!model_path.empty(), "--model is required (or --compare-vocab)");
   const EvaluateSummary summary = EvaluateModel(model_path, db_path, options);
   PrintHeadline(summary);
   return 0;
