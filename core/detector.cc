@@ -143,7 +143,9 @@ struct Detector::Impl {
                                                  const Eigen::Vector2f& origin,
                                                  DetectionDebug::VoteGrid* debug) const;
   // The segments behind a hypothesis and its candidate CAD models.
-  void Rank(const std::vector<Vote>& votes,
+  std::map<int, double> Support(const std::vector<Vote>& class_votes,
+                                DetectionDebug::Hypothesis* hypothesis) const;
+  void Rank(const std::map<int, double>& support,
             const std::vector<std::vector<int>>& segment_neighbours,
             DetectionDebug::Hypothesis* hypothesis) const;
   // The best-scoring fit of the candidates, if it passes the checks.
@@ -248,20 +250,23 @@ std::vector<DetectionDebug::Hypothesis> Detector::Impl::Maxima(
   return maxima;
 }
 
-void Detector::Impl::Rank(const std::vector<Vote>& votes,
-                          const std::vector<std::vector<int>>& segment_neighbours,
-                          DetectionDebug::Hypothesis* hypothesis) const {
-  const int class_index = static_cast<int>(hypothesis->furniture_class);
+std::map<int, double> Detector::Impl::Support(const std::vector<Vote>& class_votes,
+                                              DetectionDebug::Hypothesis* hypothesis) const {
   // Segments that voted for this class near the maximum, with their weight there.
   const float radius2 = static_cast<float>(options.support_radius_m * options.support_radius_m);
   std::map<int, double> support;
-  for (const Vote& vote : votes) {
-    if (vote.class_index != class_index) continue;
+  for (const Vote& vote : class_votes) {
     const float dx = vote.x - static_cast<float>(hypothesis->x);
     const float dy = vote.y - static_cast<float>(hypothesis->y);
     if (dx * dx + dy * dy <= radius2) support[vote.segment] += vote.weight;
   }
   for (const auto& [segment, weight] : support) hypothesis->segments.push_back(segment);
+  return support;
+}
+
+void Detector::Impl::Rank(const std::map<int, double>& support,
+                          const std::vector<std::vector<int>>& segment_neighbours,
+                          DetectionDebug::Hypothesis* hypothesis) const {
   if (support.empty()) {
     hypothesis->outcome = "no supporting segment";
     return;
@@ -533,18 +538,28 @@ DetectionResult Detector::Detect(const DetectionInput& input, bool keep_debug) c
   std::vector<std::optional<Detection>> found(hypotheses.size());
   std::vector<std::vector<Eigen::Vector3f>> fitted(hypotheses.size());
   std::vector<std::vector<int>> support(hypotheses.size());  // cloud points each fit explains
-  // Each voting segment's nearest part subsets, once for all hypotheses.
-  std::vector<char> voted(view.segments.size(), 0);
-  for (const Vote& vote : votes) voted[vote.segment] = 1;
+  // The segments behind each maximum; then each such segment's nearest
+  // part subsets, once for all hypotheses.
+  std::vector<std::vector<Vote>> votes_of_class(kClasses);
+  for (const Vote& vote : votes) votes_of_class[vote.class_index].push_back(vote);
+  std::vector<std::map<int, double>> supports(hypotheses.size());
+  ParallelFor(0, static_cast<int>(hypotheses.size()), [&](int h) {
+    supports[h] = impl.Support(votes_of_class[static_cast<int>(hypotheses[h].furniture_class)],
+                               &hypotheses[h]);
+  });
+  std::vector<char> needed(view.segments.size(), 0);
+  for (const auto& support : supports) {
+    for (const auto& [segment, weight] : support) needed[segment] = 1;
+  }
   std::vector<std::vector<int>> segment_neighbours(view.segments.size());
   ParallelFor(0, static_cast<int>(view.segments.size()), [&](int s) {
-    if (voted[s] && view.segments[s].size() >= 3) {
+    if (needed[s] && view.segments[s].size() >= 3) {
       segment_neighbours[s] =
           impl.parts->Nearest(ComputeVfh(view.cloud, view.segments[s], sensor), options.neighbours);
     }
   });
-  for (DetectionDebug::Hypothesis& hypothesis : hypotheses)
-    impl.Rank(votes, segment_neighbours, &hypothesis);
+  for (size_t h = 0; h < hypotheses.size(); ++h)
+    impl.Rank(supports[h], segment_neighbours, &hypotheses[h]);
   // Maxima of one class backed by (almost) the same segments would give the
   // same fit: only the strongest is fitted (hypotheses are strongest first
   // within a class).

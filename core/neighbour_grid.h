@@ -29,10 +29,19 @@ class NeighbourGrid {
   // cell keeps its neighbouring cells (the form for loops over all points).
   template <class Visit>
   void ForEachNeighbourOf(int i, float radius, Visit&& visit) const {
+    ForEachNeighbourOf(
+        i, radius, [](int) { return false; }, visit);
+  }
+
+  // The same, skipping the cells for which skip_cell(cell index) is true
+  // (a caller that knows a cell holds nothing more for it).
+  template <class Skip, class Visit>
+  void ForEachNeighbourOf(int i, float radius, Skip&& skip_cell, Visit&& visit) const {
     const float radius2 = radius * radius;
     const Eigen::Vector3f& p = points_[i];
     const int cell = cell_of_point_[i];
     for (int n = neighbour_begin_[cell]; n < neighbour_begin_[cell + 1]; ++n) {
+      if (skip_cell(neighbour_cells_[n])) continue;
       const auto& [begin, end] = ranges_[neighbour_cells_[n]];
       for (int k = begin; k < end; ++k) {
         const int j = order_[k];
@@ -41,6 +50,11 @@ class NeighbourGrid {
       }
     }
   }
+
+  // The occupied cell holding point i, in 0..NumCells().
+  int CellOfPoint(int i) const { return cell_of_point_[i]; }
+  int NumCells() const { return static_cast<int>(ranges_.size()); }
+  int CellSize(int cell) const { return ranges_[cell].second - ranges_[cell].first; }
 
   template <class Visit>
   void ForEachWithin(const Eigen::Vector3f& p, float radius, Visit&& visit) const {

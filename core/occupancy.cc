@@ -70,9 +70,9 @@ OccupancyGrid::OccupancyGrid(const std::vector<Eigen::Vector3f>& points,
 
 bool OccupancyGrid::Cell(const Eigen::Vector3f& p, Eigen::Vector3i* cell) const {
   for (int axis = 0; axis < 3; ++axis) {
-    const float f = std::floor((p[axis] - origin_[axis]) * inverse_voxel_);
+    const float f = (p[axis] - origin_[axis]) * inverse_voxel_;
     if (!(f >= 0 && f < size_[axis])) return false;
-    (*cell)[axis] = static_cast<int>(f);
+    (*cell)[axis] = static_cast<int>(f);  // f >= 0: truncation is floor
   }
   return true;
 }

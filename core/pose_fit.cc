@@ -68,9 +68,9 @@ struct ModelFitter::Impl {
   int NearestTo(const Eigen::Vector3f& q) const {
     Eigen::Vector3i c;
     for (int axis = 0; axis < 3; ++axis) {
-      const float f = std::floor((q[axis] - origin[axis]) * inverse_cell);
+      const float f = (q[axis] - origin[axis]) * inverse_cell;
       if (!(f >= 0 && f < size[axis])) return -1;
-      c[axis] = static_cast<int>(f);
+      c[axis] = static_cast<int>(f);  // f >= 0: truncation is floor
     }
     return nearest[(static_cast<size_t>(c.z()) * size.y() + c.y()) * size.x() + c.x()];
   }

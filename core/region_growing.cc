@@ -37,17 +37,25 @@ std::vector<std::vector<int>> GrowRegions(const PointCloud& cloud,
   const float min_cosine = static_cast<float>(std::cos(options.alpha_deg * M_PI / 180));
   std::vector<int> label(cloud.size(), -1);
   int next_label = 0;
+  std::vector<int> unlabelled(grid.NumCells());  // points per cell without a label yet
+  for (int c = 0; c < grid.NumCells(); ++c) unlabelled[c] = grid.CellSize(c);
   for (int seed : order) {
     if (label[seed] != -1) continue;
     const Eigen::Vector3f& seed_normal = cloud.normals[seed];
     std::vector<int> segment = {seed};
     label[seed] = next_label;
+    --unlabelled[grid.CellOfPoint(seed)];
     for (size_t head = 0; head < segment.size(); ++head) {
-      grid.ForEachNeighbourOf(segment[head], delta, [&](int q, float) {
-        if (label[q] != -1 || cloud.normals[q].dot(seed_normal) < min_cosine) return;
-        label[q] = next_label;
-        segment.push_back(q);
-      });
+      grid.ForEachNeighbourOf(
+          segment[head],
+          delta,
+          [&](int cell) { return unlabelled[cell] == 0; },  // nothing left to take there
+          [&](int q, float) {
+            if (label[q] != -1 || cloud.normals[q].dot(seed_normal) < min_cosine) return;
+            label[q] = next_label;
+            --unlabelled[grid.CellOfPoint(q)];
+            segment.push_back(q);
+          });
     }
     ++next_label;
     if (static_cast<int>(segment.size()) < options.min_segment_size) continue;
