@@ -8,6 +8,7 @@
 #include "workbench/cli_common.h"
 #include "workbench/commands.h"
 #include "workbench/detect_command.h"
+#include "workbench/evaluate_command.h"
 
 namespace furn {
 
@@ -43,10 +44,27 @@ int RunDetect(int argc, char** argv) {
   app.add_option("--top-models", options.top_models, "CAD models fitted per hypothesis")
       ->capture_default_str();
   app.add_option("--seed", options.seed, "Seed of the RANSAC draws")->capture_default_str();
+  std::string options_file;
+  app.add_option("--options",
+                 options_file,
+                 "Detector options as JSON (a run's options or a tuned file); flags given "
+                 "on the command line are applied on top");
   app.add_flag("--quiet", quiet, "Print nothing but errors");
   if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
   Require(repeat >= 1 && repeat <= 1000,
           "--repeat " + std::to_string(repeat) + " must be in 1..1000");
+  if (!options_file.empty()) {
+    const DetectorOptions from_file =
+        DetectorOptionsFromJson(ReadFileBytes(options_file), options_file);
+    DetectorOptions merged = from_file;  // flags given explicitly win over the file
+    if (app.count("--threshold")) merged.relative_threshold = options.relative_threshold;
+    if (app.count("--absolute-threshold")) merged.absolute_threshold = options.absolute_threshold;
+    if (app.count("--min-verification")) merged.min_verification = options.min_verification;
+    if (app.count("--max-range")) merged.max_range_m = options.max_range_m;
+    if (app.count("--top-models")) merged.top_models = options.top_models;
+    if (app.count("--seed")) merged.seed = options.seed;
+    options = merged;
+  }
   options.Check();
   const LoadedScan scan = LoadScan(source);
   const Detector detector(LoadTrainedModel(model_path), options);

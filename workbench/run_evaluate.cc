@@ -144,6 +144,11 @@ int RunEvaluate(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--fit-iterations", options.detector.fit.iterations, "RANSAC draws per fit")
       ->capture_default_str();
+  std::string options_file;
+  app.add_option("--options",
+                 options_file,
+                 "Detector options as JSON (a run's options or a tuned file); the flags above "
+                 "apply on top when given");
   bool compare_vocab = false;
   int seeds = 3;
   std::string work_dir;
@@ -158,6 +163,19 @@ int RunEvaluate(int argc, char** argv) {
   app.add_option("--work-dir", work_dir, "Where --compare-vocab writes its models");
   if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
   ApplyGlobalFlags(catalog_flags);  // --quiet: no progress bar
+  if (!options_file.empty()) {
+    DetectorOptions merged = DetectorOptionsFromJson(ReadFileBytes(options_file), options_file);
+    const DetectorOptions& flags = options.detector;  // explicitly given flags win
+    if (app.count("--threshold")) merged.relative_threshold = flags.relative_threshold;
+    if (app.count("--min-verification")) merged.min_verification = flags.min_verification;
+    if (app.count("--min-score")) merged.min_score = flags.min_score;
+    if (app.count("--seed")) merged.seed = flags.seed;
+    if (app.count("--max-hypotheses"))
+      merged.max_hypotheses_per_class = flags.max_hypotheses_per_class;
+    if (app.count("--top-models")) merged.top_models = flags.top_models;
+    if (app.count("--fit-iterations")) merged.fit.iterations = flags.fit.iterations;
+    options.detector = merged;
+  }
   options.detector.Check();
   if (compare_vocab) return CompareVocabularies(catalog_flags, db_path, work_dir, seeds, options);
   Require(!model_path.empty(), "--model is required (or --compare-vocab)");

@@ -98,6 +98,25 @@ TEST(Evaluate, SmallRunIsStoredAndGatedByTheCommittedBaseline) {
   EXPECT_NE(table.find("mAP@10cm"), std::string::npos);
   EXPECT_GT(ReadFileBytes(dir + "/history/history_0.png").size(), 1000u);
 
+  // A run's options file gives the same run again; unknown keys are refused.
+  testing::WriteText(dir + "/options.json",
+                     "{\"relative_threshold\": 0.15, \"fit\": {\"iterations\": 400}}");
+  const testing::CommandResult again = Workbench("evaluate --quiet --split all --options " + dir +
+                                                 "/options.json --model " + model + " --db " + db);
+  ASSERT_EQ(again.exit_code, 0) << again.output;
+  EXPECT_EQ(Workbench("regress --db " + db + " --run 3 --baseline 1 --tolerance 0").exit_code, 0);
+  testing::WriteText(dir + "/typo.json", "{\"relative_treshold\": 0.2}");
+  const testing::CommandResult typo = Workbench("evaluate --quiet --options " + dir +
+                                                "/typo.json --model " + model + " --db " + db);
+  EXPECT_EQ(typo.exit_code, 1);
+  EXPECT_NE(typo.output.find("unknown detector option 'relative_treshold'"), std::string::npos)
+      << typo.output;
+  testing::WriteText(dir + "/range.json", "{\"min_score\": 3}");
+  EXPECT_NE(Workbench("evaluate --quiet --options " + dir + "/range.json --model " + model +
+                      " --db " + db)
+                .output.find("min score must be in 0..1"),
+            std::string::npos);
+
   // Bad baselines and runs: one line, exit 1.
   testing::WriteText(dir + "/bad.json", "{\"not\": \"metrics\"}");
   const testing::CommandResult bad =
