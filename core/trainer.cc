@@ -45,26 +45,16 @@ class Reader {
     std::memcpy(data, bytes_.data() + position_, size);
     position_ += size;
   }
-  uint32_t U32() {
-    uint32_t v;
+  template <class T>
+  T Value() {
+    T v;
     Bytes(&v, sizeof(v));
     return v;
   }
-  int32_t I32() {
-    int32_t v;
-    Bytes(&v, sizeof(v));
-    return v;
-  }
-  double F64() {
-    double v;
-    Bytes(&v, sizeof(v));
-    return v;
-  }
-  float F32() {
-    float v;
-    Bytes(&v, sizeof(v));
-    return v;
-  }
+  uint32_t U32() { return Value<uint32_t>(); }
+  int32_t I32() { return Value<int32_t>(); }
+  double F64() { return Value<double>(); }
+  float F32() { return Value<float>(); }
   uint32_t Count(uint32_t limit) {
     const uint32_t n = U32();
     Require(n <= limit, path_ + ": model file is corrupt (a count of " + std::to_string(n) + ")");

@@ -270,32 +270,6 @@ std::vector<RunRecord> DatasetDb::Runs() {
   return runs;
 }
 
-std::vector<RunDetectionRecord> DatasetDb::RunDetections(int64_t run_id) {
-  std::vector<RunDetectionRecord> detections;
-  if (!HasRuns()) return detections;
-  Statement query(&db_,
-                  "SELECT frame_id, class, model_id, x, y, z, yaw, score, vote_weight, "
-                  "verification, covered_fraction FROM run_detections WHERE run_id = ? "
-                  "ORDER BY frame_id, rowid");
-  query.Bind(1, run_id);
-  while (query.Step()) {
-    RunDetectionRecord d;
-    d.frame_id = query.ColumnInt(0);
-    d.furniture_class = query.ColumnText(1);
-    d.model_id = query.ColumnText(2);
-    d.x = query.ColumnDouble(3);
-    d.y = query.ColumnDouble(4);
-    d.z = query.ColumnDouble(5);
-    d.yaw = query.ColumnDouble(6);
-    d.score = query.ColumnDouble(7);
-    d.vote_weight = query.ColumnDouble(8);
-    d.verification = query.ColumnDouble(9);
-    d.covered_fraction = query.ColumnDouble(10);
-    detections.push_back(std::move(d));
-  }
-  return detections;
-}
-
 std::vector<RunFrameRecord> DatasetDb::RunFrames(int64_t run_id) {
   std::vector<RunFrameRecord> frames;
   if (!HasRuns()) return frames;

@@ -137,7 +137,6 @@ class DatasetDb {
                    const std::vector<RunFrameRecord>& frames);
   std::vector<RunRecord> Runs();
   std::map<std::string, double> RunMetrics(int64_t run_id);
-  std::vector<RunDetectionRecord> RunDetections(int64_t run_id);
   std::vector<RunFrameRecord> RunFrames(int64_t run_id);
 
   // The room holding a frame, or nothing when no frame has that id.

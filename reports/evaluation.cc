@@ -36,6 +36,7 @@ enum class Role { kTarget, kIgnore, kAbsent };
 struct Matching {
   std::vector<PrPoint> curve;
   int targets = 0;
+  std::vector<int> targets_in_frame, true_positives_in_frame, false_positives_in_frame;
   std::vector<std::pair<const ScoredDetection*, const TruthObject*>> true_positives;
 };
 
@@ -45,6 +46,9 @@ Matching MatchClass(const std::vector<FrameOutcome>& frames,
                     double distance,
                     const std::function<Role(const TruthObject&)>& role) {
   Matching result;
+  result.targets_in_frame.assign(frames.size(), 0);
+  result.true_positives_in_frame.assign(frames.size(), 0);
+  result.false_positives_in_frame.assign(frames.size(), 0);
   struct Candidate {
     double score;
     size_t frame;
@@ -53,8 +57,10 @@ Matching MatchClass(const std::vector<FrameOutcome>& frames,
   std::vector<Candidate> candidates;
   for (size_t f = 0; f < frames.size(); ++f) {
     for (const TruthObject& t : frames[f].truth) {
-      result.targets += t.furniture_class == furniture_class && role(t) == Role::kTarget;
+      result.targets_in_frame[f] +=
+          t.furniture_class == furniture_class && role(t) == Role::kTarget;
     }
+    result.targets += result.targets_in_frame[f];
     for (const ScoredDetection& d : frames[f].detections) {
       if (d.furniture_class == furniture_class) candidates.push_back({d.score, f, &d});
     }
@@ -83,9 +89,11 @@ Matching MatchClass(const std::vector<FrameOutcome>& frames,
       used[c.frame][best] = true;
       if (role(frame.truth[best]) == Role::kIgnore) continue;  // neither TP nor FP
       ++tp;
+      ++result.true_positives_in_frame[c.frame];
       result.true_positives.emplace_back(c.detection, &frame.truth[best]);
     } else {
       ++fp;
+      ++result.false_positives_in_frame[c.frame];
     }
     result.curve.push_back({result.targets > 0 ? static_cast<double>(tp) / result.targets : 0,
                             static_cast<double>(tp) / (tp + fp),
@@ -155,11 +163,18 @@ EvaluationResult EvaluateFrames(const std::vector<FrameOutcome>& frames,
     if (classes > 0) m["mAP@" + CentimetreName(distance)] = sum / classes;
   }
 
-  // Pose errors and CAD identification for TPs at 10 cm.
+  // Pose errors, CAD identification and per-frame errors at 10 cm.
   double xy_sum = 0, yaw_sum = 0;
   int tps = 0, identified = 0, identifiable = 0;
+  for (const FrameOutcome& f : frames) result.frame_errors[f.frame_id] = {0, 0};
   for (const std::string& c : options.classes) {
-    for (const auto& [d, t] : MatchClass(frames, c, 0.10, all_objects).true_positives) {
+    const Matching matching = MatchClass(frames, c, 0.10, all_objects);
+    for (size_t f = 0; f < frames.size(); ++f) {
+      std::pair<int, int>& errors = result.frame_errors[frames[f].frame_id];
+      errors.first += matching.false_positives_in_frame[f];
+      errors.second += matching.targets_in_frame[f] - matching.true_positives_in_frame[f];
+    }
+    for (const auto& [d, t] : matching.true_positives) {
       xy_sum += std::hypot(d->x - t->x, d->y - t->y);
       yaw_sum += YawErrorDeg(d->yaw, t->yaw, d->symmetry);
       ++tps;

@@ -79,6 +79,8 @@ struct EvaluationResult {
   // Confusion of detected class against the class of the true object it lies
   // within 10 cm of ("background" when none): counts[detected][true].
   std::map<std::string, std::map<std::string, int>> confusion;
+  // Per frame id: false positives and missed objects at 10 cm (protocol B).
+  std::map<int64_t, std::pair<int, int>> frame_errors;
 };
 
 // Metric names: AP/<class>@<d>cm, mAP@<d>cm, mAP_seen@10cm, mAP_unseen@10cm

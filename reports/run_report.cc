@@ -110,7 +110,8 @@ void WriteHistoryReport(const std::vector<RunRecord>& runs,
       "mAP@10cm", "mAP@5cm", "mAP@20cm", "cad_identified", "xy_error_mean_m", "latency_p50_ms"};
   for (size_t p = 0; p < plotted.size(); ++p) {
     std::ostringstream script;
-    script << "set terminal pngcairo noenhanced size 560,320 font 'sans,10'\nset title '" << plotted[p]
+    script << "set terminal pngcairo noenhanced size 560,320 font 'sans,10'\nset title '"
+           << plotted[p]
            << " by run'\nset xlabel 'run'\nset grid\nset key off\nset xtics 1\n$d << EOD\n";
     for (size_t r = 0; r < runs.size(); ++r) {
       const auto it = metrics[r].find(plotted[p]);

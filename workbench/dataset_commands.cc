@@ -151,6 +151,7 @@ void WriteDatasetPreview(const std::string& db_path, int max_frames, const std::
 #include "core/scene.h"
 #include "renderers/camera.h"
 #include "renderers/frame_io.h"
+#include "workbench/detect_command.h"
 
 namespace furn {
 namespace {
@@ -239,17 +240,6 @@ MergeSummary MergeDatasets(const std::vector<std::string>& inputs, const std::st
 }
 
 namespace {
-
-CameraIntrinsics IntrinsicsOf(const FrameRecord& frame) {
-  CameraIntrinsics camera;
-  camera.width = frame.width;
-  camera.height = frame.height;
-  camera.fx = frame.fx;
-  camera.fy = frame.fy;
-  camera.cx = frame.cx;
-  camera.cy = frame.cy;
-  return camera;
-}
 
 void WriteBytes(const std::string& path, const std::vector<uint8_t>& bytes) {
   WriteFileAtomically(path, std::string(bytes.begin(), bytes.end()));

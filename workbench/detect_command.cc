@@ -43,6 +43,28 @@ CameraIntrinsics ParseIntrinsics(const std::string& text, int width, int height)
   return camera;
 }
 
+CameraIntrinsics IntrinsicsOf(const FrameRecord& frame) {
+  CameraIntrinsics camera;
+  camera.width = frame.width;
+  camera.height = frame.height;
+  camera.fx = frame.fx;
+  camera.fy = frame.fy;
+  camera.cx = frame.cx;
+  camera.cy = frame.cy;
+  return camera;
+}
+
+DetectionInput DetectionInputOf(const FrameRecord& frame, const std::string& what) {
+  const CameraIntrinsics camera = IntrinsicsOf(frame);
+  camera.Check();
+  DetectionInput input;
+  input.points = BackProject(DecodeDepthPng(frame.depth_noisy_png, what + " noisy depth"), camera);
+  input.width = frame.width;
+  input.height = frame.height;
+  input.world_from_camera = frame.world_from_camera;
+  return input;
+}
+
 LoadedScan LoadScan(const ScanSource& source) {
   const int given =
       !source.cloud_path.empty() + !source.depth_path.empty() + !source.db_path.empty();
@@ -83,18 +105,8 @@ LoadedScan LoadScan(const ScanSource& source) {
       frame != nullptr,
       source.db_path + ": frame " + std::to_string(source.frame_id) + " is missing from its room");
   const std::string what = source.db_path + " frame " + std::to_string(frame->id);
-  const DepthFrame depth = DecodeDepthPng(frame->depth_noisy_png, what + " noisy depth");
-  scan.camera.width = frame->width;
-  scan.camera.height = frame->height;
-  scan.camera.fx = frame->fx;
-  scan.camera.fy = frame->fy;
-  scan.camera.cx = frame->cx;
-  scan.camera.cy = frame->cy;
-  scan.camera.Check();
-  scan.input.points = BackProject(depth, scan.camera);
-  scan.input.width = frame->width;
-  scan.input.height = frame->height;
-  scan.input.world_from_camera = frame->world_from_camera;
+  scan.camera = IntrinsicsOf(*frame);
+  scan.input = DetectionInputOf(*frame, what);
   scan.description = what;
   for (const ObjectRecord& object : room.objects) {
     scan.ground_truth.push_back({object.furniture_class,

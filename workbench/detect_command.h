@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "core/detector.h"
+#include "db/dataset_db.h"
 #include "renderers/camera.h"
 #include "reports/detection_debug.h"
 
@@ -38,6 +39,13 @@ struct LoadedScan {
 // Exactly one of cloud, depth or db must be given. Throws InputError naming
 // the file or value for anything unreadable or inconsistent.
 LoadedScan LoadScan(const ScanSource& source);
+
+// The intrinsics a dataset frame was rendered with.
+CameraIntrinsics IntrinsicsOf(const FrameRecord& frame);
+
+// Detection input of a dataset frame: its noisy depth back-projected, with
+// its known pose. `what` names the frame in errors.
+DetectionInput DetectionInputOf(const FrameRecord& frame, const std::string& what);
 
 // "kinect1" or "fx,fy,cx,cy" for an image of width x height.
 CameraIntrinsics ParseIntrinsics(const std::string& text, int width, int height);

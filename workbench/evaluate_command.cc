@@ -49,9 +49,14 @@ nlohmann::json CurvesJson(const EvaluationResult& result) {
     for (const PrPoint& p : curve) points.push_back({p.recall, p.precision, p.threshold});
     curves[name] = points;
   }
+  nlohmann::json frame_errors = nlohmann::json::object();
+  for (const auto& [frame, errors] : result.frame_errors)
+    frame_errors[std::to_string(frame)] = {errors.first, errors.second};
   return {{"curves", curves},
           {"curve_layout", "recall, precision, threshold"},
-          {"confusion", result.confusion}};
+          {"confusion", result.confusion},
+          {"frame_errors", frame_errors},
+          {"frame_errors_layout", "false positives, missed objects at 10 cm"}};
 }
 
 }  // namespace
@@ -230,21 +235,8 @@ EvaluateSummary EvaluateModel(const std::string& model_path,
     for (const FrameRecord& frame : room.frames) {
       if (static_cast<int>(outcomes.size()) >= total_frames) break;
       dataset_hash.Update(frame.content_hash.data(), frame.content_hash.size());
-      CameraIntrinsics camera;
-      camera.width = frame.width;
-      camera.height = frame.height;
-      camera.fx = frame.fx;
-      camera.fy = frame.fy;
-      camera.cx = frame.cx;
-      camera.cy = frame.cy;
-      const DepthFrame depth = DecodeDepthPng(
-          frame.depth_noisy_png, db_path + " frame " + std::to_string(frame.id) + " noisy depth");
-      DetectionInput input;
-      input.points = BackProject(depth, camera);
-      input.width = frame.width;
-      input.height = frame.height;
-      input.world_from_camera = frame.world_from_camera;
-      const DetectionResult result = detector.Detect(input);
+      const DetectionResult result =
+          detector.Detect(DetectionInputOf(frame, db_path + " frame " + std::to_string(frame.id)));
 
       FrameOutcome outcome;
       outcome.frame_id = frame.id;
@@ -352,64 +344,21 @@ void WriteReportForRun(const std::string& db_path, int64_t run_id, const std::st
   input.metrics = dataset.RunMetrics(run_id);
   for (const RunFrameRecord& f : dataset.RunFrames(run_id)) input.frame_ms.push_back(f.total_ms);
 
-  // Errors per frame at 10 cm (greedy by score, the protocol's ignore rule).
+  // Errors per frame at 10 cm, as evaluate counted them (protocol B).
   const DetectorOptions options =
       DetectorOptionsFromJson(run->options_json, db_path + " run options");
-  std::map<int64_t, std::vector<RunDetectionRecord>> detections;
-  for (RunDetectionRecord& d : dataset.RunDetections(run_id)) detections[d.frame_id].push_back(d);
   struct Errors {
-    int64_t frame_id, room_id;
+    int64_t frame_id;
     int fp, fn;
   };
   std::vector<Errors> errors;
-  for (const RunFrameRecord& f : dataset.RunFrames(run_id)) {
-    const std::optional<int64_t> room_id = dataset.RoomOfFrame(f.frame_id);
-    if (!room_id) continue;
-    const RoomRecord room = dataset.ReadRoom(*room_id, false);
-    const FrameRecord* frame = nullptr;
-    for (const FrameRecord& candidate : room.frames) {
-      if (candidate.id == f.frame_id) frame = &candidate;
-    }
-    if (frame == nullptr) continue;
-    std::vector<const ObjectRecord*> targets, ignored;
-    const Eigen::Vector3d eye = frame->world_from_camera.translation();
-    for (const ObjectRecord& object : room.objects) {
-      if (object.furniture_class.empty()) continue;
-      double visibility = 0;
-      for (const FrameObjectRecord& seen : frame->objects) {
-        if (seen.instance_id == object.instance_id) visibility = seen.visibility;
-      }
-      if (visibility <= 0) continue;
-      const double distance =
-          (Eigen::Vector3d(object.reference_x, object.reference_y, 0) - eye).norm();
-      (visibility >= 0.25 && distance <= options.max_range_m ? targets : ignored)
-          .push_back(&object);
-    }
-    std::vector<RunDetectionRecord>& found = detections[f.frame_id];
-    std::sort(
-        found.begin(), found.end(), [](const auto& a, const auto& b) { return a.score > b.score; });
-    std::vector<bool> used(targets.size() + ignored.size(), false);
-    int fp = 0, tp = 0;
-    for (const RunDetectionRecord& d : found) {
-      int best = -1;
-      double best_distance = 0.10;
-      for (size_t k = 0; k < targets.size() + ignored.size(); ++k) {
-        const ObjectRecord* o = k < targets.size() ? targets[k] : ignored[k - targets.size()];
-        const double distance = std::hypot(o->reference_x - d.x, o->reference_y - d.y);
-        if (!used[k] && o->furniture_class == d.furniture_class && distance <= best_distance) {
-          best = static_cast<int>(k);
-          best_distance = distance;
-        }
-      }
-      if (best < 0) {
-        ++fp;
-      } else {
-        used[best] = true;
-        tp += best < static_cast<int>(targets.size());
-      }
-    }
-    errors.push_back({f.frame_id, *room_id, fp, static_cast<int>(targets.size()) - tp});
-  }
+  const nlohmann::json results = nlohmann::json::parse(run->results_json);
+  const nlohmann::json frame_errors = results.value("frame_errors", nlohmann::json::object());
+  for (const auto& [frame, counts] : frame_errors.items())
+    errors.push_back({std::stoll(frame), counts[0].get<int>(), counts[1].get<int>()});
+  std::sort(errors.begin(), errors.end(), [](const Errors& a, const Errors& b) {
+    return a.frame_id < b.frame_id;
+  });
   std::stable_sort(errors.begin(), errors.end(), [](const Errors& a, const Errors& b) {
     return a.fp + a.fn > b.fp + b.fn;
   });

@@ -294,7 +294,8 @@ TEST_F(DetectTest, BadFilesAndIntrinsicsAreClearErrors) {
   EXPECT_NE(testing::ErrorOf([&] { LoadScan(source); }).find("kinect1 are for 640x480"),
             std::string::npos);
   source.intrinsics = "525,525,400,100";  // principal point outside the image
-  EXPECT_NE(testing::ErrorOf([&] { LoadScan(source); }).find("must lie in the image"), std::string::npos);
+  EXPECT_NE(testing::ErrorOf([&] { LoadScan(source); }).find("must lie in the image"),
+            std::string::npos);
   source.intrinsics = "fx=525";
   EXPECT_NE(testing::ErrorOf([&] { LoadScan(source); }).find("four numbers"), std::string::npos);
   // A cloud file that is not one.
