@@ -206,50 +206,54 @@ EmbreeCaster::Coverage EmbreeCaster::CoverageIn(const Scene& scene,
     alignas(64) RTCRay16 packet;
     alignas(64) int valid[kPacket];
     Coverage& row = rows[v - v0];
-    for (int start = u0; start <= u1; start += kPacket) {
-      int rays = 0;
-      for (int k = 0; k < kPacket; ++k) {
-        const int u = start + k;
-        bool known = false, known_miss = false;
-        if (u <= u1 && known_hits.ids != nullptr) {
-          const size_t i = static_cast<size_t>(v) * camera.width + u;
-          known = (*known_hits.ids)[i] == known_hits.id;
-          const float seen = (*known_hits.depth)[i];
-          known_miss = !known && (seen <= 0 || seen > known_hits.far_depth);
-        }
-        valid[k] = u <= u1 && !known && !known_miss ? -1 : 0;
-        rays += valid[k] != 0;
-        if (known) {
-          if (row.pixels == 0) row.box = {u, v, u, v};
-          ++row.pixels;
-          row.box[0] = std::min(row.box[0], u);
-          row.box[2] = std::max(row.box[2], u);
-        }
-        const Eigen::Vector3f direction = rotation * camera.RayThroughPixel(u, v);
-        packet.org_x[k] = origin.x();
-        packet.org_y[k] = origin.y();
-        packet.org_z[k] = origin.z();
-        packet.dir_x[k] = direction.x();
-        packet.dir_y[k] = direction.y();
-        packet.dir_z[k] = direction.z();
-        packet.tnear[k] = 0.0f;
-        packet.tfar[k] = std::numeric_limits<float>::infinity();
-        packet.time[k] = 0.0f;
-        packet.mask[k] = 0xFFFFFFFFu;
-        packet.id[k] = static_cast<unsigned>(k);
-        packet.flags[k] = 0;
-      }
-      if (rays == 0) continue;
+    auto count = [&](int u) {
+      if (row.pixels == 0) row.box = {u, v, u, v};
+      ++row.pixels;
+      row.box[0] = std::min(row.box[0], u);
+      row.box[2] = std::max(row.box[2], u);
+    };
+    // Pixels whose answer the ideal image already gives (the object seen
+    // there, or nothing before the far side of its box) are counted without a
+    // ray; the rest go to Embree in packets of 16.
+    int columns[kPacket];
+    int rays = 0;
+    auto cast = [&] {
+      for (int k = rays; k < kPacket; ++k) valid[k] = 0;
       rtcOccluded16(valid, rtc_scene, &context, &packet);
-      for (int k = 0; k < kPacket && start + k <= u1; ++k) {
-        if (!valid[k] || packet.tfar[k] >= 0) continue;  // Embree sets tfar to -inf for a hit
-        const int u = start + k;
-        if (row.pixels == 0) row.box = {u, v, u, v};
-        ++row.pixels;
-        row.box[0] = std::min(row.box[0], u);
-        row.box[2] = std::max(row.box[2], u);
+      for (int k = 0; k < rays; ++k) {
+        if (packet.tfar[k] < 0) count(columns[k]);  // Embree sets tfar to -inf for a hit
       }
+      rays = 0;
+    };
+    for (int u = u0; u <= u1; ++u) {
+      if (known_hits.ids != nullptr) {
+        const size_t i = static_cast<size_t>(v) * camera.width + u;
+        if ((*known_hits.ids)[i] == known_hits.id) {
+          count(u);
+          continue;
+        }
+        const float seen = (*known_hits.depth)[i];
+        if (seen <= 0 || seen > known_hits.far_depth) continue;
+      }
+      const Eigen::Vector3f direction = rotation * camera.RayThroughPixel(u, v);
+      const int k = rays++;
+      columns[k] = u;
+      valid[k] = -1;
+      packet.org_x[k] = origin.x();
+      packet.org_y[k] = origin.y();
+      packet.org_z[k] = origin.z();
+      packet.dir_x[k] = direction.x();
+      packet.dir_y[k] = direction.y();
+      packet.dir_z[k] = direction.z();
+      packet.tnear[k] = 0.0f;
+      packet.tfar[k] = std::numeric_limits<float>::infinity();
+      packet.time[k] = 0.0f;
+      packet.mask[k] = 0xFFFFFFFFu;
+      packet.id[k] = static_cast<unsigned>(k);
+      packet.flags[k] = 0;
+      if (rays == kPacket) cast();
     }
+    if (rays > 0) cast();
   });
   for (const Coverage& row : rows) {
     if (row.pixels == 0) continue;

@@ -235,10 +235,24 @@ void KinectNoiseModel::Apply(const DepthFrame& ideal,
   });
 
   // Stages 4-6: resample at jittered positions, add axial noise, quantise.
+  // A depth sensor measures no normals: the noisy frame has depth and ids only.
   DepthFrame& noisy = *noisy_frame;
-  noisy.Resize(width, height);
+  noisy.width = width;
+  noisy.height = height;
+  noisy.depth.assign(count, 0.0f);
+  noisy.instance_ids.assign(count, 0);
+  noisy.normals.clear();
   const double disparity_scale = camera.fx * options.baseline_m;
   const double steps_per_metre = disparity_scale / options.disparity_step_px;  // steps = this / z
+  if (options.quantization && steps_per_metre != steps_per_metre_) {
+    // Down to 5 cm of depth; nearer (more steps) is computed as it comes.
+    depth_of_steps_.resize(static_cast<size_t>(steps_per_metre / 0.05) + 2);
+    depth_of_steps_[0] = 0;
+    for (size_t n = 1; n < depth_of_steps_.size(); ++n)
+      depth_of_steps_[n] = steps_per_metre / static_cast<double>(n);
+    steps_per_metre_ = steps_per_metre;
+  }
+  const size_t tabulated_steps = depth_of_steps_.size();
   const LateralOffsetTable& lateral = LateralOffsets();
   const AxialAngleTable& axial_angle = AxialAngles();
   ParallelFor(0, height, [&](int v) {
@@ -266,12 +280,13 @@ void KinectNoiseModel::Apply(const DepthFrame& ideal,
         // Disparity is positive: adding 0.5 and truncating rounds (libm's round is slow).
         const int64_t steps = static_cast<int64_t>(steps_per_metre / z + 0.5);
         if (steps < 1) continue;  // beyond the farthest representable depth
-        z = steps_per_metre / static_cast<double>(steps);
+        z = static_cast<size_t>(steps) < tabulated_steps
+                ? depth_of_steps_[steps]
+                : steps_per_metre / static_cast<double>(steps);
       }
       const size_t target = noisy.Index(u, v);
       noisy.depth[target] = static_cast<float>(z);
       noisy.instance_ids[target] = ideal.instance_ids[source];
-      noisy.normals[target] = ideal.normals[source];
     }
   });
 }

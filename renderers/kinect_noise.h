@@ -72,8 +72,9 @@ class KinectNoiseModel {
   // Throws InputError when the options fail Check().
   explicit KinectNoiseModel(const KinectNoiseOptions& options);
 
-  // The noisy frame: depth with all enabled effects; ids and normals of the
-  // surface each returned pixel sampled (0 where nothing returned). Throws
+  // The noisy frame: depth with all enabled effects and the id of the surface
+  // each returned pixel sampled (0 where nothing returned); no normals, as a
+  // sensor measures none. Throws
   // InputError when the frame does not match the camera.
   void Apply(const DepthFrame& ideal,
              const CameraIntrinsics& camera,
@@ -89,6 +90,10 @@ class KinectNoiseModel {
   std::vector<float> incidence_cosine_;
   std::vector<Eigen::Vector3f> unit_rays_;  // per pixel, for rays_camera_
   CameraIntrinsics rays_camera_;
+  // depth_of_steps_[n] = steps_per_metre_ / n: the depth of a disparity of n
+  // steps, so quantisation needs one division a pixel, not two.
+  std::vector<double> depth_of_steps_;
+  double steps_per_metre_ = 0;
 };
 
 // One-off convenience form of KinectNoiseModel::Apply.

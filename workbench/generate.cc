@@ -3,6 +3,7 @@
 #include <chrono>
 #include <cstdlib>
 #include <map>
+#include <mutex>
 #include <nlohmann/json.hpp>
 #include <set>
 
@@ -96,32 +97,100 @@ class RoomGenerator {
   RoomGenerator(const Catalog& catalog, const GenerateOptions& options)
       : catalog_(catalog),
         options_(options),
-        composer_catalog_(ComposerCatalog::From(catalog, options.room.include_evaluation_only)),
-        renderer_(MakeRenderer(options.renderer)),
-        simulator_(renderer_.get(), options.noise) {}
+        composer_catalog_(ComposerCatalog::From(catalog, options.room.include_evaluation_only)) {
+    // Rooms are independent, so each worker renders whole rooms with its own
+    // renderer: no per-frame hand-offs between threads. OSMesa keeps one
+    // context (llvmpipe threads on its own).
+    const int slots = options.renderer == RendererKind::kEmbree ? ParallelThreads() : 1;
+    for (int slot = 0; slot < slots; ++slot) {
+      auto worker = std::make_unique<Worker>();
+      worker->renderer = MakeRenderer(options.renderer);
+      worker->simulator = std::make_unique<KinectSimulator>(worker->renderer.get(), options.noise);
+      workers_.push_back(std::move(worker));
+    }
+  }
+
+  // Rooms rendered at once by GenerateBatch.
+  int Slots() const { return static_cast<int>(workers_.size()); }
 
   // Composes the rooms and imports their models ahead of time (all cores), so
   // rendering does not wait; Generate then uses these layouts.
-  void Prefetch(const std::vector<int64_t>& room_indices) {
+  void Prefetch(const std::vector<int64_t>& room_indices, GenerateSummary* summary) {
+    auto start = Clock::now();
     std::vector<const RoomLayout*> layouts;
     for (int64_t k : room_indices)
       layouts.push_back(&prefetched_.emplace(k, Compose(k)).first->second);
-    ImportModels(layouts);
-  }
-
-  RoomRecord Generate(int64_t room_index, GenerateSummary* summary) {
-    const uint64_t room_seed = DeriveSeed(options_.seed, static_cast<uint64_t>(room_index));
-    auto start = Clock::now();
-    RoomLayout layout;
-    if (auto it = prefetched_.find(room_index); it != prefetched_.end()) {
-      layout = std::move(it->second);
-      prefetched_.erase(it);
-    } else {
-      layout = Compose(room_index);
-    }
     summary->compose_s += SecondsSince(start);
     start = Clock::now();
-    const Scene scene = BuildRoomScene(layout, LoadMeshes(layout));
+    ImportModels(layouts);
+    summary->load_s += SecondsSince(start);
+  }
+
+  // Renders the prefetched `room_indices`, Slots() rooms at a time (each room
+  // on one thread, so loops inside run serially). Returns them in order, with
+  // stage times summed over the workers.
+  std::vector<RoomRecord> GenerateBatch(const std::vector<int64_t>& room_indices,
+                                        GenerateSummary* summary) {
+    std::vector<RoomRecord> rooms(room_indices.size());
+    std::vector<GenerateSummary> times(room_indices.size());
+    std::vector<std::map<std::string, std::shared_ptr<const TriangleMesh>>> meshes;
+    for (int64_t k : room_indices) meshes.push_back(LoadMeshes(prefetched_.at(k)));
+    std::mutex slot_mutex;
+    std::vector<Worker*> idle;
+    for (auto& worker : workers_) idle.push_back(worker.get());
+    ParallelFor(0, static_cast<int>(room_indices.size()), [&](int r) {
+      Worker* worker;
+      {
+        std::lock_guard<std::mutex> lock(slot_mutex);
+        worker = idle.back();
+        idle.pop_back();
+      }
+      rooms[r] = Generate(room_indices[r], meshes[r], worker, &times[r]);
+      std::lock_guard<std::mutex> lock(slot_mutex);
+      idle.push_back(worker);
+    });
+    for (int64_t k : room_indices) prefetched_.erase(k);
+    for (const GenerateSummary& time : times) {
+      summary->load_s += time.load_s;
+      summary->render_s += time.render_s;
+      summary->ground_truth_s += time.ground_truth_s;
+      summary->encode_s += time.encode_s;
+    }
+    return rooms;
+  }
+
+  // Models of `room` not given out before, for the database (called in room
+  // order, so a model is written with the first room that uses it).
+  std::vector<ModelRecord> TakeNewModels(const RoomRecord& room) {
+    std::vector<ModelRecord> models;
+    for (const ObjectRecord& object : room.objects) {
+      if (!recorded_.insert(object.model_id).second) continue;
+      models.push_back(ModelRecord{object.model_id,
+                                   object.furniture_class,
+                                   mesh_cache_.at(object.model_id).content_hash,
+                                   Eigen::Vector3d(object.width, object.depth, object.height),
+                                   catalog_.Get(object.model_id).evaluation_only});
+    }
+    std::sort(models.begin(), models.end(), [](const ModelRecord& a, const ModelRecord& b) {
+      return a.id < b.id;
+    });
+    return models;
+  }
+
+ private:
+  struct Worker {
+    std::unique_ptr<DepthRenderer> renderer;
+    std::unique_ptr<KinectSimulator> simulator;
+  };
+
+  RoomRecord Generate(int64_t room_index,
+                      const std::map<std::string, std::shared_ptr<const TriangleMesh>>& meshes,
+                      Worker* worker,
+                      GenerateSummary* summary) const {
+    const uint64_t room_seed = DeriveSeed(options_.seed, static_cast<uint64_t>(room_index));
+    const RoomLayout& layout = prefetched_.at(room_index);
+    auto start = Clock::now();
+    const Scene scene = BuildRoomScene(layout, meshes);
     summary->load_s += SecondsSince(start);
 
     RoomRecord room;
@@ -137,21 +206,17 @@ class RoomGenerator {
 
     ObjectGroundTruth ground_truth(layout, scene);
     for (size_t j = 0; j < layout.world_from_cameras.size(); ++j) {
-      room.frames.push_back(
-          MakeFrame(room, layout, scene, &ground_truth, static_cast<int>(j), summary));
+      room.frames.push_back(MakeFrame(room,
+                                      layout,
+                                      scene,
+                                      &ground_truth,
+                                      static_cast<int>(j),
+                                      worker->simulator.get(),
+                                      summary));
     }
     return room;
   }
 
-  // Models first used since the last call, for the database.
-  std::vector<ModelRecord> TakeNewModels() {
-    std::vector<ModelRecord> models;
-    for (auto& [id, model] : models_) models.push_back(model);
-    models_.clear();
-    return models;
-  }
-
- private:
   ObjectRecord ObjectRecordOf(const PlacedObject& placed) const {
     ObjectRecord object;
     object.instance_id = placed.instance_id;
@@ -200,14 +265,6 @@ class RoomGenerator {
     for (const PlacedObject& object : layout.objects) {
       const CachedModel& cached = mesh_cache_.at(object.model_id);
       meshes[object.model_id] = cached.mesh;
-      if (recorded_.insert(object.model_id).second) {
-        models_[object.model_id] =
-            ModelRecord{object.model_id,
-                        object.furniture_class ? ClassName(*object.furniture_class) : "",
-                        cached.content_hash,
-                        object.size_m,
-                        catalog_.Get(object.model_id).evaluation_only};
-      }
     }
     return meshes;
   }
@@ -217,7 +274,8 @@ class RoomGenerator {
                         const Scene& scene,
                         ObjectGroundTruth* ground_truth,
                         int index,
-                        GenerateSummary* summary) {
+                        KinectSimulator* simulator,
+                        GenerateSummary* summary) const {
     const CameraIntrinsics& camera = options_.camera;
     FrameRecord frame;
     frame.frame_index = index;
@@ -233,7 +291,7 @@ class RoomGenerator {
 
     auto start = Clock::now();
     const KinectCapture& capture =
-        simulator_.Capture(scene, camera, frame.world_from_camera, frame.seed);
+        simulator->Capture(scene, camera, frame.world_from_camera, frame.seed);
     summary->render_s += SecondsSince(start);
 
     start = Clock::now();
@@ -244,10 +302,10 @@ class RoomGenerator {
     start = Clock::now();
     std::vector<uint8_t>* outputs[4] = {
         &frame.depth_ideal_png, &frame.depth_noisy_png, &frame.ids_png, &frame.ids_noisy_png};
-    ParallelFor(0, 4, [&](int k) {
+    for (int k = 0; k < 4; ++k) {
       *outputs[k] = k < 2 ? EncodeDepthPng(k == 0 ? capture.ideal : capture.noisy)
                           : EncodeIdPng(k == 2 ? capture.ideal : capture.noisy);
-    });
+    }
     summary->encode_s += SecondsSince(start);
     return frame;
   }
@@ -256,16 +314,14 @@ class RoomGenerator {
   const Catalog& catalog_;
   const GenerateOptions& options_;
   ComposerCatalog composer_catalog_;
-  std::unique_ptr<DepthRenderer> renderer_;
-  KinectSimulator simulator_;
+  std::vector<std::unique_ptr<Worker>> workers_;
   struct CachedModel {
     std::shared_ptr<const TriangleMesh> mesh;
     std::string content_hash;
   };
   std::map<std::string, CachedModel> mesh_cache_;
-  std::set<std::string> recorded_;             // models given to TakeNewModels() already
-  std::map<std::string, ModelRecord> models_;  // first used since the last TakeNewModels()
-  std::map<int64_t, RoomLayout> prefetched_;   // composed by Prefetch, waiting for Generate
+  std::set<std::string> recorded_;            // models given out by TakeNewModels() already
+  std::map<int64_t, RoomLayout> prefetched_;  // composed by Prefetch, waiting for Generate
 };
 
 }  // namespace
@@ -386,6 +442,34 @@ std::pair<int, int> ParseShard(const std::string& text) {
   throw InputError("shard '" + text + "' must be i/N with 0 <= i < N, e.g. 0/4");
 }
 
+namespace {
+
+// Writes one generated room (and the models it uses first) in its own
+// transaction.
+void WriteGeneratedRoom(const RoomRecord& room,
+                        RoomGenerator* generator,
+                        DatasetDb* dataset,
+                        GenerateSummary* summary,
+                        Progress* progress) {
+  const auto insert_start = Clock::now();
+  dataset->WriteModels(generator->TakeNewModels(room));
+  dataset->WriteRoom(room, [&] {
+    // Test hook: die inside the room's transaction, as a killed run would.
+    if (const char* crash = std::getenv("FURN_TEST_CRASH_IN_ROOM");
+        crash && std::atoll(crash) == room.id) {
+      std::_Exit(3);
+    }
+  });
+  summary->insert_s += SecondsSince(insert_start);
+  ++summary->rooms_written;
+  summary->frames_written += static_cast<int>(room.frames.size());
+  summary->rooms_short += room.placed_furniture < room.requested_furniture;
+  progress->AddSecondary(room.frames.size(), "frames");
+  progress->Advance();
+}
+
+}  // namespace
+
 GenerateSummary GenerateDataset(const Catalog& catalog,
                                 const GenerateOptions& options,
                                 const std::string& db_path) {
@@ -417,32 +501,18 @@ GenerateSummary GenerateDataset(const Catalog& catalog,
     }
   }
   RoomGenerator generator(catalog, options);
+  summary.workers = generator.Slots();
   Progress progress("generate", todo.size(), "rooms");
-  constexpr size_t kPrefetchRooms = 8;
-  for (size_t t = 0; t < todo.size(); ++t) {
-    const int64_t k = todo[t];
-    if (t % kPrefetchRooms == 0) {
-      const auto load_start = Clock::now();
-      generator.Prefetch(std::vector<int64_t>(
-          todo.begin() + t, todo.begin() + std::min(todo.size(), t + kPrefetchRooms)));
-      summary.load_s += SecondsSince(load_start);
+  // Rooms go in batches: composed and imported on all cores, rendered a room
+  // per core, then written in order, one transaction each.
+  const size_t batch_rooms = 4 * static_cast<size_t>(generator.Slots());
+  for (size_t first = 0; first < todo.size(); first += batch_rooms) {
+    const std::vector<int64_t> batch(todo.begin() + first,
+                                     todo.begin() + std::min(todo.size(), first + batch_rooms));
+    generator.Prefetch(batch, &summary);
+    for (RoomRecord& room : generator.GenerateBatch(batch, &summary)) {
+      WriteGeneratedRoom(room, &generator, &dataset, &summary, &progress);
     }
-    RoomRecord room = generator.Generate(k, &summary);
-    const auto insert_start = Clock::now();
-    dataset.WriteModels(generator.TakeNewModels());
-    dataset.WriteRoom(room, [&] {
-      // Test hook: die inside the room's transaction, as a killed run would.
-      if (const char* crash = std::getenv("FURN_TEST_CRASH_IN_ROOM");
-          crash && std::atoll(crash) == k) {
-        std::_Exit(3);
-      }
-    });
-    summary.insert_s += SecondsSince(insert_start);
-    ++summary.rooms_written;
-    summary.frames_written += static_cast<int>(room.frames.size());
-    summary.rooms_short += room.placed_furniture < room.requested_furniture;
-    progress.AddSecondary(room.frames.size(), "frames");
-    progress.Advance();
   }
   progress.Finish();
   summary.seconds = SecondsSince(start);

@@ -50,7 +50,10 @@ struct GenerateSummary {
   int frames_written = 0;
   int rooms_short = 0;  // rooms where fewer pieces fitted than were asked for
   double seconds = 0;
-  // Seconds spent per stage, summed over rooms.
+  int workers = 1;  // rooms rendered at once, one per thread
+  // Seconds spent per stage, summed over rooms: thread-seconds for the stages
+  // the workers run (scene set-up in load, render, ground truth, PNG), wall
+  // seconds for the rest (compose, model import on all cores, database).
   double compose_s = 0, load_s = 0, render_s = 0, ground_truth_s = 0, encode_s = 0, insert_s = 0;
 };
 

@@ -67,8 +67,9 @@ int RunGenerate(int argc, char** argv) {
       summary.seconds,
       summary.seconds > 0 ? summary.frames_written / summary.seconds : 0.0);
   std::printf(
-      "time per stage (s): compose %.2f, load models %.2f, render+noise %.2f, ground truth %.2f, "
-      "png %.2f, database %.2f\n",
+      "time per stage (s; render to png summed over %d workers): compose %.2f, load models %.2f, "
+      "render+noise %.2f, ground truth %.2f, png %.2f, database %.2f\n",
+      summary.workers,
       summary.compose_s,
       summary.load_s,
       summary.render_s,
