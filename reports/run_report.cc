@@ -16,36 +16,6 @@ namespace {
 
 const std::vector<std::string> kClasses = {"chair", "armchair", "table", "sideboard"};
 
-std::string Escape(const std::string& text) {
-  std::string out;
-  for (char c : text) {
-    switch (c) {
-      case '<':
-        out += "&lt;";
-        break;
-      case '>':
-        out += "&gt;";
-        break;
-      case '&':
-        out += "&amp;";
-        break;
-      case '"':
-        out += "&quot;";
-        break;
-      default:
-        out += c;
-    }
-  }
-  return out;
-}
-
-std::string Number(double value, int digits = 3) {
-  if (std::isnan(value)) return "–";
-  char text[32];
-  std::snprintf(text, sizeof(text), "%.*f", digits, value);
-  return text;
-}
-
 double Get(const std::map<std::string, double>& m, const std::string& name) {
   const auto it = m.find(name);
   return it == m.end() ? std::nan("") : it->second;
@@ -79,6 +49,36 @@ void PlotCurves(const nlohmann::json& curves,
 }
 
 }  // namespace
+
+std::string HtmlEscape(const std::string& text) {
+  std::string out;
+  for (char c : text) {
+    switch (c) {
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '&':
+        out += "&amp;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      default:
+        out += c;
+    }
+  }
+  return out;
+}
+
+std::string Number(double value, int digits) {
+  if (std::isnan(value)) return "–";
+  char text[32];
+  std::snprintf(text, sizeof(text), "%.*f", digits, value);
+  return text;
+}
 
 void RunGnuplot(const std::string& script, const std::string& png_path) {
   const std::string temporary = png_path + ".partial";
@@ -134,15 +134,16 @@ void WriteHistoryReport(const std::vector<RunRecord>& runs,
        << "{text-align:left}img{border:1px solid #ddd;margin:4px}</style></head><body>\n"
        << "<h1>Metric history (" << runs.size() << " runs)</h1>\n<div>";
   for (size_t p = 0; p < plotted.size(); ++p)
-    html << "<img src=\"history_" << p << ".png\" alt=\"" << Escape(plotted[p]) << "\">";
+    html << "<img src=\"history_" << p << ".png\" alt=\"" << HtmlEscape(plotted[p]) << "\">";
   html << "</div>\n<table><tr><th>run</th><th>started</th><th>commit</th><th>kind</th>"
        << "<th>label</th>";
-  for (const std::string& name : names) html << "<th>" << Escape(name) << "</th>";
+  for (const std::string& name : names) html << "<th>" << HtmlEscape(name) << "</th>";
   html << "</tr>\n";
   for (size_t r = 0; r < runs.size(); ++r) {
-    html << "<tr><td>" << runs[r].id << "</td><td>" << Escape(runs[r].started) << "</td><td>"
-         << Escape(runs[r].git_commit.substr(0, 10)) << (runs[r].git_dirty ? "+" : "")
-         << "</td><td>" << Escape(runs[r].kind) << "</td><td>" << Escape(runs[r].label) << "</td>";
+    html << "<tr><td>" << runs[r].id << "</td><td>" << HtmlEscape(runs[r].started) << "</td><td>"
+         << HtmlEscape(runs[r].git_commit.substr(0, 10)) << (runs[r].git_dirty ? "+" : "")
+         << "</td><td>" << HtmlEscape(runs[r].kind) << "</td><td>" << HtmlEscape(runs[r].label)
+         << "</td>";
     for (const std::string& name : names)
       html << "<td>" << Number(Get(metrics[r], name), 3) << "</td>";
     html << "</tr>\n";
@@ -204,14 +205,14 @@ void WriteRunReport(const RunReportInput& input, const std::string& dir) {
        << "flex-wrap:wrap}.row>div{flex:1 1 420px}pre{background:#f7f7f7;padding:10px;"
        << "overflow-x:auto;font-size:12px}.gallery img{width:300px}\n</style></head><body>\n";
   html << "<h1>Evaluation run " << input.run.id << "</h1>\n<table>"
-       << "<tr><th>started</th><td>" << Escape(input.run.started) << "</td></tr>"
-       << "<tr><th>commit</th><td>" << Escape(input.run.git_commit)
+       << "<tr><th>started</th><td>" << HtmlEscape(input.run.started) << "</td></tr>"
+       << "<tr><th>commit</th><td>" << HtmlEscape(input.run.git_commit)
        << (input.run.git_dirty ? " (dirty)" : "") << "</td></tr>"
-       << "<tr><th>split</th><td>" << Escape(input.run.split) << "</td></tr>"
-       << "<tr><th>model</th><td>" << Escape(input.run.model_path) << " · "
-       << Escape(input.run.model_hash) << "</td></tr>"
-       << "<tr><th>dataset hash</th><td>" << Escape(input.run.dataset_hash) << "</td></tr>"
-       << "<tr><th>label</th><td>" << Escape(input.run.label) << "</td></tr></table>\n";
+       << "<tr><th>split</th><td>" << HtmlEscape(input.run.split) << "</td></tr>"
+       << "<tr><th>model</th><td>" << HtmlEscape(input.run.model_path) << " · "
+       << HtmlEscape(input.run.model_hash) << "</td></tr>"
+       << "<tr><th>dataset hash</th><td>" << HtmlEscape(input.run.dataset_hash) << "</td></tr>"
+       << "<tr><th>label</th><td>" << HtmlEscape(input.run.label) << "</td></tr></table>\n";
   html << "<h2>Summary</h2>\n<table><tr><th>metric</th><th>value</th></tr>";
   for (const char* name : {"frames",
                            "objects",
@@ -248,7 +249,7 @@ void WriteRunReport(const RunReportInput& input, const std::string& dir) {
   for (const auto& [name, value] : m) {
     if (name.rfind("latency_", 0) == 0 && name.find("_p50_ms") != std::string::npos &&
         name != "latency_p50_ms") {
-      html << "<tr><td>" << Escape(name.substr(8, name.size() - 8 - 7)) << "</td><td>"
+      html << "<tr><td>" << HtmlEscape(name.substr(8, name.size() - 8 - 7)) << "</td><td>"
            << Number(value, 1) << "</td></tr>";
     }
   }
@@ -259,16 +260,16 @@ void WriteRunReport(const RunReportInput& input, const std::string& dir) {
     html << "<h3>frame " << g.frame_id << ": " << g.false_positives << " false positive(s), "
          << g.false_negatives << " missed</h3>\n<div class=\"gallery row\">";
     for (const std::string& png : g.pngs) {
-      html << "<a href=\"" << Escape(g.dir + "/" + png) << "\"><img src=\""
-           << Escape(g.dir + "/" + png) << "\" alt=\"" << Escape(png) << "\"></a>";
+      html << "<a href=\"" << HtmlEscape(g.dir + "/" + png) << "\"><img src=\""
+           << HtmlEscape(g.dir + "/" + png) << "\" alt=\"" << HtmlEscape(png) << "\"></a>";
     }
     html << "</div>\n";
   }
-  html << "<h2>Options</h2>\n<pre>" << Escape(nlohmann::json::parse(input.run.options_json).dump(2))
-       << "</pre>\n"
+  html << "<h2>Options</h2>\n<pre>"
+       << HtmlEscape(nlohmann::json::parse(input.run.options_json).dump(2)) << "</pre>\n"
        << "<h2>All metrics</h2>\n<table><tr><th>metric</th><th>value</th></tr>";
   for (const auto& [name, value] : m)
-    html << "<tr><td>" << Escape(name) << "</td><td>" << Number(value, 4) << "</td></tr>";
+    html << "<tr><td>" << HtmlEscape(name) << "</td><td>" << Number(value, 4) << "</td></tr>";
   // A self-check a headless browser can read back (--dump-dom): how many
   // images loaded with a size.
   html << "</table>\n<p id=\"image-check\">images not checked</p>\n<script>\n"

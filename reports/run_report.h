@@ -41,6 +41,11 @@ void WriteHistoryReport(const std::vector<RunRecord>& runs,
                         const std::vector<std::map<std::string, double>>& metrics,
                         const std::string& dir);
 
+// Text safe inside HTML elements and attributes.
+std::string HtmlEscape(const std::string& text);
+// `value` with `digits` decimals; an en dash for NaN (a metric a run lacks).
+std::string Number(double value, int digits = 3);
+
 // Runs gnuplot on a script (data inline) that writes `png_path`.
 void RunGnuplot(const std::string& script, const std::string& png_path);
 

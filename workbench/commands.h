@@ -17,5 +17,6 @@ int RunEvaluate(int argc, char** argv);
 int RunRegress(int argc, char** argv);
 int RunReport(int argc, char** argv);
 int RunHistory(int argc, char** argv);
+int RunTune(int argc, char** argv);
 
 }  // namespace furn

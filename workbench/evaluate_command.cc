@@ -316,13 +316,16 @@ EvaluateSummary EvaluateModel(const std::string& model_path,
   run.model_hash = model_hash.HexDigest();
   run.dataset_hash = dataset_hash.HexDigest();
   run.split = options.split;
-  run.options_json =
-      nlohmann::ordered_json{
-          {"detector", nlohmann::json::parse(DetectorOptionsJson(options.detector))},
-          {"max_frames", options.max_frames},
-          {"min_visibility", evaluation.min_visibility},
-          {"paper_window_m", evaluation.paper_window_m}}
-          .dump();
+  nlohmann::ordered_json stored{
+      {"detector", nlohmann::json::parse(DetectorOptionsJson(options.detector))},
+      {"max_frames", options.max_frames},
+      {"min_visibility", evaluation.min_visibility},
+      {"paper_window_m", evaluation.paper_window_m}};
+  if (!options.extra_options_json.empty()) {
+    const nlohmann::ordered_json extra = nlohmann::ordered_json::parse(options.extra_options_json);
+    for (const auto& [key, value] : extra.items()) stored[key] = value;
+  }
+  run.options_json = stored.dump();
   run.results_json = CurvesJson(summary.result).dump();
   summary.run_id = dataset.WriteRun(run, summary.result.metrics, detections, frame_records);
   summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

@@ -25,6 +25,9 @@ struct EvaluateCommandOptions {
   int max_frames = 0;          // 0: every frame of the split
   std::string label;           // free text stored with the run
   std::string kind = "evaluate";
+  // A JSON object whose members join the run's stored options (tune puts its
+  // id, trial and parameters here); "" for none.
+  std::string extra_options_json;
   DetectorOptions detector;
   EvaluationOptions evaluation;
 };

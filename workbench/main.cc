@@ -32,6 +32,7 @@ constexpr Command kCommands[] = {
     {"regress", furn::RunRegress, "compare a run with a baseline; exit 1 when worse"},
     {"report", furn::RunReport, "HTML and PNG report of an evaluation run"},
     {"history", furn::RunHistory, "every metric across runs and commits, plots and a table"},
+    {"tune", furn::RunTune, "search training and detection options; trials stored as runs"},
 };
 
 void PrintUsage() {

@@ -3,9 +3,11 @@
 #include <iostream>
 
 #include "core/error.h"
+#include "core/file_util.h"
 #include "workbench/cli_common.h"
 #include "workbench/commands.h"
 #include "workbench/eval_parts.h"
+#include "workbench/options_file.h"
 #include "workbench/train_command.h"
 
 namespace furn {
@@ -25,13 +27,32 @@ int RunTrain(int argc, char** argv) {
   app.add_option("--seed", trainer.vocabulary.seed, "Seed of clustering and scan noise")
       ->capture_default_str();
   app.add_option("--azimuths", scan.azimuths, "Views per ring")->capture_default_str();
+  std::string options_file;
+  app.add_option("--options",
+                 options_file,
+                 "Trainer options as JSON (the \"trainer\" object of a tuned options file); the "
+                 "flags above apply on top when given");
   if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
   ApplyGlobalFlags(catalog_flags);
   Require(vocab == "rim" || vocab == "kmeans", "--vocab '" + vocab + "' must be rim or kmeans");
   Require(init == "kmeans" || init == "pca", "--init '" + init + "' must be kmeans or pca");
-  trainer.vocabulary.kind = vocab == "rim" ? VocabularyKind::kRim : VocabularyKind::kKMeans;
-  trainer.vocabulary.rim_init = init == "pca" ? RimInit::kPcaSplit : RimInit::kKMeans;
-  scan.seed = trainer.vocabulary.seed;
+  const VocabularyKind kind = vocab == "rim" ? VocabularyKind::kRim : VocabularyKind::kKMeans;
+  const RimInit rim_init = init == "pca" ? RimInit::kPcaSplit : RimInit::kKMeans;
+  if (options_file.empty()) {
+    trainer.vocabulary.kind = kind;
+    trainer.vocabulary.rim_init = rim_init;
+    scan.seed = trainer.vocabulary.seed;
+  } else {
+    const TrainingOptions flags{trainer, scan};  // explicitly given flags win
+    const TrainingOptions file = TrainingOptionsFromJson(ReadFileBytes(options_file), options_file);
+    trainer = file.trainer;
+    scan = file.scan;
+    if (app.count("--vocab")) trainer.vocabulary.kind = kind;
+    if (app.count("--init")) trainer.vocabulary.rim_init = rim_init;
+    if (app.count("--words")) trainer.vocabulary.words = flags.trainer.vocabulary.words;
+    if (app.count("--seed")) trainer.vocabulary.seed = scan.seed = flags.trainer.vocabulary.seed;
+    if (app.count("--azimuths")) scan.azimuths = flags.scan.azimuths;
+  }
   const Catalog catalog = OpenCatalog(catalog_flags.spec, MakeOpenOptions(catalog_flags));
   for (const std::string& warning : catalog.warnings())
     std::fprintf(stderr, "warning: %s\n", warning.c_str());

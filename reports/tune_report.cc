@@ -1,0 +1,222 @@
+#include "reports/tune_report.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <sstream>
+
+#include "core/error.h"
+#include "core/file_util.h"
+#include "reports/run_report.h"
+
+namespace furn {
+namespace {
+
+double Get(const std::map<std::string, double>& m, const std::string& name) {
+  const auto it = m.find(name);
+  return it == m.end() ? std::nan("") : it->second;
+}
+
+// The text as a number when all of it is one (JSON numbers and booleans).
+bool AsNumber(const std::string& text, double* value) {
+  if (text == "true" || text == "false") {
+    *value = text == "true";
+    return true;
+  }
+  char* end = nullptr;
+  *value = std::strtod(text.c_str(), &end);
+  return !text.empty() && end == text.c_str() + text.size();
+}
+
+// Objective against one parameter's values: every trial as a point (the
+// base in another colour) and the mean per value as a line. Text values
+// (e.g. "rim", "kmeans") are spread over the x axis in sorted order.
+void PlotEffect(const TuneReportInput& input, size_t parameter, const std::string& png_path) {
+  bool numeric = true;
+  std::vector<std::string> labels;
+  for (const TuneReportTrial& trial : input.trials) {
+    double value;
+    numeric = numeric && AsNumber(trial.values[parameter], &value);
+    labels.push_back(trial.values[parameter]);
+  }
+  std::sort(labels.begin(), labels.end());
+  labels.erase(std::unique(labels.begin(), labels.end()), labels.end());
+  auto x_of = [&](const std::string& text) {
+    double value = 0;
+    if (numeric) {
+      AsNumber(text, &value);
+      return value;
+    }
+    return static_cast<double>(std::lower_bound(labels.begin(), labels.end(), text) -
+                               labels.begin());
+  };
+  std::ostringstream script, others, base;
+  std::map<double, std::pair<double, int>> mean;  // x -> (sum, count)
+  for (const TuneReportTrial& trial : input.trials) {
+    const double y = Get(trial.metrics, input.objective);
+    if (std::isnan(y)) continue;
+    const double x = x_of(trial.values[parameter]);
+    (trial.index == 0 ? base : others) << x << " " << y << "\n";
+    mean[x].first += y;
+    ++mean[x].second;
+  }
+  script << "set terminal pngcairo noenhanced size 520,340 font 'sans,10'\n"
+         << "set title '" << input.parameters[parameter] << "'\nset ylabel '" << input.objective
+         << "'\nset grid\nset key below\nset offsets graph 0.05, graph 0.05, graph 0.05, "
+         << "graph 0.05\n";
+  if (!numeric) {
+    script << "set xtics (";
+    for (size_t k = 0; k < labels.size(); ++k)
+      script << (k ? ", " : "") << "'" << labels[k] << "' " << k;
+    script << ")\n";
+  }
+  script << "$trials << EOD\n"
+         << others.str() << "EOD\n$base << EOD\n"
+         << base.str() << "EOD\n$mean << EOD\n";
+  for (const auto& [x, sum_count] : mean)
+    script << x << " " << sum_count.first / sum_count.second << "\n";
+  // The mean line only where values repeat (grids, lists); random draws of a
+  // range are all different.
+  const bool repeats = mean.size() < input.trials.size();
+  std::vector<std::string> plots;
+  if (repeats)
+    plots.push_back("$mean using 1:2 with lines lw 2 lc rgb '#999999' title 'mean per value'");
+  if (!others.str().empty())
+    plots.push_back("$trials using 1:2 with points pt 7 ps 1 lc rgb '#4477aa' title 'trials'");
+  if (!base.str().empty())
+    plots.push_back(
+        "$base using 1:2 with points pt 9 ps 1.8 lc rgb '#ee6677' title 'base options'");
+  if (plots.empty()) plots.push_back("2 title 'no trial has the objective'");
+  script << "EOD\nplot ";
+  for (size_t k = 0; k < plots.size(); ++k) script << (k ? ", " : "") << plots[k];
+  script << "\n";
+  RunGnuplot(script.str(), png_path);
+}
+
+// The objective of each trial in the order they ran, and the best so far.
+void PlotProgress(const TuneReportInput& input, const std::string& png_path) {
+  std::vector<std::pair<int, double>> by_index;
+  for (const TuneReportTrial& trial : input.trials)
+    by_index.emplace_back(trial.index, Get(trial.metrics, input.objective));
+  std::sort(by_index.begin(), by_index.end());
+  std::ostringstream script;
+  script << "set terminal pngcairo noenhanced size 520,340 font 'sans,10'\n"
+         << "set title 'search progress'\nset xlabel 'trial'\nset ylabel '" << input.objective
+         << "'\nset grid\nset key below\nset format x '%.0f'\n"
+         << (input.trials.size() <= 25 ? "set xtics 1\n" : "") << "$d << EOD\n";
+  double best = -1e300;
+  for (const auto& [index, value] : by_index) {
+    if (!std::isnan(value)) best = std::max(best, value);
+    script << index << " " << (std::isnan(value) ? 0 : value) << " " << best << "\n";
+  }
+  script << "EOD\nplot $d using 1:2 with points pt 7 lc rgb '#4477aa' title 'trial', "
+         << "$d using 1:3 with steps lw 2 lc rgb '#228833' title 'best so far'\n";
+  RunGnuplot(script.str(), png_path);
+}
+
+// Rows of headline metrics, base and best side by side per split.
+void WriteComparison(const TuneReportInput& input, std::ostringstream* html) {
+  const std::vector<std::string> rows = {"mAP@10cm",
+                                         "mAP@5cm",
+                                         "mAP@20cm",
+                                         "AP/chair@10cm",
+                                         "AP/armchair@10cm",
+                                         "AP/table@10cm",
+                                         "AP/sideboard@10cm",
+                                         "cad_identified",
+                                         "xy_error_mean_m",
+                                         "yaw_error_mean_deg",
+                                         "latency_p50_ms"};
+  const bool test = !input.base_test.empty() || !input.best_test.empty();
+  *html << "<table><tr><th>metric</th><th>base, " << HtmlEscape(input.validation_split)
+        << "</th><th>best, " << HtmlEscape(input.validation_split) << "</th>";
+  if (test) {
+    *html << "<th>base, " << HtmlEscape(input.test_split) << "</th><th>best, "
+          << HtmlEscape(input.test_split) << "</th><th>change on " << HtmlEscape(input.test_split)
+          << "</th>";
+  }
+  *html << "</tr>\n";
+  for (const std::string& name : rows) {
+    *html << "<tr><td>" << HtmlEscape(name) << "</td><td>"
+          << Number(Get(input.base_validation, name)) << "</td><td>"
+          << Number(Get(input.best_validation, name)) << "</td>";
+    if (test) {
+      const double base = Get(input.base_test, name), best = Get(input.best_test, name);
+      *html << "<td>" << Number(base) << "</td><td>" << Number(best) << "</td><td>"
+            << (best - base >= 0 ? "+" : "") << Number(best - base) << "</td>";
+    }
+    *html << "</tr>\n";
+  }
+  *html << "</table>\n";
+}
+
+}  // namespace
+
+void WriteTuneReport(const TuneReportInput& input, const std::string& dir) {
+  Require(!input.trials.empty(), "a tune report needs at least one trial");
+  std::error_code error;
+  std::filesystem::create_directories(dir, error);
+  Require(!error, dir + ": cannot create the report directory (" + error.message() + ")");
+  auto path = [&](const std::string& name) { return (std::filesystem::path(dir) / name).string(); };
+  PlotProgress(input, path("progress.png"));
+  for (size_t p = 0; p < input.parameters.size(); ++p)
+    PlotEffect(input, p, path("effect_" + std::to_string(p) + ".png"));
+
+  std::ostringstream html;
+  html << "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>"
+       << HtmlEscape(input.title) << "</title>\n<style>body{font-family:sans-serif;margin:24px;"
+       << "max-width:1400px}table{border-collapse:collapse;font-size:12px;margin-bottom:16px}"
+       << "td,th{border:1px solid #ccc;padding:3px 8px;text-align:right}th{background:#f0f0f0}"
+       << "td:first-child,th:first-child{text-align:left}tr.best{background:#e6f4ea;font-weight:"
+       << "bold}tr.base{background:#fdecee}tr.over{color:#999}img{border:1px solid #ddd;margin:4px}"
+       << "code{background:#f4f4f4;padding:1px 4px}</style></head><body>\n<h1>"
+       << HtmlEscape(input.title) << "</h1>\n";
+  for (const std::string& note : input.notes) html << "<p>" << HtmlEscape(note) << "</p>\n";
+  html << "<p>Objective: <b>" << HtmlEscape(input.objective)
+       << "</b> on the validation split (higher is better; ties go to the lower median latency)";
+  if (input.max_ms > 0)
+    html << "; trials with a median latency above " << Number(input.max_ms, 0)
+         << " ms rank last (grey)";
+  html << ". Best options: <a href=\"" << HtmlEscape(input.best_options_file) << "\"><code>"
+       << HtmlEscape(input.best_options_file) << "</code></a> (trial " << input.best_index
+       << ").</p>\n<h2>Best against the base options</h2>\n";
+  WriteComparison(input, &html);
+
+  html << "<h2>Effect of each parameter</h2>\n<div><img src=\"progress.png\" alt=\"progress\">";
+  for (size_t p = 0; p < input.parameters.size(); ++p) {
+    html << "<img src=\"effect_" << p << ".png\" alt=\"" << HtmlEscape(input.parameters[p])
+         << "\">";
+  }
+  html << "</div>\n<h2>Trials, ranked</h2>\n<table><tr><th>rank</th><th>trial</th><th>run</th>"
+       << "<th>" << HtmlEscape(input.objective) << "</th><th>mAP@5cm</th><th>p50 ms</th>"
+       << "<th>retrained</th>";
+  for (const std::string& name : input.parameters) html << "<th>" << HtmlEscape(name) << "</th>";
+  html << "</tr>\n";
+  for (size_t rank = 0; rank < input.trials.size(); ++rank) {
+    const TuneReportTrial& trial = input.trials[rank];
+    const char* css = trial.index == input.best_index ? "best"
+                      : trial.index == 0              ? "base"
+                      : !trial.within_latency         ? "over"
+                                                      : "";
+    html << "<tr class=\"" << css << "\"><td>" << rank + 1 << "</td><td>" << trial.index
+         << (trial.index == 0 ? " (base)" : "") << "</td><td>" << trial.run_id << "</td><td>"
+         << Number(Get(trial.metrics, input.objective)) << "</td><td>"
+         << Number(Get(trial.metrics, "mAP@5cm")) << "</td><td>"
+         << Number(Get(trial.metrics, "latency_p50_ms"), 1) << "</td><td>"
+         << (trial.retrained ? "yes" : "no") << "</td>";
+    for (const std::string& value : trial.values) html << "<td>" << HtmlEscape(value) << "</td>";
+    html << "</tr>\n";
+  }
+  // A self-check a headless browser can read back (--dump-dom).
+  html << "</table>\n<p id=\"image-check\">images not checked</p>\n<script>\n"
+       << "window.addEventListener('load', function () {\n"
+       << "  var images = document.images, loaded = 0;\n"
+       << "  for (var i = 0; i < images.length; ++i) if (images[i].naturalWidth > 0) ++loaded;\n"
+       << "  document.getElementById('image-check').textContent =\n"
+       << "      'images loaded: ' + loaded + ' of ' + images.length;\n"
+       << "});\n</script>\n</body></html>\n";
+  WriteFileAtomically(path("index.html"), html.str());
+}
+
+}  // namespace furn

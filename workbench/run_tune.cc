@@ -1,0 +1,80 @@
+#include <CLI/CLI.hpp>
+#include <cstdio>
+
+#include "core/error.h"
+#include "workbench/cli_common.h"
+#include "workbench/commands.h"
+#include "workbench/tune_command.h"
+
+namespace furn {
+
+int RunTune(int argc, char** argv) {
+  CLI::App app{"Search training and detection options on a validation split; every trial is a run",
+               "workbench tune"};
+  TuneOptions options;
+  std::string strategy = "random";
+  CatalogFlags catalog_flags;
+  AddCatalogFlags(&app, &catalog_flags);
+  app.add_option("--db", options.db_path, "Dataset database (trials are stored as runs)")
+      ->required();
+  app.add_option("--space", options.space_path, "Search space: JSON of option path -> values")
+      ->required();
+  app.add_option("--out", options.out_dir, "Report folder (index.html, best_options.json)")
+      ->required();
+  app.add_option("--work-dir", options.work_dir, "Cache of trained models (models/<hash>.fcm)")
+      ->required();
+  app.add_option("--trials", options.trials, "Trials, the base options included")
+      ->capture_default_str();
+  app.add_option("--strategy", strategy, "grid or random")->capture_default_str();
+  app.add_option("--seed", options.seed, "Seed of the random search and grid sampling")
+      ->capture_default_str();
+  app.add_option("--split", options.split, "Split the trials are scored on")->capture_default_str();
+  app.add_option("--test-split", options.test_split, "Split the best is checked on (none: skip)")
+      ->capture_default_str();
+  app.add_option("--max-frames", options.max_frames, "Frames per evaluation (0: all)")
+      ->capture_default_str();
+  app.add_option("--objective", options.objective, "Run metric to maximise")->capture_default_str();
+  app.add_option("--max-ms", options.max_ms, "Median latency bound in ms (0: none)")
+      ->capture_default_str();
+  app.add_option("--options", options.base_options_path, "Options file the trials start from");
+  app.add_option("--model",
+                 options.base_model_path,
+                 "A model trained with the base trainer options (saves training it again)");
+  if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
+  ApplyGlobalFlags(catalog_flags);
+  Require(strategy == "grid" || strategy == "random",
+          "--strategy '" + strategy + "' must be grid or random");
+  options.strategy = strategy == "grid" ? TuneStrategy::kGrid : TuneStrategy::kRandom;
+  options.catalog_spec = catalog_flags.spec;
+  options.Check();
+  const Catalog catalog = OpenCatalog(catalog_flags.spec, MakeOpenOptions(catalog_flags));
+  const TuneSummary summary = RunTuning(catalog, options);
+  std::printf(
+      "tune %s: %d trials (%d done before), %d models trained; best is trial %d (run %lld)\n",
+      summary.tune_id.c_str(),
+      summary.trials,
+      summary.trials_resumed,
+      summary.models_trained,
+      summary.best_index,
+      static_cast<long long>(summary.best_run));
+  auto get = [](const std::map<std::string, double>& m, const std::string& name) {
+    const auto it = m.find(name);
+    return it == m.end() ? std::nan("") : it->second;
+  };
+  std::printf("  %s on %s: base %.3f, best %.3f\n",
+              options.objective.c_str(),
+              options.split.c_str(),
+              get(summary.base_validation, options.objective),
+              get(summary.best_validation, options.objective));
+  if (!summary.base_test.empty()) {
+    std::printf("  %s on %s: base %.3f, best %.3f\n",
+                options.objective.c_str(),
+                options.test_split.c_str(),
+                get(summary.base_test, options.objective),
+                get(summary.best_test, options.objective));
+  }
+  std::printf("wrote %s and %s\n", summary.best_options_path.c_str(), summary.report_path.c_str());
+  return 0;
+}
+
+}  // namespace furn

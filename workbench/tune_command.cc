@@ -1,0 +1,488 @@
+#include "workbench/tune_command.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <set>
+
+#include "core/error.h"
+#include "core/file_util.h"
+#include "core/mesh.h"
+#include "core/random.h"
+#include "db/dataset_db.h"
+#include "reports/tune_report.h"
+#include "workbench/evaluate_command.h"
+
+namespace furn {
+namespace {
+
+using Json = nlohmann::ordered_json;
+
+// {"trainer": ..., "detector": ...} of the given options: the tree every
+// parameter path points into.
+Json CombinedJson(const TrainingOptions& training, const DetectorOptions& detector) {
+  return Json{{"trainer", Json::parse(TrainingOptionsJson(training))},
+              {"detector", Json::parse(DetectorOptionsJson(detector))}};
+}
+
+// The node at a dotted path, or nullptr when there is none.
+Json* Find(Json* root, const std::string& path) {
+  Json* node = root;
+  size_t start = 0;
+  for (;;) {
+    const size_t dot = path.find('.', start);
+    const std::string key = path.substr(start, dot - start);
+    if (!node->is_object() || !node->contains(key)) return nullptr;
+    node = &(*node)[key];
+    if (dot == std::string::npos) return node;
+    start = dot + 1;
+  }
+}
+
+std::string ShortHash(const std::string& text) {
+  ContentHasher hasher;
+  hasher.Update(text.data(), text.size());
+  return hasher.HexDigest().substr(0, 16);
+}
+
+// Options with the given parameter values set on the base; Check()ed, with
+// errors naming `what`.
+void BuildOptions(const Json& base,
+                  const TuneSpace& space,
+                  const std::vector<std::string>& values,
+                  const std::string& what,
+                  TrainingOptions* training,
+                  DetectorOptions* detector) {
+  Json json = base;
+  for (size_t p = 0; p < space.parameters.size(); ++p)
+    *Find(&json, space.parameters[p].path) = Json::parse(values[p]);
+  const std::string text = json.dump();
+  *training = TrainingOptionsFromJson(text, what);
+  *detector = DetectorOptionsFromJson(text, what);
+}
+
+// Integers as integers; other numbers to 4 significant digits, so drawn
+// values read well in reports and options files.
+std::string NumberJson(double value, bool integer) {
+  if (integer) return std::to_string(static_cast<long long>(std::llround(value)));
+  char text[32];
+  std::snprintf(text, sizeof(text), "%.4g", value);
+  return Json(std::stod(text)).dump();
+}
+
+// The values a grid tries for one parameter.
+std::vector<std::string> GridValues(const TuneParameter& parameter) {
+  if (!parameter.is_range) return parameter.values;
+  std::vector<std::string> values;
+  for (int k = 0; k < parameter.steps; ++k) {
+    const double t = parameter.steps == 1 ? 0.5 : static_cast<double>(k) / (parameter.steps - 1);
+    const double value = parameter.log ? parameter.min * std::pow(parameter.max / parameter.min, t)
+                                       : parameter.min + t * (parameter.max - parameter.min);
+    const std::string text = NumberJson(value, parameter.integer);
+    if (std::find(values.begin(), values.end(), text) == values.end()) values.push_back(text);
+  }
+  return values;
+}
+
+std::string RandomValue(const TuneParameter& parameter, Rng* rng) {
+  if (!parameter.is_range) {
+    return parameter.values[rng->UniformInt(0, static_cast<int64_t>(parameter.values.size()) - 1)];
+  }
+  if (parameter.integer && !parameter.log) {
+    return std::to_string(
+        rng->UniformInt(static_cast<int64_t>(parameter.min), static_cast<int64_t>(parameter.max)));
+  }
+  const double t = rng->Uniform01();
+  const double value = parameter.log ? parameter.min * std::pow(parameter.max / parameter.min, t)
+                                     : parameter.min + t * (parameter.max - parameter.min);
+  return NumberJson(value, parameter.integer);
+}
+
+std::string Describe(const TuneSpace& space, const std::vector<std::string>& values) {
+  std::string text;
+  for (size_t p = 0; p < space.parameters.size(); ++p) {
+    const std::string& path = space.parameters[p].path;
+    text += (p ? ", " : "") + path.substr(path.rfind('.') + 1) + "=" + values[p];
+  }
+  return text;
+}
+
+double Metric(const std::map<std::string, double>& metrics, const std::string& name) {
+  const auto it = metrics.find(name);
+  return it == metrics.end() ? std::nan("") : it->second;
+}
+
+}  // namespace
+
+TuneSpace ParseTuneSpace(const std::string& text, const std::string& what) {
+  nlohmann::ordered_json json;
+  try {
+    json = nlohmann::ordered_json::parse(text);
+  } catch (const nlohmann::json::exception& error) {
+    throw InputError(what + ": not JSON (" + error.what() + ")");
+  }
+  Require(json.is_object() && !json.empty(),
+          what +
+              ": the search space must be a JSON object of option paths, e.g. "
+              "{\"detector.cell_m\": [0.02, 0.03]}");
+  Json known = CombinedJson(TrainingOptions{}, DetectorOptions{});
+  TuneSpace space;
+  for (const auto& [path, spec] : json.items()) {
+    const Json* leaf = Find(&known, path);
+    Require(leaf != nullptr && !leaf->is_object(),
+            what + ": unknown parameter '" + path +
+                "' (paths are options-file keys such as trainer.region_growing.delta_m or "
+                "detector.relative_threshold)");
+    Require(
+        path != "detector.seed" && path != "trainer.vocabulary.seed" && path != "trainer.scan.seed",
+        what + ": '" + path + "' is a seed, not a parameter to tune");
+    TuneParameter parameter;
+    parameter.path = path;
+    if (spec.is_array()) {
+      Require(!spec.empty(), what + ": '" + path + "' has an empty list of values");
+      for (const auto& value : spec) parameter.values.push_back(value.dump());
+    } else if (spec.is_object()) {
+      for (const auto& [key, value] : spec.items()) {
+        Require(key == "min" || key == "max" || key == "steps" || key == "log",
+                what + ": '" + path + "' range has an unknown key '" + key +
+                    "' (min, max, steps, log)");
+      }
+      Require(spec.contains("min") && spec.contains("max") && spec["min"].is_number() &&
+                  spec["max"].is_number(),
+              what + ": '" + path + "' range needs numbers min and max");
+      parameter.is_range = true;
+      parameter.min = spec["min"].get<double>();
+      parameter.max = spec["max"].get<double>();
+      parameter.integer = spec["min"].is_number_integer() && spec["max"].is_number_integer();
+      Require(parameter.min <= parameter.max,
+              what + ": '" + path + "' range is empty (min " + spec["min"].dump() + " > max " +
+                  spec["max"].dump() + ")");
+      if (spec.contains("steps")) {
+        Require(spec["steps"].is_number_integer() && spec["steps"].get<int>() >= 1 &&
+                    spec["steps"].get<int>() <= 1000,
+                what + ": '" + path + "' steps must be an integer in 1..1000");
+        parameter.steps = spec["steps"].get<int>();
+      }
+      if (spec.contains("log")) {
+        Require(spec["log"].is_boolean(), what + ": '" + path + "' log must be true or false");
+        parameter.log = spec["log"].get<bool>();
+        Require(!parameter.log || parameter.min > 0,
+                what + ": '" + path + "' log range needs min > 0");
+      }
+    } else {
+      throw InputError(what + ": '" + path +
+                       "' must be a list of values or a range {\"min\": a, \"max\": b}");
+    }
+    space.parameters.push_back(std::move(parameter));
+  }
+  return space;
+}
+
+std::vector<TuneTrial> MakeTrials(const TuneSpace& space,
+                                  TuneStrategy strategy,
+                                  int count,
+                                  uint64_t seed,
+                                  const TrainingOptions& base_training,
+                                  const DetectorOptions& base_detector) {
+  Require(count >= 1 && count <= 10000, "trials " + std::to_string(count) + " must be in 1..10000");
+  Json base = CombinedJson(base_training, base_detector);
+  TuneTrial first;
+  first.training = base_training;
+  first.detector = base_detector;
+  for (const TuneParameter& parameter : space.parameters) {
+    const Json* value = Find(&base, parameter.path);
+    Require(value != nullptr, "unknown parameter '" + parameter.path + "'");
+    first.values.push_back(value->dump());
+  }
+  // Every value the search may use, alone on the base, must pass Check().
+  for (size_t p = 0; p < space.parameters.size(); ++p) {
+    const TuneParameter& parameter = space.parameters[p];
+    std::vector<std::string> candidates = GridValues(parameter);
+    if (parameter.is_range) {
+      candidates.push_back(NumberJson(parameter.min, parameter.integer));
+      candidates.push_back(NumberJson(parameter.max, parameter.integer));
+    }
+    for (const std::string& candidate : candidates) {
+      std::vector<std::string> values = first.values;
+      values[p] = candidate;
+      TrainingOptions training;
+      DetectorOptions detector;
+      BuildOptions(base,
+                   space,
+                   values,
+                   "tune space " + parameter.path + " = " + candidate,
+                   &training,
+                   &detector);
+    }
+  }
+
+  std::vector<TuneTrial> trials = {first};
+  std::set<std::vector<std::string>> seen = {first.values};
+  auto add = [&](const std::vector<std::string>& values) {
+    if (!seen.insert(values).second) return;
+    TuneTrial trial;
+    trial.index = static_cast<int>(trials.size());
+    trial.values = values;
+    BuildOptions(base,
+                 space,
+                 values,
+                 "tune trial " + std::to_string(trial.index) + " (" + Describe(space, values) + ")",
+                 &trial.training,
+                 &trial.detector);
+    trials.push_back(std::move(trial));
+  };
+  Rng rng(DeriveSeed(seed, 0x7475'6e65));  // "tune"
+  if (strategy == TuneStrategy::kGrid) {
+    std::vector<std::vector<std::string>> axes;
+    double points = 1;
+    for (const TuneParameter& parameter : space.parameters) {
+      axes.push_back(GridValues(parameter));
+      points *= axes.back().size();
+    }
+    Require(points <= 1e6,
+            "the grid has " + std::to_string(static_cast<long long>(points)) +
+                " points (at most 1000000); use fewer steps or --strategy random");
+    std::vector<std::vector<std::string>> grid = {{}};
+    for (const auto& axis : axes) {
+      std::vector<std::vector<std::string>> longer;
+      for (const auto& prefix : grid) {
+        for (const std::string& value : axis) {
+          longer.push_back(prefix);
+          longer.back().push_back(value);
+        }
+      }
+      grid = std::move(longer);
+    }
+    // More points than trials: a seeded sample, so every parameter varies.
+    if (grid.size() + 1 > static_cast<size_t>(count))
+      std::shuffle(grid.begin(), grid.end(), rng.engine());
+    for (const auto& values : grid) {
+      if (static_cast<int>(trials.size()) >= count) break;
+      add(values);
+    }
+  } else {
+    for (int attempt = 0; attempt < 100 * count && static_cast<int>(trials.size()) < count;
+         ++attempt) {
+      std::vector<std::string> values;
+      for (const TuneParameter& parameter : space.parameters)
+        values.push_back(RandomValue(parameter, &rng));
+      add(values);
+    }
+  }
+  return trials;
+}
+
+void TuneOptions::Check() const {
+  Require(!db_path.empty(), "tune needs a dataset (--db)");
+  Require(!space_path.empty(), "tune needs a search space (--space)");
+  Require(!work_dir.empty(), "tune needs a work directory for trained models (--work-dir)");
+  Require(!out_dir.empty(), "tune needs an output directory for its report (--out)");
+  for (const std::string& s : {split, test_split}) {
+    Require(s == "train" || s == "val" || s == "test" || s == "all" ||
+                (&s == &test_split && (s.empty() || s == "none")),
+            "split '" + s + "' must be train, val, test or all");
+  }
+  Require(trials >= 1 && trials <= 10000,
+          "trials " + std::to_string(trials) + " must be in 1..10000");
+  Require(max_frames >= 0, "max frames must be >= 0");
+  Require(max_ms >= 0, "--max-ms must be >= 0");
+  Require(!objective.empty(), "the objective must name a metric, e.g. mAP@10cm");
+}
+
+TuneSummary RunTuning(const Catalog& catalog, const TuneOptions& options) {
+  options.Check();
+  const TuneSpace space = ParseTuneSpace(ReadFileBytes(options.space_path), options.space_path);
+  TrainingOptions base_training;
+  DetectorOptions base_detector;
+  if (!options.base_options_path.empty()) {
+    const std::string text = ReadFileBytes(options.base_options_path);
+    if (nlohmann::json::parse(text, nullptr, false).contains("trainer"))
+      base_training = TrainingOptionsFromJson(text, options.base_options_path);
+    base_detector = DetectorOptionsFromJson(text, options.base_options_path);
+  }
+  const std::vector<TuneTrial> trials = MakeTrials(
+      space, options.strategy, options.trials, options.seed, base_training, base_detector);
+  const std::string base_trainer_json = TrainingOptionsJson(base_training);
+  if (!options.base_model_path.empty()) {
+    const TrainedModel model = LoadTrainedModel(options.base_model_path);
+    Require(TrainingOptionsJson({model.options, base_training.scan}) == base_trainer_json,
+            options.base_model_path +
+                ": was trained with other trainer options than the base; leave out --model or "
+                "pass the options file it was trained with");
+  }
+  {  // The dataset must be there before anything trains.
+    DatasetDb check(options.db_path, DatasetDb::Mode::kReadOnly);
+  }
+
+  TuneSummary summary;
+  summary.tune_id = ShortHash(Json{
+      {"space", nlohmann::json::parse(ReadFileBytes(options.space_path))},
+      {"strategy", options.strategy == TuneStrategy::kGrid ? "grid" : "random"},
+      {"trials", options.trials},
+      {"seed", options.seed},
+      {"split", options.split},
+      {"max_frames", options.max_frames},
+      {"base", CombinedJson(base_training, base_detector)},
+      {"catalog",
+       options.catalog_spec}}.dump());
+  // Runs of this search already in the dataset: (trial, split) -> run id and
+  // the parameter values it ran with.
+  std::map<std::pair<int, std::string>, std::pair<int64_t, std::string>> done;
+  {
+    DatasetDb dataset(options.db_path, DatasetDb::Mode::kReadOnly);
+    for (const RunRecord& run : dataset.Runs()) {
+      if (run.kind != "tune" && run.kind != "tune-test") continue;
+      const nlohmann::json json = nlohmann::json::parse(run.options_json, nullptr, false);
+      if (!json.is_object() || !json.contains("tune") ||
+          json["tune"].value("id", "") != summary.tune_id)
+        continue;
+      done[{json["tune"]["trial"].get<int>(), run.split}] = {run.id,
+                                                             json["tune"]["parameters"].dump()};
+    }
+  }
+
+  // A model per distinct trainer options, trained once.
+  std::filesystem::create_directories(options.work_dir + "/models");
+  auto model_for = [&](const TrainingOptions& training) {
+    const std::string json = TrainingOptionsJson(training);
+    if (json == base_trainer_json && !options.base_model_path.empty())
+      return options.base_model_path;
+    const std::string path =
+        options.work_dir + "/models/" + ShortHash(json + "\n" + options.catalog_spec) + ".fcm";
+    if (!std::filesystem::exists(path)) {
+      std::printf("tune: training a model for %s\n", path.c_str());
+      std::fflush(stdout);
+      TrainFromCatalog(catalog, training.scan, training.trainer, path);
+      ++summary.models_trained;
+    }
+    return path;
+  };
+  auto parameters_of = [&](const TuneTrial& trial) {
+    nlohmann::json parameters = nlohmann::json::object();
+    for (size_t p = 0; p < space.parameters.size(); ++p)
+      parameters[space.parameters[p].path] = nlohmann::json::parse(trial.values[p]);
+    return parameters;
+  };
+  // The run of a trial on a split when an earlier tune stored it with the
+  // same parameter values.
+  auto find_done = [&](const TuneTrial& trial, const std::string& split) -> int64_t {
+    const auto it = done.find({trial.index, split});
+    if (it == done.end() || it->second.second != parameters_of(trial).dump()) return 0;
+    return it->second.first;
+  };
+  auto evaluate = [&](const TuneTrial& trial, const std::string& split, const char* kind) {
+    if (const int64_t run_id = find_done(trial, split)) {
+      DatasetDb dataset(options.db_path, DatasetDb::Mode::kReadOnly);
+      return std::make_pair(run_id, dataset.RunMetrics(run_id));
+    }
+    EvaluateCommandOptions evaluate;
+    evaluate.split = split;
+    evaluate.max_frames = options.max_frames;
+    evaluate.kind = kind;
+    evaluate.label = "tune " + summary.tune_id.substr(0, 8) + " trial " +
+                     std::to_string(trial.index) +
+                     (trial.index == 0 ? " (base)" : ": " + Describe(space, trial.values));
+    evaluate.detector = trial.detector;
+    evaluate.extra_options_json = Json{
+        {"tune",
+         {{"id", summary.tune_id}, {"trial", trial.index}, {"parameters", parameters_of(trial)}}},
+        {"trainer",
+         Json::parse(TrainingOptionsJson(
+             trial.training))}}.dump();
+    const EvaluateSummary result =
+        EvaluateModel(model_for(trial.training), options.db_path, evaluate);
+    return std::make_pair(result.run_id, result.result.metrics);
+  };
+
+  std::vector<TuneReportTrial> scored;
+  for (const TuneTrial& trial : trials) {
+    const bool resumed = find_done(trial, options.split) != 0;
+    const auto [run_id, metrics] = evaluate(trial, options.split, "tune");
+    if (trial.index == 0 && !metrics.count(options.objective)) {
+      throw InputError("objective '" + options.objective +
+                       "' is not a metric of the runs (e.g. mAP@10cm, mAP@5cm, AP/chair@10cm, "
+                       "cad_identified)");
+    }
+    TuneReportTrial row;
+    row.index = trial.index;
+    row.run_id = run_id;
+    row.values = trial.values;
+    row.metrics = metrics;
+    row.within_latency = options.max_ms <= 0 || Metric(metrics, "latency_p50_ms") <= options.max_ms;
+    row.retrained = TrainingOptionsJson(trial.training) != base_trainer_json;
+    scored.push_back(row);
+    summary.trials_resumed += resumed;
+    std::printf("tune: trial %d (%d of %d)%s: %s = %.3f, p50 %.1f ms (run %lld) %s\n",
+                trial.index,
+                trial.index + 1,
+                static_cast<int>(trials.size()),
+                resumed ? " (done before)" : "",
+                options.objective.c_str(),
+                Metric(metrics, options.objective),
+                Metric(metrics, "latency_p50_ms"),
+                static_cast<long long>(run_id),
+                trial.index == 0 ? "base" : Describe(space, trial.values).c_str());
+    std::fflush(stdout);
+  }
+  summary.trials = static_cast<int>(trials.size());
+
+  // Rank: within the latency bound first, then the objective, then latency.
+  std::stable_sort(
+      scored.begin(), scored.end(), [&](const TuneReportTrial& a, const TuneReportTrial& b) {
+        if (a.within_latency != b.within_latency) return a.within_latency;
+        const double oa = Metric(a.metrics, options.objective),
+                     ob = Metric(b.metrics, options.objective);
+        if (oa != ob) return std::isnan(ob) || oa > ob;
+        return Metric(a.metrics, "latency_p50_ms") < Metric(b.metrics, "latency_p50_ms");
+      });
+  const TuneTrial& best = trials[scored.front().index];
+  summary.best_index = best.index;
+  summary.best_run = scored.front().run_id;
+  for (const TuneReportTrial& row : scored) {
+    if (row.index == 0) summary.base_validation = row.metrics;
+    if (row.index == best.index) summary.best_validation = row.metrics;
+  }
+  const bool test = !options.test_split.empty() && options.test_split != "none";
+  if (test) {
+    summary.base_test = evaluate(trials[0], options.test_split, "tune-test").second;
+    summary.best_test = best.index == 0 ? summary.base_test
+                                        : evaluate(best, options.test_split, "tune-test").second;
+  }
+
+  std::filesystem::create_directories(options.out_dir);
+  summary.best_options_path = options.out_dir + "/best_options.json";
+  WriteFileAtomically(summary.best_options_path, OptionsFileJson(best.training, best.detector));
+  TuneReportInput report;
+  report.title = "tune " + summary.tune_id.substr(0, 8) + ": " + std::to_string(summary.trials) +
+                 " trials on " + options.db_path + ", split " + options.split;
+  report.objective = options.objective;
+  report.max_ms = options.max_ms;
+  for (const TuneParameter& parameter : space.parameters)
+    report.parameters.push_back(parameter.path);
+  report.trials = scored;
+  report.best_options_file = "best_options.json";
+  report.validation_split = options.split;
+  report.test_split = test ? options.test_split : "";
+  report.base_validation = summary.base_validation;
+  report.best_validation = summary.best_validation;
+  report.base_test = summary.base_test;
+  report.best_test = summary.best_test;
+  report.best_index = best.index;
+  report.notes = {
+      std::string("Search: ") + (options.strategy == TuneStrategy::kGrid ? "grid" : "random") +
+          ", seed " + std::to_string(options.seed) + ", space " + options.space_path +
+          ", catalog " + options.catalog_spec + "; " + std::to_string(summary.models_trained) +
+          " models trained this time (cache: " + options.work_dir + "/models).",
+      "Use the best options: workbench train --options best_options.json --out best.fcm; "
+      "workbench evaluate --model best.fcm --options best_options.json --db ... (detect takes "
+      "--options too).",
+      "Every trial is a run in the dataset (kind tune; the test re-evaluation: tune-test), so "
+      "workbench history, report and regress work on them."};
+  summary.report_path = options.out_dir + "/index.html";
+  WriteTuneReport(report, options.out_dir);
+  return summary;
+}
+
+}  // namespace furn
