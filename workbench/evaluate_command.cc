@@ -106,7 +106,10 @@ DetectorOptions DetectorOptionsFromJson(const std::string& text, const std::stri
   } catch (const nlohmann::json::exception& error) {
     throw InputError(what + ": not JSON (" + error.what() + ")");
   }
-  if (json.contains("detector")) json = json["detector"];  // a run's options_json
+  // A run's options_json or an options file: its "detector" object (absent
+  // in a trainer-only file: the defaults).
+  if (json.is_object() && (json.contains("detector") || json.contains("trainer")))
+    json = json.contains("detector") ? json["detector"] : nlohmann::json::object();
   Require(json.is_object(), what + ": detector options must be a JSON object");
   DetectorOptions o;
   // Reads key into field when present; a key not listed is an error.

@@ -109,6 +109,26 @@ std::string Describe(const TuneSpace& space, const std::vector<std::string>& val
   return text;
 }
 
+// Every metric name an evaluation run can have: those of a made-up frame with
+// an object of every class, seen and unseen, each found.
+std::set<std::string> MetricNames() {
+  FrameOutcome frame;
+  frame.total_ms = 1;
+  double x = 0;
+  for (const std::string& name : EvaluationOptions{}.classes) {
+    for (bool seen : {true, false}) {
+      x += 1;
+      frame.truth.push_back({name, name, x, 0, 0, 1.0, 1.0, seen});
+      frame.detections.push_back({name, name, x, 0, 0, 1.0, 1});
+    }
+  }
+  frame.detections.push_back({"chair", "chair", -5, 0, 0, 0.5, 1});  // a false positive
+  std::set<std::string> names;
+  for (const auto& [name, value] : EvaluateFrames({frame}, EvaluationOptions{}).metrics)
+    names.insert(name);
+  return names;
+}
+
 double Metric(const std::map<std::string, double>& metrics, const std::string& name) {
   const auto it = metrics.find(name);
   return it == metrics.end() ? std::nan("") : it->second;
@@ -302,6 +322,11 @@ TuneSummary RunTuning(const Catalog& catalog, const TuneOptions& options) {
       base_training = TrainingOptionsFromJson(text, options.base_options_path);
     base_detector = DetectorOptionsFromJson(text, options.base_options_path);
   }
+  if (const std::set<std::string> names = MetricNames(); !names.count(options.objective)) {
+    throw InputError("objective '" + options.objective +
+                     "' is not a metric of evaluation runs (e.g. mAP@10cm, mAP@5cm, "
+                     "AP/chair@10cm, cad_identified; 'workbench history' lists them all)");
+  }
   const std::vector<TuneTrial> trials = MakeTrials(
       space, options.strategy, options.trials, options.seed, base_training, base_detector);
   const std::string base_trainer_json = TrainingOptionsJson(base_training);
@@ -400,11 +425,6 @@ TuneSummary RunTuning(const Catalog& catalog, const TuneOptions& options) {
   for (const TuneTrial& trial : trials) {
     const bool resumed = find_done(trial, options.split) != 0;
     const auto [run_id, metrics] = evaluate(trial, options.split, "tune");
-    if (trial.index == 0 && !metrics.count(options.objective)) {
-      throw InputError("objective '" + options.objective +
-                       "' is not a metric of the runs (e.g. mAP@10cm, mAP@5cm, AP/chair@10cm, "
-                       "cad_identified)");
-    }
     TuneReportTrial row;
     row.index = trial.index;
     row.run_id = run_id;
