@@ -80,6 +80,16 @@ std::string Number(double value, int digits) {
   return text;
 }
 
+std::string ImageCheckHtml() {
+  return "<p id=\"image-check\">images not checked</p>\n<script>\n"
+         "window.addEventListener('load', function () {\n"
+         "  var images = document.images, loaded = 0;\n"
+         "  for (var i = 0; i < images.length; ++i) if (images[i].naturalWidth > 0) ++loaded;\n"
+         "  document.getElementById('image-check').textContent =\n"
+         "      'images loaded: ' + loaded + ' of ' + images.length;\n"
+         "});\n</script>\n";
+}
+
 void RunGnuplot(const std::string& script, const std::string& png_path) {
   const std::string temporary = png_path + ".partial";
   const std::string command = "gnuplot > /dev/null 2>&1";
@@ -272,13 +282,7 @@ void WriteRunReport(const RunReportInput& input, const std::string& dir) {
     html << "<tr><td>" << HtmlEscape(name) << "</td><td>" << Number(value, 4) << "</td></tr>";
   // A self-check a headless browser can read back (--dump-dom): how many
   // images loaded with a size.
-  html << "</table>\n<p id=\"image-check\">images not checked</p>\n<script>\n"
-       << "window.addEventListener('load', function () {\n"
-       << "  var images = document.images, loaded = 0;\n"
-       << "  for (var i = 0; i < images.length; ++i) if (images[i].naturalWidth > 0) ++loaded;\n"
-       << "  document.getElementById('image-check').textContent =\n"
-       << "      'images loaded: ' + loaded + ' of ' + images.length;\n"
-       << "});\n</script>\n</body></html>\n";
+  html << "</table>\n" << ImageCheckHtml() << "</body></html>\n";
   WriteFileAtomically(path("index.html"), html.str());
 }
 

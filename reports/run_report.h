@@ -46,6 +46,10 @@ std::string HtmlEscape(const std::string& text);
 // `value` with `digits` decimals; an en dash for NaN (a metric a run lacks).
 std::string Number(double value, int digits = 3);
 
+// A paragraph and script that, once the page has loaded, say "images
+// loaded: N of M", for a headless browser's --dump-dom to check.
+std::string ImageCheckHtml();
+
 // Runs gnuplot on a script (data inline) that writes `png_path`.
 void RunGnuplot(const std::string& script, const std::string& png_path);
 

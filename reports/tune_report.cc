@@ -76,9 +76,9 @@ void PlotEffect(const TuneReportInput& input, size_t parameter, const std::strin
          << base.str() << "EOD\n$mean << EOD\n";
   for (const auto& [x, sum_count] : mean)
     script << x << " " << sum_count.first / sum_count.second << "\n";
-  // The mean line only where values repeat (grids, lists); random draws of a
-  // range are all different.
-  const bool repeats = mean.size() < input.trials.size();
+  // The mean line only where few values repeat often (grids, lists); random
+  // draws of a range are (nearly) all different, and their means would zigzag.
+  const bool repeats = 2 * mean.size() <= input.trials.size();
   std::vector<std::string> plots;
   if (repeats)
     plots.push_back("$mean using 1:2 with lines lw 2 lc rgb '#999999' title 'mean per value'");
@@ -102,7 +102,7 @@ void PlotProgress(const TuneReportInput& input, const std::string& png_path) {
   std::sort(by_index.begin(), by_index.end());
   std::ostringstream script;
   script << "set terminal pngcairo noenhanced size 520,340 font 'sans,10'\n"
-         << "set title 'search progress'\nset xlabel 'trial'\nset ylabel '" << input.objective
+         << "set title 'search progress, by trial'\nset ylabel '" << input.objective
          << "'\nset grid\nset key below\nset format x '%.0f'\n"
          << (input.trials.size() <= 25 ? "set xtics 1\n" : "") << "$d << EOD\n";
   double best = -1e300;
@@ -208,14 +208,7 @@ void WriteTuneReport(const TuneReportInput& input, const std::string& dir) {
     for (const std::string& value : trial.values) html << "<td>" << HtmlEscape(value) << "</td>";
     html << "</tr>\n";
   }
-  // A self-check a headless browser can read back (--dump-dom).
-  html << "</table>\n<p id=\"image-check\">images not checked</p>\n<script>\n"
-       << "window.addEventListener('load', function () {\n"
-       << "  var images = document.images, loaded = 0;\n"
-       << "  for (var i = 0; i < images.length; ++i) if (images[i].naturalWidth > 0) ++loaded;\n"
-       << "  document.getElementById('image-check').textContent =\n"
-       << "      'images loaded: ' + loaded + ' of ' + images.length;\n"
-       << "});\n</script>\n</body></html>\n";
+  html << "</table>\n" << ImageCheckHtml() << "</body></html>\n";
   WriteFileAtomically(path("index.html"), html.str());
 }
 

@@ -31,6 +31,10 @@ echo "== evaluate: detection over the test split, stored as a run; then its repo
 "$workbench" evaluate --model "$out_dir/model.fcm" --db "$out_dir/synth.db" --split test --quiet \
   | tee "$out_dir/evaluate.txt"
 "$workbench" report --db "$out_dir/synth.db" --out "$out_dir/report"
+echo "== tune: detector thresholds on the val split (8 trials, the model reused), best checked on test"
+"$workbench" tune --catalog default --db "$out_dir/synth.db" --space "$repo/data/tune_detector_space.json" \
+  --strategy grid --trials 8 --model "$out_dir/model.fcm" --work-dir "$out_dir/tune_work" \
+  --out "$out_dir/tune" --quiet
 echo "== detect: furniture in one frame of the dataset, with the debug PNGs"
 "$workbench" detect --model "$out_dir/model.fcm" --db "$out_dir/synth.db" --frame 8 \
   --out "$out_dir/detect/detections.json" --debug-dir "$out_dir/detect" --timings
@@ -44,6 +48,7 @@ echo "  $out_dir/synth_preview.png  contact sheet: noisy depth with ground-truth
 echo "  $out_dir/model.fcm      trained model (see 'workbench model info', 'workbench eval-parts')"
 echo "  $out_dir/detect/        detections.json and debug PNGs (segments, votes, fits, top-down)"
 echo "  $out_dir/report/index.html  evaluation report of the test split (open it in a browser)"
+echo "  $out_dir/tune/index.html    tune report: trials ranked, parameter effects, best_options.json"
 echo
 echo "headline metrics (test split):"
 cat "$out_dir/evaluate.txt"
