@@ -18,7 +18,7 @@
 namespace furn {
 
 struct PreprocessOptions {
-  double voxel_size_m = 0.015;    // voxel grid leaf (m), 0 to skip (0 or 0.005..0.1)
+  double voxel_size_m = 0.02;     // voxel grid leaf (m), 0 to skip (0 or 0.005..0.1); tuned
   double normal_radius_m = 0.03;  // neighbourhood of the quadric fit and curvature (m, 0.01..0.2)
   int min_neighbours = 5;         // points with fewer neighbours in the radius are dropped (>= 3)
 
