@@ -20,16 +20,17 @@ bool SameCamera(const CameraIntrinsics& a, const CameraIntrinsics& b) {
          a.cx == b.cx && a.cy == b.cy;
 }
 
-bool IsDepthEdge(const DepthFrame& frame, int u, int v, double jump_m) {
-  const float z = frame.DepthAt(u, v);
-  const int du[4] = {1, -1, 0, 0}, dv[4] = {0, 0, 1, -1};
-  for (int k = 0; k < 4; ++k) {
-    const int nu = u + du[k], nv = v + dv[k];
-    if (nu < 0 || nv < 0 || nu >= frame.width || nv >= frame.height) continue;
-    const float neighbour = frame.DepthAt(nu, nv);
-    if (neighbour <= 0 || std::abs(neighbour - z) > jump_m) return true;
-  }
-  return false;
+// Whether a 4-neighbour of (u, v) has no return or a depth jump above
+// jump_m (neighbours outside the image do not count).
+bool IsDepthEdge(const DepthFrame& frame, int u, int v, float jump_m) {
+  const float* row = frame.depth.data() + frame.Index(0, v);
+  const float z = row[u];
+  auto differs = [&](float neighbour) {
+    return neighbour <= 0 || std::abs(neighbour - z) > jump_m;
+  };
+  return (u + 1 < frame.width && differs(row[u + 1])) || (u > 0 && differs(row[u - 1])) ||
+         (v + 1 < frame.height && differs(row[u + frame.width])) ||
+         (v > 0 && differs(row[u - frame.width]));
 }
 
 // Lateral noise moves where a pixel samples the ideal image by round(sigma_L *
@@ -216,6 +217,7 @@ void KinectNoiseModel::Apply(const DepthFrame& ideal,
     shadow_.assign(count, 0);
   }
   const float min_cosine = static_cast<float>(std::cos(options.max_incidence_deg * M_PI / 180));
+  const float edge_jump = static_cast<float>(options.edge_jump_m);
   ParallelFor(0, height, [&](int v) {
     FastRng rng(DeriveSeed(seed, kDropoutStream + v));
     for (int u = 0; u < width; ++u) {
@@ -226,7 +228,7 @@ void KinectNoiseModel::Apply(const DepthFrame& ideal,
       bool keep = !shadow_[i];
       if (options.range_limits) keep = keep && z >= options.min_range_m && z <= options.max_range_m;
       if (options.incidence_dropout) keep = keep && incidence_cosine_[i] >= min_cosine;
-      if (options.edge_dropout && IsDepthEdge(ideal, u, v, options.edge_jump_m)) {
+      if (options.edge_dropout && IsDepthEdge(ideal, u, v, edge_jump)) {
         // Drawn whether or not the pixel is kept, so streams do not depend on other effects.
         keep = rng.Uniform01() >= options.edge_dropout_probability && keep;
       }

@@ -8,6 +8,7 @@
 
 #include "core/error.h"
 #include "scenes/java_properties.h"
+#include "scenes/mesh_cache.h"
 #include "scenes/mesh_io.h"
 #include "scenes/zip_archive.h"
 
@@ -154,19 +155,32 @@ const Sh3fEntry* Sh3fCatalog::Find(const std::string& id) const {
 
 CadModel Sh3fCatalog::LoadModel(const Sh3fEntry& entry) const {
   const std::string where = path_ + " entry " + entry.id;
+  // What the import depends on besides the archive itself.
+  std::ostringstream parameters;
+  parameters.precision(9);
+  parameters << entry.model_path << '\n'
+             << entry.width_cm << ' ' << entry.depth_cm << ' ' << entry.height_cm << '\n'
+             << entry.model_rotation.format(Eigen::IOFormat(Eigen::FullPrecision));
+  const std::string key = MeshCacheKey(path_, parameters.str());
+  CadModel model;
+  model.id = entry.id;
+  model.name = entry.name;
+  model.source_path = path_ + "!/" + entry.model_path;
+  if (std::optional<CachedMesh> cached = mesh_cache_.Load(key)) {
+    model.mesh = std::move(cached->mesh);
+    model.content_hash = std::move(cached->content_hash);
+    return model;
+  }
   TriangleMesh raw;
   try {
     raw = ImportMeshFromZip(*zip_, entry.model_path);
   } catch (const InputError& error) {
     throw InputError(where + ": " + error.what());
   }
-  CadModel model;
-  model.id = entry.id;
-  model.name = entry.name;
-  model.source_path = path_ + "!/" + entry.model_path;
   model.mesh = NormalizeSweetHome3dMesh(
       std::move(raw), entry.model_rotation, entry.width_cm, entry.depth_cm, entry.height_cm, where);
   model.content_hash = HashMesh(model.mesh);
+  mesh_cache_.Store(key, CachedMesh{model.mesh, model.content_hash});
   return model;
 }
 

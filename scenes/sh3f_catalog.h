@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "core/mesh.h"
+#include "scenes/mesh_cache.h"
 
 namespace furn {
 
@@ -65,6 +66,7 @@ class Sh3fCatalog {
   std::string path_;
   std::string stem_;
   std::unique_ptr<ZipArchive> zip_;
+  MeshCache mesh_cache_ = MeshCache::FromEnvironment();
   std::vector<Sh3fEntry> entries_;
   std::vector<std::string> problems_;
 };

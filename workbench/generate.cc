@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <cstdlib>
+#include <future>
 #include <map>
 #include <mutex>
 #include <nlohmann/json.hpp>
@@ -126,12 +127,20 @@ class RoomGenerator {
     summary->load_s += SecondsSince(start);
   }
 
-  // Renders the prefetched `room_indices`, Slots() rooms at a time (each room
-  // on one thread, so loops inside run serially). Returns them in order, with
-  // stage times summed over the workers.
-  std::vector<RoomRecord> GenerateBatch(const std::vector<int64_t>& room_indices,
-                                        GenerateSummary* summary) {
-    std::vector<RoomRecord> rooms(room_indices.size());
+  struct Batch {
+    std::vector<RoomRecord> rooms;                    // in the order asked
+    std::map<std::string, std::string> model_hashes;  // of every model the rooms use
+  };
+
+  // Composes and imports `room_indices`, then renders them Slots() rooms at
+  // a time (each room on one thread, so loops inside run serially), with
+  // stage times summed over the workers. Runs beside the writing of the
+  // previous batch: it touches nothing TakeNewModels reads.
+  Batch GenerateBatch(const std::vector<int64_t>& room_indices, GenerateSummary* summary) {
+    Prefetch(room_indices, summary);
+    Batch batch;
+    std::vector<RoomRecord>& rooms = batch.rooms;
+    rooms.resize(room_indices.size());
     std::vector<GenerateSummary> times(room_indices.size());
     std::vector<std::map<std::string, std::shared_ptr<const TriangleMesh>>> meshes;
     for (int64_t k : room_indices) meshes.push_back(LoadMeshes(prefetched_.at(k)));
@@ -149,25 +158,29 @@ class RoomGenerator {
       std::lock_guard<std::mutex> lock(slot_mutex);
       idle.push_back(worker);
     });
-    for (int64_t k : room_indices) prefetched_.erase(k);
+    for (int64_t k : room_indices) {
+      for (const PlacedObject& object : prefetched_.at(k).objects)
+        batch.model_hashes[object.model_id] = mesh_cache_.at(object.model_id).content_hash;
+      prefetched_.erase(k);
+    }
     for (const GenerateSummary& time : times) {
       summary->load_s += time.load_s;
       summary->render_s += time.render_s;
       summary->ground_truth_s += time.ground_truth_s;
       summary->encode_s += time.encode_s;
     }
-    return rooms;
+    return batch;
   }
 
   // Models of `room` not given out before, for the database (called in room
   // order, so a model is written with the first room that uses it).
-  std::vector<ModelRecord> TakeNewModels(const RoomRecord& room) {
+  std::vector<ModelRecord> TakeNewModels(const RoomRecord& room, const Batch& batch) {
     std::vector<ModelRecord> models;
     for (const ObjectRecord& object : room.objects) {
       if (!recorded_.insert(object.model_id).second) continue;
       models.push_back(ModelRecord{object.model_id,
                                    object.furniture_class,
-                                   mesh_cache_.at(object.model_id).content_hash,
+                                   batch.model_hashes.at(object.model_id),
                                    Eigen::Vector3d(object.width, object.depth, object.height),
                                    catalog_.Get(object.model_id).evaluation_only});
     }
@@ -447,12 +460,13 @@ namespace {
 // Writes one generated room (and the models it uses first) in its own
 // transaction.
 void WriteGeneratedRoom(const RoomRecord& room,
+                        const RoomGenerator::Batch& batch,
                         RoomGenerator* generator,
                         DatasetDb* dataset,
                         GenerateSummary* summary,
                         Progress* progress) {
   const auto insert_start = Clock::now();
-  dataset->WriteModels(generator->TakeNewModels(room));
+  dataset->WriteModels(generator->TakeNewModels(room, batch));
   dataset->WriteRoom(room, [&] {
     // Test hook: die inside the room's transaction, as a killed run would.
     if (const char* crash = std::getenv("FURN_TEST_CRASH_IN_ROOM");
@@ -504,15 +518,24 @@ GenerateSummary GenerateDataset(const Catalog& catalog,
   summary.workers = generator.Slots();
   Progress progress("generate", todo.size(), "rooms");
   // Rooms go in batches: composed and imported on all cores, rendered a room
-  // per core, then written in order, one transaction each.
-  const size_t batch_rooms = 4 * static_cast<size_t>(generator.Slots());
-  for (size_t first = 0; first < todo.size(); first += batch_rooms) {
-    const std::vector<int64_t> batch(todo.begin() + first,
+  // per core, then written in order, one transaction each, while the next
+  // batch renders (so the cores do not wait for SQLite, nor for the slowest
+  // room of a batch for long).
+  const size_t batch_rooms = 6 * static_cast<size_t>(generator.Slots());
+  auto start_batch = [&](size_t first) {
+    const std::vector<int64_t> rooms(todo.begin() + first,
                                      todo.begin() + std::min(todo.size(), first + batch_rooms));
-    generator.Prefetch(batch, &summary);
-    for (RoomRecord& room : generator.GenerateBatch(batch, &summary)) {
-      WriteGeneratedRoom(room, &generator, &dataset, &summary, &progress);
-    }
+    return std::async(std::launch::async, [&generator, &summary, rooms] {
+      return generator.GenerateBatch(rooms, &summary);
+    });
+  };
+  std::future<RoomGenerator::Batch> next;
+  if (!todo.empty()) next = start_batch(0);
+  for (size_t first = 0; first < todo.size(); first += batch_rooms) {
+    const RoomGenerator::Batch batch = next.get();
+    if (first + batch_rooms < todo.size()) next = start_batch(first + batch_rooms);
+    for (const RoomRecord& room : batch.rooms)
+      WriteGeneratedRoom(room, batch, &generator, &dataset, &summary, &progress);
   }
   progress.Finish();
   summary.seconds = SecondsSince(start);

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <filesystem>
 
 #include "core/error.h"
@@ -126,6 +127,75 @@ TEST(Sh3f, CorruptEntryDataFailsThatModelOnly) {
   const std::string message = ErrorOf([&] { catalog.LoadModel(*catalog.Find("damaged/marker")); });
   EXPECT_NE(message.find("corrupt entry"), std::string::npos) << message;
   EXPECT_NO_THROW(catalog.LoadModel(*catalog.Find("damaged/rotated")));
+}
+
+// Sets FURN_MESH_CACHE for one test.
+class MeshCacheTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = testing::ScratchDir();
+    setenv("FURN_MESH_CACHE", (dir_ + "/cache").c_str(), 1);
+  }
+  void TearDown() override { setenv("FURN_MESH_CACHE", "off", 1); }
+  size_t CachedFiles() const {
+    if (!std::filesystem::exists(dir_ + "/cache")) return 0;
+    return std::distance(std::filesystem::directory_iterator(dir_ + "/cache"),
+                         std::filesystem::directory_iterator());
+  }
+  std::string dir_;
+};
+
+TEST_F(MeshCacheTest, SecondImportComesFromTheCacheUntilTheArchiveChanges) {
+  std::string bytes = ReadFileBytes(testing::WriteTestSh3f(dir_, "Test.sh3f"));
+  const std::string path = dir_ + "/Cached.sh3f";
+  testing::WriteText(path, bytes);
+  const auto written = std::filesystem::last_write_time(path);
+  CadModel first;
+  {
+    const Sh3fCatalog catalog(path);
+    first = catalog.LoadModel(*catalog.Find("Cached/marker"));
+  }
+  EXPECT_EQ(CachedFiles(), 1u);
+
+  // Damage the model in place and put the modification time back: only a
+  // cache hit can still give the mesh.
+  const size_t at = bytes.find("mtllib marker.mtl");
+  ASSERT_NE(at, std::string::npos);
+  bytes[at + 20] ^= 0x55;
+  testing::WriteText(path, bytes);
+  std::filesystem::last_write_time(path, written);
+  {
+    const Sh3fCatalog catalog(path);
+    const CadModel again = catalog.LoadModel(*catalog.Find("Cached/marker"));
+    EXPECT_EQ(again.content_hash, first.content_hash);
+    EXPECT_EQ(again.mesh.vertices, first.mesh.vertices);
+    EXPECT_EQ(again.mesh.triangles, first.mesh.triangles);
+  }
+  // A changed archive (new modification time) is imported afresh.
+  std::filesystem::last_write_time(path, written + std::chrono::seconds(5));
+  const Sh3fCatalog changed(path);
+  EXPECT_NE(
+      ErrorOf([&] { changed.LoadModel(*changed.Find("Cached/marker")); }).find("corrupt entry"),
+      std::string::npos);
+}
+
+TEST_F(MeshCacheTest, DamagedCacheFilesAreIgnoredAndRewritten) {
+  const std::string path = testing::WriteTestSh3f(dir_, "Test.sh3f");
+  const CadModel first = Sh3fCatalog(path).LoadModel(*Sh3fCatalog(path).Find("Test/marker"));
+  ASSERT_EQ(CachedFiles(), 1u);
+  const std::string file = std::filesystem::directory_iterator(dir_ + "/cache")->path().string();
+  const std::string good = ReadFileBytes(file);
+  for (const std::string& damaged : {good.substr(0, good.size() / 2),  // truncated
+                                     std::string(good).replace(good.size() - 3, 1, "\x7f"),
+                                     std::string("not a mesh")}) {
+    testing::WriteText(file, damaged);
+    const Sh3fCatalog catalog(path);
+    const CadModel again = catalog.LoadModel(*catalog.Find("Test/marker"));
+    EXPECT_EQ(again.content_hash, first.content_hash);
+    EXPECT_EQ(ReadFileBytes(file), good);  // rewritten
+  }
+  setenv("FURN_MESH_CACHE", "off", 1);
+  EXPECT_FALSE(MeshCache::FromEnvironment().enabled());
 }
 
 TEST(Sh3f, ArchiveWithoutPropertiesIsRejected) {
