@@ -18,6 +18,7 @@
 #include "reports/detection_debug.h"
 #include "reports/run_report.h"
 #include "workbench/detect_command.h"
+#include "workbench/json_text.h"
 
 namespace furn {
 namespace {
@@ -100,12 +101,7 @@ std::string DetectorOptionsJson(const DetectorOptions& o) {
 }
 
 DetectorOptions DetectorOptionsFromJson(const std::string& text, const std::string& what) {
-  nlohmann::json json;
-  try {
-    json = nlohmann::json::parse(text);
-  } catch (const nlohmann::json::exception& error) {
-    throw InputError(what + ": not JSON (" + error.what() + ")");
-  }
+  nlohmann::json json = nlohmann::json(ParseUserJson(text, what));
   // A run's options_json or an options file: its "detector" object (absent
   // in a trainer-only file: the defaults).
   if (json.is_object() && (json.contains("detector") || json.contains("trainer")))

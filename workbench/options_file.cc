@@ -6,6 +6,7 @@
 
 #include "core/error.h"
 #include "workbench/evaluate_command.h"
+#include "workbench/json_text.h"
 
 namespace furn {
 namespace {
@@ -129,12 +130,7 @@ std::string TrainingOptionsJson(const TrainingOptions& options) {
 }
 
 TrainingOptions TrainingOptionsFromJson(const std::string& text, const std::string& what) {
-  nlohmann::json json;
-  try {
-    json = nlohmann::json::parse(text);
-  } catch (const nlohmann::json::exception& error) {
-    throw InputError(what + ": not JSON (" + error.what() + ")");
-  }
+  nlohmann::json json = nlohmann::json(ParseUserJson(text, what));
   Require(json.is_object(), what + ": options must be a JSON object");
   if (json.contains("detector") || json.contains("trainer")) {
     Require(json.contains("trainer"),

@@ -14,6 +14,7 @@
 #include "db/dataset_db.h"
 #include "reports/tune_report.h"
 #include "workbench/evaluate_command.h"
+#include "workbench/json_text.h"
 
 namespace furn {
 namespace {
@@ -137,12 +138,7 @@ double Metric(const std::map<std::string, double>& metrics, const std::string& n
 }  // namespace
 
 TuneSpace ParseTuneSpace(const std::string& text, const std::string& what) {
-  nlohmann::ordered_json json;
-  try {
-    json = nlohmann::ordered_json::parse(text);
-  } catch (const nlohmann::json::exception& error) {
-    throw InputError(what + ": not JSON (" + error.what() + ")");
-  }
+  nlohmann::ordered_json json = ParseUserJson(text, what);
   Require(json.is_object() && !json.empty(),
           what +
               ": the search space must be a JSON object of option paths, e.g. "
