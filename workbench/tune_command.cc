@@ -307,198 +307,253 @@ void TuneOptions::Check() const {
   Require(!objective.empty(), "the objective must name a metric, e.g. mAP@10cm");
 }
 
-TuneSummary RunTuning(const Catalog& catalog, const TuneOptions& options) {
-  options.Check();
-  const TuneSpace space = ParseTuneSpace(ReadFileBytes(options.space_path), options.space_path);
-  TrainingOptions base_training;
-  DetectorOptions base_detector;
-  if (!options.base_options_path.empty()) {
-    const std::string text = ReadFileBytes(options.base_options_path);
-    if (nlohmann::json::parse(text, nullptr, false).contains("trainer"))
-      base_training = TrainingOptionsFromJson(text, options.base_options_path);
-    base_detector = DetectorOptionsFromJson(text, options.base_options_path);
+namespace {
+
+// One search: its trials, the runs an earlier tune of the same search left
+// in the dataset, the model cache, and the evaluation of a trial on a split.
+class Tuning {
+ public:
+  Tuning(const Catalog& catalog, const TuneOptions& options)
+      : catalog_(catalog),
+        options_(options),
+        space_(ParseTuneSpace(ReadFileBytes(options.space_path), options.space_path)) {
+    LoadBase();
+    if (const std::set<std::string> names = MetricNames(); !names.count(options.objective)) {
+      throw InputError("objective '" + options.objective +
+                       "' is not a metric of evaluation runs (e.g. mAP@10cm, mAP@5cm, "
+                       "AP/chair@10cm, cad_identified; 'workbench history' lists them all)");
+    }
+    trials_ = MakeTrials(
+        space_, options.strategy, options.trials, options.seed, base_training_, base_detector_);
+    CheckBaseModel();
+    DatasetDb check(options.db_path, DatasetDb::Mode::kReadOnly);  // before anything trains
+    summary_.tune_id = TuneId();
+    FindEarlierRuns();
   }
-  if (const std::set<std::string> names = MetricNames(); !names.count(options.objective)) {
-    throw InputError("objective '" + options.objective +
-                     "' is not a metric of evaluation runs (e.g. mAP@10cm, mAP@5cm, "
-                     "AP/chair@10cm, cad_identified; 'workbench history' lists them all)");
+
+  TuneSummary Run() {
+    std::vector<TuneReportTrial> scored;
+    for (const TuneTrial& trial : trials_) scored.push_back(Score(trial));
+    summary_.trials = static_cast<int>(trials_.size());
+    Rank(&scored);
+    const TuneTrial& best = trials_[scored.front().index];
+    summary_.best_index = best.index;
+    summary_.best_run = scored.front().run_id;
+    for (const TuneReportTrial& row : scored) {
+      if (row.index == 0) summary_.base_validation = row.metrics;
+      if (row.index == best.index) summary_.best_validation = row.metrics;
+    }
+    if (TestSplitWanted()) {
+      summary_.base_test = Evaluate(trials_[0], options_.test_split, "tune-test").second;
+      summary_.best_test = best.index == 0
+                               ? summary_.base_test
+                               : Evaluate(best, options_.test_split, "tune-test").second;
+    }
+    std::filesystem::create_directories(options_.out_dir);
+    summary_.best_options_path = options_.out_dir + "/best_options.json";
+    WriteFileAtomically(summary_.best_options_path, OptionsFileJson(best.training, best.detector));
+    summary_.report_path = options_.out_dir + "/index.html";
+    WriteTuneReport(ReportInput(scored), options_.out_dir);
+    return summary_;
   }
-  const std::vector<TuneTrial> trials = MakeTrials(
-      space, options.strategy, options.trials, options.seed, base_training, base_detector);
-  const std::string base_trainer_json = TrainingOptionsJson(base_training);
-  if (!options.base_model_path.empty()) {
-    const TrainedModel model = LoadTrainedModel(options.base_model_path);
-    Require(TrainingOptionsJson({model.options, base_training.scan}) == base_trainer_json,
-            options.base_model_path +
+
+ private:
+  void LoadBase() {
+    if (options_.base_options_path.empty()) return;
+    const std::string text = ReadFileBytes(options_.base_options_path);
+    if (ParseUserJson(text, options_.base_options_path).contains("trainer"))
+      base_training_ = TrainingOptionsFromJson(text, options_.base_options_path);
+    base_detector_ = DetectorOptionsFromJson(text, options_.base_options_path);
+  }
+
+  void CheckBaseModel() const {
+    if (options_.base_model_path.empty()) return;
+    const TrainedModel model = LoadTrainedModel(options_.base_model_path);
+    Require(TrainingOptionsJson({model.options, base_training_.scan}) ==
+                TrainingOptionsJson(base_training_),
+            options_.base_model_path +
                 ": was trained with other trainer options than the base; leave out --model or "
                 "pass the options file it was trained with");
   }
-  {  // The dataset must be there before anything trains.
-    DatasetDb check(options.db_path, DatasetDb::Mode::kReadOnly);
+
+  // What identifies the search for resuming (not the objective or the
+  // latency bound: they only rank).
+  std::string TuneId() const {
+    return ShortHash(
+        Json{{"space", ParseUserJson(ReadFileBytes(options_.space_path), options_.space_path)},
+             {"strategy", options_.strategy == TuneStrategy::kGrid ? "grid" : "random"},
+             {"trials", options_.trials},
+             {"seed", options_.seed},
+             {"split", options_.split},
+             {"max_frames", options_.max_frames},
+             {"base", CombinedJson(base_training_, base_detector_)},
+             {"catalog", options_.catalog_spec}}
+            .dump());
   }
 
-  TuneSummary summary;
-  summary.tune_id = ShortHash(Json{
-      {"space", nlohmann::json::parse(ReadFileBytes(options.space_path))},
-      {"strategy", options.strategy == TuneStrategy::kGrid ? "grid" : "random"},
-      {"trials", options.trials},
-      {"seed", options.seed},
-      {"split", options.split},
-      {"max_frames", options.max_frames},
-      {"base", CombinedJson(base_training, base_detector)},
-      {"catalog",
-       options.catalog_spec}}.dump());
-  // Runs of this search already in the dataset: (trial, split) -> run id and
-  // the parameter values it ran with.
-  std::map<std::pair<int, std::string>, std::pair<int64_t, std::string>> done;
-  {
-    DatasetDb dataset(options.db_path, DatasetDb::Mode::kReadOnly);
+  void FindEarlierRuns() {
+    DatasetDb dataset(options_.db_path, DatasetDb::Mode::kReadOnly);
     for (const RunRecord& run : dataset.Runs()) {
       if (run.kind != "tune" && run.kind != "tune-test") continue;
       const nlohmann::json json = nlohmann::json::parse(run.options_json, nullptr, false);
       if (!json.is_object() || !json.contains("tune") ||
-          json["tune"].value("id", "") != summary.tune_id)
+          json["tune"].value("id", "") != summary_.tune_id)
         continue;
-      done[{json["tune"]["trial"].get<int>(), run.split}] = {run.id,
-                                                             json["tune"]["parameters"].dump()};
+      earlier_[{json["tune"]["trial"].get<int>(), run.split}] = {run.id,
+                                                                 json["tune"]["parameters"].dump()};
     }
   }
 
-  // A model per distinct trainer options, trained once.
-  std::filesystem::create_directories(options.work_dir + "/models");
-  auto model_for = [&](const TrainingOptions& training) {
+  bool TestSplitWanted() const {
+    return !options_.test_split.empty() && options_.test_split != "none";
+  }
+
+  nlohmann::json ParametersOf(const TuneTrial& trial) const {
+    nlohmann::json parameters = nlohmann::json::object();
+    for (size_t p = 0; p < space_.parameters.size(); ++p)
+      parameters[space_.parameters[p].path] = nlohmann::json::parse(trial.values[p]);
+    return parameters;
+  }
+
+  // The run of a trial on a split that an earlier tune stored with the same
+  // parameter values, or 0.
+  int64_t EarlierRun(const TuneTrial& trial, const std::string& split) const {
+    const auto it = earlier_.find({trial.index, split});
+    if (it == earlier_.end() || it->second.second != ParametersOf(trial).dump()) return 0;
+    return it->second.first;
+  }
+
+  // The model for the trial's trainer options: the base model, or one from
+  // the cache, trained when missing.
+  std::string ModelFor(const TrainingOptions& training) {
     const std::string json = TrainingOptionsJson(training);
-    if (json == base_trainer_json && !options.base_model_path.empty())
-      return options.base_model_path;
+    if (json == TrainingOptionsJson(base_training_) && !options_.base_model_path.empty())
+      return options_.base_model_path;
+    std::filesystem::create_directories(options_.work_dir + "/models");
     const std::string path =
-        options.work_dir + "/models/" + ShortHash(json + "\n" + options.catalog_spec) + ".fcm";
+        options_.work_dir + "/models/" + ShortHash(json + "\n" + options_.catalog_spec) + ".fcm";
     if (!std::filesystem::exists(path)) {
       std::printf("tune: training a model for %s\n", path.c_str());
       std::fflush(stdout);
-      TrainFromCatalog(catalog, training.scan, training.trainer, path);
-      ++summary.models_trained;
+      TrainFromCatalog(catalog_, training.scan, training.trainer, path);
+      ++summary_.models_trained;
     }
     return path;
-  };
-  auto parameters_of = [&](const TuneTrial& trial) {
-    nlohmann::json parameters = nlohmann::json::object();
-    for (size_t p = 0; p < space.parameters.size(); ++p)
-      parameters[space.parameters[p].path] = nlohmann::json::parse(trial.values[p]);
-    return parameters;
-  };
-  // The run of a trial on a split when an earlier tune stored it with the
-  // same parameter values.
-  auto find_done = [&](const TuneTrial& trial, const std::string& split) -> int64_t {
-    const auto it = done.find({trial.index, split});
-    if (it == done.end() || it->second.second != parameters_of(trial).dump()) return 0;
-    return it->second.first;
-  };
-  auto evaluate = [&](const TuneTrial& trial, const std::string& split, const char* kind) {
-    if (const int64_t run_id = find_done(trial, split)) {
-      DatasetDb dataset(options.db_path, DatasetDb::Mode::kReadOnly);
-      return std::make_pair(run_id, dataset.RunMetrics(run_id));
+  }
+
+  std::pair<int64_t, std::map<std::string, double>> Evaluate(const TuneTrial& trial,
+                                                             const std::string& split,
+                                                             const char* kind) {
+    if (const int64_t run_id = EarlierRun(trial, split)) {
+      DatasetDb dataset(options_.db_path, DatasetDb::Mode::kReadOnly);
+      return {run_id, dataset.RunMetrics(run_id)};
     }
     EvaluateCommandOptions evaluate;
     evaluate.split = split;
-    evaluate.max_frames = options.max_frames;
+    evaluate.max_frames = options_.max_frames;
     evaluate.kind = kind;
-    evaluate.label = "tune " + summary.tune_id.substr(0, 8) + " trial " +
+    evaluate.label = "tune " + summary_.tune_id.substr(0, 8) + " trial " +
                      std::to_string(trial.index) +
-                     (trial.index == 0 ? " (base)" : ": " + Describe(space, trial.values));
+                     (trial.index == 0 ? " (base)" : ": " + Describe(space_, trial.values));
     evaluate.detector = trial.detector;
     evaluate.extra_options_json = Json{
         {"tune",
-         {{"id", summary.tune_id}, {"trial", trial.index}, {"parameters", parameters_of(trial)}}},
+         {{"id", summary_.tune_id}, {"trial", trial.index}, {"parameters", ParametersOf(trial)}}},
         {"trainer",
          Json::parse(TrainingOptionsJson(
              trial.training))}}.dump();
     const EvaluateSummary result =
-        EvaluateModel(model_for(trial.training), options.db_path, evaluate);
-    return std::make_pair(result.run_id, result.result.metrics);
-  };
+        EvaluateModel(ModelFor(trial.training), options_.db_path, evaluate);
+    return {result.run_id, result.result.metrics};
+  }
 
-  std::vector<TuneReportTrial> scored;
-  for (const TuneTrial& trial : trials) {
-    const bool resumed = find_done(trial, options.split) != 0;
-    const auto [run_id, metrics] = evaluate(trial, options.split, "tune");
+  // Evaluates the trial on the validation split (or finds it done) and says
+  // so on a line.
+  TuneReportTrial Score(const TuneTrial& trial) {
+    const bool resumed = EarlierRun(trial, options_.split) != 0;
+    const auto [run_id, metrics] = Evaluate(trial, options_.split, "tune");
     TuneReportTrial row;
     row.index = trial.index;
     row.run_id = run_id;
     row.values = trial.values;
     row.metrics = metrics;
-    row.within_latency = options.max_ms <= 0 || Metric(metrics, "latency_p50_ms") <= options.max_ms;
-    row.retrained = TrainingOptionsJson(trial.training) != base_trainer_json;
-    scored.push_back(row);
-    summary.trials_resumed += resumed;
+    row.within_latency =
+        options_.max_ms <= 0 || Metric(metrics, "latency_p50_ms") <= options_.max_ms;
+    row.retrained = TrainingOptionsJson(trial.training) != TrainingOptionsJson(base_training_);
+    summary_.trials_resumed += resumed;
     std::printf("tune: trial %d (%d of %d)%s: %s = %.3f, p50 %.1f ms (run %lld) %s\n",
                 trial.index,
                 trial.index + 1,
-                static_cast<int>(trials.size()),
+                static_cast<int>(trials_.size()),
                 resumed ? " (done before)" : "",
-                options.objective.c_str(),
-                Metric(metrics, options.objective),
+                options_.objective.c_str(),
+                Metric(metrics, options_.objective),
                 Metric(metrics, "latency_p50_ms"),
                 static_cast<long long>(run_id),
-                trial.index == 0 ? "base" : Describe(space, trial.values).c_str());
+                trial.index == 0 ? "base" : Describe(space_, trial.values).c_str());
     std::fflush(stdout);
-  }
-  summary.trials = static_cast<int>(trials.size());
-
-  // Rank: within the latency bound first, then the objective, then latency.
-  std::stable_sort(
-      scored.begin(), scored.end(), [&](const TuneReportTrial& a, const TuneReportTrial& b) {
-        if (a.within_latency != b.within_latency) return a.within_latency;
-        const double oa = Metric(a.metrics, options.objective),
-                     ob = Metric(b.metrics, options.objective);
-        if (oa != ob) return std::isnan(ob) || oa > ob;
-        return Metric(a.metrics, "latency_p50_ms") < Metric(b.metrics, "latency_p50_ms");
-      });
-  const TuneTrial& best = trials[scored.front().index];
-  summary.best_index = best.index;
-  summary.best_run = scored.front().run_id;
-  for (const TuneReportTrial& row : scored) {
-    if (row.index == 0) summary.base_validation = row.metrics;
-    if (row.index == best.index) summary.best_validation = row.metrics;
-  }
-  const bool test = !options.test_split.empty() && options.test_split != "none";
-  if (test) {
-    summary.base_test = evaluate(trials[0], options.test_split, "tune-test").second;
-    summary.best_test = best.index == 0 ? summary.base_test
-                                        : evaluate(best, options.test_split, "tune-test").second;
+    return row;
   }
 
-  std::filesystem::create_directories(options.out_dir);
-  summary.best_options_path = options.out_dir + "/best_options.json";
-  WriteFileAtomically(summary.best_options_path, OptionsFileJson(best.training, best.detector));
-  TuneReportInput report;
-  report.title = "tune " + summary.tune_id.substr(0, 8) + ": " + std::to_string(summary.trials) +
-                 " trials on " + options.db_path + ", split " + options.split;
-  report.objective = options.objective;
-  report.max_ms = options.max_ms;
-  for (const TuneParameter& parameter : space.parameters)
-    report.parameters.push_back(parameter.path);
-  report.trials = scored;
-  report.best_options_file = "best_options.json";
-  report.validation_split = options.split;
-  report.test_split = test ? options.test_split : "";
-  report.base_validation = summary.base_validation;
-  report.best_validation = summary.best_validation;
-  report.base_test = summary.base_test;
-  report.best_test = summary.best_test;
-  report.best_index = best.index;
-  report.notes = {
-      std::string("Search: ") + (options.strategy == TuneStrategy::kGrid ? "grid" : "random") +
-          ", seed " + std::to_string(options.seed) + ", space " + options.space_path +
-          ", catalog " + options.catalog_spec + "; " + std::to_string(summary.models_trained) +
-          " models trained this time (cache: " + options.work_dir + "/models).",
-      "Use the best options: workbench train --options best_options.json --out best.fcm; "
-      "workbench evaluate --model best.fcm --options best_options.json --db ... (detect takes "
-      "--options too).",
-      "Every trial is a run in the dataset (kind tune; the test re-evaluation: tune-test), so "
-      "workbench history, report and regress work on them."};
-  summary.report_path = options.out_dir + "/index.html";
-  WriteTuneReport(report, options.out_dir);
-  return summary;
+  // Within the latency bound first, then the objective, then latency.
+  void Rank(std::vector<TuneReportTrial>* scored) const {
+    const std::string& objective = options_.objective;
+    std::stable_sort(
+        scored->begin(), scored->end(), [&](const TuneReportTrial& a, const TuneReportTrial& b) {
+          if (a.within_latency != b.within_latency) return a.within_latency;
+          const double oa = Metric(a.metrics, objective), ob = Metric(b.metrics, objective);
+          if (oa != ob) return std::isnan(ob) || oa > ob;
+          return Metric(a.metrics, "latency_p50_ms") < Metric(b.metrics, "latency_p50_ms");
+        });
+  }
+
+  TuneReportInput ReportInput(const std::vector<TuneReportTrial>& scored) const {
+    TuneReportInput report;
+    report.title = "tune " + summary_.tune_id.substr(0, 8) + ": " +
+                   std::to_string(summary_.trials) + " trials on " + options_.db_path + ", split " +
+                   options_.split;
+    report.objective = options_.objective;
+    report.max_ms = options_.max_ms;
+    for (const TuneParameter& parameter : space_.parameters)
+      report.parameters.push_back(parameter.path);
+    report.trials = scored;
+    report.best_options_file = "best_options.json";
+    report.validation_split = options_.split;
+    report.test_split = TestSplitWanted() ? options_.test_split : "";
+    report.base_validation = summary_.base_validation;
+    report.best_validation = summary_.best_validation;
+    report.base_test = summary_.base_test;
+    report.best_test = summary_.best_test;
+    report.best_index = summary_.best_index;
+    report.notes = {
+        std::string("Search: ") + (options_.strategy == TuneStrategy::kGrid ? "grid" : "random") +
+            ", seed " + std::to_string(options_.seed) + ", space " + options_.space_path +
+            ", catalog " + options_.catalog_spec + "; " + std::to_string(summary_.models_trained) +
+            " models trained this time (cache: " + options_.work_dir + "/models).",
+        "Use the best options: workbench train --options best_options.json --out best.fcm; "
+        "workbench evaluate --model best.fcm --options best_options.json --db ... (detect takes "
+        "--options too).",
+        "Every trial is a run in the dataset (kind tune; the test re-evaluation: tune-test), so "
+        "workbench history, report and regress work on them."};
+    return report;
+  }
+
+  const Catalog& catalog_;
+  const TuneOptions& options_;
+  const TuneSpace space_;
+  TrainingOptions base_training_;
+  DetectorOptions base_detector_;
+  std::vector<TuneTrial> trials_;
+  // (trial, split) -> run id and the parameter values it ran with.
+  std::map<std::pair<int, std::string>, std::pair<int64_t, std::string>> earlier_;
+  TuneSummary summary_;
+};
+
+}  // namespace
+
+TuneSummary RunTuning(const Catalog& catalog, const TuneOptions& options) {
+  options.Check();
+  return Tuning(catalog, options).Run();
 }
 
 }  // namespace furn
