@@ -36,6 +36,10 @@ int RunTune(int argc, char** argv) {
   app.add_option("--objective", options.objective, "Run metric to maximise")->capture_default_str();
   app.add_option("--max-ms", options.max_ms, "Median latency bound in ms (0: none)")
       ->capture_default_str();
+  app.add_option("--seeds",
+                 options.seeds,
+                 "Detector seeds per trial; metrics are their mean (RANSAC makes one run noisy)")
+      ->capture_default_str();
   app.add_option("--options", options.base_options_path, "Options file the trials start from");
   app.add_option("--model",
                  options.base_model_path,

@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <set>
+#include <tuple>
 
 #include "core/error.h"
 #include "core/file_util.h"
@@ -304,6 +305,7 @@ void TuneOptions::Check() const {
           "trials " + std::to_string(trials) + " must be in 1..10000");
   Require(max_frames >= 0, "max frames must be >= 0");
   Require(max_ms >= 0, "--max-ms must be >= 0");
+  Require(seeds >= 1 && seeds <= 20, "seeds " + std::to_string(seeds) + " must be in 1..20");
   Require(!objective.empty(), "the objective must name a metric, e.g. mAP@10cm");
 }
 
@@ -399,8 +401,8 @@ class Tuning {
       if (!json.is_object() || !json.contains("tune") ||
           json["tune"].value("id", "") != summary_.tune_id)
         continue;
-      earlier_[{json["tune"]["trial"].get<int>(), run.split}] = {run.id,
-                                                                 json["tune"]["parameters"].dump()};
+      earlier_[{json["tune"]["trial"].get<int>(), run.split, json["tune"].value("seed", 0)}] = {
+          run.id, json["tune"]["parameters"].dump()};
     }
   }
 
@@ -415,12 +417,19 @@ class Tuning {
     return parameters;
   }
 
-  // The run of a trial on a split that an earlier tune stored with the same
-  // parameter values, or 0.
-  int64_t EarlierRun(const TuneTrial& trial, const std::string& split) const {
-    const auto it = earlier_.find({trial.index, split});
+  // The run of a trial on a split with its seed-th detector seed that an
+  // earlier tune stored with the same parameter values, or 0.
+  int64_t EarlierRun(const TuneTrial& trial, const std::string& split, int seed) const {
+    const auto it = earlier_.find({trial.index, split, seed});
     if (it == earlier_.end() || it->second.second != ParametersOf(trial).dump()) return 0;
     return it->second.first;
+  }
+
+  bool AllDoneBefore(const TuneTrial& trial, const std::string& split) const {
+    for (int seed = 0; seed < options_.seeds; ++seed) {
+      if (EarlierRun(trial, split, seed) == 0) return false;
+    }
+    return true;
   }
 
   // The model for the trial's trainer options: the base model, or one from
@@ -441,10 +450,33 @@ class Tuning {
     return path;
   }
 
+  // The trial's metrics on a split: the mean over its runs, one per detector
+  // seed (RANSAC makes single runs noisy). Returns the first run's id.
   std::pair<int64_t, std::map<std::string, double>> Evaluate(const TuneTrial& trial,
                                                              const std::string& split,
                                                              const char* kind) {
-    if (const int64_t run_id = EarlierRun(trial, split)) {
+    int64_t first_run = 0;
+    std::map<std::string, std::pair<double, int>> sums;  // name -> (sum, runs)
+    for (int seed = 0; seed < options_.seeds; ++seed) {
+      const auto [run_id, metrics] = EvaluateWithSeed(trial, split, kind, seed);
+      if (seed == 0) first_run = run_id;
+      for (const auto& [name, value] : metrics) {
+        sums[name].first += value;
+        ++sums[name].second;
+      }
+    }
+    std::map<std::string, double> mean;
+    for (const auto& [name, sum] : sums) {
+      if (sum.second == options_.seeds) mean[name] = sum.first / sum.second;
+    }
+    return {first_run, mean};
+  }
+
+  std::pair<int64_t, std::map<std::string, double>> EvaluateWithSeed(const TuneTrial& trial,
+                                                                     const std::string& split,
+                                                                     const char* kind,
+                                                                     int seed) {
+    if (const int64_t run_id = EarlierRun(trial, split, seed)) {
       DatasetDb dataset(options_.db_path, DatasetDb::Mode::kReadOnly);
       return {run_id, dataset.RunMetrics(run_id)};
     }
@@ -456,12 +488,16 @@ class Tuning {
                      std::to_string(trial.index) +
                      (trial.index == 0 ? " (base)" : ": " + Describe(space_, trial.values));
     evaluate.detector = trial.detector;
-    evaluate.extra_options_json = Json{
-        {"tune",
-         {{"id", summary_.tune_id}, {"trial", trial.index}, {"parameters", ParametersOf(trial)}}},
-        {"trainer",
-         Json::parse(TrainingOptionsJson(
-             trial.training))}}.dump();
+    evaluate.detector.seed = DeriveSeed(trial.detector.seed, static_cast<uint64_t>(seed));
+    if (seed == 0) evaluate.detector.seed = trial.detector.seed;  // the options' own seed first
+    evaluate.extra_options_json =
+        Json{{"tune",
+              {{"id", summary_.tune_id},
+               {"trial", trial.index},
+               {"seed", seed},
+               {"parameters", ParametersOf(trial)}}},
+             {"trainer", Json::parse(TrainingOptionsJson(trial.training))}}
+            .dump();
     const EvaluateSummary result =
         EvaluateModel(ModelFor(trial.training), options_.db_path, evaluate);
     return {result.run_id, result.result.metrics};
@@ -470,7 +506,7 @@ class Tuning {
   // Evaluates the trial on the validation split (or finds it done) and says
   // so on a line.
   TuneReportTrial Score(const TuneTrial& trial) {
-    const bool resumed = EarlierRun(trial, options_.split) != 0;
+    const bool resumed = AllDoneBefore(trial, options_.split);
     const auto [run_id, metrics] = Evaluate(trial, options_.split, "tune");
     TuneReportTrial row;
     row.index = trial.index;
@@ -527,7 +563,8 @@ class Tuning {
     report.best_index = summary_.best_index;
     report.notes = {
         std::string("Search: ") + (options_.strategy == TuneStrategy::kGrid ? "grid" : "random") +
-            ", seed " + std::to_string(options_.seed) + ", space " + options_.space_path +
+            ", seed " + std::to_string(options_.seed) + ", " + std::to_string(options_.seeds) +
+            " detector seed(s) per trial (metrics are their mean), space " + options_.space_path +
             ", catalog " + options_.catalog_spec + "; " + std::to_string(summary_.models_trained) +
             " models trained this time (cache: " + options_.work_dir + "/models).",
         "Use the best options: workbench train --options best_options.json --out best.fcm; "
@@ -544,8 +581,8 @@ class Tuning {
   TrainingOptions base_training_;
   DetectorOptions base_detector_;
   std::vector<TuneTrial> trials_;
-  // (trial, split) -> run id and the parameter values it ran with.
-  std::map<std::pair<int, std::string>, std::pair<int64_t, std::string>> earlier_;
+  // (trial, split, seed) -> run id and the parameter values it ran with.
+  std::map<std::tuple<int, std::string, int>, std::pair<int64_t, std::string>> earlier_;
   TuneSummary summary_;
 };
 

@@ -89,6 +89,9 @@ struct TuneOptions {
   int max_frames = 0;                  // per evaluation (0: the whole split)
   std::string objective = "mAP@10cm";  // a run metric, higher is better
   double max_ms = 0;                   // median latency constraint (0: none)
+  // Detector (RANSAC) seeds each trial is evaluated with; its metrics are the
+  // mean over them (1..20). One run per seed.
+  int seeds = 1;
 
   // Throws InputError naming the field and the rule.
   void Check() const;

@@ -8,6 +8,7 @@
 
 #include <cstdio>
 #include <filesystem>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <set>
 
@@ -237,6 +238,29 @@ TEST(TuneCommand, TrialsAreRunsResumeAndTheReportAndBestOptionsWork) {
   EXPECT_NE(again.output.find("4 trials (4 done before), 0 models trained"), std::string::npos)
       << again.output;
   EXPECT_EQ(DatasetDb(db, DatasetDb::Mode::kReadOnly).Runs().size(), tune_runs + test_runs);
+
+  // Two detector seeds per trial: one more run per trial, no training, and
+  // the trials' metrics are the mean of their two runs.
+  const testing::CommandResult seeds = Workbench(tune + " --seeds 2");
+  ASSERT_EQ(seeds.exit_code, 0) << seeds.output;
+  EXPECT_NE(seeds.output.find("4 trials (0 done before), 0 models trained"), std::string::npos)
+      << seeds.output;
+  {
+    DatasetDb dataset(db, DatasetDb::Mode::kReadOnly);
+    std::map<int, std::vector<double>> map_by_trial;  // val mAP@10cm per seed
+    for (const RunRecord& run : dataset.Runs()) {
+      if (run.kind != "tune") continue;
+      const auto tune_json = nlohmann::json::parse(run.options_json)["tune"];
+      map_by_trial[tune_json["trial"].get<int>()].push_back(
+          dataset.RunMetrics(run.id).at("mAP@10cm"));
+    }
+    ASSERT_EQ(map_by_trial.size(), 4u);
+    for (const auto& [trial, values] : map_by_trial) EXPECT_EQ(values.size(), 2u) << trial;
+    const double mean = (map_by_trial[0][0] + map_by_trial[0][1]) / 2;
+    char text[64];
+    std::snprintf(text, sizeof(text), "trial 0 (1 of 4) (done before): mAP@10cm = %.3f", mean);
+    EXPECT_EQ(Workbench(tune + " --seeds 2").output.find(text) != std::string::npos, true) << text;
+  }
 
   // The report: the ranking, an effect plot per parameter, every image loads.
   const std::string html = ReadFileBytes(dir + "/report/index.html");
