@@ -181,8 +181,7 @@ void WriteTuneReport(const TuneReportInput& input, const std::string& dir) {
   html << ". Best options: <a href=\"" << HtmlEscape(input.best_options_file) << "\"><code>"
        << HtmlEscape(input.best_options_file) << "</code></a> (trial " << input.best_index
        << ").</p>\n<h2>Best against the base options</h2>\n";
-  if (input.best_index == 0)
-    html << "<p>No trial beat the base options: they stay the best.</p>\n";
+  if (input.best_index == 0) html << "<p>No trial beat the base options: they stay the best.</p>\n";
   WriteComparison(input, &html);
 
   html << "<h2>Effect of each parameter</h2>\n<div><img src=\"progress.png\" alt=\"progress\">";
