@@ -126,6 +126,11 @@ bool HigherIsBetter(const std::string& metric) {
   return metric.find("error") == std::string::npos && metric.rfind("latency", 0) != 0;
 }
 
+double MetricOrNan(const std::map<std::string, double>& metrics, const std::string& name) {
+  const auto it = metrics.find(name);
+  return it == metrics.end() ? std::nan("") : it->second;
+}
+
 EvaluationResult EvaluateFrames(const std::vector<FrameOutcome>& frames,
                                 const EvaluationOptions& options) {
   Require(!frames.empty(), "evaluation needs at least one frame");

@@ -88,6 +88,10 @@ struct EvaluationResult {
 // cad_identified (TPs at 10 cm whose model is the true one, seen models only),
 // latency_p50_ms, latency_p90_ms, latency_p99_ms, latency_<stage>_p50_ms,
 // paper/<class>/best_f1, frames, objects.
+// The named metric, or NaN when a run lacks it (e.g. AP of a class that had
+// no objects).
+double MetricOrNan(const std::map<std::string, double>& metrics, const std::string& name);
+
 EvaluationResult EvaluateFrames(const std::vector<FrameOutcome>& frames,
                                 const EvaluationOptions& options);
 

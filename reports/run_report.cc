@@ -10,16 +10,12 @@
 #include "core/error.h"
 #include "core/file_util.h"
 #include "reports/confusion.h"
+#include "reports/evaluation.h"
 
 namespace furn {
 namespace {
 
 const std::vector<std::string> kClasses = {"chair", "armchair", "table", "sideboard"};
-
-double Get(const std::map<std::string, double>& m, const std::string& name) {
-  const auto it = m.find(name);
-  return it == m.end() ? std::nan("") : it->second;
-}
 
 // A PR plot of the named curves (recall, precision) from the run's results.
 void PlotCurves(const nlohmann::json& curves,
@@ -155,7 +151,7 @@ void WriteHistoryReport(const std::vector<RunRecord>& runs,
          << "</td><td>" << HtmlEscape(runs[r].kind) << "</td><td>" << HtmlEscape(runs[r].label)
          << "</td>";
     for (const std::string& name : names)
-      html << "<td>" << Number(Get(metrics[r], name), 3) << "</td>";
+      html << "<td>" << Number(MetricOrNan(metrics[r], name), 3) << "</td>";
     html << "</tr>\n";
   }
   html << "</table>\n<p>+ after a commit: run on a working tree with uncommitted changes.</p>\n"
@@ -238,7 +234,7 @@ void WriteRunReport(const RunReportInput& input, const std::string& dir) {
                            "latency_p90_ms",
                            "latency_p99_ms"}) {
     const bool count = std::string(name) == "frames" || std::string(name) == "objects";
-    html << "<tr><td>" << name << "</td><td>" << Number(Get(m, name), count ? 0 : 3)
+    html << "<tr><td>" << name << "</td><td>" << Number(MetricOrNan(m, name), count ? 0 : 3)
          << "</td></tr>";
   }
   html << "</table>\n<h2>Per class</h2>\n<table><tr><th>class</th><th>AP@5cm</th><th>AP@10cm</th>"
@@ -246,8 +242,8 @@ void WriteRunReport(const RunReportInput& input, const std::string& dir) {
   for (const std::string& c : kClasses) {
     html << "<tr><td>" << c << "</td>";
     for (const char* d : {"@5cm", "@10cm", "@20cm"})
-      html << "<td>" << Number(Get(m, "AP/" + c + d)) << "</td>";
-    html << "<td>" << Number(Get(m, "paper/" + c + "/best_f1")) << "</td></tr>";
+      html << "<td>" << Number(MetricOrNan(m, "AP/" + c + d)) << "</td>";
+    html << "<td>" << Number(MetricOrNan(m, "paper/" + c + "/best_f1")) << "</td></tr>";
   }
   html
       << "</table>\n<div class=\"row\"><div><h3>PR, protocol B</h3><img src=\"pr_detection.png\" "

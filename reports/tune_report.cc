@@ -8,15 +8,11 @@
 
 #include "core/error.h"
 #include "core/file_util.h"
+#include "reports/evaluation.h"
 #include "reports/run_report.h"
 
 namespace furn {
 namespace {
-
-double Get(const std::map<std::string, double>& m, const std::string& name) {
-  const auto it = m.find(name);
-  return it == m.end() ? std::nan("") : it->second;
-}
 
 // The text as a number when all of it is one (JSON numbers and booleans).
 bool AsNumber(const std::string& text, double* value) {
@@ -54,7 +50,7 @@ void PlotEffect(const TuneReportInput& input, size_t parameter, const std::strin
   std::ostringstream script, others, base;
   std::map<double, std::pair<double, int>> mean;  // x -> (sum, count)
   for (const TuneReportTrial& trial : input.trials) {
-    const double y = Get(trial.metrics, input.objective);
+    const double y = MetricOrNan(trial.metrics, input.objective);
     if (std::isnan(y)) continue;
     const double x = x_of(trial.values[parameter]);
     (trial.index == 0 ? base : others) << x << " " << y << "\n";
@@ -98,7 +94,7 @@ void PlotEffect(const TuneReportInput& input, size_t parameter, const std::strin
 void PlotProgress(const TuneReportInput& input, const std::string& png_path) {
   std::vector<std::pair<int, double>> by_index;
   for (const TuneReportTrial& trial : input.trials)
-    by_index.emplace_back(trial.index, Get(trial.metrics, input.objective));
+    by_index.emplace_back(trial.index, MetricOrNan(trial.metrics, input.objective));
   std::sort(by_index.begin(), by_index.end());
   std::ostringstream script;
   script << "set terminal pngcairo noenhanced size 520,340 font 'sans,10'\n"
@@ -139,10 +135,11 @@ void WriteComparison(const TuneReportInput& input, std::ostringstream* html) {
   *html << "</tr>\n";
   for (const std::string& name : rows) {
     *html << "<tr><td>" << HtmlEscape(name) << "</td><td>"
-          << Number(Get(input.base_validation, name)) << "</td><td>"
-          << Number(Get(input.best_validation, name)) << "</td>";
+          << Number(MetricOrNan(input.base_validation, name)) << "</td><td>"
+          << Number(MetricOrNan(input.best_validation, name)) << "</td>";
     if (test) {
-      const double base = Get(input.base_test, name), best = Get(input.best_test, name);
+      const double base = MetricOrNan(input.base_test, name),
+                   best = MetricOrNan(input.best_test, name);
       *html << "<td>" << Number(base) << "</td><td>" << Number(best) << "</td><td>"
             << (best - base >= 0 ? "+" : "") << Number(best - base) << "</td>";
     }
@@ -202,9 +199,9 @@ void WriteTuneReport(const TuneReportInput& input, const std::string& dir) {
                                                       : "";
     html << "<tr class=\"" << css << "\"><td>" << rank + 1 << "</td><td>" << trial.index
          << (trial.index == 0 ? " (base)" : "") << "</td><td>" << trial.run_id << "</td><td>"
-         << Number(Get(trial.metrics, input.objective)) << "</td><td>"
-         << Number(Get(trial.metrics, "mAP@5cm")) << "</td><td>"
-         << Number(Get(trial.metrics, "latency_p50_ms"), 1) << "</td><td>"
+         << Number(MetricOrNan(trial.metrics, input.objective)) << "</td><td>"
+         << Number(MetricOrNan(trial.metrics, "mAP@5cm")) << "</td><td>"
+         << Number(MetricOrNan(trial.metrics, "latency_p50_ms"), 1) << "</td><td>"
          << (trial.retrained ? "yes" : "no") << "</td>";
     for (const std::string& value : trial.values) html << "<td>" << HtmlEscape(value) << "</td>";
     html << "</tr>\n";

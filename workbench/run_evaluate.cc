@@ -18,10 +18,7 @@ namespace {
 
 void PrintHeadline(const EvaluateSummary& summary) {
   const std::map<std::string, double>& m = summary.result.metrics;
-  auto get = [&](const std::string& name) {
-    const auto it = m.find(name);
-    return it == m.end() ? std::nan("") : it->second;
-  };
+  auto get = [&](const std::string& name) { return MetricOrNan(m, name); };
   std::printf("run %lld: %d frames in %.1f s, %g objects to find\n",
               static_cast<long long>(summary.run_id),
               summary.frames,
@@ -91,10 +88,7 @@ int CompareVocabularies(const CatalogFlags& catalog_flags,
       options.label = std::string(variant.name) + " seed " + std::to_string(seed);
       const EvaluateSummary summary = EvaluateModel(model, db_path, options);
       const auto& m = summary.result.metrics;
-      auto get = [&](const char* name) {
-        const auto it = m.find(name);
-        return it == m.end() ? std::nan("") : it->second;
-      };
+      auto get = [&](const char* name) { return MetricOrNan(m, name); };
       map10.push_back(get("mAP@10cm"));
       std::printf("%-16s %5d %10.3f %10.3f %10.3f %12lld\n",
                   variant.name,

@@ -2,6 +2,7 @@
 #include <cstdio>
 
 #include "core/error.h"
+#include "reports/evaluation.h"
 #include "workbench/cli_common.h"
 #include "workbench/commands.h"
 #include "workbench/tune_command.h"
@@ -61,21 +62,17 @@ int RunTune(int argc, char** argv) {
       summary.models_trained,
       summary.best_index,
       static_cast<long long>(summary.best_run));
-  auto get = [](const std::map<std::string, double>& m, const std::string& name) {
-    const auto it = m.find(name);
-    return it == m.end() ? std::nan("") : it->second;
-  };
   std::printf("  %s on %s: base %.3f, best %.3f\n",
               options.objective.c_str(),
               options.split.c_str(),
-              get(summary.base_validation, options.objective),
-              get(summary.best_validation, options.objective));
+              MetricOrNan(summary.base_validation, options.objective),
+              MetricOrNan(summary.best_validation, options.objective));
   if (!summary.base_test.empty()) {
     std::printf("  %s on %s: base %.3f, best %.3f\n",
                 options.objective.c_str(),
                 options.test_split.c_str(),
-                get(summary.base_test, options.objective),
-                get(summary.best_test, options.objective));
+                MetricOrNan(summary.base_test, options.objective),
+                MetricOrNan(summary.best_test, options.objective));
   }
   std::printf("wrote %s and %s\n", summary.best_options_path.c_str(), summary.report_path.c_str());
   return 0;

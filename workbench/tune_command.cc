@@ -131,11 +131,6 @@ std::set<std::string> MetricNames() {
   return names;
 }
 
-double Metric(const std::map<std::string, double>& metrics, const std::string& name) {
-  const auto it = metrics.find(name);
-  return it == metrics.end() ? std::nan("") : it->second;
-}
-
 }  // namespace
 
 TuneSpace ParseTuneSpace(const std::string& text, const std::string& what) {
@@ -514,7 +509,7 @@ class Tuning {
     row.values = trial.values;
     row.metrics = metrics;
     row.within_latency =
-        options_.max_ms <= 0 || Metric(metrics, "latency_p50_ms") <= options_.max_ms;
+        options_.max_ms <= 0 || MetricOrNan(metrics, "latency_p50_ms") <= options_.max_ms;
     row.retrained = TrainingOptionsJson(trial.training) != TrainingOptionsJson(base_training_);
     summary_.trials_resumed += resumed;
     std::printf("tune: trial %d (%d of %d)%s: %s = %.3f, p50 %.1f ms (run %lld) %s\n",
@@ -523,8 +518,8 @@ class Tuning {
                 static_cast<int>(trials_.size()),
                 resumed ? " (done before)" : "",
                 options_.objective.c_str(),
-                Metric(metrics, options_.objective),
-                Metric(metrics, "latency_p50_ms"),
+                MetricOrNan(metrics, options_.objective),
+                MetricOrNan(metrics, "latency_p50_ms"),
                 static_cast<long long>(run_id),
                 trial.index == 0 ? "base" : Describe(space_, trial.values).c_str());
     std::fflush(stdout);
@@ -537,9 +532,11 @@ class Tuning {
     std::stable_sort(
         scored->begin(), scored->end(), [&](const TuneReportTrial& a, const TuneReportTrial& b) {
           if (a.within_latency != b.within_latency) return a.within_latency;
-          const double oa = Metric(a.metrics, objective), ob = Metric(b.metrics, objective);
+          const double oa = MetricOrNan(a.metrics, objective),
+                       ob = MetricOrNan(b.metrics, objective);
           if (oa != ob) return std::isnan(ob) || oa > ob;
-          return Metric(a.metrics, "latency_p50_ms") < Metric(b.metrics, "latency_p50_ms");
+          return MetricOrNan(a.metrics, "latency_p50_ms") <
+                 MetricOrNan(b.metrics, "latency_p50_ms");
         });
   }
 
