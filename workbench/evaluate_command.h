@@ -17,6 +17,7 @@
 
 #include "core/detector.h"
 #include "reports/evaluation.h"
+#include "workbench/options_file.h"  // DetectorOptionsJson, DetectorOptionsFromJson
 
 namespace furn {
 
@@ -43,12 +44,6 @@ struct EvaluateSummary {
 EvaluateSummary EvaluateModel(const std::string& model_path,
                               const std::string& db_path,
                               const EvaluateCommandOptions& options);
-
-// Every detector option as JSON (stored with each run), and back: absent
-// keys keep their defaults; unknown keys and wrong types are InputErrors
-// naming the key; the result is Check()ed.
-std::string DetectorOptionsJson(const DetectorOptions& options);
-DetectorOptions DetectorOptionsFromJson(const std::string& json, const std::string& what);
 
 // `workbench report`: the run's report folder, with a gallery of the frames
 // with the most errors (detection rerun with the run's options and model).

@@ -5,7 +5,6 @@
 #include <vector>
 
 #include "core/error.h"
-#include "workbench/evaluate_command.h"
 #include "workbench/json_text.h"
 
 namespace furn {
@@ -13,9 +12,9 @@ namespace {
 
 using Json = nlohmann::ordered_json;
 
-// One option: its dotted path in the "trainer" object, how to read it from
-// the options and how to set it from JSON (throws nlohmann's type_error for
-// a wrong type).
+// One option: its dotted path in its section ("trainer" or "detector"), how
+// to read it from the options and how to set it from JSON (throws nlohmann's
+// type_error for a wrong type).
 struct Field {
   std::string path;
   std::function<Json()> get;
@@ -95,6 +94,44 @@ std::vector<Field> FieldsOf(TrainingOptions* o) {
   };
 }
 
+// Every detector option, in the order runs store them.
+std::vector<Field> FieldsOf(DetectorOptions* o) {
+  return {
+      Plain("max_range_m", &o->max_range_m),
+      Plain("floor_band_m", &o->floor_band_m),
+      Plain("floor.distance_m", &o->floor.distance_m),
+      Plain("floor.iterations", &o->floor.iterations),
+      Plain("floor.max_tilt_deg", &o->floor.max_tilt_deg),
+      Plain("floor.min_fraction", &o->floor.min_fraction),
+      Plain("floor.min_camera_height_m", &o->floor.min_camera_height_m),
+      Plain("max_segment_extent_m", &o->max_segment_extent_m),
+      Plain("cell_m", &o->cell_m),
+      Plain("vote_sigma_m", &o->vote_sigma_m),
+      Plain("vote_height_tolerance_m", &o->vote_height_tolerance_m),
+      Plain("relative_threshold", &o->relative_threshold),
+      Plain("absolute_threshold", &o->absolute_threshold),
+      Plain("max_hypotheses_per_class", &o->max_hypotheses_per_class),
+      Plain("support_radius_m", &o->support_radius_m),
+      Plain("neighbours", &o->neighbours),
+      Plain("top_models", &o->top_models),
+      Plain("fit.iterations", &o->fit.iterations),
+      Plain("fit.height_tolerance_m", &o->fit.height_tolerance_m),
+      Plain("fit.inlier_m", &o->fit.inlier_m),
+      Plain("fit.max_offset_m", &o->fit.max_offset_m),
+      Plain("fit.refine_iterations", &o->fit.refine_iterations),
+      Plain("fit.above_m", &o->fit.above_m),
+      Plain("min_covered_fraction", &o->min_covered_fraction),
+      Plain("occupancy_voxel_m", &o->occupancy_voxel_m),
+      Plain("occupied_weight", &o->occupied_weight),
+      Plain("min_verification", &o->min_verification),
+      Plain("min_seen_occupied", &o->min_seen_occupied),
+      Plain("min_score", &o->min_score),
+      Plain("max_shared_support", &o->max_shared_support),
+      Plain("max_footprint_overlap", &o->max_footprint_overlap),
+      Plain("seed", &o->seed),
+  };
+}
+
 // "a.b.c" -> json["a"]["b"]["c"], created on the way.
 Json& At(Json* root, const std::string& path) {
   Json* node = root;
@@ -120,13 +157,64 @@ void Flatten(const nlohmann::json& json,
   }
 }
 
+// Every field, nested by its path.
+std::string FieldsJson(const std::vector<Field>& fields) {
+  Json json = Json::object();
+  for (const Field& field : fields) At(&json, field.path) = field.get();
+  return json.dump();
+}
+
+// Sets the fields `json` names; `section` ("trainer", "detector") names the
+// options in errors: unknown keys and wrong types.
+void SetFields(const nlohmann::json& json,
+               const std::vector<Field>& fields,
+               const std::string& section,
+               const std::string& what) {
+  std::vector<std::pair<std::string, nlohmann::json>> leaves;
+  Flatten(json, "", &leaves);
+  for (const auto& [path, value] : leaves) {
+    const Field* field = nullptr;
+    for (const Field& f : fields) {
+      if (f.path == path) field = &f;
+    }
+    Require(field != nullptr, what + ": unknown " + section + " option '" + path + "'");
+    try {
+      field->set(value);
+    } catch (const nlohmann::json::exception&) {
+      throw InputError(what + ": " + section + " option '" + path + "' has the wrong type");
+    } catch (const InputError& error) {
+      throw InputError(what + ": " + section + " option " + error.what());
+    }
+  }
+}
+
 }  // namespace
 
 std::string TrainingOptionsJson(const TrainingOptions& options) {
   TrainingOptions copy = options;
-  Json json = Json::object();
-  for (const Field& field : FieldsOf(&copy)) At(&json, field.path) = field.get();
-  return json.dump();
+  return FieldsJson(FieldsOf(&copy));
+}
+
+std::string DetectorOptionsJson(const DetectorOptions& options) {
+  DetectorOptions copy = options;
+  return FieldsJson(FieldsOf(&copy));
+}
+
+DetectorOptions DetectorOptionsFromJson(const std::string& text, const std::string& what) {
+  nlohmann::json json = nlohmann::json(ParseUserJson(text, what));
+  // A run's options_json or an options file: its "detector" object (absent
+  // in a trainer-only file: the defaults).
+  if (json.is_object() && (json.contains("detector") || json.contains("trainer")))
+    json = json.contains("detector") ? json["detector"] : nlohmann::json::object();
+  Require(json.is_object(), what + ": detector options must be a JSON object");
+  DetectorOptions options;
+  SetFields(json, FieldsOf(&options), "detector", what);
+  try {
+    options.Check();
+  } catch (const InputError& error) {
+    throw InputError(what + ": " + error.what());
+  }
+  return options;
 }
 
 TrainingOptions TrainingOptionsFromJson(const std::string& text, const std::string& what) {
@@ -139,23 +227,7 @@ TrainingOptions TrainingOptionsFromJson(const std::string& text, const std::stri
     Require(json.is_object(), what + ": \"trainer\" must be a JSON object");
   }
   TrainingOptions options;
-  const std::vector<Field> fields = FieldsOf(&options);
-  std::vector<std::pair<std::string, nlohmann::json>> leaves;
-  Flatten(json, "", &leaves);
-  for (const auto& [path, value] : leaves) {
-    const Field* field = nullptr;
-    for (const Field& f : fields) {
-      if (f.path == path) field = &f;
-    }
-    Require(field != nullptr, what + ": unknown trainer option '" + path + "'");
-    try {
-      field->set(value);
-    } catch (const nlohmann::json::exception&) {
-      throw InputError(what + ": trainer option '" + path + "' has the wrong type");
-    } catch (const InputError& error) {
-      throw InputError(what + ": trainer option " + error.what());
-    }
-  }
+  SetFields(json, FieldsOf(&options), "trainer", what);
   try {
     options.trainer.Check();
     options.scan.Check();

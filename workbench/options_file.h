@@ -35,6 +35,12 @@ std::string TrainingOptionsJson(const TrainingOptions& options);
 // there) or a bare trainer object.
 TrainingOptions TrainingOptionsFromJson(const std::string& text, const std::string& what);
 
+// Every detector option as JSON (stored with each run), and back: reads a
+// whole options file or a run's options (their "detector" object; defaults
+// when a file has only "trainer") or a bare detector object.
+std::string DetectorOptionsJson(const DetectorOptions& options);
+DetectorOptions DetectorOptionsFromJson(const std::string& text, const std::string& what);
+
 // A whole options file: {"trainer": ..., "detector": ...}, pretty-printed.
 std::string OptionsFileJson(const TrainingOptions& training, const DetectorOptions& detector);
 

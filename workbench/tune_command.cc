@@ -25,8 +25,7 @@ using Json = nlohmann::ordered_json;
 // {"trainer": ..., "detector": ...} of the given options: the tree every
 // parameter path points into.
 Json CombinedJson(const TrainingOptions& training, const DetectorOptions& detector) {
-  return Json{{"trainer", Json::parse(TrainingOptionsJson(training))},
-              {"detector", Json::parse(DetectorOptionsJson(detector))}};
+  return Json::parse(OptionsFileJson(training, detector));
 }
 
 // The node at a dotted path, or nullptr when there is none.
@@ -313,8 +312,10 @@ class Tuning {
   Tuning(const Catalog& catalog, const TuneOptions& options)
       : catalog_(catalog),
         options_(options),
-        space_(ParseTuneSpace(ReadFileBytes(options.space_path), options.space_path)) {
+        space_text_(ReadFileBytes(options.space_path)),
+        space_(ParseTuneSpace(space_text_, options.space_path)) {
     LoadBase();
+    base_trainer_json_ = TrainingOptionsJson(base_training_);
     if (const std::set<std::string> names = MetricNames(); !names.count(options.objective)) {
       throw InputError("objective '" + options.objective +
                        "' is not a metric of evaluation runs (e.g. mAP@10cm, mAP@5cm, "
@@ -366,8 +367,7 @@ class Tuning {
   void CheckBaseModel() const {
     if (options_.base_model_path.empty()) return;
     const TrainedModel model = LoadTrainedModel(options_.base_model_path);
-    Require(TrainingOptionsJson({model.options, base_training_.scan}) ==
-                TrainingOptionsJson(base_training_),
+    Require(TrainingOptionsJson({model.options, base_training_.scan}) == base_trainer_json_,
             options_.base_model_path +
                 ": was trained with other trainer options than the base; leave out --model or "
                 "pass the options file it was trained with");
@@ -377,7 +377,7 @@ class Tuning {
   // latency bound: they only rank).
   std::string TuneId() const {
     return ShortHash(
-        Json{{"space", ParseUserJson(ReadFileBytes(options_.space_path), options_.space_path)},
+        Json{{"space", ParseUserJson(space_text_, options_.space_path)},
              {"strategy", options_.strategy == TuneStrategy::kGrid ? "grid" : "random"},
              {"trials", options_.trials},
              {"seed", options_.seed},
@@ -431,7 +431,7 @@ class Tuning {
   // the cache, trained when missing.
   std::string ModelFor(const TrainingOptions& training) {
     const std::string json = TrainingOptionsJson(training);
-    if (json == TrainingOptionsJson(base_training_) && !options_.base_model_path.empty())
+    if (json == base_trainer_json_ && !options_.base_model_path.empty())
       return options_.base_model_path;
     std::filesystem::create_directories(options_.work_dir + "/models");
     const std::string path =
@@ -510,7 +510,7 @@ class Tuning {
     row.metrics = metrics;
     row.within_latency =
         options_.max_ms <= 0 || MetricOrNan(metrics, "latency_p50_ms") <= options_.max_ms;
-    row.retrained = TrainingOptionsJson(trial.training) != TrainingOptionsJson(base_training_);
+    row.retrained = TrainingOptionsJson(trial.training) != base_trainer_json_;
     summary_.trials_resumed += resumed;
     std::printf("tune: trial %d (%d of %d)%s: %s = %.3f, p50 %.1f ms (run %lld) %s\n",
                 trial.index,
@@ -574,8 +574,10 @@ class Tuning {
 
   const Catalog& catalog_;
   const TuneOptions& options_;
+  const std::string space_text_;  // the space file, read once
   const TuneSpace space_;
   TrainingOptions base_training_;
+  std::string base_trainer_json_;  // TrainingOptionsJson(base_training_)
   DetectorOptions base_detector_;
   std::vector<TuneTrial> trials_;
   // (trial, split, seed) -> run id and the parameter values it ran with.
