@@ -5,7 +5,9 @@
 #include <algorithm>
 #include <cstring>
 #include <limits>
+#include <mutex>
 #include <stdexcept>
+#include <unordered_map>
 
 #include "core/parallel.h"
 
@@ -40,22 +42,6 @@ SceneKey KeyOf(const Scene& scene) {
 
 }  // namespace
 
-struct EmbreeCaster::Impl {
-  RTCDevice device = nullptr;
-  RTCScene scene = nullptr;
-  SceneKey key;
-  std::vector<std::shared_ptr<const TriangleMesh>> keep_alive;
-  std::vector<uint16_t> id_of_geometry;
-  MeshBoundsCache bounds_cache;
-
-  void ReleaseScene() {
-    if (scene != nullptr) rtcReleaseScene(scene);
-    scene = nullptr;
-    keep_alive.clear();
-    id_of_geometry.clear();
-  }
-};
-
 namespace {
 
 // One Embree device for the process: devices are thread-safe, and creating one
@@ -66,7 +52,117 @@ RTCDevice SharedDevice() {
   return device;
 }
 
+// Adds `mesh` to `scene` as one triangle geometry.
+void AttachTriangles(const TriangleMesh& mesh, RTCScene scene) {
+  RTCGeometry geometry = rtcNewGeometry(SharedDevice(), RTC_GEOMETRY_TYPE_TRIANGLE);
+  auto* vertices = static_cast<float*>(rtcSetNewGeometryBuffer(geometry,
+                                                               RTC_BUFFER_TYPE_VERTEX,
+                                                               0,
+                                                               RTC_FORMAT_FLOAT3,
+                                                               3 * sizeof(float),
+                                                               mesh.vertices.size()));
+  for (size_t i = 0; i < mesh.vertices.size(); ++i) {
+    Eigen::Map<Eigen::Vector3f>(vertices + 3 * i) = mesh.vertices[i];
+  }
+  auto* indices = static_cast<unsigned*>(rtcSetNewGeometryBuffer(geometry,
+                                                                 RTC_BUFFER_TYPE_INDEX,
+                                                                 0,
+                                                                 RTC_FORMAT_UINT3,
+                                                                 3 * sizeof(unsigned),
+                                                                 mesh.triangles.size()));
+  std::memcpy(indices, mesh.triangles.data(), mesh.triangles.size() * 3 * sizeof(unsigned));
+  rtcCommitGeometry(geometry);
+  rtcAttachGeometry(scene, geometry);
+  rtcReleaseGeometry(geometry);
+}
+
+// Object-space acceleration structures of meshes, shared by every caster of
+// the process and kept while their mesh lives: a catalog model placed in many
+// rooms, or an object cast alone for its amodal mask, is built once. Scenes
+// are then two-level: a small top-level structure over instances of these.
+class MeshBvhCache {
+ public:
+  static MeshBvhCache& Instance() {
+    static MeshBvhCache* cache = new MeshBvhCache;  // never destroyed: no exit-order issues
+    return *cache;
+  }
+
+  // The committed scene of `mesh` alone, retained for the caller (who
+  // releases it with rtcReleaseScene).
+  RTCScene Acquire(const std::shared_ptr<const TriangleMesh>& mesh) {
+    std::shared_ptr<Entry> entry;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      std::shared_ptr<Entry>& slot = entries_[mesh.get()];
+      // An expired entry at this address belonged to a freed mesh.
+      if (slot == nullptr || slot->mesh.expired()) slot = std::make_shared<Entry>(mesh);
+      entry = slot;
+      if (entries_.size() >= 2 * swept_size_) Sweep();
+    }
+    std::lock_guard<std::mutex> build_lock(entry->build);
+    if (entry->scene == nullptr) entry->scene = Build(*mesh);
+    rtcRetainScene(entry->scene);
+    return entry->scene;
+  }
+
+ private:
+  struct Entry {
+    explicit Entry(const std::shared_ptr<const TriangleMesh>& of) : mesh(of) {}
+    ~Entry() {
+      if (scene != nullptr) rtcReleaseScene(scene);
+    }
+    std::weak_ptr<const TriangleMesh> mesh;
+    RTCScene scene = nullptr;
+    std::mutex build;
+  };
+
+  static RTCScene Build(const TriangleMesh& mesh) {
+    RTCDevice device = SharedDevice();
+    RTCScene scene = rtcNewScene(device);
+    rtcSetSceneBuildQuality(scene, RTC_BUILD_QUALITY_MEDIUM);
+    AttachTriangles(mesh, scene);
+    rtcCommitScene(scene);
+    return scene;
+  }
+
+  // Drops entries whose mesh is gone (casters hold their own references).
+  void Sweep() {
+    for (auto it = entries_.begin(); it != entries_.end();) {
+      it = it->second->mesh.expired() ? entries_.erase(it) : std::next(it);
+    }
+    swept_size_ = std::max<size_t>(64, entries_.size());
+  }
+
+  std::mutex mutex_;
+  std::unordered_map<const TriangleMesh*, std::shared_ptr<Entry>> entries_;
+  size_t swept_size_ = 64;
+};
+
 }  // namespace
+
+struct EmbreeCaster::Impl {
+  RTCDevice device = nullptr;
+  RTCScene scene = nullptr;
+  SceneKey key;
+  std::vector<std::shared_ptr<const TriangleMesh>> keep_alive;
+  std::vector<RTCScene> mesh_scenes;  // retained from MeshBvhCache
+  // Per instance (top-level geometry id): its object's id, and the matrix
+  // taking object-space normals to the world (Embree reports the geometric
+  // normal of an instance hit in object space).
+  std::vector<uint16_t> id_of_geometry;
+  std::vector<Eigen::Matrix3f> world_from_object_normals;
+  MeshBoundsCache bounds_cache;
+
+  void ReleaseScene() {
+    if (scene != nullptr) rtcReleaseScene(scene);
+    scene = nullptr;
+    for (RTCScene mesh_scene : mesh_scenes) rtcReleaseScene(mesh_scene);
+    mesh_scenes.clear();
+    keep_alive.clear();
+    id_of_geometry.clear();
+    world_from_object_normals.clear();
+  }
+};
 
 EmbreeCaster::EmbreeCaster() : impl_(std::make_unique<Impl>()) { impl_->device = SharedDevice(); }
 
@@ -80,31 +176,26 @@ void EmbreeCaster::SetScene(const Scene& scene) {
   rtcSetSceneBuildQuality(impl_->scene, RTC_BUILD_QUALITY_MEDIUM);
   for (const SceneObject& object : scene.objects) {
     if (object.mesh == nullptr || object.mesh->Empty()) continue;
-    const TriangleMesh& mesh = *object.mesh;
-    RTCGeometry geometry = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_TRIANGLE);
-    auto* vertices = static_cast<float*>(rtcSetNewGeometryBuffer(geometry,
-                                                                 RTC_BUFFER_TYPE_VERTEX,
-                                                                 0,
-                                                                 RTC_FORMAT_FLOAT3,
-                                                                 3 * sizeof(float),
-                                                                 mesh.vertices.size()));
-    const Eigen::Isometry3f world_from_object = object.world_from_object.cast<float>();
-    for (size_t i = 0; i < mesh.vertices.size(); ++i) {
-      Eigen::Map<Eigen::Vector3f>(vertices + 3 * i) = world_from_object * mesh.vertices[i];
-    }
-    auto* indices = static_cast<unsigned*>(rtcSetNewGeometryBuffer(geometry,
-                                                                   RTC_BUFFER_TYPE_INDEX,
-                                                                   0,
-                                                                   RTC_FORMAT_UINT3,
-                                                                   3 * sizeof(unsigned),
-                                                                   mesh.triangles.size()));
-    std::memcpy(indices, mesh.triangles.data(), mesh.triangles.size() * 3 * sizeof(unsigned));
-    rtcCommitGeometry(geometry);
-    const unsigned geometry_id = rtcAttachGeometry(impl_->scene, geometry);
-    rtcReleaseGeometry(geometry);
-    if (impl_->id_of_geometry.size() <= geometry_id)
+    // Each object is an instance of its mesh's cached object-space structure:
+    // only this small top-level structure is built per scene.
+    RTCScene mesh_scene = MeshBvhCache::Instance().Acquire(object.mesh);
+    impl_->mesh_scenes.push_back(mesh_scene);
+    RTCGeometry instance = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_INSTANCE);
+    rtcSetGeometryInstancedScene(instance, mesh_scene);
+    const Eigen::Matrix<float, 3, 4> world_from_object =
+        object.world_from_object.matrix().topRows<3>().cast<float>();  // column-major
+    rtcSetGeometryTransform(
+        instance, 0, RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR, world_from_object.data());
+    rtcCommitGeometry(instance);
+    const unsigned geometry_id = rtcAttachGeometry(impl_->scene, instance);
+    rtcReleaseGeometry(instance);
+    if (impl_->id_of_geometry.size() <= geometry_id) {
       impl_->id_of_geometry.resize(geometry_id + 1, 0);
+      impl_->world_from_object_normals.resize(geometry_id + 1, Eigen::Matrix3f::Identity());
+    }
     impl_->id_of_geometry[geometry_id] = object.instance_id;
+    impl_->world_from_object_normals[geometry_id] =
+        object.world_from_object.linear().inverse().transpose().cast<float>();
     impl_->keep_alive.push_back(object.mesh);
   }
   rtcCommitScene(impl_->scene);
@@ -125,38 +216,54 @@ void EmbreeCaster::RenderInto(const Scene& scene,
   const Eigen::Vector3f origin = world_from_camera.translation().cast<float>();
   RTCScene rtc_scene = impl_->scene;
   const std::vector<uint16_t>& id_of_geometry = impl_->id_of_geometry;
+  std::vector<Eigen::Matrix3f> camera_from_object_normals;
+  for (const Eigen::Matrix3f& world_from_object : impl_->world_from_object_normals) {
+    camera_from_object_normals.push_back(rotation.transpose() * world_from_object);
+  }
 
   // Packets of 4 x 4 pixels: neighbouring rays traverse the same nodes.
   constexpr int kTile = 4;
   const int tiles_x = (camera.width + kTile - 1) / kTile;
   const int tiles_y = (camera.height + kTile - 1) / kTile;
+  // The ray through (u, v) is (x_u, y_v, 1) in the camera frame (z = 1: the hit
+  // distance t is the optical-axis depth); in the world it is x_u R.col(0) +
+  // y_v R.col(1) + R.col(2), of which the column and row parts are tabulated.
   std::vector<float> ray_x(tiles_x * kTile), ray_y(tiles_y * kTile);
-  for (size_t u = 0; u < ray_x.size(); ++u) ray_x[u] = camera.RayThroughPixel(u, 0).x();
-  for (size_t v = 0; v < ray_y.size(); ++v) ray_y[v] = camera.RayThroughPixel(0, v).y();
+  std::vector<Eigen::Vector3f> column_part(ray_x.size()), row_part(ray_y.size());
+  for (size_t u = 0; u < ray_x.size(); ++u) {
+    ray_x[u] = camera.RayThroughPixel(u, 0).x();
+    column_part[u] = ray_x[u] * rotation.col(0);
+  }
+  for (size_t v = 0; v < ray_y.size(); ++v) {
+    ray_y[v] = camera.RayThroughPixel(0, v).y();
+    row_part[v] = ray_y[v] * rotation.col(1) + rotation.col(2);
+  }
   ParallelFor(0, tiles_y, [&](int tile_row) {
     RTCIntersectContext context;
     rtcInitIntersectContext(&context);
     context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
     alignas(64) RTCRayHit16 packet;
     alignas(64) int valid[kPacket];
+    // Embree writes only tfar and the hit: the rest is set once.
+    for (int k = 0; k < kPacket; ++k) {
+      packet.ray.org_x[k] = origin.x();
+      packet.ray.org_y[k] = origin.y();
+      packet.ray.org_z[k] = origin.z();
+      packet.ray.tnear[k] = 0.0f;
+      packet.ray.time[k] = 0.0f;
+      packet.ray.mask[k] = 0xFFFFFFFFu;
+      packet.ray.id[k] = static_cast<unsigned>(k);
+      packet.ray.flags[k] = 0;
+    }
     for (int tile_column = 0; tile_column < tiles_x; ++tile_column) {
       for (int k = 0; k < kPacket; ++k) {
         const int u = tile_column * kTile + k % kTile, v = tile_row * kTile + k / kTile;
         valid[k] = u < camera.width && v < camera.height ? -1 : 0;
-        // z = 1 in the camera frame: the hit distance t is the optical-axis depth.
-        const Eigen::Vector3f direction = rotation * Eigen::Vector3f(ray_x[u], ray_y[v], 1.0f);
-        packet.ray.org_x[k] = origin.x();
-        packet.ray.org_y[k] = origin.y();
-        packet.ray.org_z[k] = origin.z();
+        const Eigen::Vector3f direction = column_part[u] + row_part[v];
         packet.ray.dir_x[k] = direction.x();
         packet.ray.dir_y[k] = direction.y();
         packet.ray.dir_z[k] = direction.z();
-        packet.ray.tnear[k] = 0.0f;
         packet.ray.tfar[k] = std::numeric_limits<float>::infinity();
-        packet.ray.time[k] = 0.0f;
-        packet.ray.mask[k] = 0xFFFFFFFFu;
-        packet.ray.id[k] = static_cast<unsigned>(k);
-        packet.ray.flags[k] = 0;
         packet.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
         packet.hit.instID[0][k] = RTC_INVALID_GEOMETRY_ID;
       }
@@ -171,11 +278,13 @@ void EmbreeCaster::RenderInto(const Scene& scene,
           if (normals) frame.normals[index].setZero();
           continue;
         }
+        const unsigned geometry = packet.hit.instID[0][k];  // the instance (object) hit
         frame.depth[index] = packet.ray.tfar[k];
-        frame.instance_ids[index] = id_of_geometry[packet.hit.geomID[k]];
+        frame.instance_ids[index] = id_of_geometry[geometry];
         if (!normals) continue;
+        // Embree reports the object-space normal of an instance hit.
         Eigen::Vector3f normal =
-            rotation.transpose() *
+            camera_from_object_normals[geometry] *
             Eigen::Vector3f(packet.hit.Ng_x[k], packet.hit.Ng_y[k], packet.hit.Ng_z[k]);
         normal.normalize();
         if (normal.dot(Eigen::Vector3f(ray_x[u], ray_y[v], 1.0f)) > 0) normal = -normal;

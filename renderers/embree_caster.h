@@ -1,8 +1,11 @@
 // Ray caster on Intel Embree 3 with the same camera API and outputs as the
 // OSMesa renderer (ideal depth, instance ids, normals). Rays go in packets of
-// 16 along image rows; rows run in parallel. The acceleration structure is
-// rebuilt only when the scene changes (other meshes, poses or ids), so many
-// views of one room cost one build.
+// 4 x 4 pixels; rows of packets run in parallel. Scenes are two-level: each
+// mesh gets one object-space acceleration structure for the process (kept
+// while the mesh lives, shared by all casters), and a scene is a small
+// top-level structure over instances of them, rebuilt only when the scene
+// changes (other meshes, poses or ids). A catalog model placed in many rooms,
+// and an object cast alone for its amodal mask, cost one build.
 //
 //   EmbreeCaster caster;
 //   DepthFrame frame = caster.Render(scene, CameraIntrinsics::KinectV1(),

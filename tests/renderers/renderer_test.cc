@@ -6,6 +6,7 @@
 
 #include "core/error.h"
 #include "renderers/depth_renderer.h"
+#include "renderers/embree_caster.h"
 #include "renderers/kinect_noise.h"
 #include "tests/renderers/render_fixtures.h"
 
@@ -71,6 +72,54 @@ TEST_P(RendererTest, IdsAndNormalsOfABoxInFrontOfAWall) {
   EXPECT_EQ(frame.IdAt(319 + 79, 240), kWallId);
   EXPECT_EQ(frame.IdAt(320 - 76, 240), 42);
   EXPECT_EQ(frame.IdAt(320 - 79, 240), kWallId);
+}
+
+// Embree casts objects as instances of object-space structures and gets their
+// normals in object space: a rotated object checks the transform.
+TEST_P(RendererTest, DepthAndNormalOfARotatedObject) {
+  Scene scene;
+  scene.objects.push_back(testing::WallAt(4.0));
+  SceneObject box = testing::BoxAt(-0.15, -0.3, 0.3, -0.3, 0.3, 42);  // centred on the origin
+  const double yaw = 30 * M_PI / 180;
+  box.world_from_object =
+      Eigen::Translation3d(0, 2, 0) * Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ());
+  scene.objects.push_back(box);
+  const Eigen::Isometry3d world_from_camera = testing::CameraAtOriginLookingAlongY();
+  const DepthFrame frame = renderer_->Render(scene, camera_, world_from_camera);
+  // The front face: normal R (0, -1, 0), through the pose of (0, -0.15, 0).
+  const Eigen::Vector3d normal = box.world_from_object.linear() * -Eigen::Vector3d::UnitY();
+  const Eigen::Vector3d on_face = box.world_from_object * Eigen::Vector3d(0, -0.15, 0);
+  const Eigen::Vector3d ray =
+      world_from_camera.linear() * camera_.RayThroughPixel(320, 240).cast<double>();
+  const double depth = normal.dot(on_face - world_from_camera.translation()) / normal.dot(ray);
+  ASSERT_EQ(frame.IdAt(320, 240), 42);
+  EXPECT_NEAR(frame.DepthAt(320, 240), depth, 1e-4);
+  const Eigen::Vector3f expected = (world_from_camera.linear().transpose() * normal).cast<float>();
+  EXPECT_TRUE(frame.normals[frame.Index(320, 240)].isApprox(expected, 1e-4f))
+      << frame.normals[frame.Index(320, 240)].transpose() << " vs " << expected.transpose();
+}
+
+// One mesh placed twice (as the room composer does with a set of chairs).
+TEST_P(RendererTest, OneMeshPlacedTwiceShowsBothPlacements) {
+  Scene scene;
+  scene.objects.push_back(testing::WallAt(4.0));
+  SceneObject left = testing::BoxAt(0, -0.2, 0.2, -0.2, 0.2, 42);
+  SceneObject right = left;  // shares the mesh
+  left.world_from_object = Eigen::Translation3d(-0.5, 2, 0);
+  right.world_from_object = Eigen::Translation3d(0.5, 2.5, 0);
+  right.instance_id = 43;
+  scene.objects.push_back(left);
+  scene.objects.push_back(right);
+  const Eigen::Isometry3d world_from_camera = testing::CameraAtOriginLookingAlongY();
+  const DepthFrame frame = renderer_->Render(scene, camera_, world_from_camera);
+  const Eigen::Vector2d left_pixel =
+      camera_.Project(world_from_camera.inverse() * Eigen::Vector3d(-0.5, 2.0, 0));
+  const Eigen::Vector2d right_pixel =
+      camera_.Project(world_from_camera.inverse() * Eigen::Vector3d(0.5, 2.5, 0));
+  EXPECT_EQ(frame.IdAt(left_pixel.x(), left_pixel.y()), 42);
+  EXPECT_NEAR(frame.DepthAt(left_pixel.x(), left_pixel.y()), 2.0f, 1e-4f);
+  EXPECT_EQ(frame.IdAt(right_pixel.x(), right_pixel.y()), 43);
+  EXPECT_NEAR(frame.DepthAt(right_pixel.x(), right_pixel.y()), 2.5f, 1e-4f);
 }
 
 TEST_P(RendererTest, EmptySceneIsRejected) {
@@ -158,6 +207,27 @@ TEST(RendererCrossCheck, OsMesaAndEmbreeAgreeOnAFurnishedRoom) {
   EXPECT_GT(objects_seen, 30000u) << "the furniture should fill a good part of the view";
   EXPECT_GE(static_cast<double>(depth_agree) / both, 0.995) << depth_agree << " of " << both;
   EXPECT_GE(static_cast<double>(id_agree) / both, 0.995) << id_agree << " of " << both;
+}
+
+// Embree keeps one acceleration structure per live mesh for the process. A
+// mesh built where a freed one was must get its own, not the stale one.
+TEST(EmbreeMeshCache, MeshAtTheAddressOfAFreedOneIsRebuilt) {
+  const CameraIntrinsics camera = CameraIntrinsics::KinectV1();
+  const Eigen::Isometry3d world_from_camera = testing::CameraAtOriginLookingAlongY();
+  // Both meshes live in this storage, one after the other: the same address.
+  alignas(TriangleMesh) unsigned char storage[sizeof(TriangleMesh)];
+  auto render_box_at = [&](double front) {
+    SceneObject box = testing::BoxAt(front, -0.5, 0.5, -0.5, 0.5, 42);
+    box.mesh = std::shared_ptr<const TriangleMesh>(
+        new (storage) TriangleMesh(*box.mesh),
+        [](const TriangleMesh* mesh) { mesh->~TriangleMesh(); });
+    Scene scene;
+    scene.objects.push_back(box);
+    EmbreeCaster caster;
+    return caster.Render(scene, camera, world_from_camera).DepthAt(320, 240);
+  };
+  EXPECT_NEAR(render_box_at(1.0), 1.0f, 1e-4f);
+  EXPECT_NEAR(render_box_at(2.0), 2.0f, 1e-4f);
 }
 
 TEST(RendererKinds, NamesParse) {
