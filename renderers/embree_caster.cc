@@ -52,8 +52,14 @@ RTCDevice SharedDevice() {
   return device;
 }
 
-// Adds `mesh` to `scene` as one triangle geometry.
-void AttachTriangles(const TriangleMesh& mesh, RTCScene scene) {
+// Meshes this small go into a scene's top level as world-space triangles.
+constexpr size_t kMaxFlatTriangles = 64;
+
+// Adds `mesh`, moved by `world_from_object`, to `scene` as one triangle
+// geometry; returns its geometry id.
+unsigned AttachTriangles(const TriangleMesh& mesh,
+                         const Eigen::Isometry3f& world_from_object,
+                         RTCScene scene) {
   RTCGeometry geometry = rtcNewGeometry(SharedDevice(), RTC_GEOMETRY_TYPE_TRIANGLE);
   auto* vertices = static_cast<float*>(rtcSetNewGeometryBuffer(geometry,
                                                                RTC_BUFFER_TYPE_VERTEX,
@@ -62,7 +68,7 @@ void AttachTriangles(const TriangleMesh& mesh, RTCScene scene) {
                                                                3 * sizeof(float),
                                                                mesh.vertices.size()));
   for (size_t i = 0; i < mesh.vertices.size(); ++i) {
-    Eigen::Map<Eigen::Vector3f>(vertices + 3 * i) = mesh.vertices[i];
+    Eigen::Map<Eigen::Vector3f>(vertices + 3 * i) = world_from_object * mesh.vertices[i];
   }
   auto* indices = static_cast<unsigned*>(rtcSetNewGeometryBuffer(geometry,
                                                                  RTC_BUFFER_TYPE_INDEX,
@@ -72,8 +78,9 @@ void AttachTriangles(const TriangleMesh& mesh, RTCScene scene) {
                                                                  mesh.triangles.size()));
   std::memcpy(indices, mesh.triangles.data(), mesh.triangles.size() * 3 * sizeof(unsigned));
   rtcCommitGeometry(geometry);
-  rtcAttachGeometry(scene, geometry);
+  const unsigned geometry_id = rtcAttachGeometry(scene, geometry);
   rtcReleaseGeometry(geometry);
+  return geometry_id;
 }
 
 // Object-space acceleration structures of meshes, shared by every caster of
@@ -120,7 +127,7 @@ class MeshBvhCache {
     RTCDevice device = SharedDevice();
     RTCScene scene = rtcNewScene(device);
     rtcSetSceneBuildQuality(scene, RTC_BUILD_QUALITY_MEDIUM);
-    AttachTriangles(mesh, scene);
+    AttachTriangles(mesh, Eigen::Isometry3f::Identity(), scene);
     rtcCommitScene(scene);
     return scene;
   }
@@ -176,26 +183,35 @@ void EmbreeCaster::SetScene(const Scene& scene) {
   rtcSetSceneBuildQuality(impl_->scene, RTC_BUILD_QUALITY_MEDIUM);
   for (const SceneObject& object : scene.objects) {
     if (object.mesh == nullptr || object.mesh->Empty()) continue;
-    // Each object is an instance of its mesh's cached object-space structure:
-    // only this small top-level structure is built per scene.
-    RTCScene mesh_scene = MeshBvhCache::Instance().Acquire(object.mesh);
-    impl_->mesh_scenes.push_back(mesh_scene);
-    RTCGeometry instance = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_INSTANCE);
-    rtcSetGeometryInstancedScene(instance, mesh_scene);
-    const Eigen::Matrix<float, 3, 4> world_from_object =
-        object.world_from_object.matrix().topRows<3>().cast<float>();  // column-major
-    rtcSetGeometryTransform(
-        instance, 0, RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR, world_from_object.data());
-    rtcCommitGeometry(instance);
-    const unsigned geometry_id = rtcAttachGeometry(impl_->scene, instance);
-    rtcReleaseGeometry(instance);
+    unsigned geometry_id;
+    Eigen::Matrix3f world_from_object_normals = Eigen::Matrix3f::Identity();
+    if (object.mesh->NumTriangles() <= kMaxFlatTriangles) {
+      // Walls, floor and other boxes: world-space triangles in the top level
+      // (rays meeting them skip an instance transform).
+      geometry_id =
+          AttachTriangles(*object.mesh, object.world_from_object.cast<float>(), impl_->scene);
+    } else {
+      // An instance of the mesh's cached object-space structure: nothing to build.
+      RTCScene mesh_scene = MeshBvhCache::Instance().Acquire(object.mesh);
+      impl_->mesh_scenes.push_back(mesh_scene);
+      RTCGeometry instance = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_INSTANCE);
+      rtcSetGeometryInstancedScene(instance, mesh_scene);
+      const Eigen::Matrix<float, 3, 4> world_from_object =
+          object.world_from_object.matrix().topRows<3>().cast<float>();  // column-major
+      rtcSetGeometryTransform(
+          instance, 0, RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR, world_from_object.data());
+      rtcCommitGeometry(instance);
+      geometry_id = rtcAttachGeometry(impl_->scene, instance);
+      rtcReleaseGeometry(instance);
+      world_from_object_normals =
+          object.world_from_object.linear().inverse().transpose().cast<float>();
+    }
     if (impl_->id_of_geometry.size() <= geometry_id) {
       impl_->id_of_geometry.resize(geometry_id + 1, 0);
       impl_->world_from_object_normals.resize(geometry_id + 1, Eigen::Matrix3f::Identity());
     }
     impl_->id_of_geometry[geometry_id] = object.instance_id;
-    impl_->world_from_object_normals[geometry_id] =
-        object.world_from_object.linear().inverse().transpose().cast<float>();
+    impl_->world_from_object_normals[geometry_id] = world_from_object_normals;
     impl_->keep_alive.push_back(object.mesh);
   }
   rtcCommitScene(impl_->scene);
@@ -278,7 +294,10 @@ void EmbreeCaster::RenderInto(const Scene& scene,
           if (normals) frame.normals[index].setZero();
           continue;
         }
-        const unsigned geometry = packet.hit.instID[0][k];  // the instance (object) hit
+        // An instance hit is named by instID, a top-level triangle by geomID.
+        const unsigned geometry = packet.hit.instID[0][k] != RTC_INVALID_GEOMETRY_ID
+                                      ? packet.hit.instID[0][k]
+                                      : packet.hit.geomID[k];
         frame.depth[index] = packet.ray.tfar[k];
         frame.instance_ids[index] = id_of_geometry[geometry];
         if (!normals) continue;

@@ -3,9 +3,11 @@
 // 4 x 4 pixels; rows of packets run in parallel. Scenes are two-level: each
 // mesh gets one object-space acceleration structure for the process (kept
 // while the mesh lives, shared by all casters), and a scene is a small
-// top-level structure over instances of them, rebuilt only when the scene
-// changes (other meshes, poses or ids). A catalog model placed in many rooms,
-// and an object cast alone for its amodal mask, cost one build.
+// top-level structure over instances of them (and over the world-space
+// triangles of meshes of up to 64 triangles, such as walls and floor), rebuilt
+// only when the scene changes (other meshes, poses or ids). A catalog model
+// placed in many rooms, and an object cast alone for its amodal mask, cost one
+// build.
 //
 //   EmbreeCaster caster;
 //   DepthFrame frame = caster.Render(scene, CameraIntrinsics::KinectV1(),

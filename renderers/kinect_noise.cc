@@ -218,21 +218,31 @@ void KinectNoiseModel::Apply(const DepthFrame& ideal,
   }
   const float min_cosine = static_cast<float>(std::cos(options.max_incidence_deg * M_PI / 180));
   const float edge_jump = static_cast<float>(options.edge_jump_m);
+  // Raw pointers: the compiler cannot keep vector members in registers across
+  // the stores of the loops below.
+  const float* const depth = ideal.depth.data();
+  const Eigen::Vector3f* const normals = ideal.normals.data();
+  const Eigen::Vector3f* const rays = unit_rays_.data();
+  const uint8_t* const shadow = shadow_.data();
+  float* const cosines = incidence_cosine_.data();
+  uint8_t* const returns = returns_.data();
   ParallelFor(0, height, [&](int v) {
     FastRng rng(DeriveSeed(seed, kDropoutStream + v));
+    const size_t row = static_cast<size_t>(v) * width;
     for (int u = 0; u < width; ++u) {
-      const size_t i = ideal.Index(u, v);
-      const float z = ideal.depth[i];
+      const size_t i = row + u;
+      const float z = depth[i];
       if (z <= 0) continue;
-      incidence_cosine_[i] = std::min(1.0f, std::abs(ideal.normals[i].dot(unit_rays_[i])));
-      bool keep = !shadow_[i];
+      const float cosine = std::min(1.0f, std::abs(normals[i].dot(rays[i])));
+      cosines[i] = cosine;
+      bool keep = !shadow[i];
       if (options.range_limits) keep = keep && z >= options.min_range_m && z <= options.max_range_m;
-      if (options.incidence_dropout) keep = keep && incidence_cosine_[i] >= min_cosine;
+      if (options.incidence_dropout) keep = keep && cosine >= min_cosine;
       if (options.edge_dropout && IsDepthEdge(ideal, u, v, edge_jump)) {
         // Drawn whether or not the pixel is kept, so streams do not depend on other effects.
         keep = rng.Uniform01() >= options.edge_dropout_probability && keep;
       }
-      returns_[i] = keep;
+      returns[i] = keep;
     }
   });
 
@@ -257,24 +267,29 @@ void KinectNoiseModel::Apply(const DepthFrame& ideal,
   const size_t tabulated_steps = depth_of_steps_.size();
   const LateralOffsetTable& lateral = LateralOffsets();
   const AxialAngleTable& axial_angle = AxialAngles();
+  const double* const depth_of_steps = depth_of_steps_.data();
+  const uint16_t* const ideal_ids = ideal.instance_ids.data();
+  float* const noisy_depth = noisy.depth.data();
+  uint16_t* const noisy_ids = noisy.instance_ids.data();
   ParallelFor(0, height, [&](int v) {
     FastRng rng(DeriveSeed(seed, kNoiseStream + v));
+    const size_t row = static_cast<size_t>(v) * width;
     for (int u = 0; u < width; ++u) {
       int su = u, sv = v;
       if (options.lateral_noise) {
         int du, dv;
-        lateral.Draw(incidence_cosine_[ideal.Index(u, v)], rng.Next(), &du, &dv);
+        lateral.Draw(cosines[row + u], rng.Next(), &du, &dv);
         su += du;
         sv += dv;
       }
       if (su < 0 || sv < 0 || su >= width || sv >= height) continue;
-      const size_t source = ideal.Index(su, sv);
-      if (!returns_[source]) continue;
-      double z = ideal.depth[source];
+      const size_t source = static_cast<size_t>(sv) * width + su;
+      if (!returns[source]) continue;
+      double z = depth[source];
       if (options.axial_noise) {
         // sigma_z of Nguyen et al.: the angle term applies above 60 degrees.
         double sigma = 0.0012 + 0.0019 * (z - 0.4) * (z - 0.4);
-        const float angle_factor = axial_angle.Factor(incidence_cosine_[source]);
+        const float angle_factor = axial_angle.Factor(cosines[source]);
         if (angle_factor > 0) sigma += 0.0001 / std::sqrt(z) * angle_factor;
         z += sigma * rng.Normal();
       }
@@ -283,12 +298,11 @@ void KinectNoiseModel::Apply(const DepthFrame& ideal,
         const int64_t steps = static_cast<int64_t>(steps_per_metre / z + 0.5);
         if (steps < 1) continue;  // beyond the farthest representable depth
         z = static_cast<size_t>(steps) < tabulated_steps
-                ? depth_of_steps_[steps]
+                ? depth_of_steps[steps]
                 : steps_per_metre / static_cast<double>(steps);
       }
-      const size_t target = noisy.Index(u, v);
-      noisy.depth[target] = static_cast<float>(z);
-      noisy.instance_ids[target] = ideal.instance_ids[source];
+      noisy_depth[row + u] = static_cast<float>(z);
+      noisy_ids[row + u] = ideal_ids[source];
     }
   });
 }

@@ -13,6 +13,30 @@
 namespace furn {
 namespace {
 
+// `object` with each triangle split into four, `times` times: Embree puts
+// meshes of up to 64 triangles into a scene's top level and instances larger
+// ones, and both paths need testing.
+SceneObject Subdivided(SceneObject object, int times) {
+  TriangleMesh mesh = *object.mesh;
+  for (int pass = 0; pass < times; ++pass) {
+    std::vector<Eigen::Vector3i> triangles;
+    for (const Eigen::Vector3i& t : mesh.triangles) {
+      int middle[3];
+      for (int e = 0; e < 3; ++e) {
+        middle[e] = static_cast<int>(mesh.vertices.size());
+        mesh.vertices.push_back(0.5f * (mesh.vertices[t[e]] + mesh.vertices[t[(e + 1) % 3]]));
+      }
+      triangles.push_back({t[0], middle[0], middle[2]});
+      triangles.push_back({middle[0], t[1], middle[1]});
+      triangles.push_back({middle[2], middle[1], t[2]});
+      triangles.push_back({middle[0], middle[1], middle[2]});
+    }
+    mesh.triangles = std::move(triangles);
+  }
+  object.mesh = std::make_shared<const TriangleMesh>(std::move(mesh));
+  return object;
+}
+
 class RendererTest : public ::testing::TestWithParam<RendererKind> {
  protected:
   std::unique_ptr<DepthRenderer> renderer_ = MakeRenderer(GetParam());
@@ -74,36 +98,41 @@ TEST_P(RendererTest, IdsAndNormalsOfABoxInFrontOfAWall) {
   EXPECT_EQ(frame.IdAt(320 - 79, 240), kWallId);
 }
 
-// Embree casts objects as instances of object-space structures and gets their
-// normals in object space: a rotated object checks the transform.
+// A rotated box, small (Embree: world-space triangles in the top level) and
+// subdivided (an instance, whose hit normals come in object space).
 TEST_P(RendererTest, DepthAndNormalOfARotatedObject) {
-  Scene scene;
-  scene.objects.push_back(testing::WallAt(4.0));
-  SceneObject box = testing::BoxAt(-0.15, -0.3, 0.3, -0.3, 0.3, 42);  // centred on the origin
-  const double yaw = 30 * M_PI / 180;
-  box.world_from_object =
-      Eigen::Translation3d(0, 2, 0) * Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ());
-  scene.objects.push_back(box);
-  const Eigen::Isometry3d world_from_camera = testing::CameraAtOriginLookingAlongY();
-  const DepthFrame frame = renderer_->Render(scene, camera_, world_from_camera);
-  // The front face: normal R (0, -1, 0), through the pose of (0, -0.15, 0).
-  const Eigen::Vector3d normal = box.world_from_object.linear() * -Eigen::Vector3d::UnitY();
-  const Eigen::Vector3d on_face = box.world_from_object * Eigen::Vector3d(0, -0.15, 0);
-  const Eigen::Vector3d ray =
-      world_from_camera.linear() * camera_.RayThroughPixel(320, 240).cast<double>();
-  const double depth = normal.dot(on_face - world_from_camera.translation()) / normal.dot(ray);
-  ASSERT_EQ(frame.IdAt(320, 240), 42);
-  EXPECT_NEAR(frame.DepthAt(320, 240), depth, 1e-4);
-  const Eigen::Vector3f expected = (world_from_camera.linear().transpose() * normal).cast<float>();
-  EXPECT_TRUE(frame.normals[frame.Index(320, 240)].isApprox(expected, 1e-4f))
-      << frame.normals[frame.Index(320, 240)].transpose() << " vs " << expected.transpose();
+  for (int subdivisions : {0, 2}) {
+    SCOPED_TRACE(subdivisions);
+    Scene scene;
+    scene.objects.push_back(testing::WallAt(4.0));
+    SceneObject box = Subdivided(testing::BoxAt(-0.15, -0.3, 0.3, -0.3, 0.3, 42),
+                                 subdivisions);  // centred on the origin
+    const double yaw = 30 * M_PI / 180;
+    box.world_from_object =
+        Eigen::Translation3d(0, 2, 0) * Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ());
+    scene.objects.push_back(box);
+    const Eigen::Isometry3d world_from_camera = testing::CameraAtOriginLookingAlongY();
+    const DepthFrame frame = renderer_->Render(scene, camera_, world_from_camera);
+    // The front face: normal R (0, -1, 0), through the pose of (0, -0.15, 0).
+    const Eigen::Vector3d normal = box.world_from_object.linear() * -Eigen::Vector3d::UnitY();
+    const Eigen::Vector3d on_face = box.world_from_object * Eigen::Vector3d(0, -0.15, 0);
+    const Eigen::Vector3d ray =
+        world_from_camera.linear() * camera_.RayThroughPixel(320, 240).cast<double>();
+    const double depth = normal.dot(on_face - world_from_camera.translation()) / normal.dot(ray);
+    ASSERT_EQ(frame.IdAt(320, 240), 42);
+    EXPECT_NEAR(frame.DepthAt(320, 240), depth, 1e-4);
+    const Eigen::Vector3f expected =
+        (world_from_camera.linear().transpose() * normal).cast<float>();
+    EXPECT_TRUE(frame.normals[frame.Index(320, 240)].isApprox(expected, 1e-4f))
+        << frame.normals[frame.Index(320, 240)].transpose() << " vs " << expected.transpose();
+  }
 }
 
 // One mesh placed twice (as the room composer does with a set of chairs).
 TEST_P(RendererTest, OneMeshPlacedTwiceShowsBothPlacements) {
   Scene scene;
   scene.objects.push_back(testing::WallAt(4.0));
-  SceneObject left = testing::BoxAt(0, -0.2, 0.2, -0.2, 0.2, 42);
+  SceneObject left = Subdivided(testing::BoxAt(0, -0.2, 0.2, -0.2, 0.2, 42), 2);
   SceneObject right = left;  // shares the mesh
   left.world_from_object = Eigen::Translation3d(-0.5, 2, 0);
   right.world_from_object = Eigen::Translation3d(0.5, 2.5, 0);
@@ -219,7 +248,7 @@ TEST(EmbreeMeshCache, MeshAtTheAddressOfAFreedOneIsRebuilt) {
   auto render_box_at = [&](double front) {
     SceneObject box = testing::BoxAt(front, -0.5, 0.5, -0.5, 0.5, 42);
     box.mesh = std::shared_ptr<const TriangleMesh>(
-        new (storage) TriangleMesh(*box.mesh),
+        new (storage) TriangleMesh(*Subdivided(box, 2).mesh),
         [](const TriangleMesh* mesh) { mesh->~TriangleMesh(); });
     Scene scene;
     scene.objects.push_back(box);
