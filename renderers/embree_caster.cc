@@ -40,10 +40,6 @@ SceneKey KeyOf(const Scene& scene) {
   return key;
 }
 
-}  // namespace
-
-namespace {
-
 // One Embree device for the process: devices are thread-safe, and creating one
 // per caster would cost more than the small per-object scenes it serves.
 RTCDevice SharedDevice() {
