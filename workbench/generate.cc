@@ -1,10 +1,10 @@
 #include "workbench/generate.h"
 
+#include <atomic>
 #include <chrono>
 #include <cstdlib>
 #include <future>
 #include <map>
-#include <mutex>
 #include <nlohmann/json.hpp>
 #include <set>
 
@@ -143,20 +143,15 @@ class RoomGenerator {
     rooms.resize(room_indices.size());
     std::vector<GenerateSummary> times(room_indices.size());
     std::vector<std::map<std::string, std::shared_ptr<const TriangleMesh>>> meshes;
-    for (int64_t k : room_indices) meshes.push_back(LoadMeshes(prefetched_.at(k)));
-    std::mutex slot_mutex;
-    std::vector<Worker*> idle;
-    for (auto& worker : workers_) idle.push_back(worker.get());
-    ParallelFor(0, static_cast<int>(room_indices.size()), [&](int r) {
-      Worker* worker;
-      {
-        std::lock_guard<std::mutex> lock(slot_mutex);
-        worker = idle.back();
-        idle.pop_back();
+    for (int64_t k : room_indices) meshes.push_back(MeshesOf(prefetched_.at(k)));
+    // One loop per worker, each taking the next room not taken yet: a worker
+    // never renders two rooms at once, and a single worker (OSMesa) renders
+    // them one after another.
+    std::atomic<size_t> next_room{0};
+    ParallelFor(0, Slots(), [&](int slot) {
+      for (size_t r = next_room++; r < room_indices.size(); r = next_room++) {
+        rooms[r] = Generate(room_indices[r], meshes[r], workers_[slot].get(), &times[r]);
       }
-      rooms[r] = Generate(room_indices[r], meshes[r], worker, &times[r]);
-      std::lock_guard<std::mutex> lock(slot_mutex);
-      idle.push_back(worker);
     });
     for (int64_t k : room_indices) {
       for (const PlacedObject& object : prefetched_.at(k).objects)
@@ -272,13 +267,12 @@ class RoomGenerator {
                        DeriveSeed(options_.seed, static_cast<uint64_t>(room_index)));
   }
 
-  std::map<std::string, std::shared_ptr<const TriangleMesh>> LoadMeshes(const RoomLayout& layout) {
-    ImportModels({&layout});
+  // The meshes of `layout`'s models (imported by Prefetch).
+  std::map<std::string, std::shared_ptr<const TriangleMesh>> MeshesOf(
+      const RoomLayout& layout) const {
     std::map<std::string, std::shared_ptr<const TriangleMesh>> meshes;
-    for (const PlacedObject& object : layout.objects) {
-      const CachedModel& cached = mesh_cache_.at(object.model_id);
-      meshes[object.model_id] = cached.mesh;
-    }
+    for (const PlacedObject& object : layout.objects)
+      meshes[object.model_id] = mesh_cache_.at(object.model_id).mesh;
     return meshes;
   }
 

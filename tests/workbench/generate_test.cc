@@ -117,6 +117,21 @@ TEST(Generate, SameSeedSameDatabaseDifferentSeedDifferent) {
   EXPECT_EQ(Dump(dir + "/a.db"), Dump(dir + "/b.db"));
 }
 
+// OSMesa has one context, so its rooms render one after another (with Embree
+// a room per core): same rows either way apart from the rendered pixels.
+TEST(Generate, OsMesaRendererGeneratesEveryRoom) {
+  const std::string dir = testing::ScratchDir();
+  GenerateOptions options = SmallRun(3, 7);
+  options.renderer = RendererKind::kOsMesa;
+  const GenerateSummary summary =
+      GenerateDataset(OpenCatalog("procedural:2"), options, dir + "/o.db");
+  EXPECT_EQ(summary.workers, 1);
+  EXPECT_EQ(summary.rooms_written, 3);
+  EXPECT_EQ(summary.frames_written, 6);
+  DatasetDb db(dir + "/o.db", DatasetDb::Mode::kReadOnly);
+  EXPECT_EQ(db.RoomIds(), (std::vector<int64_t>{0, 1, 2}));
+}
+
 TEST(Generate, TwoShardsMergedEqualOneRun) {
   const std::string dir = testing::ScratchDir();
   const Catalog catalog = OpenCatalog("procedural:2");
