@@ -144,7 +144,6 @@ class MeshBvhCache {
 }  // namespace
 
 struct EmbreeCaster::Impl {
-  RTCDevice device = nullptr;
   RTCScene scene = nullptr;
   SceneKey key;
   std::vector<std::shared_ptr<const TriangleMesh>> keep_alive;
@@ -167,7 +166,9 @@ struct EmbreeCaster::Impl {
   }
 };
 
-EmbreeCaster::EmbreeCaster() : impl_(std::make_unique<Impl>()) { impl_->device = SharedDevice(); }
+EmbreeCaster::EmbreeCaster() : impl_(std::make_unique<Impl>()) {
+  SharedDevice();  // throws here, not at the first render, when Embree cannot start
+}
 
 EmbreeCaster::~EmbreeCaster() { impl_->ReleaseScene(); }
 
@@ -175,7 +176,7 @@ void EmbreeCaster::SetScene(const Scene& scene) {
   SceneKey key = KeyOf(scene);
   if (impl_->scene != nullptr && key == impl_->key) return;
   impl_->ReleaseScene();
-  impl_->scene = rtcNewScene(impl_->device);
+  impl_->scene = rtcNewScene(SharedDevice());
   rtcSetSceneBuildQuality(impl_->scene, RTC_BUILD_QUALITY_MEDIUM);
   for (const SceneObject& object : scene.objects) {
     if (object.mesh == nullptr || object.mesh->Empty()) continue;
@@ -190,7 +191,7 @@ void EmbreeCaster::SetScene(const Scene& scene) {
       // An instance of the mesh's cached object-space structure: nothing to build.
       RTCScene mesh_scene = MeshBvhCache::Instance().Acquire(object.mesh);
       impl_->mesh_scenes.push_back(mesh_scene);
-      RTCGeometry instance = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_INSTANCE);
+      RTCGeometry instance = rtcNewGeometry(SharedDevice(), RTC_GEOMETRY_TYPE_INSTANCE);
       rtcSetGeometryInstancedScene(instance, mesh_scene);
       const Eigen::Matrix<float, 3, 4> world_from_object =
           object.world_from_object.matrix().topRows<3>().cast<float>();  // column-major
@@ -229,8 +230,9 @@ void EmbreeCaster::RenderInto(const Scene& scene,
   RTCScene rtc_scene = impl_->scene;
   const std::vector<uint16_t>& id_of_geometry = impl_->id_of_geometry;
   std::vector<Eigen::Matrix3f> camera_from_object_normals;
-  for (const Eigen::Matrix3f& world_from_object : impl_->world_from_object_normals) {
-    camera_from_object_normals.push_back(rotation.transpose() * world_from_object);
+  if (normals) {
+    for (const Eigen::Matrix3f& world_from_object : impl_->world_from_object_normals)
+      camera_from_object_normals.push_back(rotation.transpose() * world_from_object);
   }
 
   // Packets of 4 x 4 pixels: neighbouring rays traverse the same nodes.
