@@ -1,5 +1,6 @@
 #include "core/detector.h"
 
+#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -58,6 +59,76 @@ float SegmentExtent(const PointCloud& cloud, const std::vector<int>& segment) {
     high = high.cwiseMax(cloud.points[i]);
   }
   return (high - low).maxCoeff();
+}
+
+// Highest z of a segment's points.
+float SegmentTop(const PointCloud& cloud, const std::vector<int>& segment) {
+  float top = cloud.points[segment[0]].z();
+  for (int i : segment) top = std::max(top, cloud.points[i].z());
+  return top;
+}
+
+// Structure (walls and the like): segments wider than `max_extent` or
+// reaching above `max_height`, which no model explains, and every point on
+// the vertical plane of such a segment within its span (Kinect noise breaks
+// a wall seen head-on into many small segments). Returns a flag per point;
+// `segment_flags` gets one per segment, set when most of its points are
+// structure.
+std::vector<char> FindStructure(const ViewSegments& view,
+                                double max_extent,
+                                float max_height,
+                                std::vector<char>* segment_flags) {
+  constexpr float kOnPlane = 0.04f;  // m
+  constexpr float kSpanMargin = 0.1f;  // m
+  const PointCloud& cloud = view.cloud;
+  std::vector<char> structure(cloud.size(), 0);
+  struct Plane {
+    Eigen::Vector3f centre, normal, along;  // along: horizontal, in the plane
+    float low, high;                        // span along `along`
+  };
+  std::vector<Plane> planes;
+  for (const std::vector<int>& segment : view.segments) {
+    if (SegmentExtent(cloud, segment) <= max_extent && SegmentTop(cloud, segment) <= max_height)
+      continue;
+    for (int i : segment) structure[i] = 1;
+    Eigen::Vector3f centre = Eigen::Vector3f::Zero();
+    for (int i : segment) centre += cloud.points[i];
+    centre /= static_cast<float>(segment.size());
+    Eigen::Matrix3f scatter = Eigen::Matrix3f::Zero();
+    for (int i : segment) {
+      const Eigen::Vector3f d = cloud.points[i] - centre;
+      scatter += d * d.transpose();
+    }
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3f> solver(scatter);
+    const Eigen::Vector3f normal = solver.eigenvectors().col(0);
+    const float thickness = std::sqrt(solver.eigenvalues()(0) / segment.size());
+    if (std::abs(normal.z()) > 0.2f || thickness > kOnPlane / 2) continue;  // not a vertical plane
+    Plane plane{centre, normal, Eigen::Vector3f(-normal.y(), normal.x(), 0).normalized(), 1e9f,
+                -1e9f};
+    for (int i : segment) {
+      const float t = plane.along.dot(cloud.points[i] - centre);
+      plane.low = std::min(plane.low, t);
+      plane.high = std::max(plane.high, t);
+    }
+    planes.push_back(plane);
+  }
+  for (const Plane& plane : planes) {
+    for (size_t i = 0; i < cloud.size(); ++i) {
+      const Eigen::Vector3f d = cloud.points[i] - plane.centre;
+      const float t = plane.along.dot(d);
+      if (std::abs(plane.normal.dot(d)) <= kOnPlane && t >= plane.low - kSpanMargin &&
+          t <= plane.high + kSpanMargin) {
+        structure[i] = 1;
+      }
+    }
+  }
+  segment_flags->assign(view.segments.size(), 0);
+  for (size_t s = 0; s < view.segments.size(); ++s) {
+    size_t flagged = 0;
+    for (int i : view.segments[s]) flagged += structure[i];
+    (*segment_flags)[s] = 2 * flagged > view.segments[s].size();
+  }
+  return structure;
 }
 
 // One point per voxel (the first): the ray ends of the occupancy grid.
@@ -135,6 +206,9 @@ struct Detector::Impl {
   std::vector<std::array<int, kClasses>> entries_per_class;  // #(A_i, o)
   std::array<double, kClasses> class_width{};  // median footprint width per class (m); 0: none
   std::vector<ModelFitter> fitters;            // one per model
+  // Segments reaching higher than this (the tallest model plus the fit's
+  // above_m) are structure, like walls: no model can explain them.
+  float structure_height_m = 0;
   std::unique_ptr<PartSubsetIndex> parts;
 
   // The hypotheses of one class from its smoothed grid.
@@ -150,6 +224,7 @@ struct Detector::Impl {
             DetectionDebug::Hypothesis* hypothesis) const;
   // The best-scoring fit of the candidates, if it passes the checks.
   void FitAndVerify(const ViewSegments& view,
+                    const std::vector<char>& structure,
                     const OccupancyGrid& occupancy,
                     int hypothesis_index,
                     DetectionDebug::Hypothesis* hypothesis,
@@ -181,6 +256,8 @@ Detector::Detector(TrainedModel model, const DetectorOptions& options)
     widths[static_cast<int>(m.model_classes[k])].push_back(
         (shape.high - shape.low).head<2>().maxCoeff());
     impl.fitters.emplace_back(shape, options.fit);
+    impl.structure_height_m = std::max(
+        impl.structure_height_m, shape.high.z() + static_cast<float>(options.fit.above_m));
   }
   for (int c = 0; c < kClasses; ++c) {  // the median model's width
     if (widths[c].empty()) continue;
@@ -297,6 +374,7 @@ void Detector::Impl::Rank(const std::map<int, double>& support,
 }
 
 void Detector::Impl::FitAndVerify(const ViewSegments& view,
+                                  const std::vector<char>& structure,
                                   const OccupancyGrid& occupancy,
                                   int hypothesis_index,
                                   DetectionDebug::Hypothesis* hypothesis,
@@ -319,6 +397,7 @@ void Detector::Impl::FitAndVerify(const ViewSegments& view,
   std::vector<int> region;  // cloud indices of the points within reach
   for (size_t i = 0; i < view.cloud.size(); ++i) {
     const Eigen::Vector3f& p = view.cloud.points[i];
+    if (structure[i]) continue;
     if (Eigen::Vector2f(p.x() - hypothesis->x, p.y() - hypothesis->y).norm() <= reach) {
       scene_points.push_back(p);
       scene_normals.push_back(view.cloud.normals[i]);
@@ -473,6 +552,11 @@ DetectionResult Detector::Detect(const DetectionInput& input, bool keep_debug) c
   }
   std::vector<Vote> votes;
   std::vector<cv::Mat> grids(kClasses);
+  // Walls: they neither vote nor count against a fit (a sideboard stands
+  // against one).
+  std::vector<char> structure_segment;
+  const std::vector<char> structure = FindStructure(
+      view, options.max_segment_extent_m, impl.structure_height_m, &structure_segment);
   Eigen::Vector2f origin = Eigen::Vector2f::Zero();
   int cols = 0, rows = 0;
   if (!view.segments.empty()) {
@@ -484,7 +568,7 @@ DetectionResult Detector::Detect(const DetectionInput& input, bool keep_debug) c
         2000, static_cast<int>(std::ceil((high.y() - low.y() + 2 * margin) / options.cell_m)));
     for (cv::Mat& grid : grids) grid = cv::Mat::zeros(rows, cols, CV_32F);
     for (size_t s = 0; s < view.segments.size(); ++s) {
-      if (SegmentExtent(view.cloud, view.segments[s]) > options.max_segment_extent_m) continue;
+      if (structure_segment[s]) continue;
       const Eigen::Vector3f& centroid = view.centroids[s];
       // Relations were stored in the view-aligned frame: back to world.
       const Eigen::Matrix2f world_from_aligned = ViewAlignedFromWorld(sensor, centroid).transpose();
@@ -582,7 +666,7 @@ DetectionResult Detector::Detect(const DetectionInput& input, bool keep_debug) c
   }
   timer.Lap("rank");
   ParallelFor(0, static_cast<int>(hypotheses.size()), [&](int h) {
-    impl.FitAndVerify(view, occupancy, h, &hypotheses[h], &found[h], &fitted[h], &support[h]);
+    impl.FitAndVerify(view, structure, occupancy, h, &hypotheses[h], &found[h], &fitted[h], &support[h]);
   });
   timer.Lap("fit+verify");
 

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <limits>
 
 #include "core/error.h"
@@ -176,6 +177,7 @@ namespace {
 constexpr size_t kScoringPoints = 150;  // points a candidate pose is scored on
 constexpr int kHintYaws = 24;           // yaws tried at the hint (every 15 degrees)
 constexpr size_t kRefined = 4;          // best candidates refined by ICP
+constexpr double kTwoPointShare = 0.5;   // draws of two point pairs (the rest: one, with normals)
 
 // Horizontal azimuth of a normal, or NaN when it is near vertical.
 double Azimuth(const Eigen::Vector3f& normal) {
@@ -279,7 +281,54 @@ PoseFit ModelFitter::Fit(const std::vector<Eigen::Vector3f>& scene_points,
   for (size_t i = 0; i < scene_points.size(); ++i) {
     if (!std::isnan(Azimuth(scene_normals[i]))) oriented.push_back(i);
   }
+  // Scene points by height bucket, for the two-point draws.
+  const int scene_first_bucket = impl.first_bucket - 1;
+  std::vector<std::vector<int>> scene_by_height(impl.by_height.size() + 2);
+  for (size_t i = 0; i < scene_points.size(); ++i) {
+    const int b = static_cast<int>(std::floor(scene_points[i].z() / tolerance)) - scene_first_bucket;
+    if (b >= 0 && b < static_cast<int>(scene_by_height.size()))
+      scene_by_height[b].push_back(static_cast<int>(i));
+  }
+  const float model_span = (shape.high - shape.low).head<2>().norm();
+  const float min_pair = static_cast<float>(4 * options_.inlier_m);
+  // A model point of the height bucket `bucket` (or a neighbour) within
+  // tolerance of `z`, or -1.
+  auto model_point_at = [&](float z, int tries, const std::function<bool(int)>& accept) {
+    const int bucket = static_cast<int>(std::floor(z / tolerance)) - impl.first_bucket;
+    for (int attempt = 0; attempt < tries; ++attempt) {
+      const int b = bucket + static_cast<int>(rng.UniformInt(-1, 1));
+      if (b < 0 || b >= static_cast<int>(impl.by_height.size()) || impl.by_height[b].empty())
+        continue;
+      const int candidate = impl.by_height[b][rng.UniformInt(0, impl.by_height[b].size() - 1)];
+      if (std::abs(shape.points[candidate].z() - z) <= tolerance && accept(candidate))
+        return candidate;
+    }
+    return -1;
+  };
   for (int it = 0; it < options_.iterations; ++it) {
+    if (rng.Bernoulli(kTwoPointShare)) {
+      // Two scene points at one height and two model points as far apart:
+      // the yaw from the directions between them, whatever the normals.
+      const int i = static_cast<int>(rng.UniformInt(0, scene_points.size() - 1));
+      const Eigen::Vector3f& s1 = scene_points[i];
+      const int sb = static_cast<int>(std::floor(s1.z() / tolerance)) - scene_first_bucket;
+      if (sb < 0 || sb >= static_cast<int>(scene_by_height.size())) continue;
+      const std::vector<int>& level = scene_by_height[sb];
+      const Eigen::Vector3f& s2 = scene_points[level[rng.UniformInt(0, level.size() - 1)]];
+      const float distance = (s2 - s1).head<2>().norm();
+      if (distance < min_pair || distance > model_span) continue;
+      const int m1 = model_point_at(s1.z(), 4, [](int) { return true; });
+      if (m1 < 0) continue;
+      const int m2 = model_point_at(s2.z(), 12, [&](int m) {
+        return std::abs((shape.points[m] - shape.points[m1]).head<2>().norm() - distance) <=
+               options_.inlier_m;
+      });
+      if (m2 < 0) continue;
+      const Eigen::Vector3f sd = s2 - s1, md = shape.points[m2] - shape.points[m1];
+      const double yaw = std::atan2(sd.y(), sd.x()) - std::atan2(md.y(), md.x());
+      consider(PoseFromPair((s1 + s2) / 2, (shape.points[m1] + shape.points[m2]) / 2, yaw));
+      continue;
+    }
     const size_t i = !oriented.empty() && rng.Bernoulli(0.8)
                          ? oriented[rng.UniformInt(0, oriented.size() - 1)]
                          : static_cast<size_t>(rng.UniformInt(0, scene_points.size() - 1));

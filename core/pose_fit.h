@@ -3,7 +3,10 @@
 // scene point s and a model point m at the same height, takes the yaw from
 // the difference of their normals' azimuths (uniform over [0, 2 pi) when a
 // normal is near vertical), sets t = s - R m (SPEC §14: never s - m), and
-// scores the pose by the scene points it covers. The hint (the Hough
+// scores the pose by the scene points it covers. Half the draws instead take
+// two scene points at one height and two model points as far apart as they
+// are, the yaw from the directions between them: table legs and edges fix
+// the pose that way whatever their normals say. The hint (the Hough
 // maximum) at 24 yaws joins the draws, for shapes whose normals say little
 // about their yaw (tables); the best few poses are refined by point-to-point
 // ICP restricted to (x, y, yaw).
@@ -52,7 +55,7 @@ PlanarPose PoseFromPair(const Eigen::Vector3f& scene, const Eigen::Vector3f& mod
 double WrapAngle(double radians);
 
 struct FitOptions {
-  int iterations = 400;              // RANSAC draws (>= 1)
+  int iterations = 600;              // RANSAC draws (>= 1)
   double height_tolerance_m = 0.01;  // |s.z - m.z| of a drawn pair (m, > 0)
   double inlier_m = 0.03;            // a scene point is covered within this of the model (m, > 0)
   double max_offset_m = 0.5;         // poses whose origin is farther from the hint are skipped

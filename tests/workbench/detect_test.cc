@@ -38,11 +38,6 @@ class DetectTest : public ::testing::Test {
     scan.azimuths = 8;
     TrainerOptions trainer;
     trainer.vocabulary.words = 20;
-    // 1.5 cm points (the default was tuned to 2 cm on the default catalog's
-    // validation split): at 2 cm the square table of the six-object scene is
-    // fitted 27 cm off, its coverage score preferring a pose that also takes
-    // in the neighbouring chair's points (a known weakness of the fit score).
-    trainer.preprocess.voxel_size_m = 0.015;
     trainer.vocabulary.kind = VocabularyKind::kKMeans;
     const std::filesystem::path dir =
         std::filesystem::temp_directory_path() / "furn_tests" / "DetectTest";

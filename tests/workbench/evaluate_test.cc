@@ -100,7 +100,7 @@ TEST(Evaluate, SmallRunIsStoredAndGatedByTheCommittedBaseline) {
 
   // A run's options file gives the same run again; unknown keys are refused.
   testing::WriteText(dir + "/options.json",
-                     "{\"relative_threshold\": 0.15, \"fit\": {\"iterations\": 400}}");
+                     "{\"relative_threshold\": 0.15, \"fit\": {\"iterations\": 600}}");
   const testing::CommandResult again = Workbench("evaluate --quiet --split all --options " + dir +
                                                  "/options.json --model " + model + " --db " + db);
   ASSERT_EQ(again.exit_code, 0) << again.output;
