@@ -68,12 +68,8 @@ float SegmentTop(const PointCloud& cloud, const std::vector<int>& segment) {
   return top;
 }
 
-// Structure (walls and the like): segments wider than `max_extent` or
-// reaching above `max_height`, which no model explains, and every point on
-// the vertical plane of such a segment within its span (Kinect noise breaks
-// a wall seen head-on into many small segments). Returns a flag per point;
-// `segment_flags` gets one per segment, set when most of its points are
-// structure.
+}  // namespace
+
 std::vector<char> FindStructure(const ViewSegments& view,
                                 double max_extent,
                                 float max_height,
@@ -130,6 +126,8 @@ std::vector<char> FindStructure(const ViewSegments& view,
   }
   return structure;
 }
+
+namespace {
 
 // One point per voxel (the first): the ray ends of the occupancy grid.
 std::vector<Eigen::Vector3f> ThinOut(const std::vector<Eigen::Vector3f>& points, double voxel_m) {

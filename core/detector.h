@@ -170,4 +170,15 @@ class Detector {
   std::unique_ptr<Impl> impl_;
 };
 
+// Structure (walls and the like): segments wider than `max_extent` or
+// reaching above `max_height`, which no model explains, and every point on
+// the vertical plane of such a segment within its span (Kinect noise breaks
+// a wall seen head-on into many small segments). Returns a flag per point of
+// view.cloud; `segment_flags` gets one per segment, set when most of its
+// points are structure. Detection leaves structure out of voting and fitting.
+std::vector<char> FindStructure(const ViewSegments& view,
+                                double max_extent,
+                                float max_height,
+                                std::vector<char>* segment_flags);
+
 }  // namespace furn
