@@ -51,21 +51,11 @@ class StageTimer {
   Clock::time_point last_ = start_;
 };
 
-// Largest extent of a segment's points along x, y or z.
-float SegmentExtent(const PointCloud& cloud, const std::vector<int>& segment) {
-  Eigen::Vector3f low = cloud.points[segment[0]], high = low;
-  for (int i : segment) {
-    low = low.cwiseMin(cloud.points[i]);
-    high = high.cwiseMax(cloud.points[i]);
-  }
-  return (high - low).maxCoeff();
-}
-
-// Highest z of a segment's points.
-float SegmentTop(const PointCloud& cloud, const std::vector<int>& segment) {
-  float top = cloud.points[segment[0]].z();
-  for (int i : segment) top = std::max(top, cloud.points[i].z());
-  return top;
+// The bounding box of a segment's points.
+Eigen::AlignedBox3f SegmentBox(const PointCloud& cloud, const std::vector<int>& segment) {
+  Eigen::AlignedBox3f box;
+  for (int i : segment) box.extend(cloud.points[i]);
+  return box;
 }
 
 }  // namespace
@@ -74,7 +64,7 @@ std::vector<char> FindStructure(const ViewSegments& view,
                                 double max_extent,
                                 float max_height,
                                 std::vector<char>* segment_flags) {
-  constexpr float kOnPlane = 0.04f;  // m
+  constexpr float kOnPlane = 0.04f;    // m
   constexpr float kSpanMargin = 0.1f;  // m
   const PointCloud& cloud = view.cloud;
   std::vector<char> structure(cloud.size(), 0);
@@ -84,8 +74,8 @@ std::vector<char> FindStructure(const ViewSegments& view,
   };
   std::vector<Plane> planes;
   for (const std::vector<int>& segment : view.segments) {
-    if (SegmentExtent(cloud, segment) <= max_extent && SegmentTop(cloud, segment) <= max_height)
-      continue;
+    const Eigen::AlignedBox3f box = SegmentBox(cloud, segment);
+    if (box.sizes().maxCoeff() <= max_extent && box.max().z() <= max_height) continue;
     for (int i : segment) structure[i] = 1;
     Eigen::Vector3f centre = Eigen::Vector3f::Zero();
     for (int i : segment) centre += cloud.points[i];
@@ -99,8 +89,8 @@ std::vector<char> FindStructure(const ViewSegments& view,
     const Eigen::Vector3f normal = solver.eigenvectors().col(0);
     const float thickness = std::sqrt(solver.eigenvalues()(0) / segment.size());
     if (std::abs(normal.z()) > 0.2f || thickness > kOnPlane / 2) continue;  // not a vertical plane
-    Plane plane{centre, normal, Eigen::Vector3f(-normal.y(), normal.x(), 0).normalized(), 1e9f,
-                -1e9f};
+    Plane plane{
+        centre, normal, Eigen::Vector3f(-normal.y(), normal.x(), 0).normalized(), 1e9f, -1e9f};
     for (int i : segment) {
       const float t = plane.along.dot(cloud.points[i] - centre);
       plane.low = std::min(plane.low, t);
@@ -254,8 +244,8 @@ Detector::Detector(TrainedModel model, const DetectorOptions& options)
     widths[static_cast<int>(m.model_classes[k])].push_back(
         (shape.high - shape.low).head<2>().maxCoeff());
     impl.fitters.emplace_back(shape, options.fit);
-    impl.structure_height_m = std::max(
-        impl.structure_height_m, shape.high.z() + static_cast<float>(options.fit.above_m));
+    impl.structure_height_m =
+        std::max(impl.structure_height_m, shape.high.z() + static_cast<float>(options.fit.above_m));
   }
   for (int c = 0; c < kClasses; ++c) {  // the median model's width
     if (widths[c].empty()) continue;
@@ -664,7 +654,8 @@ DetectionResult Detector::Detect(const DetectionInput& input, bool keep_debug) c
   }
   timer.Lap("rank");
   ParallelFor(0, static_cast<int>(hypotheses.size()), [&](int h) {
-    impl.FitAndVerify(view, structure, occupancy, h, &hypotheses[h], &found[h], &fitted[h], &support[h]);
+    impl.FitAndVerify(
+        view, structure, occupancy, h, &hypotheses[h], &found[h], &fitted[h], &support[h]);
   });
   timer.Lap("fit+verify");
 

@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <functional>
 #include <limits>
 
 #include "core/error.h"
@@ -177,7 +176,7 @@ namespace {
 constexpr size_t kScoringPoints = 150;  // points a candidate pose is scored on
 constexpr int kHintYaws = 24;           // yaws tried at the hint (every 15 degrees)
 constexpr size_t kRefined = 4;          // best candidates refined by ICP
-constexpr double kTwoPointShare = 0.5;   // draws of two point pairs (the rest: one, with normals)
+constexpr double kTwoPointShare = 0.5;  // draws of two point pairs (the rest: one, with normals)
 
 // Horizontal azimuth of a normal, or NaN when it is near vertical.
 double Azimuth(const Eigen::Vector3f& normal) {
@@ -285,15 +284,17 @@ PoseFit ModelFitter::Fit(const std::vector<Eigen::Vector3f>& scene_points,
   const int scene_first_bucket = impl.first_bucket - 1;
   std::vector<std::vector<int>> scene_by_height(impl.by_height.size() + 2);
   for (size_t i = 0; i < scene_points.size(); ++i) {
-    const int b = static_cast<int>(std::floor(scene_points[i].z() / tolerance)) - scene_first_bucket;
+    const int b =
+        static_cast<int>(std::floor(scene_points[i].z() / tolerance)) - scene_first_bucket;
     if (b >= 0 && b < static_cast<int>(scene_by_height.size()))
       scene_by_height[b].push_back(static_cast<int>(i));
   }
   const float model_span = (shape.high - shape.low).head<2>().norm();
   const float min_pair = static_cast<float>(4 * options_.inlier_m);
-  // A model point of the height bucket `bucket` (or a neighbour) within
-  // tolerance of `z`, or -1.
-  auto model_point_at = [&](float z, int tries, const std::function<bool(int)>& accept) {
+  // A model point at height `z` that `accept`s: a random one of its height
+  // bucket's and the neighbours' points, retried up to `tries` times; or -1.
+  auto any_point = [](int) { return true; };
+  auto model_point_at = [&](float z, int tries, const auto& accept) {
     const int bucket = static_cast<int>(std::floor(z / tolerance)) - impl.first_bucket;
     for (int attempt = 0; attempt < tries; ++attempt) {
       const int b = bucket + static_cast<int>(rng.UniformInt(-1, 1));
@@ -317,7 +318,7 @@ PoseFit ModelFitter::Fit(const std::vector<Eigen::Vector3f>& scene_points,
       const Eigen::Vector3f& s2 = scene_points[level[rng.UniformInt(0, level.size() - 1)]];
       const float distance = (s2 - s1).head<2>().norm();
       if (distance < min_pair || distance > model_span) continue;
-      const int m1 = model_point_at(s1.z(), 4, [](int) { return true; });
+      const int m1 = model_point_at(s1.z(), 4, any_point);
       if (m1 < 0) continue;
       const int m2 = model_point_at(s2.z(), 12, [&](int m) {
         return std::abs((shape.points[m] - shape.points[m1]).head<2>().norm() - distance) <=
@@ -333,17 +334,7 @@ PoseFit ModelFitter::Fit(const std::vector<Eigen::Vector3f>& scene_points,
                          ? oriented[rng.UniformInt(0, oriented.size() - 1)]
                          : static_cast<size_t>(rng.UniformInt(0, scene_points.size() - 1));
     const Eigen::Vector3f& s = scene_points[i];
-    const int bucket = static_cast<int>(std::floor(s.z() / tolerance)) - impl.first_bucket;
-    // A model point at the same height: a random one of the bucket's and its
-    // neighbours' points, retried when it is out of tolerance.
-    int model_index = -1;
-    for (int attempt = 0; attempt < 4 && model_index < 0; ++attempt) {
-      const int b = bucket + static_cast<int>(rng.UniformInt(-1, 1));
-      if (b < 0 || b >= static_cast<int>(impl.by_height.size()) || impl.by_height[b].empty())
-        continue;
-      const int candidate = impl.by_height[b][rng.UniformInt(0, impl.by_height[b].size() - 1)];
-      if (std::abs(shape.points[candidate].z() - s.z()) <= tolerance) model_index = candidate;
-    }
+    const int model_index = model_point_at(s.z(), 4, any_point);
     if (model_index < 0) continue;
     const double scene_azimuth = Azimuth(scene_normals[i]);
     const double model_azimuth = Azimuth(shape.normals[model_index]);
