@@ -24,11 +24,15 @@ function(furn_add_library)
   endif()
 endfunction()
 
-# furn_add_test(FOLDER core NAME sgf SOURCES sgf_test.cc LINKS furn_core [LABELS slow] [WHOLE])
+# furn_add_test(FOLDER core NAME sgf SOURCES sgf_test.cc LINKS furn_core [LABELS slow] [WHOLE]
+#               [EMBREE_ISAS avx2 sse4.2])
 # builds tests/<folder>/<name>_test and registers each TEST as "<folder>/<name>.<Suite>.<Case>";
 # WHOLE registers the binary as one test instead (for suites with a costly shared setup).
+# EMBREE_ISAS registers every test once more per listed ISA, as "<folder>/<name>[isa].<...>",
+# run with FURN_EMBREE_CONFIG=isa=<isa>: Embree's kernels for CPUs other than this one
+# (skipped where the CPU lacks the ISA).
 function(furn_add_test)
-  cmake_parse_arguments(ARG "WHOLE" "FOLDER;NAME;TIMEOUT" "SOURCES;LINKS;LABELS" ${ARGN})
+  cmake_parse_arguments(ARG "WHOLE" "FOLDER;NAME;TIMEOUT" "SOURCES;LINKS;LABELS;EMBREE_ISAS" ${ARGN})
   set(target ${ARG_FOLDER}_${ARG_NAME}_test)
   add_executable(${target} ${ARG_SOURCES})
   target_link_libraries(${target} PRIVATE ${ARG_LINKS} furn_test_main GTest::gtest GTest::gmock)
@@ -56,4 +60,13 @@ function(furn_add_test)
     TEST_PREFIX "${ARG_FOLDER}/${ARG_NAME}."
     PROPERTIES LABELS "${ARG_LABELS}" TIMEOUT ${ARG_TIMEOUT} ${environment}
     DISCOVERY_TIMEOUT 60)
+  foreach(isa IN LISTS ARG_EMBREE_ISAS)
+    # One value per property: gtest_discover_tests splits lists. Select these
+    # tests with ctest -R '\\[avx2\\]'.
+    gtest_discover_tests(${target}
+      TEST_PREFIX "${ARG_FOLDER}/${ARG_NAME}[${isa}]."
+      PROPERTIES LABELS "${ARG_LABELS}" TIMEOUT ${ARG_TIMEOUT}
+                 ENVIRONMENT "FURN_EMBREE_CONFIG=isa=${isa}"
+      DISCOVERY_TIMEOUT 60)
+  endforeach()
 endfunction()

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <iterator>
 #include <mutex>
 #include <opencv2/core.hpp>
@@ -497,9 +498,17 @@ DetectionResult Detector::Detect(const DetectionInput& input, bool keep_debug) c
       in_range.push_back(p);
   }
   result.input_points = static_cast<int>(in_range.size());
-  Require(!in_range.empty(),
-          "the scan has no finite point within " + std::to_string(options.max_range_m) +
-              " m of the sensor");
+  if (in_range.empty()) {  // a frame of nothing in range: nothing to detect, not an error
+    result.status = DetectionStatus::kNoPointsInRange;
+    char message[96];
+    std::snprintf(message,
+                  sizeof(message),
+                  "the scan has no finite point within %g m of the sensor",
+                  options.max_range_m);
+    result.message = message;
+    timer.Total();
+    return result;
+  }
   if (input.world_from_camera) {
     result.world_from_camera = *input.world_from_camera;
   } else {

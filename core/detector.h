@@ -143,7 +143,16 @@ struct DetectionDebug {
   std::vector<std::vector<Eigen::Vector3f>> fitted_points;  // per detection, world frame
 };
 
+// How a detection call ended. Anything but kDetected leaves `detections` empty
+// and says why in DetectionResult::message.
+enum class DetectionStatus {
+  kDetected,         // the pipeline ran (it may still have found nothing)
+  kNoPointsInRange,  // no finite point within max_range_m of the sensor
+};
+
 struct DetectionResult {
+  DetectionStatus status = DetectionStatus::kDetected;
+  std::string message;                // why, when status is not kDetected
   std::vector<Detection> detections;  // best score first
   Eigen::Isometry3d world_from_camera = Eigen::Isometry3d::Identity();
   bool floor_estimated = false;  // world_from_camera came from FindFloor
@@ -158,8 +167,10 @@ class Detector {
   Detector(TrainedModel model, const DetectorOptions& options);
   ~Detector();
 
-  // Throws InputError for an input with no finite point, or no floor when
-  // the pose is unknown. Uses both cores; the same input gives the same result.
+  // A scan with no finite point in range comes back with status
+  // kNoPointsInRange. Throws InputError for a malformed input (organised size
+  // not matching), or no floor found when the pose is unknown. Uses both cores; the same input
+  // gives the same result.
   DetectionResult Detect(const DetectionInput& input, bool keep_debug = false) const;
 
   const TrainedModel& model() const;

@@ -1,5 +1,6 @@
 #include "db/dataset_db.h"
 
+#include <filesystem>
 #include <sstream>
 
 namespace furn {
@@ -127,8 +128,22 @@ std::string SplitForSeed(uint64_t room_seed) {
   return bucket < 6 ? "train" : bucket < 8 ? "val" : "test";
 }
 
-DatasetDb::DatasetDb(const std::string& path, Mode mode)
-    : db_(path, mode == Mode::kReadOnly ? Database::Mode::kReadOnly : Database::Mode::kReadWrite) {
+namespace {
+
+// The database mode of a dataset mode; first checks that a dataset that must
+// exist does (SQLite's own "unable to open database file" names no cause).
+Database::Mode OpenMode(const std::string& path, DatasetDb::Mode mode) {
+  if (mode == DatasetDb::Mode::kReadWrite) return Database::Mode::kReadWrite;
+  std::error_code error;
+  if (!std::filesystem::exists(path, error))
+    throw DbError(path + ": no such dataset file (make one with 'workbench generate')");
+  return mode == DatasetDb::Mode::kReadOnly ? Database::Mode::kReadOnly
+                                            : Database::Mode::kReadWriteExisting;
+}
+
+}  // namespace
+
+DatasetDb::DatasetDb(const std::string& path, Mode mode) : db_(path, OpenMode(path, mode)) {
   CreateOrMigrate(mode);
 }
 
@@ -146,7 +161,7 @@ void DatasetDb::CreateOrMigrate(Mode mode) {
   }
   const bool empty = table_count == 0;
   if (empty) {
-    if (mode == Mode::kReadOnly) throw DbError(db_.path() + ": not a dataset (no tables)");
+    if (mode != Mode::kReadWrite) throw DbError(db_.path() + ": not a dataset (no tables)");
     Transaction transaction(&db_);
     db_.Execute(kSchemaV1);
     db_.Execute(kSchemaV2);
@@ -173,7 +188,7 @@ void DatasetDb::CreateOrMigrate(Mode mode) {
     throw DbError(db_.path() + ": unknown dataset schema version " + std::to_string(found));
   // Migrations, one transaction per step; a read-only open reads older
   // versions as they are (they have no runs).
-  if (found < 2 && mode == Mode::kReadWrite) {
+  if (found < 2 && mode != Mode::kReadOnly) {
     Transaction transaction(&db_);
     db_.Execute(kSchemaV2);
     db_.Execute("UPDATE meta SET value = '2' WHERE key = 'schema_version'");

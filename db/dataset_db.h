@@ -106,9 +106,11 @@ struct RunFrameRecord {
 
 class DatasetDb {
  public:
-  enum class Mode { kReadWrite, kReadOnly };
-  // kReadWrite creates the file and schema when missing. Throws DbError for a
-  // file that is not SQLite, or a schema newer than this build or unknown.
+  enum class Mode { kReadWrite, kReadWriteExisting, kReadOnly };
+  // kReadWrite creates the file and schema when missing; kReadWriteExisting
+  // (adding runs to a dataset) and kReadOnly throw DbError for a missing file
+  // and create nothing. Throws DbError for a file that is not SQLite, or a
+  // schema newer than this build or unknown.
   DatasetDb(const std::string& path, Mode mode);
 
   const std::string& path() const { return db_.path(); }

@@ -5,8 +5,9 @@
 namespace furn {
 
 Database::Database(const std::string& path, Mode mode) : path_(path) {
-  const int flags =
-      mode == Mode::kReadOnly ? SQLITE_OPEN_READONLY : SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE;
+  const int flags = mode == Mode::kReadOnly            ? SQLITE_OPEN_READONLY
+                    : mode == Mode::kReadWriteExisting ? SQLITE_OPEN_READWRITE
+                                                       : SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE;
   const int code = sqlite3_open_v2(path.c_str(), &db_, flags, nullptr);
   if (code != SQLITE_OK) {
     const std::string message = db_ ? sqlite3_errmsg(db_) : sqlite3_errstr(code);
@@ -17,7 +18,7 @@ Database::Database(const std::string& path, Mode mode) : path_(path) {
   sqlite3_extended_result_codes(db_, 1);
   sqlite3_busy_timeout(db_, 10000);
   Execute("PRAGMA foreign_keys = ON");
-  if (mode == Mode::kReadWrite) Execute("PRAGMA journal_mode = WAL");
+  if (mode != Mode::kReadOnly) Execute("PRAGMA journal_mode = WAL");
 }
 
 Database::~Database() { sqlite3_close_v2(db_); }

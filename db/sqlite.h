@@ -30,8 +30,9 @@ class DbError : public std::runtime_error {
 
 class Database {
  public:
-  enum class Mode { kReadWrite, kReadOnly };
-  // kReadWrite creates the file when missing and turns on WAL and foreign keys.
+  enum class Mode { kReadWrite, kReadWriteExisting, kReadOnly };
+  // kReadWrite creates the file when missing; kReadWriteExisting fails on a
+  // missing file instead. Both turn on WAL; every mode turns on foreign keys.
   explicit Database(const std::string& path, Mode mode = Mode::kReadWrite);
   ~Database();
   Database(const Database&) = delete;

@@ -3,6 +3,8 @@
 #include <embree3/rtcore.h>
 
 #include <algorithm>
+#include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <limits>
 #include <mutex>
@@ -40,12 +42,93 @@ SceneKey KeyOf(const Scene& scene) {
   return key;
 }
 
+const char* EmbreeErrorName(RTCError code) {
+  switch (code) {
+    case RTC_ERROR_NONE:
+      return "no error";
+    case RTC_ERROR_INVALID_ARGUMENT:
+      return "invalid argument";
+    case RTC_ERROR_INVALID_OPERATION:
+      return "invalid operation";
+    case RTC_ERROR_OUT_OF_MEMORY:
+      return "out of memory";
+    case RTC_ERROR_UNSUPPORTED_CPU:
+      return "unsupported CPU";
+    case RTC_ERROR_CANCELLED:
+      return "cancelled";
+    default:
+      return "unknown error";
+  }
+}
+
+// Embree silently ignores an ISA name it does not know (and runs on the CPU's
+// best): a user forcing one must learn of a typo.
+void CheckIsaNames(const std::string& config) {
+  static const char* const kIsas[] = {
+      "sse2", "sse4.2", "avx", "avx2", "avx512", "avx512knl", "avx512skx"};
+  for (const char* key : {"isa=", "max_isa="}) {
+    for (size_t at = config.find(key); at != std::string::npos; at = config.find(key, at + 1)) {
+      if (at > 0 && config[at - 1] != ',' && config[at - 1] != ' ') continue;  // max_isa vs isa
+      const size_t begin = at + std::strlen(key);
+      const std::string name = config.substr(begin, config.find_first_of(", ", begin) - begin);
+      if (std::find_if(std::begin(kIsas), std::end(kIsas), [&](const char* isa) {
+            return name == isa;
+          }) == std::end(kIsas)) {
+        throw std::runtime_error(std::string(kEmbreeConfigVariable) + "='" + config + "': '" +
+                                 name + "' is not an Embree ISA (sse2, sse4.2, avx, avx2, avx512)");
+      }
+    }
+  }
+}
+
+RTCDevice NewDevice() {
+  const std::string config = EmbreeDeviceConfig();
+  CheckIsaNames(config);
+  RTCDevice device = rtcNewDevice(config.empty() ? nullptr : config.c_str());
+  if (device == nullptr) {
+    const RTCError code = rtcGetDeviceError(nullptr);
+    if (config.empty())
+      throw std::runtime_error(std::string("Embree: cannot create a device (") +
+                               EmbreeErrorName(code) + ")");
+    throw std::runtime_error(std::string(kEmbreeConfigVariable) + "='" + config +
+                             "': Embree refuses this device configuration (see rtcNewDevice; "
+                             "e.g. isa=avx2 or threads=2)");
+  }
+  // Embree reports misuse through this callback, not through return values.
+  rtcSetDeviceErrorFunction(
+      device,
+      [](void*, RTCError code, const char* message) {
+        std::fprintf(stderr,
+                     "Embree error: %s: %s\n",
+                     EmbreeErrorName(code),
+                     message != nullptr ? message : "");
+      },
+      nullptr);
+  return device;
+}
+
 // One Embree device for the process: devices are thread-safe, and creating one
 // per caster would cost more than the small per-object scenes it serves.
 RTCDevice SharedDevice() {
-  static RTCDevice device = rtcNewDevice(nullptr);
-  if (device == nullptr) throw std::runtime_error("Embree: cannot create a device");
+  static RTCDevice device = NewDevice();
   return device;
+}
+
+// Every lane of a packet handed to Embree holds a well-formed ray, active or
+// not: some ISA paths (AVX2's 8-wide kernels running a 16-ray packet) read
+// and assert on all lanes before applying the valid mask. An inactive lane is
+// a zero-length ray from the origin.
+template <typename Ray16>
+void SetInactiveLane(int k, Ray16* ray) {
+  ray->org_x[k] = ray->org_y[k] = ray->org_z[k] = 0.0f;
+  ray->dir_x[k] = ray->dir_y[k] = 0.0f;
+  ray->dir_z[k] = 1.0f;
+  ray->tnear[k] = 0.0f;
+  ray->tfar[k] = 0.0f;
+  ray->time[k] = 0.0f;
+  ray->mask[k] = 0u;
+  ray->id[k] = static_cast<unsigned>(k);
+  ray->flags[k] = 0;
 }
 
 // Meshes this small go into a scene's top level as world-space triangles.
@@ -142,6 +225,11 @@ class MeshBvhCache {
 };
 
 }  // namespace
+
+std::string EmbreeDeviceConfig() {
+  const char* config = std::getenv(kEmbreeConfigVariable);
+  return config != nullptr ? config : "";
+}
 
 struct EmbreeCaster::Impl {
   RTCScene scene = nullptr;
@@ -256,8 +344,8 @@ void EmbreeCaster::RenderInto(const Scene& scene,
     RTCIntersectContext context;
     rtcInitIntersectContext(&context);
     context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
-    alignas(64) RTCRayHit16 packet;
-    alignas(64) int valid[kPacket];
+    alignas(64) RTCRayHit16 packet{};  // every lane defined; see SetInactiveLane
+    alignas(64) int valid[kPacket] = {};
     // Embree writes only tfar and the hit: the rest is set once.
     for (int k = 0; k < kPacket; ++k) {
       packet.ray.org_x[k] = origin.x();
@@ -329,8 +417,8 @@ EmbreeCaster::Coverage EmbreeCaster::CoverageIn(const Scene& scene,
   ParallelFor(v0, v1 + 1, [&](int v) {
     RTCIntersectContext context;
     rtcInitIntersectContext(&context);
-    alignas(64) RTCRay16 packet;
-    alignas(64) int valid[kPacket];
+    alignas(64) RTCRay16 packet{};  // every lane defined; see SetInactiveLane
+    alignas(64) int valid[kPacket] = {};
     Coverage& row = rows[v - v0];
     auto count = [&](int u) {
       if (row.pixels == 0) row.box = {u, v, u, v};
@@ -344,7 +432,10 @@ EmbreeCaster::Coverage EmbreeCaster::CoverageIn(const Scene& scene,
     int columns[kPacket];
     int rays = 0;
     auto cast = [&] {
-      for (int k = rays; k < kPacket; ++k) valid[k] = 0;
+      for (int k = rays; k < kPacket; ++k) {
+        valid[k] = 0;
+        SetInactiveLane(k, &packet);  // not a ray of an earlier packet either
+      }
       rtcOccluded16(valid, rtc_scene, &context, &packet);
       for (int k = 0; k < rays; ++k) {
         if (packet.tfar[k] < 0) count(columns[k]);  // Embree sets tfar to -inf for a hit

@@ -17,15 +17,24 @@
 #include <array>
 #include <cstdint>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "renderers/depth_renderer.h"
 
 namespace furn {
 
+// The Embree device's configuration string (rtcNewDevice) comes from this
+// environment variable, e.g. FURN_EMBREE_CONFIG=isa=sse4.2 or isa=avx2 to force
+// a narrower instruction set than the CPU's best (tests use it to exercise the
+// code paths of other CPUs). Empty or unset: Embree's defaults.
+constexpr const char* kEmbreeConfigVariable = "FURN_EMBREE_CONFIG";
+std::string EmbreeDeviceConfig();
+
 class EmbreeCaster : public DepthRenderer {
  public:
-  // Throws std::runtime_error when Embree cannot create a device.
+  // Throws std::runtime_error when Embree cannot create a device (an
+  // unsupported CPU, or a bad FURN_EMBREE_CONFIG).
   EmbreeCaster();
   ~EmbreeCaster() override;
 

@@ -5,7 +5,9 @@
 #include <sys/wait.h>
 
 #include <array>
+#include <cctype>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 
@@ -13,13 +15,30 @@
 
 namespace furn::testing {
 
-std::string ScratchDir() {
-  const ::testing::TestInfo* info = ::testing::UnitTest::GetInstance()->current_test_info();
-  const std::filesystem::path dir = std::filesystem::temp_directory_path() / "furn_tests" /
-                                    (std::string(info->test_suite_name()) + "." + info->name());
+namespace {
+
+std::string ScratchDirFor(const std::string& base) {
+  std::string name = base;
+  // The same test run under a forced Embree ISA (tests/CMakeLists.txt) runs
+  // alongside the plain one: it gets a folder of its own.
+  if (const char* config = std::getenv("FURN_EMBREE_CONFIG"); config != nullptr && *config) {
+    name += "@";
+    for (const char* c = config; *c; ++c) {
+      const bool plain = std::isalnum(static_cast<unsigned char>(*c)) || *c == '.';
+      name += plain ? *c : '_';
+    }
+  }
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / "furn_tests" / name;
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
   return dir.string();
+}
+
+}  // namespace
+
+std::string ScratchDir() {
+  const ::testing::TestInfo* info = ::testing::UnitTest::GetInstance()->current_test_info();
+  return ScratchDirFor(std::string(info->test_suite_name()) + "." + info->name());
 }
 
 void WriteText(const std::string& path, const std::string& text) {

@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <functional>
 #include <nlohmann/json.hpp>
+#include <set>
 
 #include "core/error.h"
 #include "core/file_util.h"
@@ -81,15 +82,16 @@ EvaluateSummary EvaluateModel(const std::string& model_path,
           "split '" + options.split + "' must be train, val, test or all");
   Require(options.max_frames >= 0, "max frames must be >= 0");
   const auto start = std::chrono::steady_clock::now();
+  // The dataset first: a mistyped path fails before the model loads, and creates nothing.
+  DatasetDb dataset(db_path, DatasetDb::Mode::kReadWriteExisting);
   const std::string model_bytes = ReadFileBytes(model_path);
   const Detector detector(LoadTrainedModel(model_path), options.detector);
   const TrainedModel& model = detector.model();
   std::vector<int> symmetry;
   for (const ModelShape& shape : model.model_shapes) symmetry.push_back(SymmetryOrder(shape));
-
-  DatasetDb dataset(db_path, DatasetDb::Mode::kReadWrite);
-  std::map<std::string, bool> evaluation_only;
-  for (const ModelRecord& m : dataset.ReadModels()) evaluation_only[m.id] = m.evaluation_only;
+  // Seen CAD models are those the model file was trained on, whatever the
+  // dataset's evaluation_only flags say (its rooms may come from other catalogs).
+  const std::set<std::string> trained_models(model.model_names.begin(), model.model_names.end());
   // The frames to run: ids of the split's rooms, in order.
   std::vector<int64_t> rooms;
   int total_frames = 0;
@@ -102,6 +104,7 @@ EvaluateSummary EvaluateModel(const std::string& model_path,
   if (options.max_frames > 0) total_frames = std::min(total_frames, options.max_frames);
   Require(total_frames > 0, db_path + ": no frames in split '" + options.split + "'");
 
+  EvaluateSummary summary;
   std::vector<FrameOutcome> outcomes;
   std::vector<RunDetectionRecord> detections;
   std::vector<RunFrameRecord> frame_records;
@@ -115,6 +118,9 @@ EvaluateSummary EvaluateModel(const std::string& model_path,
       dataset_hash.Update(frame.content_hash.data(), frame.content_hash.size());
       const DetectionResult result =
           detector.Detect(DetectionInputOf(frame, db_path + " frame " + std::to_string(frame.id)));
+      // A frame with nothing in range (the camera against a wall, a dead
+      // sensor) has no detections; its objects count as missed or ignored.
+      if (result.status != DetectionStatus::kDetected) ++summary.frames_without_points;
 
       FrameOutcome outcome;
       outcome.frame_id = frame.id;
@@ -128,7 +134,7 @@ EvaluateSummary EvaluateModel(const std::string& model_path,
         truth.yaw = object.yaw;
         truth.distance_m =
             (Eigen::Vector3d(object.reference_x, object.reference_y, 0) - eye).norm();
-        truth.seen_in_training = !evaluation_only[object.model_id];
+        truth.seen_in_training = trained_models.count(object.model_id) > 0;
         for (const FrameObjectRecord& seen : frame.objects) {
           if (seen.instance_id == object.instance_id) truth.visibility = seen.visibility;
         }
@@ -173,11 +179,11 @@ EvaluateSummary EvaluateModel(const std::string& model_path,
   }
   progress.Finish();
 
-  EvaluateSummary summary;
   summary.frames = static_cast<int>(outcomes.size());
   EvaluationOptions evaluation = options.evaluation;
   evaluation.max_distance_m = options.detector.max_range_m;
   summary.result = EvaluateFrames(outcomes, evaluation);
+  summary.result.metrics["frames_without_points"] = summary.frames_without_points;
 
   RunRecord run;
   run.kind = options.kind;
@@ -287,7 +293,8 @@ std::vector<Regression> FindRegressions(const std::map<std::string, double>& run
     const auto it = run.find(metric);
     const bool latency = metric.rfind("latency", 0) == 0;
     if (latency && latency_tolerance <= 0) continue;
-    if (metric == "frames" || metric == "objects") continue;  // sizes, not quality
+    if (metric == "frames" || metric == "objects" || metric == "frames_without_points")
+      continue;  // sizes, not quality
     if (it == run.end()) {
       regressions.push_back({metric, std::nan(""), base, 0});  // a metric that vanished
       continue;

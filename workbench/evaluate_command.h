@@ -37,6 +37,7 @@ struct EvaluateSummary {
   int64_t run_id = 0;
   EvaluationResult result;
   int frames = 0;
+  int frames_without_points = 0;  // no point in range: counted, with no detections
   double seconds = 0;
 };
 

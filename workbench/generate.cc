@@ -103,6 +103,7 @@ class RoomGenerator {
     // renderer: no per-frame hand-offs between threads. OSMesa keeps one
     // context (llvmpipe threads on its own).
     const int slots = options.renderer == RendererKind::kEmbree ? ParallelThreads() : 1;
+    EmbreeCaster{};  // ground truth casts with Embree whatever the renderer: fail now if it cannot
     for (int slot = 0; slot < slots; ++slot) {
       auto worker = std::make_unique<Worker>();
       worker->renderer = MakeRenderer(options.renderer);
@@ -483,6 +484,9 @@ GenerateSummary GenerateDataset(const Catalog& catalog,
                                 const std::string& db_path) {
   options.Check();
   const auto start = Clock::now();
+  // Renderers first: one that cannot start (no Embree device for this CPU or
+  // FURN_EMBREE_CONFIG, no OSMesa context) fails before a dataset file exists.
+  RoomGenerator generator(catalog, options);
   DatasetDb dataset(db_path, DatasetDb::Mode::kReadWrite);
   const std::string content = options.ContentJson();
   if (const auto existing = dataset.GenerationOptions()) {
@@ -508,7 +512,6 @@ GenerateSummary GenerateDataset(const Catalog& catalog,
       todo.push_back(k);
     }
   }
-  RoomGenerator generator(catalog, options);
   summary.workers = generator.Slots();
   Progress progress("generate", todo.size(), "rooms");
   // Rooms go in batches: composed and imported on all cores, rendered a room

@@ -73,6 +73,8 @@ int RunDetect(int argc, char** argv) {
   DetectionResult result;
   for (int k = 0; k < repeat; ++k) {
     result = detector.Detect(scan.input, /*keep_debug=*/!debug_dir.empty() && k == repeat - 1);
+    // One scan given by the user: nothing in range is most likely a wrong file or unit.
+    Require(result.status == DetectionStatus::kDetected, scan.description + ": " + result.message);
     for (const auto& [stage, ms] : result.timings_ms) stage_times[stage].push_back(ms);
   }
   if (!debug_dir.empty()) {  // first: --out may name a file inside it

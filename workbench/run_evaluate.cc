@@ -24,6 +24,10 @@ void PrintHeadline(const EvaluateSummary& summary) {
               summary.frames,
               summary.seconds,
               get("objects"));
+  if (summary.frames_without_points > 0) {
+    std::printf("  %d frames had no point in range: counted with no detections\n",
+                summary.frames_without_points);
+  }
   std::printf("  mAP@5cm %.3f  mAP@10cm %.3f  mAP@20cm %.3f  (seen %.3f, unseen %.3f)\n",
               get("mAP@5cm"),
               get("mAP@10cm"),

@@ -2,6 +2,8 @@
 // other on a furnished room, and clear errors for bad requests.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 
 #include "core/error.h"
@@ -257,6 +259,36 @@ TEST(EmbreeMeshCache, MeshAtTheAddressOfAFreedOneIsRebuilt) {
   };
   EXPECT_NEAR(render_box_at(1.0), 1.0f, 1e-4f);
   EXPECT_NEAR(render_box_at(2.0), 2.0f, 1e-4f);
+}
+
+// CoverageIn (an object's amodal mask) casts occlusion rays in packets of
+// 16, the last one partly filled. Every region size from 1 to 40 pixels wide
+// leaves a different number of lanes unused; under FURN_EMBREE_CONFIG=isa=avx2
+// (this test's [avx2] variant) Embree's 8-wide kernels read those lanes too.
+TEST(EmbreeCoverage, MasksOfEveryRegionWidthMatchTheRenderedIds) {
+  const CameraIntrinsics camera = CameraIntrinsics::KinectV1();
+  const Eigen::Isometry3d world_from_camera = testing::CameraAtOriginLookingAlongY();
+  constexpr uint16_t kBoxId = 42;
+  Scene scene;
+  scene.objects.push_back(Subdivided(testing::BoxAt(2.0, -0.3, 0.3, -0.2, 0.2, kBoxId), 2));
+  EmbreeCaster caster;
+  const DepthFrame frame = caster.Render(scene, camera, world_from_camera);
+  for (int width = 1; width <= 40; ++width) {
+    // A band across the box's left edge, so some rays hit and some miss.
+    const int u0 = 263 - width / 2, v0 = 230;
+    const std::array<int, 4> region = {u0, v0, u0 + width - 1, v0 + 2};
+    int64_t expected = 0;
+    for (int v = region[1]; v <= region[3]; ++v) {
+      for (int u = region[0]; u <= region[2]; ++u)
+        expected += frame.instance_ids[frame.Index(u, v)] == kBoxId;
+    }
+    const EmbreeCaster::Coverage coverage =
+        caster.CoverageIn(scene, camera, world_from_camera, region);
+    EXPECT_EQ(coverage.pixels, expected) << "region width " << width;
+  }
+  // A region beyond the image is clipped to it.
+  EXPECT_EQ(caster.CoverageIn(scene, camera, world_from_camera, {-50, -50, 700, 600}).pixels,
+            std::count(frame.instance_ids.begin(), frame.instance_ids.end(), kBoxId));
 }
 
 TEST(RendererKinds, NamesParse) {

@@ -255,15 +255,21 @@ namespace furn {
 namespace {
 
 TEST_F(DetectTest, BadScansAreClearErrors) {
+  // Nothing in range is an outcome, not an error: no detections, and why.
   DetectionInput empty;
-  EXPECT_NE(testing::ErrorOf([&] { detector_->Detect(empty); }).find("no finite point"),
-            std::string::npos);
+  const DetectionResult nothing = detector_->Detect(empty);
+  EXPECT_EQ(nothing.status, DetectionStatus::kNoPointsInRange);
+  EXPECT_NE(nothing.message.find("no finite point within 3 m"), std::string::npos)
+      << nothing.message;
+  EXPECT_TRUE(nothing.detections.empty());
   DetectionInput nans;
   nans.points.assign(640 * 480, Eigen::Vector3f::Constant(std::nanf("")));
   nans.width = 640;
   nans.height = 480;
-  EXPECT_NE(testing::ErrorOf([&] { detector_->Detect(nans); }).find("no finite point"),
-            std::string::npos);
+  EXPECT_EQ(detector_->Detect(nans).status, DetectionStatus::kNoPointsInRange);
+  DetectionInput far = nans;  // everything beyond the range
+  for (size_t i = 0; i < far.points.size(); i += 7) far.points[i] = {0.1f, 0.2f, 3.5f};
+  EXPECT_EQ(detector_->Detect(far).status, DetectionStatus::kNoPointsInRange);
   DetectionInput wrong_size = nans;
   wrong_size.width = 320;
   EXPECT_NE(testing::ErrorOf([&] { detector_->Detect(wrong_size); }).find("is not 320x480"),

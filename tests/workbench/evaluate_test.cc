@@ -3,11 +3,16 @@
 // tests/baselines/small_eval.json (the CI evaluation).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdio>
+#include <filesystem>
+#include <map>
 #include <nlohmann/json.hpp>
 
 #include "core/file_util.h"
 #include "db/dataset_db.h"
+#include "db/sqlite.h"
+#include "renderers/frame_io.h"
 #include "tests/test_util.h"
 
 namespace furn {
@@ -127,6 +132,141 @@ TEST(Evaluate, SmallRunIsStoredAndGatedByTheCommittedBaseline) {
   EXPECT_NE(Workbench("evaluate --model " + model + " --db " + db + " --split nope")
                 .output.find("must be train, val, test or all"),
             std::string::npos);
+}
+
+// A small dataset and a model trained on its catalog, shared by the edge
+// cases below (ctest runs each TEST in its own process, so they are one TEST
+// with a section each); each section works on its own copy of the dataset.
+struct SmallDatasetAndModel {
+  std::string dir, model;
+
+  std::string CopyOfDataset(const std::string& name) const {
+    const std::string copy = dir + "/" + name + ".db";
+    std::filesystem::copy_file(
+        dir + "/base.db", copy, std::filesystem::copy_options::overwrite_existing);
+    return copy;
+  }
+};
+
+std::map<std::string, double> LastRunMetrics(const std::string& db) {
+  DatasetDb dataset(db, DatasetDb::Mode::kReadOnly);
+  return dataset.RunMetrics(dataset.Runs().back().id);
+}
+
+void MissingDatasetIsOneLineAndCreatesNothing(const SmallDatasetAndModel& data) {
+  const std::string missing = data.dir + "/typo.db";
+  const testing::CommandResult run =
+      Workbench("evaluate --quiet --split all --model " + data.model + " --db " + missing);
+  EXPECT_EQ(run.exit_code, 1) << run.output;
+  EXPECT_NE(run.output.find(missing + ": no such dataset file"), std::string::npos) << run.output;
+  EXPECT_EQ(std::count(run.output.begin(), run.output.end(), '\n'), 1) << run.output;
+  for (const char* suffix : {"", "-wal", "-shm", "-journal"})
+    EXPECT_FALSE(std::filesystem::exists(missing + suffix)) << suffix;
+  // The same for the commands that read a dataset's runs.
+  EXPECT_EQ(Workbench("report --db " + missing + " --out " + data.dir + "/r").exit_code, 1);
+  EXPECT_FALSE(std::filesystem::exists(missing));
+}
+
+// A frame with no point in range (a camera against a wall, a dead sensor) is
+// a frame without detections: the run completes and its objects are missed.
+void FrameWithNoPointInRangeIsAFrameWithoutDetections(const SmallDatasetAndModel& data) {
+  const std::string db = data.CopyOfDataset("blank");
+  int64_t blank_frame = 0;
+  {
+    Database database(db, Database::Mode::kReadWriteExisting);
+    Statement first(&database, "SELECT id, width, height FROM frames ORDER BY id LIMIT 1");
+    ASSERT_TRUE(first.Step());
+    blank_frame = first.ColumnInt(0);
+    DepthFrame nothing;
+    nothing.Reshape(static_cast<int>(first.ColumnInt(1)), static_cast<int>(first.ColumnInt(2)));
+    std::fill(nothing.depth.begin(), nothing.depth.end(), 0.0f);
+    Statement blank(&database, "UPDATE frames SET depth_noisy_png = ? WHERE id = ?");
+    blank.BindBlob(1, EncodeDepthPng(nothing)).Bind(2, blank_frame).Run();
+  }
+  const testing::CommandResult run =
+      Workbench("evaluate --split all --model " + data.model + " --db " + db);
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_NE(run.output.find("1 frames had no point in range"), std::string::npos) << run.output;
+  const std::map<std::string, double> metrics = LastRunMetrics(db);
+  EXPECT_EQ(metrics.at("frames"), 4);
+  EXPECT_EQ(metrics.at("frames_without_points"), 1);
+  DatasetDb dataset(db, DatasetDb::Mode::kReadOnly);
+  const RunRecord run_record = dataset.Runs().back();
+  Statement detections(dataset.database(),
+                       "SELECT count(*) FROM run_detections WHERE run_id = ? AND frame_id = ?");
+  detections.Bind(1, run_record.id).Bind(2, blank_frame);
+  ASSERT_TRUE(detections.Step());
+  EXPECT_EQ(detections.ColumnInt(0), 0);
+  // Its visible objects are counted as missed at 10 cm.
+  const nlohmann::json errors = nlohmann::json::parse(run_record.results_json)
+                                    .at("frame_errors")
+                                    .at(std::to_string(blank_frame));
+  EXPECT_EQ(errors[0].get<int>(), 0);  // no false positives
+  EXPECT_GT(errors[1].get<int>(), 0);  // missed objects
+}
+
+// Which CAD models are "seen" is what the model file was trained on, not the
+// dataset's evaluation_only flags (its rooms may come from other catalogs).
+void SeenModelsAreThoseTheModelWasTrainedOn(const SmallDatasetAndModel& data) {
+  // Every model flagged evaluation-only, yet the model file was trained on all of them.
+  const std::string flagged = data.CopyOfDataset("flagged");
+  {
+    Database database(flagged, Database::Mode::kReadWriteExisting);
+    database.Execute("UPDATE models SET evaluation_only = 1");
+  }
+  ASSERT_EQ(Workbench("evaluate --quiet --split all --model " + data.model + " --db " + flagged)
+                .exit_code,
+            0);
+  const std::map<std::string, double> seen = LastRunMetrics(flagged);
+  ASSERT_TRUE(seen.count("mAP_seen@10cm"));
+  EXPECT_DOUBLE_EQ(seen.at("mAP_seen@10cm"), seen.at("mAP@10cm"));
+  EXPECT_FALSE(seen.count("mAP_unseen@10cm"));
+  EXPECT_TRUE(seen.count("cad_identified"));
+
+  // The same rooms under other model ids: nothing was seen in training.
+  const std::string renamed = data.CopyOfDataset("renamed");
+  {
+    Database database(renamed, Database::Mode::kReadWriteExisting);
+    database.Execute("PRAGMA foreign_keys = OFF");
+    database.Execute("UPDATE models SET id = 'other/' || id, evaluation_only = 0");
+    database.Execute("UPDATE objects SET model_id = 'other/' || model_id");
+  }
+  ASSERT_EQ(Workbench("evaluate --quiet --split all --model " + data.model + " --db " + renamed)
+                .exit_code,
+            0);
+  const std::map<std::string, double> unseen = LastRunMetrics(renamed);
+  ASSERT_TRUE(unseen.count("mAP_unseen@10cm"));
+  EXPECT_DOUBLE_EQ(unseen.at("mAP_unseen@10cm"), unseen.at("mAP@10cm"));
+  EXPECT_FALSE(unseen.count("mAP_seen@10cm"));
+  EXPECT_FALSE(unseen.count("cad_identified"));  // no true model to identify
+}
+
+TEST(Evaluate, EmptyFramesMissingDatasetsAndSeenModels) {
+  SmallDatasetAndModel data;
+  data.dir = testing::ScratchDir();
+  data.model = data.dir + "/model.fcm";
+  ASSERT_EQ(Workbench("generate --catalog procedural:4 --rooms 2 --frames 2 --seed 5 --quiet "
+                      "--out " +
+                      data.dir + "/base.db")
+                .exit_code,
+            0);
+  ASSERT_EQ(Workbench("train --catalog procedural:4 --vocab kmeans --words 20 --azimuths 8 "
+                      "--quiet --out " +
+                      data.model)
+                .exit_code,
+            0);
+  {
+    SCOPED_TRACE("missing dataset");
+    MissingDatasetIsOneLineAndCreatesNothing(data);
+  }
+  {
+    SCOPED_TRACE("frame with no point in range");
+    FrameWithNoPointInRangeIsAFrameWithoutDetections(data);
+  }
+  {
+    SCOPED_TRACE("seen models");
+    SeenModelsAreThoseTheModelWasTrainedOn(data);
+  }
 }
 
 }  // namespace
