@@ -44,6 +44,9 @@ void PlotCurves(const nlohmann::json& curves,
   RunGnuplot(script.str(), png_path);
 }
 
+// The page's head, style and provenance table.
+std::string PageHead(const std::string& title, const RunRecord& run);
+
 }  // namespace
 
 std::string HtmlEscape(const std::string& text) {
@@ -159,6 +162,139 @@ void WriteHistoryReport(const std::vector<RunRecord>& runs,
   WriteFileAtomically(path("history.html"), html.str());
 }
 
+namespace {
+
+std::string PageHead(const std::string& title, const RunRecord& run) {
+  std::ostringstream html;
+  html << "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">\n"
+       << "<title>furnidet run " << run.id << "</title>\n<style>\n"
+       << "body{font-family:sans-serif;margin:24px;max-width:1400px;color:#222}"
+       << "table{border-collapse:collapse;margin:8px 0 20px}td,th{border:1px solid #ccc;"
+       << "padding:4px 10px;text-align:right}th{background:#f0f0f0}td:first-child,th:first-child"
+       << "{text-align:left}img{max-width:100%;border:1px solid #ddd}.row{display:flex;gap:16px;"
+       << "flex-wrap:wrap}.row>div{flex:1 1 420px}pre{background:#f7f7f7;padding:10px;"
+       << "overflow-x:auto;font-size:12px}.gallery img{width:300px}\n</style></head><body>\n";
+  html << "<h1>" << HtmlEscape(title) << " " << run.id << "</h1>\n<table>"
+       << "<tr><th>started</th><td>" << HtmlEscape(run.started) << "</td></tr>"
+       << "<tr><th>commit</th><td>" << HtmlEscape(run.git_commit)
+       << (run.git_dirty ? " (dirty)" : "") << "</td></tr>"
+       << "<tr><th>split</th><td>" << HtmlEscape(run.split) << "</td></tr>"
+       << "<tr><th>model</th><td>" << HtmlEscape(run.model_path) << " · "
+       << HtmlEscape(run.model_hash) << "</td></tr>"
+       << "<tr><th>dataset hash</th><td>" << HtmlEscape(run.dataset_hash) << "</td></tr>"
+       << "<tr><th>label</th><td>" << HtmlEscape(run.label) << "</td></tr></table>\n";
+  return html.str();
+}
+
+// The options and every metric, then the image self-check; ends the page.
+std::string PageTail(const RunRecord& run, const std::map<std::string, double>& metrics) {
+  std::ostringstream html;
+  html << "<h2>Options</h2>\n<pre>" << HtmlEscape(nlohmann::json::parse(run.options_json).dump(2))
+       << "</pre>\n<h2>All metrics</h2>\n<table><tr><th>metric</th><th>value</th></tr>";
+  for (const auto& [name, value] : metrics)
+    html << "<tr><td>" << HtmlEscape(name) << "</td><td>" << Number(value, 4) << "</td></tr>";
+  // A self-check a headless browser can read back (--dump-dom): how many
+  // images loaded with a size.
+  html << "</table>\n" << ImageCheckHtml() << "</body></html>\n";
+  return html.str();
+}
+
+double JsonMetric(const nlohmann::json& metrics, const std::string& name) {
+  return metrics.contains(name) && metrics[name].is_number() ? metrics[name].get<double>()
+                                                             : std::nan("");
+}
+
+}  // namespace
+
+void WriteCrossvalReport(const RunReportInput& input,
+                         const std::vector<std::string>& fold_reports,
+                         const std::string& dir) {
+  std::error_code error;
+  std::filesystem::create_directories(dir, error);
+  Require(!error, dir + ": cannot create the report directory (" + error.message() + ")");
+  const nlohmann::json results = nlohmann::json::parse(input.run.results_json);
+  const nlohmann::json folds = results.value("folds", nlohmann::json::array());
+  const std::map<std::string, double>& m = input.metrics;
+
+  {  // AP@10cm per class and fold, grouped bars.
+    std::ostringstream script;
+    script << "set terminal pngcairo noenhanced size 760,380 font 'sans,10'\n"
+           << "set title 'leave-models-out: AP@10cm per class, one bar per fold (0 = none found, "
+           << "gap = no such object)'\nset style data histograms\nset style histogram cluster "
+           << "gap 1\nset style fill solid 0.8 border -1\nset yrange [0:1.05]\nset grid ytics\n"
+           << "set ylabel 'AP@10cm'\nset key outside right\n$ap << EOD\n";
+    for (const std::string& c : kClasses) {
+      script << c;
+      for (const nlohmann::json& fold : folds) {
+        const double ap = JsonMetric(fold["metrics"], "AP/" + c + "@10cm");
+        script << " " << (std::isfinite(ap) ? std::to_string(ap) : "NaN");
+      }
+      script << "\n";
+    }
+    script << "EOD\nplot ";
+    for (size_t k = 0; k < folds.size(); ++k) {
+      script << (k ? ", " : "") << "$ap using " << k + 2 << (k ? "" : ":xtic(1)") << " title 'fold "
+             << k << "'";
+    }
+    if (folds.empty()) script << "2 title 'no folds'";
+    script << "\n";
+    RunGnuplot(script.str(), (std::filesystem::path(dir) / "folds_ap.png").string());
+  }
+
+  std::ostringstream html;
+  html << PageHead("Leave-models-out run", input.run);
+  html << "<h2>Protocol E: furniture never trained on</h2>\n<p>The class-mapped CAD models are "
+          "split into "
+       << folds.size()
+       << " folds, stratified by class. Fold <i>k</i> is held "
+          "out of training and its models are the only targets of the rooms that evaluate it "
+          "(clutter as usual); every figure below is the mean over the folds &plusmn; the spread "
+          "(standard deviation) between them.</p>\n<table><tr><th>fold</th><th>held out "
+          "(chair/armchair/table/sideboard)</th><th>frames</th><th>objects</th><th>mAP@5cm</th>"
+          "<th>mAP@10cm</th><th>mAP@20cm</th>";
+  for (const std::string& c : kClasses) html << "<th>" << c << " AP@10cm</th>";
+  html << "<th>report</th></tr>";
+  for (size_t k = 0; k < folds.size(); ++k) {
+    const nlohmann::json& fold = folds[k];
+    const nlohmann::json& fm = fold["metrics"];
+    html << "<tr><td>" << fold.value("fold", 0) << "</td><td>";
+    for (size_t c = 0; c < kClasses.size(); ++c)
+      html << (c ? "/" : "") << fold["held_out"].value(kClasses[c], 0);
+    html << "</td><td>" << Number(JsonMetric(fm, "frames"), 0) << "</td><td>"
+         << Number(JsonMetric(fm, "objects"), 0) << "</td>";
+    for (const char* name : {"mAP@5cm", "mAP@10cm", "mAP@20cm"})
+      html << "<td>" << Number(JsonMetric(fm, name)) << "</td>";
+    for (const std::string& c : kClasses)
+      html << "<td>" << Number(JsonMetric(fm, "AP/" + c + "@10cm")) << "</td>";
+    html << "<td>";
+    if (k < fold_reports.size() && !fold_reports[k].empty()) {
+      html << "<a href=\"" << HtmlEscape(fold_reports[k]) << "/index.html\">run "
+           << fold.value("run", 0) << "</a>";
+    } else {
+      html << "run " << fold.value("run", 0);
+    }
+    html << "</td></tr>";
+  }
+  auto mean_spread = [&](const std::string& name) {
+    return "<td><b>" + Number(MetricOrNan(m, name)) + "</b> &plusmn; " +
+           Number(MetricOrNan(m, "spread/" + name)) + "</td>";
+  };
+  html << "<tr><td><b>mean</b></td><td></td><td>" << Number(MetricOrNan(m, "frames"), 0)
+       << "</td><td>" << Number(MetricOrNan(m, "objects"), 0) << "</td>";
+  for (const char* name : {"mAP@5cm", "mAP@10cm", "mAP@20cm"}) html << mean_spread(name);
+  for (const std::string& c : kClasses) html << mean_spread("AP/" + c + "@10cm");
+  html << "<td></td></tr></table>\n<img src=\"folds_ap.png\" alt=\"AP per class and fold\">\n"
+       << "<h2>Pose and speed (mean over folds)</h2>\n<table><tr><th>metric</th><th>mean</th>"
+       << "<th>spread</th></tr>";
+  for (const char* name :
+       {"xy_error_mean_m", "yaw_error_mean_deg", "latency_p50_ms", "latency_p90_ms"}) {
+    html << "<tr><td>" << name << "</td><td>" << Number(MetricOrNan(m, name)) << "</td><td>"
+         << Number(MetricOrNan(m, std::string("spread/") + name)) << "</td></tr>";
+  }
+  html << "</table>\n" << PageTail(input.run, m);
+  WriteFileAtomically((std::filesystem::path(dir) / "index.html").string(), html.str());
+}
+
 void WriteRunReport(const RunReportInput& input, const std::string& dir) {
   std::error_code error;
   std::filesystem::create_directories(dir, error);
@@ -202,23 +338,7 @@ void WriteRunReport(const RunReportInput& input, const std::string& dir) {
   }
 
   std::ostringstream html;
-  html << "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">\n"
-       << "<title>furnidet run " << input.run.id << "</title>\n<style>\n"
-       << "body{font-family:sans-serif;margin:24px;max-width:1400px;color:#222}"
-       << "table{border-collapse:collapse;margin:8px 0 20px}td,th{border:1px solid #ccc;"
-       << "padding:4px 10px;text-align:right}th{background:#f0f0f0}td:first-child,th:first-child"
-       << "{text-align:left}img{max-width:100%;border:1px solid #ddd}.row{display:flex;gap:16px;"
-       << "flex-wrap:wrap}.row>div{flex:1 1 420px}pre{background:#f7f7f7;padding:10px;"
-       << "overflow-x:auto;font-size:12px}.gallery img{width:300px}\n</style></head><body>\n";
-  html << "<h1>Evaluation run " << input.run.id << "</h1>\n<table>"
-       << "<tr><th>started</th><td>" << HtmlEscape(input.run.started) << "</td></tr>"
-       << "<tr><th>commit</th><td>" << HtmlEscape(input.run.git_commit)
-       << (input.run.git_dirty ? " (dirty)" : "") << "</td></tr>"
-       << "<tr><th>split</th><td>" << HtmlEscape(input.run.split) << "</td></tr>"
-       << "<tr><th>model</th><td>" << HtmlEscape(input.run.model_path) << " · "
-       << HtmlEscape(input.run.model_hash) << "</td></tr>"
-       << "<tr><th>dataset hash</th><td>" << HtmlEscape(input.run.dataset_hash) << "</td></tr>"
-       << "<tr><th>label</th><td>" << HtmlEscape(input.run.label) << "</td></tr></table>\n";
+  html << PageHead("Evaluation run", input.run);
   html << "<h2>Summary</h2>\n<table><tr><th>metric</th><th>value</th></tr>";
   for (const char* name : {"frames",
                            "objects",
@@ -271,14 +391,7 @@ void WriteRunReport(const RunReportInput& input, const std::string& dir) {
     }
     html << "</div>\n";
   }
-  html << "<h2>Options</h2>\n<pre>"
-       << HtmlEscape(nlohmann::json::parse(input.run.options_json).dump(2)) << "</pre>\n"
-       << "<h2>All metrics</h2>\n<table><tr><th>metric</th><th>value</th></tr>";
-  for (const auto& [name, value] : m)
-    html << "<tr><td>" << HtmlEscape(name) << "</td><td>" << Number(value, 4) << "</td></tr>";
-  // A self-check a headless browser can read back (--dump-dom): how many
-  // images loaded with a size.
-  html << "</table>\n" << ImageCheckHtml() << "</body></html>\n";
+  html << PageTail(input.run, m);
   WriteFileAtomically(path("index.html"), html.str());
 }
 

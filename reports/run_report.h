@@ -35,6 +35,15 @@ struct RunReportInput {
 // when gnuplot is missing or fails, naming the plot.
 void WriteRunReport(const RunReportInput& input, const std::string& dir);
 
+// The report of a leave-models-out run (protocol E, kind "crossval"): the
+// per-fold table (models held out, frames, objects, mAP and per-class AP) with
+// mean and spread, a plot of AP per class and fold, the options and every
+// metric. `fold_reports[k]` is the folder (relative to `dir`) of fold k's own
+// run report, linked from its row; empty for none.
+void WriteCrossvalReport(const RunReportInput& input,
+                         const std::vector<std::string>& fold_reports,
+                         const std::string& dir);
+
 // Every metric across runs (and the commits they ran on): history.html with
 // one table row per run and a plot per headline metric, in `dir`.
 void WriteHistoryReport(const std::vector<RunRecord>& runs,

@@ -186,6 +186,15 @@ ComposerCatalog ComposerCatalog::From(const Catalog& catalog, bool include_evalu
   return result;
 }
 
+ComposerCatalog ComposerCatalog::WithFurnitureFrom(const std::set<std::string>& ids) const {
+  ComposerCatalog result;
+  result.clutter = clutter;
+  for (const Item& item : furniture) {
+    if (ids.count(item.id)) result.furniture.push_back(item);
+  }
+  return result;
+}
+
 bool FootprintsOverlap(const PlacedObject& a, const PlacedObject& b, double clearance) {
   // Separating axis test on the two rectangles, each widened by half the clearance.
   const auto corners_a = FootprintCorners(a, clearance / 2),

@@ -14,6 +14,7 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -57,6 +58,8 @@ struct ComposerCatalog {
 
   // Clutter: not a door or window, 0.1..1.6 m footprint sides, 0.05..2.0 m tall.
   static ComposerCatalog From(const Catalog& catalog, bool include_evaluation_only = true);
+  // The same clutter, and only the class-mapped entries whose id is in `ids`.
+  ComposerCatalog WithFurnitureFrom(const std::set<std::string>& ids) const;
 };
 
 struct PlacedObject {

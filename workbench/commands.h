@@ -14,6 +14,7 @@ int RunModel(int argc, char** argv);
 int RunEvalParts(int argc, char** argv);
 int RunDetect(int argc, char** argv);
 int RunEvaluate(int argc, char** argv);
+int RunCrossval(int argc, char** argv);
 int RunRegress(int argc, char** argv);
 int RunReport(int argc, char** argv);
 int RunHistory(int argc, char** argv);

@@ -63,6 +63,19 @@ nlohmann::json CurvesJson(const EvaluationResult& result) {
 
 }  // namespace
 
+RunRecord NewRunRecord(const std::string& kind, const std::string& label) {
+  RunRecord run;
+  run.kind = kind;
+  run.label = label;
+  run.started = UtcNow();
+  run.git_commit = CommandOutput("git -C '" FURN_SOURCE_DIR "' rev-parse HEAD");
+  if (run.git_commit.empty()) run.git_commit = "unknown";
+  run.git_dirty =
+      !CommandOutput("git -C '" FURN_SOURCE_DIR "' status --porcelain --untracked-files=no")
+           .empty();
+  return run;
+}
+
 int SymmetryOrder(const ModelShape& shape) {
   if (shape.points.empty()) return 1;
   const ModelFitter fitter(shape, FitOptions{});
@@ -81,6 +94,9 @@ EvaluateSummary EvaluateModel(const std::string& model_path,
               options.split == "all",
           "split '" + options.split + "' must be train, val, test or all");
   Require(options.max_frames >= 0, "max frames must be >= 0");
+  Require(options.fold_count == 0 || (options.fold >= 0 && options.fold < options.fold_count),
+          "fold " + std::to_string(options.fold) + " must be in 0.." +
+              std::to_string(options.fold_count - 1));
   const auto start = std::chrono::steady_clock::now();
   // The dataset first: a mistyped path fails before the model loads, and creates nothing.
   DatasetDb dataset(db_path, DatasetDb::Mode::kReadWriteExisting);
@@ -98,11 +114,14 @@ EvaluateSummary EvaluateModel(const std::string& model_path,
   for (int64_t id : dataset.RoomIds()) {
     const RoomRecord room = dataset.ReadRoom(id, /*with_images=*/false);
     if (options.split != "all" && room.split != options.split) continue;
+    if (options.fold_count > 0 && id % options.fold_count != options.fold) continue;
     rooms.push_back(id);
     total_frames += static_cast<int>(room.frames.size());
   }
   if (options.max_frames > 0) total_frames = std::min(total_frames, options.max_frames);
-  Require(total_frames > 0, db_path + ": no frames in split '" + options.split + "'");
+  Require(total_frames > 0,
+          db_path + ": no frames in split '" + options.split + "'" +
+              (options.fold_count > 0 ? " of fold " + std::to_string(options.fold) : ""));
 
   EvaluateSummary summary;
   std::vector<FrameOutcome> outcomes;
@@ -185,15 +204,7 @@ EvaluateSummary EvaluateModel(const std::string& model_path,
   summary.result = EvaluateFrames(outcomes, evaluation);
   summary.result.metrics["frames_without_points"] = summary.frames_without_points;
 
-  RunRecord run;
-  run.kind = options.kind;
-  run.label = options.label;
-  run.started = UtcNow();
-  run.git_commit = CommandOutput("git -C '" FURN_SOURCE_DIR "' rev-parse HEAD");
-  if (run.git_commit.empty()) run.git_commit = "unknown";
-  run.git_dirty =
-      !CommandOutput("git -C '" FURN_SOURCE_DIR "' status --porcelain --untracked-files=no")
-           .empty();
+  RunRecord run = NewRunRecord(options.kind, options.label);
   run.model_path = model_path;
   ContentHasher model_hash;
   model_hash.Update(model_bytes.data(), model_bytes.size());
@@ -203,6 +214,9 @@ EvaluateSummary EvaluateModel(const std::string& model_path,
   nlohmann::ordered_json stored{
       {"detector", nlohmann::json::parse(DetectorOptionsJson(options.detector))},
       {"max_frames", options.max_frames},
+      {"fold",
+       options.fold_count > 0 ? nlohmann::json{options.fold, options.fold_count}
+                              : nlohmann::json()},
       {"min_visibility", evaluation.min_visibility},
       {"paper_window_m", evaluation.paper_window_m}};
   if (!options.extra_options_json.empty()) {
@@ -229,6 +243,19 @@ void WriteReportForRun(const std::string& db_path, int64_t run_id, const std::st
   RunReportInput input;
   input.run = *run;
   input.metrics = dataset.RunMetrics(run_id);
+  if (run->kind == "crossval") {  // protocol E: a page of its own, each fold's report beside it
+    const nlohmann::json fold_runs =
+        nlohmann::json::parse(run->options_json).value("fold_runs", nlohmann::json::array());
+    std::vector<std::string> fold_reports;
+    for (size_t k = 0; k < fold_runs.size(); ++k) {
+      fold_reports.push_back("fold-" + std::to_string(k));
+      WriteReportForRun(db_path,
+                        fold_runs[k].get<int64_t>(),
+                        (std::filesystem::path(out_dir) / fold_reports.back()).string());
+    }
+    WriteCrossvalReport(input, fold_reports, out_dir);
+    return;
+  }
   for (const RunFrameRecord& f : dataset.RunFrames(run_id)) input.frame_ms.push_back(f.total_ms);
 
   // Errors per frame at 10 cm, as evaluate counted them (protocol B).
@@ -251,7 +278,7 @@ void WriteReportForRun(const std::string& db_path, int64_t run_id, const std::st
   });
   // The gallery: detection rerun (deterministic: the same result) with debug PNGs.
   std::unique_ptr<Detector> detector;
-  if (std::filesystem::exists(run->model_path)) {
+  if (std::filesystem::is_regular_file(run->model_path)) {
     detector = std::make_unique<Detector>(LoadTrainedModel(run->model_path), options);
   }
   constexpr size_t kGallery = 6;
@@ -293,8 +320,9 @@ std::vector<Regression> FindRegressions(const std::map<std::string, double>& run
     const auto it = run.find(metric);
     const bool latency = metric.rfind("latency", 0) == 0;
     if (latency && latency_tolerance <= 0) continue;
-    if (metric == "frames" || metric == "objects" || metric == "frames_without_points")
-      continue;  // sizes, not quality
+    if (metric == "frames" || metric == "objects" || metric == "frames_without_points" ||
+        metric == "folds" || metric.rfind("spread/", 0) == 0)
+      continue;  // sizes and spreads, not quality
     if (it == run.end()) {
       regressions.push_back({metric, std::nan(""), base, 0});  // a metric that vanished
       continue;

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "core/detector.h"
+#include "db/dataset_db.h"  // RunRecord
 #include "reports/evaluation.h"
 #include "workbench/options_file.h"  // DetectorOptionsJson, DetectorOptionsFromJson
 
@@ -29,6 +30,10 @@ struct EvaluateCommandOptions {
   // A JSON object whose members join the run's stored options (tune puts its
   // id, trial and parameters here); "" for none.
   std::string extra_options_json;
+  // Only rooms k with k % fold_count == fold (a leave-models-out fold); off
+  // when fold_count is 0.
+  int fold = 0;
+  int fold_count = 0;
   DetectorOptions detector;
   EvaluationOptions evaluation;
 };
@@ -40,6 +45,10 @@ struct EvaluateSummary {
   int frames_without_points = 0;  // no point in range: counted, with no detections
   double seconds = 0;
 };
+
+// Provenance of a new run: its kind and label, the time, the source commit
+// and whether the tree had uncommitted changes.
+RunRecord NewRunRecord(const std::string& kind, const std::string& label);
 
 // Throws InputError for a missing model or dataset, or a split with no frames.
 EvaluateSummary EvaluateModel(const std::string& model_path,

@@ -98,7 +98,7 @@ class RoomGenerator {
   RoomGenerator(const Catalog& catalog, const GenerateOptions& options)
       : catalog_(catalog),
         options_(options),
-        composer_catalog_(ComposerCatalog::From(catalog, options.room.include_evaluation_only)) {
+        composer_catalogs_(ComposerCatalogsOf(catalog, options)) {
     // Rooms are independent, so each worker renders whole rooms with its own
     // renderer: no per-frame hand-offs between threads. OSMesa keeps one
     // context (llvmpipe threads on its own).
@@ -263,7 +263,9 @@ class RoomGenerator {
   }
 
   RoomLayout Compose(int64_t room_index) const {
-    return ComposeRoom(composer_catalog_,
+    // With leave-models-out folds, room k's targets are fold k % K's models.
+    const size_t fold = options_.model_folds > 0 ? room_index % options_.model_folds : 0;
+    return ComposeRoom(composer_catalogs_[fold],
                        options_.room,
                        DeriveSeed(options_.seed, static_cast<uint64_t>(room_index)));
   }
@@ -321,7 +323,20 @@ class RoomGenerator {
  private:
   const Catalog& catalog_;
   const GenerateOptions& options_;
-  ComposerCatalog composer_catalog_;
+  // What rooms are composed from: one, or one per leave-models-out fold.
+  static std::vector<ComposerCatalog> ComposerCatalogsOf(const Catalog& catalog,
+                                                         const GenerateOptions& options) {
+    const ComposerCatalog all =
+        ComposerCatalog::From(catalog, options.room.include_evaluation_only);
+    if (options.model_folds == 0) return {all};
+    const ModelFolds folds = AssignModelFolds(catalog, options.model_folds, options.fold_seed);
+    std::vector<ComposerCatalog> per_fold;
+    for (int k = 0; k < folds.count; ++k)
+      per_fold.push_back(all.WithFurnitureFrom(folds.ModelsOf(k)));
+    return per_fold;
+  }
+
+  std::vector<ComposerCatalog> composer_catalogs_;
   std::vector<std::unique_ptr<Worker>> workers_;
   struct CachedModel {
     std::shared_ptr<const TriangleMesh> mesh;
@@ -390,6 +405,11 @@ void GenerateOptions::Check() const {
   Require(shard_count >= 1 && shard_index >= 0 && shard_index < shard_count,
           "shard " + std::to_string(shard_index) + "/" + std::to_string(shard_count) +
               " must satisfy 0 <= i < N");
+  Require(model_folds == 0 || (model_folds >= 2 && model_folds <= 20),
+          "model folds " + std::to_string(model_folds) + " must be 0 (off) or in 2..20");
+  Require(model_folds == 0 || rooms >= model_folds,
+          "rooms " + std::to_string(rooms) + " must be at least the " +
+              std::to_string(model_folds) + " model folds (a fold's rooms are k % folds)");
   room.Check();
   noise.Check();
   camera.Check();
@@ -432,6 +452,8 @@ std::string GenerateOptions::ContentJson() const {
         {"axial_noise", noise.axial_noise},
         {"quantization", noise.quantization},
         {"disparity_step_px", noise.disparity_step_px}}}};
+  // Only when on, so datasets made before the option keep their content (and resume).
+  if (model_folds > 0) json["model_folds"] = {{"folds", model_folds}, {"seed", fold_seed}};
   return json.dump();
 }
 

@@ -19,6 +19,7 @@
 #include "renderers/depth_renderer.h"
 #include "renderers/kinect_noise.h"
 #include "scenes/catalog.h"
+#include "scenes/model_folds.h"
 #include "scenes/room_composer.h"
 
 namespace furn {
@@ -35,6 +36,12 @@ struct GenerateOptions {
   KinectNoiseOptions noise;
   RendererKind renderer = RendererKind::kEmbree;
   CameraIntrinsics camera = CameraIntrinsics::KinectV1();
+  // Leave-models-out rooms (protocol E, scenes/model_folds.h): with K >= 2 the
+  // class-mapped models are split into K folds by AssignModelFolds(catalog, K,
+  // fold_seed) and room k's targets come from fold k % K only (clutter as
+  // usual). 0: every class-mapped model may appear in every room.
+  int model_folds = 0;
+  uint64_t fold_seed = 1;
 
   // Throws InputError naming the field and the rule.
   void Check() const;

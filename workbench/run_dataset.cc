@@ -42,6 +42,13 @@ int RunGenerate(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--max-clutter", options.room.max_clutter, "Most clutter pieces per room")
       ->capture_default_str();
+  app.add_option("--model-folds",
+                 options.model_folds,
+                 "Leave-models-out rooms: K folds of the class-mapped models, room k's targets "
+                 "from fold k % K only (for 'workbench crossval'); 0 = off")
+      ->capture_default_str();
+  app.add_option("--fold-seed", options.fold_seed, "Seed of the split into model folds")
+      ->capture_default_str();
   if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
   ApplyGlobalFlags(catalog_flags);
   std::tie(options.shard_index, options.shard_count) = ParseShard(shard);

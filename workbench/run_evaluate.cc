@@ -10,6 +10,7 @@
 #include "reports/run_report.h"
 #include "workbench/cli_common.h"
 #include "workbench/commands.h"
+#include "workbench/crossval.h"
 #include "workbench/evaluate_command.h"
 #include "workbench/train_command.h"
 
@@ -179,6 +180,91 @@ int RunEvaluate(int argc, char** argv) {
   Require(!model_path.empty(), "--model is required (or --compare-vocab)");
   const EvaluateSummary summary = EvaluateModel(model_path, db_path, options);
   PrintHeadline(summary);
+  return 0;
+}
+
+int RunCrossval(int argc, char** argv) {
+  CLI::App app{
+      "Protocol E, leave-models-out: per fold, train without its models and evaluate on its "
+      "rooms; mean and spread stored as a run",
+      "workbench crossval"};
+  std::string db_path, options_file;
+  CrossvalOptions options;
+  CatalogFlags catalog_flags;
+  AddCatalogFlags(&app, &catalog_flags);
+  app.add_option("--db",
+                 db_path,
+                 "Dataset database made by 'generate --model-folds K' (runs are stored in it)")
+      ->required();
+  app.add_option("--work-dir", options.work_dir, "Where the fold models go (reused when unchanged)")
+      ->required();
+  app.add_option("--split", options.evaluate.split, "train, val, test or all")
+      ->capture_default_str();
+  app.add_option("--max-frames", options.evaluate.max_frames, "At most N frames per fold (0: all)")
+      ->capture_default_str();
+  app.add_option("--label", options.evaluate.label, "Free text stored with the run");
+  app.add_option("--options",
+                 options_file,
+                 "Options file: its \"trainer\" trains the fold models, its \"detector\" "
+                 "detects");
+  app.add_option("--seed", options.evaluate.detector.seed, "Seed of the RANSAC draws")
+      ->capture_default_str();
+  if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
+  ApplyGlobalFlags(catalog_flags);
+  options.quiet = catalog_flags.quiet;
+  if (!options_file.empty()) {
+    const std::string text = ReadFileBytes(options_file);
+    const uint64_t seed = options.evaluate.detector.seed;
+    if (nlohmann::json::parse(text, nullptr, false).contains("trainer"))
+      options.training = TrainingOptionsFromJson(text, options_file);
+    options.evaluate.detector = DetectorOptionsFromJson(text, options_file);
+    if (app.count("--seed")) options.evaluate.detector.seed = seed;
+  }
+  options.evaluate.detector.Check();
+  // The catalog the dataset was generated from, unless --catalog says otherwise.
+  if (app.count("--catalog") == 0) {
+    const std::optional<std::string> generation =
+        DatasetDb(db_path, DatasetDb::Mode::kReadOnly).GenerationOptions();
+    if (generation)
+      catalog_flags.spec = nlohmann::json::parse(*generation).value("catalog", "default");
+  }
+  const Catalog catalog = OpenCatalog(catalog_flags.spec, MakeOpenOptions(catalog_flags));
+  const CrossvalSummary summary = RunLeaveModelsOut(catalog, db_path, options);
+
+  const char* classes[] = {"chair", "armchair", "table", "sideboard"};
+  std::printf("leave-models-out (protocol E): %d folds (fold seed %llu), run %lld, %.0f s\n",
+              summary.folds,
+              static_cast<unsigned long long>(summary.fold_seed),
+              static_cast<long long>(summary.run_id),
+              summary.seconds);
+  std::printf("%-6s %6s %7s %9s", "fold", "frames", "objects", "mAP@10cm");
+  for (const char* c : classes) std::printf(" %9s", c);
+  std::printf("\n");
+  for (const CrossvalFold& fold : summary.per_fold) {
+    const auto& m = fold.evaluation.result.metrics;
+    std::printf("%-6d %6d %7.0f %9.3f",
+                fold.fold,
+                fold.evaluation.frames,
+                MetricOrNan(m, "objects"),
+                MetricOrNan(m, "mAP@10cm"));
+    for (const char* c : classes)
+      std::printf(" %9.3f", MetricOrNan(m, std::string("AP/") + c + "@10cm"));
+    std::printf("\n");
+  }
+  auto both = [&](const std::string& name) {
+    std::printf(" %4.3f±%4.3f", MetricOrNan(summary.mean, name), MetricOrNan(summary.spread, name));
+  };
+  std::printf("%-6s %6.0f %7.0f",
+              "mean",
+              MetricOrNan(summary.mean, "frames"),
+              MetricOrNan(summary.mean, "objects"));
+  both("mAP@10cm");
+  for (const char* c : classes) both(std::string("AP/") + c + "@10cm");
+  std::printf("\n  mAP@5cm %.3f  mAP@20cm %.3f  xy error %.3f m  latency p50 %.1f ms\n",
+              MetricOrNan(summary.mean, "mAP@5cm"),
+              MetricOrNan(summary.mean, "mAP@20cm"),
+              MetricOrNan(summary.mean, "xy_error_mean_m"),
+              MetricOrNan(summary.mean, "latency_p50_ms"));
   return 0;
 }
 

@@ -75,13 +75,14 @@ std::vector<TrainingView> ScanModel(const CadModel& model,
 TrainSummary TrainFromCatalog(const Catalog& catalog,
                               const ScanOptions& scan,
                               const TrainerOptions& trainer,
-                              const std::string& out_path) {
+                              const std::string& out_path,
+                              const std::set<std::string>& held_out) {
   scan.Check();
   trainer.Check();
   std::vector<std::string> ids;
   std::vector<FurnitureClass> classes;
   for (const CatalogEntry* entry : catalog.Classified()) {
-    if (entry->evaluation_only) continue;
+    if (entry->evaluation_only || held_out.count(entry->id)) continue;
     ids.push_back(entry->id);
     classes.push_back(*entry->furniture_class);
   }

@@ -6,6 +6,7 @@
 //   TrainSummary summary = TrainFromCatalog(catalog, options, "model.fcm");
 #pragma once
 
+#include <set>
 #include <string>
 #include <vector>
 
@@ -39,11 +40,13 @@ struct TrainSummary {
   TrainStageTimes stages;
 };
 
-// Trains on the classified entries that are not evaluation-only.
+// Trains on the classified entries that are not evaluation-only and not in
+// `held_out` (a leave-models-out fold).
 TrainSummary TrainFromCatalog(const Catalog& catalog,
                               const ScanOptions& scan,
                               const TrainerOptions& trainer,
-                              const std::string& out_path);
+                              const std::string& out_path,
+                              const std::set<std::string>& held_out = {});
 
 // `model info`: what a model file holds, as text.
 std::string DescribeTrainedModel(const TrainedModel& model);

@@ -259,8 +259,7 @@ TEST_F(DetectTest, BadScansAreClearErrors) {
   DetectionInput empty;
   const DetectionResult nothing = detector_->Detect(empty);
   EXPECT_EQ(nothing.status, DetectionStatus::kNoPointsInRange);
-  EXPECT_NE(nothing.message.find("no finite point within 3 m"), std::string::npos)
-      << nothing.message;
+  EXPECT_NE(nothing.message.find("no finite point within"), std::string::npos) << nothing.message;
   EXPECT_TRUE(nothing.detections.empty());
   DetectionInput nans;
   nans.points.assign(640 * 480, Eigen::Vector3f::Constant(std::nanf("")));
@@ -268,7 +267,8 @@ TEST_F(DetectTest, BadScansAreClearErrors) {
   nans.height = 480;
   EXPECT_EQ(detector_->Detect(nans).status, DetectionStatus::kNoPointsInRange);
   DetectionInput far = nans;  // everything beyond the range
-  for (size_t i = 0; i < far.points.size(); i += 7) far.points[i] = {0.1f, 0.2f, 3.5f};
+  const float beyond = static_cast<float>(detector_->options().max_range_m) + 0.5f;
+  for (size_t i = 0; i < far.points.size(); i += 7) far.points[i] = {0.1f, 0.2f, beyond};
   EXPECT_EQ(detector_->Detect(far).status, DetectionStatus::kNoPointsInRange);
   DetectionInput wrong_size = nans;
   wrong_size.width = 320;
@@ -311,6 +311,16 @@ TEST_F(DetectTest, BadFilesAndIntrinsicsAreClearErrors) {
   EXPECT_NE(testing::ErrorOf([&] { LoadScan(cloud); }).find("broken.pcd"), std::string::npos);
   cloud.cloud_path = dir + "/scan.xyz";
   EXPECT_NE(testing::ErrorOf([&] { LoadScan(cloud); }).find(".pcd or .ply"), std::string::npos);
+  // A depth image with no return at all: for one scan given by the user, an error line.
+  DepthFrame blank;
+  blank.Resize(640, 480);
+  WriteDepthPng(blank, dir + "/blank.png");
+  const testing::CommandResult nothing =
+      testing::RunCommand(std::string(FURN_WORKBENCH_BINARY) + " detect --quiet --model " +
+                          *model_path_ + " --depth " + dir + "/blank.png");
+  EXPECT_EQ(nothing.exit_code, 1) << nothing.output;
+  EXPECT_NE(nothing.output.find("blank.png"), std::string::npos) << nothing.output;
+  EXPECT_NE(nothing.output.find("no finite point within"), std::string::npos) << nothing.output;
   // A model file of another format version.
   std::string bytes = ReadFileBytes(*model_path_);
   bytes[8] = 1;
