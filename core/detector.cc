@@ -334,7 +334,7 @@ void Detector::Impl::Rank(const std::map<int, double>& support,
                           const std::vector<std::vector<int>>& segment_neighbours,
                           DetectionDebug::Hypothesis* hypothesis) const {
   if (support.empty()) {
-    hypothesis->outcome = "no supporting segment";
+    hypothesis->outcome = HypothesisOutcome::kNoSupport;
     return;
   }
   // CAD models of this class ranked by the part subsets nearest to each
@@ -406,7 +406,7 @@ void Detector::Impl::FitAndVerify(const ViewSegments& view,
   }
   const Eigen::Vector2f hint(static_cast<float>(hypothesis->x), static_cast<float>(hypothesis->y));
   double best_score = -1;
-  std::string outcome = "no fit";
+  hypothesis->outcome = HypothesisOutcome::kNoFit;
   for (size_t c = 0; c < hypothesis->candidate_models.size(); ++c) {
     const int m = hypothesis->candidate_models[c];
     const PoseFit fit =
@@ -432,32 +432,30 @@ void Detector::Impl::FitAndVerify(const ViewSegments& view,
         {m, fit.pose.x, fit.pose.y, fit.pose.yaw, covered, verification, score});
     if (score <= best_score) continue;
     best_score = score;
-    char text[96];
-    if (covered < options.min_covered_fraction) {
-      std::snprintf(text, sizeof(text), "covers %.2f of the points", covered);
-      outcome = text;
+    // The first test the best fit so far fails is the hypothesis' outcome.
+    const std::pair<HypothesisOutcome, double> tests[] = {
+        {covered < options.min_covered_fraction ? HypothesisOutcome::kLowCoverage
+                                                : HypothesisOutcome::kDetected,
+         covered},
+        {verification < options.min_verification ? HypothesisOutcome::kLowVerification
+                                                 : HypothesisOutcome::kDetected,
+         verification},
+        {counts.SeenOccupied() < options.min_seen_occupied ? HypothesisOutcome::kLowSeenOccupied
+                                                           : HypothesisOutcome::kDetected,
+         counts.SeenOccupied()},
+        {score < options.min_score ? HypothesisOutcome::kLowScore : HypothesisOutcome::kDetected,
+         score}};
+    hypothesis->outcome = HypothesisOutcome::kDetected;
+    for (const auto& [outcome, value] : tests) {
+      if (outcome == HypothesisOutcome::kDetected) continue;
+      hypothesis->outcome = outcome;
+      hypothesis->outcome_values[0] = value;
+      break;
+    }
+    if (hypothesis->outcome != HypothesisOutcome::kDetected) {
       detection->reset();
       continue;
     }
-    if (verification < options.min_verification) {
-      std::snprintf(text, sizeof(text), "verification %.2f", verification);
-      outcome = text;
-      detection->reset();
-      continue;
-    }
-    if (counts.SeenOccupied() < options.min_seen_occupied) {
-      std::snprintf(text, sizeof(text), "seen occupied %.2f", counts.SeenOccupied());
-      outcome = text;
-      detection->reset();
-      continue;
-    }
-    if (score < options.min_score) {
-      std::snprintf(text, sizeof(text), "score %.2f", score);
-      outcome = text;
-      detection->reset();
-      continue;
-    }
-    outcome = "detected";
     Detection d;
     d.furniture_class = hypothesis->furniture_class;
     d.x = fit.pose.x;
@@ -475,7 +473,64 @@ void Detector::Impl::FitAndVerify(const ViewSegments& view,
     support->clear();
     for (int k : fitters[m].CoveredIndices(region_points, fit.pose)) support->push_back(region[k]);
   }
-  hypothesis->outcome = outcome;
+}
+
+const char* OutcomeName(HypothesisOutcome outcome) {
+  switch (outcome) {
+    case HypothesisOutcome::kNoSupport:
+      return "no_support";
+    case HypothesisOutcome::kSameSupport:
+      return "same_support";
+    case HypothesisOutcome::kNoFit:
+      return "no_fit";
+    case HypothesisOutcome::kLowCoverage:
+      return "low_coverage";
+    case HypothesisOutcome::kLowVerification:
+      return "low_verification";
+    case HypothesisOutcome::kLowSeenOccupied:
+      return "low_seen_occupied";
+    case HypothesisOutcome::kLowScore:
+      return "low_score";
+    case HypothesisOutcome::kSuppressed:
+      return "suppressed";
+    case HypothesisOutcome::kDetected:
+      return "detected";
+  }
+  return "unknown";
+}
+
+std::string DetectionDebug::Describe(const Hypothesis& h) {
+  char text[96];
+  switch (h.outcome) {
+    case HypothesisOutcome::kNoSupport:
+      return "no supporting segment";
+    case HypothesisOutcome::kSameSupport:
+      return "same support as a stronger maximum";
+    case HypothesisOutcome::kNoFit:
+      return "no fit";
+    case HypothesisOutcome::kLowCoverage:
+      std::snprintf(text, sizeof(text), "covers %.2f of the points", h.outcome_values[0]);
+      return text;
+    case HypothesisOutcome::kLowVerification:
+      std::snprintf(text, sizeof(text), "verification %.2f", h.outcome_values[0]);
+      return text;
+    case HypothesisOutcome::kLowSeenOccupied:
+      std::snprintf(text, sizeof(text), "seen occupied %.2f", h.outcome_values[0]);
+      return text;
+    case HypothesisOutcome::kLowScore:
+      std::snprintf(text, sizeof(text), "score %.2f", h.outcome_values[0]);
+      return text;
+    case HypothesisOutcome::kSuppressed:
+      std::snprintf(text,
+                    sizeof(text),
+                    "suppressed (shares %.2f, overlaps %.2f)",
+                    h.outcome_values[0],
+                    h.outcome_values[1]);
+      return text;
+    case HypothesisOutcome::kDetected:
+      return "detected";
+  }
+  return "unknown";
 }
 
 DetectionResult Detector::Detect(const DetectionInput& input, bool keep_debug) const {
@@ -656,7 +711,7 @@ DetectionResult Detector::Detect(const DetectionInput& input, bool keep_debug) c
       std::set_intersection(a.begin(), a.end(), b.begin(), b.end(), std::back_inserter(common));
       if (common.size() >= kSameSupport * std::max(a.size(), b.size())) {
         hypotheses[h].candidate_models.clear();
-        hypotheses[h].outcome = "same support as a stronger maximum";
+        hypotheses[h].outcome = HypothesisOutcome::kSameSupport;
         break;
       }
     }
@@ -697,10 +752,9 @@ DetectionResult Detector::Detect(const DetectionInput& input, bool keep_debug) c
                                                     PlanarPose{other.x, other.y, other.yaw})));
     }
     if (shared_fraction > options.max_shared_support || overlap > options.max_footprint_overlap) {
-      char text[96];
-      std::snprintf(
-          text, sizeof(text), "suppressed (shares %.2f, overlaps %.2f)", shared_fraction, overlap);
-      hypotheses[h].outcome = text;
+      hypotheses[h].outcome = HypothesisOutcome::kSuppressed;
+      hypotheses[h].outcome_values[0] = shared_fraction;
+      hypotheses[h].outcome_values[1] = overlap;
       continue;
     }
     for (int i : support[h]) explained[i] = 1;

@@ -112,6 +112,24 @@ struct Detection {
   double covered_fraction = 0;  // of the scene points inside the fitted box, those it explains
 };
 
+// What became of a Hough maximum, in pipeline order: each stage a hypothesis
+// can stop at (SPEC §8 steps 4 to 7).
+enum class HypothesisOutcome {
+  kNoSupport,        // no segment voted into it
+  kSameSupport,      // backed by the same segments as a stronger maximum of its class
+  kNoFit,            // no candidate model gave a pose
+  kLowCoverage,      // the best fit explains too few scene points in its box
+  kLowVerification,  // visibility score below min_verification
+  kLowSeenOccupied,  // too little of the fit's observable surface was seen
+  kLowScore,         // ranking score below min_score
+  kSuppressed,       // a better detection explains its points or overlaps it
+  kDetected,
+};
+inline constexpr int kHypothesisOutcomes = 9;
+// "no_support", "same_support", "no_fit", "low_coverage", "low_verification",
+// "low_seen_occupied", "low_score", "suppressed", "detected".
+const char* OutcomeName(HypothesisOutcome outcome);
+
 // Everything a report needs to show how the detections came about.
 struct DetectionDebug {
   struct VoteGrid {
@@ -134,8 +152,13 @@ struct DetectionDebug {
       double covered_fraction = 0, verification = 0, score = 0;
     };
     std::vector<Fit> fits;  // of the candidates that gave a pose
-    std::string outcome;    // "detected", "no fit", "verification 0.41", ...
+    HypothesisOutcome outcome = HypothesisOutcome::kNoSupport;
+    // The value that failed its test (coverage, verification, seen-occupied
+    // or score), or for kSuppressed the shared support and footprint overlap.
+    double outcome_values[2] = {0, 0};
   };
+  // One line for people: "detected", "covers 0.62 of the points", ...
+  static std::string Describe(const Hypothesis& hypothesis);
   std::vector<Eigen::Vector3f> points;  // preprocessed, floor removed, world frame
   std::vector<int> segment_of_point;    // -1 when in no segment
   std::vector<VoteGrid> grids;          // one per class

@@ -190,11 +190,12 @@ void WriteDetectionDebug(const DetectionResult& result,
     for (const DetectionDebug::Hypothesis& h : debug.hypotheses) {
       if (h.furniture_class != grid.furniture_class) continue;
       ++maxima;
-      const bool detected = h.outcome == "detected";
+      const bool detected = h.outcome == HypothesisOutcome::kDetected;
       const cv::Scalar colour = detected ? cv::Scalar(80, 255, 80) : cv::Scalar(200, 200, 200);
       cv::circle(heat, at(h.x, h.y), detected ? 9 : 6, colour, 2, cv::LINE_AA);
       char text[96];
-      std::snprintf(text, sizeof(text), "%.3g %s", h.vote_weight, h.outcome.c_str());
+      std::snprintf(
+          text, sizeof(text), "%.3g %s", h.vote_weight, DetectionDebug::Describe(h).c_str());
       DrawLabel(&heat, text, at(h.x, h.y) + cv::Point(10, 4), colour, 0.38);
     }
     char caption[160];
@@ -272,7 +273,8 @@ void WriteDetectionDebug(const DetectionResult& result,
                           {"segments", h.segments},
                           {"candidates", candidates},
                           {"fits", fits},
-                          {"outcome", h.outcome}});
+                          {"outcome", OutcomeName(h.outcome)},
+                          {"outcome_text", DetectionDebug::Describe(h)}});
   }
   WriteFileAtomically(path("hypotheses.json"), hypotheses.dump(2) + "\n");
 }

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <functional>
 #include <numeric>
+#include <set>
 
 #include "core/error.h"
 
@@ -102,6 +103,72 @@ Matching MatchClass(const std::vector<FrameOutcome>& frames,
   return result;
 }
 
+// The funnel and the false-positive kinds at 10 cm (see evaluation.h).
+void CountLosses(const std::vector<FrameOutcome>& frames,
+                 const std::string& furniture_class,
+                 const Matching& matching,
+                 const EvaluationOptions& options,
+                 const std::function<Role(const TruthObject&)>& role,
+                 std::map<std::string, double>* m) {
+  std::set<const TruthObject*> found;
+  std::set<const ScoredDetection*> true_positives;
+  for (const auto& [d, t] : matching.true_positives) {
+    found.insert(t);
+    true_positives.insert(d);
+  }
+  auto count = [&](const std::string& stage) {
+    (*m)["funnel/" + furniture_class + "/" + stage] += 1;
+    (*m)["funnel/all/" + stage] += 1;
+  };
+  const double window = options.funnel_window_m;
+  for (const FrameOutcome& frame : frames) {
+    for (const TruthObject& t : frame.truth) {
+      if (t.furniture_class != furniture_class || role(t) != Role::kTarget) continue;
+      if (found.count(&t)) {
+        count("detected");
+        continue;
+      }
+      bool any_maximum = false, own_class = false;
+      HypothesisOutcome furthest = HypothesisOutcome::kNoSupport;
+      for (const HoughMaximum& h : frame.maxima) {
+        if (std::hypot(h.x - t.x, h.y - t.y) > window) continue;
+        any_maximum = true;
+        if (h.furniture_class != furniture_class) continue;
+        furthest = own_class ? std::max(furthest, h.outcome) : h.outcome;
+        own_class = true;
+      }
+      if (!own_class) {
+        count(any_maximum ? "wrong_class_only" : "no_maximum");
+      } else if (furthest == HypothesisOutcome::kDetected) {
+        count("detected_off_target");
+      } else {
+        count(OutcomeName(furthest));
+      }
+    }
+    for (const ScoredDetection& d : frame.detections) {
+      if (d.furniture_class != furniture_class || true_positives.count(&d)) continue;
+      double same = 1e9, other = 1e9;
+      bool ignored_near = false;
+      for (const TruthObject& t : frame.truth) {
+        if (t.furniture_class.empty() || role(t) == Role::kAbsent) continue;
+        const double distance = std::hypot(t.x - d.x, t.y - d.y);
+        if (t.furniture_class == furniture_class) {
+          same = std::min(same, distance);
+          ignored_near |= distance <= 0.10 && role(t) == Role::kIgnore;
+        } else if (role(t) == Role::kTarget) {
+          other = std::min(other, distance);
+        }
+      }
+      if (ignored_near) continue;  // matched an ignored object: not a false positive
+      const char* kind = same <= 0.10   ? "duplicate"
+                         : same <= 0.5  ? "mislocated"
+                         : other <= 0.3 ? "wrong_class"
+                                        : "background";
+      (*m)[std::string("false_positives/") + kind] += 1;
+    }
+  }
+}
+
 }  // namespace
 
 double AveragePrecision(const std::vector<PrPoint>& curve) {
@@ -172,8 +239,11 @@ EvaluationResult EvaluateFrames(const std::vector<FrameOutcome>& frames,
   double xy_sum = 0, yaw_sum = 0;
   int tps = 0, identified = 0, identifiable = 0;
   for (const FrameOutcome& f : frames) result.frame_errors[f.frame_id] = {0, 0};
+  for (const char* stage : kFunnelStages) m[std::string("funnel/all/") + stage] = 0;
+  for (const char* kind : kFalsePositiveKinds) m[std::string("false_positives/") + kind] = 0;
   for (const std::string& c : options.classes) {
     const Matching matching = MatchClass(frames, c, 0.10, all_objects);
+    CountLosses(frames, c, matching, options, all_objects, &m);
     for (size_t f = 0; f < frames.size(); ++f) {
       std::pair<int, int>& errors = result.frame_errors[frames[f].frame_id];
       errors.first += matching.false_positives_in_frame[f];

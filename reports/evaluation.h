@@ -24,6 +24,8 @@
 #include <string>
 #include <vector>
 
+#include "core/detector.h"  // HypothesisOutcome
+
 namespace furn {
 
 struct TruthObject {
@@ -47,6 +49,7 @@ struct HoughMaximum {
   std::string furniture_class;
   double x = 0, y = 0;
   double relative = 0;  // (value - min) / (max - min) of its class grid
+  HypothesisOutcome outcome = HypothesisOutcome::kNoSupport;  // where it stopped
 };
 
 struct FrameOutcome {
@@ -64,6 +67,7 @@ struct EvaluationOptions {
   double min_visibility = 0.25;
   double max_distance_m = 3.0;           // objects farther from the camera are "ignore"
   double paper_window_m = 0.05;          // protocol A: half the window's side
+  double funnel_window_m = 0.15;         // a maximum this near an object is about it
   std::vector<double> paper_thresholds;  // protocol A sweep; empty: 0, 0.05, .., 1
 };
 
@@ -82,6 +86,31 @@ struct EvaluationResult {
   // Per frame id: false positives and missed objects at 10 cm (protocol B).
   std::map<int64_t, std::pair<int, int>> frame_errors;
 };
+
+// Where objects are lost (at 10 cm, objects that count as targets): each is
+// "detected" (a TP), else the furthest stage reached by a maximum of its
+// class within funnel_window_m of it: an OutcomeName ("low_coverage",
+// "suppressed", ...; "detected_off_target" when that maximum's detection lies
+// farther than 10 cm or matched another object), "wrong_class_only" (maxima
+// of other classes only) or "no_maximum". Metrics funnel/<class>/<stage> and
+// funnel/all/<stage>, counts. False positives at 10 cm by kind,
+// false_positives/<kind>: "duplicate" (an object of its class within 10 cm,
+// already matched), "mislocated" (one within 0.5 m), "wrong_class" (an object
+// of another class within 0.3 m), "background" (none of these).
+inline constexpr char kFunnelStages[][24] = {"detected",
+                                             "detected_off_target",
+                                             "suppressed",
+                                             "low_score",
+                                             "low_seen_occupied",
+                                             "low_verification",
+                                             "low_coverage",
+                                             "no_fit",
+                                             "same_support",
+                                             "no_support",
+                                             "wrong_class_only",
+                                             "no_maximum"};
+inline constexpr char kFalsePositiveKinds[][16] = {
+    "duplicate", "mislocated", "wrong_class", "background"};
 
 // Metric names: AP/<class>@<d>cm, mAP@<d>cm, mAP_seen@10cm, mAP_unseen@10cm
 // (when such objects exist), xy_error_mean_m, yaw_error_mean_deg,

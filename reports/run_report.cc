@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <functional>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
@@ -199,6 +200,39 @@ std::string PageTail(const RunRecord& run, const std::map<std::string, double>& 
   return html.str();
 }
 
+// Where the objects were lost (evaluation.h's funnel), a row per class, and
+// the false positives by kind; `metric` gives a count by name (NaN: none).
+std::string FunnelHtml(const std::function<double(const std::string&)>& metric) {
+  std::ostringstream html;
+  html << "<h2>Where objects are lost (10 cm)</h2>\n<p>Each object to find is counted once: "
+          "found, or the furthest stage a Hough maximum of its class within 15 cm of it "
+          "reached. Start tuning from the biggest loss.</p>\n<table><tr><th>class</th>";
+  for (std::string stage : kFunnelStages) {  // spaces, so the header wraps
+    std::replace(stage.begin(), stage.end(), '_', ' ');
+    html << "<th>" << stage << "</th>";
+  }
+  html << "</tr>";
+  std::vector<std::string> rows = kClasses;
+  rows.push_back("all");
+  for (const std::string& c : rows) {
+    html << "<tr><td>" << c << "</td>";
+    for (const char* stage : kFunnelStages) {
+      const double n = metric("funnel/" + c + "/" + stage);
+      html << "<td>" << (std::isnan(n) ? std::string("0") : Number(n, 0)) << "</td>";
+    }
+    html << "</tr>";
+  }
+  html << "</table>\n<table><tr><th>false positives (10 cm)</th>";
+  for (const char* kind : kFalsePositiveKinds) html << "<th>" << kind << "</th>";
+  html << "</tr><tr><td>all classes</td>";
+  for (const char* kind : kFalsePositiveKinds) {
+    const double n = metric(std::string("false_positives/") + kind);
+    html << "<td>" << (std::isnan(n) ? std::string("0") : Number(n, 0)) << "</td>";
+  }
+  html << "</tr></table>\n";
+  return html.str();
+}
+
 double JsonMetric(const nlohmann::json& metrics, const std::string& name) {
   return metrics.contains(name) && metrics[name].is_number() ? metrics[name].get<double>()
                                                              : std::nan("");
@@ -291,7 +325,19 @@ void WriteCrossvalReport(const RunReportInput& input,
     html << "<tr><td>" << name << "</td><td>" << Number(MetricOrNan(m, name)) << "</td><td>"
          << Number(MetricOrNan(m, std::string("spread/") + name)) << "</td></tr>";
   }
-  html << "</table>\n" << PageTail(input.run, m);
+  html << "</table>\n";
+  html << FunnelHtml([&](const std::string& name) {  // counts: summed over the folds
+    double sum = 0;
+    bool any = false;
+    for (const nlohmann::json& fold : folds) {
+      const double n = JsonMetric(fold["metrics"], name);
+      if (std::isnan(n)) continue;
+      sum += n;
+      any = true;
+    }
+    return any ? sum : std::nan("");
+  });
+  html << PageTail(input.run, m);
   WriteFileAtomically((std::filesystem::path(dir) / "index.html").string(), html.str());
 }
 
@@ -379,7 +425,9 @@ void WriteRunReport(const RunReportInput& input, const std::string& dir) {
            << Number(value, 1) << "</td></tr>";
     }
   }
-  html << "</table></div></div>\n<h2>Frames with the most errors</h2>\n";
+  html << "</table></div></div>\n";
+  html << FunnelHtml([&](const std::string& name) { return MetricOrNan(m, name); });
+  html << "<h2>Frames with the most errors</h2>\n";
   if (input.gallery.empty())
     html << "<p>No gallery (no frame had an error, or the model file is gone).</p>\n";
   for (const GalleryFrame& g : input.gallery) {

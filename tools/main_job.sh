@@ -4,7 +4,10 @@
 # draw every classified model on a contact sheet, render one model as a Kinect
 # v1 sees it, generate a labelled synthetic dataset (FURN_ROOMS rooms), train
 # the part vocabulary and shape model, evaluate detection on the test split
-# (a run in the dataset, and its HTML report), and detect in one frame.
+# (a run in the dataset, and its HTML report), tune the detector thresholds,
+# run protocol E (leave-models-out: 5 folds of the CAD models, each trained
+# without its fold and evaluated on rooms of its fold only), and detect in one
+# frame.
 set -euo pipefail
 repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build_dir="${1:-$repo/build}"
@@ -35,6 +38,12 @@ echo "== tune: detector thresholds on the val split (8 trials, the model reused)
 "$workbench" tune --catalog default --db "$out_dir/synth.db" --space "$repo/data/tune_detector_space.json" \
   --strategy grid --trials 8 --model "$out_dir/model.fcm" --work-dir "$out_dir/tune_work" \
   --out "$out_dir/tune" --quiet
+echo "== crossval: protocol E, leave-models-out (5 folds; furniture the model never saw)"
+"$workbench" generate --catalog default --rooms "${FURN_CROSSVAL_ROOMS:-20}" --frames 4 --seed 2 \
+  --model-folds 5 --quiet --out "$out_dir/crossval.db"
+"$workbench" crossval --db "$out_dir/crossval.db" --work-dir "$out_dir/crossval_models" --quiet \
+  | tee "$out_dir/crossval.txt"
+"$workbench" report --db "$out_dir/crossval.db" --out "$out_dir/crossval_report"
 echo "== detect: furniture in one frame of the dataset, with the debug PNGs"
 "$workbench" detect --model "$out_dir/model.fcm" --db "$out_dir/synth.db" --frame 8 \
   --out "$out_dir/detect/detections.json" --debug-dir "$out_dir/detect" --timings
@@ -49,6 +58,10 @@ echo "  $out_dir/model.fcm      trained model (see 'workbench model info', 'work
 echo "  $out_dir/detect/        detections.json and debug PNGs (segments, votes, fits, top-down)"
 echo "  $out_dir/report/index.html  evaluation report of the test split (open it in a browser)"
 echo "  $out_dir/tune/index.html    tune report: trials ranked, parameter effects, best_options.json"
+echo "  $out_dir/crossval_report/index.html  leave-models-out report (protocol E), a report per fold"
 echo
-echo "headline metrics (test split):"
+echo "headline metrics, models seen in training (test split):"
 cat "$out_dir/evaluate.txt"
+echo
+echo "headline metrics, models never seen in training (protocol E, the figure that matters):"
+cat "$out_dir/crossval.txt"

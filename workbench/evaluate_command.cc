@@ -180,7 +180,8 @@ EvaluateSummary EvaluateModel(const std::string& model_path,
                               d.covered_fraction});
       }
       for (const DetectionDebug::Hypothesis& h : result.debug.hypotheses) {
-        outcome.maxima.push_back({ClassName(h.furniture_class), h.x, h.y, h.relative_weight});
+        outcome.maxima.push_back(
+            {ClassName(h.furniture_class), h.x, h.y, h.relative_weight, h.outcome});
       }
       nlohmann::ordered_json timings = nlohmann::ordered_json::object();
       for (const auto& [stage, ms] : result.timings_ms) {
@@ -321,8 +322,9 @@ std::vector<Regression> FindRegressions(const std::map<std::string, double>& run
     const bool latency = metric.rfind("latency", 0) == 0;
     if (latency && latency_tolerance <= 0) continue;
     if (metric == "frames" || metric == "objects" || metric == "frames_without_points" ||
-        metric == "folds" || metric.rfind("spread/", 0) == 0)
-      continue;  // sizes and spreads, not quality
+        metric == "folds" || metric.rfind("spread/", 0) == 0 || metric.rfind("funnel/", 0) == 0 ||
+        metric.rfind("false_positives/", 0) == 0)
+      continue;  // sizes, spreads and diagnostic counts, not quality
     if (it == run.end()) {
       regressions.push_back({metric, std::nan(""), base, 0});  // a metric that vanished
       continue;

@@ -51,6 +51,57 @@ void PrintHeadline(const EvaluateSummary& summary) {
               get("latency_p99_ms"));
 }
 
+// A value of a table column `width` wide; "-" for a metric a fold lacks (no
+// object of that class in its frames).
+std::string Cell(double value, int width) {
+  char text[32];
+  if (std::isnan(value)) {
+    std::snprintf(text, sizeof(text), "%*s", width, "-");
+  } else {
+    std::snprintf(text, sizeof(text), "%*.3f", width, value);
+  }
+  return text;
+}
+
+void PrintCrossval(const CrossvalSummary& summary) {
+  const char* classes[] = {"chair", "armchair", "table", "sideboard"};
+  std::printf("leave-models-out (protocol E): %d folds (fold seed %llu), run %lld, %.0f s\n",
+              summary.folds,
+              static_cast<unsigned long long>(summary.fold_seed),
+              static_cast<long long>(summary.run_id),
+              summary.seconds);
+  std::printf("%-6s %6s %7s %13s", "fold", "frames", "objects", "mAP@10cm");
+  for (const char* c : classes) std::printf(" %13s", c);
+  std::printf("\n");
+  for (const CrossvalFold& fold : summary.per_fold) {
+    const auto& m = fold.evaluation.result.metrics;
+    std::printf("%-6d %6d %7.0f %s",
+                fold.fold,
+                fold.evaluation.frames,
+                MetricOrNan(m, "objects"),
+                Cell(MetricOrNan(m, "mAP@10cm"), 13).c_str());
+    for (const char* c : classes)
+      std::printf(" %s", Cell(MetricOrNan(m, std::string("AP/") + c + "@10cm"), 13).c_str());
+    std::printf("\n");
+  }
+  auto both = [&](const std::string& name) {
+    std::printf(" %s±%s",
+                Cell(MetricOrNan(summary.mean, name), 7).c_str(),
+                Cell(MetricOrNan(summary.spread, name), 5).c_str());
+  };
+  std::printf("%-6s %6.0f %7.0f",
+              "mean",
+              MetricOrNan(summary.mean, "frames"),
+              MetricOrNan(summary.mean, "objects"));
+  both("mAP@10cm");
+  for (const char* c : classes) both(std::string("AP/") + c + "@10cm");
+  std::printf("\n  mAP@5cm %.3f  mAP@20cm %.3f  xy error %.3f m  latency p50 %.1f ms\n",
+              MetricOrNan(summary.mean, "mAP@5cm"),
+              MetricOrNan(summary.mean, "mAP@20cm"),
+              MetricOrNan(summary.mean, "xy_error_mean_m"),
+              MetricOrNan(summary.mean, "latency_p50_ms"));
+}
+
 }  // namespace
 
 // Protocol D: the three vocabularies over several seeds, each trained on the
@@ -231,40 +282,7 @@ int RunCrossval(int argc, char** argv) {
   const Catalog catalog = OpenCatalog(catalog_flags.spec, MakeOpenOptions(catalog_flags));
   const CrossvalSummary summary = RunLeaveModelsOut(catalog, db_path, options);
 
-  const char* classes[] = {"chair", "armchair", "table", "sideboard"};
-  std::printf("leave-models-out (protocol E): %d folds (fold seed %llu), run %lld, %.0f s\n",
-              summary.folds,
-              static_cast<unsigned long long>(summary.fold_seed),
-              static_cast<long long>(summary.run_id),
-              summary.seconds);
-  std::printf("%-6s %6s %7s %9s", "fold", "frames", "objects", "mAP@10cm");
-  for (const char* c : classes) std::printf(" %9s", c);
-  std::printf("\n");
-  for (const CrossvalFold& fold : summary.per_fold) {
-    const auto& m = fold.evaluation.result.metrics;
-    std::printf("%-6d %6d %7.0f %9.3f",
-                fold.fold,
-                fold.evaluation.frames,
-                MetricOrNan(m, "objects"),
-                MetricOrNan(m, "mAP@10cm"));
-    for (const char* c : classes)
-      std::printf(" %9.3f", MetricOrNan(m, std::string("AP/") + c + "@10cm"));
-    std::printf("\n");
-  }
-  auto both = [&](const std::string& name) {
-    std::printf(" %4.3f±%4.3f", MetricOrNan(summary.mean, name), MetricOrNan(summary.spread, name));
-  };
-  std::printf("%-6s %6.0f %7.0f",
-              "mean",
-              MetricOrNan(summary.mean, "frames"),
-              MetricOrNan(summary.mean, "objects"));
-  both("mAP@10cm");
-  for (const char* c : classes) both(std::string("AP/") + c + "@10cm");
-  std::printf("\n  mAP@5cm %.3f  mAP@20cm %.3f  xy error %.3f m  latency p50 %.1f ms\n",
-              MetricOrNan(summary.mean, "mAP@5cm"),
-              MetricOrNan(summary.mean, "mAP@20cm"),
-              MetricOrNan(summary.mean, "xy_error_mean_m"),
-              MetricOrNan(summary.mean, "latency_p50_ms"));
+  PrintCrossval(summary);
   return 0;
 }
 

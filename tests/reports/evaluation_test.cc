@@ -36,6 +36,62 @@ EvaluationOptions ChairsOnly() {
   return options;
 }
 
+HoughMaximum Maximum(const std::string& furniture_class,
+                     double x,
+                     double y,
+                     HypothesisOutcome outcome) {
+  HoughMaximum h;
+  h.furniture_class = furniture_class;
+  h.x = x;
+  h.y = y;
+  h.outcome = outcome;
+  return h;
+}
+
+// Each object lost at a known stage, and each kind of false positive.
+TEST(Funnel, EachObjectIsCountedAtTheStageThatLostIt) {
+  FrameOutcome frame;
+  frame.truth = {Chair(0, 0),  // found
+                 Chair(2, 0),  // a maximum rejected for coverage, one for score: score is further
+                 Chair(4, 0),  // only a table maximum near it
+                 Chair(6, 0),  // nothing near it
+                 Chair(8, 0),  // its maximum's detection landed 30 cm away
+                 Chair(10, 0, 0.1)};  // barely visible: ignored, not counted
+  frame.maxima = {Maximum("chair", 0.02, 0, HypothesisOutcome::kDetected),
+                  Maximum("chair", 2.05, 0, HypothesisOutcome::kLowCoverage),
+                  Maximum("chair", 1.95, 0.05, HypothesisOutcome::kLowScore),
+                  Maximum("table", 4.03, 0, HypothesisOutcome::kNoFit),
+                  Maximum("chair", 6.4, 0, HypothesisOutcome::kNoFit),  // too far from it
+                  Maximum("chair", 8.1, 0, HypothesisOutcome::kDetected)};
+  frame.detections = {Found(0.02, 0, 0.9),   // TP
+                      Found(0.07, 0, 0.8),   // duplicate
+                      Found(8.3, 0, 0.7),    // mislocated
+                      Found(10.02, 0, 0.6),  // on the ignored chair: not an FP
+                      Found(20, 0, 0.5)};    // background
+  TruthObject table;
+  table.furniture_class = "table";
+  table.x = 30;
+  table.visibility = 1;
+  table.distance_m = 2;
+  frame.truth.push_back(table);
+  frame.detections.push_back(Found(30.1, 0, 0.4));  // wrong class
+  const EvaluationResult r = EvaluateFrames({frame}, ChairsOnly());
+  const auto& m = r.metrics;
+  EXPECT_EQ(m.at("funnel/chair/detected"), 1);
+  EXPECT_EQ(m.at("funnel/chair/low_score"), 1);
+  EXPECT_EQ(m.at("funnel/chair/wrong_class_only"), 1);
+  EXPECT_EQ(m.at("funnel/chair/no_maximum"), 1);
+  EXPECT_EQ(m.at("funnel/chair/detected_off_target"), 1);
+  EXPECT_FALSE(m.count("funnel/chair/low_coverage"));
+  double counted = 0;
+  for (const char* stage : kFunnelStages) counted += m.at(std::string("funnel/all/") + stage);
+  EXPECT_EQ(counted, 5);  // every target once; the ignored chair not at all
+  EXPECT_EQ(m.at("false_positives/duplicate"), 1);
+  EXPECT_EQ(m.at("false_positives/mislocated"), 1);
+  EXPECT_EQ(m.at("false_positives/background"), 1);
+  EXPECT_EQ(m.at("false_positives/wrong_class"), 1);
+}
+
 TEST(AveragePrecision, AllPointInterpolation) {
   // TP, FP, TP over 2 objects: recall 0.5 at precision 1, then 1.0 at 2/3.
   const std::vector<PrPoint> curve = {{0.5, 1.0, 0.9}, {0.5, 0.5, 0.8}, {1.0, 2.0 / 3, 0.7}};

@@ -151,7 +151,7 @@ class DetectTest : public ::testing::Test {
                     h.x,
                     h.y,
                     h.vote_weight,
-                    h.outcome.c_str());
+                    DetectionDebug::Describe(h).c_str());
       text += line;
       for (const auto& f : h.fits) {
         std::snprintf(line,
