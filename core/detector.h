@@ -73,12 +73,16 @@ struct DetectorOptions {
   // the scene points in its box; occupancy voxel (m) and w of the visibility
   // score vs, which must reach min_verification; of the fit's observable
   // surface the sensor must have seen min_seen_occupied; and the ranking
-  // score (vs x covered x seen) must reach min_score.
+  // score (vs x covered x seen) must reach min_score. The seen share was
+  // 0.75, set on the CAD models trained on; furniture of other shapes covers
+  // its fitted model less, and 0.6 measured better (protocol E mAP@10cm 0.118
+  // -> 0.138 over 3 fold seeds). Coverage stays 0.75: at 0.6 protocol E gains
+  // little more (0.143) but a 1.2 m column passes as a sideboard (covers 0.69).
   double min_covered_fraction = 0.75;
   double occupancy_voxel_m = 0.05;
   double occupied_weight = 5;
   double min_verification = 0.6;
-  double min_seen_occupied = 0.75;
+  double min_seen_occupied = 0.6;
   double min_score = 0.4;
 
   // Suppression of weaker detections: by the share of their points that
