@@ -283,10 +283,10 @@ void WriteCrossvalReport(const RunReportInput& input,
        << " folds, stratified by class. Fold <i>k</i> is held "
           "out of training and its models are the only targets of the rooms that evaluate it "
           "(clutter as usual); every figure below is the mean over the folds &plusmn; the spread "
-          "(standard deviation) between them.</p>\n<table><tr><th>fold</th><th>held out "
-          "(chair/armchair/table/sideboard)</th><th>frames</th><th>objects</th><th>mAP@5cm</th>"
-          "<th>mAP@10cm</th><th>mAP@20cm</th>";
-  for (const std::string& c : kClasses) html << "<th>" << c << " AP@10cm</th>";
+          "(standard deviation) between them. Held out: models per class (chair / armchair / "
+          "table / sideboard).</p>\n<table><tr><th>fold</th><th>held out</th><th>frames</th>"
+          "<th>objects</th><th>mAP @5cm</th><th>mAP @10cm</th><th>mAP @20cm</th>";
+  for (const std::string& c : kClasses) html << "<th>" << c << " AP @10cm</th>";
   html << "<th>report</th></tr>";
   for (size_t k = 0; k < folds.size(); ++k) {
     const nlohmann::json& fold = folds[k];
