@@ -62,7 +62,7 @@ function(furn_add_test)
     DISCOVERY_TIMEOUT 60)
   foreach(isa IN LISTS ARG_EMBREE_ISAS)
     # One value per property: gtest_discover_tests splits lists. Select these
-    # tests with ctest -R '\\[avx2\\]'.
+    # tests with ctest -R '\[avx2\]'.
     gtest_discover_tests(${target}
       TEST_PREFIX "${ARG_FOLDER}/${ARG_NAME}[${isa}]."
       PROPERTIES LABELS "${ARG_LABELS}" TIMEOUT ${ARG_TIMEOUT}
