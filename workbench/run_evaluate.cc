@@ -1,7 +1,9 @@
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <nlohmann/json.hpp>
+#include <vector>
 
 #include "core/error.h"
 #include "core/file_util.h"
@@ -45,6 +47,22 @@ void PrintHeadline(const EvaluateSummary& summary) {
               get("xy_error_mean_m"),
               get("yaw_error_mean_deg"),
               get("cad_identified"));
+  // Where the objects were lost, biggest first (the report has it per class).
+  std::vector<std::pair<double, std::string>> losses;
+  for (const char* stage : kFunnelStages) {
+    const double n = get(std::string("funnel/all/") + stage);
+    if (n > 0) losses.emplace_back(-n, stage);
+  }
+  std::sort(losses.begin(), losses.end());
+  std::printf("  objects by stage reached:");
+  for (size_t k = 0; k < losses.size(); ++k)
+    std::printf("%s %s %.0f", k ? "," : "", losses[k].second.c_str(), -losses[k].first);
+  std::printf(
+      "\n  false positives: duplicate %.0f, mislocated %.0f, wrong class %.0f, background %.0f\n",
+      get("false_positives/duplicate"),
+      get("false_positives/mislocated"),
+      get("false_positives/wrong_class"),
+      get("false_positives/background"));
   std::printf("  latency per frame: p50 %.1f ms, p90 %.1f ms, p99 %.1f ms\n",
               get("latency_p50_ms"),
               get("latency_p90_ms"),
