@@ -129,7 +129,6 @@ enum class HypothesisOutcome {
   kSuppressed,       // a better detection explains its points or overlaps it
   kDetected,
 };
-inline constexpr int kHypothesisOutcomes = 9;
 // "no_support", "same_support", "no_fit", "low_coverage", "low_verification",
 // "low_seen_occupied", "low_score", "suppressed", "detected".
 const char* OutcomeName(HypothesisOutcome outcome);

@@ -226,6 +226,8 @@ class MeshBvhCache {
 
 }  // namespace
 
+void RequireEmbreeDevice() { SharedDevice(); }
+
 std::string EmbreeDeviceConfig() {
   const char* config = std::getenv(kEmbreeConfigVariable);
   return config != nullptr ? config : "";
@@ -255,7 +257,7 @@ struct EmbreeCaster::Impl {
 };
 
 EmbreeCaster::EmbreeCaster() : impl_(std::make_unique<Impl>()) {
-  SharedDevice();  // throws here, not at the first render, when Embree cannot start
+  RequireEmbreeDevice();  // throws here, not at the first render, when Embree cannot start
 }
 
 EmbreeCaster::~EmbreeCaster() { impl_->ReleaseScene(); }

@@ -30,6 +30,9 @@ namespace furn {
 // code paths of other CPUs). Empty or unset: Embree's defaults.
 constexpr const char* kEmbreeConfigVariable = "FURN_EMBREE_CONFIG";
 std::string EmbreeDeviceConfig();
+// Creates the process's Embree device now if it does not exist yet; throws
+// std::runtime_error as EmbreeCaster's constructor does when it cannot.
+void RequireEmbreeDevice();
 
 class EmbreeCaster : public DepthRenderer {
  public:

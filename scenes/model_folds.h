@@ -18,13 +18,19 @@
 
 namespace furn {
 
+// The fold whose models are the targets of room `room_index` of a dataset
+// generated with `folds` model folds: the one rule generation and evaluation share.
+inline int FoldOfRoom(int64_t room_index, int folds) {
+  return static_cast<int>(room_index % folds);
+}
+
 struct ModelFolds {
   int count = 0;
   std::map<std::string, int> fold_of_model;  // every class-mapped entry
 
   std::set<std::string> ModelsOf(int fold) const;
   // The fold whose models are the targets of room `room_index`.
-  int FoldOfRoom(int64_t room_index) const { return static_cast<int>(room_index % count); }
+  int FoldOfRoom(int64_t room_index) const { return furn::FoldOfRoom(room_index, count); }
 };
 
 // Per class, the entries (evaluation-only ones included: under this protocol

@@ -23,12 +23,14 @@ class ForcedIsaEnvironment : public ::testing::Environment {
     if (config == nullptr) return;
     const std::string text = config;
     __builtin_cpu_init();
-    if (text.find("isa=avx2") != std::string::npos && !__builtin_cpu_supports("avx2"))
-      GTEST_SKIP() << "this CPU has no AVX2 for FURN_EMBREE_CONFIG=" << text;
-    if (text.find("isa=avx512") != std::string::npos && !__builtin_cpu_supports("avx512f"))
-      GTEST_SKIP() << "this CPU has no AVX-512 for FURN_EMBREE_CONFIG=" << text;
-    if (text.find("isa=sse4.2") != std::string::npos && !__builtin_cpu_supports("sse4.2"))
-      GTEST_SKIP() << "this CPU has no SSE4.2 for FURN_EMBREE_CONFIG=" << text;
+    const bool cpu_has[] = {__builtin_cpu_supports("avx2") != 0,
+                            __builtin_cpu_supports("avx512f") != 0,
+                            __builtin_cpu_supports("sse4.2") != 0};
+    const char* const isas[] = {"isa=avx2", "isa=avx512", "isa=sse4.2"};
+    for (int k = 0; k < 3; ++k) {
+      if (text.find(isas[k]) != std::string::npos && !cpu_has[k])
+        GTEST_SKIP() << "this CPU lacks the ISA of FURN_EMBREE_CONFIG=" << text;
+    }
   }
 };
 

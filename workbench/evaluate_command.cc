@@ -18,6 +18,7 @@
 #include "renderers/frame_io.h"
 #include "reports/detection_debug.h"
 #include "reports/run_report.h"
+#include "scenes/model_folds.h"
 #include "workbench/detect_command.h"
 #include "workbench/json_text.h"
 
@@ -114,7 +115,7 @@ EvaluateSummary EvaluateModel(const std::string& model_path,
   for (int64_t id : dataset.RoomIds()) {
     const RoomRecord room = dataset.ReadRoom(id, /*with_images=*/false);
     if (options.split != "all" && room.split != options.split) continue;
-    if (options.fold_count > 0 && id % options.fold_count != options.fold) continue;
+    if (options.fold_count > 0 && FoldOfRoom(id, options.fold_count) != options.fold) continue;
     rooms.push_back(id);
     total_frames += static_cast<int>(room.frames.size());
   }

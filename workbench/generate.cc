@@ -103,7 +103,7 @@ class RoomGenerator {
     // renderer: no per-frame hand-offs between threads. OSMesa keeps one
     // context (llvmpipe threads on its own).
     const int slots = options.renderer == RendererKind::kEmbree ? ParallelThreads() : 1;
-    EmbreeCaster{};  // ground truth casts with Embree whatever the renderer: fail now if it cannot
+    RequireEmbreeDevice();  // ground truth casts with Embree whatever the renderer
     for (int slot = 0; slot < slots; ++slot) {
       auto worker = std::make_unique<Worker>();
       worker->renderer = MakeRenderer(options.renderer);
@@ -264,7 +264,7 @@ class RoomGenerator {
 
   RoomLayout Compose(int64_t room_index) const {
     // With leave-models-out folds, room k's targets are fold k % K's models.
-    const size_t fold = options_.model_folds > 0 ? room_index % options_.model_folds : 0;
+    const int fold = options_.model_folds > 0 ? FoldOfRoom(room_index, options_.model_folds) : 0;
     return ComposeRoom(composer_catalogs_[fold],
                        options_.room,
                        DeriveSeed(options_.seed, static_cast<uint64_t>(room_index)));

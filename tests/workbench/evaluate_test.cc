@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <vector>
 
 #include "core/file_util.h"
 #include "db/dataset_db.h"
@@ -207,34 +208,38 @@ void FrameWithNoPointInRangeIsAFrameWithoutDetections(const SmallDatasetAndModel
 
 // Which CAD models are "seen" is what the model file was trained on, not the
 // dataset's evaluation_only flags (its rooms may come from other catalogs).
+// The metrics of an evaluation of a copy of the dataset changed by `sql`
+// (empty when the evaluation fails, which the caller's assertions then show).
+std::map<std::string, double> MetricsOfChangedCopy(const SmallDatasetAndModel& data,
+                                                   const std::string& name,
+                                                   const std::vector<std::string>& sql) {
+  const std::string db = data.CopyOfDataset(name);
+  {
+    Database database(db, Database::Mode::kReadWriteExisting);
+    for (const std::string& statement : sql) database.Execute(statement);
+  }
+  const testing::CommandResult run =
+      Workbench("evaluate --quiet --split all --model " + data.model + " --db " + db);
+  EXPECT_EQ(run.exit_code, 0) << run.output;
+  return run.exit_code == 0 ? LastRunMetrics(db) : std::map<std::string, double>{};
+}
+
 void SeenModelsAreThoseTheModelWasTrainedOn(const SmallDatasetAndModel& data) {
   // Every model flagged evaluation-only, yet the model file was trained on all of them.
-  const std::string flagged = data.CopyOfDataset("flagged");
-  {
-    Database database(flagged, Database::Mode::kReadWriteExisting);
-    database.Execute("UPDATE models SET evaluation_only = 1");
-  }
-  ASSERT_EQ(Workbench("evaluate --quiet --split all --model " + data.model + " --db " + flagged)
-                .exit_code,
-            0);
-  const std::map<std::string, double> seen = LastRunMetrics(flagged);
+  const std::map<std::string, double> seen =
+      MetricsOfChangedCopy(data, "flagged", {"UPDATE models SET evaluation_only = 1"});
   ASSERT_TRUE(seen.count("mAP_seen@10cm"));
   EXPECT_DOUBLE_EQ(seen.at("mAP_seen@10cm"), seen.at("mAP@10cm"));
   EXPECT_FALSE(seen.count("mAP_unseen@10cm"));
   EXPECT_TRUE(seen.count("cad_identified"));
 
   // The same rooms under other model ids: nothing was seen in training.
-  const std::string renamed = data.CopyOfDataset("renamed");
-  {
-    Database database(renamed, Database::Mode::kReadWriteExisting);
-    database.Execute("PRAGMA foreign_keys = OFF");
-    database.Execute("UPDATE models SET id = 'other/' || id, evaluation_only = 0");
-    database.Execute("UPDATE objects SET model_id = 'other/' || model_id");
-  }
-  ASSERT_EQ(Workbench("evaluate --quiet --split all --model " + data.model + " --db " + renamed)
-                .exit_code,
-            0);
-  const std::map<std::string, double> unseen = LastRunMetrics(renamed);
+  const std::map<std::string, double> unseen =
+      MetricsOfChangedCopy(data,
+                           "renamed",
+                           {"PRAGMA foreign_keys = OFF",
+                            "UPDATE models SET id = 'other/' || id, evaluation_only = 0",
+                            "UPDATE objects SET model_id = 'other/' || model_id"});
   ASSERT_TRUE(unseen.count("mAP_unseen@10cm"));
   EXPECT_DOUBLE_EQ(unseen.at("mAP_unseen@10cm"), unseen.at("mAP@10cm"));
   EXPECT_FALSE(unseen.count("mAP_seen@10cm"));
