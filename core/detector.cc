@@ -24,14 +24,6 @@ using Clock = std::chrono::steady_clock;
 constexpr int kClasses = static_cast<int>(kAllClasses.size());
 constexpr double kSameSupport = 0.8;  // shared share of segments making two maxima one
 
-// One Hough vote, kept to find the segments behind a maximum.
-struct Vote {
-  int segment = 0;
-  int class_index = 0;
-  float x = 0, y = 0;
-  float weight = 0;
-};
-
 class StageTimer {
  public:
   explicit StageTimer(std::vector<std::pair<std::string, double>>* out) : out_(out) {}
@@ -186,6 +178,13 @@ void DetectorOptions::Check() const {
   Require(min_score >= 0 && min_score <= 1, "min score must be in 0..1");
   Require(min_seen_occupied >= 0 && min_seen_occupied <= 1, "min seen occupied must be in 0..1");
   Require(max_shared_support >= 0 && max_shared_support <= 1, "max shared support must be in 0..1");
+  Require(scorer_min_covered_fraction >= 0 && scorer_min_covered_fraction <= 1,
+          "scorer min covered fraction must be in 0..1");
+  Require(scorer_min_verification >= 0 && scorer_min_verification <= 1,
+          "scorer min verification must be in 0..1");
+  Require(scorer_min_seen_occupied >= 0 && scorer_min_seen_occupied <= 1,
+          "scorer min seen occupied must be in 0..1");
+  Require(min_probability >= 0 && min_probability <= 1, "min probability must be in 0..1");
 }
 
 struct Detector::Impl {
@@ -199,6 +198,8 @@ struct Detector::Impl {
   // above_m) are structure, like walls: no model can explain them.
   float structure_height_m = 0;
   std::unique_ptr<PartSubsetIndex> parts;
+  HypothesisScorer scorer;  // empty: the fixed gates decide
+  bool scored = false;      // the scorer decides (the model has one and use_scorer)
 
   // The hypotheses of one class from its smoothed grid.
   std::vector<DetectionDebug::Hypothesis> Maxima(const cv::Mat& grid,
@@ -206,20 +207,16 @@ struct Detector::Impl {
                                                  const Eigen::Vector2f& origin,
                                                  DetectionDebug::VoteGrid* debug) const;
   // The segments behind a hypothesis and its candidate CAD models.
-  std::map<int, double> Support(const std::vector<Vote>& class_votes,
+  std::map<int, double> Support(const std::vector<HoughVote>& class_votes,
                                 DetectionDebug::Hypothesis* hypothesis) const;
   void Rank(const std::map<int, double>& support,
             const std::vector<std::vector<int>>& segment_neighbours,
             DetectionDebug::Hypothesis* hypothesis) const;
   // The best-scoring fit of the candidates, if it passes the checks.
-  void FitAndVerify(const ViewSegments& view,
-                    const std::vector<char>& structure,
-                    const OccupancyGrid& occupancy,
+  void FitAndVerify(const PreparedScan& scan,
                     int hypothesis_index,
                     DetectionDebug::Hypothesis* hypothesis,
-                    std::optional<Detection>* detection,
-                    std::vector<Eigen::Vector3f>* fitted,
-                    std::vector<int>* support) const;
+                    FittedHypothesis* out) const;
 };
 
 Detector::Detector(TrainedModel model, const DetectorOptions& options)
@@ -256,12 +253,15 @@ Detector::Detector(TrainedModel model, const DetectorOptions& options)
   std::vector<VfhDescriptor> descriptors;
   for (const PartSubsetEntry& entry : m.part_library) descriptors.push_back(entry.descriptor);
   impl.parts = std::make_unique<PartSubsetIndex>(descriptors);
+  impl.scorer = HypothesisScorer::Deserialize(m.scorer, "the model's hypothesis scorer");
+  impl.scored = options.use_scorer && !impl.scorer.empty();
 }
 
 Detector::~Detector() = default;
 
 const TrainedModel& Detector::model() const { return impl_->model; }
 const DetectorOptions& Detector::options() const { return impl_->options; }
+bool Detector::scored() const { return impl_->scored; }
 
 std::vector<DetectionDebug::Hypothesis> Detector::Impl::Maxima(
     const cv::Mat& grid,
@@ -316,12 +316,12 @@ std::vector<DetectionDebug::Hypothesis> Detector::Impl::Maxima(
   return maxima;
 }
 
-std::map<int, double> Detector::Impl::Support(const std::vector<Vote>& class_votes,
+std::map<int, double> Detector::Impl::Support(const std::vector<HoughVote>& class_votes,
                                               DetectionDebug::Hypothesis* hypothesis) const {
   // Segments that voted for this class near the maximum, with their weight there.
   const float radius2 = static_cast<float>(options.support_radius_m * options.support_radius_m);
   std::map<int, double> support;
-  for (const Vote& vote : class_votes) {
+  for (const HoughVote& vote : class_votes) {
     const float dx = vote.x - static_cast<float>(hypothesis->x);
     const float dy = vote.y - static_cast<float>(hypothesis->y);
     if (dx * dx + dy * dy <= radius2) support[vote.segment] += vote.weight;
@@ -362,15 +362,12 @@ void Detector::Impl::Rank(const std::map<int, double>& support,
   }
 }
 
-void Detector::Impl::FitAndVerify(const ViewSegments& view,
-                                  const std::vector<char>& structure,
-                                  const OccupancyGrid& occupancy,
+void Detector::Impl::FitAndVerify(const PreparedScan& scan,
                                   int hypothesis_index,
                                   DetectionDebug::Hypothesis* hypothesis,
-                                  std::optional<Detection>* detection,
-                                  std::vector<Eigen::Vector3f>* fitted,
-                                  std::vector<int>* support) const {
+                                  FittedHypothesis* out) const {
   if (hypothesis->candidate_models.empty()) return;
+  const ViewSegments& view = scan.view;
   // Scene points around the maximum, within reach of the largest candidate.
   float reach = 0;
   for (int m : hypothesis->candidate_models) {
@@ -386,7 +383,7 @@ void Detector::Impl::FitAndVerify(const ViewSegments& view,
   std::vector<int> region;  // cloud indices of the points within reach
   for (size_t i = 0; i < view.cloud.size(); ++i) {
     const Eigen::Vector3f& p = view.cloud.points[i];
-    if (structure[i]) continue;
+    if (scan.structure[i]) continue;
     if (Eigen::Vector2f(p.x() - hypothesis->x, p.y() - hypothesis->y).norm() <= reach) {
       scene_points.push_back(p);
       scene_normals.push_back(view.cloud.normals[i]);
@@ -405,74 +402,155 @@ void Detector::Impl::FitAndVerify(const ViewSegments& view,
     scene_normals.resize(kMaxFitPoints);
   }
   const Eigen::Vector2f hint(static_cast<float>(hypothesis->x), static_cast<float>(hypothesis->y));
-  double best_score = -1;
+  // Every candidate fitted; the best by the ranking score is the
+  // hypothesis' fit: the paper's visibility score, times the share of the
+  // points in the model's box it explains, times the share of its observable
+  // surface the sensor actually saw (occluded points neither help nor hurt).
+  struct Candidate {
+    int model = -1, rank = 0;
+    PoseFit fit;
+    VisibilityCounts counts;
+    double covered = 0, verification = 0, score = -1;
+    std::vector<Eigen::Vector3f> posed;
+  };
+  Candidate best;
+  double second_score = 0;
+  int fits = 0;
   hypothesis->outcome = HypothesisOutcome::kNoFit;
   for (size_t c = 0; c < hypothesis->candidate_models.size(); ++c) {
-    const int m = hypothesis->candidate_models[c];
-    const PoseFit fit =
-        fitters[m].Fit(scene_points,
-                       scene_normals,
-                       hint,
-                       DeriveSeed(options.seed, static_cast<uint64_t>(hypothesis_index) * 64 + c));
-    if (!fit.found) continue;
-    const double covered = fit.Explained();
-    std::vector<Eigen::Vector3f> posed;
-    posed.reserve(model.model_shapes[m].points.size());
-    const PlanarTransform transform(fit.pose);
-    for (const Eigen::Vector3f& p : model.model_shapes[m].points)
-      posed.push_back(transform.Apply(p));
-    const VisibilityCounts counts =
-        CountVisibility(occupancy, posed, static_cast<float>(options.floor_band_m));
-    const double verification = counts.Score(options.occupied_weight);
-    // Ranking: the paper's visibility score, times the share of the points in
-    // the model's box it explains, times the share of its observable surface
-    // the sensor actually saw (occluded points neither help nor hurt).
-    const double score = verification * covered * counts.SeenOccupied();
-    hypothesis->fits.push_back(
-        {m, fit.pose.x, fit.pose.y, fit.pose.yaw, covered, verification, score});
-    if (score <= best_score) continue;
-    best_score = score;
-    // The first test the best fit so far fails is the hypothesis' outcome.
-    const std::pair<HypothesisOutcome, double> tests[] = {
-        {covered < options.min_covered_fraction ? HypothesisOutcome::kLowCoverage
-                                                : HypothesisOutcome::kDetected,
-         covered},
-        {verification < options.min_verification ? HypothesisOutcome::kLowVerification
-                                                 : HypothesisOutcome::kDetected,
-         verification},
-        {counts.SeenOccupied() < options.min_seen_occupied ? HypothesisOutcome::kLowSeenOccupied
-                                                           : HypothesisOutcome::kDetected,
-         counts.SeenOccupied()},
-        {score < options.min_score ? HypothesisOutcome::kLowScore : HypothesisOutcome::kDetected,
-         score}};
-    hypothesis->outcome = HypothesisOutcome::kDetected;
-    for (const auto& [outcome, value] : tests) {
-      if (outcome == HypothesisOutcome::kDetected) continue;
-      hypothesis->outcome = outcome;
-      hypothesis->outcome_values[0] = value;
-      break;
-    }
-    if (hypothesis->outcome != HypothesisOutcome::kDetected) {
-      detection->reset();
+    Candidate candidate;
+    candidate.model = hypothesis->candidate_models[c];
+    candidate.rank = static_cast<int>(c);
+    candidate.fit =
+        fitters[candidate.model].Fit(scene_points,
+                                     scene_normals,
+                                     hint,
+                                     DeriveSeed(options.seed, static_cast<uint64_t>(hypothesis_index) * 64 + c));
+    if (!candidate.fit.found) continue;
+    ++fits;
+    candidate.covered = candidate.fit.Explained();
+    const std::vector<Eigen::Vector3f>& shape_points = model.model_shapes[candidate.model].points;
+    candidate.posed.reserve(shape_points.size());
+    const PlanarTransform transform(candidate.fit.pose);
+    for (const Eigen::Vector3f& p : shape_points) candidate.posed.push_back(transform.Apply(p));
+    candidate.counts =
+        CountVisibility(*scan.occupancy, candidate.posed, static_cast<float>(options.floor_band_m));
+    candidate.verification = candidate.counts.Score(options.occupied_weight);
+    candidate.score = candidate.verification * candidate.covered * candidate.counts.SeenOccupied();
+    const PlanarPose& pose = candidate.fit.pose;
+    hypothesis->fits.push_back({candidate.model,
+                                pose.x,
+                                pose.y,
+                                pose.yaw,
+                                candidate.covered,
+                                candidate.verification,
+                                candidate.score});
+    if (candidate.score <= best.score) {
+      second_score = std::max(second_score, candidate.score);
       continue;
     }
-    Detection d;
-    d.furniture_class = hypothesis->furniture_class;
-    d.x = fit.pose.x;
-    d.y = fit.pose.y;
-    d.z = 0;
-    d.yaw = fit.pose.yaw;
-    d.model_index = m;
-    d.model_name = model.model_names[m];
-    d.score = score;
-    d.vote_weight = hypothesis->vote_weight;
-    d.verification = verification;
-    d.covered_fraction = covered;
-    *detection = d;
-    *fitted = std::move(posed);
-    support->clear();
-    for (int k : fitters[m].CoveredIndices(region_points, fit.pose)) support->push_back(region[k]);
+    second_score = std::max(second_score, best.score);
+    best = std::move(candidate);
   }
+  if (best.model < 0) return;
+
+  const int m = best.model;
+  const PlanarPose& pose = best.fit.pose;
+  const double seen = best.counts.SeenOccupied();
+  std::vector<int> covered_points;  // of the region
+  for (int k : fitters[m].CoveredIndices(region_points, pose)) covered_points.push_back(k);
+  const bool candidate_gates = best.covered >= options.scorer_min_covered_fraction &&
+                               best.verification >= options.scorer_min_verification &&
+                               seen >= options.scorer_min_seen_occupied;
+  if (candidate_gates) {
+    // The scorer's view of the hypothesis (hypothesis_scorer.h, in order).
+    HypothesisFeatures& f = hypothesis->features;
+    f.fill(0);
+    f[static_cast<int>(hypothesis->furniture_class)] = 1;
+    f[4] = static_cast<float>(std::log1p(hypothesis->vote_weight));
+    f[5] = static_cast<float>(hypothesis->relative_weight);
+    f[6] = static_cast<float>(hypothesis->segments.size());
+    f[7] = static_cast<float>(best.covered);
+    f[8] = static_cast<float>(best.verification);
+    f[9] = static_cast<float>(seen);
+    const int counted = best.counts.occupied + best.counts.occluded + best.counts.free;
+    f[10] = counted > 0 ? static_cast<float>(best.counts.free) / counted : 0.f;
+    f[11] = counted > 0 ? static_cast<float>(best.counts.occluded) / counted : 0.f;
+    f[12] = static_cast<float>(std::log1p(best.fit.inside));
+    const Eigen::Vector3f size = model.model_shapes[m].high - model.model_shapes[m].low;
+    f[13] = size.x();
+    f[14] = size.y();
+    f[15] = size.z();
+    float observed_height = 0;
+    for (int k : covered_points) observed_height = std::max(observed_height, region_points[k].z());
+    f[16] = observed_height;
+    f[17] = Eigen::Vector2f(static_cast<float>(pose.x) - scan.sensor.x(),
+                            static_cast<float>(pose.y) - scan.sensor.y())
+                .norm();
+    f[18] = best.score > 0 ? static_cast<float>(second_score / best.score) : 0.f;
+    f[19] = static_cast<float>(fits);
+    f[20] = static_cast<float>(best.rank);
+    f[21] = static_cast<float>(std::log1p(region_points.size()));
+    hypothesis->has_features = true;
+    hypothesis->fit_x = pose.x;
+    hypothesis->fit_y = pose.y;
+  }
+
+  // The first test the best fit fails is the hypothesis' outcome.
+  double score = best.score;
+  std::vector<std::pair<HypothesisOutcome, double>> tests;
+  if (scored) {
+    score = candidate_gates ? scorer.Probability(hypothesis->features) : 0;
+    hypothesis->probability = score;
+    tests = {{best.covered < options.scorer_min_covered_fraction ? HypothesisOutcome::kLowCoverage
+                                                                 : HypothesisOutcome::kDetected,
+              best.covered},
+             {best.verification < options.scorer_min_verification
+                  ? HypothesisOutcome::kLowVerification
+                  : HypothesisOutcome::kDetected,
+              best.verification},
+             {seen < options.scorer_min_seen_occupied ? HypothesisOutcome::kLowSeenOccupied
+                                                      : HypothesisOutcome::kDetected,
+              seen},
+             {score < options.min_probability ? HypothesisOutcome::kLowScore
+                                              : HypothesisOutcome::kDetected,
+              score}};
+  } else {
+    tests = {{best.covered < options.min_covered_fraction ? HypothesisOutcome::kLowCoverage
+                                                          : HypothesisOutcome::kDetected,
+              best.covered},
+             {best.verification < options.min_verification ? HypothesisOutcome::kLowVerification
+                                                            : HypothesisOutcome::kDetected,
+              best.verification},
+             {seen < options.min_seen_occupied ? HypothesisOutcome::kLowSeenOccupied
+                                               : HypothesisOutcome::kDetected,
+              seen},
+             {score < options.min_score ? HypothesisOutcome::kLowScore
+                                        : HypothesisOutcome::kDetected,
+              score}};
+  }
+  hypothesis->outcome = HypothesisOutcome::kDetected;
+  for (const auto& [outcome, value] : tests) {
+    if (outcome == HypothesisOutcome::kDetected) continue;
+    hypothesis->outcome = outcome;
+    hypothesis->outcome_values[0] = value;
+    return;
+  }
+  Detection d;
+  d.furniture_class = hypothesis->furniture_class;
+  d.x = pose.x;
+  d.y = pose.y;
+  d.z = 0;
+  d.yaw = pose.yaw;
+  d.model_index = m;
+  d.model_name = model.model_names[m];
+  d.score = score;
+  d.vote_weight = hypothesis->vote_weight;
+  d.verification = best.verification;
+  d.covered_fraction = best.covered;
+  out->detection = d;
+  out->fitted_points = std::move(best.posed);
+  for (int k : covered_points) out->support.push_back(region[k]);
 }
 
 const char* OutcomeName(HypothesisOutcome outcome) {
@@ -533,18 +611,17 @@ std::string DetectionDebug::Describe(const Hypothesis& h) {
   return "unknown";
 }
 
-DetectionResult Detector::Detect(const DetectionInput& input, bool keep_debug) const {
+PreparedScan Detector::Prepare(const DetectionInput& input) const {
   const Impl& impl = *impl_;
   const DetectorOptions& options = impl.options;
-  const TrainedModel& model = impl.model;
-  DetectionResult result;
-  StageTimer timer(&result.timings_ms);
+  PreparedScan scan;
+  StageTimer timer(&scan.timings_ms);
   Require(input.width * input.height == 0 ||
               static_cast<size_t>(input.width) * input.height == input.points.size(),
           "organised cloud of " + std::to_string(input.points.size()) + " points is not " +
               std::to_string(input.width) + "x" + std::to_string(input.height));
 
-  // 1. World frame, range, floor.
+  // World frame, range, floor.
   std::vector<Eigen::Vector3f> in_range;
   in_range.reserve(input.points.size());
   const float max_range2 = static_cast<float>(options.max_range_m * options.max_range_m);
@@ -552,27 +629,26 @@ DetectionResult Detector::Detect(const DetectionInput& input, bool keep_debug) c
     if (p.allFinite() && p.squaredNorm() > 0 && p.squaredNorm() <= max_range2)
       in_range.push_back(p);
   }
-  result.input_points = static_cast<int>(in_range.size());
+  scan.input_points = static_cast<int>(in_range.size());
   if (in_range.empty()) {  // a frame of nothing in range: nothing to detect, not an error
-    result.status = DetectionStatus::kNoPointsInRange;
+    scan.status = DetectionStatus::kNoPointsInRange;
     char message[96];
     std::snprintf(message,
                   sizeof(message),
                   "the scan has no finite point within %g m of the sensor",
                   options.max_range_m);
-    result.message = message;
-    timer.Total();
-    return result;
+    scan.message = message;
+    return scan;
   }
   if (input.world_from_camera) {
-    result.world_from_camera = *input.world_from_camera;
+    scan.world_from_camera = *input.world_from_camera;
   } else {
-    result.world_from_camera = FindFloor(in_range, options.floor);
-    result.floor_estimated = true;
+    scan.world_from_camera = FindFloor(in_range, options.floor);
+    scan.floor_estimated = true;
   }
-  const Eigen::Matrix3f rotation = result.world_from_camera.linear().cast<float>();
-  const Eigen::Vector3f translation = result.world_from_camera.translation().cast<float>();
-  const Eigen::Vector3f sensor = translation;
+  const Eigen::Matrix3f rotation = scan.world_from_camera.linear().cast<float>();
+  const Eigen::Vector3f translation = scan.world_from_camera.translation().cast<float>();
+  scan.sensor = translation;
   std::vector<Eigen::Vector3f> world, above_floor;
   world.reserve(in_range.size());
   for (const Eigen::Vector3f& p : in_range) {
@@ -581,103 +657,121 @@ DetectionResult Detector::Detect(const DetectionInput& input, bool keep_debug) c
   }
   timer.Lap("floor");
 
-  // 2. Segments and features, exactly as in training.
+  // Segments and features, exactly as in training.
   SegmentTimings segment_timings;
-  const ViewSegments view = SegmentView(above_floor, sensor, model.options, &segment_timings);
-  result.points = static_cast<int>(view.cloud.size());
-  result.segments = static_cast<int>(view.segments.size());
-  result.timings_ms.emplace_back("preprocess", segment_timings.preprocess_ms);
-  result.timings_ms.emplace_back("segment", segment_timings.segment_ms);
-  result.timings_ms.emplace_back("features", segment_timings.features_ms);
+  scan.view = SegmentView(above_floor, scan.sensor, impl.model.options, &segment_timings);
+  scan.timings_ms.emplace_back("preprocess", segment_timings.preprocess_ms);
+  scan.timings_ms.emplace_back("segment", segment_timings.segment_ms);
+  scan.timings_ms.emplace_back("features", segment_timings.features_ms);
   timer.Restart();  // the three stages above cover the time since the last lap
 
+  // Walls: they neither vote nor count against a fit (a sideboard stands
+  // against one).
+  scan.structure = FindStructure(
+      scan.view, options.max_segment_extent_m, impl.structure_height_m, &scan.structure_segment);
   // Occupancy for verification, from every point in range (floor included).
-  const OccupancyGrid occupancy(
-      ThinOut(world, options.occupancy_voxel_m), sensor, options.occupancy_voxel_m);
+  scan.occupancy.emplace(
+      ThinOut(world, options.occupancy_voxel_m), scan.sensor, options.occupancy_voxel_m);
   timer.Lap("occupancy");
+  return scan;
+}
 
-  // 3. Hough voting on per-class grids covering the scene plus a margin.
+VoteMaps Detector::Vote(const PreparedScan& scan) const {
+  const Impl& impl = *impl_;
+  const DetectorOptions& options = impl.options;
+  const TrainedModel& model = impl.model;
+  const ViewSegments& view = scan.view;
+  VoteMaps maps;
+  maps.cell_m = options.cell_m;
+  maps.grids.resize(kClasses);
+  if (view.segments.empty()) return maps;
+  // Per-class grids covering the scene plus a margin.
   Eigen::Vector2f low(1e9f, 1e9f), high(-1e9f, -1e9f);
   for (const Eigen::Vector3f& p : view.cloud.points) {
     low = low.cwiseMin(p.head<2>());
     high = high.cwiseMax(p.head<2>());
   }
-  std::vector<Vote> votes;
+  const float margin = 1.0f;
+  maps.origin = low - Eigen::Vector2f::Constant(margin);
+  maps.cols =
+      std::min(2000, static_cast<int>(std::ceil((high.x() - low.x() + 2 * margin) / options.cell_m)));
+  maps.rows =
+      std::min(2000, static_cast<int>(std::ceil((high.y() - low.y() + 2 * margin) / options.cell_m)));
   std::vector<cv::Mat> grids(kClasses);
-  // Walls: they neither vote nor count against a fit (a sideboard stands
-  // against one).
-  std::vector<char> structure_segment;
-  const std::vector<char> structure = FindStructure(
-      view, options.max_segment_extent_m, impl.structure_height_m, &structure_segment);
-  Eigen::Vector2f origin = Eigen::Vector2f::Zero();
-  int cols = 0, rows = 0;
-  if (!view.segments.empty()) {
-    const float margin = 1.0f;
-    origin = low - Eigen::Vector2f::Constant(margin);
-    cols = std::min(
-        2000, static_cast<int>(std::ceil((high.x() - low.x() + 2 * margin) / options.cell_m)));
-    rows = std::min(
-        2000, static_cast<int>(std::ceil((high.y() - low.y() + 2 * margin) / options.cell_m)));
-    for (cv::Mat& grid : grids) grid = cv::Mat::zeros(rows, cols, CV_32F);
-    for (size_t s = 0; s < view.segments.size(); ++s) {
-      if (structure_segment[s]) continue;
-      const Eigen::Vector3f& centroid = view.centroids[s];
-      // Relations were stored in the view-aligned frame: back to world.
-      const Eigen::Matrix2f world_from_aligned = ViewAlignedFromWorld(sensor, centroid).transpose();
-      for (const WordActivation& activation :
-           model.vocabulary.Activate(model.normalizer.Apply(view.features[s]))) {
-        for (int e : impl.entries_of_word[activation.word]) {
-          const ShapeEntry& entry = model.shape[e];
-          if (options.vote_height_tolerance_m > 0 &&
-              std::abs(entry.height - centroid.z()) > options.vote_height_tolerance_m) {
-            continue;
-          }
-          const int class_index = static_cast<int>(entry.furniture_class);
-          const Eigen::Vector2f at = centroid.head<2>() + world_from_aligned * entry.relation;
-          const int c = static_cast<int>(std::floor((at.x() - origin.x()) / options.cell_m));
-          const int r = static_cast<int>(std::floor((at.y() - origin.y()) / options.cell_m));
-          if (c < 0 || r < 0 || c >= cols || r >= rows) continue;
-          const auto weight = static_cast<float>(
-              activation.probability / impl.entries_per_class[activation.word][class_index]);
-          grids[class_index].at<float>(r, c) += weight;
-          votes.push_back({static_cast<int>(s), class_index, at.x(), at.y(), weight});
+  for (cv::Mat& grid : grids) grid = cv::Mat::zeros(maps.rows, maps.cols, CV_32F);
+  for (size_t s = 0; s < view.segments.size(); ++s) {
+    if (scan.structure_segment[s]) continue;
+    const Eigen::Vector3f& centroid = view.centroids[s];
+    // Relations were stored in the view-aligned frame: back to world.
+    const Eigen::Matrix2f world_from_aligned =
+        ViewAlignedFromWorld(scan.sensor, centroid).transpose();
+    for (const WordActivation& activation :
+         model.vocabulary.Activate(model.normalizer.Apply(view.features[s]))) {
+      for (int e : impl.entries_of_word[activation.word]) {
+        const ShapeEntry& entry = model.shape[e];
+        if (options.vote_height_tolerance_m > 0 &&
+            std::abs(entry.height - centroid.z()) > options.vote_height_tolerance_m) {
+          continue;
         }
+        const int class_index = static_cast<int>(entry.furniture_class);
+        const Eigen::Vector2f at = centroid.head<2>() + world_from_aligned * entry.relation;
+        const int c = static_cast<int>(std::floor((at.x() - maps.origin.x()) / options.cell_m));
+        const int r = static_cast<int>(std::floor((at.y() - maps.origin.y()) / options.cell_m));
+        if (c < 0 || r < 0 || c >= maps.cols || r >= maps.rows) continue;
+        const auto weight = static_cast<float>(
+            activation.probability / impl.entries_per_class[activation.word][class_index]);
+        grids[class_index].at<float>(r, c) += weight;
+        maps.votes.push_back({static_cast<int>(s), class_index, at.x(), at.y(), weight});
       }
     }
-    if (options.vote_sigma_m > 0) {
-      const double sigma = options.vote_sigma_m / options.cell_m;
-      for (cv::Mat& grid : grids) cv::GaussianBlur(grid, grid, cv::Size(0, 0), sigma, sigma);
-    }
   }
-  timer.Lap("vote");
+  if (options.vote_sigma_m > 0) {
+    const double sigma = options.vote_sigma_m / options.cell_m;
+    for (cv::Mat& grid : grids) cv::GaussianBlur(grid, grid, cv::Size(0, 0), sigma, sigma);
+  }
+  for (int k = 0; k < kClasses; ++k)
+    maps.grids[k].assign(grids[k].begin<float>(), grids[k].end<float>());
+  return maps;
+}
 
-  // 4. Maxima per class.
+std::vector<DetectionDebug::Hypothesis> Detector::FindMaxima(
+    const VoteMaps& votes, std::vector<DetectionDebug::VoteGrid>* grids, bool keep_values) const {
+  const Impl& impl = *impl_;
   std::vector<DetectionDebug::Hypothesis> hypotheses;
-  std::vector<DetectionDebug::VoteGrid> debug_grids;
   for (int k = 0; k < kClasses; ++k) {
-    if (impl.class_width[k] <= 0 || grids[k].empty()) continue;
+    if (impl.class_width[k] <= 0 || votes.grids.size() <= static_cast<size_t>(k) ||
+        votes.grids[k].empty()) {
+      continue;
+    }
     DetectionDebug::VoteGrid debug_grid;
     debug_grid.furniture_class = kAllClasses[k];
-    debug_grid.origin = origin;
-    debug_grid.cell_m = options.cell_m;
-    debug_grid.cols = cols;
-    debug_grid.rows = rows;
-    for (auto& h : impl.Maxima(grids[k], k, origin, &debug_grid)) hypotheses.push_back(h);
-    if (keep_debug) {
-      debug_grid.values.assign(grids[k].begin<float>(), grids[k].end<float>());
-      debug_grids.push_back(std::move(debug_grid));
+    debug_grid.origin = votes.origin;
+    debug_grid.cell_m = votes.cell_m;
+    debug_grid.cols = votes.cols;
+    debug_grid.rows = votes.rows;
+    // A view of the grid, not a copy (Maxima only reads it).
+    const cv::Mat grid(
+        votes.rows, votes.cols, CV_32F, const_cast<float*>(votes.grids[k].data()));
+    for (auto& h : impl.Maxima(grid, k, votes.origin, &debug_grid)) hypotheses.push_back(h);
+    if (grids != nullptr) {
+      if (keep_values) debug_grid.values = votes.grids[k];
+      grids->push_back(std::move(debug_grid));
     }
   }
-  timer.Lap("maxima");
+  return hypotheses;
+}
 
-  // 5-7. Rank, fit and verify every hypothesis (independent: all cores).
-  std::vector<std::optional<Detection>> found(hypotheses.size());
-  std::vector<std::vector<Eigen::Vector3f>> fitted(hypotheses.size());
-  std::vector<std::vector<int>> support(hypotheses.size());  // cloud points each fit explains
+void Detector::RankCandidates(const PreparedScan& scan,
+                              const VoteMaps& votes,
+                              std::vector<DetectionDebug::Hypothesis>* hypotheses_out) const {
+  const Impl& impl = *impl_;
+  const DetectorOptions& options = impl.options;
+  const ViewSegments& view = scan.view;
+  std::vector<DetectionDebug::Hypothesis>& hypotheses = *hypotheses_out;
   // The segments behind each maximum; then each such segment's nearest
   // part subsets, once for all hypotheses.
-  std::vector<std::vector<Vote>> votes_of_class(kClasses);
-  for (const Vote& vote : votes) votes_of_class[vote.class_index].push_back(vote);
+  std::vector<std::vector<HoughVote>> votes_of_class(kClasses);
+  for (const HoughVote& vote : votes.votes) votes_of_class[vote.class_index].push_back(vote);
   std::vector<std::map<int, double>> supports(hypotheses.size());
   ParallelFor(0, static_cast<int>(hypotheses.size()), [&](int h) {
     supports[h] = impl.Support(votes_of_class[static_cast<int>(hypotheses[h].furniture_class)],
@@ -690,8 +784,8 @@ DetectionResult Detector::Detect(const DetectionInput& input, bool keep_debug) c
   std::vector<std::vector<int>> segment_neighbours(view.segments.size());
   ParallelFor(0, static_cast<int>(view.segments.size()), [&](int s) {
     if (needed[s] && view.segments[s].size() >= 3) {
-      segment_neighbours[s] =
-          impl.parts->Nearest(ComputeVfh(view.cloud, view.segments[s], sensor), options.neighbours);
+      segment_neighbours[s] = impl.parts->Nearest(
+          ComputeVfh(view.cloud, view.segments[s], scan.sensor), options.neighbours);
     }
   });
   for (size_t h = 0; h < hypotheses.size(); ++h)
@@ -716,64 +810,106 @@ DetectionResult Detector::Detect(const DetectionInput& input, bool keep_debug) c
       }
     }
   }
-  timer.Lap("rank");
-  ParallelFor(0, static_cast<int>(hypotheses.size()), [&](int h) {
-    impl.FitAndVerify(
-        view, structure, occupancy, h, &hypotheses[h], &found[h], &fitted[h], &support[h]);
-  });
-  timer.Lap("fit+verify");
+}
 
-  // Suppression, best score first: a detection is dropped when kept ones
-  // already explain more than max_shared_support of the points it explains,
-  // or when its footprint overlaps a kept one's by more than
-  // max_footprint_overlap (of the smaller footprint).
+std::vector<FittedHypothesis> Detector::FitAndScore(
+    const PreparedScan& scan, std::vector<DetectionDebug::Hypothesis>* hypotheses) const {
+  std::vector<FittedHypothesis> fits(hypotheses->size());
+  ParallelFor(0, static_cast<int>(hypotheses->size()), [&](int h) {
+    impl_->FitAndVerify(scan, h, &(*hypotheses)[h], &fits[h]);
+  });
+  return fits;
+}
+
+std::vector<int> Detector::Suppress(const PreparedScan& scan,
+                                    const std::vector<FittedHypothesis>& fits,
+                                    std::vector<DetectionDebug::Hypothesis>* hypotheses) const {
+  const DetectorOptions& options = impl_->options;
+  const TrainedModel& model = impl_->model;
+  // Best score first: a detection is dropped when kept ones already explain
+  // more than max_shared_support of the points it explains, or when its
+  // footprint overlaps a kept one's by more than max_footprint_overlap (of
+  // the smaller footprint).
   std::vector<int> order;
-  for (size_t h = 0; h < found.size(); ++h) {
-    if (found[h]) order.push_back(static_cast<int>(h));
+  for (size_t h = 0; h < fits.size(); ++h) {
+    if (fits[h].detection) order.push_back(static_cast<int>(h));
   }
-  std::stable_sort(
-      order.begin(), order.end(), [&](int a, int b) { return found[a]->score > found[b]->score; });
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
+    return fits[a].detection->score > fits[b].detection->score;
+  });
   std::vector<int> kept;
-  std::vector<char> explained(view.cloud.size(), 0);
+  std::vector<char> explained(scan.view.cloud.size(), 0);
   for (int h : order) {
-    const Detection& d = *found[h];
+    const Detection& d = *fits[h].detection;
+    const std::vector<int>& support = fits[h].support;
     size_t shared = 0;
-    for (int i : support[h]) shared += explained[i];
+    for (int i : support) shared += explained[i];
     const double shared_fraction =
-        support[h].empty() ? 1.0 : static_cast<double>(shared) / support[h].size();
+        support.empty() ? 1.0 : static_cast<double>(shared) / support.size();
     const cv::RotatedRect footprint =
         Footprint(model.model_shapes[d.model_index], PlanarPose{d.x, d.y, d.yaw});
     double overlap = 0;
     for (int k : kept) {
-      const Detection& other = *found[k];
+      const Detection& other = *fits[k].detection;
       overlap = std::max(overlap,
                          FootprintOverlap(footprint,
                                           Footprint(model.model_shapes[other.model_index],
                                                     PlanarPose{other.x, other.y, other.yaw})));
     }
     if (shared_fraction > options.max_shared_support || overlap > options.max_footprint_overlap) {
-      hypotheses[h].outcome = HypothesisOutcome::kSuppressed;
-      hypotheses[h].outcome_values[0] = shared_fraction;
-      hypotheses[h].outcome_values[1] = overlap;
+      (*hypotheses)[h].outcome = HypothesisOutcome::kSuppressed;
+      (*hypotheses)[h].outcome_values[0] = shared_fraction;
+      (*hypotheses)[h].outcome_values[1] = overlap;
       continue;
     }
-    for (int i : support[h]) explained[i] = 1;
+    for (int i : support) explained[i] = 1;
     kept.push_back(h);
-    result.detections.push_back(d);
   }
+  return kept;
+}
+
+DetectionResult Detector::Detect(const DetectionInput& input, bool keep_debug) const {
+  DetectionResult result;
+  StageTimer timer(&result.timings_ms);
+  PreparedScan scan = Prepare(input);
+  result.input_points = scan.input_points;
+  if (scan.status != DetectionStatus::kDetected) {
+    result.status = scan.status;
+    result.message = scan.message;
+    timer.Total();
+    return result;
+  }
+  result.world_from_camera = scan.world_from_camera;
+  result.floor_estimated = scan.floor_estimated;
+  result.points = static_cast<int>(scan.view.cloud.size());
+  result.segments = static_cast<int>(scan.view.segments.size());
+  for (const auto& stage : scan.timings_ms) result.timings_ms.push_back(stage);
+  timer.Restart();
+
+  const VoteMaps votes = Vote(scan);
+  timer.Lap("vote");
+  std::vector<DetectionDebug::Hypothesis> hypotheses =
+      FindMaxima(votes, keep_debug ? &result.debug.grids : nullptr, keep_debug);
+  timer.Lap("maxima");
+  RankCandidates(scan, votes, &hypotheses);
+  timer.Lap("rank");
+  std::vector<FittedHypothesis> fits = FitAndScore(scan, &hypotheses);
+  timer.Lap("fit+verify");
+  const std::vector<int> kept = Suppress(scan, fits, &hypotheses);
+  for (int h : kept) result.detections.push_back(*fits[h].detection);
   timer.Lap("suppress");
   timer.Total();
-  result.debug.hypotheses = hypotheses;  // small: kept for evaluation (protocol A) too
+  result.debug.hypotheses = std::move(hypotheses);  // small: kept for evaluation (protocol A) too
 
   if (keep_debug) {
     DetectionDebug& debug = result.debug;
+    const ViewSegments& view = scan.view;
     debug.points = view.cloud.points;
     debug.segment_of_point.assign(view.cloud.size(), -1);
     for (size_t s = 0; s < view.segments.size(); ++s) {
       for (int i : view.segments[s]) debug.segment_of_point[i] = static_cast<int>(s);
     }
-    debug.grids = std::move(debug_grids);
-    for (int h : kept) debug.fitted_points.push_back(fitted[h]);
+    for (int h : kept) debug.fitted_points.push_back(std::move(fits[h].fitted_points));
   }
   return result;
 }

@@ -20,6 +20,14 @@
 // The shared preprocessing projects points onto their MLS quadric, which is
 // the smoothing SPEC §8.1 asks for; training and detection both get it.
 //
+// Each step is a stage of its own that tests and tools can call alone
+// (Prepare, Vote, FindMaxima, RankCandidates, FitAndScore, Suppress); Detect
+// runs them in order and times them.
+//
+// A model trained with a hypothesis scorer (hypothesis_scorer.h) replaces the
+// fixed verification thresholds by looser gates and the scorer's calibrated
+// probability as the detection score.
+//
 //   Detector detector(LoadTrainedModel("model.fcm"), DetectorOptions{});
 //   DetectionResult result = detector.Detect(input);
 #pragma once
@@ -34,8 +42,11 @@
 #include <vector>
 
 #include "core/floor.h"
+#include "core/hypothesis_scorer.h"
+#include "core/occupancy.h"
 #include "core/pose_fit.h"
 #include "core/trainer.h"
+#include "core/view_segments.h"
 
 namespace furn {
 
@@ -91,6 +102,15 @@ struct DetectorOptions {
   double max_shared_support = 0.5;
   double max_footprint_overlap = 0.6;
 
+  // With a model that holds a hypothesis scorer (and use_scorer), the fit
+  // must pass these looser gates instead of the three above, and the
+  // scorer's probability, the detection score, must reach min_probability.
+  bool use_scorer = true;
+  double scorer_min_covered_fraction = 0.5;
+  double scorer_min_verification = 0.4;
+  double scorer_min_seen_occupied = 0.3;
+  double min_probability = 0.05;
+
   uint64_t seed = 1;  // RANSAC draws
 
   // Throws InputError naming the field and the rule.
@@ -110,7 +130,7 @@ struct Detection {
   double x = 0, y = 0, z = 0, yaw = 0;  // reference point and yaw, world frame
   int model_index = -1;                 // into the trained model's names
   std::string model_name;
-  double score = 0;             // ranking score: verification x covered fraction
+  double score = 0;             // the scorer's probability, else verification x covered x seen
   double vote_weight = 0;       // smoothed Hough value at the maximum
   double verification = 0;      // visibility score vs
   double covered_fraction = 0;  // of the scene points inside the fitted box, those it explains
@@ -125,7 +145,7 @@ enum class HypothesisOutcome {
   kLowCoverage,      // the best fit explains too few scene points in its box
   kLowVerification,  // visibility score below min_verification
   kLowSeenOccupied,  // too little of the fit's observable surface was seen
-  kLowScore,         // ranking score below min_score
+  kLowScore,         // ranking score below min_score (probability below min_probability)
   kSuppressed,       // a better detection explains its points or overlaps it
   kDetected,
 };
@@ -159,6 +179,13 @@ struct DetectionDebug {
     // The value that failed its test (coverage, verification, seen-occupied
     // or score), or for kSuppressed the shared support and footprint overlap.
     double outcome_values[2] = {0, 0};
+    // The best fit's pose and scorer features, set when it passed the
+    // scorer's gates (whether or not a scorer decided): what a scorer
+    // learns from.
+    bool has_features = false;
+    double fit_x = 0, fit_y = 0;
+    HypothesisFeatures features{};
+    double probability = -1;  // the scorer's, when one decided
   };
   // One line for people: "detected", "covers 0.62 of the points", ...
   static std::string Describe(const Hypothesis& hypothesis);
@@ -187,6 +214,44 @@ struct DetectionResult {
   DetectionDebug debug;  // hypotheses always; points, grids and fits when asked for
 };
 
+// One Hough vote, kept to find the segments behind a maximum.
+struct HoughVote {
+  int segment = 0;
+  int class_index = 0;
+  float x = 0, y = 0;
+  float weight = 0;
+};
+
+// Stage 1: the scan in the world frame, segmented, with its occupancy.
+struct PreparedScan {
+  DetectionStatus status = DetectionStatus::kDetected;
+  std::string message;  // why, when status is not kDetected
+  Eigen::Isometry3d world_from_camera = Eigen::Isometry3d::Identity();
+  bool floor_estimated = false;
+  Eigen::Vector3f sensor = Eigen::Vector3f::Zero();  // world frame
+  int input_points = 0;                              // finite and in range
+  ViewSegments view;  // above the floor: preprocessed, segments, SGFs
+  std::vector<char> structure, structure_segment;  // walls: per point, per segment
+  std::optional<OccupancyGrid> occupancy;          // every point in range, floor included
+  std::vector<std::pair<std::string, double>> timings_ms;  // floor, preprocess, ...
+};
+
+// Stage 2: per-class vote grids (smoothed) and the votes behind them.
+struct VoteMaps {
+  Eigen::Vector2f origin = Eigen::Vector2f::Zero();  // world xy of the grids' corner
+  double cell_m = 0;
+  int cols = 0, rows = 0;
+  std::vector<std::vector<float>> grids;  // per class index, row-major (row = y); empty: none
+  std::vector<HoughVote> votes;
+};
+
+// Stage 5-6: a hypothesis' accepted fit, if any.
+struct FittedHypothesis {
+  std::optional<Detection> detection;
+  std::vector<Eigen::Vector3f> fitted_points;  // the posed model, world frame
+  std::vector<int> support;                    // scan points (view.cloud) it explains
+};
+
 class Detector {
  public:
   // Checks the options; indexes the shape model and part-subset library.
@@ -198,6 +263,31 @@ class Detector {
   // not matching), or no floor found when the pose is unknown. Uses both cores; the same input
   // gives the same result.
   DetectionResult Detect(const DetectionInput& input, bool keep_debug = false) const;
+
+  // The stages of Detect, in order.
+  PreparedScan Prepare(const DetectionInput& input) const;
+  VoteMaps Vote(const PreparedScan& scan) const;
+  // Maxima of every class, strongest first within a class; `grids` (may be
+  // null) gets each class grid's threshold, and its values when keep_values.
+  std::vector<DetectionDebug::Hypothesis> FindMaxima(const VoteMaps& votes,
+                                                     std::vector<DetectionDebug::VoteGrid>* grids,
+                                                     bool keep_values) const;
+  // The segments behind each maximum and its candidate CAD models (or
+  // outcome kNoSupport / kSameSupport).
+  void RankCandidates(const PreparedScan& scan,
+                      const VoteMaps& votes,
+                      std::vector<DetectionDebug::Hypothesis>* hypotheses) const;
+  // Every candidate fitted, the best verified and scored (all cores).
+  std::vector<FittedHypothesis> FitAndScore(
+      const PreparedScan& scan, std::vector<DetectionDebug::Hypothesis>* hypotheses) const;
+  // Best score first, drops detections that better ones explain or overlap;
+  // returns the indices of the kept hypotheses in that order.
+  std::vector<int> Suppress(const PreparedScan& scan,
+                            const std::vector<FittedHypothesis>& fits,
+                            std::vector<DetectionDebug::Hypothesis>* hypotheses) const;
+
+  // Whether detection scores are the scorer's probabilities.
+  bool scored() const;
 
   const TrainedModel& model() const;
   const DetectorOptions& options() const;

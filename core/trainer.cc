@@ -13,7 +13,8 @@ namespace furn {
 namespace {
 
 constexpr char kMagic[8] = {'F', 'U', 'R', 'N', 'M', 'D', 'L', '\0'};
-constexpr uint32_t kFormatVersion = 2;  // 2: part-subset library and model shapes
+constexpr uint32_t kFormatVersion = 3;  // 2: part-subset library and model shapes; 3: scorer
+constexpr uint32_t kOldestReadable = 2;
 
 // Little-endian binary writer and a bounds-checked reader for the model file.
 class Writer {
@@ -60,8 +61,8 @@ class Reader {
     Require(n <= limit, path_ + ": model file is corrupt (a count of " + std::to_string(n) + ")");
     return n;
   }
-  std::string String() {
-    std::string s(Count(1u << 20), '\0');
+  std::string String(uint32_t max_size = 1u << 20) {
+    std::string s(Count(max_size), '\0');
     Bytes(s.data(), s.size());
     return s;
   }
@@ -393,6 +394,7 @@ void SaveTrainedModel(const TrainedModel& model, const std::string& path) {
     w.I32(entry.model_index);
     w.Bytes(entry.descriptor.data(), sizeof(float) * entry.descriptor.size());
   }
+  w.String(model.scorer);
   WriteFileAtomically(path, w.bytes());
 }
 
@@ -404,7 +406,7 @@ TrainedModel LoadTrainedModel(const std::string& path) {
   r.Bytes(magic, sizeof(magic));
   Require(std::memcmp(magic, kMagic, sizeof(kMagic)) == 0, path + ": not a furnidet model file");
   const uint32_t version = r.U32();
-  Require(version == kFormatVersion,
+  Require(version >= kOldestReadable && version <= kFormatVersion,
           path + ": model file format version " + std::to_string(version) +
               " is not the version this build reads (" + std::to_string(kFormatVersion) +
               "); train it again");
@@ -462,6 +464,7 @@ TrainedModel LoadTrainedModel(const std::string& path) {
         path + ": model file is corrupt (a part subset names no model)");
     r.Bytes(entry.descriptor.data(), sizeof(float) * entry.descriptor.size());
   }
+  if (version >= 3) model.scorer = r.String(1u << 28);
   Require(r.AtEnd(), path + ": model file has trailing bytes (corrupt)");
   model.options.Check();
   return model;

@@ -95,6 +95,8 @@ struct TrainedModel {
   int training_segments = 0;
   std::vector<ModelShape> model_shapes;       // one per model name
   std::vector<PartSubsetEntry> part_library;  // every part subset of every view
+  // A learned hypothesis scorer (HypothesisScorer::Serialize), or empty.
+  std::string scorer;
 };
 
 // Wall-clock seconds of TrainModel's stages.

@@ -189,6 +189,17 @@ double AveragePrecision(const std::vector<PrPoint>& curve) {
   return ap;
 }
 
+double CalibrationError(const std::vector<CalibrationBin>& bins) {
+  int total = 0;
+  double sum = 0;
+  for (const CalibrationBin& bin : bins) {
+    if (bin.detections == 0) continue;
+    total += bin.detections;
+    sum += std::abs(static_cast<double>(bin.true_positives) - bin.score_sum);
+  }
+  return total > 0 ? sum / total : std::nan("");
+}
+
 bool HigherIsBetter(const std::string& metric) {
   return metric.find("error") == std::string::npos && metric.rfind("latency", 0) != 0;
 }
@@ -241,9 +252,35 @@ EvaluationResult EvaluateFrames(const std::vector<FrameOutcome>& frames,
   for (const FrameOutcome& f : frames) result.frame_errors[f.frame_id] = {0, 0};
   for (const char* stage : kFunnelStages) m[std::string("funnel/all/") + stage] = 0;
   for (const char* kind : kFalsePositiveKinds) m[std::string("false_positives/") + kind] = 0;
+  constexpr int kCalibrationBins = 10;
+  for (int b = 0; b < kCalibrationBins; ++b) {
+    CalibrationBin bin;
+    bin.low = static_cast<double>(b) / kCalibrationBins;
+    bin.high = static_cast<double>(b + 1) / kCalibrationBins;
+    result.calibration.push_back(bin);
+  }
   for (const std::string& c : options.classes) {
     const Matching matching = MatchClass(frames, c, 0.10, all_objects);
     CountLosses(frames, c, matching, options, all_objects, &m);
+    std::set<const ScoredDetection*> true_positives;
+    for (const auto& [d, t] : matching.true_positives) true_positives.insert(d);
+    for (const FrameOutcome& f : frames) {
+      for (const ScoredDetection& d : f.detections) {
+        if (d.furniture_class != c) continue;
+        const bool tp = true_positives.count(&d) > 0;
+        bool ignored_near = false;
+        for (const TruthObject& t : f.truth) {
+          ignored_near |= t.furniture_class == c && all_objects(t) == Role::kIgnore &&
+                          std::hypot(t.x - d.x, t.y - d.y) <= 0.10;
+        }
+        if (!tp && ignored_near) continue;
+        const int b = std::clamp(
+            static_cast<int>(std::floor(d.score * kCalibrationBins)), 0, kCalibrationBins - 1);
+        ++result.calibration[b].detections;
+        result.calibration[b].true_positives += tp;
+        result.calibration[b].score_sum += d.score;
+      }
+    }
     for (size_t f = 0; f < frames.size(); ++f) {
       std::pair<int, int>& errors = result.frame_errors[frames[f].frame_id];
       errors.first += matching.false_positives_in_frame[f];
@@ -264,6 +301,8 @@ EvaluationResult EvaluateFrames(const std::vector<FrameOutcome>& frames,
     m["yaw_error_mean_deg"] = yaw_sum / tps;
   }
   if (identifiable > 0) m["cad_identified"] = static_cast<double>(identified) / identifiable;
+  const double calibration_error = CalibrationError(result.calibration);
+  if (std::isfinite(calibration_error)) m["calibration_error"] = calibration_error;
 
   // Seen and unseen CAD models: the other group's objects become "ignore".
   for (const bool seen : {true, false}) {

@@ -75,6 +75,15 @@ struct PrPoint {
   double recall = 0, precision = 0, threshold = 0;
 };
 
+// Reliability of the detection score at 10 cm (protocol B): detections with
+// a score in [low, high), how many were true positives, and their scores'
+// sum. Detections that matched an "ignore" object are left out.
+struct CalibrationBin {
+  double low = 0, high = 0;
+  int detections = 0, true_positives = 0;
+  double score_sum = 0;
+};
+
 struct EvaluationResult {
   // Flat, named metrics (see EvaluateFrames); what runs store and compare.
   std::map<std::string, double> metrics;
@@ -85,7 +94,13 @@ struct EvaluationResult {
   std::map<std::string, std::map<std::string, int>> confusion;
   // Per frame id: false positives and missed objects at 10 cm (protocol B).
   std::map<int64_t, std::pair<int, int>> frame_errors;
+  // Ten equal bins of score over [0, 1] (scores outside are clamped).
+  std::vector<CalibrationBin> calibration;
 };
+
+// Expected calibration error of the bins: the detection-weighted mean of
+// |true-positive share - mean score|; NaN without detections.
+double CalibrationError(const std::vector<CalibrationBin>& bins);
 
 // Where objects are lost (at 10 cm, objects that count as targets): each is
 // "detected" (a TP), else the furthest stage reached by a maximum of its
@@ -116,7 +131,8 @@ inline constexpr char kFalsePositiveKinds[][16] = {
 // (when such objects exist), xy_error_mean_m, yaw_error_mean_deg,
 // cad_identified (TPs at 10 cm whose model is the true one, seen models only),
 // latency_p50_ms, latency_p90_ms, latency_p99_ms, latency_<stage>_p50_ms,
-// paper/<class>/best_f1, frames, objects.
+// paper/<class>/best_f1, calibration_error (when there are detections),
+// frames, objects.
 // The named metric, or NaN when a run lacks it (e.g. AP of a class that had
 // no objects).
 double MetricOrNan(const std::map<std::string, double>& metrics, const std::string& name);

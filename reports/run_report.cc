@@ -233,6 +233,53 @@ std::string FunnelHtml(const std::function<double(const std::string&)>& metric) 
   return html.str();
 }
 
+// The reliability plot of a run's score (results' "calibration" bins: low,
+// high, detections, true positives, score sum) and its table, as HTML; a
+// note instead when the run has no bins or no detections.
+std::string ReliabilityHtml(const nlohmann::json& bins,
+                            double calibration_error,
+                            const std::string& png_path,
+                            const std::string& png_name) {
+  std::ostringstream html;
+  html << "<h2>Score calibration (reliability, 10 cm)</h2>\n";
+  int total = 0;
+  for (const nlohmann::json& bin : bins) total += bin[2].get<int>();
+  if (total == 0) {
+    html << "<p>No detections, so no calibration to show.</p>\n";
+    return html.str();
+  }
+  std::ostringstream script;
+  script << "set terminal pngcairo noenhanced size 520,420 font 'sans,10'\n"
+         << "set title 'true-positive share against mean score per bin (" << total
+         << " detections)'\nset xlabel 'mean score in bin'\nset ylabel 'true positives'\n"
+         << "set xrange [0:1]\nset yrange [0:1]\nset size square\nset grid\nset key top left\n"
+         << "$r << EOD\n";
+  for (const nlohmann::json& bin : bins) {
+    const int n = bin[2].get<int>();
+    if (n == 0) continue;
+    script << bin[4].get<double>() / n << " " << bin[3].get<double>() / n << " " << n << "\n";
+  }
+  script << "EOD\nplot x with lines dt 2 lc rgb '#888888' title 'perfectly calibrated', "
+         << "$r using 1:2 with linespoints pt 7 lc rgb '#cc3311' title 'bins', "
+         << "$r using 1:2:(sprintf('%d', $3)) with labels offset 0,1 notitle\n";
+  RunGnuplot(script.str(), png_path);
+  html << "<p>Expected calibration error " << Number(calibration_error)
+       << " (detection-weighted |true-positive share &minus; mean score|). A learned scorer's "
+          "probabilities should lie on the diagonal; the fixed-gate ranking score is not a "
+          "probability.</p>\n<div class=\"row\"><div><img src=\""
+       << png_name << "\" alt=\"reliability plot\"></div><div><table><tr><th>score</th>"
+       << "<th>detections</th><th>true positives</th><th>mean score</th></tr>";
+  for (const nlohmann::json& bin : bins) {
+    const int n = bin[2].get<int>();
+    html << "<tr><td>" << Number(bin[0].get<double>(), 1) << "&ndash;"
+         << Number(bin[1].get<double>(), 1) << "</td><td>" << n << "</td><td>"
+         << bin[3].get<int>() << "</td><td>" << (n ? Number(bin[4].get<double>() / n) : "&ndash;")
+         << "</td></tr>";
+  }
+  html << "</table></div></div>\n";
+  return html.str();
+}
+
 double JsonMetric(const nlohmann::json& metrics, const std::string& name) {
   return metrics.contains(name) && metrics[name].is_number() ? metrics[name].get<double>()
                                                              : std::nan("");
@@ -317,7 +364,23 @@ void WriteCrossvalReport(const RunReportInput& input,
        << "</td><td>" << Number(MetricOrNan(m, "objects"), 0) << "</td>";
   for (const char* name : {"mAP@5cm", "mAP@10cm", "mAP@20cm"}) html << mean_spread(name);
   for (const std::string& c : kClasses) html << mean_spread("AP/" + c + "@10cm");
-  html << "<td></td></tr></table>\n<img src=\"folds_ap.png\" alt=\"AP per class and fold\">\n"
+  html << "<td></td></tr>";
+  if (m.count("gates/mAP@10cm")) {  // the same folds without the learned scorer
+    html << "<tr><td><b>fixed gates</b></td><td></td><td></td><td></td>";
+    for (const char* name : {"mAP@5cm", "mAP@10cm", "mAP@20cm"})
+      html << "<td>" << Number(MetricOrNan(m, std::string("gates/") + name)) << "</td>";
+    for (const std::string& c : kClasses)
+      html << "<td>" << Number(MetricOrNan(m, "gates/AP/" + c + "@10cm")) << "</td>";
+    html << "<td></td></tr>";
+  }
+  html << "</table>\n";
+  if (m.count("gates/mAP@10cm")) {
+    html << "<p>Rows per fold and <b>mean</b>: detection scored by the learned hypothesis scorer "
+            "of each fold, trained on the hypotheses of the other folds' rooms only (nested, so "
+            "no fold's furniture is seen by its own scorer). <b>fixed gates</b>: the same fold "
+            "models with the fixed verification thresholds instead.</p>\n";
+  }
+  html << "<img src=\"folds_ap.png\" alt=\"AP per class and fold\">\n"
        << "<h2>Pose and speed (mean over folds)</h2>\n<table><tr><th>metric</th><th>mean</th>"
        << "<th>spread</th></tr>";
   for (const char* name :
@@ -326,6 +389,12 @@ void WriteCrossvalReport(const RunReportInput& input,
          << Number(MetricOrNan(m, std::string("spread/") + name)) << "</td></tr>";
   }
   html << "</table>\n";
+  if (results.contains("calibration")) {  // pooled over the folds
+    html << ReliabilityHtml(results["calibration"],
+                            MetricOrNan(m, "calibration_error"),
+                            (std::filesystem::path(dir) / "reliability.png").string(),
+                            "reliability.png");
+  }
   html << FunnelHtml([&](const std::string& name) {  // counts: summed over the folds
     double sum = 0;
     bool any = false;
@@ -426,6 +495,10 @@ void WriteRunReport(const RunReportInput& input, const std::string& dir) {
     }
   }
   html << "</table></div></div>\n";
+  html << ReliabilityHtml(results.value("calibration", nlohmann::json::array()),
+                          MetricOrNan(m, "calibration_error"),
+                          path("reliability.png"),
+                          "reliability.png");
   html << FunnelHtml([&](const std::string& name) { return MetricOrNan(m, name); });
   html << "<h2>Frames with the most errors</h2>\n";
   if (input.gallery.empty())

@@ -7,6 +7,8 @@
 #include <nlohmann/json.hpp>
 
 #include "core/error.h"
+#include "core/file_util.h"
+#include "core/hypothesis_scorer.h"
 #include "core/mesh.h"
 #include "db/dataset_db.h"
 #include "scenes/model_folds.h"
@@ -89,6 +91,23 @@ void Aggregate(CrossvalSummary* summary) {
   }
 }
 
+// Whether HypothesisScorer::Train accepts these samples.
+bool CanTrainScorer(const std::vector<ScorerSample>& samples) {
+  size_t positives = 0;
+  for (const ScorerSample& s : samples) positives += s.positive;
+  return samples.size() >= kMinScorerSamples && positives > 0 && positives < samples.size();
+}
+
+// Fold k's evaluation: its rooms only, stored as a "crossval-fold" run.
+EvaluateCommandOptions FoldEvaluation(const CrossvalOptions& options, int fold, int folds) {
+  EvaluateCommandOptions evaluate = options.evaluate;
+  evaluate.fold = fold;
+  evaluate.fold_count = folds;
+  evaluate.kind = "crossval-fold";
+  evaluate.label = "fold " + std::to_string(fold) + " of " + std::to_string(folds);
+  return evaluate;
+}
+
 }  // namespace
 
 CrossvalSummary RunLeaveModelsOut(const Catalog& catalog,
@@ -101,6 +120,7 @@ CrossvalSummary RunLeaveModelsOut(const Catalog& catalog,
   summary.folds = folds.count;
   std::filesystem::create_directories(options.work_dir);
   std::vector<int64_t> fold_runs;
+  std::vector<std::vector<ScorerSample>> samples(folds.count);
   for (int k = 0; k < folds.count; ++k) {
     CrossvalFold fold;
     fold.fold = k;
@@ -121,16 +141,76 @@ CrossvalSummary RunLeaveModelsOut(const Catalog& catalog,
       TrainFromCatalog(
           catalog, options.training.scan, options.training.trainer, fold.model_path, held_out);
     }
-    EvaluateCommandOptions evaluate = options.evaluate;
-    evaluate.fold = k;
-    evaluate.fold_count = folds.count;
-    evaluate.kind = "crossval-fold";
-    evaluate.label = "fold " + std::to_string(k) + " of " + std::to_string(folds.count);
-    fold.evaluation = EvaluateModel(fold.model_path, db_path, evaluate);
-    fold_runs.push_back(fold.evaluation.run_id);
+    EvaluateCommandOptions evaluate = FoldEvaluation(options, k, folds.count);
+    if (options.scorer) {
+      evaluate.kind = "crossval-gates";
+      evaluate.detector.use_scorer = false;
+      evaluate.collect_scorer_samples = true;
+      fold.gates = EvaluateModel(fold.model_path, db_path, evaluate);
+      samples[k] = std::move(fold.gates.scorer_samples);
+    } else {
+      fold.evaluation = EvaluateModel(fold.model_path, db_path, evaluate);
+      fold_runs.push_back(fold.evaluation.run_id);
+    }
     summary.per_fold.push_back(std::move(fold));
   }
+  if (options.scorer) {
+    // Nested: fold k's scorer never sees a hypothesis of fold k's rooms.
+    std::vector<ScorerSample> all;
+    for (const auto& fold_samples : samples) all.insert(all.end(), fold_samples.begin(), fold_samples.end());
+    summary.scorer_samples = static_cast<int>(all.size());
+    for (int k = 0; k < folds.count; ++k) {
+      CrossvalFold& fold = summary.per_fold[k];
+      std::vector<ScorerSample> others;
+      for (int j = 0; j < folds.count; ++j) {
+        if (j != k) others.insert(others.end(), samples[j].begin(), samples[j].end());
+      }
+      if (!options.quiet) {
+        std::fprintf(stderr,
+                     "crossval: fold %d of %d: scorer from %zu hypotheses of the other folds\n",
+                     k + 1,
+                     folds.count,
+                     others.size());
+      }
+      if (!CanTrainScorer(others)) {  // too small a dataset: this fold keeps the fixed gates
+        std::fprintf(stderr,
+                     "warning: crossval fold %d: %zu hypotheses of the other folds are too few to "
+                     "learn a scorer (20 with both labels needed); this fold uses the fixed "
+                     "gates\n",
+                     k,
+                     others.size());
+        fold.evaluation = fold.gates;
+        fold_runs.push_back(fold.gates.run_id);
+        continue;
+      }
+      TrainedModel model = LoadTrainedModel(fold.model_path);
+      model.scorer = HypothesisScorer::Train(others, options.scorer_options).Serialize();
+      const std::string scored_path =
+          (std::filesystem::path(options.work_dir) /
+           ("fold-" + std::to_string(k) + "-of-" + std::to_string(folds.count) + "-scored.fcm"))
+              .string();
+      SaveTrainedModel(model, scored_path);
+      EvaluateCommandOptions evaluate = FoldEvaluation(options, k, folds.count);
+      evaluate.detector.use_scorer = true;
+      fold.evaluation = EvaluateModel(scored_path, db_path, evaluate);
+      fold_runs.push_back(fold.evaluation.run_id);
+    }
+    if (CanTrainScorer(all)) {
+      summary.scorer_path = (std::filesystem::path(options.work_dir) / "scorer.yml").string();
+      WriteFileAtomically(summary.scorer_path,
+                          HypothesisScorer::Train(all, options.scorer_options).Serialize());
+    }
+  }
   Aggregate(&summary);
+  std::map<std::string, double>& gates = summary.gates;
+  if (options.scorer) {
+    for (const CrossvalFold& fold : summary.per_fold) {
+      for (const auto& [name, value] : fold.gates.result.metrics) {
+        if (name.rfind("mAP", 0) == 0 || name.rfind("AP/", 0) == 0)
+          gates[name] += value / summary.per_fold.size();
+      }
+    }
+  }
 
   RunRecord run = NewRunRecord("crossval",
                                options.evaluate.label.empty()
@@ -144,6 +224,14 @@ CrossvalSummary RunLeaveModelsOut(const Catalog& catalog,
       {"fold_seed", summary.fold_seed},
       {"fold_runs", fold_runs},
       {"trainer", nlohmann::json::parse(TrainingOptionsJson(options.training))},
+      {"scorer",
+       options.scorer ? nlohmann::json{{"trees", options.scorer_options.trees},
+                                       {"max_depth", options.scorer_options.max_depth},
+                                       {"min_sample_count", options.scorer_options.min_sample_count},
+                                       {"calibration_share",
+                                        options.scorer_options.calibration_share},
+                                       {"samples", summary.scorer_samples}}
+                      : nlohmann::json()},
       {"detector", nlohmann::json::parse(DetectorOptionsJson(options.evaluate.detector))}};
   run.options_json = stored.dump();
   nlohmann::json per_fold = nlohmann::json::array();
@@ -153,10 +241,31 @@ CrossvalSummary RunLeaveModelsOut(const Catalog& catalog,
                         {"held_out", fold.held_out_per_class},
                         {"metrics", fold.evaluation.result.metrics}});
   }
-  run.results_json = nlohmann::json{{"folds", per_fold}}.dump();
+  // Reliability bins pooled over the folds.
+  std::vector<CalibrationBin> calibration;
+  for (const CrossvalFold& fold : summary.per_fold) {
+    const std::vector<CalibrationBin>& bins = fold.evaluation.result.calibration;
+    if (calibration.empty()) calibration = bins;
+    else {
+      for (size_t b = 0; b < bins.size() && b < calibration.size(); ++b) {
+        calibration[b].detections += bins[b].detections;
+        calibration[b].true_positives += bins[b].true_positives;
+        calibration[b].score_sum += bins[b].score_sum;
+      }
+    }
+  }
+  nlohmann::json pooled = nlohmann::json::array();
+  for (const CalibrationBin& bin : calibration)
+    pooled.push_back({bin.low, bin.high, bin.detections, bin.true_positives, bin.score_sum});
+  run.results_json = nlohmann::json{{"folds", per_fold},
+                                    {"calibration", pooled},
+                                    {"calibration_layout",
+                                     "low, high, detections, true positives, score sum"}}
+                         .dump();
   std::map<std::string, double> metrics = summary.mean;
   for (const auto& [name, value] : summary.spread) metrics["spread/" + name] = value;
   metrics["folds"] = folds.count;
+  for (const auto& [name, value] : gates) metrics["gates/" + name] = value;
   {
     DatasetDb dataset(db_path, DatasetDb::Mode::kReadWriteExisting);
     summary.run_id = dataset.WriteRun(run, metrics, {}, {});

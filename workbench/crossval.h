@@ -7,6 +7,14 @@
 // and the spread (population standard deviation) as "spread/<name>", so
 // `report`, `history` and `regress` work on it as on any run.
 //
+// With the learned scorer (on by default), each fold is first evaluated with
+// the fixed gates (runs of kind "crossval-gates", their means stored as
+// "gates/<name>"), collecting every fitted hypothesis with its label; fold
+// k's scorer is then trained on the other folds' hypotheses only (their
+// rooms hold none of fold k's furniture) and fold k evaluated with it. A
+// scorer trained on every fold's hypotheses is written to
+// <work-dir>/scorer.yml, for `train --scorer`.
+//
 //   CrossvalOptions options;
 //   options.work_dir = "out/crossval";
 //   const CrossvalSummary summary = RunLeaveModelsOut(catalog, "folds.db", options);
@@ -26,6 +34,8 @@ struct CrossvalOptions {
   std::string work_dir;             // fold models, reused when their inputs are the same
   TrainingOptions training;         // how each fold's model is trained
   EvaluateCommandOptions evaluate;  // detector, split ("all" by default), ...
+  bool scorer = true;               // learn a hypothesis scorer per fold (nested)
+  ScorerOptions scorer_options;
   bool quiet = false;
 
   CrossvalOptions() { evaluate.split = "all"; }
@@ -36,7 +46,8 @@ struct CrossvalFold {
   std::map<std::string, int> held_out_per_class;  // models held out of training
   std::string model_path;
   bool model_reused = false;
-  EvaluateSummary evaluation;
+  EvaluateSummary evaluation;  // with the fold's scorer when there is one
+  EvaluateSummary gates;       // with the fixed gates (scorer runs only)
 };
 
 struct CrossvalSummary {
@@ -44,7 +55,10 @@ struct CrossvalSummary {
   uint64_t fold_seed = 0;
   std::vector<CrossvalFold> per_fold;
   std::map<std::string, double> mean, spread;  // over folds, per metric
+  std::map<std::string, double> gates;         // mean mAP and AP with the fixed gates (scorer runs)
   int64_t run_id = 0;                          // the "crossval" run
+  std::string scorer_path;                     // the all-folds scorer, when learnt
+  int scorer_samples = 0;
   double seconds = 0;
 };
 

@@ -55,8 +55,13 @@ nlohmann::json CurvesJson(const EvaluationResult& result) {
   nlohmann::json frame_errors = nlohmann::json::object();
   for (const auto& [frame, errors] : result.frame_errors)
     frame_errors[std::to_string(frame)] = {errors.first, errors.second};
+  nlohmann::json calibration = nlohmann::json::array();
+  for (const CalibrationBin& bin : result.calibration)
+    calibration.push_back({bin.low, bin.high, bin.detections, bin.true_positives, bin.score_sum});
   return {{"curves", curves},
           {"curve_layout", "recall, precision, threshold"},
+          {"calibration", calibration},
+          {"calibration_layout", "low, high, detections, true positives, score sum"},
           {"confusion", result.confusion},
           {"frame_errors", frame_errors},
           {"frame_errors_layout", "false positives, missed objects at 10 cm"}};
@@ -183,6 +188,15 @@ EvaluateSummary EvaluateModel(const std::string& model_path,
       for (const DetectionDebug::Hypothesis& h : result.debug.hypotheses) {
         outcome.maxima.push_back(
             {ClassName(h.furniture_class), h.x, h.y, h.relative_weight, h.outcome});
+        if (!options.collect_scorer_samples || !h.has_features) continue;
+        ScorerSample sample;
+        sample.features = h.features;
+        sample.group = static_cast<uint64_t>(frame.id);
+        for (const TruthObject& t : outcome.truth) {
+          sample.positive |= t.furniture_class == ClassName(h.furniture_class) &&
+                             std::hypot(t.x - h.fit_x, t.y - h.fit_y) <= 0.10;
+        }
+        summary.scorer_samples.push_back(sample);
       }
       nlohmann::ordered_json timings = nlohmann::ordered_json::object();
       for (const auto& [stage, ms] : result.timings_ms) {

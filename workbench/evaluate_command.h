@@ -36,6 +36,9 @@ struct EvaluateCommandOptions {
   int fold_count = 0;
   DetectorOptions detector;
   EvaluationOptions evaluation;
+  // Keep every fitted hypothesis that passed the scorer's gates, labelled by
+  // the ground truth, for training a hypothesis scorer.
+  bool collect_scorer_samples = false;
 };
 
 struct EvaluateSummary {
@@ -44,6 +47,9 @@ struct EvaluateSummary {
   int frames = 0;
   int frames_without_points = 0;  // no point in range: counted, with no detections
   double seconds = 0;
+  // With collect_scorer_samples: positive when the fit lies within 10 cm of
+  // a true object of its class.
+  std::vector<ScorerSample> scorer_samples;
 };
 
 // Provenance of a new run: its kind and label, the time, the source commit

@@ -128,6 +128,11 @@ std::vector<Field> FieldsOf(DetectorOptions* o) {
       Plain("min_score", &o->min_score),
       Plain("max_shared_support", &o->max_shared_support),
       Plain("max_footprint_overlap", &o->max_footprint_overlap),
+      Plain("use_scorer", &o->use_scorer),
+      Plain("scorer_min_covered_fraction", &o->scorer_min_covered_fraction),
+      Plain("scorer_min_verification", &o->scorer_min_verification),
+      Plain("scorer_min_seen_occupied", &o->scorer_min_seen_occupied),
+      Plain("min_probability", &o->min_probability),
       Plain("seed", &o->seed),
   };
 }

@@ -118,6 +118,18 @@ void PrintCrossval(const CrossvalSummary& summary) {
               MetricOrNan(summary.mean, "mAP@20cm"),
               MetricOrNan(summary.mean, "xy_error_mean_m"),
               MetricOrNan(summary.mean, "latency_p50_ms"));
+  if (!summary.gates.empty()) {
+    std::printf("  without the scorer (fixed gates): mAP@10cm %.3f;",
+                MetricOrNan(summary.gates, "mAP@10cm"));
+    for (const char* c : classes)
+      std::printf(" %s %.3f", c, MetricOrNan(summary.gates, std::string("AP/") + c + "@10cm"));
+    std::printf("\n  scorer: nested per fold; %d hypotheses in all; calibration error %.3f; "
+                "all-folds scorer written to %s\n",
+                summary.scorer_samples,
+                MetricOrNan(summary.mean, "calibration_error"),
+                summary.scorer_path.empty() ? "(none: too few hypotheses)"
+                                            : summary.scorer_path.c_str());
+  }
 }
 
 }  // namespace
@@ -278,9 +290,17 @@ int RunCrossval(int argc, char** argv) {
                  "detects");
   app.add_option("--seed", options.evaluate.detector.seed, "Seed of the RANSAC draws")
       ->capture_default_str();
+  bool no_scorer = false;
+  app.add_flag("--no-scorer",
+               no_scorer,
+               "Fixed verification gates only: no learned hypothesis scorer per fold");
+  app.add_option("--scorer-trees", options.scorer_options.trees, "Trees of the scorer's forest")
+      ->capture_default_str();
   if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
   ApplyGlobalFlags(catalog_flags);
   options.quiet = catalog_flags.quiet;
+  options.scorer = !no_scorer;
+  options.scorer_options.Check();
   if (!options_file.empty()) {
     const std::string text = ReadFileBytes(options_file);
     const uint64_t seed = options.evaluate.detector.seed;

@@ -4,6 +4,7 @@
 
 #include "core/error.h"
 #include "core/file_util.h"
+#include "core/hypothesis_scorer.h"
 #include "workbench/cli_common.h"
 #include "workbench/commands.h"
 #include "workbench/eval_parts.h"
@@ -27,7 +28,10 @@ int RunTrain(int argc, char** argv) {
   app.add_option("--seed", trainer.vocabulary.seed, "Seed of clustering and scan noise")
       ->capture_default_str();
   app.add_option("--azimuths", scan.azimuths, "Views per ring")->capture_default_str();
-  std::string options_file;
+  std::string options_file, scorer_file;
+  app.add_option("--scorer",
+                 scorer_file,
+                 "A hypothesis scorer to store in the model (the scorer.yml 'crossval' writes)");
   app.add_option("--options",
                  options_file,
                  "Trainer options as JSON (the \"trainer\" object of a tuned options file); the "
@@ -56,7 +60,14 @@ int RunTrain(int argc, char** argv) {
   const Catalog catalog = OpenCatalog(catalog_flags.spec, MakeOpenOptions(catalog_flags));
   for (const std::string& warning : catalog.warnings())
     std::fprintf(stderr, "warning: %s\n", warning.c_str());
-  const TrainSummary summary = TrainFromCatalog(catalog, scan, trainer, out);
+  // The scorer is read before training, so a bad file costs no training time.
+  const std::string scorer =
+      scorer_file.empty() ? "" : ReadFileBytes(scorer_file);
+  if (!scorer.empty()) {
+    Require(!HypothesisScorer::Deserialize(scorer, scorer_file).empty(),
+            scorer_file + ": holds no hypothesis scorer");
+  }
+  const TrainSummary summary = TrainFromCatalog(catalog, scan, trainer, out, {}, scorer);
   std::printf(
       "wrote %s: %d models, %d views, %d segments, %d of %d words used; scans %.1f s, training "
       "%.1f s\n",

@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "core/error.h"
+#include "core/hypothesis_scorer.h"
 #include "core/progress.h"
 #include "core/random.h"
 #include "renderers/embree_caster.h"
@@ -76,7 +77,8 @@ TrainSummary TrainFromCatalog(const Catalog& catalog,
                               const ScanOptions& scan,
                               const TrainerOptions& trainer,
                               const std::string& out_path,
-                              const std::set<std::string>& held_out) {
+                              const std::set<std::string>& held_out,
+                              const std::string& scorer) {
   scan.Check();
   trainer.Check();
   std::vector<std::string> ids;
@@ -105,7 +107,8 @@ TrainSummary TrainFromCatalog(const Catalog& catalog,
   progress.Finish();
   summary.scan_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   start = std::chrono::steady_clock::now();
-  const TrainedModel model = TrainModel(views, ids, classes, trainer, &summary.stages);
+  TrainedModel model = TrainModel(views, ids, classes, trainer, &summary.stages);
+  model.scorer = scorer;
   SaveTrainedModel(model, out_path);
   summary.train_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   summary.models = static_cast<int>(ids.size());
@@ -138,6 +141,13 @@ std::string DescribeTrainedModel(const TrainedModel& model) {
       << model.options.region_growing.delta_m << " m, alpha "
       << model.options.region_growing.alpha_deg << " deg, min segment "
       << model.options.region_growing.min_segment_size << " points\n";
+  if (model.scorer.empty()) {
+    out << "scorer:      none (fixed verification gates)\n";
+  } else {
+    const HypothesisScorer scorer = HypothesisScorer::Deserialize(model.scorer, "the model's scorer");
+    out << "scorer:      random forest from " << scorer.training_samples()
+        << " hypotheses, Platt a " << scorer.platt_a() << " b " << scorer.platt_b() << "\n";
+  }
   return out.str();
 }
 

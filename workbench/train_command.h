@@ -41,12 +41,14 @@ struct TrainSummary {
 };
 
 // Trains on the classified entries that are not evaluation-only and not in
-// `held_out` (a leave-models-out fold).
+// `held_out` (a leave-models-out fold); `scorer` (HypothesisScorer bytes, or
+// empty) is stored in the model file as it is.
 TrainSummary TrainFromCatalog(const Catalog& catalog,
                               const ScanOptions& scan,
                               const TrainerOptions& trainer,
                               const std::string& out_path,
-                              const std::set<std::string>& held_out = {});
+                              const std::set<std::string>& held_out = {},
+                              const std::string& scorer = "");
 
 // `model info`: what a model file holds, as text.
 std::string DescribeTrainedModel(const TrainedModel& model);

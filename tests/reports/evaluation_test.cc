@@ -117,6 +117,29 @@ TEST(ProtocolB, GreedyMatchingByScoreWithinTheDistance) {
   EXPECT_DOUBLE_EQ(r.metrics.at("latency_p50_ms"), 50);
 }
 
+TEST(Calibration, BinsCountTruePositivesAndTheErrorWeighsThem) {
+  FrameOutcome frame;
+  frame.truth = {Chair(0, 0), Chair(2, 0), Chair(4, 0, /*visibility=*/0.1)};
+  // 0.95: a TP; 0.91: a duplicate (FP); 0.35: a TP; 0.32: background (FP);
+  // 0.5: on the barely visible chair, matched to an "ignore": left out.
+  frame.detections = {Found(0, 0, 0.95),
+                      Found(0.02, 0, 0.91),
+                      Found(2, 0, 0.35),
+                      Found(9, 9, 0.32),
+                      Found(4, 0, 0.5)};
+  const EvaluationResult r = EvaluateFrames({frame}, ChairsOnly());
+  ASSERT_EQ(r.calibration.size(), 10u);
+  EXPECT_EQ(r.calibration[9].detections, 2);
+  EXPECT_EQ(r.calibration[9].true_positives, 1);
+  EXPECT_NEAR(r.calibration[9].score_sum, 1.86, 1e-12);
+  EXPECT_EQ(r.calibration[3].detections, 2);
+  EXPECT_EQ(r.calibration[3].true_positives, 1);
+  EXPECT_EQ(r.calibration[5].detections, 0);
+  // (|1 - 1.86| + |1 - 0.67|) / 4
+  EXPECT_NEAR(r.metrics.at("calibration_error"), (0.86 + 0.33) / 4, 1e-12);
+  EXPECT_TRUE(std::isnan(CalibrationError({})));
+}
+
 TEST(ProtocolB, BarelyVisibleAndFarObjectsAreIgnored) {
   FrameOutcome frame;
   TruthObject far = Chair(3, 0);

@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/file_util.h"
+#include "core/trainer.h"
 #include "db/dataset_db.h"
 #include "db/sqlite.h"
 #include "scenes/model_folds.h"
@@ -48,26 +49,51 @@ TEST(Crossval, LeaveModelsOutFoldsAreTrainedEvaluatedAggregatedAndGated) {
   ASSERT_EQ(run.exit_code, 0) << run.output;
   EXPECT_NE(run.output.find("leave-models-out (protocol E): 3 folds"), std::string::npos)
       << run.output;
-  {  // Three fold runs and the aggregate: its mean is the folds' mean.
+  EXPECT_NE(run.output.find("without the scorer (fixed gates)"), std::string::npos) << run.output;
+  {  // Per fold a fixed-gates run, then a run with the fold's scorer (nested:
+     // learnt from the other folds' hypotheses); the aggregate's mean is the
+     // scored folds' mean.
     DatasetDb dataset(db, DatasetDb::Mode::kReadOnly);
     const std::vector<RunRecord> runs = dataset.Runs();
-    ASSERT_EQ(runs.size(), 4u);
-    double sum = 0;
+    ASSERT_EQ(runs.size(), 7u);
+    double sum = 0, gates = 0;
     for (int k = 0; k < 3; ++k) {
-      EXPECT_EQ(runs[k].kind, "crossval-fold");
-      sum += dataset.RunMetrics(runs[k].id).at("mAP@10cm");
+      EXPECT_EQ(runs[k].kind, "crossval-gates");
+      gates += dataset.RunMetrics(runs[k].id).at("mAP@10cm");
+      EXPECT_EQ(runs[3 + k].kind, "crossval-fold");
+      EXPECT_NE(runs[3 + k].model_path.find("-scored.fcm"), std::string::npos);
+      EXPECT_EQ(LoadTrainedModel(runs[3 + k].model_path).scorer.empty(), false);
+      sum += dataset.RunMetrics(runs[3 + k].id).at("mAP@10cm");
     }
-    EXPECT_EQ(runs[3].kind, "crossval");
-    const std::map<std::string, double> aggregate = dataset.RunMetrics(runs[3].id);
+    EXPECT_EQ(runs[6].kind, "crossval");
+    const std::map<std::string, double> aggregate = dataset.RunMetrics(runs[6].id);
     EXPECT_NEAR(aggregate.at("mAP@10cm"), sum / 3, 1e-12);
+    EXPECT_NEAR(aggregate.at("gates/mAP@10cm"), gates / 3, 1e-12);
     EXPECT_TRUE(aggregate.count("spread/mAP@10cm"));
+    EXPECT_TRUE(aggregate.count("calibration_error"));
     EXPECT_EQ(aggregate.at("folds"), 3);
     EXPECT_EQ(aggregate.at("frames"), 18);  // a total, not a mean
   }
   int models = 0;
   for (const auto& entry : std::filesystem::directory_iterator(work))
     models += entry.path().extension() == ".fcm";
-  EXPECT_EQ(models, 3);
+  EXPECT_EQ(models, 6);  // per fold: trained, and with its scorer
+
+  // The all-folds scorer goes into a model with `train --scorer`.
+  ASSERT_TRUE(std::filesystem::exists(work + "/scorer.yml"));
+  ASSERT_EQ(Workbench("train --catalog procedural:4 --quiet --azimuths 4 --words 20 --vocab kmeans "
+                      "--scorer " +
+                      work + "/scorer.yml --out " + dir + "/scored.fcm")
+                .exit_code,
+            0);
+  const testing::CommandResult info = Workbench("model info " + dir + "/scored.fcm");
+  EXPECT_NE(info.output.find("scorer:      random forest from"), std::string::npos) << info.output;
+  WriteFileAtomically(dir + "/bad.yml", "not a scorer\n");
+  const testing::CommandResult bad = Workbench("train --catalog procedural:4 --quiet --scorer " +
+                                               dir + "/bad.yml --out " + dir + "/bad.fcm");
+  EXPECT_EQ(bad.exit_code, 1);
+  EXPECT_NE(bad.output.find("bad.yml: not a hypothesis scorer"), std::string::npos) << bad.output;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/bad.fcm"));
 
   // The CI gate: no metric worse than the committed baseline.
   const testing::CommandResult gate = Workbench(
@@ -83,12 +109,15 @@ TEST(Crossval, LeaveModelsOutFoldsAreTrainedEvaluatedAggregatedAndGated) {
   EXPECT_NE(html.find("fold-2/index.html"), std::string::npos);
   EXPECT_GT(ReadFileBytes(dir + "/report/folds_ap.png").size(), 1000u);
   EXPECT_TRUE(std::filesystem::exists(dir + "/report/fold-0/pr_detection.png"));
+  EXPECT_NE(html.find("fixed gates"), std::string::npos);
+  EXPECT_GT(ReadFileBytes(dir + "/report/reliability.png").size(), 1000u);
+  EXPECT_GT(ReadFileBytes(dir + "/report/fold-0/reliability.png").size(), 1000u);
 
   // Again: the fold models are reused, and the result is the same.
   const testing::CommandResult again = Workbench("crossval --db " + db + " --work-dir " + work);
   ASSERT_EQ(again.exit_code, 0) << again.output;
   EXPECT_NE(again.output.find("model reused"), std::string::npos) << again.output;
-  EXPECT_EQ(Workbench("regress --db " + db + " --run 8 --baseline 4 --tolerance 0").exit_code, 0);
+  EXPECT_EQ(Workbench("regress --db " + db + " --run 14 --baseline 7 --tolerance 0").exit_code, 0);
 }
 
 TEST(Crossval, DatasetsWithoutFoldsAndImpossibleFoldsAreClearErrors) {
