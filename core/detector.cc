@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <iterator>
+#include <limits>
 #include <mutex>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
@@ -185,6 +186,8 @@ void DetectorOptions::Check() const {
   Require(scorer_min_seen_occupied >= 0 && scorer_min_seen_occupied <= 1,
           "scorer min seen occupied must be in 0..1");
   Require(min_probability >= 0 && min_probability <= 1, "min probability must be in 0..1");
+  Require(scorer_max_seen_through >= 0 && scorer_max_seen_through <= 1,
+          "scorer max seen through must be in 0..1");
 }
 
 struct Detector::Impl {
@@ -421,11 +424,11 @@ void Detector::Impl::FitAndVerify(const PreparedScan& scan,
     Candidate candidate;
     candidate.model = hypothesis->candidate_models[c];
     candidate.rank = static_cast<int>(c);
-    candidate.fit =
-        fitters[candidate.model].Fit(scene_points,
-                                     scene_normals,
-                                     hint,
-                                     DeriveSeed(options.seed, static_cast<uint64_t>(hypothesis_index) * 64 + c));
+    candidate.fit = fitters[candidate.model].Fit(
+        scene_points,
+        scene_normals,
+        hint,
+        DeriveSeed(options.seed, static_cast<uint64_t>(hypothesis_index) * 64 + c));
     if (!candidate.fit.found) continue;
     ++fits;
     candidate.covered = candidate.fit.Explained();
@@ -459,6 +462,25 @@ void Detector::Impl::FitAndVerify(const PreparedScan& scan,
   const double seen = best.counts.SeenOccupied();
   std::vector<int> covered_points;  // of the region
   for (int k : fitters[m].CoveredIndices(region_points, pose)) covered_points.push_back(k);
+  // Render-and-compare of the best fit from the actual camera.
+  double seen_through = -1, render_support = -1;
+  if (scan.intrinsics) {
+    const Eigen::Isometry3f camera_from_world = scan.world_from_camera.inverse().cast<float>();
+    std::vector<Eigen::Vector3f> in_camera;
+    in_camera.reserve(best.posed.size());
+    for (const Eigen::Vector3f& p : best.posed) {
+      if (p.z() >= options.floor_band_m) in_camera.push_back(camera_from_world * p);
+    }
+    const RenderComparison comparison =
+        CompareRendered(in_camera,
+                        scan.depth,
+                        scan.width,
+                        scan.height,
+                        *scan.intrinsics,
+                        static_cast<float>(model.options.shape_voxel_m));
+    seen_through = comparison.ViolationShare();
+    render_support = comparison.SupportShare();
+  }
   const bool candidate_gates = best.covered >= options.scorer_min_covered_fraction &&
                                best.verification >= options.scorer_min_verification &&
                                seen >= options.scorer_min_seen_occupied;
@@ -491,6 +513,8 @@ void Detector::Impl::FitAndVerify(const PreparedScan& scan,
     f[19] = static_cast<float>(fits);
     f[20] = static_cast<float>(best.rank);
     f[21] = static_cast<float>(std::log1p(region_points.size()));
+    f[22] = static_cast<float>(seen_through);
+    f[23] = static_cast<float>(render_support);
     hypothesis->has_features = true;
     hypothesis->fit_x = pose.x;
     hypothesis->fit_y = pose.y;
@@ -502,32 +526,35 @@ void Detector::Impl::FitAndVerify(const PreparedScan& scan,
   if (scored) {
     score = candidate_gates ? scorer.Probability(hypothesis->features) : 0;
     hypothesis->probability = score;
-    tests = {{best.covered < options.scorer_min_covered_fraction ? HypothesisOutcome::kLowCoverage
-                                                                 : HypothesisOutcome::kDetected,
-              best.covered},
-             {best.verification < options.scorer_min_verification
-                  ? HypothesisOutcome::kLowVerification
-                  : HypothesisOutcome::kDetected,
-              best.verification},
-             {seen < options.scorer_min_seen_occupied ? HypothesisOutcome::kLowSeenOccupied
-                                                      : HypothesisOutcome::kDetected,
-              seen},
-             {score < options.min_probability ? HypothesisOutcome::kLowScore
-                                              : HypothesisOutcome::kDetected,
-              score}};
-  } else {
-    tests = {{best.covered < options.min_covered_fraction ? HypothesisOutcome::kLowCoverage
-                                                          : HypothesisOutcome::kDetected,
-              best.covered},
-             {best.verification < options.min_verification ? HypothesisOutcome::kLowVerification
+    tests = {
+        {best.covered < options.scorer_min_covered_fraction ? HypothesisOutcome::kLowCoverage
                                                             : HypothesisOutcome::kDetected,
-              best.verification},
-             {seen < options.min_seen_occupied ? HypothesisOutcome::kLowSeenOccupied
-                                               : HypothesisOutcome::kDetected,
-              seen},
-             {score < options.min_score ? HypothesisOutcome::kLowScore
-                                        : HypothesisOutcome::kDetected,
-              score}};
+         best.covered},
+        {best.verification < options.scorer_min_verification ? HypothesisOutcome::kLowVerification
+                                                             : HypothesisOutcome::kDetected,
+         best.verification},
+        {seen < options.scorer_min_seen_occupied ? HypothesisOutcome::kLowSeenOccupied
+                                                 : HypothesisOutcome::kDetected,
+         seen},
+        {seen_through > options.scorer_max_seen_through ? HypothesisOutcome::kSeenThrough
+                                                        : HypothesisOutcome::kDetected,
+         seen_through},
+        {score < options.min_probability ? HypothesisOutcome::kLowScore
+                                         : HypothesisOutcome::kDetected,
+         score}};
+  } else {
+    tests = {
+        {best.covered < options.min_covered_fraction ? HypothesisOutcome::kLowCoverage
+                                                     : HypothesisOutcome::kDetected,
+         best.covered},
+        {best.verification < options.min_verification ? HypothesisOutcome::kLowVerification
+                                                      : HypothesisOutcome::kDetected,
+         best.verification},
+        {seen < options.min_seen_occupied ? HypothesisOutcome::kLowSeenOccupied
+                                          : HypothesisOutcome::kDetected,
+         seen},
+        {score < options.min_score ? HypothesisOutcome::kLowScore : HypothesisOutcome::kDetected,
+         score}};
   }
   hypothesis->outcome = HypothesisOutcome::kDetected;
   for (const auto& [outcome, value] : tests) {
@@ -567,6 +594,8 @@ const char* OutcomeName(HypothesisOutcome outcome) {
       return "low_verification";
     case HypothesisOutcome::kLowSeenOccupied:
       return "low_seen_occupied";
+    case HypothesisOutcome::kSeenThrough:
+      return "seen_through";
     case HypothesisOutcome::kLowScore:
       return "low_score";
     case HypothesisOutcome::kSuppressed:
@@ -594,6 +623,9 @@ std::string DetectionDebug::Describe(const Hypothesis& h) {
       return text;
     case HypothesisOutcome::kLowSeenOccupied:
       std::snprintf(text, sizeof(text), "seen occupied %.2f", h.outcome_values[0]);
+      return text;
+    case HypothesisOutcome::kSeenThrough:
+      std::snprintf(text, sizeof(text), "seen through on %.2f of its pixels", h.outcome_values[0]);
       return text;
     case HypothesisOutcome::kLowScore:
       std::snprintf(text, sizeof(text), "score %.2f", h.outcome_values[0]);
@@ -669,6 +701,19 @@ PreparedScan Detector::Prepare(const DetectionInput& input) const {
   // against one).
   scan.structure = FindStructure(
       scan.view, options.max_segment_extent_m, impl.structure_height_m, &scan.structure_segment);
+  // Render-and-compare needs the image: organised scans only.
+  if (input.width * input.height > 0) {
+    scan.intrinsics = IntrinsicsOfOrganisedCloud(input.points, input.width, input.height);
+    if (scan.intrinsics) {
+      scan.width = input.width;
+      scan.height = input.height;
+      scan.depth.assign(input.points.size(), std::numeric_limits<float>::quiet_NaN());
+      for (size_t i = 0; i < input.points.size(); ++i) {
+        const Eigen::Vector3f& p = input.points[i];
+        if (p.allFinite() && p.z() > 0 && p.squaredNorm() <= max_range2) scan.depth[i] = p.z();
+      }
+    }
+  }
   // Occupancy for verification, from every point in range (floor included).
   scan.occupancy.emplace(
       ThinOut(world, options.occupancy_voxel_m), scan.sensor, options.occupancy_voxel_m);
@@ -693,10 +738,10 @@ VoteMaps Detector::Vote(const PreparedScan& scan) const {
   }
   const float margin = 1.0f;
   maps.origin = low - Eigen::Vector2f::Constant(margin);
-  maps.cols =
-      std::min(2000, static_cast<int>(std::ceil((high.x() - low.x() + 2 * margin) / options.cell_m)));
-  maps.rows =
-      std::min(2000, static_cast<int>(std::ceil((high.y() - low.y() + 2 * margin) / options.cell_m)));
+  maps.cols = std::min(
+      2000, static_cast<int>(std::ceil((high.x() - low.x() + 2 * margin) / options.cell_m)));
+  maps.rows = std::min(
+      2000, static_cast<int>(std::ceil((high.y() - low.y() + 2 * margin) / options.cell_m)));
   std::vector<cv::Mat> grids(kClasses);
   for (cv::Mat& grid : grids) grid = cv::Mat::zeros(maps.rows, maps.cols, CV_32F);
   for (size_t s = 0; s < view.segments.size(); ++s) {
@@ -750,8 +795,7 @@ std::vector<DetectionDebug::Hypothesis> Detector::FindMaxima(
     debug_grid.cols = votes.cols;
     debug_grid.rows = votes.rows;
     // A view of the grid, not a copy (Maxima only reads it).
-    const cv::Mat grid(
-        votes.rows, votes.cols, CV_32F, const_cast<float*>(votes.grids[k].data()));
+    const cv::Mat grid(votes.rows, votes.cols, CV_32F, const_cast<float*>(votes.grids[k].data()));
     for (auto& h : impl.Maxima(grid, k, votes.origin, &debug_grid)) hypotheses.push_back(h);
     if (grids != nullptr) {
       if (keep_values) debug_grid.values = votes.grids[k];

@@ -11,28 +11,19 @@
 
 namespace furn {
 
-const char* const kHypothesisFeatureNames[kHypothesisFeatures] = {"class_chair",
-                                                                  "class_armchair",
-                                                                  "class_table",
-                                                                  "class_sideboard",
-                                                                  "log_vote_weight",
-                                                                  "relative_weight",
-                                                                  "segments",
-                                                                  "covered",
-                                                                  "verification",
-                                                                  "seen_occupied",
-                                                                  "free_share",
-                                                                  "occluded_share",
-                                                                  "log_points_in_box",
-                                                                  "model_width",
-                                                                  "model_depth",
-                                                                  "model_height",
-                                                                  "observed_height",
-                                                                  "range",
-                                                                  "second_fit_ratio",
-                                                                  "fits",
-                                                                  "candidate_rank",
-                                                                  "log_points_in_reach"};
+const char* const kHypothesisFeatureNames[kHypothesisFeatures] = {
+    "class_chair",       "class_armchair",
+    "class_table",       "class_sideboard",
+    "log_vote_weight",   "relative_weight",
+    "segments",          "covered",
+    "verification",      "seen_occupied",
+    "free_share",        "occluded_share",
+    "log_points_in_box", "model_width",
+    "model_depth",       "model_height",
+    "observed_height",   "range",
+    "second_fit_ratio",  "fits",
+    "candidate_rank",    "log_points_in_reach",
+    "seen_through",      "render_support"};
 
 namespace {
 
@@ -106,8 +97,9 @@ HypothesisScorer HypothesisScorer::Train(const std::vector<ScorerSample>& sample
   size_t positives = 0;
   for (const ScorerSample& s : samples) positives += s.positive;
   Require(samples.size() >= kMinScorerSamples && positives > 0 && positives < samples.size(),
-          "the hypothesis scorer needs at least " + std::to_string(kMinScorerSamples) + " samples with both labels (got " +
-              std::to_string(samples.size()) + ", " + std::to_string(positives) + " positive)");
+          "the hypothesis scorer needs at least " + std::to_string(kMinScorerSamples) +
+              " samples with both labels (got " + std::to_string(samples.size()) + ", " +
+              std::to_string(positives) + " positive)");
   // Whole frames go to calibration, chosen by a hash of their id.
   const auto calibration_frame = [&](uint64_t group) {
     return (DeriveSeed(0x5c0e, group) % 1000) < options.calibration_share * 1000;

@@ -29,8 +29,9 @@ namespace furn {
 // log(1 + scene points in the box), the fitted model's width, depth and
 // height, the observed height (highest explained point), range from the
 // sensor, second-best over best fit score, fits, the fitted model's
-// candidate rank, log(1 + scene points within reach).
-inline constexpr int kHypothesisFeatures = 22;
+// candidate rank, log(1 + scene points within reach), and render-and-compare's
+// seen-through share and support share (-1 each for unorganised scans).
+inline constexpr int kHypothesisFeatures = 24;
 using HypothesisFeatures = std::array<float, kHypothesisFeatures>;
 extern const char* const kHypothesisFeatureNames[kHypothesisFeatures];
 

@@ -272,9 +272,8 @@ std::string ReliabilityHtml(const nlohmann::json& bins,
   for (const nlohmann::json& bin : bins) {
     const int n = bin[2].get<int>();
     html << "<tr><td>" << Number(bin[0].get<double>(), 1) << "&ndash;"
-         << Number(bin[1].get<double>(), 1) << "</td><td>" << n << "</td><td>"
-         << bin[3].get<int>() << "</td><td>" << (n ? Number(bin[4].get<double>() / n) : "&ndash;")
-         << "</td></tr>";
+         << Number(bin[1].get<double>(), 1) << "</td><td>" << n << "</td><td>" << bin[3].get<int>()
+         << "</td><td>" << (n ? Number(bin[4].get<double>() / n) : "&ndash;") << "</td></tr>";
   }
   html << "</table></div></div>\n";
   return html.str();

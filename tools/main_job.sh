@@ -2,12 +2,13 @@
 # The main job, end to end with what exists so far: import the default catalog
 # (the repo's class map over Debian's Sweet Home 3D catalogs), print its summary,
 # draw every classified model on a contact sheet, render one model as a Kinect
-# v1 sees it, generate a labelled synthetic dataset (FURN_ROOMS rooms), train
-# the part vocabulary and shape model, evaluate detection on the test split
-# (a run in the dataset, and its HTML report), tune the detector thresholds,
-# run protocol E (leave-models-out: 5 folds of the CAD models, each trained
-# without its fold and evaluated on rooms of its fold only), and detect in one
-# frame.
+# v1 sees it, generate a labelled synthetic dataset (FURN_ROOMS rooms), run
+# protocol E (leave-models-out: 5 folds of the CAD models, each trained
+# without its fold and evaluated on rooms of its fold only, with a hypothesis
+# scorer learnt per fold), train the part vocabulary and shape model with the
+# scorer protocol E learnt, evaluate detection on the test split (a run in the
+# dataset, and its HTML report), tune the detector thresholds, and detect in
+# one frame.
 set -euo pipefail
 repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build_dir="${1:-$repo/build}"
@@ -27,8 +28,17 @@ echo "== generate: a labelled synthetic dataset from the default catalog (resume
 echo "== dataset: summary and contact sheet"
 "$workbench" dataset info "$out_dir/synth.db"
 "$workbench" dataset preview "$out_dir/synth.db" --out "$out_dir/synth_preview.png" --frames 12
-echo "== train: part vocabulary and shape model from virtual scans of the catalog"
-"$workbench" train --catalog default --out "$out_dir/model.fcm" --quiet
+echo "== crossval: protocol E, leave-models-out (5 folds; furniture the model never saw), with"
+echo "   a hypothesis scorer learnt per fold from the other folds' rooms (nested)"
+"$workbench" generate --catalog default --rooms "${FURN_CROSSVAL_ROOMS:-20}" --frames 4 --seed 2 \
+  --model-folds 5 --quiet --out "$out_dir/crossval.db"
+"$workbench" crossval --db "$out_dir/crossval.db" --work-dir "$out_dir/crossval_models" --quiet \
+  | tee "$out_dir/crossval.txt"
+"$workbench" report --db "$out_dir/crossval.db" --out "$out_dir/crossval_report"
+echo "== train: part vocabulary and shape model from virtual scans of the catalog, with the"
+echo "   hypothesis scorer crossval learnt from every fold"
+"$workbench" train --catalog default --scorer "$out_dir/crossval_models/scorer.yml" \
+  --out "$out_dir/model.fcm" --quiet
 "$workbench" model info "$out_dir/model.fcm"
 echo "== evaluate: detection over the test split, stored as a run; then its report"
 "$workbench" evaluate --model "$out_dir/model.fcm" --db "$out_dir/synth.db" --split test --quiet \
@@ -38,12 +48,6 @@ echo "== tune: detector thresholds on the val split (8 trials, the model reused)
 "$workbench" tune --catalog default --db "$out_dir/synth.db" --space "$repo/data/tune_detector_space.json" \
   --strategy grid --trials 8 --model "$out_dir/model.fcm" --work-dir "$out_dir/tune_work" \
   --out "$out_dir/tune" --quiet
-echo "== crossval: protocol E, leave-models-out (5 folds; furniture the model never saw)"
-"$workbench" generate --catalog default --rooms "${FURN_CROSSVAL_ROOMS:-20}" --frames 4 --seed 2 \
-  --model-folds 5 --quiet --out "$out_dir/crossval.db"
-"$workbench" crossval --db "$out_dir/crossval.db" --work-dir "$out_dir/crossval_models" --quiet \
-  | tee "$out_dir/crossval.txt"
-"$workbench" report --db "$out_dir/crossval.db" --out "$out_dir/crossval_report"
 echo "== detect: furniture in one frame of the dataset, with the debug PNGs"
 "$workbench" detect --model "$out_dir/model.fcm" --db "$out_dir/synth.db" --frame 8 \
   --out "$out_dir/detect/detections.json" --debug-dir "$out_dir/detect" --timings

@@ -157,7 +157,8 @@ CrossvalSummary RunLeaveModelsOut(const Catalog& catalog,
   if (options.scorer) {
     // Nested: fold k's scorer never sees a hypothesis of fold k's rooms.
     std::vector<ScorerSample> all;
-    for (const auto& fold_samples : samples) all.insert(all.end(), fold_samples.begin(), fold_samples.end());
+    for (const auto& fold_samples : samples)
+      all.insert(all.end(), fold_samples.begin(), fold_samples.end());
     summary.scorer_samples = static_cast<int>(all.size());
     for (int k = 0; k < folds.count; ++k) {
       CrossvalFold& fold = summary.per_fold[k];
@@ -225,13 +226,13 @@ CrossvalSummary RunLeaveModelsOut(const Catalog& catalog,
       {"fold_runs", fold_runs},
       {"trainer", nlohmann::json::parse(TrainingOptionsJson(options.training))},
       {"scorer",
-       options.scorer ? nlohmann::json{{"trees", options.scorer_options.trees},
-                                       {"max_depth", options.scorer_options.max_depth},
-                                       {"min_sample_count", options.scorer_options.min_sample_count},
-                                       {"calibration_share",
-                                        options.scorer_options.calibration_share},
-                                       {"samples", summary.scorer_samples}}
-                      : nlohmann::json()},
+       options.scorer
+           ? nlohmann::json{{"trees", options.scorer_options.trees},
+                            {"max_depth", options.scorer_options.max_depth},
+                            {"min_sample_count", options.scorer_options.min_sample_count},
+                            {"calibration_share", options.scorer_options.calibration_share},
+                            {"samples", summary.scorer_samples}}
+           : nlohmann::json()},
       {"detector", nlohmann::json::parse(DetectorOptionsJson(options.evaluate.detector))}};
   run.options_json = stored.dump();
   nlohmann::json per_fold = nlohmann::json::array();
@@ -245,7 +246,8 @@ CrossvalSummary RunLeaveModelsOut(const Catalog& catalog,
   std::vector<CalibrationBin> calibration;
   for (const CrossvalFold& fold : summary.per_fold) {
     const std::vector<CalibrationBin>& bins = fold.evaluation.result.calibration;
-    if (calibration.empty()) calibration = bins;
+    if (calibration.empty())
+      calibration = bins;
     else {
       for (size_t b = 0; b < bins.size() && b < calibration.size(); ++b) {
         calibration[b].detections += bins[b].detections;
@@ -257,11 +259,11 @@ CrossvalSummary RunLeaveModelsOut(const Catalog& catalog,
   nlohmann::json pooled = nlohmann::json::array();
   for (const CalibrationBin& bin : calibration)
     pooled.push_back({bin.low, bin.high, bin.detections, bin.true_positives, bin.score_sum});
-  run.results_json = nlohmann::json{{"folds", per_fold},
-                                    {"calibration", pooled},
-                                    {"calibration_layout",
-                                     "low, high, detections, true positives, score sum"}}
-                         .dump();
+  run.results_json =
+      nlohmann::json{{"folds", per_fold},
+                     {"calibration", pooled},
+                     {"calibration_layout", "low, high, detections, true positives, score sum"}}
+          .dump();
   std::map<std::string, double> metrics = summary.mean;
   for (const auto& [name, value] : summary.spread) metrics["spread/" + name] = value;
   metrics["folds"] = folds.count;

@@ -133,6 +133,7 @@ std::vector<Field> FieldsOf(DetectorOptions* o) {
       Plain("scorer_min_verification", &o->scorer_min_verification),
       Plain("scorer_min_seen_occupied", &o->scorer_min_seen_occupied),
       Plain("min_probability", &o->min_probability),
+      Plain("scorer_max_seen_through", &o->scorer_max_seen_through),
       Plain("seed", &o->seed),
   };
 }

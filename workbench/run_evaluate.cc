@@ -123,12 +123,12 @@ void PrintCrossval(const CrossvalSummary& summary) {
                 MetricOrNan(summary.gates, "mAP@10cm"));
     for (const char* c : classes)
       std::printf(" %s %.3f", c, MetricOrNan(summary.gates, std::string("AP/") + c + "@10cm"));
-    std::printf("\n  scorer: nested per fold; %d hypotheses in all; calibration error %.3f; "
-                "all-folds scorer written to %s\n",
-                summary.scorer_samples,
-                MetricOrNan(summary.mean, "calibration_error"),
-                summary.scorer_path.empty() ? "(none: too few hypotheses)"
-                                            : summary.scorer_path.c_str());
+    std::printf(
+        "\n  scorer: nested per fold; %d hypotheses in all; calibration error %.3f; "
+        "all-folds scorer written to %s\n",
+        summary.scorer_samples,
+        MetricOrNan(summary.mean, "calibration_error"),
+        summary.scorer_path.empty() ? "(none: too few hypotheses)" : summary.scorer_path.c_str());
   }
 }
 

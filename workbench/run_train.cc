@@ -61,8 +61,7 @@ int RunTrain(int argc, char** argv) {
   for (const std::string& warning : catalog.warnings())
     std::fprintf(stderr, "warning: %s\n", warning.c_str());
   // The scorer is read before training, so a bad file costs no training time.
-  const std::string scorer =
-      scorer_file.empty() ? "" : ReadFileBytes(scorer_file);
+  const std::string scorer = scorer_file.empty() ? "" : ReadFileBytes(scorer_file);
   if (!scorer.empty()) {
     Require(!HypothesisScorer::Deserialize(scorer, scorer_file).empty(),
             scorer_file + ": holds no hypothesis scorer");

@@ -144,7 +144,8 @@ std::string DescribeTrainedModel(const TrainedModel& model) {
   if (model.scorer.empty()) {
     out << "scorer:      none (fixed verification gates)\n";
   } else {
-    const HypothesisScorer scorer = HypothesisScorer::Deserialize(model.scorer, "the model's scorer");
+    const HypothesisScorer scorer =
+        HypothesisScorer::Deserialize(model.scorer, "the model's scorer");
     out << "scorer:      random forest from " << scorer.training_samples()
         << " hypotheses, Platt a " << scorer.platt_a() << " b " << scorer.platt_b() << "\n";
   }

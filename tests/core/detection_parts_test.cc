@@ -3,6 +3,7 @@
 // score, the floor finder, the neighbour grid, and structure (walls).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "core/detector.h"
@@ -12,6 +13,7 @@
 #include "core/occupancy.h"
 #include "core/pose_fit.h"
 #include "core/random.h"
+#include "core/render_compare.h"
 #include "tests/test_util.h"
 
 namespace furn {
@@ -253,6 +255,85 @@ TEST(FindStructure, ALowNarrowSegmentIsNotStructure) {
   EXPECT_TRUE(segment_flags[0]);
   EXPECT_TRUE(segment_flags[3]);
   EXPECT_FALSE(segment_flags[1]);
+}
+
+}  // namespace
+}  // namespace furn
+
+namespace furn {
+namespace {
+
+// A 640x480 pinhole image (Kinect v1 intrinsics) of a wall at depth `z`.
+std::vector<Eigen::Vector3f> Wall(float z, const PinholeIntrinsics& k) {
+  std::vector<Eigen::Vector3f> points;
+  for (int v = 0; v < 480; ++v) {
+    for (int u = 0; u < 640; ++u) {
+      points.emplace_back(
+          static_cast<float>((u - k.cx) / k.fx * z), static_cast<float>((v - k.cy) / k.fy * z), z);
+    }
+  }
+  return points;
+}
+
+TEST(RenderCompare, IntrinsicsOfAnOrganisedCloudAreRecovered) {
+  const PinholeIntrinsics kinect{525, 525, 319.5, 239.5};
+  std::vector<Eigen::Vector3f> points = Wall(2.0f, kinect);
+  for (size_t i = 0; i < points.size(); i += 7) points[i] = Eigen::Vector3f::Constant(NAN);
+  const std::optional<PinholeIntrinsics> k = IntrinsicsOfOrganisedCloud(points, 640, 480);
+  ASSERT_TRUE(k.has_value());
+  EXPECT_NEAR(k->fx, 525, 0.05);
+  EXPECT_NEAR(k->fy, 525, 0.05);
+  EXPECT_NEAR(k->cx, 319.5, 0.05);
+  EXPECT_NEAR(k->cy, 239.5, 0.05);
+  // Not a pinhole image (rows swapped around), the wrong size, or no points.
+  std::vector<Eigen::Vector3f> scrambled = points;
+  std::reverse(scrambled.begin(), scrambled.begin() + 640 * 240);
+  EXPECT_FALSE(IntrinsicsOfOrganisedCloud(scrambled, 640, 480).has_value());
+  EXPECT_FALSE(IntrinsicsOfOrganisedCloud(points, 320, 480).has_value());
+  EXPECT_FALSE(
+      IntrinsicsOfOrganisedCloud(
+          std::vector<Eigen::Vector3f>(640 * 480, Eigen::Vector3f::Constant(NAN)), 640, 480)
+          .has_value());
+}
+
+TEST(RenderCompare, SeenThroughSupportedOccludedAndUnknownPixels) {
+  const PinholeIntrinsics k{525, 525, 319.5, 239.5};
+  // The model: a 40 cm square panel facing the camera at 2 m, sampled every 2 cm.
+  std::vector<Eigen::Vector3f> panel;
+  for (int i = 0; i <= 20; ++i) {
+    for (int j = 0; j <= 20; ++j) panel.emplace_back(-0.2f + 0.02f * i, -0.2f + 0.02f * j, 2.0f);
+  }
+  auto depth_of = [&](float z) {
+    std::vector<float> depth;
+    for (const Eigen::Vector3f& p : Wall(z, k)) depth.push_back(p.z());
+    return depth;
+  };
+  const RenderComparison agree = CompareRendered(panel, depth_of(2.01f), 640, 480, k, 0.02f);
+  // About the panel's 105 x 105 pixels, each drawn once.
+  EXPECT_GT(agree.drawn, 100 * 100);
+  EXPECT_LT(agree.drawn, 115 * 115);
+  EXPECT_EQ(agree.support, agree.drawn);
+  EXPECT_DOUBLE_EQ(agree.ViolationShare(), 0);
+  EXPECT_DOUBLE_EQ(agree.SupportShare(), 1);
+  // The sensor saw a wall 1 m behind the panel: seen through everywhere.
+  const RenderComparison through = CompareRendered(panel, depth_of(3.0f), 640, 480, k, 0.02f);
+  EXPECT_EQ(through.violation, through.drawn);
+  EXPECT_DOUBLE_EQ(through.ViolationShare(), 1);
+  // Something 1 m before it: occluded, which neither helps nor hurts.
+  const RenderComparison occluded = CompareRendered(panel, depth_of(1.0f), 640, 480, k, 0.02f);
+  EXPECT_EQ(occluded.occluded, occluded.drawn);
+  EXPECT_DOUBLE_EQ(occluded.ViolationShare(), 0);
+  // No return at all: unknown.
+  const RenderComparison none =
+      CompareRendered(panel, std::vector<float>(640 * 480, 0.0f), 640, 480, k, 0.02f);
+  EXPECT_EQ(none.unknown, none.drawn);
+  // Behind the camera or outside the image: nothing drawn.
+  std::vector<Eigen::Vector3f> behind = panel;
+  for (Eigen::Vector3f& p : behind) p.z() = -2;
+  EXPECT_EQ(CompareRendered(behind, depth_of(2.0f), 640, 480, k, 0.02f).drawn, 0);
+  std::vector<Eigen::Vector3f> aside = panel;
+  for (Eigen::Vector3f& p : aside) p.x() += 5;
+  EXPECT_EQ(CompareRendered(aside, depth_of(2.0f), 640, 480, k, 0.02f).drawn, 0);
 }
 
 }  // namespace

@@ -112,16 +112,19 @@ TEST(HypothesisScorer, SameSamplesSameBytesAndTheBytesRoundTrip) {
 
 TEST(HypothesisScorer, TooFewSamplesAndForeignBytesAreClearErrors) {
   std::vector<ScorerSample> few = Samples(10, 5);
-  EXPECT_NE(testing::ErrorOf([&] { HypothesisScorer::Train(few, ScorerOptions{}); })
-                .find("needs at least 20 samples"),
+  EXPECT_NE(testing::ErrorOf([&] {
+              HypothesisScorer::Train(few, ScorerOptions{});
+            }).find("needs at least 20 samples"),
             std::string::npos);
   std::vector<ScorerSample> one_label = Samples(100, 6);
   for (ScorerSample& s : one_label) s.positive = false;
-  EXPECT_NE(testing::ErrorOf([&] { HypothesisScorer::Train(one_label, ScorerOptions{}); })
-                .find("0 positive"),
+  EXPECT_NE(testing::ErrorOf([&] {
+              HypothesisScorer::Train(one_label, ScorerOptions{});
+            }).find("0 positive"),
             std::string::npos);
-  EXPECT_NE(testing::ErrorOf([] { HypothesisScorer::Deserialize("hello\n", "s.yml"); })
-                .find("s.yml: not a hypothesis scorer"),
+  EXPECT_NE(testing::ErrorOf([] {
+              HypothesisScorer::Deserialize("hello\n", "s.yml");
+            }).find("s.yml: not a hypothesis scorer"),
             std::string::npos);
   EXPECT_NE(testing::ErrorOf([] {
               HypothesisScorer::Deserialize("furnidet-scorer 1\n1 0 5\nnot yaml: [", "s.yml");

@@ -1,0 +1,64 @@
+// Render-and-compare verification (issue 16, step 4): the fitted model drawn
+// from the actual camera and compared with the observed depth per pixel.
+//
+// The model file holds each CAD model's surface as samples one shape voxel
+// apart (ModelShape), not its mesh, so the model is drawn by z-buffered
+// splatting: every posed surface sample covers a disc of about its voxel's
+// size on the image, nearest sample wins. Per pixel of the drawing:
+//   - the sensor saw farther than the model surface (beyond the tolerance):
+//     it saw through where the model is solid -> a violation, strong
+//     evidence against (a chest where a table's knee space is);
+//   - the sensor saw closer: something occludes the model -> neutral;
+//   - within the tolerance: support;
+//   - no return: unknown -> neutral.
+// The tolerance grows with depth like the Kinect's noise (SPEC §6) plus a
+// margin for the model's own shape differing from the real piece.
+//
+//   std::optional<PinholeIntrinsics> k = IntrinsicsOfOrganisedCloud(points, w, h);
+//   RenderComparison c = CompareRendered(camera_points, depth, w, h, *k, 0.02f);
+#pragma once
+
+#include <Eigen/Core>
+#include <optional>
+#include <vector>
+
+namespace furn {
+
+struct PinholeIntrinsics {
+  double fx = 0, fy = 0, cx = 0, cy = 0;
+};
+
+// The pinhole intrinsics that project an organised cloud's points (camera
+// frame, z forward) onto their pixels, by least squares of u = fx x/z + cx
+// and v = fy y/z + cy; nullopt for too few points or a poor fit (more than
+// half a pixel off), e.g. a cloud that is not a pinhole image.
+std::optional<PinholeIntrinsics> IntrinsicsOfOrganisedCloud(
+    const std::vector<Eigen::Vector3f>& points, int width, int height);
+
+struct RenderComparison {
+  int drawn = 0;      // pixels the model covers
+  int support = 0;    // observed depth agrees
+  int violation = 0;  // observed farther: seen through the model
+  int occluded = 0;   // observed closer
+  int unknown = 0;    // no return
+
+  // violation / (support + violation); 0 when neither.
+  double ViolationShare() const;
+  // support / drawn; 0 when nothing is drawn.
+  double SupportShare() const;
+};
+
+// The depth tolerance at depth z (m): 0.04 + 0.005 z^2.
+float RenderTolerance(float z);
+
+// `model_points` in the camera frame (z forward); `depth` the observed depth
+// per pixel (row-major, <= 0 or non-finite: no return); `splat_m` the
+// spacing of the model's surface samples.
+RenderComparison CompareRendered(const std::vector<Eigen::Vector3f>& model_points,
+                                 const std::vector<float>& depth,
+                                 int width,
+                                 int height,
+                                 const PinholeIntrinsics& intrinsics,
+                                 float splat_m);
+
+}  // namespace furn
