@@ -520,47 +520,44 @@ void Detector::Impl::FitAndVerify(const PreparedScan& scan,
     hypothesis->fit_y = pose.y;
   }
 
-  // The first test the best fit fails is the hypothesis' outcome.
+  // The first test the best fit fails is the hypothesis' outcome: the fixed
+  // gates, or with a scorer the looser ones and its probability.
   double score = best.score;
-  std::vector<std::pair<HypothesisOutcome, double>> tests;
   if (scored) {
     score = candidate_gates ? scorer.Probability(hypothesis->features) : 0;
     hypothesis->probability = score;
-    tests = {
-        {best.covered < options.scorer_min_covered_fraction ? HypothesisOutcome::kLowCoverage
-                                                            : HypothesisOutcome::kDetected,
-         best.covered},
-        {best.verification < options.scorer_min_verification ? HypothesisOutcome::kLowVerification
-                                                             : HypothesisOutcome::kDetected,
-         best.verification},
-        {seen < options.scorer_min_seen_occupied ? HypothesisOutcome::kLowSeenOccupied
-                                                 : HypothesisOutcome::kDetected,
-         seen},
-        {seen_through > options.scorer_max_seen_through ? HypothesisOutcome::kSeenThrough
-                                                        : HypothesisOutcome::kDetected,
-         seen_through},
-        {score < options.min_probability ? HypothesisOutcome::kLowScore
-                                         : HypothesisOutcome::kDetected,
-         score}};
-  } else {
-    tests = {
-        {best.covered < options.min_covered_fraction ? HypothesisOutcome::kLowCoverage
-                                                     : HypothesisOutcome::kDetected,
-         best.covered},
-        {best.verification < options.min_verification ? HypothesisOutcome::kLowVerification
-                                                      : HypothesisOutcome::kDetected,
-         best.verification},
-        {seen < options.min_seen_occupied ? HypothesisOutcome::kLowSeenOccupied
-                                          : HypothesisOutcome::kDetected,
-         seen},
-        {score < options.min_score ? HypothesisOutcome::kLowScore : HypothesisOutcome::kDetected,
-         score}};
   }
+  struct Gate {
+    HypothesisOutcome outcome;
+    double value, limit;
+    bool at_most;  // the value must not exceed the limit (else: reach it)
+  };
+  const Gate gates[] = {
+      {HypothesisOutcome::kLowCoverage,
+       best.covered,
+       scored ? options.scorer_min_covered_fraction : options.min_covered_fraction,
+       false},
+      {HypothesisOutcome::kLowVerification,
+       best.verification,
+       scored ? options.scorer_min_verification : options.min_verification,
+       false},
+      {HypothesisOutcome::kLowSeenOccupied,
+       seen,
+       scored ? options.scorer_min_seen_occupied : options.min_seen_occupied,
+       false},
+      {HypothesisOutcome::kSeenThrough,
+       seen_through,
+       scored ? options.scorer_max_seen_through : 1.0,
+       true},
+      {HypothesisOutcome::kLowScore,
+       score,
+       scored ? options.min_probability : options.min_score,
+       false}};
   hypothesis->outcome = HypothesisOutcome::kDetected;
-  for (const auto& [outcome, value] : tests) {
-    if (outcome == HypothesisOutcome::kDetected) continue;
-    hypothesis->outcome = outcome;
-    hypothesis->outcome_values[0] = value;
+  for (const Gate& gate : gates) {
+    if (gate.at_most ? gate.value <= gate.limit : gate.value >= gate.limit) continue;
+    hypothesis->outcome = gate.outcome;
+    hypothesis->outcome_values[0] = gate.value;
     return;
   }
   Detection d;
