@@ -139,7 +139,7 @@ TrainerOptions ReadOptions(Reader* r) {
   return o;
 }
 
-// Per model: the union of its views' preprocessed points, one per voxel.
+// Per model: the union of its (true-size) views' preprocessed points, one per voxel.
 std::vector<ModelShape> BuildModelShapes(const std::vector<TrainingView>& views,
                                          const std::vector<ViewSegments>& segmented,
                                          size_t models,
@@ -147,6 +147,7 @@ std::vector<ModelShape> BuildModelShapes(const std::vector<TrainingView>& views,
   std::vector<ModelShape> shapes(models);
   std::vector<std::unordered_set<uint64_t>> taken(models);
   for (size_t v = 0; v < views.size(); ++v) {
+    if (views[v].augmented) continue;  // a rescaled copy is not the model's shape
     const int m = views[v].model_index;
     const PointCloud& cloud = segmented[v].cloud;
     for (size_t i = 0; i < cloud.size(); ++i) {

@@ -36,6 +36,10 @@ struct TrainingView {
   Eigen::Vector3f sensor_origin = Eigen::Vector3f::Zero();
   int model_index = 0;  // into the model names given to TrainModel
   FurnitureClass furniture_class = FurnitureClass::kChair;
+  // A scan of a rescaled copy of the model (augmentation): its segments vote
+  // and join the part library, but the model's shape for fitting and
+  // verification comes from the true-size views only.
+  bool augmented = false;
 };
 
 struct TrainerOptions {

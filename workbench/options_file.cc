@@ -91,6 +91,8 @@ std::vector<Field> FieldsOf(TrainingOptions* o) {
       Plain("scan.min_distance_m", &s.min_distance_m),
       Plain("scan.max_distance_m", &s.max_distance_m),
       Plain("scan.seed", &s.seed),
+      Plain("scan.scale_variants", &s.scale_variants),
+      Plain("scan.scale_jitter", &s.scale_jitter),
   };
 }
 

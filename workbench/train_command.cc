@@ -21,6 +21,16 @@ void ScanOptions::Check() const {
   Require(azimuths >= 1 && azimuths <= 360, "scan azimuths must be in 1..360");
   Require(min_distance_m > 0.5 && max_distance_m >= min_distance_m && max_distance_m < 10,
           "scan distances must satisfy 0.5 < min <= max < 10 m");
+  Require(scale_variants >= 0 && scale_variants <= 10,
+          "scale variants " + std::to_string(scale_variants) + " must be in 0..10");
+  Require(scale_jitter >= 0 && scale_jitter <= 0.5,
+          "scale jitter " + std::to_string(scale_jitter) + " must be in 0..0.5");
+}
+
+TriangleMesh ScaledMesh(const TriangleMesh& mesh, const Eigen::Vector3f& scale) {
+  TriangleMesh scaled = mesh;
+  for (Eigen::Vector3f& v : scaled.vertices) v = v.cwiseProduct(scale);
+  return scaled;
 }
 
 std::vector<TrainingView> ScanModel(const CadModel& model,
@@ -28,46 +38,60 @@ std::vector<TrainingView> ScanModel(const CadModel& model,
                                     FurnitureClass furniture_class,
                                     const ScanOptions& options) {
   options.Check();
-  Scene scene;
-  scene.objects.push_back(
-      {std::make_shared<TriangleMesh>(model.mesh), Eigen::Isometry3d::Identity(), kFirstObjectId});
-  const double centre_height = BoundingBox(model.mesh).Size().z() / 2;
   const CameraIntrinsics camera = CameraIntrinsics::KinectV1();
   EmbreeCaster caster;
   KinectNoiseModel noise{KinectNoiseOptions{}};
   DepthFrame ideal, noisy;
   std::vector<TrainingView> views;
-  for (size_t ring = 0; ring < options.heights_m.size(); ++ring) {
-    const double t = options.heights_m.size() > 1
-                         ? static_cast<double>(ring) / (options.heights_m.size() - 1)
-                         : 0;
-    const double distance =
-        options.min_distance_m + t * (options.max_distance_m - options.min_distance_m);
-    for (int a = 0; a < options.azimuths; ++a) {
-      // Half a step between rings, so the rings see different sides.
-      const double azimuth = 2 * M_PI * (a + 0.5 * ring) / options.azimuths;
-      const Eigen::Vector3d eye(
-          distance * std::sin(azimuth), -distance * std::cos(azimuth), options.heights_m[ring]);
-      const Eigen::Isometry3d world_from_camera =
-          LookAlong(eye, Eigen::Vector3d(0, 0, centre_height) - eye);
-      caster.RenderInto(scene, camera, world_from_camera, &ideal);
-      const uint64_t seed = DeriveSeed(DeriveSeed(options.seed, static_cast<uint64_t>(model_index)),
-                                       ring * 1000 + static_cast<uint64_t>(a));
-      noise.Apply(ideal, camera, seed, &noisy);
-      TrainingView view;
-      view.sensor_origin = eye.cast<float>();
-      view.model_index = model_index;
-      view.furniture_class = furniture_class;
-      for (int v = 0; v < camera.height; ++v) {
-        for (int u = 0; u < camera.width; ++u) {
-          const float z = noisy.DepthAt(u, v);
-          if (z <= 0) continue;
-          view.points.push_back(
-              (world_from_camera * (z * camera.RayThroughPixel(u, v)).cast<double>())
-                  .cast<float>());
-        }
+  for (int variant = 0; variant <= options.scale_variants; ++variant) {
+    Eigen::Vector3f scale = Eigen::Vector3f::Ones();
+    if (variant > 0) {
+      Rng random(DeriveSeed(DeriveSeed(options.seed ^ 0x5ca1e, static_cast<uint64_t>(model_index)),
+                            static_cast<uint64_t>(variant)));
+      for (int axis = 0; axis < 3; ++axis) {
+        scale[axis] =
+            static_cast<float>(random.Uniform(1 - options.scale_jitter, 1 + options.scale_jitter));
       }
-      if (!view.points.empty()) views.push_back(std::move(view));
+    }
+    Scene scene;
+    scene.objects.push_back({std::make_shared<TriangleMesh>(ScaledMesh(model.mesh, scale)),
+                             Eigen::Isometry3d::Identity(),
+                             kFirstObjectId});
+    const double centre_height = BoundingBox(model.mesh).Size().z() * scale.z() / 2;
+    for (size_t ring = 0; ring < options.heights_m.size(); ++ring) {
+      const double t = options.heights_m.size() > 1
+                           ? static_cast<double>(ring) / (options.heights_m.size() - 1)
+                           : 0;
+      const double distance =
+          options.min_distance_m + t * (options.max_distance_m - options.min_distance_m);
+      for (int a = 0; a < options.azimuths; ++a) {
+        // Half a step between rings, so the rings see different sides.
+        const double azimuth = 2 * M_PI * (a + 0.5 * ring) / options.azimuths;
+        const Eigen::Vector3d eye(
+            distance * std::sin(azimuth), -distance * std::cos(azimuth), options.heights_m[ring]);
+        const Eigen::Isometry3d world_from_camera =
+            LookAlong(eye, Eigen::Vector3d(0, 0, centre_height) - eye);
+        caster.RenderInto(scene, camera, world_from_camera, &ideal);
+        const uint64_t seed =
+            DeriveSeed(DeriveSeed(options.seed, static_cast<uint64_t>(model_index)),
+                       variant * 1000000 + ring * 1000 + static_cast<uint64_t>(a));
+        noise.Apply(ideal, camera, seed, &noisy);
+        TrainingView view;
+        view.sensor_origin = eye.cast<float>();
+        view.model_index = model_index;
+        view.furniture_class = furniture_class;
+        view.augmented = variant > 0;
+        for (int v = 0; v < camera.height; ++v) {
+          for (int u = 0; u < camera.width; ++u) {
+            const float z = noisy.DepthAt(u, v);
+            if (z <= 0) continue;
+            view.points.push_back(
+                (world_from_camera * (z * camera.RayThroughPixel(u, v)).cast<double>())
+                    .cast<float>());
+          }
+        }
+        if (!view.points.empty()) views.push_back(std::move(view));
+      }
     }
   }
   return views;

@@ -20,16 +20,25 @@ struct ScanOptions {
   int azimuths = 8;                                 // views per ring (>= 1)
   double min_distance_m = 1.8;                      // ring radius grows with height (m)
   double max_distance_m = 3.2;
-  uint64_t seed = 1;  // sensor noise
+  uint64_t seed = 1;  // sensor noise, and the scale draws
+  // Augmentation: per model, this many extra copies scaled along x, y and z
+  // by factors drawn independently from [1 - scale_jitter, 1 + scale_jitter]
+  // are scanned the same way (TrainingView::augmented); 0: none.
+  int scale_variants = 0;
+  double scale_jitter = 0.15;
 
   void Check() const;
 };
 
-// Partial views of one model standing at the origin, yaw 0.
+// Partial views of one model standing at the origin, yaw 0 (and of its
+// scale variants, marked augmented).
 std::vector<TrainingView> ScanModel(const CadModel& model,
                                     int model_index,
                                     FurnitureClass furniture_class,
                                     const ScanOptions& options);
+
+// The mesh scaled about the model origin (the footprint centre on the floor).
+TriangleMesh ScaledMesh(const TriangleMesh& mesh, const Eigen::Vector3f& scale);
 
 struct TrainSummary {
   int models = 0;

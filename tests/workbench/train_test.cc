@@ -1,6 +1,8 @@
 // Training end to end on the procedural catalog with few views (fast).
 #include <gtest/gtest.h>
 
+#include <Eigen/Geometry>
+
 #include "core/error.h"
 #include "core/file_util.h"
 #include "core/progress.h"
@@ -44,6 +46,53 @@ TEST(Train, SameSeedGivesByteIdenticalModelFiles) {
   SaveTrainedModel(model, dir + "/c.fcm");
   EXPECT_EQ(ReadFileBytes(dir + "/a.fcm"), ReadFileBytes(dir + "/c.fcm"));
   EXPECT_NE(DescribeTrainedModel(model).find("RIM (k-means init, 8 words"), std::string::npos);
+}
+
+TEST(Train, ScaleVariantsAddAugmentedViewsButKeepTheTrueShapes) {
+  Progress::SetQuiet(true);
+  const Catalog catalog = OpenCatalog("procedural:2");
+  const CatalogEntry* entry = catalog.Classified().front();
+  const LoadedModels loaded = catalog.LoadModels({entry->id});
+  ScanOptions scan = FewViews();
+  const std::vector<TrainingView> plain =
+      ScanModel(loaded.models[0], 0, *entry->furniture_class, scan);
+  scan.scale_variants = 2;
+  scan.scale_jitter = 0.2;
+  const std::vector<TrainingView> augmented =
+      ScanModel(loaded.models[0], 0, *entry->furniture_class, scan);
+  ASSERT_EQ(augmented.size(), 3 * plain.size());
+  for (size_t v = 0; v < plain.size(); ++v) {  // the true-size views are unchanged
+    EXPECT_FALSE(augmented[v].augmented);
+    EXPECT_EQ(augmented[v].points, plain[v].points);
+  }
+  // The variants are other sizes, within the jitter, and differ from each other.
+  auto extent = [](const std::vector<TrainingView>& views, size_t first, size_t count) {
+    Eigen::AlignedBox3f box;
+    for (size_t v = first; v < first + count; ++v) {
+      for (const Eigen::Vector3f& p : views[v].points) box.extend(p);
+    }
+    return Eigen::Vector3f(box.sizes());
+  };
+  const Eigen::Vector3f size = extent(plain, 0, plain.size());
+  const Eigen::Vector3f first = extent(augmented, plain.size(), plain.size());
+  const Eigen::Vector3f second = extent(augmented, 2 * plain.size(), plain.size());
+  EXPECT_TRUE(augmented[plain.size()].augmented);
+  EXPECT_GT((first - size).norm(), 0.01f);
+  EXPECT_GT((first - second).norm(), 0.01f);
+  for (int axis = 0; axis < 3; ++axis) {
+    EXPECT_GT(first[axis], 0.75f * size[axis]);
+    EXPECT_LT(first[axis], 1.25f * size[axis]);
+  }
+  // Fitting and verification use the true shape only.
+  const TrainerOptions trainer = SmallVocabulary(VocabularyKind::kKMeans);
+  const TrainedModel a = TrainModel(plain, {entry->id}, {*entry->furniture_class}, trainer);
+  const TrainedModel b = TrainModel(augmented, {entry->id}, {*entry->furniture_class}, trainer);
+  EXPECT_EQ(a.model_shapes[0].points, b.model_shapes[0].points);
+  EXPECT_GT(b.training_segments, 2 * a.training_segments);
+  EXPECT_GT(b.part_library.size(), a.part_library.size());
+  scan.scale_variants = 11;
+  EXPECT_NE(testing::ErrorOf([&] { scan.Check(); }).find("scale variants 11 must be in 0..10"),
+            std::string::npos);
 }
 
 TEST(Train, KMeansVocabularyAndOtherSeedDiffer) {
