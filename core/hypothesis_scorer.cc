@@ -91,12 +91,18 @@ void FitPlatt(const std::vector<double>& scores,
   *b = pb;
 }
 
+bool HypothesisScorer::CanTrain(const std::vector<ScorerSample>& samples) {
+  size_t positives = 0;
+  for (const ScorerSample& s : samples) positives += s.positive;
+  return samples.size() >= kMinScorerSamples && positives > 0 && positives < samples.size();
+}
+
 HypothesisScorer HypothesisScorer::Train(const std::vector<ScorerSample>& samples,
                                          const ScorerOptions& options) {
   options.Check();
   size_t positives = 0;
   for (const ScorerSample& s : samples) positives += s.positive;
-  Require(samples.size() >= kMinScorerSamples && positives > 0 && positives < samples.size(),
+  Require(CanTrain(samples),
           "the hypothesis scorer needs at least " + std::to_string(kMinScorerSamples) +
               " samples with both labels (got " + std::to_string(samples.size()) + ", " +
               std::to_string(positives) + " positive)");

@@ -60,6 +60,8 @@ class HypothesisScorer {
   HypothesisScorer(HypothesisScorer&&) noexcept;
   HypothesisScorer& operator=(HypothesisScorer&&) noexcept;
 
+  // Whether Train accepts these: kMinScorerSamples or more, with both labels.
+  static bool CanTrain(const std::vector<ScorerSample>& samples);
   // Throws InputError with fewer than 20 samples or no positive or negative
   // one. Deterministic: the same samples give the same scorer.
   static HypothesisScorer Train(const std::vector<ScorerSample>& samples,

@@ -91,13 +91,6 @@ void Aggregate(CrossvalSummary* summary) {
   }
 }
 
-// Whether HypothesisScorer::Train accepts these samples.
-bool CanTrainScorer(const std::vector<ScorerSample>& samples) {
-  size_t positives = 0;
-  for (const ScorerSample& s : samples) positives += s.positive;
-  return samples.size() >= kMinScorerSamples && positives > 0 && positives < samples.size();
-}
-
 // Fold k's evaluation: its rooms only, stored as a "crossval-fold" run.
 EvaluateCommandOptions FoldEvaluation(const CrossvalOptions& options, int fold, int folds) {
   EvaluateCommandOptions evaluate = options.evaluate;
@@ -173,7 +166,8 @@ CrossvalSummary RunLeaveModelsOut(const Catalog& catalog,
                      folds.count,
                      others.size());
       }
-      if (!CanTrainScorer(others)) {  // too small a dataset: this fold keeps the fixed gates
+      if (!HypothesisScorer::CanTrain(
+              others)) {  // too small a dataset: this fold keeps the fixed gates
         std::fprintf(stderr,
                      "warning: crossval fold %d: %zu hypotheses of the other folds are too few to "
                      "learn a scorer (20 with both labels needed); this fold uses the fixed "
@@ -196,7 +190,7 @@ CrossvalSummary RunLeaveModelsOut(const Catalog& catalog,
       fold.evaluation = EvaluateModel(scored_path, db_path, evaluate);
       fold_runs.push_back(fold.evaluation.run_id);
     }
-    if (CanTrainScorer(all)) {
+    if (HypothesisScorer::CanTrain(all)) {
       summary.scorer_path = (std::filesystem::path(options.work_dir) / "scorer.yml").string();
       WriteFileAtomically(summary.scorer_path,
                           HypothesisScorer::Train(all, options.scorer_options).Serialize());
@@ -246,24 +240,19 @@ CrossvalSummary RunLeaveModelsOut(const Catalog& catalog,
   std::vector<CalibrationBin> calibration;
   for (const CrossvalFold& fold : summary.per_fold) {
     const std::vector<CalibrationBin>& bins = fold.evaluation.result.calibration;
-    if (calibration.empty())
+    if (calibration.empty()) {
       calibration = bins;
-    else {
-      for (size_t b = 0; b < bins.size() && b < calibration.size(); ++b) {
-        calibration[b].detections += bins[b].detections;
-        calibration[b].true_positives += bins[b].true_positives;
-        calibration[b].score_sum += bins[b].score_sum;
-      }
+      continue;
+    }
+    for (size_t b = 0; b < bins.size() && b < calibration.size(); ++b) {
+      calibration[b].detections += bins[b].detections;
+      calibration[b].true_positives += bins[b].true_positives;
+      calibration[b].score_sum += bins[b].score_sum;
     }
   }
-  nlohmann::json pooled = nlohmann::json::array();
-  for (const CalibrationBin& bin : calibration)
-    pooled.push_back({bin.low, bin.high, bin.detections, bin.true_positives, bin.score_sum});
-  run.results_json =
-      nlohmann::json{{"folds", per_fold},
-                     {"calibration", pooled},
-                     {"calibration_layout", "low, high, detections, true positives, score sum"}}
-          .dump();
+  nlohmann::json results = CalibrationJson(calibration);
+  results["folds"] = per_fold;
+  run.results_json = results.dump();
   std::map<std::string, double> metrics = summary.mean;
   for (const auto& [name, value] : summary.spread) metrics["spread/" + name] = value;
   metrics["folds"] = folds.count;

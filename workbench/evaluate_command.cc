@@ -55,19 +55,25 @@ nlohmann::json CurvesJson(const EvaluationResult& result) {
   nlohmann::json frame_errors = nlohmann::json::object();
   for (const auto& [frame, errors] : result.frame_errors)
     frame_errors[std::to_string(frame)] = {errors.first, errors.second};
-  nlohmann::json calibration = nlohmann::json::array();
-  for (const CalibrationBin& bin : result.calibration)
-    calibration.push_back({bin.low, bin.high, bin.detections, bin.true_positives, bin.score_sum});
+  const nlohmann::json calibration = CalibrationJson(result.calibration);
   return {{"curves", curves},
           {"curve_layout", "recall, precision, threshold"},
-          {"calibration", calibration},
-          {"calibration_layout", "low, high, detections, true positives, score sum"},
+          {"calibration", calibration["calibration"]},
+          {"calibration_layout", calibration["calibration_layout"]},
           {"confusion", result.confusion},
           {"frame_errors", frame_errors},
           {"frame_errors_layout", "false positives, missed objects at 10 cm"}};
 }
 
 }  // namespace
+
+nlohmann::json CalibrationJson(const std::vector<CalibrationBin>& bins) {
+  nlohmann::json rows = nlohmann::json::array();
+  for (const CalibrationBin& bin : bins)
+    rows.push_back({bin.low, bin.high, bin.detections, bin.true_positives, bin.score_sum});
+  return {{"calibration", rows},
+          {"calibration_layout", "low, high, detections, true positives, score sum"}};
+}
 
 RunRecord NewRunRecord(const std::string& kind, const std::string& label) {
   RunRecord run;

@@ -15,6 +15,8 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "core/detector.h"
 #include "db/dataset_db.h"  // RunRecord
 #include "reports/evaluation.h"
@@ -51,6 +53,10 @@ struct EvaluateSummary {
   // a true object of its class.
   std::vector<ScorerSample> scorer_samples;
 };
+
+// Reliability bins as stored in a run's results: {"calibration": [[low,
+// high, detections, true positives, score sum], ...], "calibration_layout"}.
+nlohmann::json CalibrationJson(const std::vector<CalibrationBin>& bins);
 
 // Provenance of a new run: its kind and label, the time, the source commit
 // and whether the tree had uncommitted changes.
