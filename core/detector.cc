@@ -460,8 +460,7 @@ void Detector::Impl::FitAndVerify(const PreparedScan& scan,
   const int m = best.model;
   const PlanarPose& pose = best.fit.pose;
   const double seen = best.counts.SeenOccupied();
-  std::vector<int> covered_points;  // of the region
-  for (int k : fitters[m].CoveredIndices(region_points, pose)) covered_points.push_back(k);
+  std::vector<int> covered_points;  // of the region: for the features, or the detection's support
   // Render-and-compare of the best fit from the actual camera.
   double seen_through = -1, render_support = -1;
   if (scan.intrinsics) {
@@ -503,6 +502,7 @@ void Detector::Impl::FitAndVerify(const PreparedScan& scan,
     f[13] = size.x();
     f[14] = size.y();
     f[15] = size.z();
+    covered_points = fitters[m].CoveredIndices(region_points, pose);
     float observed_height = 0;
     for (int k : covered_points) observed_height = std::max(observed_height, region_points[k].z());
     f[16] = observed_height;
@@ -574,6 +574,7 @@ void Detector::Impl::FitAndVerify(const PreparedScan& scan,
   d.covered_fraction = best.covered;
   out->detection = d;
   out->fitted_points = std::move(best.posed);
+  if (!hypothesis->has_features) covered_points = fitters[m].CoveredIndices(region_points, pose);
   for (int k : covered_points) out->support.push_back(region[k]);
 }
 
