@@ -203,6 +203,9 @@ struct Detector::Impl {
   std::unique_ptr<PartSubsetIndex> parts;
   HypothesisScorer scorer;  // empty: the fixed gates decide
   bool scored = false;      // the scorer decides (the model has one and use_scorer)
+  // Ray casts the models' meshes for render-and-compare; null for a model
+  // file without meshes (its shape samples are splatted instead).
+  std::unique_ptr<ModelMeshCaster> mesh_caster;
 
   // The hypotheses of one class from its smoothed grid.
   std::vector<DetectionDebug::Hypothesis> Maxima(const cv::Mat& grid,
@@ -258,6 +261,8 @@ Detector::Detector(TrainedModel model, const DetectorOptions& options)
   impl.parts = std::make_unique<PartSubsetIndex>(descriptors);
   impl.scorer = HypothesisScorer::Deserialize(m.scorer, "the model's hypothesis scorer");
   impl.scored = options.use_scorer && !impl.scorer.empty();
+  if (!m.render_meshes.empty())
+    impl.mesh_caster = std::make_unique<ModelMeshCaster>(&impl.model.render_meshes);
 }
 
 Detector::~Detector() = default;
@@ -465,18 +470,34 @@ void Detector::Impl::FitAndVerify(const PreparedScan& scan,
   double seen_through = -1, render_support = -1;
   if (scan.intrinsics) {
     const Eigen::Isometry3f camera_from_world = scan.world_from_camera.inverse().cast<float>();
-    std::vector<Eigen::Vector3f> in_camera;
-    in_camera.reserve(best.posed.size());
-    for (const Eigen::Vector3f& p : best.posed) {
-      if (p.z() >= options.floor_band_m) in_camera.push_back(camera_from_world * p);
+    RenderComparison comparison;
+    if (mesh_caster) {
+      Eigen::Isometry3f world_from_model = Eigen::Isometry3f::Identity();
+      world_from_model.translation() =
+          Eigen::Vector3f(static_cast<float>(pose.x), static_cast<float>(pose.y), 0.f);
+      world_from_model.linear() =
+          Eigen::AngleAxisf(static_cast<float>(pose.yaw), Eigen::Vector3f::UnitZ())
+              .toRotationMatrix();
+      comparison = mesh_caster->Compare(m,
+                                        camera_from_world * world_from_model,
+                                        scan.depth,
+                                        scan.width,
+                                        scan.height,
+                                        *scan.intrinsics,
+                                        static_cast<float>(options.floor_band_m));
+    } else {
+      std::vector<Eigen::Vector3f> in_camera;
+      in_camera.reserve(best.posed.size());
+      for (const Eigen::Vector3f& p : best.posed) {
+        if (p.z() >= options.floor_band_m) in_camera.push_back(camera_from_world * p);
+      }
+      comparison = CompareRendered(in_camera,
+                                   scan.depth,
+                                   scan.width,
+                                   scan.height,
+                                   *scan.intrinsics,
+                                   static_cast<float>(model.options.shape_voxel_m));
     }
-    const RenderComparison comparison =
-        CompareRendered(in_camera,
-                        scan.depth,
-                        scan.width,
-                        scan.height,
-                        *scan.intrinsics,
-                        static_cast<float>(model.options.shape_voxel_m));
     seen_through = comparison.ViolationShare();
     render_support = comparison.SupportShare();
   }

@@ -2,8 +2,12 @@
 
 #include <xxhash.h>
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
+#include <map>
+#include <set>
 
 #include "core/error.h"
 
@@ -47,6 +51,59 @@ void PlaceOnFloorCentred(TriangleMesh* mesh) {
   const Box3 box = BoundingBox(*mesh);
   const Eigen::Vector3f shift(-box.Center().x(), -box.Center().y(), -box.min.z());
   TransformMesh(Eigen::Matrix3f::Identity(), shift, mesh);
+}
+
+TriangleMesh SimplifyMesh(const TriangleMesh& mesh, float cell_m) {
+  Require(cell_m > 0 && std::isfinite(cell_m), "mesh simplification cell must be > 0");
+  auto cell_of = [cell_m](const Eigen::Vector3f& p) {
+    return std::array<int64_t, 3>{static_cast<int64_t>(std::floor(p.x() / cell_m)),
+                                  static_cast<int64_t>(std::floor(p.y() / cell_m)),
+                                  static_cast<int64_t>(std::floor(p.z() / cell_m))};
+  };
+  std::map<std::array<int64_t, 3>, int> cells;
+  std::vector<int> remap(mesh.vertices.size());
+  std::vector<Eigen::Vector3d> sums;
+  std::vector<int> counts;
+  for (size_t i = 0; i < mesh.vertices.size(); ++i) {
+    const auto [it, added] =
+        cells.emplace(cell_of(mesh.vertices[i]), static_cast<int>(sums.size()));
+    if (added) {
+      sums.push_back(Eigen::Vector3d::Zero());
+      counts.push_back(0);
+    }
+    remap[i] = it->second;
+    sums[it->second] += mesh.vertices[i].cast<double>();
+    ++counts[it->second];
+  }
+  TriangleMesh simple;
+  simple.vertices.reserve(sums.size());
+  for (size_t c = 0; c < sums.size(); ++c)
+    simple.vertices.push_back((sums[c] / counts[c]).cast<float>());
+  std::set<std::array<int, 3>> seen;
+  for (const Eigen::Vector3i& t : mesh.triangles) {
+    const Eigen::Vector3i r(remap[t.x()], remap[t.y()], remap[t.z()]);
+    if (r.x() == r.y() || r.y() == r.z() || r.x() == r.z()) continue;
+    // One key per triangle whatever its winding's starting corner.
+    std::array<int, 3> key{r.x(), r.y(), r.z()};
+    std::rotate(key.begin(), std::min_element(key.begin(), key.end()), key.end());
+    if (!seen.insert(key).second) continue;
+    simple.triangles.push_back(r);
+  }
+  // Drop the vertices no triangle uses any more.
+  std::vector<int> used(simple.vertices.size(), -1);
+  TriangleMesh compact;
+  for (Eigen::Vector3i& t : simple.triangles) {
+    for (int k = 0; k < 3; ++k) {
+      int& index = used[t[k]];
+      if (index < 0) {
+        index = static_cast<int>(compact.vertices.size());
+        compact.vertices.push_back(simple.vertices[t[k]]);
+      }
+      t[k] = index;
+    }
+  }
+  compact.triangles = std::move(simple.triangles);
+  return compact;
 }
 
 void CheckMeshValid(const TriangleMesh& mesh, const std::string& what) {

@@ -50,6 +50,12 @@ void AppendMesh(const TriangleMesh& part, TriangleMesh* mesh);
 // the origin.
 void PlaceOnFloorCentred(TriangleMesh* mesh);
 
+// The mesh simplified by vertex clustering on a grid of `cell_m` (> 0): the
+// vertices of each cell merge into their mean, triangles whose corners merge
+// vanish, and so do repeated triangles. Deterministic (vertices keep the order
+// of their cells' first vertex). Thin parts narrower than a cell may collapse.
+TriangleMesh SimplifyMesh(const TriangleMesh& mesh, float cell_m);
+
 // Throws InputError naming `what` when the mesh has no triangles, a
 // non-finite vertex, or a triangle index out of range.
 void CheckMeshValid(const TriangleMesh& mesh, const std::string& what);

@@ -1,9 +1,16 @@
 #include "core/render_compare.h"
 
+#include <embree3/rtcore.h>
+
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
+#include <mutex>
+
+#include "core/embree_device.h"
+#include "core/error.h"
 
 namespace furn {
 
@@ -109,6 +116,154 @@ RenderComparison CompareRendered(const std::vector<Eigen::Vector3f>& model_point
     for (int u = left; u <= right; ++u) {
       const float model_z = zbuffer[static_cast<size_t>(v - top) * box_w + (u - left)];
       if (!std::isfinite(model_z)) continue;
+      ++result.drawn;
+      const float seen = depth[static_cast<size_t>(v) * width + u];
+      if (!std::isfinite(seen) || seen <= 0) {
+        ++result.unknown;
+        continue;
+      }
+      const float tolerance = RenderTolerance(model_z);
+      if (seen > model_z + tolerance) {
+        ++result.violation;
+      } else if (seen < model_z - tolerance) {
+        ++result.occluded;
+      } else {
+        ++result.support;
+      }
+    }
+  }
+  return result;
+}
+
+struct ModelMeshCaster::Impl {
+  const std::vector<TriangleMesh>* meshes = nullptr;
+  std::vector<RTCScene> scenes;  // null until built
+  std::unique_ptr<std::once_flag[]> built;
+
+  RTCScene SceneOf(int model) {
+    std::call_once(built[model], [&] {
+      const TriangleMesh& mesh = (*meshes)[model];
+      RTCScene scene = rtcNewScene(SharedEmbreeDevice());
+      if (!mesh.Empty()) {
+        RTCGeometry geometry = rtcNewGeometry(SharedEmbreeDevice(), RTC_GEOMETRY_TYPE_TRIANGLE);
+        auto* vertices = static_cast<float*>(rtcSetNewGeometryBuffer(geometry,
+                                                                     RTC_BUFFER_TYPE_VERTEX,
+                                                                     0,
+                                                                     RTC_FORMAT_FLOAT3,
+                                                                     3 * sizeof(float),
+                                                                     mesh.vertices.size()));
+        for (size_t i = 0; i < mesh.vertices.size(); ++i)
+          Eigen::Map<Eigen::Vector3f>(vertices + 3 * i) = mesh.vertices[i];
+        auto* indices = static_cast<unsigned*>(rtcSetNewGeometryBuffer(geometry,
+                                                                       RTC_BUFFER_TYPE_INDEX,
+                                                                       0,
+                                                                       RTC_FORMAT_UINT3,
+                                                                       3 * sizeof(unsigned),
+                                                                       mesh.triangles.size()));
+        std::memcpy(indices, mesh.triangles.data(), mesh.triangles.size() * 3 * sizeof(unsigned));
+        rtcCommitGeometry(geometry);
+        rtcAttachGeometry(scene, geometry);
+        rtcReleaseGeometry(geometry);
+      }
+      rtcCommitScene(scene);
+      scenes[model] = scene;
+    });
+    return scenes[model];
+  }
+};
+
+ModelMeshCaster::ModelMeshCaster(const std::vector<TriangleMesh>* meshes)
+    : impl_(std::make_unique<Impl>()) {
+  impl_->meshes = meshes;
+  impl_->scenes.assign(meshes->size(), nullptr);
+  impl_->built = std::make_unique<std::once_flag[]>(meshes->size());
+}
+
+ModelMeshCaster::~ModelMeshCaster() {
+  for (RTCScene scene : impl_->scenes) {
+    if (scene != nullptr) rtcReleaseScene(scene);
+  }
+}
+
+size_t ModelMeshCaster::NumMeshes() const { return impl_->meshes->size(); }
+
+RenderComparison ModelMeshCaster::Compare(int model,
+                                          const Eigen::Isometry3f& camera_from_model,
+                                          const std::vector<float>& depth,
+                                          int width,
+                                          int height,
+                                          const PinholeIntrinsics& intrinsics,
+                                          float min_model_z,
+                                          int max_rays) const {
+  Require(model >= 0 && static_cast<size_t>(model) < impl_->meshes->size(),
+          "render-and-compare of model " + std::to_string(model) + ": no such mesh");
+  RenderComparison result;
+  const TriangleMesh& mesh = (*impl_->meshes)[model];
+  if (mesh.Empty() || width <= 0 || height <= 0 ||
+      depth.size() != static_cast<size_t>(width) * height)
+    return result;
+  // The image box of the posed bounding box; the whole image when a corner
+  // is behind the camera.
+  const Box3 box = BoundingBox(mesh);
+  float u0 = std::numeric_limits<float>::max(), v0 = u0, u1 = -u0, v1 = -u0;
+  bool behind = false;
+  for (int corner = 0; corner < 8; ++corner) {
+    const Eigen::Vector3f p =
+        camera_from_model * Eigen::Vector3f((corner & 1) ? box.max.x() : box.min.x(),
+                                            (corner & 2) ? box.max.y() : box.min.y(),
+                                            (corner & 4) ? box.max.z() : box.min.z());
+    if (p.z() <= 0.05f) {
+      behind = true;
+      break;
+    }
+    const float u = static_cast<float>(intrinsics.fx * p.x() / p.z() + intrinsics.cx);
+    const float v = static_cast<float>(intrinsics.fy * p.y() / p.z() + intrinsics.cy);
+    u0 = std::min(u0, u);
+    v0 = std::min(v0, v);
+    u1 = std::max(u1, u);
+    v1 = std::max(v1, v);
+  }
+  const int left = behind ? 0 : std::max(0, static_cast<int>(std::floor(u0)));
+  const int top = behind ? 0 : std::max(0, static_cast<int>(std::floor(v0)));
+  const int right = behind ? width - 1 : std::min(width - 1, static_cast<int>(std::ceil(u1)));
+  const int bottom = behind ? height - 1 : std::min(height - 1, static_cast<int>(std::ceil(v1)));
+  if (right < left || bottom < top) return result;
+  const double area = static_cast<double>(right - left + 1) * (bottom - top + 1);
+  const int stride =
+      std::max(1, static_cast<int>(std::ceil(std::sqrt(area / std::max(1, max_rays)))));
+
+  RTCScene scene = impl_->SceneOf(model);
+  const Eigen::Isometry3f model_from_camera = camera_from_model.inverse();
+  const Eigen::Vector3f origin = model_from_camera.translation();
+  RTCIntersectContext context;
+  rtcInitIntersectContext(&context);
+  for (int v = top; v <= bottom; v += stride) {
+    for (int u = left; u <= right; u += stride) {
+      // A camera ray with unit z, so the hit distance is the camera depth.
+      const Eigen::Vector3f direction =
+          model_from_camera.linear() *
+          Eigen::Vector3f(static_cast<float>((u - intrinsics.cx) / intrinsics.fx),
+                          static_cast<float>((v - intrinsics.cy) / intrinsics.fy),
+                          1.0f);
+      RTCRayHit hit;
+      hit.ray.org_x = origin.x();
+      hit.ray.org_y = origin.y();
+      hit.ray.org_z = origin.z();
+      hit.ray.dir_x = direction.x();
+      hit.ray.dir_y = direction.y();
+      hit.ray.dir_z = direction.z();
+      hit.ray.tnear = 0.05f;
+      hit.ray.tfar = std::numeric_limits<float>::infinity();
+      hit.ray.time = 0;
+      hit.ray.mask = 0xFFFFFFFFu;
+      hit.ray.id = 0;
+      hit.ray.flags = 0;
+      hit.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+      hit.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+      rtcIntersect1(scene, &context, &hit);
+      if (hit.hit.geomID == RTC_INVALID_GEOMETRY_ID) continue;
+      if (origin.z() + hit.ray.tfar * direction.z() < min_model_z) continue;
+      const float model_z = hit.ray.tfar;
       ++result.drawn;
       const float seen = depth[static_cast<size_t>(v) * width + u];
       if (!std::isfinite(seen) || seen <= 0) {

@@ -1,10 +1,11 @@
 // Render-and-compare verification (issue 16, step 4): the fitted model drawn
 // from the actual camera and compared with the observed depth per pixel.
 //
-// The model file holds each CAD model's surface as samples one shape voxel
-// apart (ModelShape), not its mesh, so the model is drawn by z-buffered
-// splatting: every posed surface sample covers a disc of about its voxel's
-// size on the image, nearest sample wins. Per pixel of the drawing:
+// The model is drawn by ray casting its simplified mesh with Embree
+// (ModelMeshCaster: one ray per sampled pixel of the posed model's image box).
+// Model files without meshes (format < 4) draw the stored surface samples by
+// z-buffered splatting instead (CompareRendered): every posed sample covers a
+// disc of about its voxel's size on the image, nearest wins. Per pixel:
 //   - the sensor saw farther than the model surface (beyond the tolerance):
 //     it saw through where the model is solid -> a violation, strong
 //     evidence against (a chest where a table's knee space is);
@@ -15,12 +16,17 @@
 // margin for the model's own shape differing from the real piece.
 //
 //   std::optional<PinholeIntrinsics> k = IntrinsicsOfOrganisedCloud(points, w, h);
-//   RenderComparison c = CompareRendered(camera_points, depth, w, h, *k, 0.02f);
+//   ModelMeshCaster caster(&model.render_meshes);
+//   RenderComparison c = caster.Compare(m, camera_from_model, depth, w, h, *k);
 #pragma once
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <memory>
 #include <optional>
 #include <vector>
+
+#include "core/mesh.h"
 
 namespace furn {
 
@@ -60,5 +66,37 @@ RenderComparison CompareRendered(const std::vector<Eigen::Vector3f>& model_point
                                  int height,
                                  const PinholeIntrinsics& intrinsics,
                                  float splat_m);
+
+// Ray casts CAD model meshes (model frame) with Embree. Each mesh's
+// acceleration structure is built at its first use and kept; Compare is
+// thread-safe. The meshes must outlive the caster.
+class ModelMeshCaster {
+ public:
+  explicit ModelMeshCaster(const std::vector<TriangleMesh>* meshes);
+  ~ModelMeshCaster();
+  ModelMeshCaster(const ModelMeshCaster&) = delete;
+  ModelMeshCaster& operator=(const ModelMeshCaster&) = delete;
+
+  size_t NumMeshes() const;
+
+  // Model `model` posed by `camera_from_model` (camera frame: z forward)
+  // compared with the observed `depth` (as CompareRendered) over the image box
+  // of the posed mesh's bounding box, with at most about `max_rays` rays (an
+  // even pixel stride over the box). Counts are of sampled pixels. Model
+  // points below `min_model_z` (model frame; the floor band) are not drawn: a
+  // ray whose first hit is there counts as a miss.
+  RenderComparison Compare(int model,
+                           const Eigen::Isometry3f& camera_from_model,
+                           const std::vector<float>& depth,
+                           int width,
+                           int height,
+                           const PinholeIntrinsics& intrinsics,
+                           float min_model_z = 0,
+                           int max_rays = 4096) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
 
 }  // namespace furn

@@ -13,7 +13,8 @@ namespace furn {
 namespace {
 
 constexpr char kMagic[8] = {'F', 'U', 'R', 'N', 'M', 'D', 'L', '\0'};
-constexpr uint32_t kFormatVersion = 3;  // 2: part-subset library and model shapes; 3: scorer
+constexpr uint32_t kFormatVersion = 4;  // 2: part-subset library and model shapes; 3: scorer;
+                                        // 4: render meshes
 constexpr uint32_t kOldestReadable = 2;
 
 // Little-endian binary writer and a bounds-checked reader for the model file.
@@ -42,6 +43,7 @@ class Reader {
  public:
   Reader(const std::string& bytes, const std::string& path) : bytes_(bytes), path_(path) {}
   void Bytes(void* data, size_t size) {
+    if (size == 0) return;  // data may be null (an empty vector's)
     Require(position_ + size <= bytes_.size(), path_ + ": model file is truncated");
     std::memcpy(data, bytes_.data() + position_, size);
     position_ += size;
@@ -396,6 +398,15 @@ void SaveTrainedModel(const TrainedModel& model, const std::string& path) {
     w.Bytes(entry.descriptor.data(), sizeof(float) * entry.descriptor.size());
   }
   w.String(model.scorer);
+  Require(model.render_meshes.empty() || model.render_meshes.size() == model.model_names.size(),
+          "a trained model needs one render mesh per CAD model, or none");
+  w.U32(static_cast<uint32_t>(model.render_meshes.size()));
+  for (const TriangleMesh& mesh : model.render_meshes) {
+    w.U32(static_cast<uint32_t>(mesh.vertices.size()));
+    for (const Eigen::Vector3f& v : mesh.vertices) WriteVector3(v, &w);
+    w.U32(static_cast<uint32_t>(mesh.triangles.size()));
+    w.Bytes(mesh.triangles.data(), sizeof(int) * 3 * mesh.triangles.size());
+  }
   WriteFileAtomically(path, w.bytes());
 }
 
@@ -466,6 +477,23 @@ TrainedModel LoadTrainedModel(const std::string& path) {
     r.Bytes(entry.descriptor.data(), sizeof(float) * entry.descriptor.size());
   }
   if (version >= 3) model.scorer = r.String(1u << 28);
+  if (version >= 4) {
+    const uint32_t meshes = r.Count(100000);
+    Require(meshes == 0 || meshes == model.model_names.size(),
+            path + ": model file is corrupt (render meshes do not match the models)");
+    model.render_meshes.resize(meshes);
+    for (TriangleMesh& mesh : model.render_meshes) {
+      mesh.vertices.resize(r.Count(1u << 26));
+      for (Eigen::Vector3f& v : mesh.vertices) v = ReadVector3(&r);
+      mesh.triangles.resize(r.Count(1u << 26));
+      r.Bytes(mesh.triangles.data(), sizeof(int) * 3 * mesh.triangles.size());
+      for (const Eigen::Vector3i& t : mesh.triangles) {
+        Require(
+            (t.array() >= 0).all() && (t.array() < static_cast<int>(mesh.vertices.size())).all(),
+            path + ": model file is corrupt (a render mesh triangle indexes no vertex)");
+      }
+    }
+  }
   Require(r.AtEnd(), path + ": model file has trailing bytes (corrupt)");
   model.options.Check();
   return model;

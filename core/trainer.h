@@ -22,6 +22,7 @@
 #include <vector>
 
 #include "core/furniture_class.h"
+#include "core/mesh.h"
 #include "core/part_subsets.h"
 #include "core/preprocess.h"
 #include "core/region_growing.h"
@@ -101,7 +102,15 @@ struct TrainedModel {
   std::vector<PartSubsetEntry> part_library;  // every part subset of every view
   // A learned hypothesis scorer (HypothesisScorer::Serialize), or empty.
   std::string scorer;
+  // Each model's mesh in the model frame, simplified (SimplifyMesh at
+  // kRenderMeshCellM) for render-and-compare verification; one per model
+  // name, or none (a model file older than format 4, or meshes not given):
+  // then verification draws the model shapes' samples instead.
+  std::vector<TriangleMesh> render_meshes;
 };
+
+// The vertex-clustering cell of TrainedModel::render_meshes (m).
+constexpr float kRenderMeshCellM = 0.01f;
 
 // Wall-clock seconds of TrainModel's stages.
 struct TrainStageTimes {

@@ -11,6 +11,7 @@
 #include <stdexcept>
 #include <unordered_map>
 
+#include "core/embree_device.h"
 #include "core/parallel.h"
 
 namespace furn {
@@ -42,78 +43,6 @@ SceneKey KeyOf(const Scene& scene) {
   return key;
 }
 
-const char* EmbreeErrorName(RTCError code) {
-  switch (code) {
-    case RTC_ERROR_NONE:
-      return "no error";
-    case RTC_ERROR_INVALID_ARGUMENT:
-      return "invalid argument";
-    case RTC_ERROR_INVALID_OPERATION:
-      return "invalid operation";
-    case RTC_ERROR_OUT_OF_MEMORY:
-      return "out of memory";
-    case RTC_ERROR_UNSUPPORTED_CPU:
-      return "unsupported CPU";
-    case RTC_ERROR_CANCELLED:
-      return "cancelled";
-    default:
-      return "unknown error";
-  }
-}
-
-// Embree silently ignores an ISA name it does not know (and runs on the CPU's
-// best): a user forcing one must learn of a typo.
-void CheckIsaNames(const std::string& config) {
-  static const char* const kIsas[] = {
-      "sse2", "sse4.2", "avx", "avx2", "avx512", "avx512knl", "avx512skx"};
-  for (const char* key : {"isa=", "max_isa="}) {
-    for (size_t at = config.find(key); at != std::string::npos; at = config.find(key, at + 1)) {
-      if (at > 0 && config[at - 1] != ',' && config[at - 1] != ' ') continue;  // max_isa vs isa
-      const size_t begin = at + std::strlen(key);
-      const std::string name = config.substr(begin, config.find_first_of(", ", begin) - begin);
-      if (std::find_if(std::begin(kIsas), std::end(kIsas), [&](const char* isa) {
-            return name == isa;
-          }) == std::end(kIsas)) {
-        throw std::runtime_error(std::string(kEmbreeConfigVariable) + "='" + config + "': '" +
-                                 name + "' is not an Embree ISA (sse2, sse4.2, avx, avx2, avx512)");
-      }
-    }
-  }
-}
-
-RTCDevice NewDevice() {
-  const std::string config = EmbreeDeviceConfig();
-  CheckIsaNames(config);
-  RTCDevice device = rtcNewDevice(config.empty() ? nullptr : config.c_str());
-  if (device == nullptr) {
-    const RTCError code = rtcGetDeviceError(nullptr);
-    if (config.empty())
-      throw std::runtime_error(std::string("Embree: cannot create a device (") +
-                               EmbreeErrorName(code) + ")");
-    throw std::runtime_error(std::string(kEmbreeConfigVariable) + "='" + config +
-                             "': Embree refuses this device configuration (see rtcNewDevice; "
-                             "e.g. isa=avx2 or threads=2)");
-  }
-  // Embree reports misuse through this callback, not through return values.
-  rtcSetDeviceErrorFunction(
-      device,
-      [](void*, RTCError code, const char* message) {
-        std::fprintf(stderr,
-                     "Embree error: %s: %s\n",
-                     EmbreeErrorName(code),
-                     message != nullptr ? message : "");
-      },
-      nullptr);
-  return device;
-}
-
-// One Embree device for the process: devices are thread-safe, and creating one
-// per caster would cost more than the small per-object scenes it serves.
-RTCDevice SharedDevice() {
-  static RTCDevice device = NewDevice();
-  return device;
-}
-
 // Every lane of a packet handed to Embree holds a well-formed ray, active or
 // not: some ISA paths (AVX2's 8-wide kernels running a 16-ray packet) read
 // and assert on all lanes before applying the valid mask. An inactive lane is
@@ -139,7 +68,7 @@ constexpr size_t kMaxFlatTriangles = 64;
 unsigned AttachTriangles(const TriangleMesh& mesh,
                          const Eigen::Isometry3f& world_from_object,
                          RTCScene scene) {
-  RTCGeometry geometry = rtcNewGeometry(SharedDevice(), RTC_GEOMETRY_TYPE_TRIANGLE);
+  RTCGeometry geometry = rtcNewGeometry(SharedEmbreeDevice(), RTC_GEOMETRY_TYPE_TRIANGLE);
   auto* vertices = static_cast<float*>(rtcSetNewGeometryBuffer(geometry,
                                                                RTC_BUFFER_TYPE_VERTEX,
                                                                0,
@@ -203,7 +132,7 @@ class MeshBvhCache {
   };
 
   static RTCScene Build(const TriangleMesh& mesh) {
-    RTCDevice device = SharedDevice();
+    RTCDevice device = SharedEmbreeDevice();
     RTCScene scene = rtcNewScene(device);
     rtcSetSceneBuildQuality(scene, RTC_BUILD_QUALITY_MEDIUM);
     AttachTriangles(mesh, Eigen::Isometry3f::Identity(), scene);
@@ -225,13 +154,6 @@ class MeshBvhCache {
 };
 
 }  // namespace
-
-void RequireEmbreeDevice() { SharedDevice(); }
-
-std::string EmbreeDeviceConfig() {
-  const char* config = std::getenv(kEmbreeConfigVariable);
-  return config != nullptr ? config : "";
-}
 
 struct EmbreeCaster::Impl {
   RTCScene scene = nullptr;
@@ -266,7 +188,7 @@ void EmbreeCaster::SetScene(const Scene& scene) {
   SceneKey key = KeyOf(scene);
   if (impl_->scene != nullptr && key == impl_->key) return;
   impl_->ReleaseScene();
-  impl_->scene = rtcNewScene(SharedDevice());
+  impl_->scene = rtcNewScene(SharedEmbreeDevice());
   rtcSetSceneBuildQuality(impl_->scene, RTC_BUILD_QUALITY_MEDIUM);
   for (const SceneObject& object : scene.objects) {
     if (object.mesh == nullptr || object.mesh->Empty()) continue;
@@ -281,7 +203,7 @@ void EmbreeCaster::SetScene(const Scene& scene) {
       // An instance of the mesh's cached object-space structure: nothing to build.
       RTCScene mesh_scene = MeshBvhCache::Instance().Acquire(object.mesh);
       impl_->mesh_scenes.push_back(mesh_scene);
-      RTCGeometry instance = rtcNewGeometry(SharedDevice(), RTC_GEOMETRY_TYPE_INSTANCE);
+      RTCGeometry instance = rtcNewGeometry(SharedEmbreeDevice(), RTC_GEOMETRY_TYPE_INSTANCE);
       rtcSetGeometryInstancedScene(instance, mesh_scene);
       const Eigen::Matrix<float, 3, 4> world_from_object =
           object.world_from_object.matrix().topRows<3>().cast<float>();  // column-major

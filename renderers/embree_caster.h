@@ -20,19 +20,10 @@
 #include <string>
 #include <vector>
 
+#include "core/embree_device.h"
 #include "renderers/depth_renderer.h"
 
 namespace furn {
-
-// The Embree device's configuration string (rtcNewDevice) comes from this
-// environment variable, e.g. FURN_EMBREE_CONFIG=isa=sse4.2 or isa=avx2 to force
-// a narrower instruction set than the CPU's best (tests use it to exercise the
-// code paths of other CPUs). Empty or unset: Embree's defaults.
-constexpr const char* kEmbreeConfigVariable = "FURN_EMBREE_CONFIG";
-std::string EmbreeDeviceConfig();
-// Creates the process's Embree device now if it does not exist yet; throws
-// std::runtime_error as EmbreeCaster's constructor does when it cannot.
-void RequireEmbreeDevice();
 
 class EmbreeCaster : public DepthRenderer {
  public:

@@ -133,6 +133,8 @@ TrainSummary TrainFromCatalog(const Catalog& catalog,
   start = std::chrono::steady_clock::now();
   TrainedModel model = TrainModel(views, ids, classes, trainer, &summary.stages);
   model.scorer = scorer;
+  for (const CadModel& cad : loaded.models)
+    model.render_meshes.push_back(SimplifyMesh(cad.mesh, kRenderMeshCellM));
   SaveTrainedModel(model, out_path);
   summary.train_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   summary.models = static_cast<int>(ids.size());

@@ -336,5 +336,70 @@ TEST(RenderCompare, SeenThroughSupportedOccludedAndUnknownPixels) {
   EXPECT_EQ(CompareRendered(aside, depth_of(2.0f), 640, 480, k, 0.02f).drawn, 0);
 }
 
+TEST(RenderCompare, EmbreeCastsThePosedMeshAgainstTheDepth) {
+  const PinholeIntrinsics k{525, 525, 319.5, 239.5};
+  // A 40 cm cube standing on the floor (model frame: z up), and a camera 2 m
+  // in front of it looking along the model's +y, 0.2 m above the floor.
+  const std::vector<TriangleMesh> meshes{MakeBox({-0.2f, -0.2f, 0.f}, {0.2f, 0.2f, 0.4f})};
+  ModelMeshCaster caster(&meshes);
+  Eigen::Isometry3f camera_from_model = Eigen::Isometry3f::Identity();
+  // Camera axes in model coordinates: x right = +x, y down = -z, z forward = +y.
+  camera_from_model.linear() << 1, 0, 0, 0, 0, -1, 0, 1, 0;
+  camera_from_model.translation() = -(camera_from_model.linear() * Eigen::Vector3f(0, -2.2f, 0.2f));
+  auto depth_of = [&](float z) {
+    std::vector<float> depth;
+    for (const Eigen::Vector3f& p : Wall(z, k)) depth.push_back(p.z());
+    return depth;
+  };
+  // The front face is 2 m away: about 105 x 105 pixels, at most ~4096 rays.
+  const RenderComparison agree = caster.Compare(0, camera_from_model, depth_of(2.0f), 640, 480, k);
+  EXPECT_GT(agree.drawn, 500);
+  EXPECT_LE(agree.drawn, 4096 * 1.2);
+  EXPECT_EQ(agree.support, agree.drawn);
+  const RenderComparison all =
+      caster.Compare(0, camera_from_model, depth_of(2.0f), 640, 480, k, 0.f, 1 << 20);
+  EXPECT_GT(all.drawn, 100 * 100);
+  EXPECT_LT(all.drawn, 112 * 112);
+  const RenderComparison through = caster.Compare(0, camera_from_model, depth_of(3.f), 640, 480, k);
+  EXPECT_EQ(through.violation, through.drawn);
+  const RenderComparison occluded =
+      caster.Compare(0, camera_from_model, depth_of(1.f), 640, 480, k);
+  EXPECT_EQ(occluded.occluded, occluded.drawn);
+  // Above the floor band only: a band of 0.3 m hides the lower three quarters.
+  const RenderComparison band =
+      caster.Compare(0, camera_from_model, depth_of(2.0f), 640, 480, k, 0.3f, 1 << 20);
+  EXPECT_NEAR(band.drawn, all.drawn / 4.0, all.drawn * 0.05);
+  // Turned away behind the camera: nothing.
+  Eigen::Isometry3f behind = camera_from_model;
+  behind.translation().z() -= 5;
+  EXPECT_EQ(caster.Compare(0, behind, depth_of(2.0f), 640, 480, k).drawn, 0);
+  EXPECT_THROW(caster.Compare(1, camera_from_model, depth_of(2.f), 640, 480, k), InputError);
+}
+
+TEST(Mesh, SimplifyMergesCellsDropsDegenerateTrianglesAndKeepsTheShape) {
+  // A finely tessellated 1 m square (2 x 100 x 100 triangles).
+  TriangleMesh grid;
+  for (int i = 0; i <= 100; ++i) {
+    for (int j = 0; j <= 100; ++j) grid.vertices.emplace_back(i * 0.01f, j * 0.01f, 0.f);
+  }
+  for (int i = 0; i < 100; ++i) {
+    for (int j = 0; j < 100; ++j) {
+      const int a = i * 101 + j;
+      grid.triangles.emplace_back(a, a + 101, a + 102);
+      grid.triangles.emplace_back(a, a + 102, a + 1);
+    }
+  }
+  const TriangleMesh simple = SimplifyMesh(grid, 0.05f);
+  EXPECT_LT(simple.NumTriangles(), grid.NumTriangles() / 10);
+  EXPECT_GT(simple.NumTriangles(), 100u);
+  EXPECT_NO_THROW(CheckMeshValid(simple, "simplified"));
+  EXPECT_NEAR(SurfaceArea(simple), 1.0, 0.1);
+  EXPECT_EQ(SimplifyMesh(grid, 0.05f).vertices, simple.vertices);  // deterministic
+  // A box bigger than the cell keeps its 12 triangles; one smaller vanishes.
+  EXPECT_EQ(SimplifyMesh(MakeBox({0, 0, 0}, {1, 1, 1}), 0.3f).NumTriangles(), 12u);
+  EXPECT_TRUE(SimplifyMesh(MakeBox({0.01f, 0.01f, 0.01f}, {0.02f, 0.02f, 0.02f}), 0.3f).Empty());
+  EXPECT_THROW(SimplifyMesh(grid, 0.f), InputError);
+}
+
 }  // namespace
 }  // namespace furn

@@ -43,6 +43,9 @@ TEST(Train, SameSeedGivesByteIdenticalModelFiles) {
   const TrainedModel model = LoadTrainedModel(dir + "/a.fcm");
   EXPECT_EQ(model.model_names.size(), 16u);
   EXPECT_EQ(model.training_segments, a.segments);
+  // Each model's simplified mesh for render-and-compare.
+  ASSERT_EQ(model.render_meshes.size(), 16u);
+  for (const TriangleMesh& mesh : model.render_meshes) EXPECT_FALSE(mesh.Empty());
   SaveTrainedModel(model, dir + "/c.fcm");
   EXPECT_EQ(ReadFileBytes(dir + "/a.fcm"), ReadFileBytes(dir + "/c.fcm"));
   EXPECT_NE(DescribeTrainedModel(model).find("RIM (k-means init, 8 words"), std::string::npos);
@@ -124,6 +127,15 @@ TEST(Train, BadModelFilesAreRejected) {
   const std::string bytes = ReadFileBytes(dir + "/good.fcm");
   testing::WriteText(dir + "/truncated.fcm", bytes.substr(0, bytes.size() / 2));
   EXPECT_NE(testing::ErrorOf([&] { LoadTrainedModel(dir + "/truncated.fcm"); }).find("truncated"),
+            std::string::npos);
+  // A render mesh triangle pointing past its vertices (the last mesh's last
+  // triangle is the file's last 12 bytes).
+  std::string bad_index = bytes;
+  bad_index[bad_index.size() - 2] = 0x7f;
+  testing::WriteText(dir + "/bad_index.fcm", bad_index);
+  EXPECT_NE(testing::ErrorOf([&] {
+              LoadTrainedModel(dir + "/bad_index.fcm");
+            }).find("render mesh triangle indexes no vertex"),
             std::string::npos);
   std::string newer = bytes;
   newer[8] = 9;  // format version
