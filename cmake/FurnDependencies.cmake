@@ -24,6 +24,7 @@ furn_find_package(Ceres libceres-dev 2)
 furn_find_package(SQLite3 libsqlite3-dev)
 furn_find_package(nlohmann_json nlohmann-json3-dev 3)
 furn_find_package(CLI11 libcli11-dev)
+furn_find_package(yaml-cpp libyaml-cpp-dev)
 furn_find_package(Threads build-essential)
 furn_find_package(ZLIB zlib1g-dev)
 

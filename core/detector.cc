@@ -232,7 +232,7 @@ Detector::Detector(TrainedModel model, const DetectorOptions& options)
   impl.model = std::move(model);
   impl.options = options;
   const TrainedModel& m = impl.model;
-  Require(m.model_shapes.size() == m.model_names.size() && !m.part_library.empty(),
+  Require(m.model_shapes.size() == m.model_names.size() && !m.part_models.empty(),
           "the trained model has no shapes or part subsets (train it again)");
   impl.entries_of_word.resize(m.vocabulary.NumWords());
   impl.entries_per_class.assign(m.vocabulary.NumWords(), {});
@@ -256,9 +256,7 @@ Detector::Detector(TrainedModel model, const DetectorOptions& options)
     std::sort(widths[c].begin(), widths[c].end());
     impl.class_width[c] = widths[c][widths[c].size() / 2];
   }
-  std::vector<VfhDescriptor> descriptors;
-  for (const PartSubsetEntry& entry : m.part_library) descriptors.push_back(entry.descriptor);
-  impl.parts = std::make_unique<PartSubsetIndex>(descriptors);
+  impl.parts = std::make_unique<PartSubsetIndex>(m.part_index);
   impl.scorer = HypothesisScorer::Deserialize(m.scorer, "the model's hypothesis scorer");
   impl.scored = options.use_scorer && !impl.scorer.empty();
   if (!m.render_meshes.empty())
@@ -351,7 +349,7 @@ void Detector::Impl::Rank(const std::map<int, double>& support,
   for (const auto& [segment, weight] : support) {
     const std::vector<int>& neighbours = segment_neighbours[segment];
     for (size_t r = 0; r < neighbours.size(); ++r) {
-      const int m = model.part_library[neighbours[r]].model_index;
+      const int m = model.part_models[neighbours[r]];
       if (model.model_classes[m] == hypothesis->furniture_class) model_score[m] += weight / (r + 1);
     }
   }

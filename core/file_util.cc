@@ -1,5 +1,8 @@
 #include "core/file_util.h"
 
+#include <fcntl.h>
+#include <sys/mman.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -21,10 +24,46 @@ std::string ReadFileBytes(const std::string& path) {
   }
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path + ": cannot read (" + std::strerror(errno) + ")");
+  // Read in one piece when the size is known (a regular file), else stream.
+  const std::uintmax_t size = std::filesystem::is_regular_file(path, ec)
+                                  ? std::filesystem::file_size(path, ec)
+                                  : static_cast<std::uintmax_t>(-1);
+  if (!ec && size != static_cast<std::uintmax_t>(-1)) {
+    std::string bytes(static_cast<size_t>(size), '\0');
+    in.read(bytes.data(), static_cast<std::streamsize>(size));
+    if (in.bad() || static_cast<std::uintmax_t>(in.gcount()) != size)
+      throw InputError(path + ": read error (the file changed while being read?)");
+    return bytes;
+  }
   std::ostringstream buffer;
   buffer << in.rdbuf();
   if (in.bad()) throw InputError(path + ": read error");
   return buffer.str();
+}
+
+MappedFile::MappedFile(const std::string& path) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) throw InputError(path + ": cannot read (" + std::strerror(errno) + ")");
+  struct stat info {};
+  if (::fstat(fd, &info) != 0 || !S_ISREG(info.st_mode)) {
+    ::close(fd);
+    throw InputError(path + ": cannot read (not a regular file)");
+  }
+  size_ = static_cast<size_t>(info.st_size);
+  if (size_ > 0) {
+    void* mapped = ::mmap(nullptr, size_, PROT_READ, MAP_PRIVATE | MAP_POPULATE, fd, 0);
+    if (mapped == MAP_FAILED) {
+      const int error = errno;
+      ::close(fd);
+      throw InputError(path + ": cannot read (" + std::strerror(error) + ")");
+    }
+    data_ = static_cast<const char*>(mapped);
+  }
+  ::close(fd);
+}
+
+MappedFile::~MappedFile() {
+  if (data_ != nullptr) ::munmap(const_cast<char*>(data_), size_);
 }
 
 AtomicFile::AtomicFile(std::string path)

@@ -8,12 +8,30 @@
 //   file.Commit();                         // ... then rename into place
 #pragma once
 
+#include <cstddef>
 #include <string>
 
 namespace furn {
 
 // Throws InputError "<path>: cannot read (<reason>)".
 std::string ReadFileBytes(const std::string& path);
+
+// A regular file mapped read-only into memory (mmap): large files are read
+// without a copy. Throws InputError as ReadFileBytes does, and for a file
+// that is not regular (a FIFO, a device) or changes size while mapped.
+class MappedFile {
+ public:
+  explicit MappedFile(const std::string& path);
+  ~MappedFile();
+  MappedFile(const MappedFile&) = delete;
+  MappedFile& operator=(const MappedFile&) = delete;
+  const char* data() const { return data_; }
+  size_t size() const { return size_; }
+
+ private:
+  const char* data_ = nullptr;
+  size_t size_ = 0;
+};
 
 // Writes to "<path>.tmp-<pid>" then renames over `path`; throws InputError
 // naming `path` on failure and removes the temporary file.

@@ -93,46 +93,78 @@ VfhDescriptor ComputeVfh(const PointCloud& cloud,
 }
 
 struct PartSubsetIndex::Impl {
-  Eigen::RowVectorXf mean;        // 1 x 308
-  Eigen::MatrixXf basis;          // 308 x d
-  Eigen::MatrixXf projected;      // n x d
+  State state;
   Eigen::VectorXf squared_norms;  // of the projected rows
 };
 
 PartSubsetIndex::PartSubsetIndex(const std::vector<VfhDescriptor>& descriptors, int dimensions)
+    : PartSubsetIndex(
+          descriptors.size(),
+          [&](size_t i) -> const VfhDescriptor& { return descriptors[i]; },
+          dimensions) {}
+
+PartSubsetIndex::PartSubsetIndex(size_t count,
+                                 const std::function<const VfhDescriptor&(size_t)>& descriptor,
+                                 int dimensions)
     : impl_(std::make_unique<Impl>()) {
-  Require(!descriptors.empty(), "a part-subset index needs at least one descriptor");
+  Require(count > 0, "a part-subset index needs at least one descriptor");
   constexpr int kBins = static_cast<int>(std::tuple_size<VfhDescriptor>::value);
   Require(dimensions >= 1 && dimensions <= kBins, "index dimensions must be in 1..308");
-  const Eigen::Index n = static_cast<Eigen::Index>(descriptors.size());
-  Eigen::MatrixXf all(n, kBins);
-  for (Eigen::Index i = 0; i < n; ++i)
-    all.row(i) = Eigen::Map<const Eigen::RowVectorXf>(descriptors[i].data(), kBins);
-  impl_->mean = all.colwise().mean();
+  const Eigen::Index n = static_cast<Eigen::Index>(count);
+  auto row = [&](Eigen::Index i) {
+    return Eigen::Map<const Eigen::RowVectorXf>(descriptor(static_cast<size_t>(i)).data(), kBins);
+  };
+  Eigen::RowVectorXd sum = Eigen::RowVectorXd::Zero(kBins);
+  for (Eigen::Index i = 0; i < n; ++i) sum += row(i).cast<double>();
+  impl_->state.mean = (sum / static_cast<double>(n)).cast<float>();
   // Principal components from an even subsample of at most 4000 descriptors.
   const Eigen::Index stride = std::max<Eigen::Index>(1, n / 4000);
   Eigen::MatrixXd sample((n + stride - 1) / stride, kBins);
   for (Eigen::Index i = 0, r = 0; i < n; i += stride, ++r)
-    sample.row(r) = (all.row(i) - impl_->mean).cast<double>();
+    sample.row(r) = (row(i) - impl_->state.mean).cast<double>();
   const Eigen::MatrixXd covariance =
       sample.transpose() * sample / std::max<Eigen::Index>(1, sample.rows());
   Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> solver(covariance);
   // Eigenvalues ascend: the last columns are the strongest components.
-  impl_->basis = solver.eigenvectors().rightCols(dimensions).rowwise().reverse().cast<float>();
-  impl_->projected = (all.rowwise() - impl_->mean) * impl_->basis;
-  impl_->squared_norms = impl_->projected.rowwise().squaredNorm();
+  impl_->state.basis =
+      solver.eigenvectors().rightCols(dimensions).rowwise().reverse().cast<float>();
+  // Projected in blocks of rows: no n x 308 copy of the descriptors.
+  impl_->state.projected.resize(n, dimensions);
+  constexpr Eigen::Index kBlock = 2048;
+  Eigen::MatrixXf block(kBlock, kBins);
+  for (Eigen::Index first = 0; first < n; first += kBlock) {
+    const Eigen::Index rows = std::min(kBlock, n - first);
+    for (Eigen::Index r = 0; r < rows; ++r) block.row(r) = row(first + r) - impl_->state.mean;
+    impl_->state.projected.middleRows(first, rows).noalias() =
+        block.topRows(rows) * impl_->state.basis;
+  }
+  impl_->squared_norms = impl_->state.projected.rowwise().squaredNorm();
+}
+
+PartSubsetIndex::PartSubsetIndex(State state) : impl_(std::make_unique<Impl>()) {
+  constexpr int kBins = static_cast<int>(std::tuple_size<VfhDescriptor>::value);
+  Require(state.mean.size() == kBins && state.basis.rows() == kBins && state.basis.cols() >= 1 &&
+              state.projected.cols() == state.basis.cols() && state.projected.rows() >= 1,
+          "part-subset index of inconsistent sizes");
+  impl_->state = std::move(state);
+  impl_->squared_norms = impl_->state.projected.rowwise().squaredNorm();
 }
 
 PartSubsetIndex::~PartSubsetIndex() = default;
 
+const PartSubsetIndex::State& PartSubsetIndex::state() const { return impl_->state; }
+
+size_t PartSubsetIndex::size() const { return static_cast<size_t>(impl_->state.projected.rows()); }
+
 std::vector<int> PartSubsetIndex::Nearest(const VfhDescriptor& query, int k) const {
   constexpr int kBins = static_cast<int>(std::tuple_size<VfhDescriptor>::value);
   const Eigen::RowVectorXf q =
-      (Eigen::Map<const Eigen::RowVectorXf>(query.data(), kBins) - impl_->mean) * impl_->basis;
+      (Eigen::Map<const Eigen::RowVectorXf>(query.data(), kBins) - impl_->state.mean) *
+      impl_->state.basis;
   // |p - q|^2 = |p|^2 - 2 p.q + |q|^2: one matrix-vector product; |q|^2 is
   // the same for every p and left out.
   const Eigen::VectorXf distances =
-      impl_->squared_norms - 2.0f * (impl_->projected * q.transpose());
+      impl_->squared_norms - 2.0f * (impl_->state.projected * q.transpose());
   std::vector<int> order(distances.size());
   std::iota(order.begin(), order.end(), 0);
   const size_t count = std::min<size_t>(std::max(k, 0), order.size());

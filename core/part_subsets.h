@@ -10,7 +10,9 @@
 //   std::vector<int> nearest = index.Nearest(d, 5);
 #pragma once
 
+#include <Eigen/Core>
 #include <array>
+#include <functional>
 #include <memory>
 #include <vector>
 
@@ -46,8 +48,23 @@ VfhDescriptor ComputeVfh(const PointCloud& cloud,
 // components come from a fixed subsample, so the index is deterministic.
 class PartSubsetIndex {
  public:
+  // What the index searches: stored in model files, so a detector loads it
+  // instead of computing it.
+  struct State {
+    Eigen::RowVectorXf mean;    // 1 x 308
+    Eigen::MatrixXf basis;      // 308 x d
+    Eigen::MatrixXf projected;  // n x d
+  };
   explicit PartSubsetIndex(const std::vector<VfhDescriptor>& descriptors, int dimensions = 48);
+  // The same over `count` descriptors given by an accessor (no copy of them).
+  PartSubsetIndex(size_t count,
+                  const std::function<const VfhDescriptor&(size_t)>& descriptor,
+                  int dimensions = 48);
+  // Throws InputError for an inconsistent state (sizes that do not match).
+  explicit PartSubsetIndex(State state);
   ~PartSubsetIndex();
+  const State& state() const;
+  size_t size() const;
   // Indices of the k nearest descriptors, nearest first (ties by index).
   std::vector<int> Nearest(const VfhDescriptor& query, int k) const;
 

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <mutex>
 
 #include "core/error.h"
 #include "core/random.h"
@@ -64,6 +65,7 @@ struct ModelFitter::Impl {
   // Model point indices by height bucket (height_tolerance_m).
   int first_bucket = 0;
   std::vector<std::vector<int>> by_height;
+  std::once_flag built;
 
   int NearestTo(const Eigen::Vector3f& q) const {
     Eigen::Vector3i c;
@@ -81,6 +83,18 @@ ModelFitter::ModelFitter(const ModelShape& shape, const FitOptions& options)
     : shape_(&shape), options_(options), impl_(std::make_unique<Impl>()) {
   options.Check();
   Require(!shape.points.empty(), "model shape has no points to fit");
+}
+
+// The grid and buckets are built at the first fit of the model: a detector
+// loads quickly, and a scan pays only for the models it fits.
+const ModelFitter::Impl& ModelFitter::Built() const {
+  std::call_once(impl_->built, [this] { Build(); });
+  return *impl_;
+}
+
+void ModelFitter::Build() const {
+  const ModelShape& shape = *shape_;
+  const FitOptions& options = options_;
   Impl& impl = *impl_;
   const float inlier = static_cast<float>(options.inlier_m);
   impl.cell = inlier / 2;
@@ -130,6 +144,7 @@ ModelFitter::ModelFitter(ModelFitter&&) noexcept = default;
 int ModelFitter::Covered(const std::vector<Eigen::Vector3f>& scene_points,
                          const PlanarPose& pose,
                          int* inside) const {
+  const Impl& impl = Built();
   const PlanarTransform transform(pose);
   const Eigen::Vector3f margin = Eigen::Vector3f::Constant(static_cast<float>(options_.inlier_m));
   const Eigen::Vector3f low = shape_->low - margin;
@@ -140,7 +155,7 @@ int ModelFitter::Covered(const std::vector<Eigen::Vector3f>& scene_points,
   int covered = 0, in_box = 0;
   for (const Eigen::Vector3f& p : scene_points) {
     const Eigen::Vector3f q = transform.Inverse(p);
-    covered += impl_->Near(q);
+    covered += impl.Near(q);
     if (inside != nullptr)
       in_box += (q.array() >= low.array()).all() && (q.array() <= high.array()).all();
   }
@@ -151,11 +166,12 @@ int ModelFitter::Covered(const std::vector<Eigen::Vector3f>& scene_points,
 int ModelFitter::CoveredAtLeast(const std::vector<Eigen::Vector3f>& scene_points,
                                 const PlanarPose& pose,
                                 int needed) const {
+  const Impl& impl = Built();
   const PlanarTransform transform(pose);
   const int n = static_cast<int>(scene_points.size());
   int covered = 0;
   for (int i = 0; i < n; ++i) {
-    covered += impl_->Near(transform.Inverse(scene_points[i]));
+    covered += impl.Near(transform.Inverse(scene_points[i]));
     if (covered + (n - 1 - i) < needed) return -1;  // cannot reach it any more
   }
   return covered;
@@ -163,10 +179,11 @@ int ModelFitter::CoveredAtLeast(const std::vector<Eigen::Vector3f>& scene_points
 
 std::vector<int> ModelFitter::CoveredIndices(const std::vector<Eigen::Vector3f>& scene_points,
                                              const PlanarPose& pose) const {
+  const Impl& impl = Built();
   const PlanarTransform transform(pose);
   std::vector<int> covered;
   for (size_t i = 0; i < scene_points.size(); ++i) {
-    if (impl_->Near(transform.Inverse(scene_points[i]))) covered.push_back(static_cast<int>(i));
+    if (impl.Near(transform.Inverse(scene_points[i]))) covered.push_back(static_cast<int>(i));
   }
   return covered;
 }
@@ -188,7 +205,7 @@ double Azimuth(const Eigen::Vector3f& normal) {
 
 PoseFit ModelFitter::Refine(const std::vector<Eigen::Vector3f>& scene_points,
                             const PlanarPose& start) const {
-  const Impl& impl = *impl_;
+  const Impl& impl = Built();
   const ModelShape& shape = *shape_;
   PoseFit best;
   best.scene_points = static_cast<int>(scene_points.size());
@@ -245,7 +262,7 @@ PoseFit ModelFitter::Fit(const std::vector<Eigen::Vector3f>& scene_points,
   PoseFit none;
   none.scene_points = static_cast<int>(scene_points.size());
   if (scene_points.empty()) return none;
-  const Impl& impl = *impl_;
+  const Impl& impl = Built();
   const ModelShape& shape = *shape_;
   const double tolerance = options_.height_tolerance_m;
   Rng rng(seed);

@@ -109,6 +109,8 @@ class ModelFitter {
 
  private:
   struct Impl;
+  const Impl& Built() const;
+  void Build() const;
   const ModelShape* shape_;
   FitOptions options_;
   std::unique_ptr<Impl> impl_;

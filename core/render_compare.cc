@@ -55,6 +55,101 @@ std::optional<PinholeIntrinsics> IntrinsicsOfOrganisedCloud(
   return k;
 }
 
+std::optional<OrganisedCloudCamera> CameraOfOrganisedCloud(
+    const std::vector<Eigen::Vector3f>& points, int width, int height) {
+  if (width <= 0 || height <= 0 || static_cast<size_t>(width) * height != points.size())
+    return std::nullopt;
+  // An even subsample of the valid pixels, normalised (Hartley): centred,
+  // mean distance sqrt(2) in the image and sqrt(3) in space.
+  std::vector<int> used;
+  const int step = std::max(1, static_cast<int>(points.size() / 4000));
+  for (size_t i = 0; i < points.size(); i += step) {
+    if (points[i].allFinite()) used.push_back(static_cast<int>(i));
+  }
+  if (used.size() < 50) return std::nullopt;
+  Eigen::Vector3d mean_x = Eigen::Vector3d::Zero();
+  Eigen::Vector2d mean_u = Eigen::Vector2d::Zero();
+  for (int i : used) {
+    mean_x += points[i].cast<double>();
+    mean_u += Eigen::Vector2d(i % width, i / width);
+  }
+  mean_x /= used.size();
+  mean_u /= used.size();
+  double spread_x = 0, spread_u = 0;
+  for (int i : used) {
+    spread_x += (points[i].cast<double>() - mean_x).norm();
+    spread_u += (Eigen::Vector2d(i % width, i / width) - mean_u).norm();
+  }
+  spread_x /= used.size();
+  spread_u /= used.size();
+  if (spread_x < 1e-6 || spread_u < 1e-6) return std::nullopt;
+  const double sx = std::sqrt(3.0) / spread_x, su = std::sqrt(2.0) / spread_u;
+  Eigen::MatrixXd a(2 * used.size(), 12);
+  for (size_t r = 0; r < used.size(); ++r) {
+    const int i = used[r];
+    const Eigen::Vector3d x = (points[i].cast<double>() - mean_x) * sx;
+    const Eigen::Vector4d X(x.x(), x.y(), x.z(), 1);
+    const double u = (i % width - mean_u.x()) * su, v = (i / width - mean_u.y()) * su;
+    a.row(2 * r) << X.transpose(), Eigen::RowVector4d::Zero(), -u * X.transpose();
+    a.row(2 * r + 1) << Eigen::RowVector4d::Zero(), X.transpose(), -v * X.transpose();
+  }
+  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(a, Eigen::ComputeFullV);
+  const Eigen::VectorXd p = svd.matrixV().col(11);
+  Eigen::Matrix<double, 3, 4> normalised;
+  normalised << p.segment<4>(0).transpose(), p.segment<4>(4).transpose(),
+      p.segment<4>(8).transpose();
+  // Undo the normalisations: P = Tu^-1 P' Tx.
+  Eigen::Matrix3d tu_inverse = Eigen::Matrix3d::Identity();
+  tu_inverse(0, 0) = tu_inverse(1, 1) = 1 / su;
+  tu_inverse.topRightCorner<2, 1>() = mean_u;
+  Eigen::Matrix4d tx = Eigen::Matrix4d::Identity();
+  tx.topLeftCorner<3, 3>() *= sx;
+  tx.topRightCorner<3, 1>() = -sx * mean_x;
+  Eigen::Matrix<double, 3, 4> projection = tu_inverse * normalised * tx;
+  // Points in front of the camera have positive depth.
+  const Eigen::Vector4d first(points[used[0]].x(), points[used[0]].y(), points[used[0]].z(), 1);
+  if ((projection * first).z() < 0) projection = -projection;
+  const Eigen::Matrix3d m = projection.leftCols<3>();
+  if (std::abs(m.determinant()) < 1e-12) return std::nullopt;
+  // RQ decomposition M = K R through the QR of the reversed transpose.
+  Eigen::Matrix3d flip = Eigen::Matrix3d::Zero();
+  flip(0, 2) = flip(1, 1) = flip(2, 0) = 1;
+  const Eigen::HouseholderQR<Eigen::Matrix3d> qr((flip * m).transpose());
+  const Eigen::Matrix3d q = qr.householderQ();
+  const Eigen::Matrix3d upper = qr.matrixQR().triangularView<Eigen::Upper>();
+  Eigen::Matrix3d k = flip * upper.transpose() * flip;
+  Eigen::Matrix3d r = flip * q.transpose();
+  // Positive focal lengths and a proper rotation.
+  for (int c = 0; c < 3; ++c) {
+    if (k(c, c) < 0) {
+      k.col(c) = -k.col(c);
+      r.row(c) = -r.row(c);
+    }
+  }
+  if (r.determinant() < 0) return std::nullopt;
+  const double scale = k(2, 2);
+  k /= scale;
+  OrganisedCloudCamera camera;
+  camera.intrinsics = {k(0, 0), k(1, 1), k(0, 2), k(1, 2)};
+  if (!(camera.intrinsics.fx > 0 && camera.intrinsics.fy > 0) ||
+      std::abs(k(0, 1)) > 1e-3 * k(0, 0))  // a skewed camera is not a depth sensor's
+    return std::nullopt;
+  const Eigen::Vector3d centre = -m.inverse() * projection.col(3);
+  camera.world_from_camera.linear() = r.transpose();
+  camera.world_from_camera.translation() = centre;
+  // The camera reprojects the points onto their pixels.
+  const Eigen::Isometry3d camera_from_world = camera.world_from_camera.inverse();
+  double error = 0;
+  for (int i : used) {
+    const Eigen::Vector3d c = camera_from_world * points[i].cast<double>();
+    if (c.z() <= 0) return std::nullopt;
+    error += std::hypot(camera.intrinsics.fx * c.x() / c.z() + camera.intrinsics.cx - i % width,
+                        camera.intrinsics.fy * c.y() / c.z() + camera.intrinsics.cy - i / width);
+  }
+  if (error / used.size() > 1.0) return std::nullopt;
+  return camera;
+}
+
 double RenderComparison::ViolationShare() const {
   return support + violation > 0 ? static_cast<double>(violation) / (support + violation) : 0;
 }

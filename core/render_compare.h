@@ -41,6 +41,18 @@ struct PinholeIntrinsics {
 std::optional<PinholeIntrinsics> IntrinsicsOfOrganisedCloud(
     const std::vector<Eigen::Vector3f>& points, int width, int height);
 
+// The pinhole camera (intrinsics and world_from_camera, optical frame: x
+// right, y down, z forward) that saw an organised cloud whose points are in
+// some world frame, by the direct linear transform of point-pixel pairs and
+// an RQ decomposition; nullopt for too few points, a degenerate layout or a
+// poor fit (more than a pixel off on average).
+struct OrganisedCloudCamera {
+  PinholeIntrinsics intrinsics;
+  Eigen::Isometry3d world_from_camera = Eigen::Isometry3d::Identity();
+};
+std::optional<OrganisedCloudCamera> CameraOfOrganisedCloud(
+    const std::vector<Eigen::Vector3f>& points, int width, int height);
+
 struct RenderComparison {
   int drawn = 0;      // pixels the model covers
   int support = 0;    // observed depth agrees

@@ -3,6 +3,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <filesystem>
 #include <unordered_set>
 
 #include "core/error.h"
@@ -13,8 +14,8 @@ namespace furn {
 namespace {
 
 constexpr char kMagic[8] = {'F', 'U', 'R', 'N', 'M', 'D', 'L', '\0'};
-constexpr uint32_t kFormatVersion = 4;  // 2: part-subset library and model shapes; 3: scorer;
-                                        // 4: render meshes
+constexpr uint32_t kFormatVersion = 5;  // 2: part-subset library and model shapes; 3: scorer;
+                                        // 4: render meshes; 5: the part index stored
 constexpr uint32_t kOldestReadable = 2;
 
 // Little-endian binary writer and a bounds-checked reader for the model file.
@@ -41,11 +42,12 @@ class Writer {
 
 class Reader {
  public:
-  Reader(const std::string& bytes, const std::string& path) : bytes_(bytes), path_(path) {}
+  Reader(const char* bytes, size_t size, const std::string& path)
+      : bytes_(bytes), size_(size), path_(path) {}
   void Bytes(void* data, size_t size) {
     if (size == 0) return;  // data may be null (an empty vector's)
-    Require(position_ + size <= bytes_.size(), path_ + ": model file is truncated");
-    std::memcpy(data, bytes_.data() + position_, size);
+    Require(size <= size_ - position_, path_ + ": model file is truncated");
+    std::memcpy(data, bytes_ + position_, size);
     position_ += size;
   }
   template <class T>
@@ -73,10 +75,11 @@ class Reader {
     Bytes(v.data(), v.size() * sizeof(double));
     return v;
   }
-  bool AtEnd() const { return position_ == bytes_.size(); }
+  bool AtEnd() const { return position_ == size_; }
 
  private:
-  const std::string& bytes_;
+  const char* bytes_;
+  size_t size_;
   const std::string& path_;
   size_t position_ = 0;
 };
@@ -323,8 +326,15 @@ TrainedModel TrainModel(const std::vector<TrainingView>& views,
   model.vocabulary = Vocabulary::Train(normalised, options.vocabulary);
   lap(&times->vocabulary_s);
   model.training_segments = static_cast<int>(features.size());
-  for (const std::vector<PartSubsetEntry>& view : subsets)
-    model.part_library.insert(model.part_library.end(), view.begin(), view.end());
+  std::vector<VfhDescriptor> descriptors;
+  for (const std::vector<PartSubsetEntry>& view : subsets) {
+    for (const PartSubsetEntry& entry : view) {
+      model.part_models.push_back(entry.model_index);
+      descriptors.push_back(entry.descriptor);
+    }
+  }
+  Require(!descriptors.empty(), "the training views gave no part subsets");
+  model.part_index = PartSubsetIndex(descriptors).state();
   model.model_shapes =
       BuildModelShapes(views, segmented, model_names.size(), options.shape_voxel_m);
 
@@ -392,11 +402,15 @@ void SaveTrainedModel(const TrainedModel& model, const std::string& path) {
     WriteVector3(shape.low, &w);
     WriteVector3(shape.high, &w);
   }
-  w.U32(static_cast<uint32_t>(model.part_library.size()));
-  for (const PartSubsetEntry& entry : model.part_library) {
-    w.I32(entry.model_index);
-    w.Bytes(entry.descriptor.data(), sizeof(float) * entry.descriptor.size());
-  }
+  w.U32(static_cast<uint32_t>(model.part_models.size()));
+  for (int m : model.part_models) w.I32(m);
+  const PartSubsetIndex::State& index = model.part_index;
+  Require(index.projected.rows() == static_cast<Eigen::Index>(model.part_models.size()),
+          "a trained model needs one indexed part subset per part model");
+  w.U32(static_cast<uint32_t>(index.basis.cols()));
+  w.Bytes(index.mean.data(), sizeof(float) * index.mean.size());
+  w.Bytes(index.basis.data(), sizeof(float) * index.basis.size());
+  w.Bytes(index.projected.data(), sizeof(float) * index.projected.size());
   w.String(model.scorer);
   Require(model.render_meshes.empty() || model.render_meshes.size() == model.model_names.size(),
           "a trained model needs one render mesh per CAD model, or none");
@@ -411,10 +425,11 @@ void SaveTrainedModel(const TrainedModel& model, const std::string& path) {
 }
 
 TrainedModel LoadTrainedModel(const std::string& path) {
-  const std::string bytes = ReadFileBytes(path);
-  Reader r(bytes, path);
+  Require(!std::filesystem::is_directory(path), path + ": cannot read (is a directory)");
+  const MappedFile file(path);
+  Reader r(file.data(), file.size(), path);
   char magic[sizeof(kMagic)] = {};
-  Require(bytes.size() >= sizeof(kMagic), path + ": not a furnidet model file");
+  Require(file.size() >= sizeof(kMagic), path + ": not a furnidet model file");
   r.Bytes(magic, sizeof(magic));
   Require(std::memcmp(magic, kMagic, sizeof(kMagic)) == 0, path + ": not a furnidet model file");
   const uint32_t version = r.U32();
@@ -458,23 +473,44 @@ TrainedModel LoadTrainedModel(const std::string& path) {
     e.height = r.F32();
   }
   model.model_shapes.resize(model.model_names.size());
+  std::vector<float> interleaved;
   for (ModelShape& shape : model.model_shapes) {
     shape.points.resize(r.Count(1u << 26));
     shape.normals.resize(shape.points.size());
+    interleaved.resize(6 * shape.points.size());
+    r.Bytes(interleaved.data(), sizeof(float) * interleaved.size());
     for (size_t i = 0; i < shape.points.size(); ++i) {
-      shape.points[i] = ReadVector3(&r);
-      shape.normals[i] = ReadVector3(&r);
+      shape.points[i] = Eigen::Map<const Eigen::Vector3f>(&interleaved[6 * i]);
+      shape.normals[i] = Eigen::Map<const Eigen::Vector3f>(&interleaved[6 * i + 3]);
     }
     shape.low = ReadVector3(&r);
     shape.high = ReadVector3(&r);
   }
-  model.part_library.resize(r.Count(1u << 26));
-  for (PartSubsetEntry& entry : model.part_library) {
-    entry.model_index = r.I32();
-    Require(
-        entry.model_index >= 0 && entry.model_index < static_cast<int>(model.model_names.size()),
-        path + ": model file is corrupt (a part subset names no model)");
-    r.Bytes(entry.descriptor.data(), sizeof(float) * entry.descriptor.size());
+  const uint32_t parts = r.Count(1u << 26);
+  model.part_models.resize(parts);
+  constexpr int kBins = static_cast<int>(std::tuple_size<VfhDescriptor>::value);
+  if (version >= 5) {  // the index as trained
+    r.Bytes(model.part_models.data(), sizeof(int) * parts);
+    const uint32_t dimensions = r.Count(kBins);
+    Require(dimensions >= 1, path + ": model file is corrupt (a part index of no dimensions)");
+    PartSubsetIndex::State& index = model.part_index;
+    index.mean.resize(kBins);
+    index.basis.resize(kBins, dimensions);
+    index.projected.resize(parts, dimensions);
+    r.Bytes(index.mean.data(), sizeof(float) * index.mean.size());
+    r.Bytes(index.basis.data(), sizeof(float) * index.basis.size());
+    r.Bytes(index.projected.data(), sizeof(float) * index.projected.size());
+  } else {  // raw descriptors: index them now
+    std::vector<VfhDescriptor> descriptors(parts);
+    for (uint32_t i = 0; i < parts; ++i) {
+      model.part_models[i] = r.I32();
+      r.Bytes(descriptors[i].data(), sizeof(float) * kBins);
+    }
+    model.part_index = PartSubsetIndex(descriptors).state();
+  }
+  for (int m : model.part_models) {
+    Require(m >= 0 && m < static_cast<int>(model.model_names.size()),
+            path + ": model file is corrupt (a part subset names no model)");
   }
   if (version >= 3) model.scorer = r.String(1u << 28);
   if (version >= 4) {
@@ -484,7 +520,7 @@ TrainedModel LoadTrainedModel(const std::string& path) {
     model.render_meshes.resize(meshes);
     for (TriangleMesh& mesh : model.render_meshes) {
       mesh.vertices.resize(r.Count(1u << 26));
-      for (Eigen::Vector3f& v : mesh.vertices) v = ReadVector3(&r);
+      r.Bytes(mesh.vertices.data(), sizeof(float) * 3 * mesh.vertices.size());
       mesh.triangles.resize(r.Count(1u << 26));
       r.Bytes(mesh.triangles.data(), sizeof(int) * 3 * mesh.triangles.size());
       for (const Eigen::Vector3i& t : mesh.triangles) {

@@ -98,8 +98,11 @@ struct TrainedModel {
   Vocabulary vocabulary;
   std::vector<ShapeEntry> shape;  // every (segment, activated word)
   int training_segments = 0;
-  std::vector<ModelShape> model_shapes;       // one per model name
-  std::vector<PartSubsetEntry> part_library;  // every part subset of every view
+  std::vector<ModelShape> model_shapes;  // one per model name
+  // Every part subset of every view: the CAD model it came from, and its VFH
+  // in the index's principal components (PartSubsetIndex), in the same order.
+  std::vector<int> part_models;
+  PartSubsetIndex::State part_index;
   // A learned hypothesis scorer (HypothesisScorer::Serialize), or empty.
   std::string scorer;
   // Each model's mesh in the model frame, simplified (SimplifyMesh at

@@ -10,7 +10,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
+#include <limits>
 #include <memory>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -250,6 +252,50 @@ DepthFrame ReadDepthPng(const std::string& path, double units_per_metre) {
   return DecodeDepthPng(std::vector<uint8_t>(bytes.begin(), bytes.end()), path, units_per_metre);
 }
 
+DepthFrame ReadDepthImage(const std::string& path, std::optional<double> units_per_metre) {
+  const std::string extension = FileExtension(path);
+  if (extension == "png") return ReadDepthPng(path, units_per_metre.value_or(1000));
+  Require(extension == "tif" || extension == "tiff" || extension == "exr",
+          path +
+              ": depth images are read from .png (16-bit), .tif/.tiff (16-bit or float) "
+              "or .exr (float) files");
+  if (units_per_metre) {
+    Require(*units_per_metre > 0 && std::isfinite(*units_per_metre),
+            "depth scale " + std::to_string(*units_per_metre) + " must be a finite number > 0");
+  }
+  const std::string bytes = ReadFileBytes(path);  // a clear error for a missing file
+  // OpenCV reads OpenEXR only when this is set before its first use.
+  setenv("OPENCV_IO_ENABLE_OPENEXR", "1", 0);
+  cv::Mat image;
+  try {
+    image = cv::imdecode(
+        cv::Mat(1, static_cast<int>(bytes.size()), CV_8U, const_cast<char*>(bytes.data())),
+        cv::IMREAD_ANYDEPTH | cv::IMREAD_UNCHANGED);
+  } catch (const cv::Exception&) {
+    image = cv::Mat();
+  }
+  Require(!image.empty(), path + ": not a readable " + extension + " image");
+  Require(
+      image.channels() == 1,
+      path + ": a depth image has one channel, this one has " + std::to_string(image.channels()));
+  const bool is_float = image.depth() == CV_32F || image.depth() == CV_64F;
+  Require(is_float || image.depth() == CV_16U,
+          path + ": depth images are 16-bit unsigned or 32-bit float");
+  const double scale = units_per_metre.value_or(is_float ? 1.0 : 1000.0);
+  cv::Mat metres;
+  image.convertTo(metres, CV_32F, 1.0 / scale);
+  DepthFrame frame;
+  frame.Resize(metres.cols, metres.rows);
+  for (int v = 0; v < metres.rows; ++v) {
+    const float* row = metres.ptr<float>(v);
+    for (int u = 0; u < metres.cols; ++u) {
+      frame.depth[static_cast<size_t>(v) * metres.cols + u] =
+          std::isfinite(row[u]) && row[u] > 0 ? row[u] : 0.0f;
+    }
+  }
+  return frame;
+}
+
 void WriteIdPng(const DepthFrame& frame, const std::string& path) {
   WritePng(IdImage(frame), path);
 }
@@ -291,24 +337,93 @@ ScanCloud ReadPointCloudFile(const std::string& path) {
   pcl::PCLPointCloud2 blob;
   // PCL prints its own reasons; ours below is the one line the user sees.
   pcl::console::setVerbosityLevel(pcl::console::L_ALWAYS);
-  const int status =
-      extension == "pcd" ? pcl::io::loadPCDFile(path, blob) : pcl::io::loadPLYFile(path, blob);
+  Eigen::Vector4f origin = Eigen::Vector4f::Zero();
+  Eigen::Quaternionf orientation = Eigen::Quaternionf::Identity();
+  const int status = extension == "pcd" ? pcl::io::loadPCDFile(path, blob, origin, orientation)
+                                        : pcl::io::loadPLYFile(path, blob);
   Require(status >= 0, path + ": not a readable " + extension + " point cloud");
-  bool has_xyz = true;
-  for (const char* field : {"x", "y", "z"}) {
-    has_xyz &= std::any_of(blob.fields.begin(),
-                           blob.fields.end(),
-                           [&](const pcl::PCLPointField& f) { return f.name == field; });
+  // x, y, z of any numeric type (float, double, integers), read as PCL laid
+  // them out: fields at their offsets within each point_step-long point.
+  const pcl::PCLPointField* fields[3] = {nullptr, nullptr, nullptr};
+  for (const pcl::PCLPointField& f : blob.fields) {
+    for (int k = 0; k < 3; ++k) {
+      if (f.name == std::string(1, "xyz"[k])) fields[k] = &f;
+    }
   }
-  Require(has_xyz, path + ": the cloud has no x, y, z fields");
-  pcl::PointCloud<pcl::PointXYZ> cloud;
-  pcl::fromPCLPointCloud2(blob, cloud);
+  Require(fields[0] != nullptr && fields[1] != nullptr && fields[2] != nullptr,
+          path + ": the cloud has no x, y, z fields");
+  const size_t points = static_cast<size_t>(blob.width) * blob.height;
+  Require(blob.data.size() >= points * blob.point_step,
+          path + ": the cloud's data is shorter than its header declares");
+  auto value_at = [&](const uint8_t* point, const pcl::PCLPointField& f) -> double {
+    const uint8_t* at = point + f.offset;
+    switch (f.datatype) {
+      case pcl::PCLPointField::INT8:
+        return static_cast<double>(*reinterpret_cast<const int8_t*>(at));
+      case pcl::PCLPointField::UINT8:
+        return static_cast<double>(*at);
+      case pcl::PCLPointField::INT16: {
+        int16_t v;
+        std::memcpy(&v, at, sizeof(v));
+        return v;
+      }
+      case pcl::PCLPointField::UINT16: {
+        uint16_t v;
+        std::memcpy(&v, at, sizeof(v));
+        return v;
+      }
+      case pcl::PCLPointField::INT32: {
+        int32_t v;
+        std::memcpy(&v, at, sizeof(v));
+        return v;
+      }
+      case pcl::PCLPointField::UINT32: {
+        uint32_t v;
+        std::memcpy(&v, at, sizeof(v));
+        return v;
+      }
+      case pcl::PCLPointField::FLOAT32: {
+        float v;
+        std::memcpy(&v, at, sizeof(v));
+        return v;
+      }
+      case pcl::PCLPointField::FLOAT64: {
+        double v;
+        std::memcpy(&v, at, sizeof(v));
+        return v;
+      }
+      default:
+        return std::numeric_limits<double>::quiet_NaN();
+    }
+  };
+  for (const pcl::PCLPointField* f : fields) {
+    Require(f->datatype >= pcl::PCLPointField::INT8 && f->datatype <= pcl::PCLPointField::FLOAT64 &&
+                f->offset < blob.point_step,
+            path + ": field " + f->name + " has a type or offset this reader does not know");
+  }
   ScanCloud scan;
-  scan.points.reserve(cloud.size());
-  for (const pcl::PointXYZ& p : cloud) scan.points.emplace_back(p.x, p.y, p.z);
-  if (cloud.height > 1) {
-    scan.width = static_cast<int>(cloud.width);
-    scan.height = static_cast<int>(cloud.height);
+  scan.points.reserve(points);
+  for (size_t i = 0; i < points; ++i) {
+    const uint8_t* point = blob.data.data() + i * blob.point_step;
+    scan.points.emplace_back(static_cast<float>(value_at(point, *fields[0])),
+                             static_cast<float>(value_at(point, *fields[1])),
+                             static_cast<float>(value_at(point, *fields[2])));
+  }
+  if (blob.height > 1) {
+    scan.width = static_cast<int>(blob.width);
+    scan.height = static_cast<int>(blob.height);
+  }
+  // PCL fills the default viewpoint (origin, identity) when the header has
+  // none; any other is the sensor's pose in the cloud's frame.
+  if (!origin.head<3>().isZero() ||
+      !orientation.coeffs().isApprox(Eigen::Quaternionf::Identity().coeffs())) {
+    Require(origin.head<3>().allFinite() && orientation.coeffs().allFinite() &&
+                std::abs(orientation.norm() - 1) < 1e-3,
+            path + ": VIEWPOINT must be x y z qw qx qy qz with a unit quaternion");
+    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+    pose.linear() = orientation.cast<double>().normalized().toRotationMatrix();
+    pose.translation() = origin.head<3>().cast<double>();
+    scan.viewpoint = pose;
   }
   return scan;
 }

@@ -8,6 +8,8 @@
 //   WriteOrganizedPcd(frame, CameraIntrinsics::KinectV1(), "cloud.pcd");
 #pragma once
 
+#include <Eigen/Geometry>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -20,6 +22,12 @@ namespace furn {
 void WriteDepthPng(const DepthFrame& frame, const std::string& path, double units_per_metre = 1000);
 // Throws InputError when the file is not a single-channel 16-bit PNG.
 DepthFrame ReadDepthPng(const std::string& path, double units_per_metre = 1000);
+// A depth image of any kind a depth sensor's tools write: 16-bit PNG (units
+// per metre as above), 16-bit or 32-bit float TIFF, or 32-bit float OpenEXR.
+// Float images hold metres unless `units_per_metre` is given; integer images
+// default to millimetres. Non-finite or non-positive depth: no return.
+// Throws InputError naming the file for other formats or channel counts.
+DepthFrame ReadDepthImage(const std::string& path, std::optional<double> units_per_metre);
 void WriteIdPng(const DepthFrame& frame, const std::string& path);
 void WriteOrganizedPcd(const DepthFrame& frame,
                        const CameraIntrinsics& camera,
@@ -39,11 +47,15 @@ void DecodeIdPng(const std::vector<uint8_t>& png, const std::string& what, Depth
 // organised cloud), NaN where there is no return.
 std::vector<Eigen::Vector3f> BackProject(const DepthFrame& frame, const CameraIntrinsics& camera);
 
-// A point cloud file: PCD or PLY (by extension), organised or not. Points are
-// taken as they are (camera frame, metres, for detection).
+// A point cloud file: PCD or PLY (by extension), organised or not, with x, y,
+// z fields of any numeric type (float, double, integers). Points are taken as
+// they are (metres; their frame is the caller's to say).
 struct ScanCloud {
   std::vector<Eigen::Vector3f> points;
   int width = 0, height = 0;  // organised size, or 0 x 0
+  // The PCD header's VIEWPOINT (the sensor's pose in the cloud's frame) when
+  // it is not the default (origin, identity).
+  std::optional<Eigen::Isometry3d> viewpoint;
 };
 // Throws InputError naming the file when it is missing, unreadable, of
 // another extension, or holds no x/y/z fields.

@@ -1,11 +1,20 @@
 #include "workbench/detect_command.h"
 
+#include <glob.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
 #include "core/error.h"
+#include "core/file_util.h"
+#include "core/render_compare.h"
 #include "db/dataset_db.h"
 #include "renderers/frame_io.h"
+#include "workbench/camera_file.h"
 
 namespace furn {
 
@@ -65,32 +74,157 @@ DetectionInput DetectionInputOf(const FrameRecord& frame, const std::string& wha
   return input;
 }
 
+namespace {
+
+// A look-at camera (optical frame) at `sensor` facing the horizontal
+// direction of `target`: for floor-aligned unorganised clouds, whose camera
+// orientation nothing uses but the camera frame's range test.
+Eigen::Isometry3d CameraFacing(const Eigen::Vector3d& sensor, const Eigen::Vector3d& target) {
+  Eigen::Vector3d forward = target - sensor;
+  forward.z() = 0;
+  if (forward.norm() < 1e-6) forward = Eigen::Vector3d::UnitX();
+  forward.normalize();
+  const Eigen::Vector3d down = -Eigen::Vector3d::UnitZ();
+  const Eigen::Vector3d right = down.cross(forward);
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.linear().col(0) = right;
+  pose.linear().col(1) = down;
+  pose.linear().col(2) = forward;
+  pose.translation() = sensor;
+  return pose;
+}
+
+void CloudFromWorld(ScanCloud cloud, const ScanSource& source, LoadedScan* scan) {
+  const std::string& path = source.cloud_path;
+  std::optional<Eigen::Isometry3d> pose;
+  if (!source.world_from_camera.empty()) {
+    pose = ParsePose(source.world_from_camera, "--world-from-camera");
+    scan->pose_source = "--world-from-camera";
+  } else if (cloud.viewpoint) {
+    pose = cloud.viewpoint;
+    scan->pose_source = "the PCD VIEWPOINT";
+  }
+  if (source.floor_aligned) {
+    // An organised grid fixes the camera exactly; it wins over a VIEWPOINT,
+    // whose orientation may follow another convention than the optical
+    // frame's, but not over a pose the user typed.
+    if (cloud.width * cloud.height > 0 && source.world_from_camera.empty()) {
+      if (const std::optional<OrganisedCloudCamera> camera =
+              CameraOfOrganisedCloud(cloud.points, cloud.width, cloud.height)) {
+        pose = camera->world_from_camera;
+        scan->pose_source = "estimated from the organised cloud";
+      }
+    }
+    if (!pose && !source.sensor.empty()) {
+      Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+      int finite = 0;
+      for (const Eigen::Vector3f& p : cloud.points) {
+        if (!p.allFinite()) continue;
+        centroid += p.cast<double>();
+        ++finite;
+      }
+      Require(finite > 0, path + ": the cloud has no finite point");
+      pose = CameraFacing(ParsePosition(source.sensor, "--sensor"), centroid / finite);
+      scan->pose_source = "--sensor";
+    }
+    Require(pose.has_value(),
+            path +
+                ": a floor-aligned unorganised cloud needs the sensor position: --sensor "
+                "x,y,z, --world-from-camera or a PCD VIEWPOINT");
+  } else {
+    Require(source.sensor.empty(), "--sensor applies to floor-aligned clouds (--floor-aligned)");
+  }
+  if (pose) {
+    const Eigen::Isometry3f camera_from_world = pose->inverse().cast<float>();
+    for (Eigen::Vector3f& p : cloud.points) {
+      if (p.allFinite()) p = camera_from_world * p;
+    }
+    if (source.floor_aligned) {
+      scan->input.world_from_camera = *pose;
+    } else {
+      scan->pose_source += " (to the camera frame; floor estimated)";
+    }
+  }
+  scan->input.points = std::move(cloud.points);
+  scan->input.width = cloud.width;
+  scan->input.height = cloud.height;
+}
+
+// The image id of a BOP depth file: its name's number (000042.png -> 42).
+std::optional<int64_t> BopImageId(const std::string& path) {
+  const std::string name = std::filesystem::path(path).stem().string();
+  if (name.empty() || name.size() > 12 ||
+      !std::all_of(name.begin(), name.end(), [](char c) { return c >= '0' && c <= '9'; }))
+    return std::nullopt;
+  return std::stoll(name);
+}
+
+}  // namespace
+
 LoadedScan LoadScan(const ScanSource& source) {
   const int given =
       !source.cloud_path.empty() + !source.depth_path.empty() + !source.db_path.empty();
-  Require(given == 1, "give exactly one of --cloud, --depth or --db");
+  Require(given == 1, "give exactly one of --cloud, --depth or --db (or inputs)");
+  Require(source.depth_scale == 0 || (source.depth_scale > 0 && std::isfinite(source.depth_scale)),
+          "--depth-scale " + std::to_string(source.depth_scale) + " must be a finite number > 0");
+  const bool world_options =
+      !source.world_from_camera.empty() || source.floor_aligned || !source.sensor.empty();
   LoadedScan scan;
   if (!source.cloud_path.empty()) {
     ScanCloud cloud = ReadPointCloudFile(source.cloud_path);
     Require(!cloud.points.empty(), source.cloud_path + ": the cloud is empty");
-    scan.input.points = std::move(cloud.points);
-    scan.input.width = cloud.width;
-    scan.input.height = cloud.height;
     scan.camera = CameraIntrinsics::KinectV1();
     scan.description = source.cloud_path;
+    if (world_options || cloud.viewpoint) {
+      CloudFromWorld(std::move(cloud), source, &scan);
+    } else {
+      scan.input.points = std::move(cloud.points);
+      scan.input.width = cloud.width;
+      scan.input.height = cloud.height;
+    }
     return scan;
   }
+  Require(source.sensor.empty(), "--sensor applies to point clouds");
   if (!source.depth_path.empty()) {
-    Require(source.depth_scale > 0,
-            "depth scale " + std::to_string(source.depth_scale) + " must be > 0");
-    const DepthFrame frame = ReadDepthPng(source.depth_path, source.depth_scale);
-    scan.camera = ParseIntrinsics(source.intrinsics, frame.width, frame.height);
+    std::optional<double> units;
+    if (source.depth_scale > 0) units = source.depth_scale;
+    CameraFile camera_file;
+    if (!source.camera_file.empty()) {
+      camera_file = ReadCameraFile(
+          source.camera_file, source.image_id ? source.image_id : BopImageId(source.depth_path));
+      if (!units) units = camera_file.units_per_metre;
+    }
+    const DepthFrame frame = ReadDepthImage(source.depth_path, units);
+    if (!source.camera_file.empty()) {
+      scan.camera = camera_file.camera;
+      Require((scan.camera.width == 0 && scan.camera.height == 0) ||
+                  (scan.camera.width == frame.width && scan.camera.height == frame.height),
+              source.camera_file + " is for " + std::to_string(scan.camera.width) + "x" +
+                  std::to_string(scan.camera.height) + " images, but " + source.depth_path +
+                  " is " + std::to_string(frame.width) + "x" + std::to_string(frame.height));
+      scan.camera.width = frame.width;
+      scan.camera.height = frame.height;
+      scan.camera.Check();
+    } else {
+      scan.camera = ParseIntrinsics(source.intrinsics, frame.width, frame.height);
+    }
     scan.input.points = BackProject(frame, scan.camera);
     scan.input.width = frame.width;
     scan.input.height = frame.height;
     scan.description = source.depth_path;
+    // A depth image's points are in the camera frame; a pose helps only as
+    // the camera's pose in the detector's floor-aligned world.
+    Require(source.world_from_camera.empty() == !source.floor_aligned,
+            source.depth_path +
+                ": with a depth image, --world-from-camera (the camera's pose "
+                "in a floor-aligned world) and --floor-aligned go together");
+    if (source.floor_aligned) {
+      scan.input.world_from_camera = ParsePose(source.world_from_camera, "--world-from-camera");
+      scan.pose_source = "--world-from-camera";
+    }
     return scan;
   }
+  Require(!world_options, "--world-from-camera applies to clouds and depth images, not --db");
   Require(source.frame_id >= 0, "--db needs --frame ID (a frame id of that database)");
   DatasetDb db(source.db_path, DatasetDb::Mode::kReadOnly);
   const std::optional<int64_t> room_id = db.RoomOfFrame(source.frame_id);
@@ -119,7 +253,131 @@ LoadedScan LoadScan(const ScanSource& source) {
   return scan;
 }
 
-std::string DetectionJson(const DetectionResult& result, const LoadedScan& scan) {
+namespace {
+
+bool IsCloudFile(const std::string& path) {
+  const std::string e = FileExtension(path);
+  return e == "pcd" || e == "ply";
+}
+
+bool IsDepthFile(const std::string& path) {
+  const std::string e = FileExtension(path);
+  return e == "png" || e == "tif" || e == "tiff" || e == "exr";
+}
+
+ScanSource SourceOfFile(const std::string& path, const ScanSource& common) {
+  ScanSource source = common;
+  source.cloud_path.clear();
+  source.depth_path.clear();
+  source.db_path.clear();
+  if (IsCloudFile(path)) {
+    source.cloud_path = path;
+  } else if (IsDepthFile(path)) {
+    source.depth_path = path;
+  } else {
+    throw InputError(path +
+                     ": not a scan (.pcd, .ply, .png, .tif, .tiff, .exr), TUM list "
+                     "(.txt), BOP folder or glob pattern");
+  }
+  return source;
+}
+
+// The depth images of one BOP scene folder, by image id.
+void AddBopScene(const std::filesystem::path& scene,
+                 const ScanSource& common,
+                 std::vector<ScanSource>* out) {
+  std::vector<std::filesystem::path> images;
+  for (const auto& entry : std::filesystem::directory_iterator(scene / "depth")) {
+    if (entry.is_regular_file() && IsDepthFile(entry.path().string()))
+      images.push_back(entry.path());
+  }
+  std::sort(images.begin(), images.end());
+  for (const std::filesystem::path& image : images) {
+    ScanSource source = SourceOfFile(image.string(), common);
+    if (source.camera_file.empty()) source.camera_file = (scene / "scene_camera.json").string();
+    out->push_back(source);
+  }
+}
+
+bool IsBopScene(const std::filesystem::path& dir) {
+  return std::filesystem::is_regular_file(dir / "scene_camera.json") &&
+         std::filesystem::is_directory(dir / "depth");
+}
+
+// Depth images of a TUM RGB-D list: depth.txt ("timestamp path") or
+// associate.py's output ("timestamp path timestamp path"), the path naming
+// depth (or the only one) taken; '#' lines are comments.
+void AddTumList(const std::string& list, const ScanSource& common, std::vector<ScanSource>* out) {
+  std::ifstream in(list);
+  Require(in.good(), list + ": cannot read the TUM list");
+  const std::filesystem::path base = std::filesystem::path(list).parent_path();
+  std::string line;
+  int number = 0;
+  const size_t before = out->size();
+  while (std::getline(in, line)) {
+    ++number;
+    std::istringstream fields(line);
+    std::vector<std::string> tokens;
+    for (std::string t; fields >> t;) tokens.push_back(t);
+    if (tokens.empty() || tokens[0][0] == '#') continue;
+    std::string depth;
+    for (size_t k = 1; k < tokens.size(); k += 2) {
+      if (tokens[k].find("depth") != std::string::npos || tokens.size() == 2) depth = tokens[k];
+    }
+    Require(!depth.empty() && (tokens.size() == 2 || tokens.size() == 4),
+            list + ":" + std::to_string(number) +
+                ": a TUM list line is 'timestamp depth/x.png' or 'timestamp rgb/x.png "
+                "timestamp depth/y.png'");
+    out->push_back(SourceOfFile((base / depth).string(), common));
+  }
+  Require(out->size() > before, list + ": the TUM list names no depth image");
+}
+
+}  // namespace
+
+std::vector<ScanSource> ExpandScanInputs(const std::vector<std::string>& inputs,
+                                         const ScanSource& common,
+                                         bool intrinsics_given,
+                                         bool depth_scale_given) {
+  std::vector<ScanSource> sources;
+  for (const std::string& input : inputs) {
+    if (input.find_first_of("*?[") != std::string::npos) {
+      glob_t matches{};
+      const int status = glob(input.c_str(), 0, nullptr, &matches);
+      std::vector<std::string> paths(matches.gl_pathv, matches.gl_pathv + matches.gl_pathc);
+      globfree(&matches);
+      Require(status == 0 && !paths.empty(), "'" + input + "' matches no file");
+      std::sort(paths.begin(), paths.end());
+      for (const std::string& path : paths) sources.push_back(SourceOfFile(path, common));
+    } else if (std::filesystem::is_directory(input)) {
+      const std::filesystem::path dir(input);
+      if (IsBopScene(dir)) {
+        AddBopScene(dir, common, &sources);
+        continue;
+      }
+      std::vector<std::filesystem::path> scenes;
+      for (const auto& entry : std::filesystem::directory_iterator(dir)) {
+        if (entry.is_directory() && IsBopScene(entry.path())) scenes.push_back(entry.path());
+      }
+      Require(!scenes.empty(),
+              input +
+                  ": a folder input must be a BOP scene (depth/ and scene_camera.json) or "
+                  "a BOP split of such scenes");
+      std::sort(scenes.begin(), scenes.end());
+      for (const std::filesystem::path& scene : scenes) AddBopScene(scene, common, &sources);
+    } else if (FileExtension(input) == "txt") {
+      ScanSource tum = common;
+      if (!intrinsics_given) tum.intrinsics = "525,525,319.5,239.5";
+      if (!depth_scale_given) tum.depth_scale = 5000;
+      AddTumList(input, tum, &sources);
+    } else {
+      sources.push_back(SourceOfFile(input, common));
+    }
+  }
+  return sources;
+}
+
+std::string DetectionJson(const DetectionResult& result, const LoadedScan& scan, bool one_line) {
   nlohmann::ordered_json detections = nlohmann::ordered_json::array();
   for (const Detection& d : result.detections) {
     detections.push_back({{"class", ClassName(d.furniture_class)},
@@ -142,12 +400,67 @@ std::string DetectionJson(const DetectionResult& result, const LoadedScan& scan)
       {"world_from_camera", std::vector<double>(pose.data(), pose.data() + 16)},
       {"world_from_camera_layout", "4x4 column-major"},
       {"floor_estimated", result.floor_estimated},
+      {"pose_source",
+       scan.pose_source.empty() ? std::string(result.floor_estimated ? "floor estimated" : "given")
+                                : scan.pose_source},
       {"points_in_range", result.input_points},
       {"points", result.points},
       {"segments", result.segments},
       {"detections", detections},
       {"timings_ms", timings}};
-  return json.dump(2) + "\n";
+  return (one_line ? json.dump() : json.dump(2)) + "\n";
+}
+
+std::string ScanSourceName(const ScanSource& source) {
+  if (!source.cloud_path.empty()) return source.cloud_path;
+  if (!source.depth_path.empty()) return source.depth_path;
+  return source.db_path + " frame " + std::to_string(source.frame_id);
+}
+
+std::string ScanErrorJson(const std::string& input, const std::string& error) {
+  return nlohmann::ordered_json{{"input", input}, {"error", error}}.dump() + "\n";
+}
+
+std::string ExplainDetection(const DetectionResult& result, const TrainedModel& model) {
+  std::ostringstream out;
+  out << result.debug.hypotheses.size() << " hypotheses (Hough maxima):\n";
+  char line[256];
+  for (const DetectionDebug::Hypothesis& h : result.debug.hypotheses) {
+    std::snprintf(line,
+                  sizeof(line),
+                  "  %-9s x %6.2f  y %6.2f  votes %6.2f (rel %.2f)  %zu segments  ",
+                  ClassName(h.furniture_class),
+                  h.x,
+                  h.y,
+                  h.vote_weight,
+                  h.relative_weight,
+                  h.segments.size());
+    out << line;
+    // The best fit, if any: the one the outcome is about.
+    const DetectionDebug::Hypothesis::Fit* best = nullptr;
+    for (const DetectionDebug::Hypothesis::Fit& f : h.fits) {
+      if (best == nullptr || f.score > best->score) best = &f;
+    }
+    if (best != nullptr) {
+      std::snprintf(
+          line,
+          sizeof(line),
+          "fit %s covered %.2f verification %.2f",
+          best->model_index >= 0 && best->model_index < static_cast<int>(model.model_names.size())
+              ? model.model_names[best->model_index].c_str()
+              : "?",
+          best->covered_fraction,
+          best->verification);
+      out << line;
+      if (h.probability >= 0) {
+        std::snprintf(line, sizeof(line), " p %.2f", h.probability);
+        out << line;
+      }
+      out << "  ";
+    }
+    out << "-> " << DetectionDebug::Describe(h) << "\n";
+  }
+  return out.str();
 }
 
 }  // namespace furn

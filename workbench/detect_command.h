@@ -10,6 +10,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -22,11 +23,26 @@ namespace furn {
 
 struct ScanSource {
   std::string cloud_path;              // .pcd or .ply
-  std::string depth_path;              // 16-bit depth PNG
+  std::string depth_path;              // depth image (ReadDepthImage's formats)
   std::string intrinsics = "kinect1";  // kinect1, or fx,fy,cx,cy (size from the image)
-  double depth_scale = 1000;           // depth units per metre (TUM: 5000)
-  std::string db_path;                 // dataset database ...
-  int64_t frame_id = -1;               // ... and one of its frames
+  std::string camera_file;             // or a camera file (ReadCameraFile), instead
+  std::optional<int64_t> image_id;     // the entry of a BOP scene_camera.json
+  // Depth units per metre; 0: the camera file's, else 1000 for 16-bit images
+  // (millimetres) and 1 for float images (metres). TUM: 5000.
+  double depth_scale = 0;
+  std::string db_path;    // dataset database ...
+  int64_t frame_id = -1;  // ... and one of its frames
+
+  // Clouds in a world frame rather than the camera's: the camera's pose in
+  // it (ParsePose's text), else the PCD's VIEWPOINT. With floor_aligned the
+  // world frame is the detector's (z up, floor at z = 0) and the pose is used
+  // as it is; otherwise the floor is found as for camera-frame clouds.
+  // A floor-aligned cloud without a pose: an organised cloud's camera is
+  // estimated from its pixel grid (CameraOfOrganisedCloud); an unorganised
+  // one needs `sensor` (x,y,z).
+  std::string world_from_camera;
+  bool floor_aligned = false;
+  std::string sensor;
 };
 
 struct LoadedScan {
@@ -34,11 +50,24 @@ struct LoadedScan {
   std::string description;  // for messages and the JSON
   CameraIntrinsics camera;  // of the depth image or DB frame; Kinect v1 for clouds
   std::vector<GroundTruthFootprint> ground_truth;  // DB frames only
+  std::string pose_source;  // where the pose came from, or empty (floor estimated)
 };
 
 // Exactly one of cloud, depth or db must be given. Throws InputError naming
 // the file or value for anything unreadable or inconsistent.
 LoadedScan LoadScan(const ScanSource& source);
+
+// The scans behind `inputs`, each a file (.pcd/.ply: cloud; .png/.tif/.tiff/
+// .exr: depth image), a glob pattern of such files, a TUM RGB-D list (.txt:
+// depth.txt or associate.py's output; its depth images with TUM's depth
+// scale 5000 and intrinsics 525,525,319.5,239.5 unless `common` sets them),
+// or a BOP scene or split folder (depth/*.png with scene_camera.json), in
+// order. Every source copies `common`'s options. Throws InputError naming the
+// input that matches nothing or is of no known kind.
+std::vector<ScanSource> ExpandScanInputs(const std::vector<std::string>& inputs,
+                                         const ScanSource& common,
+                                         bool intrinsics_given,
+                                         bool depth_scale_given);
 
 // The intrinsics a dataset frame was rendered with.
 CameraIntrinsics IntrinsicsOf(const FrameRecord& frame);
@@ -50,7 +79,19 @@ DetectionInput DetectionInputOf(const FrameRecord& frame, const std::string& wha
 // "kinect1" or "fx,fy,cx,cy" for an image of width x height.
 CameraIntrinsics ParseIntrinsics(const std::string& text, int width, int height);
 
-// Detections, pose used, timings, as JSON text.
-std::string DetectionJson(const DetectionResult& result, const LoadedScan& scan);
+// Detections, pose used, timings, as JSON text: indented, or on one line
+// (JSON lines of a batch).
+std::string DetectionJson(const DetectionResult& result,
+                          const LoadedScan& scan,
+                          bool one_line = false);
+
+// The scan a source names (its file, or db and frame), for messages.
+std::string ScanSourceName(const ScanSource& source);
+// A JSON line for a scan of a batch that could not be detected in.
+std::string ScanErrorJson(const std::string& input, const std::string& error);
+
+// Every hypothesis of a detection, one line each: class, place, vote weight,
+// best fit and what became of it (the --explain text).
+std::string ExplainDetection(const DetectionResult& result, const TrainedModel& model);
 
 }  // namespace furn

@@ -128,12 +128,21 @@ int RunEvalParts(int argc, char** argv) {
 }
 
 int RunModel(int argc, char** argv) {
-  CLI::App app{"Describe a trained model file", "workbench model"};
+  CLI::App app{"Describe or upgrade a trained model file", "workbench model"};
   app.require_subcommand(1);
-  std::string path;
+  std::string path, out;
   CLI::App* info = app.add_subcommand("info", "What the model file holds");
   info->add_option("model", path, "Model file (.fcm)")->required();
+  CLI::App* upgrade = app.add_subcommand(
+      "upgrade", "Rewrite a model file of an older format in the current one (loads faster)");
+  upgrade->add_option("model", path, "Model file (.fcm) of any readable format")->required();
+  upgrade->add_option("--out", out, "Where to write it (may be the same file)")->required();
   if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
+  if (upgrade->parsed()) {
+    SaveTrainedModel(LoadTrainedModel(path), out);
+    std::cout << out << ": written in the current model file format\n";
+    return 0;
+  }
   std::cout << path << ":\n" << DescribeTrainedModel(LoadTrainedModel(path));
   return 0;
 }

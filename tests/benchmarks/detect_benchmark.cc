@@ -68,6 +68,35 @@ void BM_DetectFrame(benchmark::State& state) {
 }
 BENCHMARK(BM_DetectFrame)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(81);
 
+// Loading the model file, and loading it into a ready detector (what every
+// `detect` process pays once). Target (issue 17): <= 200 ms for the default
+// model.
+void BM_LoadModel(benchmark::State& state) {
+  const std::string model_path = FromEnv("FURN_BENCH_MODEL", FURN_SOURCE_DIR "/out/model.fcm");
+  if (!std::filesystem::exists(model_path)) {
+    state.SkipWithError(("needs " + model_path + " (run the main job)").c_str());
+    return;
+  }
+  const bool detector = state.range(0) != 0;
+  for (auto _ : state) {
+    TrainedModel model = LoadTrainedModel(model_path);
+    if (detector) {
+      const Detector ready(std::move(model), DetectorOptions{});
+      benchmark::DoNotOptimize(&ready);
+    } else {
+      benchmark::DoNotOptimize(model.shape.size());
+    }
+  }
+  state.counters["bytes"] = static_cast<double>(std::filesystem::file_size(model_path));
+}
+BENCHMARK(BM_LoadModel)
+    ->Arg(0)
+    ->Arg(1)
+    ->ArgName("detector")
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->Iterations(5);
+
 }  // namespace
 }  // namespace furn
 

@@ -92,7 +92,7 @@ TEST(Train, ScaleVariantsAddAugmentedViewsButKeepTheTrueShapes) {
   const TrainedModel b = TrainModel(augmented, {entry->id}, {*entry->furniture_class}, trainer);
   EXPECT_EQ(a.model_shapes[0].points, b.model_shapes[0].points);
   EXPECT_GT(b.training_segments, 2 * a.training_segments);
-  EXPECT_GT(b.part_library.size(), a.part_library.size());
+  EXPECT_GT(b.part_models.size(), a.part_models.size());
   scan.scale_variants = 11;
   EXPECT_NE(testing::ErrorOf([&] { scan.Check(); }).find("scale variants 11 must be in 0..10"),
             std::string::npos);

@@ -1,0 +1,45 @@
+// Camera descriptions as depth datasets ship them, and sensor poses as
+// people type them.
+//
+//   CameraFile file = ReadCameraFile("scene_camera.json", /*image_id=*/42);
+//   Eigen::Isometry3d pose = ParsePose("1.2,0,1.1,1,0,0,0");
+#pragma once
+
+#include <Eigen/Geometry>
+#include <cstdint>
+#include <optional>
+#include <string>
+
+#include "renderers/camera.h"
+
+namespace furn {
+
+struct CameraFile {
+  // fx, fy, cx, cy; width and height are 0 when the file does not give them
+  // (the depth image's size applies).
+  CameraIntrinsics camera;
+  // Depth units per metre when the file says (BOP's depth_scale).
+  std::optional<double> units_per_metre;
+};
+
+// Reads, by content:
+//   - BOP camera.json: {"fx", "fy", "cx", "cy", "width", "height", "depth_scale"};
+//   - BOP scene_camera.json: {"<image id>": {"cam_K": [9 numbers], "depth_scale"}},
+//     the entry `image_id` (required);
+//   - ROS CameraInfo YAML, either camera_calibration's file (image_width,
+//     image_height, camera_matrix: {data: [9]}) or a message dump (width,
+//     height, K or k: [9]).
+// BOP's depth_scale is millimetres per unit (units per metre = 1000 /
+// depth_scale). Throws InputError naming the file and the missing or bad key.
+CameraFile ReadCameraFile(const std::string& path, std::optional<int64_t> image_id = std::nullopt);
+
+// A pose as 16 numbers (a 4x4 matrix, row by row; the last row 0 0 0 1) or 7
+// (x,y,z,qw,qx,qy,qz), separated by commas or spaces. Throws InputError
+// naming `what` for another count, a non-number, a non-rigid matrix or a
+// quaternion far from unit length.
+Eigen::Isometry3d ParsePose(const std::string& text, const std::string& what);
+
+// x,y,z (metres). Throws InputError naming `what`.
+Eigen::Vector3d ParsePosition(const std::string& text, const std::string& what);
+
+}  // namespace furn
