@@ -7,6 +7,8 @@
 #include <filesystem>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <optional>
+#include <sstream>
 
 #include <opencv2/imgcodecs.hpp>
 
@@ -357,6 +359,202 @@ TEST_F(DetectTest, CommandLineOnAPcdWritesJsonAndDebugPngs) {
                           "/missing.fcm --cloud " + dir + "/scan.pcd");
   EXPECT_EQ(bad.exit_code, 1);
   EXPECT_NE(bad.output.find("missing.fcm"), std::string::npos);
+}
+
+// The points of `input` moved into its (floor-aligned) world frame, as an
+// ASCII PCD of double fields: organised (640 x 480) or not (finite points
+// only), with a VIEWPOINT line when `viewpoint` is given.
+std::string WorldPcd(const DetectionInput& input,
+                     bool organised,
+                     const std::optional<Eigen::Isometry3d>& viewpoint) {
+  const Eigen::Isometry3d pose = *input.world_from_camera;
+  std::ostringstream body;
+  body.precision(9);
+  int count = 0;
+  for (const Eigen::Vector3f& p : input.points) {
+    if (!p.allFinite()) {
+      if (organised) {
+        body << "nan nan nan\n";
+        ++count;
+      }
+      continue;
+    }
+    const Eigen::Vector3d w = pose * p.cast<double>();
+    body << w.x() << " " << w.y() << " " << w.z() << "\n";
+    ++count;
+  }
+  std::ostringstream pcd;
+  pcd << "# .PCD v0.7\nVERSION 0.7\nFIELDS x y z\nSIZE 8 8 8\nTYPE F F F\nCOUNT 1 1 1\n"
+      << "WIDTH " << (organised ? 640 : count) << "\nHEIGHT " << (organised ? 480 : 1) << "\n";
+  if (viewpoint) {
+    const Eigen::Quaterniond q(viewpoint->linear());
+    pcd << "VIEWPOINT " << viewpoint->translation().x() << " " << viewpoint->translation().y()
+        << " " << viewpoint->translation().z() << " " << q.w() << " " << q.x() << " " << q.y()
+        << " " << q.z() << "\n";
+  }
+  pcd << "POINTS " << count << "\nDATA ascii\n" << body.str();
+  return pcd.str();
+}
+
+TEST_F(DetectTest, WorldFrameAndFloorAlignedCloudsGiveTheCameraFrameDetections) {
+  const std::string dir = testing::ScratchDir();
+  const DetectionInput input = Render({{ModelOf(FurnitureClass::kChair, 1), 0.2, 0.1, 30}});
+  const DetectionResult reference = detector_->Detect(input);
+  ASSERT_EQ(reference.detections.size(), 1u);
+  const Eigen::Isometry3d pose = *input.world_from_camera;
+  // The chair stands at (0.2, 0.1) of the floor-aligned world.
+  auto expect_same = [&](const LoadedScan& scan,
+                         const Detection& expected,
+                         double tolerance_m,
+                         const std::string& what) {
+    const DetectionResult result = detector_->Detect(scan.input);
+    ASSERT_EQ(result.detections.size(), 1u) << what << Describe(result);
+    EXPECT_EQ(result.detections[0].furniture_class, FurnitureClass::kChair) << what;
+    EXPECT_LT(std::hypot(result.detections[0].x - expected.x, result.detections[0].y - expected.y),
+              tolerance_m)
+        << what;
+  };
+  Detection truth;
+  truth.x = 0.2;
+  truth.y = 0.1;
+
+  // Organised and floor-aligned, no pose: the camera comes from the pixel grid.
+  testing::WriteText(dir + "/organised.pcd", WorldPcd(input, true, std::nullopt));
+  ScanSource source;
+  source.cloud_path = dir + "/organised.pcd";
+  source.floor_aligned = true;
+  const LoadedScan organised = LoadScan(source);
+  ASSERT_TRUE(organised.input.world_from_camera.has_value());
+  EXPECT_LT((organised.input.world_from_camera->translation() - pose.translation()).norm(), 0.01);
+  EXPECT_LT(
+      Eigen::AngleAxisd(organised.input.world_from_camera->linear().transpose() * pose.linear())
+          .angle(),
+      0.01);
+  EXPECT_EQ(organised.pose_source, "estimated from the organised cloud");
+  expect_same(organised, truth, 0.05, "organised floor-aligned");
+
+  // Unorganised with the sensor pose in VIEWPOINT.
+  testing::WriteText(dir + "/viewpoint.pcd", WorldPcd(input, false, pose));
+  source.cloud_path = dir + "/viewpoint.pcd";
+  const LoadedScan viewpoint = LoadScan(source);
+  EXPECT_EQ(viewpoint.pose_source, "the PCD VIEWPOINT");
+  expect_same(viewpoint, truth, 0.05, "VIEWPOINT");
+
+  // Unorganised without a pose: the sensor position is needed ...
+  testing::WriteText(dir + "/bare.pcd", WorldPcd(input, false, std::nullopt));
+  source.cloud_path = dir + "/bare.pcd";
+  EXPECT_NE(testing::ErrorOf([&] { LoadScan(source); }).find("--sensor"), std::string::npos);
+  // ... and enough with it.
+  std::ostringstream sensor;
+  sensor << pose.translation().x() << "," << pose.translation().y() << ","
+         << pose.translation().z();
+  source.sensor = sensor.str();
+  expect_same(LoadScan(source), truth, 0.05, "--sensor");
+
+  // A world frame that is not floor-aligned: the pose brings the points to
+  // the camera, and the floor is found as usual, as for the camera-frame scan.
+  DetectionInput camera_frame = input;
+  camera_frame.world_from_camera.reset();
+  const DetectionResult estimated = detector_->Detect(camera_frame);
+  ASSERT_EQ(estimated.detections.size(), 1u);
+  source.sensor.clear();
+  source.floor_aligned = false;
+  std::ostringstream matrix;
+  matrix.precision(12);
+  for (int r = 0; r < 4; ++r) {
+    for (int c = 0; c < 4; ++c) matrix << pose.matrix()(r, c) << (r == 3 && c == 3 ? "" : ",");
+  }
+  source.world_from_camera = matrix.str();
+  const LoadedScan world = LoadScan(source);
+  EXPECT_FALSE(world.input.world_from_camera.has_value());
+  expect_same(world, estimated.detections[0], 0.03, "--world-from-camera");
+}
+
+TEST_F(DetectTest, BatchOverGlobsTumListsAndBopFoldersGivesJsonLines) {
+  const std::string dir = testing::ScratchDir();
+  const DetectionInput input = Render({{ModelOf(FurnitureClass::kChair, 1), 0.2, 0.1, 30}});
+  DepthFrame frame;
+  frame.Resize(640, 480);
+  for (size_t i = 0; i < input.points.size(); ++i)
+    frame.depth[i] = input.points[i].allFinite() ? input.points[i].z() : 0.0f;
+  // TUM layout: depth/<timestamp>.png at 5000 units per metre, and a list.
+  std::filesystem::create_directories(dir + "/tum/depth");
+  WriteDepthPng(frame, dir + "/tum/depth/1.000.png", 5000);
+  WriteDepthPng(frame, dir + "/tum/depth/2.000.png", 5000);
+  testing::WriteText(dir + "/tum/depth.txt",
+                     "# depth maps\n# file: 'x.bag'\n# timestamp filename\n1.000 "
+                     "depth/1.000.png\n2.000 depth/2.000.png\n");
+  // BOP layout: a scene with scene_camera.json (depth_scale: mm per unit).
+  std::filesystem::create_directories(dir + "/bop/000007/depth");
+  WriteDepthPng(frame, dir + "/bop/000007/depth/000003.png", 10000);
+  testing::WriteText(
+      dir + "/bop/000007/scene_camera.json",
+      R"({"3": {"cam_K": [580, 0, 319.5, 0, 580, 239.5, 0, 0, 1], "depth_scale": 0.1}})");
+  const std::string detect =
+      std::string(FURN_WORKBENCH_BINARY) + " detect --quiet --model " + *model_path_;
+  auto lines_of = [](const std::string& path) {
+    std::vector<nlohmann::json> lines;
+    std::istringstream in(ReadFileBytes(path));
+    for (std::string line; std::getline(in, line);) lines.push_back(nlohmann::json::parse(line));
+    return lines;
+  };
+  const testing::CommandResult tum = testing::RunCommand(
+      detect + " " + dir + "/tum/depth.txt --intrinsics 580,580,319.5,239.5 --out " + dir +
+      "/tum.jsonl");
+  ASSERT_EQ(tum.exit_code, 0) << tum.output;
+  const std::vector<nlohmann::json> tum_lines = lines_of(dir + "/tum.jsonl");
+  ASSERT_EQ(tum_lines.size(), 2u);
+  for (const nlohmann::json& line : tum_lines) {
+    ASSERT_EQ(line["detections"].size(), 1u) << line.dump();
+    EXPECT_EQ(line["detections"][0]["class"], "chair");
+  }
+  EXPECT_NE(tum_lines[1]["input"].get<std::string>().find("2.000.png"), std::string::npos);
+  // The same images by a glob and by the list, in one batch.
+  const testing::CommandResult mixed = testing::RunCommand(
+      detect + " '" + dir + "/tum/depth/*.png' " + dir +
+      "/tum/depth.txt --intrinsics 580,580,319.5,239.5 --depth-scale 5000 --out " + dir +
+      "/mixed.jsonl");
+  ASSERT_EQ(mixed.exit_code, 0) << mixed.output;
+  const std::vector<nlohmann::json> mixed_lines = lines_of(dir + "/mixed.jsonl");
+  ASSERT_EQ(mixed_lines.size(), 4u);
+  EXPECT_EQ(mixed_lines[0]["detections"], mixed_lines[2]["detections"]);
+  // A BOP scene brings its own intrinsics and depth scale.
+  const testing::CommandResult bop =
+      testing::RunCommand(detect + " " + dir + "/bop --out " + dir + "/bop.jsonl");
+  ASSERT_EQ(bop.exit_code, 0) << bop.output;
+  const std::vector<nlohmann::json> bop_lines = lines_of(dir + "/bop.jsonl");
+  ASSERT_EQ(bop_lines.size(), 1u);
+  ASSERT_EQ(bop_lines[0]["detections"].size(), 1u) << bop_lines[0].dump();
+  // A batch with an unreadable scan: its line says why, the others go on, exit 1.
+  testing::WriteText(dir + "/tum/depth/3.000.png", "not a png");
+  const testing::CommandResult partly =
+      testing::RunCommand(detect + " '" + dir +
+                          "/tum/depth/*.png' --intrinsics 580,580,319.5,239.5 --depth-scale 5000 "
+                          "--out " +
+                          dir + "/partly.jsonl");
+  EXPECT_EQ(partly.exit_code, 1) << partly.output;
+  EXPECT_NE(partly.output.find("1 failed"), std::string::npos) << partly.output;
+  const std::vector<nlohmann::json> partly_lines = lines_of(dir + "/partly.jsonl");
+  ASSERT_EQ(partly_lines.size(), 3u);
+  EXPECT_TRUE(partly_lines[2].contains("error"));
+  EXPECT_EQ(partly_lines[0]["detections"].size(), 1u);
+  // Inputs that name nothing, and --frame without --db.
+  const testing::CommandResult none = testing::RunCommand(detect + " '" + dir + "/none/*.png'");
+  EXPECT_EQ(none.exit_code, 1);
+  EXPECT_NE(none.output.find("matches no file"), std::string::npos) << none.output;
+  const testing::CommandResult frame_flag =
+      testing::RunCommand(detect + " --depth " + dir + "/tum/depth/1.000.png --frame 5");
+  EXPECT_EQ(frame_flag.exit_code, 1);
+  EXPECT_NE(frame_flag.output.find("--frame 5 applies to --db only"), std::string::npos)
+      << frame_flag.output;
+  // --explain: every hypothesis and what became of it.
+  const testing::CommandResult explain =
+      testing::RunCommand(detect + " --depth " + dir +
+                          "/tum/depth/1.000.png --intrinsics 580,580,319.5,239.5 "
+                          "--depth-scale 5000 --explain");
+  ASSERT_EQ(explain.exit_code, 0) << explain.output;
+  EXPECT_NE(explain.output.find("hypotheses (Hough maxima)"), std::string::npos) << explain.output;
+  EXPECT_NE(explain.output.find("-> detected"), std::string::npos) << explain.output;
 }
 
 }  // namespace
