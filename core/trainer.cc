@@ -6,6 +6,8 @@
 #include <filesystem>
 #include <unordered_set>
 
+#include <xxhash.h>
+
 #include "core/error.h"
 #include "core/file_util.h"
 #include "core/parallel.h"
@@ -14,9 +16,11 @@ namespace furn {
 namespace {
 
 constexpr char kMagic[8] = {'F', 'U', 'R', 'N', 'M', 'D', 'L', '\0'};
-constexpr uint32_t kFormatVersion = 5;  // 2: part-subset library and model shapes; 3: scorer;
-                                        // 4: render meshes; 5: the part index stored
+constexpr uint32_t kFormatVersion = 6;  // 2: part-subset library and model shapes; 3: scorer;
+                                        // 4: render meshes; 5: the part index stored;
+                                        // 6: an XXH3-64 checksum of the payload at the end
 constexpr uint32_t kOldestReadable = 2;
+constexpr size_t kHeaderBytes = 12;  // magic and version, outside the checksum
 
 // Little-endian binary writer and a bounds-checked reader for the model file.
 class Writer {
@@ -60,9 +64,13 @@ class Reader {
   int32_t I32() { return Value<int32_t>(); }
   double F64() { return Value<double>(); }
   float F32() { return Value<float>(); }
-  uint32_t Count(uint32_t limit) {
+  // A count of items of at least `bytes_each` bytes: within `limit`, and no
+  // more than the rest of the file can hold (nothing is allocated for items
+  // the file does not have).
+  uint32_t Count(uint32_t limit, size_t bytes_each = 1) {
     const uint32_t n = U32();
-    Require(n <= limit, path_ + ": model file is corrupt (a count of " + std::to_string(n) + ")");
+    Require(n <= limit && static_cast<uint64_t>(n) * bytes_each <= size_ - position_,
+            path_ + ": model file is corrupt (a count of " + std::to_string(n) + ")");
     return n;
   }
   std::string String(uint32_t max_size = 1u << 20) {
@@ -76,6 +84,8 @@ class Reader {
     return v;
   }
   bool AtEnd() const { return position_ == size_; }
+  // Reads stop at `end` (the checksum follows the payload).
+  void Limit(size_t end) { size_ = std::min(size_, end); }
 
  private:
   const char* bytes_;
@@ -407,8 +417,8 @@ void SaveTrainedModel(const TrainedModel& model, const std::string& path) {
   const PartSubsetIndex::State& index = model.part_index;
   Require(index.projected.rows() == static_cast<Eigen::Index>(model.part_models.size()),
           "a trained model needs one indexed part subset per part model");
-  w.U32(static_cast<uint32_t>(index.basis.cols()));
-  w.Bytes(index.mean.data(), sizeof(float) * index.mean.size());
+  w.U32(static_cast<uint32_t>(model.part_models.empty() ? 0 : index.basis.cols()));
+  if (!model.part_models.empty()) w.Bytes(index.mean.data(), sizeof(float) * index.mean.size());
   w.Bytes(index.basis.data(), sizeof(float) * index.basis.size());
   w.Bytes(index.projected.data(), sizeof(float) * index.projected.size());
   w.String(model.scorer);
@@ -421,6 +431,9 @@ void SaveTrainedModel(const TrainedModel& model, const std::string& path) {
     w.U32(static_cast<uint32_t>(mesh.triangles.size()));
     w.Bytes(mesh.triangles.data(), sizeof(int) * 3 * mesh.triangles.size());
   }
+  const std::string& bytes = w.bytes();
+  const uint64_t checksum = XXH3_64bits(bytes.data() + kHeaderBytes, bytes.size() - kHeaderBytes);
+  w.Bytes(&checksum, sizeof(checksum));
   WriteFileAtomically(path, w.bytes());
 }
 
@@ -437,9 +450,19 @@ TrainedModel LoadTrainedModel(const std::string& path) {
           path + ": model file format version " + std::to_string(version) +
               " is not the version this build reads (" + std::to_string(kFormatVersion) +
               "); train it again");
+  size_t payload_end = file.size();
+  if (version >= 6) {  // a damaged file stops here, before anything is parsed
+    Require(file.size() >= kHeaderBytes + sizeof(uint64_t), path + ": model file is truncated");
+    payload_end = file.size() - sizeof(uint64_t);
+    uint64_t stored = 0;
+    std::memcpy(&stored, file.data() + payload_end, sizeof(stored));
+    Require(XXH3_64bits(file.data() + kHeaderBytes, payload_end - kHeaderBytes) == stored,
+            path + ": model file is damaged (checksum mismatch); train it again or copy it anew");
+    r.Limit(payload_end);
+  }
   TrainedModel model;
   model.options = ReadOptions(&r);
-  const uint32_t models = r.Count(100000);
+  const uint32_t models = r.Count(100000, 8);
   for (uint32_t i = 0; i < models; ++i) {
     model.model_names.push_back(r.String());
     model.model_classes.push_back(static_cast<FurnitureClass>(r.I32()));
@@ -461,7 +484,7 @@ TrainedModel LoadTrainedModel(const std::string& path) {
   state.biases = r.Vector();
   model.vocabulary = Vocabulary::FromState(state);
   model.training_segments = r.I32();
-  const uint32_t entries = r.Count(1u << 28);
+  const uint32_t entries = r.Count(1u << 28, 32);
   model.shape.resize(entries);
   for (ShapeEntry& e : model.shape) {
     e.word = r.I32();
@@ -475,7 +498,7 @@ TrainedModel LoadTrainedModel(const std::string& path) {
   model.model_shapes.resize(model.model_names.size());
   std::vector<float> interleaved;
   for (ModelShape& shape : model.model_shapes) {
-    shape.points.resize(r.Count(1u << 26));
+    shape.points.resize(r.Count(1u << 26, 24));
     shape.normals.resize(shape.points.size());
     interleaved.resize(6 * shape.points.size());
     r.Bytes(interleaved.data(), sizeof(float) * interleaved.size());
@@ -486,27 +509,32 @@ TrainedModel LoadTrainedModel(const std::string& path) {
     shape.low = ReadVector3(&r);
     shape.high = ReadVector3(&r);
   }
-  const uint32_t parts = r.Count(1u << 26);
+  const uint32_t parts = r.Count(1u << 26, 4);
   model.part_models.resize(parts);
   constexpr int kBins = static_cast<int>(std::tuple_size<VfhDescriptor>::value);
   if (version >= 5) {  // the index as trained
     r.Bytes(model.part_models.data(), sizeof(int) * parts);
     const uint32_t dimensions = r.Count(kBins);
-    Require(dimensions >= 1, path + ": model file is corrupt (a part index of no dimensions)");
+    Require(static_cast<uint64_t>(dimensions) * (kBins + parts) * sizeof(float) <= file.size(),
+            path + ": model file is corrupt (a part index larger than the file)");
+    Require((dimensions >= 1) == (parts >= 1),
+            path + ": model file is corrupt (a part index of no dimensions)");
     PartSubsetIndex::State& index = model.part_index;
-    index.mean.resize(kBins);
-    index.basis.resize(kBins, dimensions);
-    index.projected.resize(parts, dimensions);
-    r.Bytes(index.mean.data(), sizeof(float) * index.mean.size());
-    r.Bytes(index.basis.data(), sizeof(float) * index.basis.size());
-    r.Bytes(index.projected.data(), sizeof(float) * index.projected.size());
+    if (parts > 0) {  // a model without part subsets has no index (tests)
+      index.mean.resize(kBins);
+      index.basis.resize(kBins, dimensions);
+      index.projected.resize(parts, dimensions);
+      r.Bytes(index.mean.data(), sizeof(float) * index.mean.size());
+      r.Bytes(index.basis.data(), sizeof(float) * index.basis.size());
+      r.Bytes(index.projected.data(), sizeof(float) * index.projected.size());
+    }
   } else {  // raw descriptors: index them now
     std::vector<VfhDescriptor> descriptors(parts);
     for (uint32_t i = 0; i < parts; ++i) {
       model.part_models[i] = r.I32();
       r.Bytes(descriptors[i].data(), sizeof(float) * kBins);
     }
-    model.part_index = PartSubsetIndex(descriptors).state();
+    if (parts > 0) model.part_index = PartSubsetIndex(descriptors).state();
   }
   for (int m : model.part_models) {
     Require(m >= 0 && m < static_cast<int>(model.model_names.size()),
@@ -519,9 +547,9 @@ TrainedModel LoadTrainedModel(const std::string& path) {
             path + ": model file is corrupt (render meshes do not match the models)");
     model.render_meshes.resize(meshes);
     for (TriangleMesh& mesh : model.render_meshes) {
-      mesh.vertices.resize(r.Count(1u << 26));
+      mesh.vertices.resize(r.Count(1u << 26, 12));
       r.Bytes(mesh.vertices.data(), sizeof(float) * 3 * mesh.vertices.size());
-      mesh.triangles.resize(r.Count(1u << 26));
+      mesh.triangles.resize(r.Count(1u << 26, 12));
       r.Bytes(mesh.triangles.data(), sizeof(int) * 3 * mesh.triangles.size());
       for (const Eigen::Vector3i& t : mesh.triangles) {
         Require(
@@ -532,6 +560,19 @@ TrainedModel LoadTrainedModel(const std::string& path) {
   }
   Require(r.AtEnd(), path + ": model file has trailing bytes (corrupt)");
   model.options.Check();
+  // Every index the detector follows is in range.
+  const std::string corrupt = path + ": model file is corrupt (";
+  for (FurnitureClass c : model.model_classes) {
+    Require(static_cast<int>(c) >= 0 && static_cast<size_t>(c) < kAllClasses.size(),
+            corrupt + "a model of no known class)");
+  }
+  const int words = model.vocabulary.NumWords();
+  for (const ShapeEntry& e : model.shape) {
+    Require(e.word >= 0 && e.word < words && static_cast<int>(e.furniture_class) >= 0 &&
+                static_cast<size_t>(e.furniture_class) < kAllClasses.size() && e.model_index >= 0 &&
+                e.model_index < static_cast<int>(model.model_names.size()),
+            corrupt + "a shape entry indexes no word, class or model)");
+  }
   return model;
 }
 

@@ -61,6 +61,15 @@ struct ScanCloud {
 // another extension, or holds no x/y/z fields.
 ScanCloud ReadPointCloudFile(const std::string& path);
 
+// Our checks of a PCD or PLY file's header against its size, before PCL
+// reads it (PCL trusts declared counts and sizes: crashes and huge
+// allocations on damaged files). Throws InputError naming the file and the
+// rule: field sizes, types and counts, WIDTH x HEIGHT = POINTS, at most 2^30
+// points, a body that holds what the header declares, and a binary_compressed
+// body whose sizes agree with it.
+void CheckPcdHeader(const std::string& bytes, const std::string& path);
+void CheckPlyHeader(const std::string& bytes, const std::string& path);
+
 struct PreviewPanel {
   enum class Kind { kDepth, kShadedDepth, kIds };
   const DepthFrame* frame = nullptr;

@@ -52,6 +52,55 @@ class MemoryStream : public Assimp::IOStream {
   size_t position_ = 0;
 };
 
+}  // namespace
+
+std::string SanitizeMtl(const std::string& bytes) {
+  // assimp 5.2's MTL parser dereferences the current material for every
+  // statement: one before the first newmtl crashes it. Such statements belong
+  // to no material and mean nothing, so they are dropped.
+  std::string out;
+  out.reserve(bytes.size());
+  bool in_material = false;
+  size_t at = 0;
+  while (at < bytes.size()) {
+    size_t end = bytes.find('\n', at);
+    if (end == std::string::npos) end = bytes.size();
+    const std::string line = bytes.substr(at, end - at + (end < bytes.size() ? 1 : 0));
+    const size_t first = line.find_first_not_of(" \t\r\n");
+    const bool blank_or_comment = first == std::string::npos || line[first] == '#';
+    if (!blank_or_comment && line.compare(first, 6, "newmtl") == 0) in_material = true;
+    if (in_material || blank_or_comment) out += line;
+    at = end + 1;
+  }
+  return out;
+}
+
+namespace {
+
+// The bytes assimp gets for a file: MTL files sanitised (SanitizeMtl).
+std::string ForAssimp(const std::string& name, std::string bytes) {
+  return FileExtension(name) == "mtl" ? SanitizeMtl(bytes) : bytes;
+}
+
+// Lets assimp open files from disk through ForAssimp.
+class DiskIoSystem : public Assimp::IOSystem {
+ public:
+  bool Exists(const char* path) const override {
+    std::error_code ec;
+    return std::filesystem::is_regular_file(path, ec);
+  }
+  char getOsSeparator() const override { return '/'; }
+  Assimp::IOStream* Open(const char* path, const char* mode) override {
+    if (mode != nullptr && std::strchr(mode, 'w') != nullptr) return nullptr;
+    try {
+      return new MemoryStream(ForAssimp(path, ReadFileBytes(path)));
+    } catch (const InputError&) {
+      return nullptr;
+    }
+  }
+  void Close(Assimp::IOStream* stream) override { delete stream; }
+};
+
 // Lets assimp open the model and its MTL (or other side files) inside a zip.
 class ZipIoSystem : public Assimp::IOSystem {
  public:
@@ -63,7 +112,7 @@ class ZipIoSystem : public Assimp::IOSystem {
     const std::string name = Normalize(path);
     if (!archive_.Contains(name)) return nullptr;
     try {
-      return new MemoryStream(archive_.Read(name));
+      return new MemoryStream(ForAssimp(name, archive_.Read(name)));
     } catch (const InputError& error) {
       // assimp swallows exceptions; keep the first reason to report it.
       if (first_error_.empty()) first_error_ = error.what();
@@ -171,6 +220,7 @@ CadModel LoadMeshFile(const std::string& path, const MeshLoadOptions& options) {
                      "' (supported: obj, ply, stl, off, gltf, glb, dae, 3ds, fbx and other "
                      "assimp formats)");
   }
+  importer.SetIOHandler(new DiskIoSystem);  // the importer owns it
   TriangleMesh mesh = ImportTriangles(&importer, path, path);
   const bool y_up = options.up_axis == UpAxis::kY ||
                     (options.up_axis == UpAxis::kFormatDefault && IsYUpByDefault(extension));

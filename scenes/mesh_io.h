@@ -51,4 +51,9 @@ void ExportMesh(const TriangleMesh& mesh, const std::string& path);
 // x.
 Eigen::Matrix3f ZUpFromYUp();
 
+// An MTL file's text without the statements before its first `newmtl`
+// (they belong to no material; assimp 5.2 crashes on them). Every mesh import
+// passes MTL files through it.
+std::string SanitizeMtl(const std::string& bytes);
+
 }  // namespace furn

@@ -100,5 +100,72 @@ TEST(FrameIo, PreviewHasEveryPanel) {
   EXPECT_FALSE(std::filesystem::exists(dir + "/q.png"));
 }
 
+// Files that crashed PCL or took gigabytes (tests/data/crashers): one line
+// naming the file and the rule, nothing allocated for what is not there.
+TEST(FrameIo, CrashingCloudsAreOneLineErrors) {
+  const std::string dir = FURN_SOURCE_DIR "/tests/data/crashers/";
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"pcd_crash_seed1_run15.pcd", "COUNT of field z '4294967295' must be in 1..4096"},
+      {"pcd_crash_seed1_run256.pcd", "COUNT of field x '65536' must be in 1..4096"},
+      {"manual_pcd_bincomp_bad_usize.pcd", "uncompressed size 4294967280 must be POINTS"},
+      {"manual_pcd_bincomp_zero.pcd", "uncompressed size 0 must be POINTS"},
+      {"manual_pcd_huge_points_decl.pcd", "WIDTH, HEIGHT and POINTS must be whole numbers"},
+      {"manual_ply_list_huge.ply", "vertex property x must be a scalar, not a list"},
+  };
+  for (const auto& [file, rule] : cases) {
+    const std::string error = testing::ErrorOf([&] { ReadPointCloudFile(dir + file); });
+    EXPECT_NE(error.find(file), std::string::npos) << error;
+    EXPECT_NE(error.find(rule), std::string::npos) << error;
+  }
+}
+
+TEST(FrameIo, PcdAndPlyHeadersAreCheckedAgainstTheFile) {
+  const std::string header =
+      "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 4\nHEIGHT 1\n"
+      "POINTS 4\n";
+  auto error_of = [](const std::string& bytes) {
+    return testing::ErrorOf([&] { CheckPcdHeader(bytes, "x.pcd"); });
+  };
+  EXPECT_EQ(error_of(header + "DATA binary\n" + std::string(48, '\0')), "(no error)");
+  EXPECT_NE(error_of(header + "DATA binary\n" + std::string(47, '\0')).find("body has 47 bytes"),
+            std::string::npos);
+  EXPECT_NE(error_of(header + "DATA ascii\n1 2 3\n").find("declares 4 points"), std::string::npos);
+  EXPECT_NE(error_of(header + "DATA xml\n").find("must be ascii, binary"), std::string::npos);
+  EXPECT_NE(error_of("VERSION 0.7\nFIELDS x y z\nSIZE 4 4\nTYPE F F F\nWIDTH 1\nHEIGHT 1\n"
+                     "POINTS 1\nDATA ascii\n1 2 3\n")
+                .find("one entry per field"),
+            std::string::npos);
+  EXPECT_NE(error_of("VERSION 0.7\nFIELDS x\nSIZE 2\nTYPE F\nWIDTH 1\nHEIGHT 1\nPOINTS 1\n"
+                     "DATA ascii\n1\n")
+                .find("F of size 4 or 8"),
+            std::string::npos);
+  EXPECT_NE(error_of("VERSION 0.7\nFIELDS x\nSIZE 4\nTYPE F\nWIDTH 2\nHEIGHT 2\nPOINTS 3\n"
+                     "DATA ascii\n1\n2\n3\n")
+                .find("must equal POINTS"),
+            std::string::npos);
+  std::string compressed = header + "DATA binary_compressed\n";
+  const uint32_t sizes[2] = {4, 48};
+  compressed.append(reinterpret_cast<const char*>(sizes), 8);
+  EXPECT_NE(error_of(compressed).find("compressed size 4 exceeds"), std::string::npos);
+  EXPECT_NE(error_of("VERSION 0.7\nFIELDS x\n").find("ends without a DATA line"),
+            std::string::npos);
+
+  auto ply_error = [](const std::string& bytes) {
+    return testing::ErrorOf([&] { CheckPlyHeader(bytes, "x.ply"); });
+  };
+  const std::string ply =
+      "ply\nformat binary_little_endian 1.0\nelement vertex 1000000\n"
+      "property float x\nproperty float y\nproperty float z\nend_header\n";
+  EXPECT_NE(ply_error(ply + std::string(12, '\0')).find("declare at least 12000000 bytes"),
+            std::string::npos);
+  EXPECT_NE(ply_error("ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nend_header\n"
+                      "1\n")
+                .find("no x, y, z"),
+            std::string::npos);
+  EXPECT_NE(ply_error("ply\nformat ascii 1.0\nelement vertex 99999999999\nend_header\n")
+                .find("count up to 2^30"),
+            std::string::npos);
+}
+
 }  // namespace
 }  // namespace furn

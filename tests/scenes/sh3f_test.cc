@@ -9,6 +9,7 @@
 #include "core/file_util.h"
 #include "scenes/catalog.h"
 #include "scenes/java_properties.h"
+#include "scenes/mesh_io.h"
 #include "tests/scenes/fixtures.h"
 #include "tests/test_util.h"
 
@@ -222,6 +223,19 @@ TEST(Sh3f, FlatModelCannotBeScaled) {
   });
   EXPECT_NE(message.find("flat entry: model is flat along its height"), std::string::npos)
       << message;
+}
+
+// An MTL statement before any newmtl crashed assimp (tests/data/crashers):
+// such statements belong to no material and are dropped; the model loads.
+TEST(Sh3f, MtlStatementsBeforeNewmtlAreDroppedNotACrash) {
+  EXPECT_EQ(SanitizeMtl("map_Kd t.jpg\nKd 1 0 0\n# note\nnewmtl a\nKd 0 1 0\n\nnewmtl b\nNs 3"),
+            "# note\nnewmtl a\nKd 0 1 0\n\nnewmtl b\nNs 3");
+  EXPECT_EQ(SanitizeMtl(""), "");
+  const Catalog catalog =
+      OpenCatalog(FURN_SOURCE_DIR "/tests/data/crashers/manual_mtl_map_before_newmtl.sh3f");
+  LoadedModels loaded = catalog.LoadModels({"manual_mtl_map_before_newmtl/box"}, false);
+  loaded.RequireAll();
+  EXPECT_EQ(loaded.models[0].mesh.NumTriangles(), 4u);
 }
 
 }  // namespace

@@ -128,15 +128,19 @@ TEST(Train, BadModelFilesAreRejected) {
   testing::WriteText(dir + "/truncated.fcm", bytes.substr(0, bytes.size() / 2));
   EXPECT_NE(testing::ErrorOf([&] { LoadTrainedModel(dir + "/truncated.fcm"); }).find("truncated"),
             std::string::npos);
-  // A render mesh triangle pointing past its vertices (the last mesh's last
-  // triangle is the file's last 12 bytes).
-  std::string bad_index = bytes;
-  bad_index[bad_index.size() - 2] = 0x7f;
-  testing::WriteText(dir + "/bad_index.fcm", bad_index);
-  EXPECT_NE(testing::ErrorOf([&] {
-              LoadTrainedModel(dir + "/bad_index.fcm");
-            }).find("render mesh triangle indexes no vertex"),
-            std::string::npos);
+  // Any damaged byte of the payload: the checksum says so, one line, nothing
+  // parsed (200 single-byte flips over the file, and the render meshes' last one).
+  for (size_t k = 0; k <= 200; ++k) {
+    std::string damaged = bytes;
+    const size_t at = k < 200 ? 12 + (k * 7919u) % (bytes.size() - 12) : bytes.size() - 10;
+    damaged[at] = static_cast<char>(damaged[at] ^ (1 << (k % 8)));
+    testing::WriteText(dir + "/damaged.fcm", damaged);
+    EXPECT_NE(testing::ErrorOf([&] {
+                LoadTrainedModel(dir + "/damaged.fcm");
+              }).find("damaged (checksum mismatch)"),
+              std::string::npos)
+        << "byte " << at;
+  }
   std::string newer = bytes;
   newer[8] = 9;  // format version
   testing::WriteText(dir + "/newer.fcm", newer);
