@@ -13,8 +13,12 @@ void CameraIntrinsics::Check() const {
           "camera width " + std::to_string(width) + " must be in 1.." + std::to_string(kMaxSize));
   Require(height > 0 && height <= kMaxSize,
           "camera height " + std::to_string(height) + " must be in 1.." + std::to_string(kMaxSize));
-  Require(std::isfinite(fx) && fx > 0, "camera fx " + std::to_string(fx) + " must be > 0");
-  Require(std::isfinite(fy) && fy > 0, "camera fy " + std::to_string(fy) + " must be > 0");
+  // A focal length beyond 10^5 pixels is a telescope's, or a typo.
+  constexpr double kMaxFocal = 1e5;
+  Require(std::isfinite(fx) && fx > 0 && fx <= kMaxFocal,
+          "camera fx " + std::to_string(fx) + " must be in (0, 100000] pixels");
+  Require(std::isfinite(fy) && fy > 0 && fy <= kMaxFocal,
+          "camera fy " + std::to_string(fy) + " must be in (0, 100000] pixels");
   Require(std::isfinite(cx) && cx >= 0 && cx <= width,
           "camera cx " + std::to_string(cx) + " must lie in the image width 0.." +
               std::to_string(width));

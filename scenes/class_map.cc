@@ -56,7 +56,8 @@ ClassMap ParseClassMap(const std::string& json_text, const std::string& path) {
   Require(document.is_object(), path + ": a class map must be a JSON object");
   Require(document.value("format", "") == kFormat,
           path + ": \"format\" must be \"" + kFormat + "\"");
-  Require(document.value("version", 0) == kVersion,
+  Require(document.contains("version") && document["version"].is_number_integer() &&
+              document["version"].get<int64_t>() == kVersion,
           path + ": unsupported class map version (this build reads version " +
               std::to_string(kVersion) + ")");
   ClassMap map;

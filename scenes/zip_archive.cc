@@ -57,6 +57,20 @@ std::string ZipArchive::Read(const std::string& name) const {
   if (zip_stat_index(handle_->zip, index, 0, &stat) != 0 || !(stat.valid & ZIP_STAT_SIZE)) {
     throw InputError(where + ": cannot stat entry (" + zip_strerror(handle_->zip) + ")");
   }
+  // Nothing is allocated for what the archive cannot hold: a model entry of
+  // at most 512 MiB, and no more than deflate's largest expansion (1032:1)
+  // of its compressed bytes (forged sizes and zip bombs).
+  constexpr zip_uint64_t kMaxEntryBytes = 512ull << 20;
+  if (stat.size > kMaxEntryBytes) {
+    throw InputError(where + ": entry of " + std::to_string(stat.size) +
+                     " bytes is larger than the 512 MiB a model file may have");
+  }
+  if ((stat.valid & ZIP_STAT_COMP_SIZE) && stat.size > 1032 * stat.comp_size + 65536) {
+    throw InputError(where + ": entry expands " + std::to_string(stat.comp_size) + " bytes to " +
+                     std::to_string(stat.size) +
+                     ", beyond what deflate can (a forged size or a "
+                     "zip bomb)");
+  }
   zip_file_t* file = zip_fopen_index(handle_->zip, index, 0);
   if (file == nullptr) {
     throw InputError(where + ": cannot open entry (" + zip_strerror(handle_->zip) + ")");

@@ -1,5 +1,7 @@
 #include "workbench/cli_common.h"
 
+#include <algorithm>
+
 #include <CLI/CLI.hpp>
 #include <cstdlib>
 
@@ -30,7 +32,30 @@ CatalogOpenOptions MakeOpenOptions(const CatalogFlags& flags) {
   return options;
 }
 
+namespace {
+
+// Seeds are unsigned 64-bit numbers; CLI11 would wrap "-1" to 2^64 - 1.
+void CheckSeedsAreUnsigned(CLI::App* app) {
+  for (CLI::Option* option : app->get_options()) {
+    if (option->get_name().find("seed") == std::string::npos) continue;
+    option->check(
+        [name = option->get_name()](const std::string& value) -> std::string {
+          const bool digits =
+              !value.empty() && value.size() <= 20 &&
+              std::all_of(value.begin(), value.end(), [](char c) { return c >= '0' && c <= '9'; });
+          if (digits && (value.size() < 20 || value <= "18446744073709551615")) return "";
+          return name + " " + value + " must be a whole number in 0..2^64-1";
+        },
+        "unsigned seed");
+  }
+  for (CLI::App* sub : app->get_subcommands([](CLI::App*) { return true; }))
+    CheckSeedsAreUnsigned(sub);
+}
+
+}  // namespace
+
 std::optional<int> ParseCommandLine(CLI::App* app, int argc, char** argv) {
+  CheckSeedsAreUnsigned(app);
   try {
     app->parse(argc, argv);
   } catch (const CLI::ParseError& error) {

@@ -290,11 +290,12 @@ void TuneOptions::Check() const {
   Require(!space_path.empty(), "tune needs a search space (--space)");
   Require(!work_dir.empty(), "tune needs a work directory for trained models (--work-dir)");
   Require(!out_dir.empty(), "tune needs an output directory for its report (--out)");
-  for (const std::string& s : {split, test_split}) {
-    Require(s == "train" || s == "val" || s == "test" || s == "all" ||
-                (&s == &test_split && (s.empty() || s == "none")),
-            "split '" + s + "' must be train, val, test or all");
-  }
+  auto is_split = [](const std::string& s) {
+    return s == "train" || s == "val" || s == "test" || s == "all";
+  };
+  Require(is_split(split), "split '" + split + "' must be train, val, test or all");
+  Require(is_split(test_split) || test_split.empty() || test_split == "none",
+          "test split '" + test_split + "' must be train, val, test, all or none");
   Require(trials >= 1 && trials <= 10000,
           "trials " + std::to_string(trials) + " must be in 1..10000");
   Require(max_frames >= 0, "max frames must be >= 0");

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include "core/error.h"
+#include "tests/test_util.h"
 
 namespace furn {
 namespace {
@@ -40,6 +41,10 @@ TEST(Camera, BadIntrinsicsAreRejectedWithTheValue) {
   camera = CameraIntrinsics{};
   camera.cx = 1000;
   EXPECT_THROW(camera.Check(), InputError);
+  camera = CameraIntrinsics{};
+  camera.fy = 1e30;  // accepted before, then "no floor found"
+  EXPECT_NE(testing::ErrorOf([&] { camera.Check(); }).find("must be in (0, 100000] pixels"),
+            std::string::npos);
 }
 
 }  // namespace

@@ -63,6 +63,15 @@ TEST(ClassMap, StructuralMistakesAreRejected) {
               ParseClassMap(R"({"format": "other", "version": 1})", "m.json");
             }).find("\"format\" must be"),
             std::string::npos);
+  for (const char* version : {"1.5", "\"1\"", "2"}) {
+    EXPECT_NE(ErrorOf([&] {
+                ParseClassMap(
+                    std::string(R"({"format": "furnidet-class-map", "version": )") + version + "}",
+                    "m.json");
+              }).find("unsupported class map version"),
+              std::string::npos)
+        << version;
+  }
   EXPECT_NE(ErrorOf([] {
               LoadClassMap("/nonexistent/map.json");
             }).find("/nonexistent/map.json: cannot read"),

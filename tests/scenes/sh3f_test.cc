@@ -2,7 +2,10 @@
 
 #include <gtest/gtest.h>
 
+#include <zip.h>
+
 #include <chrono>
+#include <cstring>
 #include <filesystem>
 
 #include "core/error.h"
@@ -10,6 +13,7 @@
 #include "scenes/catalog.h"
 #include "scenes/java_properties.h"
 #include "scenes/mesh_io.h"
+#include "scenes/zip_archive.h"
 #include "tests/scenes/fixtures.h"
 #include "tests/test_util.h"
 
@@ -236,6 +240,44 @@ TEST(Sh3f, MtlStatementsBeforeNewmtlAreDroppedNotACrash) {
   LoadedModels loaded = catalog.LoadModels({"manual_mtl_map_before_newmtl/box"}, false);
   loaded.RequireAll();
   EXPECT_EQ(loaded.models[0].mesh.NumTriangles(), 4u);
+}
+
+// A zip entry whose declared size is forged, or that inflates beyond what
+// deflate can: refused before anything is allocated for it.
+TEST(ZipArchive, ForgedSizesAndBombsAreRefusedBeforeAllocating) {
+  const std::string dir = testing::ScratchDir();
+  const std::string path = dir + "/small.zip";
+  {
+    int error = 0;
+    zip_t* zip = zip_open(path.c_str(), ZIP_CREATE | ZIP_TRUNCATE, &error);
+    ASSERT_NE(zip, nullptr);
+    static const std::string text(4000, 'a');
+    zip_source_t* source = zip_source_buffer(zip, text.data(), text.size(), 0);
+    ASSERT_GE(zip_file_add(zip, "a.txt", source, ZIP_FL_OVERWRITE), 0);
+    ASSERT_EQ(zip_close(zip), 0);
+  }
+  EXPECT_EQ(ZipArchive(path).Read("a.txt").size(), 4000u);
+  // The uncompressed size in the local and central headers, set to `size`.
+  auto forged = [&](uint32_t size) {
+    std::string bytes = ReadFileBytes(path);
+    for (const auto& [signature, offset] :
+         std::vector<std::pair<std::string, size_t>>{{"PK\x03\x04", 22}, {"PK\x01\x02", 24}}) {
+      const size_t at = bytes.find(signature);
+      EXPECT_NE(at, std::string::npos);
+      std::memcpy(&bytes[at + offset], &size, sizeof(size));
+    }
+    const std::string out = dir + "/forged-" + std::to_string(size) + ".zip";
+    testing::WriteText(out, bytes);
+    return out;
+  };
+  EXPECT_NE(ErrorOf([&] {
+              ZipArchive(forged(0xFFFFFFF0u)).Read("a.txt");
+            }).find("larger than the 512 MiB"),
+            std::string::npos);
+  EXPECT_NE(ErrorOf([&] {
+              ZipArchive(forged(200u << 20)).Read("a.txt");
+            }).find("beyond what deflate can"),
+            std::string::npos);
 }
 
 }  // namespace

@@ -101,6 +101,16 @@ TEST(Cli, UsageMistakesExitWithTwo) {
   EXPECT_EQ(RunWorkbench("catalog export Test/x").exit_code,
             2);                                     // --out missing
   EXPECT_EQ(RunWorkbench("catalog").exit_code, 2);  // subcommand missing
+  // Seeds are unsigned: no wrapping of -1 to 2^64 - 1.
+  const testing::CommandResult negative =
+      RunWorkbench("generate --catalog procedural:2 --rooms 1 --seed -1 --out /tmp/x.db");
+  EXPECT_EQ(negative.exit_code, 2);
+  EXPECT_NE(negative.output.find("--seed -1 must be a whole number in 0..2^64-1"),
+            std::string::npos)
+      << negative.output;
+  EXPECT_EQ(RunWorkbench("render --catalog procedural:2 --seed 18446744073709551616 --out /tmp/x")
+                .exit_code,
+            2);
   EXPECT_EQ(RunWorkbench("--help").exit_code, 0);
 }
 

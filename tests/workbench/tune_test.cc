@@ -310,5 +310,24 @@ TEST(TuneCommand, TrialsAreRunsResumeAndTheReportAndBestOptionsWork) {
   EXPECT_EQ(DatasetDb(db, DatasetDb::Mode::kReadOnly).Runs().size(), runs_before);
 }
 
+TEST(TuneOptions, TestSplitNoneIsAcceptedAndBadSplitsAreNamed) {
+  TuneOptions options;
+  options.db_path = "d.db";
+  options.space_path = "s.json";
+  options.work_dir = "w";
+  options.out_dir = "o";
+  options.test_split = "none";  // documented: no held-out evaluation
+  EXPECT_NO_THROW(options.Check());
+  options.test_split = "";
+  EXPECT_NO_THROW(options.Check());
+  options.test_split = "tset";
+  EXPECT_NE(testing::ErrorOf([&] { options.Check(); }).find("test split 'tset'"),
+            std::string::npos);
+  options.test_split = "test";
+  options.split = "none";
+  EXPECT_NE(testing::ErrorOf([&] { options.Check(); }).find("split 'none' must be"),
+            std::string::npos);
+}
+
 }  // namespace
 }  // namespace furn
