@@ -140,8 +140,16 @@ Sh3fCatalog::Sh3fCatalog(const std::string& path)
       problems_.push_back(error.what());
     }
   }
-  Require(!entries_.empty(),
-          path + ": " + kPropertiesName + " declares no models (no usable model#N entries)");
+  // With no usable entry, the first entry's problem is the reason to give.
+  Require(
+      !entries_.empty(),
+      path + ": " + kPropertiesName + " declares no usable models" +
+          (problems_.empty() ? std::string(" (no model#N entries)")
+                             : " (" + problems_.front() +
+                                   (problems_.size() > 1
+                                        ? "; and " + std::to_string(problems_.size() - 1) + " more"
+                                        : std::string()) +
+                                   ")"));
 }
 
 Sh3fCatalog::~Sh3fCatalog() = default;

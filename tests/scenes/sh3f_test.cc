@@ -215,7 +215,15 @@ TEST(Sh3f, PropertiesWithoutModelsAreRejected) {
   testing::WriteZip(path,
                     {{"PluginFurnitureCatalog.properties", "id=X\nname=Nothing here\nname#1=A\n"}});
   const std::string message = ErrorOf([&] { Sh3fCatalog catalog(path); });
-  EXPECT_NE(message.find("declares no models"), std::string::npos) << message;
+  EXPECT_NE(message.find("declares no usable models"), std::string::npos) << message;
+  // An entry that is there but bad: the reason, not just "no models".
+  const std::string bad = testing::ScratchDir() + "/bad.sh3f";
+  testing::WriteZip(bad,
+                    {{"PluginFurnitureCatalog.properties",
+                      "id#1=X#a\nname#1=A\nmodel#1=/a.obj\nwidth#1=abc\ndepth#1=50\nheight#1=80\n"},
+                     {"a.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"}});
+  const std::string reason = ErrorOf([&] { Sh3fCatalog catalog(bad); });
+  EXPECT_NE(reason.find("width#1 'abc' is not a number"), std::string::npos) << reason;
 }
 
 TEST(Sh3f, FlatModelCannotBeScaled) {
