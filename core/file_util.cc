@@ -41,6 +41,41 @@ std::string ReadFileBytes(const std::string& path) {
   return buffer.str();
 }
 
+void WriteDirectoryAtomically(const std::string& out,
+                              const std::function<void(const std::string& dir)>& write) {
+  namespace fs = std::filesystem;
+  const fs::path target(out);
+  const fs::path parent = target.has_parent_path() ? target.parent_path() : fs::path(".");
+  std::error_code ec;
+  Require(fs::is_directory(parent, ec),
+          out + ": cannot write (directory " + parent.string() + " does not exist)");
+  Require(!fs::exists(target, ec) || fs::is_directory(target, ec),
+          out + ": cannot write a directory there (a file of that name exists)");
+  const fs::path temp =
+      parent / (target.filename().string() + ".tmp-" + std::to_string(::getpid()));
+  fs::remove_all(temp, ec);
+  Require(fs::create_directory(temp, ec), out + ": cannot write (" + ec.message() + ")");
+  try {
+    write(temp.string());
+  } catch (...) {
+    fs::remove_all(temp, ec);
+    throw;
+  }
+  if (!fs::exists(target, ec)) {
+    fs::rename(temp, target, ec);
+    Require(!ec, out + ": cannot write (" + ec.message() + ")");
+    return;
+  }
+  // Merge into the existing directory, entry by entry.
+  for (const fs::directory_entry& entry : fs::directory_iterator(temp)) {
+    const fs::path destination = target / entry.path().filename();
+    if (fs::is_directory(destination, ec) && entry.is_directory()) fs::remove_all(destination, ec);
+    fs::rename(entry.path(), destination, ec);
+    Require(!ec, destination.string() + ": cannot write (" + ec.message() + ")");
+  }
+  fs::remove_all(temp, ec);
+}
+
 MappedFile::MappedFile(const std::string& path) {
   const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
   if (fd < 0) throw InputError(path + ": cannot read (" + std::strerror(errno) + ")");

@@ -9,12 +9,20 @@
 #pragma once
 
 #include <cstddef>
+#include <functional>
 #include <string>
 
 namespace furn {
 
 // Throws InputError "<path>: cannot read (<reason>)".
 std::string ReadFileBytes(const std::string& path);
+
+// Runs `write(dir)` into a fresh temporary directory beside `out` and, when it
+// returns, moves what it wrote into `out` (created if missing; files of the
+// same names replaced, others kept). When it throws, the temporary directory
+// is removed and `out` is untouched: no half-written report or export.
+void WriteDirectoryAtomically(const std::string& out,
+                              const std::function<void(const std::string& dir)>& write);
 
 // A regular file mapped read-only into memory (mmap): large files are read
 // without a copy. Throws InputError as ReadFileBytes does, and for a file

@@ -4,6 +4,7 @@
 #include <iostream>
 
 #include "core/error.h"
+#include "core/file_util.h"
 #include "workbench/cli_common.h"
 #include "workbench/commands.h"
 #include "workbench/dataset_commands.h"
@@ -128,7 +129,9 @@ int RunDataset(int argc, char** argv) {
     return 0;
   }
   if (export_command->parsed()) {
-    const int frames = ExportDataset(db, format, out);
+    int frames = 0;  // a failed export leaves no partial folder
+    WriteDirectoryAtomically(
+        out, [&](const std::string& dir) { frames = ExportDataset(db, format, dir); });
     std::cout << "wrote " << frames << " frames to " << out << " (" << format << ")\n";
     return 0;
   }

@@ -332,7 +332,9 @@ int RunReport(int argc, char** argv) {
   app.add_option("--run", run_id, "Run id (0: the latest)")->capture_default_str();
   app.add_option("--out", out, "Report directory (index.html and PNGs)")->required();
   if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
-  WriteReportForRun(db_path, run_id, out);
+  // A failure leaves no half-written report behind.
+  WriteDirectoryAtomically(
+      out, [&](const std::string& dir) { WriteReportForRun(db_path, run_id, dir); });
   std::printf("wrote %s/index.html\n", out.c_str());
   return 0;
 }
@@ -348,7 +350,8 @@ int RunHistory(int argc, char** argv) {
   Require(!runs.empty(), db_path + ": has no runs (run 'workbench evaluate' first)");
   std::vector<std::map<std::string, double>> metrics;
   for (const RunRecord& run : runs) metrics.push_back(dataset.RunMetrics(run.id));
-  WriteHistoryReport(runs, metrics, out);
+  WriteDirectoryAtomically(out,
+                           [&](const std::string& dir) { WriteHistoryReport(runs, metrics, dir); });
   std::printf("wrote %s/history.html: %zu runs\n", out.c_str(), runs.size());
   return 0;
 }

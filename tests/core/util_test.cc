@@ -121,5 +121,44 @@ TEST(Random, ZigguratNormalHasStandardMoments) {
   for (int i = 0; i < 1000; ++i) ASSERT_EQ(a.Normal(), b.Normal());
 }
 
+TEST(FileUtil, DirectoriesAreWrittenWholeOrNotAtAll) {
+  namespace fs = std::filesystem;
+  const std::string dir = testing::ScratchDir();
+  // A failure midway: no output folder, no temporary one.
+  EXPECT_THROW(WriteDirectoryAtomically(dir + "/report",
+                                        [](const std::string& d) {
+                                          testing::WriteText(d + "/index.html", "half");
+                                          throw InputError("run 9 does not exist");
+                                        }),
+               InputError);
+  EXPECT_FALSE(fs::exists(dir + "/report"));
+  EXPECT_EQ(std::distance(fs::directory_iterator(dir), fs::directory_iterator()), 0);
+  // Success: the folder appears whole.
+  WriteDirectoryAtomically(dir + "/report", [](const std::string& d) {
+    testing::WriteText(d + "/index.html", "v1");
+    fs::create_directory(d + "/fold-0");
+    testing::WriteText(d + "/fold-0/index.html", "f1");
+  });
+  EXPECT_EQ(ReadFileBytes(dir + "/report/index.html"), "v1");
+  // Into an existing folder: files of the same names replaced, others kept.
+  testing::WriteText(dir + "/report/notes.txt", "mine");
+  WriteDirectoryAtomically(
+      dir + "/report", [](const std::string& d) { testing::WriteText(d + "/index.html", "v2"); });
+  EXPECT_EQ(ReadFileBytes(dir + "/report/index.html"), "v2");
+  EXPECT_EQ(ReadFileBytes(dir + "/report/notes.txt"), "mine");
+  EXPECT_EQ(ReadFileBytes(dir + "/report/fold-0/index.html"), "f1");
+  EXPECT_EQ(std::distance(fs::directory_iterator(dir), fs::directory_iterator()), 1);
+  // Where a file is, or below a missing folder: one line.
+  testing::WriteText(dir + "/file", "x");
+  EXPECT_NE(testing::ErrorOf([&] {
+              WriteDirectoryAtomically(dir + "/file", [](const std::string&) {});
+            }).find("a file of that name exists"),
+            std::string::npos);
+  EXPECT_NE(testing::ErrorOf([&] {
+              WriteDirectoryAtomically(dir + "/no/such/out", [](const std::string&) {});
+            }).find("does not exist"),
+            std::string::npos);
+}
+
 }  // namespace
 }  // namespace furn
