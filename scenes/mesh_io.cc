@@ -77,9 +77,41 @@ std::string SanitizeMtl(const std::string& bytes) {
 
 namespace {
 
-// The bytes assimp gets for a file: MTL files sanitised (SanitizeMtl).
+// Faces of more vertices than this are refused: assimp triangulates a
+// polygon in quadratic time (a 200,000-vertex face took 133 s).
+constexpr size_t kMaxFaceVertices = 1024;
+
+// Throws InputError naming `name` and the line of an OBJ face with more than
+// kMaxFaceVertices vertices.
+void CheckObjFaces(const std::string& name, const std::string& bytes) {
+  size_t at = 0;
+  int line = 1;
+  while (at < bytes.size()) {
+    size_t end = bytes.find('\n', at);
+    if (end == std::string::npos) end = bytes.size();
+    if (end - at > 2 && bytes[at] == 'f' && (bytes[at + 1] == ' ' || bytes[at + 1] == '\t')) {
+      size_t vertices = 0;
+      bool in_token = false;
+      for (size_t i = at + 1; i < end; ++i) {
+        const bool space = bytes[i] == ' ' || bytes[i] == '\t' || bytes[i] == '\r';
+        vertices += !space && !in_token;
+        in_token = !space;
+      }
+      Require(vertices <= kMaxFaceVertices,
+              name + ":" + std::to_string(line) + ": a face of " + std::to_string(vertices) +
+                  " vertices (at most " + std::to_string(kMaxFaceVertices) + ")");
+    }
+    at = end + 1;
+    ++line;
+  }
+}
+
+// The bytes assimp gets for a file: MTL files sanitised (SanitizeMtl), OBJ
+// faces checked (CheckObjFaces).
 std::string ForAssimp(const std::string& name, std::string bytes) {
-  return FileExtension(name) == "mtl" ? SanitizeMtl(bytes) : bytes;
+  const std::string extension = FileExtension(name);
+  if (extension == "obj") CheckObjFaces(name, bytes);
+  return extension == "mtl" ? SanitizeMtl(bytes) : bytes;
 }
 
 // Lets assimp open files from disk through ForAssimp.
@@ -94,11 +126,17 @@ class DiskIoSystem : public Assimp::IOSystem {
     if (mode != nullptr && std::strchr(mode, 'w') != nullptr) return nullptr;
     try {
       return new MemoryStream(ForAssimp(path, ReadFileBytes(path)));
-    } catch (const InputError&) {
+    } catch (const InputError& error) {
+      // assimp swallows exceptions; keep the first reason to report it.
+      if (first_error_.empty()) first_error_ = error.what();
       return nullptr;
     }
   }
   void Close(Assimp::IOStream* stream) override { delete stream; }
+  const std::string& first_error() const { return first_error_; }
+
+ private:
+  std::string first_error_;
 };
 
 // Lets assimp open the model and its MTL (or other side files) inside a zip.
@@ -220,8 +258,15 @@ CadModel LoadMeshFile(const std::string& path, const MeshLoadOptions& options) {
                      "' (supported: obj, ply, stl, off, gltf, glb, dae, 3ds, fbx and other "
                      "assimp formats)");
   }
-  importer.SetIOHandler(new DiskIoSystem);  // the importer owns it
-  TriangleMesh mesh = ImportTriangles(&importer, path, path);
+  auto* io = new DiskIoSystem;
+  importer.SetIOHandler(io);  // the importer owns it
+  TriangleMesh mesh;
+  try {
+    mesh = ImportTriangles(&importer, path, path);
+  } catch (const InputError&) {
+    if (!io->first_error().empty()) throw InputError(io->first_error());
+    throw;
+  }
   const bool y_up = options.up_axis == UpAxis::kY ||
                     (options.up_axis == UpAxis::kFormatDefault && IsYUpByDefault(extension));
   const Eigen::Matrix3f axes = y_up ? ZUpFromYUp() : Eigen::Matrix3f::Identity();
