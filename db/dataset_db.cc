@@ -154,8 +154,14 @@ void DatasetDb::CreateOrMigrate(Mode mode) {
     tables.Step();
     table_count = tables.ColumnInt(0);
   } catch (const DbError& error) {
-    // SQLite's reason comes last in the message ("file is not a database", ...).
+    // A cause the user can act on (read-only, full disk, another writer)
+    // passes as it is; otherwise SQLite's reason comes last in the message
+    // ("file is not a database", ...).
     const std::string message = error.what();
+    if (message.find("cannot write") != std::string::npos ||
+        message.find("another process") != std::string::npos ||
+        message.find("input/output") != std::string::npos)
+      throw;
     throw DbError(db_.path() + ": not a furnidet dataset (" +
                   message.substr(message.rfind(": ") + 2) + ")");
   }

@@ -3,6 +3,33 @@
 #include <sqlite3.h>
 
 namespace furn {
+namespace {
+
+// What a user can act on, for the result codes that are about the file and
+// not the query: read-only media, a full disk, another writer, damage.
+// Empty for the others.
+std::string PlainCause(int code) {
+  switch (code & 0xff) {
+    case SQLITE_READONLY:
+      return "cannot write: the file or its folder is read-only";
+    case SQLITE_FULL:
+      return "cannot write: the disk is full";
+    case SQLITE_BUSY:
+    case SQLITE_LOCKED:
+      return "another process holds the database (two runs writing one file?)";
+    case SQLITE_CORRUPT:
+    case SQLITE_NOTADB:
+      return "the file is damaged or not a database";
+    case SQLITE_IOERR:
+      return "an input/output error on the file";
+    case SQLITE_CANTOPEN:
+      return "cannot open the file (missing folder, permissions or read-only media)";
+    default:
+      return "";
+  }
+}
+
+}  // namespace
 
 Database::Database(const std::string& path, Mode mode) : path_(path) {
   const int flags = mode == Mode::kReadOnly            ? SQLITE_OPEN_READONLY
@@ -13,7 +40,9 @@ Database::Database(const std::string& path, Mode mode) : path_(path) {
     const std::string message = db_ ? sqlite3_errmsg(db_) : sqlite3_errstr(code);
     sqlite3_close(db_);
     db_ = nullptr;
-    throw DbError(path + ": cannot open database: " + message);
+    const std::string cause = PlainCause(code);
+    throw DbError(path + ": " + (cause.empty() ? "cannot open database" : cause) +
+                  " (SQLite: " + message + ")");
   }
   sqlite3_extended_result_codes(db_, 1);
   sqlite3_busy_timeout(db_, 10000);
@@ -25,6 +54,9 @@ Database::~Database() { sqlite3_close_v2(db_); }
 
 void Database::Check(int code, const std::string& what) const {
   if (code == SQLITE_OK || code == SQLITE_ROW || code == SQLITE_DONE) return;
+  const std::string cause = PlainCause(code);
+  if (!cause.empty())
+    throw DbError(path_ + ": " + cause + " (SQLite: " + sqlite3_errmsg(db_) + ")");
   throw DbError(path_ + ": " + what + ": " + sqlite3_errmsg(db_));
 }
 
@@ -34,6 +66,8 @@ void Database::Execute(const std::string& sql) {
   if (code != SQLITE_OK) {
     const std::string message = error ? error : sqlite3_errstr(code);
     sqlite3_free(error);
+    const std::string cause = PlainCause(code);
+    if (!cause.empty()) throw DbError(path_ + ": " + cause + " (SQLite: " + message + ")");
     throw DbError(path_ + ": " + message + " (in: " + sql.substr(0, 80) + ")");
   }
 }

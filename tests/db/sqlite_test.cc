@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <functional>
 
 #include "tests/test_util.h"
 
@@ -74,6 +75,37 @@ TEST(Sqlite, UsesWriteAheadLog) {
   Statement mode(&db, "PRAGMA journal_mode");
   ASSERT_TRUE(mode.Step());
   EXPECT_EQ(mode.ColumnText(0), "wal");
+}
+
+// A cause the user can act on is said plainly, not as SQL text.
+TEST(Sqlite, ReadOnlyAndBusyFilesAreSaidPlainly) {
+  auto error_of = [](const std::function<void()>& f) -> std::string {
+    try {
+      f();
+    } catch (const DbError& e) {
+      return e.what();
+    }
+    return "(no error)";
+  };
+  const std::string path = testing::ScratchDir() + "/plain.db";
+  {
+    Database db(path, Database::Mode::kReadWrite);
+    db.Execute("CREATE TABLE t(a INTEGER)");
+  }
+  Database read_only(path, Database::Mode::kReadOnly);
+  const std::string write = error_of([&] { read_only.Execute("INSERT INTO t VALUES (1)"); });
+  EXPECT_NE(write.find(path + ": cannot write: the file or its folder is read-only"),
+            std::string::npos)
+      << write;
+  EXPECT_EQ(write.find("INSERT"), std::string::npos) << write;
+  // Another connection holding the write lock.
+  Database holder(path, Database::Mode::kReadWrite);
+  holder.Execute("BEGIN IMMEDIATE");
+  Database other(path, Database::Mode::kReadWrite);
+  other.Execute("PRAGMA busy_timeout = 10");
+  const std::string busy = error_of([&] { other.Execute("INSERT INTO t VALUES (2)"); });
+  EXPECT_NE(busy.find("another process holds the database"), std::string::npos) << busy;
+  holder.Execute("ROLLBACK");
 }
 
 }  // namespace
