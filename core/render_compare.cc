@@ -160,6 +160,27 @@ double RenderComparison::SupportShare() const {
 
 float RenderTolerance(float z) { return 0.04f + 0.005f * z * z; }
 
+namespace {
+
+// One drawn pixel: the model's depth there against what the sensor saw.
+void CountPixel(float model_z, float seen, RenderComparison* result) {
+  ++result->drawn;
+  if (!std::isfinite(seen) || seen <= 0) {
+    ++result->unknown;
+    return;
+  }
+  const float tolerance = RenderTolerance(model_z);
+  if (seen > model_z + tolerance) {
+    ++result->violation;
+  } else if (seen < model_z - tolerance) {
+    ++result->occluded;
+  } else {
+    ++result->support;
+  }
+}
+
+}  // namespace
+
 RenderComparison CompareRendered(const std::vector<Eigen::Vector3f>& model_points,
                                  const std::vector<float>& depth,
                                  int width,
@@ -211,20 +232,7 @@ RenderComparison CompareRendered(const std::vector<Eigen::Vector3f>& model_point
     for (int u = left; u <= right; ++u) {
       const float model_z = zbuffer[static_cast<size_t>(v - top) * box_w + (u - left)];
       if (!std::isfinite(model_z)) continue;
-      ++result.drawn;
-      const float seen = depth[static_cast<size_t>(v) * width + u];
-      if (!std::isfinite(seen) || seen <= 0) {
-        ++result.unknown;
-        continue;
-      }
-      const float tolerance = RenderTolerance(model_z);
-      if (seen > model_z + tolerance) {
-        ++result.violation;
-      } else if (seen < model_z - tolerance) {
-        ++result.occluded;
-      } else {
-        ++result.support;
-      }
+      CountPixel(model_z, depth[static_cast<size_t>(v) * width + u], &result);
     }
   }
   return result;
@@ -359,20 +367,7 @@ RenderComparison ModelMeshCaster::Compare(int model,
       if (hit.hit.geomID == RTC_INVALID_GEOMETRY_ID) continue;
       if (origin.z() + hit.ray.tfar * direction.z() < min_model_z) continue;
       const float model_z = hit.ray.tfar;
-      ++result.drawn;
-      const float seen = depth[static_cast<size_t>(v) * width + u];
-      if (!std::isfinite(seen) || seen <= 0) {
-        ++result.unknown;
-        continue;
-      }
-      const float tolerance = RenderTolerance(model_z);
-      if (seen > model_z + tolerance) {
-        ++result.violation;
-      } else if (seen < model_z - tolerance) {
-        ++result.occluded;
-      } else {
-        ++result.support;
-      }
+      CountPixel(model_z, depth[static_cast<size_t>(v) * width + u], &result);
     }
   }
   return result;

@@ -114,61 +114,62 @@ std::string ForAssimp(const std::string& name, std::string bytes) {
   return extension == "mtl" ? SanitizeMtl(bytes) : bytes;
 }
 
-// Lets assimp open files from disk through ForAssimp.
-class DiskIoSystem : public Assimp::IOSystem {
+// An assimp IO system that serves whole files through ForAssimp and keeps
+// the first reason a file could not be served (assimp swallows exceptions).
+class CheckingIoSystem : public Assimp::IOSystem {
  public:
-  bool Exists(const char* path) const override {
-    std::error_code ec;
-    return std::filesystem::is_regular_file(path, ec);
-  }
   char getOsSeparator() const override { return '/'; }
   Assimp::IOStream* Open(const char* path, const char* mode) override {
     if (mode != nullptr && std::strchr(mode, 'w') != nullptr) return nullptr;
+    const std::string name = Name(path);
+    if (!Exists(path)) return nullptr;
     try {
-      return new MemoryStream(ForAssimp(path, ReadFileBytes(path)));
+      return new MemoryStream(ForAssimp(name, ReadWhole(name)));
     } catch (const InputError& error) {
-      // assimp swallows exceptions; keep the first reason to report it.
       if (first_error_.empty()) first_error_ = error.what();
       return nullptr;
     }
   }
   void Close(Assimp::IOStream* stream) override { delete stream; }
   const std::string& first_error() const { return first_error_; }
+
+ protected:
+  virtual std::string Name(const std::string& path) const { return path; }
+  virtual std::string ReadWhole(const std::string& name) const = 0;
 
  private:
   std::string first_error_;
 };
 
+// Files from disk.
+class DiskIoSystem : public CheckingIoSystem {
+ public:
+  bool Exists(const char* path) const override {
+    std::error_code ec;
+    return std::filesystem::is_regular_file(path, ec);
+  }
+
+ protected:
+  std::string ReadWhole(const std::string& name) const override { return ReadFileBytes(name); }
+};
+
 // Lets assimp open the model and its MTL (or other side files) inside a zip.
-class ZipIoSystem : public Assimp::IOSystem {
+class ZipIoSystem : public CheckingIoSystem {
  public:
   explicit ZipIoSystem(const ZipArchive& archive) : archive_(archive) {}
-  bool Exists(const char* path) const override { return archive_.Contains(Normalize(path)); }
-  char getOsSeparator() const override { return '/'; }
-  Assimp::IOStream* Open(const char* path, const char* mode) override {
-    if (mode != nullptr && std::strchr(mode, 'w') != nullptr) return nullptr;
-    const std::string name = Normalize(path);
-    if (!archive_.Contains(name)) return nullptr;
-    try {
-      return new MemoryStream(ForAssimp(name, archive_.Read(name)));
-    } catch (const InputError& error) {
-      // assimp swallows exceptions; keep the first reason to report it.
-      if (first_error_.empty()) first_error_ = error.what();
-      return nullptr;
-    }
-  }
-  void Close(Assimp::IOStream* stream) override { delete stream; }
-  const std::string& first_error() const { return first_error_; }
+  bool Exists(const char* path) const override { return archive_.Contains(Name(path)); }
 
- private:
+ protected:
   // Zip entry names have no leading '/', and OBJ files may say "./x.mtl".
-  static std::string Normalize(const std::string& path) {
+  std::string Name(const std::string& path) const override {
     std::string p = std::filesystem::path(path).lexically_normal().generic_string();
     while (!p.empty() && p[0] == '/') p.erase(0, 1);
     return p;
   }
+  std::string ReadWhole(const std::string& name) const override { return archive_.Read(name); }
+
+ private:
   const ZipArchive& archive_;
-  std::string first_error_;
 };
 
 TriangleMesh CollectTriangles(const aiScene& scene) {
