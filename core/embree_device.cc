@@ -89,4 +89,30 @@ RTCDevice SharedEmbreeDevice() {
 
 void RequireEmbreeDevice() { SharedEmbreeDevice(); }
 
+unsigned AttachTriangles(const TriangleMesh& mesh,
+                         const Eigen::Isometry3f& world_from_object,
+                         RTCScene scene) {
+  RTCGeometry geometry = rtcNewGeometry(SharedEmbreeDevice(), RTC_GEOMETRY_TYPE_TRIANGLE);
+  auto* vertices = static_cast<float*>(rtcSetNewGeometryBuffer(geometry,
+                                                               RTC_BUFFER_TYPE_VERTEX,
+                                                               0,
+                                                               RTC_FORMAT_FLOAT3,
+                                                               3 * sizeof(float),
+                                                               mesh.vertices.size()));
+  for (size_t i = 0; i < mesh.vertices.size(); ++i) {
+    Eigen::Map<Eigen::Vector3f>(vertices + 3 * i) = world_from_object * mesh.vertices[i];
+  }
+  auto* indices = static_cast<unsigned*>(rtcSetNewGeometryBuffer(geometry,
+                                                                 RTC_BUFFER_TYPE_INDEX,
+                                                                 0,
+                                                                 RTC_FORMAT_UINT3,
+                                                                 3 * sizeof(unsigned),
+                                                                 mesh.triangles.size()));
+  std::memcpy(indices, mesh.triangles.data(), mesh.triangles.size() * 3 * sizeof(unsigned));
+  rtcCommitGeometry(geometry);
+  const unsigned geometry_id = rtcAttachGeometry(scene, geometry);
+  rtcReleaseGeometry(geometry);
+  return geometry_id;
+}
+
 }  // namespace furn

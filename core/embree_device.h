@@ -8,7 +8,10 @@
 
 #include <embree3/rtcore.h>
 
+#include <Eigen/Geometry>
 #include <string>
+
+#include "core/mesh.h"
 
 namespace furn {
 
@@ -26,5 +29,11 @@ RTCDevice SharedEmbreeDevice();
 
 // Creates the device now if it does not exist yet (throws as above).
 void RequireEmbreeDevice();
+
+// Adds `mesh`, moved by `world_from_object`, to `scene` as one committed
+// triangle geometry of the shared device; returns its geometry id.
+unsigned AttachTriangles(const TriangleMesh& mesh,
+                         const Eigen::Isometry3f& world_from_object,
+                         RTCScene scene);
 
 }  // namespace furn

@@ -247,27 +247,7 @@ struct ModelMeshCaster::Impl {
     std::call_once(built[model], [&] {
       const TriangleMesh& mesh = (*meshes)[model];
       RTCScene scene = rtcNewScene(SharedEmbreeDevice());
-      if (!mesh.Empty()) {
-        RTCGeometry geometry = rtcNewGeometry(SharedEmbreeDevice(), RTC_GEOMETRY_TYPE_TRIANGLE);
-        auto* vertices = static_cast<float*>(rtcSetNewGeometryBuffer(geometry,
-                                                                     RTC_BUFFER_TYPE_VERTEX,
-                                                                     0,
-                                                                     RTC_FORMAT_FLOAT3,
-                                                                     3 * sizeof(float),
-                                                                     mesh.vertices.size()));
-        for (size_t i = 0; i < mesh.vertices.size(); ++i)
-          Eigen::Map<Eigen::Vector3f>(vertices + 3 * i) = mesh.vertices[i];
-        auto* indices = static_cast<unsigned*>(rtcSetNewGeometryBuffer(geometry,
-                                                                       RTC_BUFFER_TYPE_INDEX,
-                                                                       0,
-                                                                       RTC_FORMAT_UINT3,
-                                                                       3 * sizeof(unsigned),
-                                                                       mesh.triangles.size()));
-        std::memcpy(indices, mesh.triangles.data(), mesh.triangles.size() * 3 * sizeof(unsigned));
-        rtcCommitGeometry(geometry);
-        rtcAttachGeometry(scene, geometry);
-        rtcReleaseGeometry(geometry);
-      }
+      if (!mesh.Empty()) AttachTriangles(mesh, Eigen::Isometry3f::Identity(), scene);
       rtcCommitScene(scene);
       scenes[model] = scene;
     });

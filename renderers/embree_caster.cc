@@ -63,34 +63,6 @@ void SetInactiveLane(int k, Ray16* ray) {
 // Meshes this small go into a scene's top level as world-space triangles.
 constexpr size_t kMaxFlatTriangles = 64;
 
-// Adds `mesh`, moved by `world_from_object`, to `scene` as one triangle
-// geometry; returns its geometry id.
-unsigned AttachTriangles(const TriangleMesh& mesh,
-                         const Eigen::Isometry3f& world_from_object,
-                         RTCScene scene) {
-  RTCGeometry geometry = rtcNewGeometry(SharedEmbreeDevice(), RTC_GEOMETRY_TYPE_TRIANGLE);
-  auto* vertices = static_cast<float*>(rtcSetNewGeometryBuffer(geometry,
-                                                               RTC_BUFFER_TYPE_VERTEX,
-                                                               0,
-                                                               RTC_FORMAT_FLOAT3,
-                                                               3 * sizeof(float),
-                                                               mesh.vertices.size()));
-  for (size_t i = 0; i < mesh.vertices.size(); ++i) {
-    Eigen::Map<Eigen::Vector3f>(vertices + 3 * i) = world_from_object * mesh.vertices[i];
-  }
-  auto* indices = static_cast<unsigned*>(rtcSetNewGeometryBuffer(geometry,
-                                                                 RTC_BUFFER_TYPE_INDEX,
-                                                                 0,
-                                                                 RTC_FORMAT_UINT3,
-                                                                 3 * sizeof(unsigned),
-                                                                 mesh.triangles.size()));
-  std::memcpy(indices, mesh.triangles.data(), mesh.triangles.size() * 3 * sizeof(unsigned));
-  rtcCommitGeometry(geometry);
-  const unsigned geometry_id = rtcAttachGeometry(scene, geometry);
-  rtcReleaseGeometry(geometry);
-  return geometry_id;
-}
-
 // Object-space acceleration structures of meshes, shared by every caster of
 // the process and kept while their mesh lives: a catalog model placed in many
 // rooms, or an object cast alone for its amodal mask, is built once. Scenes
