@@ -692,7 +692,16 @@ PreparedScan Detector::Prepare(const DetectionInput& input) const {
   if (input.world_from_camera) {
     scan.world_from_camera = *input.world_from_camera;
   } else {
-    scan.world_from_camera = FindFloor(in_range, options.floor);
+    try {
+      scan.world_from_camera = FindFloor(in_range, options.floor);
+    } catch (const InputError& error) {
+      // Not the input's fault alone (the floor may be out of range or view):
+      // a frame without detections, the reason in the message.
+      scan.status = DetectionStatus::kNoFloor;
+      scan.message = std::string(error.what()) +
+                     "; give the pose (--world-from-camera, --floor-aligned) or raise --max-range";
+      return scan;
+    }
     scan.floor_estimated = true;
   }
   const Eigen::Matrix3f rotation = scan.world_from_camera.linear().cast<float>();

@@ -210,6 +210,7 @@ struct DetectionDebug {
 enum class DetectionStatus {
   kDetected,         // the pipeline ran (it may still have found nothing)
   kNoPointsInRange,  // no finite point within max_range_m of the sensor
+  kNoFloor,          // no pose given and no floor found (message says why)
 };
 
 struct DetectionResult {

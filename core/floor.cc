@@ -6,9 +6,12 @@
 #include <pcl/point_types.h>
 #include <pcl/sample_consensus/method_types.h>
 #include <pcl/sample_consensus/model_types.h>
+#include <pcl/features/normal_3d.h>
+#include <pcl/search/kdtree.h>
 #include <pcl/segmentation/sac_segmentation.h>
 
 #include <cmath>
+#include <optional>
 
 #include "core/error.h"
 #include "core/pcl_conversion.h"
@@ -53,54 +56,75 @@ Eigen::Isometry3d FindFloor(const std::vector<Eigen::Vector3f>& points_in_camera
   ransac.setMaxIterations(options.iterations);
   ransac.setInputCloud(cloud);
   // Planes are taken largest first; walls and table tops are skipped by the
-  // axis test or by lying above other points, so try a few.
-  std::vector<bool> removed(sample.size(), false);
-  for (int attempt = 0; attempt < 4; ++attempt) {
-    auto indices = pcl::make_shared<pcl::Indices>();
-    for (size_t i = 0; i < sample.size(); ++i) {
-      if (!removed[i]) indices->push_back(static_cast<int>(i));
+  // axis test or by lying above other points, so try a few. `candidates`
+  // are the sample points RANSAC may draw from.
+  auto search = [&](const std::vector<bool>& candidates) -> std::optional<Eigen::Isometry3d> {
+    std::vector<bool> removed(sample.size(), false);
+    for (int attempt = 0; attempt < 4; ++attempt) {
+      auto indices = pcl::make_shared<pcl::Indices>();
+      for (size_t i = 0; i < sample.size(); ++i) {
+        if (!removed[i] && candidates[i]) indices->push_back(static_cast<int>(i));
+      }
+      if (indices->size() < 3) break;
+      ransac.setIndices(indices);
+      pcl::PointIndices inliers;
+      pcl::ModelCoefficients coefficients;
+      ransac.segment(inliers, coefficients);
+      if (coefficients.values.size() != 4) break;
+      Eigen::Vector3d normal(
+          coefficients.values[0], coefficients.values[1], coefficients.values[2]);
+      double offset = coefficients.values[3];
+      const double length = normal.norm();
+      normal /= length;
+      offset /= length;
+      if (offset < 0) {  // orient towards the camera: n.c + d > 0 at c = 0
+        normal = -normal;
+        offset = -offset;
+      }
+      // The plane's support among all sample points, not only the candidates.
+      size_t support = 0, below = 0;
+      for (size_t i = 0; i < sample.size(); ++i) {
+        const double distance = normal.dot(sample[i].cast<double>()) + offset;
+        support += std::abs(distance) <= options.distance_m;
+        below += distance < -3 * options.distance_m;  // the floor has (almost) nothing below it
+      }
+      if (support < options.min_fraction * sample.size()) break;
+      if (offset >= options.min_camera_height_m && below < 0.02 * sample.size()) {
+        // World frame: z = normal, x = camera forward projected on the floor.
+        const Eigen::Vector3d z = normal;
+        Eigen::Vector3d x = Eigen::Vector3d::UnitZ() - z * z.z();
+        if (x.norm() < 1e-6) x = Eigen::Vector3d::UnitX() - z * z.x();
+        x.normalize();
+        const Eigen::Vector3d y = z.cross(x);
+        Eigen::Matrix3d world_from_camera_rotation;
+        world_from_camera_rotation.row(0) = x.transpose();
+        world_from_camera_rotation.row(1) = y.transpose();
+        world_from_camera_rotation.row(2) = z.transpose();
+        Eigen::Isometry3d world_from_camera = Eigen::Isometry3d::Identity();
+        world_from_camera.linear() = world_from_camera_rotation;
+        world_from_camera.translation() = Eigen::Vector3d(0, 0, offset);
+        return world_from_camera;
+      }
+      for (int i : inliers.indices) removed[i] = true;
     }
-    if (indices->size() < 3) break;
-    ransac.setIndices(indices);
-    pcl::PointIndices inliers;
-    pcl::ModelCoefficients coefficients;
-    ransac.segment(inliers, coefficients);
-    if (inliers.indices.size() < options.min_fraction * sample.size() ||
-        coefficients.values.size() != 4) {
-      break;
-    }
-    Eigen::Vector3d normal(coefficients.values[0], coefficients.values[1], coefficients.values[2]);
-    double offset = coefficients.values[3];
-    const double length = normal.norm();
-    normal /= length;
-    offset /= length;
-    if (offset < 0) {  // orient towards the camera: n.c + d > 0 at c = 0
-      normal = -normal;
-      offset = -offset;
-    }
-    // The floor has (almost) nothing below it; a table top has legs and floor.
-    size_t below = 0;
-    for (size_t i = 0; i < sample.size(); ++i) {
-      below += normal.dot(sample[i].cast<double>()) + offset < -3 * options.distance_m;
-    }
-    if (offset >= options.min_camera_height_m && below < 0.02 * sample.size()) {
-      // World frame: z = normal, x = camera forward projected on the floor.
-      const Eigen::Vector3d z = normal;
-      Eigen::Vector3d x = Eigen::Vector3d::UnitZ() - z * z.z();
-      if (x.norm() < 1e-6) x = Eigen::Vector3d::UnitX() - z * z.x();
-      x.normalize();
-      const Eigen::Vector3d y = z.cross(x);
-      Eigen::Matrix3d world_from_camera_rotation;
-      world_from_camera_rotation.row(0) = x.transpose();
-      world_from_camera_rotation.row(1) = y.transpose();
-      world_from_camera_rotation.row(2) = z.transpose();
-      Eigen::Isometry3d world_from_camera = Eigen::Isometry3d::Identity();
-      world_from_camera.linear() = world_from_camera_rotation;
-      world_from_camera.translation() = Eigen::Vector3d(0, 0, offset);
-      return world_from_camera;
-    }
-    for (int i : inliers.indices) removed[i] = true;
+    return std::nullopt;
+  };
+  if (const auto floor = search(std::vector<bool>(sample.size(), true))) return *floor;
+  // A small floor among large walls (a real room seen level) is rarely drawn
+  // by RANSAC; again among the points whose surface faces up.
+  pcl::NormalEstimation<pcl::PointXYZ, pcl::Normal> estimation;
+  estimation.setInputCloud(cloud);
+  estimation.setSearchMethod(pcl::make_shared<pcl::search::KdTree<pcl::PointXYZ>>());
+  estimation.setKSearch(12);
+  pcl::PointCloud<pcl::Normal> normals;
+  estimation.compute(normals);
+  const double cos_tilt = std::cos(options.max_tilt_deg * M_PI / 180);
+  std::vector<bool> facing_up(sample.size(), false);
+  for (size_t i = 0; i < sample.size(); ++i) {
+    const pcl::Normal& n = normals[i];
+    facing_up[i] = std::isfinite(n.normal_y) && std::abs(n.normal_y) >= cos_tilt;
   }
+  if (const auto floor = search(facing_up)) return *floor;
   throw InputError("no floor found: no plane within " + std::to_string(options.max_tilt_deg) +
                    " degrees of the camera's up direction holds " +
                    std::to_string(static_cast<int>(100 * options.min_fraction)) +

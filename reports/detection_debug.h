@@ -21,6 +21,7 @@ namespace furn {
 struct GroundTruthFootprint {
   std::string furniture_class;  // empty for clutter
   double x = 0, y = 0, yaw = 0, width = 0, depth = 0;
+  double height = 0;
 };
 
 // `camera` projects the camera-frame points (Kinect v1 when the input had no

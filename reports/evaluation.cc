@@ -246,6 +246,36 @@ EvaluationResult EvaluateFrames(const std::vector<FrameOutcome>& frames,
     if (classes > 0) m["mAP@" + CentimetreName(distance)] = sum / classes;
   }
 
+  // Frames where a false detection outscores every true one, at 20 cm (a
+  // frame with only false detections counts): what a user acting on the
+  // top detection of each frame would get wrong.
+  {
+    std::set<const ScoredDetection*> true_at_20;
+    for (const std::string& c : options.classes) {
+      for (const auto& [d, t] : MatchClass(frames, c, 0.20, all_objects).true_positives)
+        true_at_20.insert(d);
+    }
+    int wrong_top = 0;
+    for (const FrameOutcome& f : frames) {
+      double best_true = -1, best_false = -1;
+      for (const ScoredDetection& d : f.detections) {
+        if (true_at_20.count(&d) > 0) {
+          best_true = std::max(best_true, d.score);
+          continue;
+        }
+        bool ignored_near = false;
+        for (const TruthObject& t : f.truth) {
+          ignored_near |= t.furniture_class == d.furniture_class &&
+                          all_objects(t) == Role::kIgnore &&
+                          std::hypot(t.x - d.x, t.y - d.y) <= 0.20;
+        }
+        if (!ignored_near) best_false = std::max(best_false, d.score);
+      }
+      wrong_top += best_false >= 0 && best_false > best_true;
+    }
+    m["false_above_true_error@20cm"] = static_cast<double>(wrong_top) / frames.size();
+  }
+
   // Pose errors, CAD identification and per-frame errors at 10 cm.
   double xy_sum = 0, yaw_sum = 0;
   int tps = 0, identified = 0, identifiable = 0;

@@ -108,31 +108,62 @@ void RunGnuplot(const std::string& script, const std::string& png_path) {
   Require(!error, png_path + ": cannot write (" + error.message() + ")");
 }
 
-void WriteHistoryReport(const std::vector<RunRecord>& runs,
-                        const std::vector<std::map<std::string, double>>& metrics,
-                        const std::string& dir) {
-  Require(!runs.empty() && runs.size() == metrics.size(), "history needs at least one run");
+void WriteHistoryReport(const std::vector<HistoryDataset>& datasets, const std::string& dir) {
+  struct Row {
+    const HistoryDataset* dataset;
+    const RunRecord* run;
+    const std::map<std::string, double>* metrics;
+  };
+  std::vector<Row> rows;
+  for (const HistoryDataset& d : datasets) {
+    Require(d.runs.size() == d.metrics.size(), d.name + ": a metrics map per run is needed");
+    for (size_t r = 0; r < d.runs.size(); ++r) rows.push_back({&d, &d.runs[r], &d.metrics[r]});
+  }
+  Require(!rows.empty(), "history needs at least one run");
+  // Runs in the order they started (ISO 8601 sorts as text); ties by dataset and id.
+  std::stable_sort(rows.begin(), rows.end(), [](const Row& a, const Row& b) {
+    return a.run->started < b.run->started;
+  });
   std::error_code error;
   std::filesystem::create_directories(dir, error);
   Require(!error, dir + ": cannot create the history directory (" + error.message() + ")");
   auto path = [&](const std::string& name) { return (std::filesystem::path(dir) / name).string(); };
-  const std::vector<std::string> plotted = {
-      "mAP@10cm", "mAP@5cm", "mAP@20cm", "cad_identified", "xy_error_mean_m", "latency_p50_ms"};
+  const std::vector<std::string> plotted = {"mAP@10cm",
+                                            "mAP@5cm",
+                                            "mAP@20cm",
+                                            "false_above_true_error@20cm",
+                                            "xy_error_mean_m",
+                                            "latency_p50_ms"};
+  const char* colours[] = {"#aa3377", "#4477aa", "#228833", "#ccbb44", "#66ccee", "#ee6677"};
   for (size_t p = 0; p < plotted.size(); ++p) {
     std::ostringstream script;
     script << "set terminal pngcairo noenhanced size 560,320 font 'sans,10'\nset title '"
-           << plotted[p]
-           << " by run'\nset xlabel 'run'\nset grid\nset key off\nset xtics 1\n$d << EOD\n";
-    for (size_t r = 0; r < runs.size(); ++r) {
-      const auto it = metrics[r].find(plotted[p]);
-      if (it != metrics[r].end()) script << runs[r].id << " " << it->second << "\n";
+           << plotted[p] << " by run'\nset xlabel 'run (in the order they started)'\nset grid\n"
+           << (datasets.size() > 1 ? "set key outside bottom center horizontal\n" : "set key off\n");
+    std::vector<std::string> series;
+    for (size_t d = 0; d < datasets.size(); ++d) {
+      std::ostringstream points;
+      for (size_t k = 0; k < rows.size(); ++k) {
+        if (rows[k].dataset != &datasets[d]) continue;
+        const auto it = rows[k].metrics->find(plotted[p]);
+        if (it != rows[k].metrics->end() && std::isfinite(it->second))
+          points << k + 1 << " " << it->second << "\n";
+      }
+      if (points.str().empty()) continue;
+      script << "$d" << d << " << EOD\n" << points.str() << "EOD\n";
+      std::string name = datasets[d].name;
+      std::replace(name.begin(), name.end(), '\'', ' ');
+      series.push_back("$d" + std::to_string(d) + " using 1:2 with linespoints pt 7 lc rgb '" +
+                       colours[d % 6] + "' title '" + name + "'");
     }
-    script << "EOD\nplot $d using 1:2 with linespoints pt 7 lc rgb '#aa3377'\n";
+    if (series.empty()) script << "set label 'no run has this metric' at graph 0.3,0.5\nplot NaN\n";
+    for (size_t k = 0; k < series.size(); ++k)
+      script << (k == 0 ? "plot " : ", ") << series[k] << (k + 1 == series.size() ? "\n" : "");
     RunGnuplot(script.str(), path("history_" + std::to_string(p) + ".png"));
   }
   std::vector<std::string> names;  // every metric any run has, sorted
-  for (const auto& m : metrics) {
-    for (const auto& [name, value] : m) names.push_back(name);
+  for (const Row& row : rows) {
+    for (const auto& [name, value] : *row.metrics) names.push_back(name);
   }
   std::sort(names.begin(), names.end());
   names.erase(std::unique(names.begin(), names.end()), names.end());
@@ -140,22 +171,28 @@ void WriteHistoryReport(const std::vector<RunRecord>& runs,
   html << "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>furnidet "
        << "history</title>\n<style>body{font-family:sans-serif;margin:24px}table{border-collapse:"
        << "collapse;font-size:12px}td,th{border:1px solid #ccc;padding:3px 8px;text-align:right}"
-       << "th{background:#f0f0f0;position:sticky;top:0}td:nth-child(-n+5),th:nth-child(-n+5)"
+       << "th{background:#f0f0f0;position:sticky;top:0}td:nth-child(-n+6),th:nth-child(-n+6)"
        << "{text-align:left}img{border:1px solid #ddd;margin:4px}</style></head><body>\n"
-       << "<h1>Metric history (" << runs.size() << " runs)</h1>\n<div>";
+       << "<h1>Metric history (" << rows.size() << " runs";
+  if (datasets.size() > 1) {
+    html << " of " << datasets.size() << " datasets:";
+    for (const HistoryDataset& d : datasets) html << " " << HtmlEscape(d.name);
+  }
+  html << ")</h1>\n<div>";
   for (size_t p = 0; p < plotted.size(); ++p)
     html << "<img src=\"history_" << p << ".png\" alt=\"" << HtmlEscape(plotted[p]) << "\">";
-  html << "</div>\n<table><tr><th>run</th><th>started</th><th>commit</th><th>kind</th>"
-       << "<th>label</th>";
+  html << "</div>\n<table><tr><th>dataset</th><th>run</th><th>started</th><th>commit</th>"
+       << "<th>kind</th><th>label</th>";
   for (const std::string& name : names) html << "<th>" << HtmlEscape(name) << "</th>";
   html << "</tr>\n";
-  for (size_t r = 0; r < runs.size(); ++r) {
-    html << "<tr><td>" << runs[r].id << "</td><td>" << HtmlEscape(runs[r].started) << "</td><td>"
-         << HtmlEscape(runs[r].git_commit.substr(0, 10)) << (runs[r].git_dirty ? "+" : "")
-         << "</td><td>" << HtmlEscape(runs[r].kind) << "</td><td>" << HtmlEscape(runs[r].label)
-         << "</td>";
+  for (const Row& row : rows) {
+    const RunRecord& run = *row.run;
+    html << "<tr><td>" << HtmlEscape(row.dataset->name) << "</td><td>" << run.id << "</td><td>"
+         << HtmlEscape(run.started) << "</td><td>" << HtmlEscape(run.git_commit.substr(0, 10))
+         << (run.git_dirty ? "+" : "") << "</td><td>" << HtmlEscape(run.kind) << "</td><td>"
+         << HtmlEscape(run.label) << "</td>";
     for (const std::string& name : names)
-      html << "<td>" << Number(MetricOrNan(metrics[r], name), 3) << "</td>";
+      html << "<td>" << Number(MetricOrNan(*row.metrics, name), 3) << "</td>";
     html << "</tr>\n";
   }
   html << "</table>\n<p>+ after a commit: run on a working tree with uncommitted changes.</p>\n"

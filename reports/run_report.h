@@ -44,11 +44,18 @@ void WriteCrossvalReport(const RunReportInput& input,
                          const std::vector<std::string>& fold_reports,
                          const std::string& dir);
 
-// Every metric across runs (and the commits they ran on): history.html with
-// one table row per run and a plot per headline metric, in `dir`.
-void WriteHistoryReport(const std::vector<RunRecord>& runs,
-                        const std::vector<std::map<std::string, double>>& metrics,
-                        const std::string& dir);
+// The runs of one dataset, for the history page.
+struct HistoryDataset {
+  std::string name;  // shown in the table and the plots' key
+  std::vector<RunRecord> runs;
+  std::vector<std::map<std::string, double>> metrics;  // one per run
+};
+
+// Every metric across runs (and the commits they ran on) of one or more
+// datasets (synthetic and real side by side): history.html with one table
+// row per run and a plot per headline metric, one line per dataset, runs in
+// the order they started, in `dir`.
+void WriteHistoryReport(const std::vector<HistoryDataset>& datasets, const std::string& dir);
 
 // Text safe inside HTML elements and attributes.
 std::string HtmlEscape(const std::string& text);

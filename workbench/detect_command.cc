@@ -12,6 +12,7 @@
 #include "core/error.h"
 #include "core/file_util.h"
 #include "core/render_compare.h"
+#include "workbench/real_set.h"
 #include "db/dataset_db.h"
 #include "renderers/frame_io.h"
 #include "workbench/camera_file.h"
@@ -94,6 +95,21 @@ Eigen::Isometry3d CameraFacing(const Eigen::Vector3d& sensor, const Eigen::Vecto
   return pose;
 }
 
+// Whether a VIEWPOINT can be the camera's pose: a cloud in the camera frame
+// has most points in front (z > 0); a pose whose inverse puts most of them
+// behind, while as given they lie in front, is a display convention.
+bool ViewpointIsCameraPose(const ScanCloud& cloud, const Eigen::Isometry3d& viewpoint) {
+  const Eigen::Isometry3f camera_from_world = viewpoint.inverse().cast<float>();
+  size_t finite = 0, front_as_given = 0, front_posed = 0;
+  for (const Eigen::Vector3f& p : cloud.points) {
+    if (!p.allFinite()) continue;
+    ++finite;
+    front_as_given += p.z() > 0;
+    front_posed += (camera_from_world * p).z() > 0;
+  }
+  return !(2 * front_posed < finite && 2 * front_as_given > finite);
+}
+
 void CloudFromWorld(ScanCloud cloud, const ScanSource& source, LoadedScan* scan) {
   const std::string& path = source.cloud_path;
   std::optional<Eigen::Isometry3d> pose;
@@ -101,8 +117,15 @@ void CloudFromWorld(ScanCloud cloud, const ScanSource& source, LoadedScan* scan)
     pose = ParsePose(source.world_from_camera, "--world-from-camera");
     scan->pose_source = "--world-from-camera";
   } else if (cloud.viewpoint) {
-    pose = cloud.viewpoint;
-    scan->pose_source = "the PCD VIEWPOINT";
+    if (!source.floor_aligned && !ViewpointIsCameraPose(cloud, *cloud.viewpoint)) {
+      // OpenNI-era PCDs store "0 0 0 0 1 0 0", a turn of the viewer's
+      // camera, with points already in the optical frame.
+      scan->pose_source = "camera frame (the PCD VIEWPOINT, a rotation that would put the "
+                          "points behind the camera, is ignored)";
+    } else {
+      pose = cloud.viewpoint;
+      scan->pose_source = "the PCD VIEWPOINT";
+    }
   }
   if (source.floor_aligned) {
     // An organised grid fixes the camera exactly; it wins over a VIEWPOINT,
@@ -182,6 +205,17 @@ LoadedScan LoadScan(const ScanSource& source) {
       scan.input.width = cloud.width;
       scan.input.height = cloud.height;
     }
+    if (scan.input.width * scan.input.height > 0) {
+      // An organised cloud tells its own intrinsics (debug views, reports).
+      if (const std::optional<PinholeIntrinsics> own = IntrinsicsOfOrganisedCloud(
+              scan.input.points, scan.input.width, scan.input.height)) {
+        const CameraIntrinsics fitted{
+            scan.input.width, scan.input.height, own->fx, own->fy, own->cx, own->cy};
+        if (own->fx > 0 && own->fy > 0 && own->cx >= 0 && own->cy >= 0 &&
+            own->cx < fitted.width && own->cy < fitted.height)
+          scan.camera = fitted;
+      }
+    }
     return scan;
   }
   Require(source.sensor.empty(), "--sensor applies to point clouds");
@@ -242,6 +276,11 @@ LoadedScan LoadScan(const ScanSource& source) {
   scan.camera = IntrinsicsOf(*frame);
   scan.input = DetectionInputOf(*frame, what);
   scan.description = what;
+  if (const std::optional<std::string> generation = db.GenerationOptions();
+      generation && FramesWithEstimatedPose(*generation).count(frame->id) > 0) {
+    scan.label_from_camera = frame->world_from_camera;
+    scan.input.world_from_camera.reset();
+  }
   for (const ObjectRecord& object : room.objects) {
     scan.ground_truth.push_back({object.furniture_class,
                                  object.reference_x,
@@ -251,6 +290,21 @@ LoadedScan LoadScan(const ScanSource& source) {
                                  object.depth});
   }
   return scan;
+}
+
+std::vector<GroundTruthFootprint> GroundTruthInDetectorFrame(const LoadedScan& scan,
+                                                             const DetectionResult& result) {
+  std::vector<GroundTruthFootprint> ground_truth = scan.ground_truth;
+  if (!scan.label_from_camera || result.status != DetectionStatus::kDetected) return ground_truth;
+  const Eigen::Isometry3d to_detector =
+      result.world_from_camera * scan.label_from_camera->inverse();
+  for (GroundTruthFootprint& truth : ground_truth) {
+    const FloorPose moved = MoveFloorPose({truth.x, truth.y, truth.yaw}, to_detector);
+    truth.x = moved.x;
+    truth.y = moved.y;
+    truth.yaw = moved.yaw;
+  }
+  return ground_truth;
 }
 
 namespace {

@@ -51,11 +51,19 @@ struct LoadedScan {
   CameraIntrinsics camera;  // of the depth image or DB frame; Kinect v1 for clouds
   std::vector<GroundTruthFootprint> ground_truth;  // DB frames only
   std::string pose_source;  // where the pose came from, or empty (floor estimated)
+  // Imported real scans whose floor the detector estimates: the camera's pose
+  // in the labels' frame (ground_truth is in it, detections are not).
+  std::optional<Eigen::Isometry3d> label_from_camera;
 };
 
 // Exactly one of cloud, depth or db must be given. Throws InputError naming
 // the file or value for anything unreadable or inconsistent.
 LoadedScan LoadScan(const ScanSource& source);
+
+// The scan's ground truth in the detector's floor frame: as stored, or moved
+// there from the labels' frame of an imported real scan.
+std::vector<GroundTruthFootprint> GroundTruthInDetectorFrame(const LoadedScan& scan,
+                                                             const DetectionResult& result);
 
 // The scans behind `inputs`, each a file (.pcd/.ply: cloud; .png/.tif/.tiff/
 // .exr: depth image), a glob pattern of such files, a TUM RGB-D list (.txt:

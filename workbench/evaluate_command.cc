@@ -21,6 +21,7 @@
 #include "scenes/model_folds.h"
 #include "workbench/detect_command.h"
 #include "workbench/json_text.h"
+#include "workbench/real_set.h"
 
 namespace furn {
 namespace {
@@ -121,6 +122,8 @@ EvaluateSummary EvaluateModel(const std::string& model_path,
   // dataset's evaluation_only flags say (its rooms may come from other catalogs).
   const std::set<std::string> trained_models(model.model_names.begin(), model.model_names.end());
   // The frames to run: ids of the split's rooms, in order.
+  const std::set<int64_t> estimated_pose =
+      FramesWithEstimatedPose(dataset.GenerationOptions().value_or(""));
   std::vector<int64_t> rooms;
   int total_frames = 0;
   for (int64_t id : dataset.RoomIds()) {
@@ -147,11 +150,22 @@ EvaluateSummary EvaluateModel(const std::string& model_path,
     for (const FrameRecord& frame : room.frames) {
       if (static_cast<int>(outcomes.size()) >= total_frames) break;
       dataset_hash.Update(frame.content_hash.data(), frame.content_hash.size());
-      const DetectionResult result =
-          detector.Detect(DetectionInputOf(frame, db_path + " frame " + std::to_string(frame.id)));
+      DetectionInput input = DetectionInputOf(frame, db_path + " frame " + std::to_string(frame.id));
+      // Real scans without a known floor: the detector finds it, and its
+      // detections move from its floor frame into the labels'.
+      const bool estimate = estimated_pose.count(frame.id) > 0;
+      if (estimate) input.world_from_camera.reset();
+      const DetectionResult result = detector.Detect(input);
+      Eigen::Isometry3d to_labels = Eigen::Isometry3d::Identity();
+      if (estimate && result.status == DetectionStatus::kDetected)
+        to_labels = frame.world_from_camera * result.world_from_camera.inverse();
+      auto in_labels = [&](double x, double y, double yaw) {
+        return MoveFloorPose({x, y, yaw}, to_labels);
+      };
       // A frame with nothing in range (the camera against a wall, a dead
       // sensor) has no detections; its objects count as missed or ignored.
-      if (result.status != DetectionStatus::kDetected) ++summary.frames_without_points;
+      if (result.status == DetectionStatus::kNoPointsInRange) ++summary.frames_without_points;
+      if (result.status == DetectionStatus::kNoFloor) ++summary.frames_without_floor;
 
       FrameOutcome outcome;
       outcome.frame_id = frame.id;
@@ -171,7 +185,12 @@ EvaluateSummary EvaluateModel(const std::string& model_path,
         }
         outcome.truth.push_back(truth);
       }
-      for (const Detection& d : result.detections) {
+      for (const Detection& detected : result.detections) {
+        Detection d = detected;
+        const FloorPose moved = in_labels(d.x, d.y, d.yaw);
+        d.x = moved.x;
+        d.y = moved.y;
+        d.yaw = moved.yaw;
         outcome.detections.push_back({ClassName(d.furniture_class),
                                       d.model_name,
                                       d.x,
@@ -192,15 +211,17 @@ EvaluateSummary EvaluateModel(const std::string& model_path,
                               d.covered_fraction});
       }
       for (const DetectionDebug::Hypothesis& h : result.debug.hypotheses) {
+        const FloorPose maximum = in_labels(h.x, h.y, 0);
         outcome.maxima.push_back(
-            {ClassName(h.furniture_class), h.x, h.y, h.relative_weight, h.outcome});
+            {ClassName(h.furniture_class), maximum.x, maximum.y, h.relative_weight, h.outcome});
         if (!options.collect_scorer_samples || !h.has_features) continue;
         ScorerSample sample;
         sample.features = h.features;
         sample.group = static_cast<uint64_t>(frame.id);
         for (const TruthObject& t : outcome.truth) {
+          const FloorPose fit = in_labels(h.fit_x, h.fit_y, 0);
           sample.positive |= t.furniture_class == ClassName(h.furniture_class) &&
-                             std::hypot(t.x - h.fit_x, t.y - h.fit_y) <= 0.10;
+                             std::hypot(t.x - fit.x, t.y - fit.y) <= 0.10;
         }
         summary.scorer_samples.push_back(sample);
       }
@@ -225,6 +246,7 @@ EvaluateSummary EvaluateModel(const std::string& model_path,
   evaluation.max_distance_m = options.detector.max_range_m;
   summary.result = EvaluateFrames(outcomes, evaluation);
   summary.result.metrics["frames_without_points"] = summary.frames_without_points;
+  summary.result.metrics["frames_without_floor"] = summary.frames_without_floor;
 
   RunRecord run = NewRunRecord(options.kind, options.label);
   run.model_path = model_path;
@@ -319,7 +341,7 @@ void WriteReportForRun(const std::string& db_path, int64_t run_id, const std::st
     WriteDetectionDebug(result,
                         detector->model(),
                         scan.camera,
-                        scan.ground_truth,
+                        GroundTruthInDetectorFrame(scan, result),
                         (std::filesystem::path(out_dir) / g.dir).string());
     g.pngs = {"fitted.png", "topdown.png", "segments.png"};
     for (const char* c : {"chair", "armchair", "table", "sideboard"}) {
@@ -343,6 +365,7 @@ std::vector<Regression> FindRegressions(const std::map<std::string, double>& run
     const bool latency = metric.rfind("latency", 0) == 0;
     if (latency && latency_tolerance <= 0) continue;
     if (metric == "frames" || metric == "objects" || metric == "frames_without_points" ||
+        metric == "frames_without_floor" ||
         metric == "folds" || metric.rfind("spread/", 0) == 0 || metric.rfind("funnel/", 0) == 0 ||
         metric.rfind("false_positives/", 0) == 0)
       continue;  // sizes, spreads and diagnostic counts, not quality

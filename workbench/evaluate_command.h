@@ -48,6 +48,7 @@ struct EvaluateSummary {
   EvaluationResult result;
   int frames = 0;
   int frames_without_points = 0;  // no point in range: counted, with no detections
+  int frames_without_floor = 0;   // no pose and no floor found: likewise
   double seconds = 0;
   // With collect_scorer_samples: positive when the fit lies within 10 cm of
   // a true object of its class.

@@ -8,6 +8,7 @@
 #include "workbench/cli_common.h"
 #include "workbench/commands.h"
 #include "workbench/dataset_commands.h"
+#include "workbench/real_set.h"
 #include "workbench/generate.h"
 
 namespace furn {
@@ -121,7 +122,19 @@ int RunDataset(int argc, char** argv) {
   export_command->add_option("db", db, "Dataset database")->required();
   export_command->add_option("--format", format, "bop, png or pcd")->capture_default_str();
   export_command->add_option("--out", out, "Output directory")->required();
+  CLI::App* import_real = app.add_subcommand(
+      "import-real", "Labelled real scans (a furnidet-real-set JSON) into a new dataset");
+  std::string labels, sheets;
+  import_real->add_option("labels", labels, "Real-set JSON (data/real/labels.json)")->required();
+  import_real->add_option("--out", out, "New dataset file")->required();
+  import_real->add_option("--sheets", sheets, "Write a top-down label sheet per scan here");
   if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
+  if (import_real->parsed()) {
+    const RealImportSummary summary = ImportRealSet(ReadRealSet(labels), out, sheets);
+    std::cout << "wrote " << out << ": " << summary.frames << " real scans, " << summary.objects
+              << " labelled objects\n";
+    return 0;
+  }
   if (merge->parsed()) {
     const MergeSummary summary = MergeDatasets(inputs, out);
     std::cout << "wrote " << out << ": " << summary.rooms << " rooms from " << inputs.size()

@@ -190,7 +190,11 @@ int RunDetect(int argc, char** argv) {
       for (const auto& [stage, ms] : result.timings_ms) stage_times[stage].push_back(ms);
     }
     if (!debug_dir.empty()) {  // first: --out may name a file inside it
-      WriteDetectionDebug(result, detector.model(), scan.camera, scan.ground_truth, debug_dir);
+      WriteDetectionDebug(result,
+                          detector.model(),
+                          scan.camera,
+                          GroundTruthInDetectorFrame(scan, result),
+                          debug_dir);
     }
     const std::string json = DetectionJson(result, scan);
     if (!out.empty()) {

@@ -1,5 +1,6 @@
 #include <CLI/CLI.hpp>
 #include <algorithm>
+#include <filesystem>
 #include <cmath>
 #include <cstdio>
 #include <nlohmann/json.hpp>
@@ -30,6 +31,10 @@ void PrintHeadline(const EvaluateSummary& summary) {
   if (summary.frames_without_points > 0) {
     std::printf("  %d frames had no point in range: counted with no detections\n",
                 summary.frames_without_points);
+  }
+  if (summary.frames_without_floor > 0) {
+    std::printf("  %d frames had no floor found: counted with no detections\n",
+                summary.frames_without_floor);
   }
   std::printf("  mAP@5cm %.3f  mAP@10cm %.3f  mAP@20cm %.3f  (seen %.3f, unseen %.3f)\n",
               get("mAP@5cm"),
@@ -341,18 +346,29 @@ int RunReport(int argc, char** argv) {
 
 int RunHistory(int argc, char** argv) {
   CLI::App app{"Every metric across runs and commits, as plots and a table", "workbench history"};
-  std::string db_path, out;
-  app.add_option("--db", db_path, "Dataset database holding the runs")->required();
+  std::vector<std::string> db_paths;
+  std::string out;
+  app.add_option("--db",
+                 db_paths,
+                 "Dataset database holding the runs; repeat it to show datasets side by side "
+                 "(synthetic and real)")
+      ->required();
   app.add_option("--out", out, "Directory for history.html and its plots")->required();
   if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
-  DatasetDb dataset(db_path, DatasetDb::Mode::kReadOnly);
-  const std::vector<RunRecord> runs = dataset.Runs();
-  Require(!runs.empty(), db_path + ": has no runs (run 'workbench evaluate' first)");
-  std::vector<std::map<std::string, double>> metrics;
-  for (const RunRecord& run : runs) metrics.push_back(dataset.RunMetrics(run.id));
-  WriteDirectoryAtomically(out,
-                           [&](const std::string& dir) { WriteHistoryReport(runs, metrics, dir); });
-  std::printf("wrote %s/history.html: %zu runs\n", out.c_str(), runs.size());
+  std::vector<HistoryDataset> datasets;
+  size_t runs = 0;
+  for (const std::string& db_path : db_paths) {
+    DatasetDb dataset(db_path, DatasetDb::Mode::kReadOnly);
+    HistoryDataset history;
+    history.name = std::filesystem::path(db_path).filename().string();
+    history.runs = dataset.Runs();
+    Require(!history.runs.empty(), db_path + ": has no runs (run 'workbench evaluate' first)");
+    for (const RunRecord& run : history.runs) history.metrics.push_back(dataset.RunMetrics(run.id));
+    runs += history.runs.size();
+    datasets.push_back(std::move(history));
+  }
+  WriteDirectoryAtomically(out, [&](const std::string& dir) { WriteHistoryReport(datasets, dir); });
+  std::printf("wrote %s/history.html: %zu runs of %zu datasets\n", out.c_str(), runs, datasets.size());
   return 0;
 }
 
