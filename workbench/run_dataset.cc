@@ -9,6 +9,9 @@
 #include "workbench/commands.h"
 #include "workbench/dataset_commands.h"
 #include "workbench/real_set.h"
+#include "workbench/sensor_noise.h"
+#include "workbench/detect_command.h"
+#include "renderers/frame_io.h"
 #include "workbench/generate.h"
 
 namespace furn {
@@ -128,7 +131,29 @@ int RunDataset(int argc, char** argv) {
   import_real->add_option("labels", labels, "Real-set JSON (data/real/labels.json)")->required();
   import_real->add_option("--out", out, "New dataset file")->required();
   import_real->add_option("--sheets", sheets, "Write a top-down label sheet per scan here");
+  CLI::App* noise = app.add_subcommand(
+      "noise", "Sim-to-real: depth noise on a dataset's floors and walls against the sensor model");
+  noise->add_option("db", db, "Dataset database (an imported real set, or generated frames)")
+      ->required();
+  noise->add_flag("--json", json, "JSON instead of text");
+  int noise_frames = 0;
+  noise->add_option("--frames", noise_frames, "At most N frames (0: all)")->capture_default_str();
   if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
+  if (noise->parsed()) {
+    Require(noise_frames >= 0, "--frames must be >= 0");
+    DatasetDb dataset(db, DatasetDb::Mode::kReadOnly);
+    std::vector<NoiseFrame> frames;
+    for (int64_t room_id : dataset.RoomIds()) {
+      for (const FrameRecord& frame : dataset.ReadRoom(room_id, /*with_images=*/true).frames) {
+        if (noise_frames > 0 && static_cast<int>(frames.size()) >= noise_frames) break;
+        const std::string what = db + " frame " + std::to_string(frame.id);
+        frames.push_back({DecodeDepthPng(frame.depth_noisy_png, what), IntrinsicsOf(frame), what});
+      }
+    }
+    const SensorNoiseComparison comparison = CompareSensorNoise(frames, KinectNoiseOptions{}, 1);
+    std::cout << (json ? SensorNoiseJson(comparison) : SensorNoiseText(comparison));
+    return 0;
+  }
   if (import_real->parsed()) {
     const RealImportSummary summary = ImportRealSet(ReadRealSet(labels), out, sheets);
     std::cout << "wrote " << out << ": " << summary.frames << " real scans, " << summary.objects

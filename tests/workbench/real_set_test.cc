@@ -13,6 +13,7 @@
 #include "db/dataset_db.h"
 #include "tests/test_util.h"
 #include "workbench/real_set.h"
+#include "workbench/sensor_noise.h"
 
 namespace furn {
 namespace {
@@ -242,6 +243,61 @@ TEST(RealSet, EvaluationIsTheSameInAnyLabelFrame) {
   const std::string page = ReadFileBytes(dir + "/history/history.html");
   EXPECT_NE(page.find("<td>b.db</td>"), std::string::npos);
   EXPECT_NE(page.find("<td>synth.db</td>"), std::string::npos);
+}
+
+// The sensor model's own output measured as if it were a real frame: the
+// measured noise is the model's, bin by bin.
+TEST(SensorNoise, TheModelMeasuredAgainstItselfAgrees) {
+  const CameraIntrinsics camera = CameraIntrinsics::KinectV1();
+  // A floor 1.2 m below a camera pitched 25 degrees down, and a wall 3.5 m ahead.
+  const double pitch = 25 * M_PI / 180;
+  const Eigen::Vector3d up(0, -std::cos(pitch), -std::sin(pitch));  // camera frame
+  const Eigen::Vector3d ahead(0, std::sin(pitch), std::cos(pitch));
+  DepthFrame ideal;
+  ideal.Resize(camera.width, camera.height);
+  for (int v = 0; v < camera.height; ++v) {
+    for (int u = 0; u < camera.width; ++u) {
+      const Eigen::Vector3d ray = camera.RayThroughPixel(u, v).cast<double>();
+      double best = 1e9;
+      Eigen::Vector3d normal;
+      if (ray.dot(up) < -1e-6 && 1.2 / -ray.dot(up) < best) {
+        best = 1.2 / -ray.dot(up);  // on the floor, ray.z = 1 so t is the depth
+        normal = up;
+      }
+      if (ray.dot(ahead) > 1e-6 && 3.5 / ray.dot(ahead) < best) {
+        best = 3.5 / ray.dot(ahead);
+        normal = -ahead;
+      }
+      if (best > 6) continue;
+      const size_t i = static_cast<size_t>(v) * camera.width + u;
+      ideal.depth[i] = static_cast<float>(best);
+      ideal.normals[i] = normal.cast<float>();
+      ideal.instance_ids[i] = normal == up ? 1 : 2;
+    }
+  }
+  NoiseFrame frame{ApplyKinectNoise(ideal, camera, KinectNoiseOptions{}, 3), camera, "planes"};
+  const SensorNoiseComparison c = CompareSensorNoise({frame}, KinectNoiseOptions{}, 11);
+  EXPECT_EQ(c.frames, 1);
+  EXPECT_GE(c.planes, 2);
+  int compared = 0;
+  for (const NoiseBin& bin : c.bins) {
+    // Beyond 4 m the floor is seen at grazing angles, next to the wall's crease.
+    if (bin.real_pixels < 5000 || bin.simulated_pixels < 5000 || bin.high_m > 4.01) continue;
+    ++compared;
+    EXPECT_NEAR(bin.simulated_sigma_m / bin.real_sigma_m, 1.0, 0.12) << bin.low_m << " m";
+  }
+  EXPECT_GE(compared, 3);
+  // Twice the noise in the "real" frame shows as half the ratio.
+  DepthFrame doubled = frame.depth;
+  for (size_t i = 0; i < doubled.depth.size(); ++i) {
+    if (doubled.depth[i] > 0) doubled.depth[i] += doubled.depth[i] - ideal.depth[i];
+  }
+  const SensorNoiseComparison louder =
+      CompareSensorNoise({NoiseFrame{doubled, camera, "louder"}}, KinectNoiseOptions{}, 11);
+  for (const NoiseBin& bin : louder.bins) {
+    if (bin.real_pixels < 5000 || bin.simulated_pixels < 5000 || bin.high_m > 4.01) continue;
+    EXPECT_NEAR(bin.simulated_sigma_m / bin.real_sigma_m, 0.5, 0.12) << bin.low_m << " m";
+  }
 }
 
 }  // namespace
