@@ -53,6 +53,15 @@ CameraIntrinsics ParseIntrinsics(const std::string& text, int width, int height)
   return camera;
 }
 
+void SetIntrinsics(const CameraIntrinsics& camera, FrameRecord* frame) {
+  frame->width = camera.width;
+  frame->height = camera.height;
+  frame->fx = camera.fx;
+  frame->fy = camera.fy;
+  frame->cx = camera.cx;
+  frame->cy = camera.cy;
+}
+
 CameraIntrinsics IntrinsicsOf(const FrameRecord& frame) {
   CameraIntrinsics camera;
   camera.width = frame.width;

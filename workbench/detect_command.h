@@ -77,8 +77,9 @@ std::vector<ScanSource> ExpandScanInputs(const std::vector<std::string>& inputs,
                                          bool intrinsics_given,
                                          bool depth_scale_given);
 
-// The intrinsics a dataset frame was rendered with.
+// The intrinsics a dataset frame was rendered with, and their setter.
 CameraIntrinsics IntrinsicsOf(const FrameRecord& frame);
+void SetIntrinsics(const CameraIntrinsics& camera, FrameRecord* frame);
 
 // Detection input of a dataset frame: its noisy depth back-projected, with
 // its known pose. `what` names the frame in errors.

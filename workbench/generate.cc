@@ -16,6 +16,7 @@
 #include "renderers/embree_caster.h"
 #include "renderers/frame_io.h"
 #include "renderers/kinect_simulator.h"
+#include "workbench/detect_command.h"
 
 namespace furn {
 namespace {
@@ -291,12 +292,7 @@ class RoomGenerator {
     frame.frame_index = index;
     frame.id = room.id * options_.room.frames_per_room + index;
     frame.seed = DeriveSeed(room.seed, static_cast<uint64_t>(index) + 1);
-    frame.width = camera.width;
-    frame.height = camera.height;
-    frame.fx = camera.fx;
-    frame.fy = camera.fy;
-    frame.cx = camera.cx;
-    frame.cy = camera.cy;
+    SetIntrinsics(camera, &frame);
     frame.world_from_camera = layout.world_from_cameras[index];
 
     auto start = Clock::now();

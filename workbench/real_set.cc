@@ -276,12 +276,7 @@ RealImportSummary ImportRealSet(const RealSet& set,
       FrameRecord frame;
       frame.id = room_id;
       frame.frame_index = 0;
-      frame.width = camera.width;
-      frame.height = camera.height;
-      frame.fx = camera.fx;
-      frame.fy = camera.fy;
-      frame.cx = camera.cx;
-      frame.cy = camera.cy;
+      SetIntrinsics(camera, &frame);
       frame.world_from_camera = entry.label_from_camera;
       frame.depth_noisy_png = EncodeDepthPng(depth);
       frame.depth_ideal_png = frame.depth_noisy_png;  // a real scan has one depth
