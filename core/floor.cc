@@ -2,11 +2,11 @@
 
 #include <pcl/ModelCoefficients.h>
 #include <pcl/console/print.h>
+#include <pcl/features/normal_3d.h>
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
 #include <pcl/sample_consensus/method_types.h>
 #include <pcl/sample_consensus/model_types.h>
-#include <pcl/features/normal_3d.h>
 #include <pcl/search/kdtree.h>
 #include <pcl/segmentation/sac_segmentation.h>
 

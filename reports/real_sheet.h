@@ -2,7 +2,8 @@
 // the labels' floor frame, on a metric grid, with the labelled footprints,
 // so labels can be made and checked by eye.
 //
-//   WriteRealScanSheet(points, world_from_camera, camera, labels, "tum-fr2-desk", "sheets/tum.png");
+//   WriteRealScanSheet(points, world_from_camera, camera, labels, "tum-fr2-desk",
+//   "sheets/tum.png");
 #pragma once
 
 #include <Eigen/Core>

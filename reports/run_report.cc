@@ -139,7 +139,8 @@ void WriteHistoryReport(const std::vector<HistoryDataset>& datasets, const std::
     std::ostringstream script;
     script << "set terminal pngcairo noenhanced size 560,320 font 'sans,10'\nset title '"
            << plotted[p] << " by run'\nset xlabel 'run (in the order they started)'\nset grid\n"
-           << (datasets.size() > 1 ? "set key outside bottom center horizontal\n" : "set key off\n");
+           << (datasets.size() > 1 ? "set key outside bottom center horizontal\n"
+                                   : "set key off\n");
     std::vector<std::string> series;
     for (size_t d = 0; d < datasets.size(); ++d) {
       std::ostringstream points;

@@ -12,10 +12,10 @@
 #include "core/error.h"
 #include "core/file_util.h"
 #include "core/render_compare.h"
-#include "workbench/real_set.h"
 #include "db/dataset_db.h"
 #include "renderers/frame_io.h"
 #include "workbench/camera_file.h"
+#include "workbench/real_set.h"
 
 namespace furn {
 
@@ -129,8 +129,9 @@ void CloudFromWorld(ScanCloud cloud, const ScanSource& source, LoadedScan* scan)
     if (!source.floor_aligned && !ViewpointIsCameraPose(cloud, *cloud.viewpoint)) {
       // OpenNI-era PCDs store "0 0 0 0 1 0 0", a turn of the viewer's
       // camera, with points already in the optical frame.
-      scan->pose_source = "camera frame (the PCD VIEWPOINT, a rotation that would put the "
-                          "points behind the camera, is ignored)";
+      scan->pose_source =
+          "camera frame (the PCD VIEWPOINT, a rotation that would put the "
+          "points behind the camera, is ignored)";
     } else {
       pose = cloud.viewpoint;
       scan->pose_source = "the PCD VIEWPOINT";
@@ -216,12 +217,12 @@ LoadedScan LoadScan(const ScanSource& source) {
     }
     if (scan.input.width * scan.input.height > 0) {
       // An organised cloud tells its own intrinsics (debug views, reports).
-      if (const std::optional<PinholeIntrinsics> own = IntrinsicsOfOrganisedCloud(
-              scan.input.points, scan.input.width, scan.input.height)) {
+      if (const std::optional<PinholeIntrinsics> own =
+              IntrinsicsOfOrganisedCloud(scan.input.points, scan.input.width, scan.input.height)) {
         const CameraIntrinsics fitted{
             scan.input.width, scan.input.height, own->fx, own->fy, own->cx, own->cy};
-        if (own->fx > 0 && own->fy > 0 && own->cx >= 0 && own->cy >= 0 &&
-            own->cx < fitted.width && own->cy < fitted.height)
+        if (own->fx > 0 && own->fy > 0 && own->cx >= 0 && own->cy >= 0 && own->cx < fitted.width &&
+            own->cy < fitted.height)
           scan.camera = fitted;
       }
     }

@@ -150,7 +150,8 @@ EvaluateSummary EvaluateModel(const std::string& model_path,
     for (const FrameRecord& frame : room.frames) {
       if (static_cast<int>(outcomes.size()) >= total_frames) break;
       dataset_hash.Update(frame.content_hash.data(), frame.content_hash.size());
-      DetectionInput input = DetectionInputOf(frame, db_path + " frame " + std::to_string(frame.id));
+      DetectionInput input =
+          DetectionInputOf(frame, db_path + " frame " + std::to_string(frame.id));
       // Real scans without a known floor: the detector finds it, and its
       // detections move from its floor frame into the labels'.
       const bool estimate = estimated_pose.count(frame.id) > 0;
@@ -365,9 +366,8 @@ std::vector<Regression> FindRegressions(const std::map<std::string, double>& run
     const bool latency = metric.rfind("latency", 0) == 0;
     if (latency && latency_tolerance <= 0) continue;
     if (metric == "frames" || metric == "objects" || metric == "frames_without_points" ||
-        metric == "frames_without_floor" ||
-        metric == "folds" || metric.rfind("spread/", 0) == 0 || metric.rfind("funnel/", 0) == 0 ||
-        metric.rfind("false_positives/", 0) == 0)
+        metric == "frames_without_floor" || metric == "folds" || metric.rfind("spread/", 0) == 0 ||
+        metric.rfind("funnel/", 0) == 0 || metric.rfind("false_positives/", 0) == 0)
       continue;  // sizes, spreads and diagnostic counts, not quality
     if (it == run.end()) {
       regressions.push_back({metric, std::nan(""), base, 0});  // a metric that vanished

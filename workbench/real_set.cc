@@ -86,9 +86,9 @@ RealObject ReadObject(const nlohmann::json& json, const std::string& where) {
   if (fields.Has("yaw")) object.yaw = fields.Number("yaw", 0);
   if (fields.Has("size")) {
     const std::vector<double> size = fields.Numbers("size", 3);
-    Require(size[0] > 0 && size[1] > 0 && size[2] > 0 && size[0] < 10 && size[1] < 10 &&
-                size[2] < 10,
-            where + ": 'size' [width, depth, height] must be in (0, 10) metres");
+    Require(
+        size[0] > 0 && size[1] > 0 && size[2] > 0 && size[0] < 10 && size[1] < 10 && size[2] < 10,
+        where + ": 'size' [width, depth, height] must be in (0, 10) metres");
     object.size = Eigen::Vector3d(size[0], size[1], size[2]);
   }
   object.visibility = fields.Number("visibility", 1);
@@ -103,23 +103,36 @@ Eigen::Isometry3d RigidFromRows(const std::vector<double>& m, const std::string&
   for (int r = 0; r < 4; ++r)
     for (int c = 0; c < 4; ++c) matrix(r, c) = m[4 * r + c];
   const Eigen::Matrix3d rotation = matrix.topLeftCorner<3, 3>();
-  Require((rotation * rotation.transpose() - Eigen::Matrix3d::Identity()).norm() < 1e-3 &&
-              std::abs(rotation.determinant() - 1) < 1e-3 &&
-              matrix.row(3).isApprox(Eigen::RowVector4d(0, 0, 0, 1)),
-          where + ": 'label_frame' must be a rigid motion (rotation, translation, last row 0 0 0 1)");
+  Require(
+      (rotation * rotation.transpose() - Eigen::Matrix3d::Identity()).norm() < 1e-3 &&
+          std::abs(rotation.determinant() - 1) < 1e-3 &&
+          matrix.row(3).isApprox(Eigen::RowVector4d(0, 0, 0, 1)),
+      where + ": 'label_frame' must be a rigid motion (rotation, translation, last row 0 0 0 1)");
   Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
   pose.linear() = rotation;
   pose.translation() = matrix.topRightCorner<3, 1>();
   return pose;
 }
 
-RealScan ReadScan(const nlohmann::json& json, const std::filesystem::path& base,
+RealScan ReadScan(const nlohmann::json& json,
+                  const std::filesystem::path& base,
                   const std::string& where) {
   const Fields fields(json,
                       where,
-                      {"id", "cloud", "depth", "intrinsics", "camera", "depth_scale",
-                       "world_from_camera", "floor_aligned", "sensor", "source", "licence",
-                       "label_frame", "objects", "note"});
+                      {"id",
+                       "cloud",
+                       "depth",
+                       "intrinsics",
+                       "camera",
+                       "depth_scale",
+                       "world_from_camera",
+                       "floor_aligned",
+                       "sensor",
+                       "source",
+                       "licence",
+                       "label_frame",
+                       "objects",
+                       "note"});
   RealScan scan;
   scan.id = fields.Text("id");
   Require(!scan.id.empty(), where + ": needs an 'id'");
@@ -151,8 +164,9 @@ RealScan ReadScan(const nlohmann::json& json, const std::filesystem::path& base,
     scan.label_frame = RigidFromRows(fields.Numbers("label_frame", 16), named);
   } else {
     Require(scan.source.floor_aligned,
-            named + ": needs 'label_frame' (the camera's pose in the labels' floor frame, 16 "
-                    "numbers row by row), or 'floor_aligned': true");
+            named +
+                ": needs 'label_frame' (the camera's pose in the labels' floor frame, 16 "
+                "numbers row by row), or 'floor_aligned': true");
   }
   Require(json.contains("objects") && json.at("objects").is_array(),
           named + ": needs 'objects' (an array, empty for a scan without furniture)");
@@ -166,8 +180,13 @@ RealScan ReadScan(const nlohmann::json& json, const std::filesystem::path& base,
 std::vector<GroundTruthFootprint> Footprints(const RealScan& scan) {
   std::vector<GroundTruthFootprint> footprints;
   for (const RealObject& o : scan.objects) {
-    footprints.push_back({o.furniture_class, o.x, o.y, o.yaw ? *o.yaw : std::nan(""), o.size.x(),
-                          o.size.y(), o.size.z()});
+    footprints.push_back({o.furniture_class,
+                          o.x,
+                          o.y,
+                          o.yaw ? *o.yaw : std::nan(""),
+                          o.size.x(),
+                          o.size.y(),
+                          o.size.z()});
   }
   return footprints;
 }
@@ -272,7 +291,8 @@ RealImportSummary ImportRealSet(const RealSet& set,
       room.split = "test";
       room.width = high.x() - low.x();
       room.depth = high.y() - low.y();
-      room.requested_furniture = room.placed_furniture = static_cast<int>(entry.scan->objects.size());
+      room.requested_furniture = room.placed_furniture =
+          static_cast<int>(entry.scan->objects.size());
       FrameRecord frame;
       frame.id = room_id;
       frame.frame_index = 0;
@@ -315,7 +335,8 @@ RealImportSummary ImportRealSet(const RealSet& set,
                         {"licence", entry.scan->licence},
                         {"yaw_defined", [&] {
                            nlohmann::json defined = nlohmann::json::array();
-                           for (const RealObject& o : entry.scan->objects) defined.push_back(o.yaw.has_value());
+                           for (const RealObject& o : entry.scan->objects)
+                             defined.push_back(o.yaw.has_value());
                            return defined;
                          }()}});
       if (!sheet_dir.empty()) {
@@ -329,10 +350,10 @@ RealImportSummary ImportRealSet(const RealSet& set,
       }
       ++summary.frames;
     }
-    db.SetGenerationOptions(nlohmann::ordered_json{{"kind", "real-set"},
-                                                   {"labels", set.path},
-                                                   {"frames", frames}}
-                                .dump());
+    db.SetGenerationOptions(nlohmann::ordered_json{
+        {"kind", "real-set"},
+        {"labels", set.path},
+        {"frames", frames}}.dump());
   } catch (...) {
     remove_temporary();
     throw;

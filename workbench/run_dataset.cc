@@ -5,14 +5,14 @@
 
 #include "core/error.h"
 #include "core/file_util.h"
+#include "renderers/frame_io.h"
 #include "workbench/cli_common.h"
 #include "workbench/commands.h"
 #include "workbench/dataset_commands.h"
+#include "workbench/detect_command.h"
+#include "workbench/generate.h"
 #include "workbench/real_set.h"
 #include "workbench/sensor_noise.h"
-#include "workbench/detect_command.h"
-#include "renderers/frame_io.h"
-#include "workbench/generate.h"
 
 namespace furn {
 

@@ -1,8 +1,8 @@
 #include <CLI/CLI.hpp>
 #include <algorithm>
-#include <filesystem>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <nlohmann/json.hpp>
 #include <vector>
 
@@ -368,7 +368,8 @@ int RunHistory(int argc, char** argv) {
     datasets.push_back(std::move(history));
   }
   WriteDirectoryAtomically(out, [&](const std::string& dir) { WriteHistoryReport(datasets, dir); });
-  std::printf("wrote %s/history.html: %zu runs of %zu datasets\n", out.c_str(), runs, datasets.size());
+  std::printf(
+      "wrote %s/history.html: %zu runs of %zu datasets\n", out.c_str(), runs, datasets.size());
   return 0;
 }
 

@@ -54,9 +54,8 @@ struct Plane {
   // known, else within Band.
   bool Holds(const Eigen::Vector3d& p) const {
     const double distance = std::abs(normal.dot(p) + offset);
-    return normalised_sigma > 0
-               ? distance <= std::max(0.01, 3 * normalised_sigma * p.z() * p.z())
-               : distance <= Band(p.z());
+    return normalised_sigma > 0 ? distance <= std::max(0.01, 3 * normalised_sigma * p.z() * p.z())
+                                : distance <= Band(p.z());
   }
 };
 
@@ -160,8 +159,8 @@ SensorNoiseComparison CompareSensorNoise(const std::vector<NoiseFrame>& frames,
       for (int i : inliers.indices) taken_sample[i] = true;
       // Refit on the full-resolution pixels near it, twice.
       Plane plane;
-      plane.normal = Eigen::Vector3d(coefficients.values[0], coefficients.values[1],
-                                     coefficients.values[2]);
+      plane.normal =
+          Eigen::Vector3d(coefficients.values[0], coefficients.values[1], coefficients.values[2]);
       plane.offset = coefficients.values[3] / plane.normal.norm();
       plane.normal.normalize();
       {
@@ -195,7 +194,8 @@ SensorNoiseComparison CompareSensorNoise(const std::vector<NoiseFrame>& frames,
               if (k >= 0) ++votes[k];
             }
           }
-          const int best = static_cast<int>(std::max_element(votes.begin(), votes.end()) - votes.begin());
+          const int best =
+              static_cast<int>(std::max_element(votes.begin(), votes.end()) - votes.begin());
           if (votes[best] >= 13) plane_of_pixel[i] = best;  // most of the window
         }
       }
@@ -307,7 +307,8 @@ std::string SensorNoiseJson(const SensorNoiseComparison& c) {
                     {"simulated_pixels", bin.simulated_pixels},
                     {"simulated_sigma_m", number(bin.simulated_sigma_m)}});
   }
-  return nlohmann::ordered_json{{"frames", c.frames}, {"planes", c.planes}, {"bins", bins}}.dump(2) +
+  return nlohmann::ordered_json{{"frames", c.frames}, {"planes", c.planes}, {"bins", bins}}.dump(
+             2) +
          "\n";
 }
 

@@ -47,9 +47,8 @@ std::string WriteFloorAlignedCloud(const std::string& dir) {
   r.col(1) = r.col(2).cross(r.col(0));
   const Eigen::Quaterniond q(r);
   text += "WIDTH " + std::to_string(points) + "\nHEIGHT 1\nVIEWPOINT 0 0 1.2 " +
-          std::to_string(q.w()) + " " + std::to_string(q.x()) + " " + std::to_string(q.y()) +
-          " " + std::to_string(q.z()) + "\nPOINTS " + std::to_string(points) + "\nDATA ascii\n" +
-          body;
+          std::to_string(q.w()) + " " + std::to_string(q.x()) + " " + std::to_string(q.y()) + " " +
+          std::to_string(q.z()) + "\nPOINTS " + std::to_string(points) + "\nDATA ascii\n" + body;
   testing::WriteText(dir + "/room.pcd", text);
   return "room.pcd";
 }
@@ -86,8 +85,7 @@ TEST(RealSet, ReadsAScanAndRefusesBadFieldsWithOneLine) {
   EXPECT_NE(error_of(R"({"format": "furnidet-real-set", "version": 2, "scans": []})")
                 .find("'version' must be 1"),
             std::string::npos);
-  EXPECT_NE(error_of(scan_with("\"id\"", "\"idd\"")).find("unknown key 'idd'"),
-            std::string::npos);
+  EXPECT_NE(error_of(scan_with("\"id\"", "\"idd\"")).find("unknown key 'idd'"), std::string::npos);
   EXPECT_NE(error_of(scan_with(cloud, "missing.pcd")).find("missing.pcd' does not exist"),
             std::string::npos);
   EXPECT_NE(error_of(scan_with("\"chair\"", "\"sofa\"")).find("class 'sofa' must be"),
@@ -133,9 +131,9 @@ TEST(RealSet, ImportWritesFramesLabelsAndSheetsAndRefusesToOverwrite) {
     // A floor-aligned scan keeps its pose: nothing to estimate.
     EXPECT_TRUE(FramesWithEstimatedPose(*dataset.GenerationOptions()).empty());
   }
-  EXPECT_NE(testing::ErrorOf([&] { ImportRealSet(ReadRealSet(dir + "/set.json"), db); })
-                .find("exists"),
-            std::string::npos);
+  EXPECT_NE(
+      testing::ErrorOf([&] { ImportRealSet(ReadRealSet(dir + "/set.json"), db); }).find("exists"),
+      std::string::npos);
   EXPECT_FALSE(std::filesystem::exists(db + ".partial"));
 }
 
@@ -155,10 +153,11 @@ TEST(RealSet, MovesFloorPosesBetweenFrames) {
 TEST(RealSet, EvaluationIsTheSameInAnyLabelFrame) {
   const std::string dir = testing::ScratchDir();
   const std::string synth = dir + "/synth.db", model = dir + "/model.fcm";
-  ASSERT_EQ(Workbench("generate --catalog procedural:4 --rooms 2 --frames 2 --seed 5 --quiet --out " +
-                      synth)
-                .exit_code,
-            0);
+  ASSERT_EQ(
+      Workbench("generate --catalog procedural:4 --rooms 2 --frames 2 --seed 5 --quiet --out " +
+                synth)
+          .exit_code,
+      0);
   ASSERT_EQ(Workbench("train --catalog procedural:4 --vocab kmeans --words 20 --azimuths 8 --quiet "
                       "--out " +
                       model)
@@ -171,7 +170,8 @@ TEST(RealSet, EvaluationIsTheSameInAnyLabelFrame) {
   moved.rotate(Eigen::AngleAxisd(0.7, Eigen::Vector3d::UnitZ()));
   moved.pretranslate(Eigen::Vector3d(1.5, -2, 0));
   for (const auto& [name, label_from_world] :
-       {std::pair{std::string("a"), Eigen::Isometry3d::Identity()}, std::pair{std::string("b"), moved}}) {
+       {std::pair{std::string("a"), Eigen::Isometry3d::Identity()},
+        std::pair{std::string("b"), moved}}) {
     nlohmann::json scans = nlohmann::json::array();
     DatasetDb dataset(synth, DatasetDb::Mode::kReadOnly);
     for (int64_t room_id : dataset.RoomIds()) {
@@ -207,17 +207,18 @@ TEST(RealSet, EvaluationIsTheSameInAnyLabelFrame) {
                          {"objects", objects}});
       }
     }
-    testing::WriteText(dir + "/" + name + ".json",
-                       nlohmann::json{{"format", "furnidet-real-set"}, {"version", 1}, {"scans", scans}}
-                           .dump());
+    testing::WriteText(
+        dir + "/" + name + ".json",
+        nlohmann::json{{"format", "furnidet-real-set"}, {"version", 1}, {"scans", scans}}.dump());
     const testing::CommandResult imported = Workbench("dataset import-real " + dir + "/" + name +
                                                       ".json --out " + dir + "/" + name + ".db");
     ASSERT_EQ(imported.exit_code, 0) << imported.output;
-    const testing::CommandResult run =
-        Workbench("evaluate --quiet --split all --model " + model + " --db " + dir + "/" + name + ".db");
+    const testing::CommandResult run = Workbench("evaluate --quiet --split all --model " + model +
+                                                 " --db " + dir + "/" + name + ".db");
     ASSERT_EQ(run.exit_code, 0) << run.output;
   }
-  ASSERT_EQ(Workbench("evaluate --quiet --split all --model " + model + " --db " + synth).exit_code, 0);
+  ASSERT_EQ(Workbench("evaluate --quiet --split all --model " + model + " --db " + synth).exit_code,
+            0);
   auto metrics = [&](const std::string& db) {
     DatasetDb dataset(db, DatasetDb::Mode::kReadOnly);
     return dataset.RunMetrics(dataset.Runs().back().id);
@@ -237,8 +238,8 @@ TEST(RealSet, EvaluationIsTheSameInAnyLabelFrame) {
       Workbench("report --db " + dir + "/b.db --out " + dir + "/report");
   EXPECT_EQ(report.exit_code, 0) << report.output;
   // History shows both datasets side by side.
-  const testing::CommandResult history = Workbench("history --db " + synth + " --db " + dir +
-                                                   "/b.db --out " + dir + "/history");
+  const testing::CommandResult history =
+      Workbench("history --db " + synth + " --db " + dir + "/b.db --out " + dir + "/history");
   ASSERT_EQ(history.exit_code, 0) << history.output;
   const std::string page = ReadFileBytes(dir + "/history/history.html");
   EXPECT_NE(page.find("<td>b.db</td>"), std::string::npos);
