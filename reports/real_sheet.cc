@@ -71,13 +71,13 @@ void WriteRealScanSheet(const std::vector<Eigen::Vector3f>& points,
                 0.35);
   }
   // Points by height: floor dark grey, 0..2 m through a colour map.
-  auto height_colour = [](float z) {
+  // The colour map once, as a table of its 256 levels.
+  cv::Mat levels(1, 256, CV_8U), palette;
+  for (int k = 0; k < 256; ++k) levels.at<uint8_t>(0, k) = static_cast<uint8_t>(k);
+  cv::applyColorMap(levels, palette, cv::COLORMAP_TURBO);
+  auto height_colour = [&](float z) {
     if (z < 0.03f) return cv::Vec3b(70, 70, 70);
-    cv::Mat level(
-        1, 1, CV_8U, cv::Scalar(static_cast<int>(std::clamp(z / 2.0f, 0.0f, 1.0f) * 255)));
-    cv::Mat colour;
-    cv::applyColorMap(level, colour, cv::COLORMAP_TURBO);
-    return colour.at<cv::Vec3b>(0, 0);
+    return palette.at<cv::Vec3b>(0, static_cast<int>(std::clamp(z / 2.0f, 0.0f, 1.0f) * 255));
   };
   std::vector<cv::Vec3b> colours;
   colours.reserve(points.size());
