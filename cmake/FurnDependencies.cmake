@@ -27,6 +27,7 @@ furn_find_package(CLI11 libcli11-dev)
 furn_find_package(yaml-cpp libyaml-cpp-dev)
 furn_find_package(Threads build-essential)
 furn_find_package(ZLIB zlib1g-dev)
+furn_find_package(PNG libpng-dev)
 
 find_package(PkgConfig QUIET)
 if(NOT PkgConfig_FOUND)

@@ -8,6 +8,7 @@
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
 
+#include <png.h>
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
@@ -17,6 +18,7 @@
 #include <memory>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <set>
 #include <sstream>
 
 #include "core/error.h"
@@ -206,10 +208,67 @@ std::vector<uint8_t> FastPng(const cv::Mat& image) {
   return png;
 }
 
-cv::Mat Decode16(const std::vector<uint8_t>& png, const std::string& what) {
-  const cv::Mat image = cv::imdecode(png, cv::IMREAD_UNCHANGED);
-  Require(!image.empty(), what + ": not a readable PNG");
-  Require(image.type() == CV_16UC1, what + ": expected a single-channel 16-bit PNG");
+// libpng with our own error and warning handlers: a damaged file is one
+// line of ours (libpng's reason after a colon), nothing printed by libpng.
+struct PngReader {
+  const std::vector<uint8_t>* bytes;
+  size_t at = 0;
+  std::string error;
+};
+
+void PngError(png_structp png, png_const_charp message) {
+  static_cast<PngReader*>(png_get_error_ptr(png))->error = message;
+  png_longjmp(png, 1);
+}
+
+void PngWarning(png_structp, png_const_charp) {}
+
+void PngRead(png_structp png, png_bytep out, png_size_t count) {
+  PngReader* reader = static_cast<PngReader*>(png_get_io_ptr(png));
+  if (reader->bytes->size() - reader->at < count) png_error(png, "the file ends early");
+  std::memcpy(out, reader->bytes->data() + reader->at, count);
+  reader->at += count;
+}
+
+cv::Mat Decode16(const std::vector<uint8_t>& bytes, const std::string& what) {
+  Require(bytes.size() >= 8 && png_sig_cmp(bytes.data(), 0, 8) == 0,
+          what + ": not a readable PNG (no PNG signature)");
+  PngReader reader{&bytes, 0, {}};
+  png_structp png = png_create_read_struct(PNG_LIBPNG_VER_STRING, &reader, PngError, PngWarning);
+  Require(png != nullptr, what + ": cannot start the PNG reader");
+  png_infop info = png_create_info_struct(png);
+  // What the read fills lives behind a pointer set before setjmp: locals
+  // changed between setjmp and a longjmp back have indeterminate values.
+  struct Output {
+    cv::Mat image;
+    std::vector<png_bytep> rows;
+    bool grey16 = false;
+  };
+  const std::unique_ptr<Output> out = std::make_unique<Output>();
+  if (setjmp(png_jmpbuf(png))) {
+    png_destroy_read_struct(&png, &info, nullptr);
+    throw InputError(what + ": not a readable PNG: " + reader.error);
+  }
+  if (info == nullptr) png_error(png, "cannot start the PNG reader");
+  png_set_read_fn(png, &reader, PngRead);
+  png_set_user_limits(png, 16384, 16384);
+  png_read_info(png, info);
+  out->grey16 = png_get_color_type(png, info) == PNG_COLOR_TYPE_GRAY &&
+                png_get_bit_depth(png, info) == 16 &&
+                png_get_interlace_type(png, info) == PNG_INTERLACE_NONE;
+  if (out->grey16) {
+    png_set_swap(png);  // PNG is big-endian
+    out->image.create(static_cast<int>(png_get_image_height(png, info)),
+                      static_cast<int>(png_get_image_width(png, info)),
+                      CV_16UC1);
+    out->rows.resize(out->image.rows);
+    for (int v = 0; v < out->image.rows; ++v) out->rows[v] = out->image.ptr<png_byte>(v);
+    png_read_image(png, out->rows.data());
+  }
+  png_destroy_read_struct(&png, &info, nullptr);
+  const bool grey16 = out->grey16;
+  cv::Mat image = out->image;
+  Require(grey16, what + ": expected a single-channel 16-bit PNG (not interlaced)");
   return image;
 }
 
@@ -331,7 +390,7 @@ std::vector<std::string> Words(const std::string& line) {
 
 // A whole non-negative number of at most `limit`, or nullopt.
 std::optional<uint64_t> Count(const std::string& word, uint64_t limit) {
-  if (word.empty() || word.size() > 20 ||
+  if (word.empty() || word.size() > 19 ||  // 19 digits always fit 64 bits
       !std::all_of(word.begin(), word.end(), [](char c) { return c >= '0' && c <= '9'; }))
     return std::nullopt;
   const unsigned long long value = std::stoull(word);
@@ -352,10 +411,16 @@ void CheckPcdHeader(const std::string& bytes, const std::string& path) {
     const std::vector<std::string> words = Words(bytes.substr(at, end - at));
     at = end + 1;
     if (words.empty() || words[0][0] == '#') continue;
+    static const std::set<std::string> kKeywords{
+        "VERSION", "FIELDS", "SIZE", "TYPE", "COUNT", "WIDTH", "HEIGHT", "VIEWPOINT", "POINTS"};
     if (words[0] == "DATA") {
       Require(words.size() == 2, path + ": PCD DATA must be ascii, binary or binary_compressed");
       data_kind = words[1];
     } else {
+      // PCL's reader misplaces the body after a line it does not know.
+      Require(kKeywords.count(words[0]) > 0,
+              path + ": not a PCD file (header line '" + words[0].substr(0, 40) +
+                  "' is neither a comment nor a PCD keyword)");
       header[words[0]] = std::vector<std::string>(words.begin() + 1, words.end());
     }
   }
@@ -458,6 +523,11 @@ void CheckPlyHeader(const std::string& bytes, const std::string& path) {
   while (std::getline(in, line)) {
     const std::vector<std::string> words = Words(line);
     if (words.empty()) continue;
+    static const std::set<std::string> kKeywords{
+        "ply", "format", "comment", "obj_info", "element", "property", "end_header"};
+    Require(kKeywords.count(words[0]) > 0,
+            path + ": not a PLY file (header line '" + words[0].substr(0, 40) +
+                "' is not a PLY keyword)");
     if (words[0] == "format" && words.size() >= 2) format = words[1];
     if (words[0] == "element") {
       const std::optional<uint64_t> count =
@@ -472,7 +542,8 @@ void CheckPlyHeader(const std::string& bytes, const std::string& path) {
       if (words.size() >= 2 && words[1] == "list") {
         Require(words.size() == 5 && scalar_size(words[2]) > 0 && scalar_size(words[3]) > 0,
                 path + ": PLY '" + line + "' must be 'property list <type> <type> <name>'");
-        Require(e.name != "vertex" || (words[4] != "x" && words[4] != "y" && words[4] != "z"),
+        // PCL's reader asserts on any list property of the vertex element.
+        Require(e.name != "vertex",
                 path + ": PLY vertex property " + words[4] + " must be a scalar, not a list");
         e.min_bytes += static_cast<uint64_t>(scalar_size(words[2]));
       } else {

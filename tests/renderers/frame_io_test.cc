@@ -111,6 +111,8 @@ TEST(FrameIo, CrashingCloudsAreOneLineErrors) {
       {"manual_pcd_bincomp_zero.pcd", "uncompressed size 0 must be POINTS"},
       {"manual_pcd_huge_points_decl.pcd", "WIDTH, HEIGHT and POINTS must be whole numbers"},
       {"manual_ply_list_huge.ply", "vertex property x must be a scalar, not a list"},
+      {"fuzz_pcd_garbage_first_line.pcd", "is neither a comment nor a PCD keyword"},
+      {"fuzz_ply_vertex_list.ply", "vertex property vertex_indices must be a scalar, not a list"},
   };
   for (const auto& [file, rule] : cases) {
     const std::string error = testing::ErrorOf([&] { ReadPointCloudFile(dir + file); });
@@ -131,6 +133,11 @@ TEST(FrameIo, PcdAndPlyHeadersAreCheckedAgainstTheFile) {
             std::string::npos);
   EXPECT_NE(error_of(header + "DATA ascii\n1 2 3\n").find("declares 4 points"), std::string::npos);
   EXPECT_NE(error_of(header + "DATA xml\n").find("must be ascii, binary"), std::string::npos);
+  // 20 digits overflow 64 bits: our line, not std::stoull's exception.
+  EXPECT_NE(error_of("VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nWIDTH "
+                     "99999999999999999999\nHEIGHT 1\nPOINTS 1\nDATA ascii\n1 2 3\n")
+                .find("must be whole numbers up to 2^30"),
+            std::string::npos);
   EXPECT_NE(error_of("VERSION 0.7\nFIELDS x y z\nSIZE 4 4\nTYPE F F F\nWIDTH 1\nHEIGHT 1\n"
                      "POINTS 1\nDATA ascii\n1 2 3\n")
                 .find("one entry per field"),

@@ -1,0 +1,326 @@
+// A seeded mutation fuzzer for every loader a user's file reaches: PCD, PLY,
+// depth PNG, .sh3f catalog, class map, model file and dataset DB. Each
+// target starts from small valid files, mutates them (bit flips, interesting
+// bytes, inserted, deleted and repeated ranges, truncation, and numbers in
+// text swapped for hostile ones) and loads each result. A load must succeed
+// or throw our InputError/DbError: any other exception fails the test, a
+// crash kills it. Each input must load within 10 s, and the process's peak
+// memory must stay under 1 GB. Inputs that fail are saved under the
+// scratch directory's `failures/`.
+//
+// FURN_FUZZ_RUNS sets the mutations per target (default 300: the fast
+// suite); FURN_FUZZ_SEED the seed (default 1). The slow suite runs 10^4.
+#include <gtest/gtest.h>
+#include <sys/resource.h>
+
+#include <chrono>
+#include <cstdlib>
+#include <filesystem>
+#include <functional>
+#include <random>
+#include <regex>
+#include <string>
+#include <vector>
+
+#include "core/error.h"
+#include "core/file_util.h"
+#include "core/progress.h"
+#include "db/dataset_db.h"
+#include "db/sqlite.h"
+#include "renderers/frame_io.h"
+#include "scenes/catalog.h"
+#include "tests/scenes/fixtures.h"
+#include "tests/test_util.h"
+#include "workbench/detect_command.h"
+#include "workbench/train_command.h"
+
+namespace furn {
+namespace {
+
+int EnvInt(const char* name, int fallback) {
+  const char* text = std::getenv(name);
+  return text != nullptr && *text != '\0' ? std::atoi(text) : fallback;
+}
+
+double PeakRssGb() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  return usage.ru_maxrss / (1024.0 * 1024.0);  // kilobytes on Linux
+}
+
+// One mutation of `input`, drawn from `random`.
+std::string Mutate(const std::string& input, std::mt19937_64& random) {
+  std::string s = input.empty() ? std::string(1, '\0') : input;
+  auto position = [&] { return std::uniform_int_distribution<size_t>(0, s.size() - 1)(random); };
+  static const char* kNumbers[] = {"-1",
+                                   "0",
+                                   "65536",
+                                   "2147483648",
+                                   "4294967295",
+                                   "4294967296",
+                                   "1e30",
+                                   "nan",
+                                   "-2147483649",
+                                   "99999999999999999999",
+                                   "3",
+                                   "1000000000"};
+  static const uint8_t kBytes[] = {0x00, 0xff, 0x7f, 0x80, 0x01, 0xfe, '\n', ' '};
+  const int kind = std::uniform_int_distribution<int>(0, 7)(random);
+  switch (kind) {
+    case 0: {  // flip a bit
+      const size_t at = position();
+      s[at] = static_cast<char>(s[at] ^ (1 << std::uniform_int_distribution<int>(0, 7)(random)));
+      break;
+    }
+    case 1:  // an interesting byte
+      s[position()] = static_cast<char>(kBytes[std::uniform_int_distribution<int>(0, 7)(random)]);
+      break;
+    case 2: {  // insert random bytes
+      const size_t count = std::uniform_int_distribution<size_t>(1, 16)(random);
+      std::string bytes;
+      for (size_t k = 0; k < count; ++k)
+        bytes += static_cast<char>(std::uniform_int_distribution<int>(0, 255)(random));
+      s.insert(position(), bytes);
+      break;
+    }
+    case 3: {  // delete a range
+      const size_t at = position();
+      s.erase(at, std::uniform_int_distribution<size_t>(1, 64)(random));
+      break;
+    }
+    case 4: {  // repeat a range
+      const size_t at = position();
+      const std::string range = s.substr(at, std::uniform_int_distribution<size_t>(1, 64)(random));
+      s.insert(at, range);
+      break;
+    }
+    case 5:  // truncate
+      s.resize(position());
+      break;
+    default: {  // a number in the text swapped for a hostile one
+      std::vector<std::pair<size_t, size_t>> numbers;
+      static const std::regex kNumber("-?[0-9]+(\\.[0-9]+)?(e[-+]?[0-9]+)?");
+      const std::string head = s.substr(0, 4096);
+      for (auto it = std::sregex_iterator(head.begin(), head.end(), kNumber);
+           it != std::sregex_iterator();
+           ++it)
+        numbers.emplace_back(it->position(), it->length());
+      if (numbers.empty()) {
+        s[position()] ^= 0x20;
+        break;
+      }
+      const auto [at, length] =
+          numbers[std::uniform_int_distribution<size_t>(0, numbers.size() - 1)(random)];
+      s.replace(at, length, kNumbers[std::uniform_int_distribution<int>(0, 11)(random)]);
+    }
+  }
+  return s;
+}
+
+struct Target {
+  std::string name, extension;
+  std::vector<std::string> seeds;  // file contents
+  std::function<void(const std::string& path)> load;
+};
+
+// Mutates the seeds `runs` times (1 to 3 mutations each) and loads each.
+void Fuzz(const Target& target, const std::string& dir) {
+  const int runs = EnvInt("FURN_FUZZ_RUNS", 300);
+  std::mt19937_64 random(static_cast<uint64_t>(EnvInt("FURN_FUZZ_SEED", 1)) * 1000003u +
+                         std::hash<std::string>{}(target.name));
+  const std::string path = dir + "/input." + target.extension;
+  int refused = 0, loaded = 0;
+  double slowest_s = 0;
+  for (int run = 0; run < runs; ++run) {
+    std::string input = target.seeds[run % target.seeds.size()];
+    const int mutations = std::uniform_int_distribution<int>(1, 3)(random);
+    for (int m = 0; m < mutations; ++m) input = Mutate(input, random);
+    WriteFileAtomically(path, input);
+    const auto start = std::chrono::steady_clock::now();
+    std::string failure;
+    try {
+      target.load(path);
+      ++loaded;
+    } catch (const InputError&) {
+      ++refused;
+    } catch (const DbError&) {
+      ++refused;
+    } catch (const std::exception& error) {
+      failure = std::string("a library's exception escaped: ") + error.what();
+    }
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    slowest_s = std::max(slowest_s, seconds);
+    if (seconds > 10) failure = "took " + std::to_string(seconds) + " s";
+    if (!failure.empty()) {
+      std::filesystem::create_directories(dir + "/failures");
+      const std::string saved =
+          dir + "/failures/" + target.name + "-" + std::to_string(run) + "." + target.extension;
+      WriteFileAtomically(saved, input);
+      ADD_FAILURE() << target.name << " run " << run << ": " << failure << " (input " << saved
+                    << ")";
+    }
+  }
+  EXPECT_LT(PeakRssGb(), 1.0) << target.name << ": peak memory";
+  std::printf("%s: %d inputs, %d loaded, %d refused with one line, slowest %.3f s, peak %.2f GB\n",
+              target.name.c_str(),
+              runs,
+              loaded,
+              refused,
+              slowest_s,
+              PeakRssGb());
+}
+
+std::string SmallPcdAscii() {
+  std::string text =
+      "# .PCD v0.7\nVERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 4\n"
+      "HEIGHT 3\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 12\nDATA ascii\n";
+  for (int i = 0; i < 12; ++i)
+    text += i == 5 ? "nan nan nan\n"
+                   : std::to_string(0.1 * (i % 4)) + " " + std::to_string(0.1 * (i / 4)) + " 1.5\n";
+  return text;
+}
+
+std::string SmallPcdBinary(const std::string& type, int size) {
+  std::string text = "# .PCD v0.7\nVERSION 0.7\nFIELDS x y z\nSIZE " + std::to_string(size) + " " +
+                     std::to_string(size) + " " + std::to_string(size) + "\nTYPE " + type + " " +
+                     type + " " + type +
+                     "\nCOUNT 1 1 1\nWIDTH 6\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 6\n"
+                     "DATA binary\n";
+  for (int i = 0; i < 18; ++i) {
+    const double v = 0.25 * i + 1;
+    if (size == 8) {
+      text.append(reinterpret_cast<const char*>(&v), 8);
+    } else {
+      const float f = static_cast<float>(v);
+      text.append(reinterpret_cast<const char*>(&f), 4);
+    }
+  }
+  return text;
+}
+
+std::string SmallPly(bool binary) {
+  std::string header = std::string("ply\nformat ") + (binary ? "binary_little_endian" : "ascii") +
+                       " 1.0\nelement vertex 4\nproperty double x\nproperty double y\n"
+                       "property double z\nelement face 2\nproperty list uchar int vertex_indices\n"
+                       "end_header\n";
+  const double points[4][3] = {{0, 0, 1}, {1, 0, 1}, {1, 1, 1.2}, {0, 1, 1.1}};
+  if (!binary) {
+    for (const auto& p : points)
+      header +=
+          std::to_string(p[0]) + " " + std::to_string(p[1]) + " " + std::to_string(p[2]) + "\n";
+    return header + "3 0 1 2\n3 0 2 3\n";
+  }
+  for (const auto& p : points) header.append(reinterpret_cast<const char*>(p), 24);
+  const int faces[2][3] = {{0, 1, 2}, {0, 2, 3}};
+  for (const auto& f : faces) {
+    header += '\3';
+    header.append(reinterpret_cast<const char*>(f), 12);
+  }
+  return header;
+}
+
+DepthFrame SmallDepth() {
+  DepthFrame frame;
+  frame.Resize(16, 12);
+  for (size_t i = 0; i < frame.depth.size(); ++i) frame.depth[i] = i % 7 == 0 ? 0 : 1 + 0.01f * i;
+  return frame;
+}
+
+class LoaderFuzz : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    Progress::SetQuiet(true);
+    dir_ = testing::ScratchDir();
+  }
+  std::string dir_;
+};
+
+TEST_F(LoaderFuzz, PointClouds) {
+  const DepthFrame depth = SmallDepth();
+  WriteOrganizedPcd(depth, CameraIntrinsics{16, 12, 20, 20, 7.5, 5.5}, dir_ + "/organised.pcd");
+  Fuzz({"pcd",
+        "pcd",
+        {SmallPcdAscii(),
+         SmallPcdBinary("F", 4),
+         SmallPcdBinary("F", 8),
+         ReadFileBytes(dir_ + "/organised.pcd")},
+        [](const std::string& path) { ReadPointCloudFile(path); }},
+       dir_);
+  Fuzz({"ply",
+        "ply",
+        {SmallPly(false), SmallPly(true)},
+        [](const std::string& path) { ReadPointCloudFile(path); }},
+       dir_);
+}
+
+TEST_F(LoaderFuzz, DepthImages) {
+  const std::vector<uint8_t> png = EncodeDepthPng(SmallDepth());
+  Fuzz({"png",
+        "png",
+        {std::string(png.begin(), png.end())},
+        [](const std::string& path) { ReadDepthImage(path, std::nullopt); }},
+       dir_);
+}
+
+TEST_F(LoaderFuzz, CatalogsAndClassMaps) {
+  const std::string sh3f = testing::WriteTestSh3f(dir_, "Test.sh3f");
+  auto load_all = [](const Catalog& catalog) {
+    std::vector<std::string> ids;
+    for (const CatalogEntry& entry : catalog.entries()) ids.push_back(entry.id);
+    catalog.LoadModels(ids, /*show_progress=*/false);
+  };
+  Fuzz({"sh3f",
+        "sh3f",
+        {ReadFileBytes(sh3f)},
+        [&](const std::string& path) { load_all(OpenCatalog(path)); }},
+       dir_);
+  CatalogOpenOptions options;
+  options.catalog_dir = dir_;
+  Fuzz({"class_map",
+        "json",
+        {R"({"format": "furnidet-class-map", "version": 1, "catalogs": ["Test.sh3f"],
+             "entries": [{"id": "Test/marker", "class": "chair"},
+                         {"id": "Test/rotated", "class": "table", "evaluation_only": true}]})"},
+        [&](const std::string& path) { load_all(OpenCatalog(path, options)); }},
+       dir_);
+}
+
+TEST_F(LoaderFuzz, ModelFiles) {
+  ScanOptions scan;
+  scan.heights_m = {1.2};
+  scan.azimuths = 3;
+  TrainerOptions trainer;
+  trainer.vocabulary.kind = VocabularyKind::kKMeans;
+  trainer.vocabulary.words = 8;
+  TrainFromCatalog(OpenCatalog("procedural:2"), scan, trainer, dir_ + "/seed.fcm");
+  Fuzz({"model",
+        "fcm",
+        {ReadFileBytes(dir_ + "/seed.fcm")},
+        [](const std::string& path) { LoadTrainedModel(path); }},
+       dir_);
+}
+
+TEST_F(LoaderFuzz, DatasetDatabases) {
+  const testing::CommandResult made = testing::RunCommand(
+      std::string(FURN_WORKBENCH_BINARY) +
+      " generate --catalog procedural:2 --rooms 1 --frames 1 --seed 3 --quiet --out " + dir_ +
+      "/seed.db");
+  ASSERT_EQ(made.exit_code, 0) << made.output;
+  Fuzz({"dataset_db",
+        "db",
+        {ReadFileBytes(dir_ + "/seed.db")},
+        [](const std::string& path) {
+          DatasetDb db(path, DatasetDb::Mode::kReadOnly);
+          db.ReadModels();
+          db.Runs();
+          for (int64_t id : db.RoomIds()) {
+            const RoomRecord room = db.ReadRoom(id, /*with_images=*/true);
+            for (const FrameRecord& frame : room.frames) DetectionInputOf(frame, path);
+          }
+        }},
+       dir_);
+}
+
+}  // namespace
+}  // namespace furn
