@@ -210,6 +210,9 @@ std::string DetectorOptionsJson(const DetectorOptions& options) {
 
 DetectorOptions DetectorOptionsFromJson(const std::string& text, const std::string& what) {
   nlohmann::json json = nlohmann::json(ParseUserJson(text, what));
+  // A whole options file's "trainer" is checked too, though detection does
+  // not use it: a typo there must not pass here and fail only in `train`.
+  if (json.is_object() && json.contains("trainer")) TrainingOptionsFromJson(text, what);
   // A run's options_json or an options file: its "detector" object (absent
   // in a trainer-only file: the defaults).
   if (json.is_object() && (json.contains("detector") || json.contains("trainer")))

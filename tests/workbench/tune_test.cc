@@ -170,6 +170,13 @@ TEST(OptionsFile, TrainerOptionsRoundTripAndBadKeysAreNamed) {
   EXPECT_EQ(back.trainer.vocabulary.kind, VocabularyKind::kKMeans);
   EXPECT_EQ(back.scan.azimuths, 12);
   EXPECT_NO_THROW(DetectorOptionsFromJson(file, "best.json"));  // the same file detects
+  // ... and a typo in its trainer part is refused there too, not only by train.
+  EXPECT_NE(testing::ErrorOf([] {
+              DetectorOptionsFromJson(
+                  R"({"trainer": {"vocabulary": {"wordz": 3}}, "detector": {"min_score": 0.3}})",
+                  "best.json");
+            }).find("unknown trainer option 'vocabulary.wordz'"),
+            std::string::npos);
 
   auto error = [](const std::string& text) {
     return testing::ErrorOf([&] { TrainingOptionsFromJson(text, "best.json"); });
