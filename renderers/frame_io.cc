@@ -8,11 +8,15 @@
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
 
+#include <fcntl.h>
 #include <png.h>
+#include <unistd.h>
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <iostream>
 #include <limits>
 #include <map>
 #include <memory>
@@ -313,6 +317,37 @@ DepthFrame ReadDepthPng(const std::string& path, double units_per_metre) {
   return DecodeDepthPng(std::vector<uint8_t>(bytes.begin(), bytes.end()), path, units_per_metre);
 }
 
+namespace {
+
+// Sends the process's stderr to /dev/null while it lives: OpenCV's TIFF and
+// EXR readers (and libtiff under them) print their own complaints about a
+// damaged file, which would precede our one line.
+class QuietStderr {
+ public:
+  QuietStderr() {
+    std::fflush(stderr);
+    saved_ = dup(STDERR_FILENO);
+    const int null = open("/dev/null", O_WRONLY | O_CLOEXEC);
+    if (saved_ >= 0 && null >= 0) dup2(null, STDERR_FILENO);
+    if (null >= 0) close(null);
+  }
+  ~QuietStderr() {
+    std::fflush(stderr);
+    std::cerr.flush();
+    if (saved_ >= 0) {
+      dup2(saved_, STDERR_FILENO);
+      close(saved_);
+    }
+  }
+  QuietStderr(const QuietStderr&) = delete;
+  QuietStderr& operator=(const QuietStderr&) = delete;
+
+ private:
+  int saved_ = -1;
+};
+
+}  // namespace
+
 DepthFrame ReadDepthImage(const std::string& path, std::optional<double> units_per_metre) {
   const std::string extension = FileExtension(path);
   if (extension == "png") return ReadDepthPng(path, units_per_metre.value_or(1000));
@@ -329,6 +364,7 @@ DepthFrame ReadDepthImage(const std::string& path, std::optional<double> units_p
   setenv("OPENCV_IO_ENABLE_OPENEXR", "1", 0);
   cv::Mat image;
   try {
+    const QuietStderr quiet;
     image = cv::imdecode(
         cv::Mat(1, static_cast<int>(bytes.size()), CV_8U, const_cast<char*>(bytes.data())),
         cv::IMREAD_ANYDEPTH | cv::IMREAD_UNCHANGED);

@@ -174,5 +174,39 @@ TEST(FrameIo, PcdAndPlyHeadersAreCheckedAgainstTheFile) {
             std::string::npos);
 }
 
+// Damaged depth images of any format: our one line, and nothing a library
+// prints of its own (libpng, OpenCV's TIFF reader, libtiff).
+TEST(FrameIo, DamagedDepthImagesPrintNothingButOurError) {
+  const std::string dir = testing::ScratchDir();
+  DepthFrame frame;
+  frame.Resize(16, 12);
+  for (float& z : frame.depth) z = 1.25f;
+  const std::vector<uint8_t> png = EncodeDepthPng(frame);
+  std::vector<uint8_t> tiff;
+  cv::imencode(".tif", cv::Mat(12, 16, CV_16UC1, cv::Scalar(1250)), tiff);
+  for (const auto& [name, bytes] :
+       {std::pair{std::string("d.png"), png}, std::pair{std::string("d.tif"), tiff}}) {
+    for (size_t k = 0; k < 40; ++k) {
+      std::vector<uint8_t> damaged = bytes;
+      const size_t at = 16 + (k * 7919u) % (damaged.size() - 16);
+      damaged[at] = static_cast<uint8_t>(damaged[at] ^ (1 << (k % 8)));
+      if (k % 5 == 4) damaged.resize(damaged.size() / 2);  // and some truncated
+      testing::WriteText(dir + "/" + name, std::string(damaged.begin(), damaged.end()));
+      ::testing::internal::CaptureStderr();
+      std::string error;
+      try {
+        ReadDepthImage(dir + "/" + name, std::nullopt);
+      } catch (const InputError& e) {
+        error = e.what();
+      }
+      const std::string printed = ::testing::internal::GetCapturedStderr();
+      EXPECT_EQ(printed, "") << name << " damaged at " << at;
+      if (!error.empty()) {
+        EXPECT_NE(error.find(name), std::string::npos) << error;
+      }
+    }
+  }
+}
+
 }  // namespace
 }  // namespace furn
