@@ -54,7 +54,8 @@ ClassMap ParseClassMap(const std::string& json_text, const std::string& path) {
     throw InputError(path + ": not valid JSON (" + error.what() + ")");
   }
   Require(document.is_object(), path + ": a class map must be a JSON object");
-  Require(document.value("format", "") == kFormat,
+  Require(document.contains("format") && document["format"].is_string() &&
+              document["format"].get<std::string>() == kFormat,
           path + ": \"format\" must be \"" + kFormat + "\"");
   Require(document.contains("version") && document["version"].is_number_integer() &&
               document["version"].get<int64_t>() == kVersion,

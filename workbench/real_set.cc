@@ -366,9 +366,18 @@ RealImportSummary ImportRealSet(const RealSet& set,
 std::set<int64_t> FramesWithEstimatedPose(const std::string& generation_options_json) {
   std::set<int64_t> frames;
   const nlohmann::json json = nlohmann::json::parse(generation_options_json, nullptr, false);
-  if (!json.is_object() || json.value("kind", "") != "real-set") return frames;
-  for (const nlohmann::json& frame : json.value("frames", nlohmann::json::array())) {
-    if (frame.value("pose", "") == "estimate") frames.insert(frame.value("frame", int64_t{-1}));
+  auto is = [](const nlohmann::json& object, const char* key, const char* text) {
+    return object.is_object() && object.contains(key) && object[key].is_string() &&
+           object[key].get<std::string>() == text;
+  };
+  if (!is(json, "kind", "real-set")) return frames;
+  Require(json.contains("frames") && json["frames"].is_array(),
+          "a real-set dataset's generation options lack their frames (a damaged file)");
+  for (const nlohmann::json& frame : json["frames"]) {
+    if (!is(frame, "pose", "estimate")) continue;
+    Require(frame.contains("frame") && frame["frame"].is_number_integer(),
+            "a real-set dataset's frame entry lacks its id (a damaged file)");
+    frames.insert(frame["frame"].get<int64_t>());
   }
   return frames;
 }

@@ -44,6 +44,11 @@ TEST(ClassMap, StructuralMistakesAreRejected) {
             std::string::npos);
   EXPECT_NE(ErrorOf([] { ParseClassMap(MapJson(""), "m.json"); }).find("names no entries"),
             std::string::npos);
+  // A "format" of another type: our line, not nlohmann's type_error (found by tests/fuzz).
+  EXPECT_NE(ErrorOf([] {
+              ParseClassMap(R"({"format": 1, "version": 1})", "m.json");
+            }).find("m.json: \"format\" must be \"furnidet-class-map\""),
+            std::string::npos);
   EXPECT_NE(ErrorOf([] {
               ParseClassMap(
                   MapJson(R"({"id": "A/b", "class": "chair"},{"id": "A/b", "class": "table"})",
