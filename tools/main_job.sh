@@ -53,7 +53,7 @@ echo "   the sensor model's noise against the real frames; history of synthetic 
 labels="$repo/data/real/labels.json"
 if [[ ! -f "$out_dir/real.db" || "$labels" -nt "$out_dir/real.db" ]]; then
   rm -f "$out_dir/real.db"
-  "$workbench" dataset import-real "$labels" --out "$out_dir/real.db" --sheets "$out_dir/real_sheets" 2>/dev/null
+  "$workbench" dataset import-real "$labels" --out "$out_dir/real.db" --sheets "$out_dir/real_sheets"
 fi
 "$workbench" evaluate --model "$out_dir/model.fcm" --db "$out_dir/real.db" --split test --label real \
   --quiet | tee "$out_dir/real.txt"

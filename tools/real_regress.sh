@@ -15,7 +15,7 @@ echo "== train the default model (about 70 s on 2 cores)"
 echo "== import the real scans"
 rm -f "$work/real.db"
 "$workbench" dataset import-real "$repo/data/real/labels.json" --out "$work/real.db" \
-  --sheets "$work/sheets" 2>/dev/null
+  --sheets "$work/sheets"
 echo "== evaluate"
 "$workbench" evaluate --model "$work/model.fcm" --db "$work/real.db" --split test --label ci --quiet
 "$workbench" regress --db "$work/real.db" --baseline "$repo/tests/baselines/real_set.json"
