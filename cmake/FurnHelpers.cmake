@@ -7,7 +7,9 @@ function(furn_target_defaults target)
     target_compile_options(${target} PRIVATE -Werror)
   endif()
   if(NOT FURN_SANITIZE STREQUAL "")
-    target_compile_options(${target} PRIVATE -fsanitize=${FURN_SANITIZE} -fno-omit-frame-pointer)
+    # No recovery: a UBSan finding ends the process, so the test that met it fails.
+    target_compile_options(${target} PRIVATE
+      -fsanitize=${FURN_SANITIZE} -fno-sanitize-recover=all -fno-omit-frame-pointer)
     target_link_options(${target} PRIVATE -fsanitize=${FURN_SANITIZE})
   endif()
 endfunction()

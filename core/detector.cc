@@ -779,10 +779,11 @@ VoteMaps Detector::Vote(const PreparedScan& scan) const {
       2000, static_cast<int>(std::ceil((high.x() - low.x() + 2 * margin) / options.cell_m)));
   maps.rows = std::min(
       2000, static_cast<int>(std::ceil((high.y() - low.y() + 2 * margin) / options.cell_m)));
-  std::vector<cv::Mat> grids(kClasses);
-  for (cv::Mat& grid : grids) grid = cv::Mat::zeros(maps.rows, maps.cols, CV_32F);
-  for (size_t s = 0; s < view.segments.size(); ++s) {
-    if (scan.structure_segment[s]) continue;
+  // Each segment's votes on its own (both cores), then added up in segment
+  // order: the same sums, in the same order, as one loop.
+  std::vector<std::vector<HoughVote>> votes_of_segment(view.segments.size());
+  ParallelFor(0, static_cast<int>(view.segments.size()), [&](int s) {
+    if (scan.structure_segment[s]) return;
     const Eigen::Vector3f& centroid = view.centroids[s];
     // Relations were stored in the view-aligned frame: back to world.
     const Eigen::Matrix2f world_from_aligned =
@@ -797,14 +798,24 @@ VoteMaps Detector::Vote(const PreparedScan& scan) const {
         }
         const int class_index = static_cast<int>(entry.furniture_class);
         const Eigen::Vector2f at = centroid.head<2>() + world_from_aligned * entry.relation;
-        const int c = static_cast<int>(std::floor((at.x() - maps.origin.x()) / options.cell_m));
-        const int r = static_cast<int>(std::floor((at.y() - maps.origin.y()) / options.cell_m));
-        if (c < 0 || r < 0 || c >= maps.cols || r >= maps.rows) continue;
         const auto weight = static_cast<float>(
             activation.probability / impl.entries_per_class[activation.word][class_index]);
-        grids[class_index].at<float>(r, c) += weight;
-        maps.votes.push_back({static_cast<int>(s), class_index, at.x(), at.y(), weight});
+        votes_of_segment[s].push_back({s, class_index, at.x(), at.y(), weight});
       }
+    }
+  });
+  std::vector<cv::Mat> grids(kClasses);
+  for (cv::Mat& grid : grids) grid = cv::Mat::zeros(maps.rows, maps.cols, CV_32F);
+  size_t total = 0;
+  for (const auto& votes : votes_of_segment) total += votes.size();
+  maps.votes.reserve(total);
+  for (const auto& votes : votes_of_segment) {
+    for (const HoughVote& vote : votes) {
+      const int c = static_cast<int>(std::floor((vote.x - maps.origin.x()) / options.cell_m));
+      const int r = static_cast<int>(std::floor((vote.y - maps.origin.y()) / options.cell_m));
+      if (c < 0 || r < 0 || c >= maps.cols || r >= maps.rows) continue;
+      grids[vote.class_index].at<float>(r, c) += vote.weight;
+      maps.votes.push_back(vote);
     }
   }
   if (options.vote_sigma_m > 0) {
@@ -862,13 +873,18 @@ void Detector::RankCandidates(const PreparedScan& scan,
   for (const auto& support : supports) {
     for (const auto& [segment, weight] : support) needed[segment] = 1;
   }
-  std::vector<std::vector<int>> segment_neighbours(view.segments.size());
-  ParallelFor(0, static_cast<int>(view.segments.size()), [&](int s) {
-    if (needed[s] && view.segments[s].size() >= 3) {
-      segment_neighbours[s] = impl.parts->Nearest(
-          ComputeVfh(view.cloud, view.segments[s], scan.sensor), options.neighbours);
-    }
+  std::vector<int> queried;  // segments whose neighbours are needed
+  for (size_t s = 0; s < view.segments.size(); ++s) {
+    if (needed[s] && view.segments[s].size() >= 3) queried.push_back(static_cast<int>(s));
+  }
+  std::vector<VfhDescriptor> descriptors(queried.size());
+  ParallelFor(0, static_cast<int>(queried.size()), [&](int q) {
+    descriptors[q] = ComputeVfh(view.cloud, view.segments[queried[q]], scan.sensor);
   });
+  std::vector<std::vector<int>> nearest = impl.parts->NearestMany(descriptors, options.neighbours);
+  std::vector<std::vector<int>> segment_neighbours(view.segments.size());
+  for (size_t q = 0; q < queried.size(); ++q)
+    segment_neighbours[queried[q]] = std::move(nearest[q]);
   for (size_t h = 0; h < hypotheses.size(); ++h)
     impl.Rank(supports[h], segment_neighbours, &hypotheses[h]);
   // Maxima of one class backed by (almost) the same segments would give the

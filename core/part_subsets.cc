@@ -11,6 +11,7 @@
 #include <set>
 
 #include "core/error.h"
+#include "core/parallel.h"
 #include "core/pcl_conversion.h"
 
 namespace furn {
@@ -157,22 +158,69 @@ const PartSubsetIndex::State& PartSubsetIndex::state() const { return impl_->sta
 size_t PartSubsetIndex::size() const { return static_cast<size_t>(impl_->state.projected.rows()); }
 
 std::vector<int> PartSubsetIndex::Nearest(const VfhDescriptor& query, int k) const {
+  return NearestMany({query}, k).front();
+}
+
+std::vector<std::vector<int>> PartSubsetIndex::NearestMany(
+    const std::vector<VfhDescriptor>& queries, int k) const {
   constexpr int kBins = static_cast<int>(std::tuple_size<VfhDescriptor>::value);
-  const Eigen::RowVectorXf q =
-      (Eigen::Map<const Eigen::RowVectorXf>(query.data(), kBins) - impl_->state.mean) *
-      impl_->state.basis;
-  // |p - q|^2 = |p|^2 - 2 p.q + |q|^2: one matrix-vector product; |q|^2 is
-  // the same for every p and left out.
-  const Eigen::VectorXf distances =
-      impl_->squared_norms - 2.0f * (impl_->state.projected * q.transpose());
-  std::vector<int> order(distances.size());
-  std::iota(order.begin(), order.end(), 0);
-  const size_t count = std::min<size_t>(std::max(k, 0), order.size());
-  std::partial_sort(order.begin(), order.begin() + count, order.end(), [&](int a, int b) {
-    return distances[a] != distances[b] ? distances[a] < distances[b] : a < b;
+  const State& state = impl_->state;
+  const Eigen::Index n = state.projected.rows();
+  const Eigen::Index m = static_cast<Eigen::Index>(queries.size());
+  const size_t count = std::min<size_t>(std::max(k, 0), static_cast<size_t>(n));
+  // The queries in principal components, one per column.
+  Eigen::MatrixXf projected_queries(state.basis.cols(), m);
+  for (Eigen::Index j = 0; j < m; ++j) {
+    projected_queries.col(j) =
+        ((Eigen::Map<const Eigen::RowVectorXf>(queries[j].data(), kBins) - state.mean) *
+         state.basis)
+            .transpose();
+  }
+  // |p - q|^2 = |p|^2 - 2 p.q + |q|^2, |q|^2 the same for every p and left
+  // out. The library is read block of rows by block, every query searched
+  // while a block is in cache (the library is read once, not once per
+  // query), each block on a core of its own; each query keeps its `count`
+  // best of every block. A block's products are matrix-vector products as
+  // over the whole library, so the distances are the same to the bit
+  // whatever the blocks; candidates compare by (distance, index), a total
+  // order, so the result does not depend on the blocks either.
+  using Candidate = std::pair<float, int>;
+  constexpr Eigen::Index kBlock = 8192;
+  const int blocks = static_cast<int>((n + kBlock - 1) / kBlock);
+  std::vector<std::vector<std::vector<Candidate>>> best_of_block(
+      blocks, std::vector<std::vector<Candidate>>(m));
+  ParallelFor(0, blocks, [&](int b) {
+    const Eigen::Index first = b * kBlock;
+    const Eigen::Index rows = std::min(kBlock, n - first);
+    const auto block = state.projected.middleRows(first, rows);
+    Eigen::VectorXf products(rows);
+    for (Eigen::Index j = 0; j < m; ++j) {
+      products.noalias() = block * projected_queries.col(j);
+      std::vector<Candidate>& heap = best_of_block[b][j];  // a max-heap of the best so far
+      heap.reserve(count + 1);
+      for (Eigen::Index r = 0; r < rows && count > 0; ++r) {
+        const Candidate candidate(impl_->squared_norms[first + r] - 2.0f * products[r],
+                                  static_cast<int>(first + r));
+        if (heap.size() < count) {
+          heap.push_back(candidate);
+          std::push_heap(heap.begin(), heap.end());
+        } else if (candidate < heap.front()) {
+          std::pop_heap(heap.begin(), heap.end());
+          heap.back() = candidate;
+          std::push_heap(heap.begin(), heap.end());
+        }
+      }
+    }
   });
-  order.resize(count);
-  return order;
+  std::vector<std::vector<int>> nearest(m);
+  for (Eigen::Index j = 0; j < m; ++j) {
+    std::vector<Candidate> candidates;
+    for (int b = 0; b < blocks; ++b)
+      candidates.insert(candidates.end(), best_of_block[b][j].begin(), best_of_block[b][j].end());
+    std::partial_sort(candidates.begin(), candidates.begin() + count, candidates.end());
+    for (size_t i = 0; i < count; ++i) nearest[j].push_back(candidates[i].second);
+  }
+  return nearest;
 }
 
 }  // namespace furn

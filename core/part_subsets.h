@@ -67,6 +67,9 @@ class PartSubsetIndex {
   size_t size() const;
   // Indices of the k nearest descriptors, nearest first (ties by index).
   std::vector<int> Nearest(const VfhDescriptor& query, int k) const;
+  // The same for many queries at once, much faster than one by one (the
+  // library is read once for all of them; both cores); one list per query.
+  std::vector<std::vector<int>> NearestMany(const std::vector<VfhDescriptor>& queries, int k) const;
 
  private:
   struct Impl;

@@ -2,7 +2,9 @@
 // and a ray-cast scan of a procedural chair.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <random>
 
 #include "core/error.h"
 #include "core/preprocess.h"
@@ -253,6 +255,50 @@ TEST(PartSubsets, SingletonsAdjacentPairsAndConnectedTriples) {
   float total = 0;
   for (float bin : vfh) total += bin;
   EXPECT_GT(total, 0);
+}
+
+// The index searches exactly in its principal components: against brute
+// force in double over the same projected rows, many queries at once give
+// what each gives alone, over more rows than one block (8192).
+TEST(PartSubsets, IndexFindsTheExactNearestInItsComponents) {
+  std::mt19937_64 random(5);
+  std::normal_distribution<float> gaussian(0, 1);
+  std::vector<VfhDescriptor> library(20000);
+  for (VfhDescriptor& d : library) {
+    for (float& bin : d) bin = gaussian(random);
+  }
+  const PartSubsetIndex index(library, 16);
+  ASSERT_EQ(index.size(), library.size());
+  const Eigen::MatrixXf& projected = index.state().projected;
+  std::vector<VfhDescriptor> queries = {library[17], library[19999], library[8192]};
+  for (int i = 0; i < 4; ++i) {
+    VfhDescriptor d;
+    for (float& bin : d) bin = gaussian(random);
+    queries.push_back(d);
+  }
+  const int k = 7;
+  const std::vector<std::vector<int>> many = index.NearestMany(queries, k);
+  ASSERT_EQ(many.size(), queries.size());
+  for (size_t j = 0; j < queries.size(); ++j) {
+    EXPECT_EQ(index.Nearest(queries[j], k), many[j]) << "query " << j;
+    const Eigen::RowVectorXd q =
+        ((Eigen::Map<const Eigen::RowVectorXf>(queries[j].data(), 308) - index.state().mean) *
+         index.state().basis)
+            .cast<double>();
+    std::vector<double> truth(projected.rows());
+    for (Eigen::Index r = 0; r < projected.rows(); ++r)
+      truth[r] = (projected.row(r).cast<double>() - q).squaredNorm();
+    std::vector<double> sorted = truth;
+    std::partial_sort(sorted.begin(), sorted.begin() + k, sorted.end());
+    ASSERT_EQ(many[j].size(), static_cast<size_t>(k));
+    for (int r = 0; r < k; ++r)  // the r-th found is as near as the true r-th (float rounding)
+      EXPECT_NEAR(truth[many[j][r]], sorted[r], 1e-3 * (1 + sorted[r])) << "query " << j;
+  }
+  EXPECT_EQ(many[0].front(), 17);  // a library descriptor finds itself
+  EXPECT_EQ(many[1].front(), 19999);
+  EXPECT_EQ(many[2].front(), 8192);
+  EXPECT_TRUE(index.NearestMany({}, k).empty());
+  EXPECT_TRUE(index.Nearest(queries[0], 0).empty());
 }
 
 }  // namespace
