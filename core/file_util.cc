@@ -17,28 +17,31 @@
 
 namespace furn {
 
+void RequireRegularFile(const std::string& path) {
+  struct stat info {};
+  if (::stat(path.c_str(), &info) != 0) return;  // missing: the caller says so in its words
+  if (S_ISREG(info.st_mode)) return;
+  const char* kind = S_ISDIR(info.st_mode)    ? "a directory"
+                     : S_ISFIFO(info.st_mode) ? "a FIFO"
+                     : S_ISCHR(info.st_mode)  ? "a character device"
+                     : S_ISBLK(info.st_mode)  ? "a block device"
+                     : S_ISSOCK(info.st_mode) ? "a socket"
+                                              : "not a regular file";
+  throw InputError(path + ": cannot read (" + kind + "; inputs must be regular files)");
+}
+
 std::string ReadFileBytes(const std::string& path) {
-  std::error_code ec;
-  if (std::filesystem::is_directory(path, ec)) {
-    throw InputError(path + ": cannot read (is a directory)");
-  }
+  RequireRegularFile(path);
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path + ": cannot read (" + std::strerror(errno) + ")");
-  // Read in one piece when the size is known (a regular file), else stream.
-  const std::uintmax_t size = std::filesystem::is_regular_file(path, ec)
-                                  ? std::filesystem::file_size(path, ec)
-                                  : static_cast<std::uintmax_t>(-1);
-  if (!ec && size != static_cast<std::uintmax_t>(-1)) {
-    std::string bytes(static_cast<size_t>(size), '\0');
-    in.read(bytes.data(), static_cast<std::streamsize>(size));
-    if (in.bad() || static_cast<std::uintmax_t>(in.gcount()) != size)
-      throw InputError(path + ": read error (the file changed while being read?)");
-    return bytes;
-  }
-  std::ostringstream buffer;
-  buffer << in.rdbuf();
-  if (in.bad()) throw InputError(path + ": read error");
-  return buffer.str();
+  std::error_code ec;
+  const std::uintmax_t size = std::filesystem::file_size(path, ec);
+  if (ec) throw InputError(path + ": cannot read (" + ec.message() + ")");
+  std::string bytes(static_cast<size_t>(size), '\0');
+  in.read(bytes.data(), static_cast<std::streamsize>(size));
+  if (in.bad() || static_cast<std::uintmax_t>(in.gcount()) != size)
+    throw InputError(path + ": read error (the file changed while being read?)");
+  return bytes;
 }
 
 void WriteDirectoryAtomically(const std::string& out,
@@ -77,6 +80,7 @@ void WriteDirectoryAtomically(const std::string& out,
 }
 
 MappedFile::MappedFile(const std::string& path) {
+  RequireRegularFile(path);  // open() of a FIFO would wait for a writer
   const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
   if (fd < 0) throw InputError(path + ": cannot read (" + std::strerror(errno) + ")");
   struct stat info {};

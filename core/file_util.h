@@ -14,8 +14,15 @@
 
 namespace furn {
 
-// Throws InputError "<path>: cannot read (<reason>)".
+// Throws InputError "<path>: cannot read (<reason>)", also for anything but
+// a regular file (RequireRegularFile).
 std::string ReadFileBytes(const std::string& path);
+
+// Throws InputError "<path>: cannot read (a FIFO; inputs must be regular
+// files)" when `path` (symlinks followed) exists and is not a regular file:
+// opening a FIFO waits for a writer forever, and /dev/zero never ends.
+// A missing path passes: callers say "does not exist" in their own words.
+void RequireRegularFile(const std::string& path);
 
 // Runs `write(dir)` into a fresh temporary directory beside `out` and, when it
 // returns, moves what it wrote into `out` (created if missing; files of the

@@ -2,6 +2,9 @@
 
 #include <sqlite3.h>
 
+#include "core/error.h"
+#include "core/file_util.h"
+
 namespace furn {
 namespace {
 
@@ -35,6 +38,11 @@ Database::Database(const std::string& path, Mode mode) : path_(path) {
   const int flags = mode == Mode::kReadOnly            ? SQLITE_OPEN_READONLY
                     : mode == Mode::kReadWriteExisting ? SQLITE_OPEN_READWRITE
                                                        : SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE;
+  try {
+    RequireRegularFile(path);  // SQLite would wait on a FIFO's open()
+  } catch (const InputError& error) {
+    throw DbError(error.what());
+  }
   const int code = sqlite3_open_v2(path.c_str(), &db_, flags, nullptr);
   if (code != SQLITE_OK) {
     const std::string message = db_ ? sqlite3_errmsg(db_) : sqlite3_errstr(code);

@@ -6,6 +6,7 @@
 #include <mutex>
 
 #include "core/error.h"
+#include "core/file_util.h"
 
 namespace furn {
 
@@ -30,6 +31,7 @@ std::string ZipErrorText(int code) {
 }  // namespace
 
 ZipArchive::ZipArchive(const std::string& path) : path_(path), handle_(std::make_unique<Handle>()) {
+  RequireRegularFile(path);
   int code = 0;
   handle_->zip = zip_open(path.c_str(), ZIP_RDONLY | ZIP_CHECKCONS, &code);
   if (handle_->zip == nullptr) {

@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include "core/error.h"
+#include "core/file_util.h"
 #include "db/dataset_db.h"
 #include "reports/dataset_sheet.h"
 
@@ -12,8 +13,9 @@ namespace furn {
 namespace {
 
 DatasetDb OpenExisting(const std::string& db_path) {
+  RequireRegularFile(db_path);
   std::error_code ec;
-  Require(std::filesystem::is_regular_file(db_path, ec), db_path + ": file does not exist");
+  Require(std::filesystem::exists(db_path, ec), db_path + ": file does not exist");
   return DatasetDb(db_path, DatasetDb::Mode::kReadOnly);
 }
 

@@ -372,6 +372,7 @@ bool IsBopScene(const std::filesystem::path& dir) {
 // associate.py's output ("timestamp path timestamp path"), the path naming
 // depth (or the only one) taken; '#' lines are comments.
 void AddTumList(const std::string& list, const ScanSource& common, std::vector<ScanSource>* out) {
+  RequireRegularFile(list);
   std::ifstream in(list);
   Require(in.good(), list + ": cannot read the TUM list");
   const std::filesystem::path base = std::filesystem::path(list).parent_path();

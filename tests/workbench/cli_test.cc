@@ -1,6 +1,7 @@
 // The workbench binary as a user runs it: exit codes, one-line errors, outputs.
 #include <gtest/gtest.h>
 
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <array>
 #include <cstdio>
@@ -8,6 +9,9 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "core/error.h"
+#include "core/file_util.h"
+#include "renderers/frame_io.h"
 #include "scenes/mesh_io.h"
 #include "tests/scenes/fixtures.h"
 #include "tests/test_util.h"
@@ -93,6 +97,47 @@ TEST(Cli, UserMistakesGiveOneLineAndNonZeroExit) {
     EXPECT_NE(result.output.find(c.expected), std::string::npos) << result.output;
   }
   EXPECT_FALSE(std::filesystem::exists(dir + "/m.xyz"));
+}
+
+// A FIFO or a symlink to /dev/zero as any input: one line at once, not a
+// wait for a writer or an endless read (issue 21). `timeout` turns a hang
+// into exit code 124.
+TEST(Cli, NonRegularFilesAreRefusedNotWaitedOn) {
+  const std::string dir = testing::ScratchDir();
+  for (const char* name : {"/in.pcd", "/in.png", "/in.db", "/map.json", "/c.sh3f", "/m.fcm"})
+    ASSERT_EQ(::mkfifo((dir + name).c_str(), 0600), 0) << name;
+  std::filesystem::create_symlink("/dev/zero", dir + "/zero.pcd");
+  struct Case {
+    std::string arguments, expected;
+  };
+  const Case cases[] = {
+      {"detect --model " + dir + "/m.fcm --cloud " + dir + "/zero.pcd",
+       "zero.pcd: cannot read (a character device"},
+      {"detect --model " + dir + "/m.fcm --cloud " FURN_SOURCE_DIR "/data/real/pcl/office1.pcd",
+       "m.fcm: cannot read (a FIFO"},
+      {"dataset info " + dir + "/in.db", "in.db: cannot read (a FIFO"},
+      {"catalog list --catalog " + dir + "/map.json", "map.json: cannot read (a FIFO"},
+      {"catalog list --catalog " + dir + "/c.sh3f", "c.sh3f: cannot read (a FIFO"},
+  };
+  for (const Case& c : cases) {
+    const RunResult result =
+        testing::RunCommand("timeout 20 " + std::string(FURN_WORKBENCH_BINARY) + " " + c.arguments);
+    EXPECT_EQ(result.exit_code, 1) << c.arguments;
+    EXPECT_EQ(CountErrorLines(result.output), 1u) << result.output;
+    EXPECT_NE(result.output.find(c.expected), std::string::npos) << result.output;
+  }
+  // The loaders themselves, for the inputs a model is not needed to reach.
+  for (const std::string path : {dir + "/in.pcd", dir + "/zero.pcd"}) {
+    try {
+      ReadPointCloudFile(path);
+      ADD_FAILURE() << path;
+    } catch (const InputError& error) {
+      EXPECT_NE(std::string(error.what()).find("inputs must be regular files"), std::string::npos)
+          << error.what();
+    }
+  }
+  EXPECT_THROW(ReadDepthImage(dir + "/in.png", std::nullopt), InputError);
+  EXPECT_THROW(MappedFile(dir + "/m.fcm"), InputError);
 }
 
 TEST(Cli, UsageMistakesExitWithTwo) {
