@@ -9,15 +9,19 @@
 #include "core/parallel.h"
 #include "core/progress.h"
 #include "scenes/class_map.h"
+#include "scenes/mesh_io.h"
 #include "scenes/procedural_catalog.h"
 #include "scenes/sh3f_catalog.h"
 
 namespace furn {
 
-// Where an entry's model comes from: a .sh3f archive or a procedural model.
+// Where an entry's model comes from: a .sh3f archive, a procedural model or
+// a mesh file of a class map.
 struct Catalog::Source {
   std::unique_ptr<Sh3fCatalog> archive;      // set for .sh3f sources
   std::map<std::string, CadModel> prebuilt;  // procedural models by id
+  std::string mesh_path;                     // set for a mesh-file entry
+  MeshLoadOptions mesh_options;
 };
 
 namespace {
@@ -106,6 +110,12 @@ CadModel Catalog::LoadModel(const std::string& id) const {
   const size_t index = static_cast<size_t>(&entry - entries_.data());
   const Source& source = *sources_[source_of_entry_[index]];
   if (source.archive) return source.archive->LoadModel(*source.archive->Find(id));
+  if (!source.mesh_path.empty()) {
+    CadModel model = LoadMeshFile(source.mesh_path, source.mesh_options);
+    model.id = entry.id;
+    model.name = entry.name;
+    return model;
+  }
   return source.prebuilt.at(id);
 }
 
@@ -216,6 +226,31 @@ Catalog OpenCatalog(const std::string& spec, const CatalogOpenOptions& options) 
       catalog.source_of_entry_.push_back(static_cast<int>(catalog.sources_.size()));
     }
     catalog.sources_.push_back(std::move(source));
+  }
+  // Mesh-file entries (version 2), each a source of its own.
+  for (const ClassMapEntry& mapped : map.entries) {
+    if (mapped.mesh.empty()) continue;
+    for (const CatalogEntry& other : catalog.entries_) {
+      Require(other.id != mapped.id,
+              class_map_path + ": mesh entry '" + mapped.id + "' has the id of an entry of " +
+                  other.source + "; give it another");
+    }
+    CatalogEntry entry;
+    entry.id = mapped.id;
+    entry.name =
+        mapped.note.empty() ? std::filesystem::path(mapped.mesh).stem().string() : mapped.note;
+    entry.category = "Mesh file";
+    entry.source = mapped.mesh;
+    entry.furniture_class = mapped.furniture_class;
+    entry.evaluation_only = mapped.evaluation_only;
+    if (mapped.mesh_options.size_m) entry.size_m = *mapped.mesh_options.size_m;
+    auto source = std::make_unique<Catalog::Source>();
+    source->mesh_path = mapped.mesh;
+    source->mesh_options = mapped.mesh_options;
+    catalog.entries_.push_back(std::move(entry));
+    catalog.source_of_entry_.push_back(static_cast<int>(catalog.sources_.size()));
+    catalog.sources_.push_back(std::move(source));
+    classified.erase(mapped.id);
   }
   if (!classified.empty()) {
     const std::string id = classified.begin()->first;

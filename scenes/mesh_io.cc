@@ -8,6 +8,8 @@
 #include <assimp/Importer.hpp>
 
 #include <algorithm>
+#include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <set>
@@ -15,6 +17,7 @@
 
 #include "core/error.h"
 #include "core/file_util.h"
+#include "scenes/vtk_mesh.h"
 #include "scenes/zip_archive.h"
 
 namespace furn {
@@ -220,8 +223,66 @@ bool IsYUpByDefault(const std::string& extension) {
 
 }  // namespace
 
+bool LoadsYUpByDefault(const std::string& extension) { return IsYUpByDefault(extension); }
+
 bool MeshLoadOptions::Check() const {
-  return metres_per_unit > 0 && std::isfinite(metres_per_unit);
+  if (!(metres_per_unit > 0 && std::isfinite(metres_per_unit))) return false;
+  if (size_m && !(size_m->allFinite() && (size_m->array() > 0).all())) return false;
+  return !engine_from_file ||
+         (engine_from_file->allFinite() &&
+          (*engine_from_file * engine_from_file->transpose() - Eigen::Matrix3f::Identity()).norm() <
+              1e-4f);
+}
+
+Eigen::Vector3f ParseAxis(const std::string& text, const std::string& what) {
+  std::string axis = text;
+  float sign = 1;
+  if (!axis.empty() && (axis[0] == '+' || axis[0] == '-')) {
+    sign = axis[0] == '-' ? -1.f : 1.f;
+    axis.erase(0, 1);
+  }
+  const std::string letters = "xyz";
+  const size_t index = axis.size() == 1 ? letters.find(axis[0]) : std::string::npos;
+  Require(index != std::string::npos,
+          what + " '" + text + "' is not an axis (x, y, z with an optional + or -)");
+  return sign * Eigen::Vector3f::Unit(static_cast<Eigen::Index>(index));
+}
+
+Eigen::Matrix3f AxesFromUpAndFront(const Eigen::Vector3f& up,
+                                   const Eigen::Vector3f& front,
+                                   const std::string& what) {
+  Require(std::abs(up.dot(front)) < 1e-6f,
+          what + ": the front must be perpendicular to the up axis");
+  // Rows are the engine's axes in file coordinates: x = y cross z.
+  const Eigen::Vector3f z = up.normalized(), y = -front.normalized();
+  Eigen::Matrix3f engine_from_file;
+  engine_from_file.row(0) = y.cross(z).transpose();
+  engine_from_file.row(1) = y.transpose();
+  engine_from_file.row(2) = z.transpose();
+  return engine_from_file;
+}
+
+Eigen::Vector3f DefaultFront(const Eigen::Vector3f& up) {
+  for (const Eigen::Vector3f& front :
+       {Eigen::Vector3f(0, -1, 0), Eigen::Vector3f(0, 0, 1), Eigen::Vector3f(-1, 0, 0)}) {
+    if (std::abs(front.dot(up)) < 1e-6f) return front;
+  }
+  return Eigen::Vector3f(0, -1, 0);  // not reached for a unit axis
+}
+
+double ParseUnits(const std::string& text, const std::string& what) {
+  static const std::pair<const char*, double> kNamed[] = {
+      {"m", 1.0}, {"cm", 0.01}, {"mm", 0.001}, {"in", 0.0254}, {"ft", 0.3048}};
+  for (const auto& [name, metres] : kNamed) {
+    if (text == name) return metres;
+  }
+  char* end = nullptr;
+  const double value = std::strtod(text.c_str(), &end);
+  Require(!text.empty() && end == text.c_str() + text.size() && std::isfinite(value) && value > 0,
+          what + " '" + text +
+              "' is not a unit (m, cm, mm, in, ft, or metres per unit as a "
+              "positive number)");
+  return value;
 }
 
 Eigen::Matrix3f ZUpFromYUp() {
@@ -248,30 +309,46 @@ std::vector<std::string> SupportedImportExtensions() {
 
 CadModel LoadMeshFile(const std::string& path, const MeshLoadOptions& options) {
   Require(options.Check(),
-          "metres_per_unit " + std::to_string(options.metres_per_unit) +
-              " must be a finite number > 0");
+          path +
+              ": load options: metres per unit must be a finite number > 0, a size three "
+              "positive lengths, the axes a rotation");
+  RequireRegularFile(path);
   std::error_code ec;
   Require(std::filesystem::is_regular_file(path, ec), path + ": file does not exist");
   const std::string extension = FileExtension(path);
-  Assimp::Importer importer;
-  if (extension.empty() || !importer.IsExtensionSupported("." + extension)) {
-    throw InputError(path + ": unknown format '" + extension +
-                     "' (supported: obj, ply, stl, off, gltf, glb, dae, 3ds, fbx and other "
-                     "assimp formats)");
-  }
-  auto* io = new DiskIoSystem;
-  importer.SetIOHandler(io);  // the importer owns it
   TriangleMesh mesh;
-  try {
-    mesh = ImportTriangles(&importer, path, path);
-  } catch (const InputError&) {
-    if (!io->first_error().empty()) throw InputError(io->first_error());
-    throw;
+  if (extension == "vtk") {
+    mesh = ReadVtkPolyData(path);
+  } else {
+    Assimp::Importer importer;
+    if (extension.empty() || !importer.IsExtensionSupported("." + extension)) {
+      throw InputError(path + ": unknown format '" + extension +
+                       "' (supported: obj, ply, stl, off, gltf, glb, dae, 3ds, fbx, vtk and "
+                       "other assimp formats)");
+    }
+    auto* io = new DiskIoSystem;
+    importer.SetIOHandler(io);  // the importer owns it
+    try {
+      mesh = ImportTriangles(&importer, path, path);
+    } catch (const InputError&) {
+      if (!io->first_error().empty()) throw InputError(io->first_error());
+      throw;
+    }
   }
   const bool y_up = options.up_axis == UpAxis::kY ||
                     (options.up_axis == UpAxis::kFormatDefault && IsYUpByDefault(extension));
-  const Eigen::Matrix3f axes = y_up ? ZUpFromYUp() : Eigen::Matrix3f::Identity();
+  const Eigen::Matrix3f axes = options.engine_from_file ? *options.engine_from_file
+                               : y_up                   ? ZUpFromYUp()
+                                                        : Eigen::Matrix3f::Identity();
   TransformMesh(static_cast<float>(options.metres_per_unit) * axes, Eigen::Vector3f::Zero(), &mesh);
+  if (options.size_m) {
+    const Eigen::Vector3f size = BoundingBox(mesh).Size();
+    Require((size.array() > 0).all(),
+            path + ": the mesh is flat along an axis and cannot be scaled to a size");
+    TransformMesh(options.size_m->cwiseQuotient(size).asDiagonal().toDenseMatrix(),
+                  Eigen::Vector3f::Zero(),
+                  &mesh);
+  }
   PlaceOnFloorCentred(&mesh);
   CadModel model;
   model.id = std::filesystem::path(path).stem().string();

@@ -4,7 +4,9 @@
 // on z = 0, footprint centred on the origin). Files do not say which axis is
 // up, so each format has a documented default that MeshLoadOptions overrides:
 //   y up: obj, gltf, glb, dae, fbx, 3ds (assimp brings dae and 3ds to y up)
-//   z up: ply, stl, off
+//   z up: ply, stl, off, vtk
+// VTK legacy polydata (.vtk, the paper's own CAD models) is read by PCL
+// (pcl::io::loadPolygonFileVTK); every other format by assimp.
 // Export writes the inverse convention of the same format, so that
 // LoadMeshFile(ExportMesh(mesh)) gives the mesh back.
 //
@@ -12,6 +14,8 @@
 //   = 0.01}); ExportMesh(chair.mesh, "chair.ply");
 #pragma once
 
+#include <Eigen/Core>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -28,9 +32,39 @@ struct MeshLoadOptions {
   double metres_per_unit = 1.0;
   // Which file axis points up; kFormatDefault uses the table above.
   UpAxis up_axis = UpAxis::kFormatDefault;
+  // Or the whole turn from the file's axes to the engine's (z up, the front
+  // facing -y): set, it replaces up_axis (see AxesFromUpAndFront).
+  std::optional<Eigen::Matrix3f> engine_from_file;
+  // Scaled per axis after the turn to exactly this width x depth x height
+  // (metres), as Sweet Home 3D scales its models; unset: units alone.
+  std::optional<Eigen::Vector3f> size_m;
 
   bool Check() const;
 };
+
+// A signed axis of a file: "x", "+x", "-x", "y", ..., as a unit vector.
+// Throws InputError naming `what` (e.g. "map.json: entry 'a/b' \"up\"").
+Eigen::Vector3f ParseAxis(const std::string& text, const std::string& what);
+
+// The turn from a file's axes to the engine's: `up` becomes +z and `front`
+// (the direction the piece faces) becomes -y. Throws InputError when they
+// are not perpendicular.
+Eigen::Matrix3f AxesFromUpAndFront(const Eigen::Vector3f& up,
+                                   const Eigen::Vector3f& front,
+                                   const std::string& what);
+
+// The front a file faces when only its up axis is given: -y, else +z, else
+// -x, the first perpendicular to `up` (z up files face -y as the engine's
+// models do; y up ones face +z, the glTF and Sweet Home 3D convention).
+Eigen::Vector3f DefaultFront(const Eigen::Vector3f& up);
+
+// Whether files of this extension (lower case, no dot) are read as y up
+// when nothing says otherwise (the table above).
+bool LoadsYUpByDefault(const std::string& extension);
+
+// Metres per unit for "m", "cm", "mm", "in", "ft", or a positive number given
+// as text. Throws InputError naming `what`.
+double ParseUnits(const std::string& text, const std::string& what);
 
 // Loads a model file, converts it, and checks it (faces present, all vertices
 // finite). Throws InputError naming the file and the rule that failed.

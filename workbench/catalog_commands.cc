@@ -95,17 +95,19 @@ std::string FormatCatalogTable(const CatalogListing& listing) {
       triangles += "  ";
       total_triangles += row.triangles.value_or(0);
     }
-    std::snprintf(line,
-                  sizeof(line),
-                  "%-*s  %-9s  %-16s  %s%s (%s)%s\n",
-                  static_cast<int>(id_width),
-                  entry.id.c_str(),
-                  ClassText(entry).c_str(),
-                  FormatSize(entry.size_m).c_str(),
-                  triangles.c_str(),
-                  entry.name.c_str(),
-                  entry.category.c_str(),
-                  entry.evaluation_only ? " [evaluation only]" : "");
+    std::snprintf(
+        line,
+        sizeof(line),
+        "%-*s  %-9s  %-16s  %s%s (%s)%s\n",
+        static_cast<int>(id_width),
+        entry.id.c_str(),
+        ClassText(entry).c_str(),
+        // Mesh-file entries declare no size: their mesh's, once loaded.
+        FormatSize(entry.size_m.isZero() && loaded ? row.mesh_size_m : entry.size_m).c_str(),
+        triangles.c_str(),
+        entry.name.c_str(),
+        entry.category.c_str(),
+        entry.evaluation_only ? " [evaluation only]" : "");
     out << line;
     ++per_class[ClassText(entry)];
   }

@@ -24,14 +24,13 @@ void PrintFailures(const std::vector<ModelLoadFailure>& failures) {
   }
 }
 
-std::string SheetSubtitle(const CatalogEntry& entry) {
+// Class, size and name under a sheet tile: the catalog's size, or the mesh's
+// for entries that declare none (mesh files of a class map).
+std::string SheetSubtitle(const CatalogEntry& entry, const CadModel& model) {
+  const Eigen::Vector3f size_m =
+      entry.size_m.isZero() ? BoundingBox(model.mesh).Size() : entry.size_m;
   char size[64];
-  std::snprintf(size,
-                sizeof(size),
-                " %.2fx%.2fx%.2f m",
-                entry.size_m.x(),
-                entry.size_m.y(),
-                entry.size_m.z());
+  std::snprintf(size, sizeof(size), " %.2fx%.2fx%.2f m", size_m.x(), size_m.y(), size_m.z());
   return (entry.furniture_class ? ClassName(*entry.furniture_class) : std::string("-")) + size +
          " " + entry.name;
 }
@@ -110,7 +109,7 @@ int RunCatalog(int argc, char** argv) {
   PrintFailures(loaded.failures);
   std::vector<SheetTile> tiles;
   for (const CadModel& model : loaded.models) {
-    tiles.push_back({&model.mesh, model.id, SheetSubtitle(catalog.Get(model.id))});
+    tiles.push_back({&model.mesh, model.id, SheetSubtitle(catalog.Get(model.id), model)});
   }
   WriteMeshSheet(tiles, sheet_options, out_path);
   std::cout << "wrote " << out_path << " (" << tiles.size() << " models)\n";
