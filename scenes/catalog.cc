@@ -237,8 +237,7 @@ Catalog OpenCatalog(const std::string& spec, const CatalogOpenOptions& options) 
     }
     CatalogEntry entry;
     entry.id = mapped.id;
-    entry.name =
-        mapped.note.empty() ? std::filesystem::path(mapped.mesh).stem().string() : mapped.note;
+    entry.name = std::filesystem::path(mapped.mesh).stem().string();
     entry.category = "Mesh file";
     entry.source = mapped.mesh;
     entry.furniture_class = mapped.furniture_class;

@@ -5,8 +5,8 @@
 // up, so each format has a documented default that MeshLoadOptions overrides:
 //   y up: obj, gltf, glb, dae, fbx, 3ds (assimp brings dae and 3ds to y up)
 //   z up: ply, stl, off, vtk
-// VTK legacy polydata (.vtk, the paper's own CAD models) is read by PCL
-// (pcl::io::loadPolygonFileVTK); every other format by assimp.
+// VTK legacy polydata (.vtk, the paper's own CAD models) is read by VTK, the
+// library PCL reads it with (vtk_mesh.h); every other format by assimp.
 // Export writes the inverse convention of the same format, so that
 // LoadMeshFile(ExportMesh(mesh)) gives the mesh back.
 //

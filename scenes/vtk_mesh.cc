@@ -1,9 +1,11 @@
 #include "scenes/vtk_mesh.h"
 
-#include <pcl/PolygonMesh.h>
-#include <pcl/conversions.h>
-#include <pcl/io/vtk_lib_io.h>
-#include <pcl/point_types.h>
+#include <vtkCellArray.h>
+#include <vtkIdList.h>
+#include <vtkNew.h>
+#include <vtkPolyData.h>
+#include <vtkPolyDataReader.h>
+#include <vtkTriangleFilter.h>
 
 #include <cmath>
 #include <fstream>
@@ -27,29 +29,42 @@ TriangleMesh ReadVtkPolyData(const std::string& path) {
           path + ": not a VTK legacy file (it must start with \"# vtk DataFile\")");
   Require(head.find("POLYDATA") != std::string::npos,
           path + ": not VTK polydata (DATASET POLYDATA is needed for a mesh)");
-  pcl::PolygonMesh polygons;
-  Require(pcl::io::loadPolygonFileVTK(path, polygons) > 0 && !polygons.polygons.empty(),
+  // VTK's own reader (PCL's loadPolygonFileVTK keeps polygons only and
+  // drops triangle strips, which the paper's models are made of); the
+  // triangle filter turns polygons and strips into triangles.
+  vtkNew<vtkPolyDataReader> reader;
+  reader->SetFileName(path.c_str());
+  reader->ReadAllScalarsOff();
+  reader->ReadAllVectorsOff();
+  vtkNew<vtkTriangleFilter> triangles;
+  triangles->SetInputConnection(reader->GetOutputPort());
+  triangles->PassLinesOff();
+  triangles->PassVertsOff();
+  triangles->Update();
+  vtkPolyData* data = triangles->GetOutput();
+  Require(data != nullptr && data->GetPoints() != nullptr && data->GetNumberOfPolys() > 0,
           path + ": mesh has no faces (a model needs at least one triangle)");
-  pcl::PointCloud<pcl::PointXYZ> points;
-  pcl::fromPCLPointCloud2(polygons.cloud, points);
   TriangleMesh mesh;
-  mesh.vertices.reserve(points.size());
-  for (const pcl::PointXYZ& p : points) {
-    Require(std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z),
+  const vtkIdType count = data->GetNumberOfPoints();
+  mesh.vertices.reserve(static_cast<size_t>(count));
+  for (vtkIdType i = 0; i < count; ++i) {
+    double p[3];
+    data->GetPoint(i, p);
+    Require(std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2]),
             path + ": a point is not a finite number");
-    mesh.vertices.emplace_back(p.x, p.y, p.z);
+    mesh.vertices.emplace_back(
+        static_cast<float>(p[0]), static_cast<float>(p[1]), static_cast<float>(p[2]));
   }
-  const auto count = static_cast<int64_t>(mesh.vertices.size());
-  for (const pcl::Vertices& polygon : polygons.polygons) {
-    const auto& corners = polygon.vertices;
-    for (const auto corner : corners)
-      Require(corner >= 0 && static_cast<int64_t>(corner) < count,
+  vtkCellArray* polys = data->GetPolys();
+  vtkNew<vtkIdList> corners;
+  for (polys->InitTraversal(); polys->GetNextCell(corners);) {
+    if (corners->GetNumberOfIds() != 3) continue;
+    for (vtkIdType k = 0; k < 3; ++k)
+      Require(corners->GetId(k) >= 0 && corners->GetId(k) < count,
               path + ": a polygon names a point that does not exist");
-    for (size_t k = 2; k < corners.size(); ++k) {  // a fan over the polygon
-      mesh.triangles.emplace_back(static_cast<int>(corners[0]),
-                                  static_cast<int>(corners[k - 1]),
-                                  static_cast<int>(corners[k]));
-    }
+    mesh.triangles.emplace_back(static_cast<int>(corners->GetId(0)),
+                                static_cast<int>(corners->GetId(1)),
+                                static_cast<int>(corners->GetId(2)));
   }
   Require(!mesh.triangles.empty(),
           path + ": mesh has no faces (a model needs at least one triangle)");

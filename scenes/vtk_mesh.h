@@ -1,8 +1,7 @@
 // VTK legacy polydata (.vtk), the format of the paper's own CAD models, read
-// through PCL's VTK reader (pcl::io::loadPolygonFileVTK) into triangles.
-// Polygons of more than three corners are fanned; lines and vertices are
-// dropped. Kept apart from mesh_io.cc so that only this file sees VTK's
-// headers.
+// by VTK (which PCL brings) into triangles: polygons and triangle strips are
+// triangulated (vtkTriangleFilter), lines and vertices dropped. Kept apart
+// from mesh_io.cc so that only this file sees VTK's headers.
 //
 //   TriangleMesh mesh = ReadVtkPolyData("chair1.vtk");   // file units and axes
 #pragma once

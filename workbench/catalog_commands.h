@@ -45,3 +45,43 @@ std::string CatalogListingToJson(const CatalogListing& listing);
 std::string DescribeModel(const CatalogEntry& entry, const CadModel& model, bool as_json);
 
 }  // namespace furn
+
+namespace furn {
+
+// `catalog import DIR`: a starter class map (version 2) for a folder of mesh
+// files, to be checked on `catalog sheet` and edited.
+struct MeshFolderImportOptions {
+  std::string dir;  // searched recursively for every loadable mesh format
+  // The class of every mesh; unset: from each file's folder name ("Chairs",
+  // "chair", "Tables", ...; "clutter" too). Throws when a folder names none.
+  std::optional<FurnitureClass> furniture_class;
+  bool clutter = false;  // every mesh a clutter entry instead
+  std::string out;       // the class map to write (mesh paths relative to it)
+  bool overwrite = false;
+};
+
+struct ImportedMesh {
+  std::string id;    // "<folder>/<file stem>"
+  std::string mesh;  // relative to the class map
+  std::string class_name;
+  std::string units;  // m, cm, mm or in: the one that gives a plausible height
+  std::string up;     // the format's up axis
+  std::string front;  // file axis the piece faces; guessed for chairs and armchairs
+  Eigen::Vector3f size_m = Eigen::Vector3f::Zero();  // after units and axes
+  std::string note;                                  // how units and front were chosen
+};
+
+struct MeshFolderImport {
+  std::vector<ImportedMesh> meshes;
+  std::vector<ModelLoadFailure> skipped;  // files that did not load, with the reason
+};
+
+// Reads every mesh under options.dir, guesses units and front, and writes the
+// class map atomically. Throws InputError for a missing folder, a folder
+// without a loadable mesh, an existing output (without overwrite) or a
+// folder name that is no class.
+MeshFolderImport ImportMeshFolder(const MeshFolderImportOptions& options);
+
+std::string FormatMeshImport(const MeshFolderImport& import, const std::string& out);
+
+}  // namespace furn

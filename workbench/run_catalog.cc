@@ -77,8 +77,32 @@ int RunCatalog(int argc, char** argv) {
   sheet->add_option("--tile", sheet_options.tile_px, "Tile size in pixels")->capture_default_str();
   sheet->add_option("--columns", sheet_options.columns, "Tiles per row")->capture_default_str();
 
+  CLI::App* import = app.add_subcommand(
+      "import", "Write a starter class map (version 2) for a folder of mesh files");
+  MeshFolderImportOptions import_options;
+  std::string import_class = "auto";
+  import->add_option("dir", import_options.dir, "Folder of meshes (searched recursively)")
+      ->required();
+  import
+      ->add_option("--class",
+                   import_class,
+                   "chair, armchair, table, sideboard, sofa, clutter, or auto: each file's "
+                   "folder name (Chairs/, Tables/, ...)")
+      ->capture_default_str();
+  import->add_option("--out", import_options.out, "Class map to write (.json)")->required();
+  import->add_flag("--overwrite", import_options.overwrite, "Replace an existing class map");
+
   if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
   ApplyGlobalFlags(catalog_flags);
+  if (import->parsed()) {  // needs no catalog
+    if (import_class == "clutter") {
+      import_options.clutter = true;
+    } else if (import_class != "auto") {
+      import_options.furniture_class = ParseFurnitureClass(import_class);
+    }
+    std::cout << FormatMeshImport(ImportMeshFolder(import_options), import_options.out);
+    return 0;
+  }
   if (!class_name.empty()) list_options.only_class = ParseFurnitureClass(class_name);
   const Catalog catalog = OpenCatalog(catalog_flags.spec, MakeOpenOptions(catalog_flags));
   PrintWarnings(catalog.warnings());
