@@ -3,39 +3,146 @@
 #include <vtkCellArray.h>
 #include <vtkIdList.h>
 #include <vtkNew.h>
+#include <vtkObject.h>
 #include <vtkPolyData.h>
 #include <vtkPolyDataReader.h>
 #include <vtkTriangleFilter.h>
 
 #include <cmath>
-#include <fstream>
+#include <cstdlib>
+#include <sstream>
+#include <vector>
 
 #include "core/error.h"
 #include "core/file_util.h"
 
 namespace furn {
 
-TriangleMesh ReadVtkPolyData(const std::string& path) {
-  RequireRegularFile(path);
-  // Only legacy polydata goes to VTK: its header says so in the first lines.
-  std::string head(1024, '\0');
-  {
-    std::ifstream in(path, std::ios::binary);
-    Require(in.good(), path + ": cannot read");
-    in.read(head.data(), static_cast<std::streamsize>(head.size()));
-    head.resize(static_cast<size_t>(in.gcount()));
-  }
-  Require(head.rfind("# vtk DataFile", 0) == 0,
+namespace {
+
+constexpr size_t kMaxToken = 64;  // VTK reads words into fixed buffers
+
+// The text of an ASCII legacy polydata file checked section by section and
+// cut down to its geometry (POINTS and the cell sections, in the classic
+// layout "n size" followed by n groups "k i1 .. ik"): VTK's legacy reader
+// trusts declared counts and word lengths (a long word or a count beyond the
+// file crashed it under fuzzing), so nothing reaches it unchecked. Point and
+// cell data (normals, texture coordinates, ...) are dropped: a model is its
+// triangles. Throws InputError naming the file and the rule.
+std::string CheckedGeometry(const std::string& bytes, const std::string& path) {
+  std::istringstream lines(bytes);
+  std::string line;
+  std::getline(lines, line);
+  Require(line.rfind("# vtk DataFile", 0) == 0,
           path + ": not a VTK legacy file (it must start with \"# vtk DataFile\")");
-  Require(head.find("POLYDATA") != std::string::npos,
+  std::getline(lines, line);  // title
+  std::getline(lines, line);
+  if (!line.empty() && line.back() == '\r') line.pop_back();
+  Require(line == "ASCII",
+          path + ": only ASCII VTK legacy files are read (this one says '" + line.substr(0, 20) +
+              "'); convert it to ASCII, PLY or OBJ");
+  std::vector<std::string> words;
+  for (std::string word; lines >> word;) {
+    Require(word.size() <= kMaxToken,
+            path + ": a word of " + std::to_string(word.size()) + " characters (at most " +
+                std::to_string(kMaxToken) + ")");
+    words.push_back(std::move(word));
+  }
+  size_t at = 0;
+  auto next = [&](const char* what) -> const std::string& {
+    Require(at < words.size(), path + ": the file ends where " + std::string(what) + " is due");
+    return words[at++];
+  };
+  auto count = [&](const char* what, uint64_t most) {
+    const std::string& word = next(what);
+    Require(!word.empty() && word.size() <= 18 &&
+                word.find_first_not_of("0123456789") == std::string::npos,
+            path + ": " + what + " '" + word + "' is not a count");
+    const uint64_t value = std::stoull(word);
+    Require(value <= most, path + ": " + what + " " + word + " is more than the file can hold");
+    return value;
+  };
+  Require(next("DATASET") == "DATASET" && next("POLYDATA") == "POLYDATA",
           path + ": not VTK polydata (DATASET POLYDATA is needed for a mesh)");
-  // VTK's own reader (PCL's loadPolygonFileVTK keeps polygons only and
-  // drops triangle strips, which the paper's models are made of); the
-  // triangle filter turns polygons and strips into triangles.
+  std::ostringstream out;
+  out << "# vtk DataFile Version 3.0\nchecked\nASCII\nDATASET POLYDATA\n";
+  uint64_t points = 0;
+  bool have_points = false;
+  while (at < words.size()) {
+    const std::string section = words[at++];
+    if (section == "POINT_DATA" || section == "CELL_DATA" || section == "FIELD" ||
+        section == "METADATA") {
+      break;  // attributes follow: not needed for the triangles
+    }
+    if (section == "POINTS") {
+      Require(!have_points, path + ": two POINTS sections");
+      points = count("the POINTS count", (words.size() - at) / 3);
+      const std::string type = next("the POINTS type");
+      Require(type == "float" || type == "double",
+              path + ": POINTS of type '" + type + "' (float or double are read)");
+      out << "POINTS " << points << " double\n";
+      for (uint64_t i = 0; i < 3 * points; ++i) {
+        const std::string& word = next("a coordinate");
+        char* end = nullptr;
+        const double value = std::strtod(word.c_str(), &end);
+        Require(end == word.c_str() + word.size() && std::isfinite(value),
+                path + ": coordinate '" + word + "' is not a finite number");
+        out << word << (i % 3 == 2 ? '\n' : ' ');
+      }
+      have_points = true;
+      continue;
+    }
+    Require(section == "POLYGONS" || section == "TRIANGLE_STRIPS" || section == "LINES" ||
+                section == "VERTICES",
+            path + ": unknown section '" + section +
+                "' (POINTS, POLYGONS, TRIANGLE_STRIPS, LINES, VERTICES, POINT_DATA, "
+                "CELL_DATA)");
+    Require(have_points, path + ": " + section + " before POINTS");
+    const uint64_t cells = count("a cell count", words.size() - at);
+    const uint64_t size = count("a cell list size", words.size() - at);
+    Require(at + size <= words.size(), path + ": " + section + " runs past the end of the file");
+    Require(size >= cells,
+            path + ": " + section + " declares " + std::to_string(cells) + " cells in " +
+                std::to_string(size) + " numbers");
+    Require(at >= words.size() || words[at] != "OFFSETS",
+            path +
+                ": the VTK 5 cell layout (OFFSETS, CONNECTIVITY) is not read; write the "
+                "file as legacy version 4.2, PLY or OBJ");
+    const size_t end = at + size;
+    std::ostringstream cell_text;
+    for (uint64_t c = 0; c < cells; ++c) {
+      Require(at < end, path + ": " + section + " runs past its declared size");
+      const uint64_t corners = count("a cell's corner count", end - at - 1);
+      Require(corners == 0 || points > 0, path + ": a cell names points, but POINTS is empty");
+      cell_text << corners;
+      for (uint64_t k = 0; k < corners; ++k) {
+        const uint64_t index = count("a point index", points == 0 ? 0 : points - 1);
+        cell_text << ' ' << index;
+      }
+      cell_text << '\n';
+    }
+    Require(at == end,
+            path + ": " + section + " holds " + std::to_string(size) +
+                " numbers, its cells another count");
+    if (section == "POLYGONS" || section == "TRIANGLE_STRIPS")
+      out << section << ' ' << cells << ' ' << size << '\n' << cell_text.str();
+  }
+  Require(have_points, path + ": no POINTS section");
+  return out.str();
+}
+
+}  // namespace
+
+TriangleMesh ReadVtkPolyData(const std::string& path) {
+  const std::string checked = CheckedGeometry(ReadFileBytes(path), path);
+  // VTK's own reader, from the checked text (PCL's loadPolygonFileVTK keeps
+  // polygons only and drops triangle strips, which the paper's models are
+  // made of); the triangle filter turns polygons and strips into triangles.
+  // VTK's own complaints are ours to say, in one line.
+  vtkObject::GlobalWarningDisplayOff();
   vtkNew<vtkPolyDataReader> reader;
-  reader->SetFileName(path.c_str());
-  reader->ReadAllScalarsOff();
-  reader->ReadAllVectorsOff();
+  reader->ReadFromInputStringOn();
+  reader->SetInputString(checked);
   vtkNew<vtkTriangleFilter> triangles;
   triangles->SetInputConnection(reader->GetOutputPort());
   triangles->PassLinesOff();

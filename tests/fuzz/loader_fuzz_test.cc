@@ -29,6 +29,7 @@
 #include "db/sqlite.h"
 #include "renderers/frame_io.h"
 #include "scenes/catalog.h"
+#include "scenes/mesh_io.h"
 #include "tests/scenes/fixtures.h"
 #include "tests/test_util.h"
 #include "workbench/detect_command.h"
@@ -291,6 +292,21 @@ TEST_F(LoaderFuzz, CatalogsAndClassMaps) {
                          {"id": "Test/rotated", "class": "table", "evaluation_only": true}]})"},
         [&](const std::string& path) { load_all(OpenCatalog(path, options)); }},
        dir_);
+}
+
+// Mesh files a version-2 class map names: VTK legacy polydata (VTK's
+// reader) and OBJ (assimp), through the loader every command uses.
+TEST_F(LoaderFuzz, MeshFiles) {
+  const std::string vtk =
+      "# vtk DataFile Version 3.0\nbox\nASCII\nDATASET POLYDATA\nPOINTS 8 float\n"
+      "0 0 0 0.8 0 0 0.8 0.4 0 0 0.4 0\n0 0 0.9 0.8 0 0.9 0.8 0.4 0.9 0 0.4 0.9\n"
+      "POLYGONS 4 20\n4 0 3 2 1\n4 4 5 6 7\n4 0 1 5 4\n4 1 2 6 5\n"
+      "TRIANGLE_STRIPS 1 5\n4 2 3 6 7\n";
+  const std::string obj =
+      "v 0 0 0\nv 0.8 0 0\nv 0.8 0.4 0\nv 0 0.4 0\nv 0 0 0.9\nv 0.8 0 0.9\n"
+      "f 1 2 3\nf 1 3 4\nf 1 2 6 5\n";
+  Fuzz({"vtk", "vtk", {vtk}, [](const std::string& path) { LoadMeshFile(path); }}, dir_);
+  Fuzz({"obj", "obj", {obj}, [](const std::string& path) { LoadMeshFile(path); }}, dir_);
 }
 
 TEST_F(LoaderFuzz, ModelFiles) {
