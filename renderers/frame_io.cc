@@ -457,6 +457,10 @@ void CheckPcdHeader(const std::string& bytes, const std::string& path) {
       Require(kKeywords.count(words[0]) > 0,
               path + ": not a PCD file (header line '" + words[0].substr(0, 40) +
                   "' is neither a comment nor a PCD keyword)");
+      // PCL acts on every line as it comes (a POINTS line resizes the body):
+      // a repeated keyword would be checked here only in its last form.
+      Require(header.count(words[0]) == 0,
+              path + ": PCD header line " + words[0] + " appears twice");
       header[words[0]] = std::vector<std::string>(words.begin() + 1, words.end());
     }
   }

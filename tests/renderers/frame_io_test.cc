@@ -113,6 +113,7 @@ TEST(FrameIo, CrashingCloudsAreOneLineErrors) {
       {"manual_ply_list_huge.ply", "vertex property x must be a scalar, not a list"},
       {"fuzz_pcd_garbage_first_line.pcd", "is neither a comment nor a PCD keyword"},
       {"fuzz_ply_vertex_list.ply", "vertex property vertex_indices must be a scalar, not a list"},
+      {"asan_pcd_points_twice.pcd", "PCD header line POINTS appears twice"},
   };
   for (const auto& [file, rule] : cases) {
     const std::string error = testing::ErrorOf([&] { ReadPointCloudFile(dir + file); });
