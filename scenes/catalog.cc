@@ -15,13 +15,11 @@
 
 namespace furn {
 
-// Where an entry's model comes from: a .sh3f archive, a procedural model or
-// a mesh file of a class map.
+// Where an entry's model comes from: a .sh3f archive, or models built when
+// the catalog opened (procedural ones, mesh files of a class map).
 struct Catalog::Source {
   std::unique_ptr<Sh3fCatalog> archive;      // set for .sh3f sources
-  std::map<std::string, CadModel> prebuilt;  // procedural models by id
-  std::string mesh_path;                     // set for a mesh-file entry
-  MeshLoadOptions mesh_options;
+  std::map<std::string, CadModel> prebuilt;  // procedural models and mesh files, by id
 };
 
 namespace {
@@ -110,12 +108,6 @@ CadModel Catalog::LoadModel(const std::string& id) const {
   const size_t index = static_cast<size_t>(&entry - entries_.data());
   const Source& source = *sources_[source_of_entry_[index]];
   if (source.archive) return source.archive->LoadModel(*source.archive->Find(id));
-  if (!source.mesh_path.empty()) {
-    CadModel model = LoadMeshFile(source.mesh_path, source.mesh_options);
-    model.id = entry.id;
-    model.name = entry.name;
-    return model;
-  }
   return source.prebuilt.at(id);
 }
 
@@ -227,13 +219,36 @@ Catalog OpenCatalog(const std::string& spec, const CatalogOpenOptions& options) 
     }
     catalog.sources_.push_back(std::move(source));
   }
-  // Mesh-file entries (version 2), each a source of its own.
+  // Mesh-file entries (version 2): loaded here, in parallel, because rooms
+  // are composed from entry sizes and a mesh file declares none; kept as
+  // prebuilt models. One that does not load is skipped with a warning, as a
+  // .sh3f catalog skips a bad entry.
+  std::vector<const ClassMapEntry*> meshes;
   for (const ClassMapEntry& mapped : map.entries) {
     if (mapped.mesh.empty()) continue;
     for (const CatalogEntry& other : catalog.entries_) {
       Require(other.id != mapped.id,
               class_map_path + ": mesh entry '" + mapped.id + "' has the id of an entry of " +
                   other.source + "; give it another");
+    }
+    meshes.push_back(&mapped);
+    classified.erase(mapped.id);
+  }
+  std::vector<std::optional<CadModel>> models(meshes.size());
+  std::vector<std::string> errors(meshes.size());
+  ParallelFor(0, static_cast<int>(meshes.size()), [&](int i) {
+    try {
+      models[i] = LoadMeshFile(meshes[i]->mesh, meshes[i]->mesh_options);
+    } catch (const InputError& error) {
+      errors[i] = error.what();
+    }
+  });
+  auto source = std::make_unique<Catalog::Source>();
+  for (size_t i = 0; i < meshes.size(); ++i) {
+    const ClassMapEntry& mapped = *meshes[i];
+    if (!models[i]) {
+      catalog.warnings_.push_back("skipped " + mapped.id + ": " + errors[i]);
+      continue;
     }
     CatalogEntry entry;
     entry.id = mapped.id;
@@ -242,15 +257,14 @@ Catalog OpenCatalog(const std::string& spec, const CatalogOpenOptions& options) 
     entry.source = mapped.mesh;
     entry.furniture_class = mapped.furniture_class;
     entry.evaluation_only = mapped.evaluation_only;
-    if (mapped.mesh_options.size_m) entry.size_m = *mapped.mesh_options.size_m;
-    auto source = std::make_unique<Catalog::Source>();
-    source->mesh_path = mapped.mesh;
-    source->mesh_options = mapped.mesh_options;
+    entry.size_m = BoundingBox(models[i]->mesh).Size();
+    models[i]->id = entry.id;
+    models[i]->name = entry.name;
+    source->prebuilt.emplace(entry.id, std::move(*models[i]));
     catalog.entries_.push_back(std::move(entry));
     catalog.source_of_entry_.push_back(static_cast<int>(catalog.sources_.size()));
-    catalog.sources_.push_back(std::move(source));
-    classified.erase(mapped.id);
   }
+  if (!source->prebuilt.empty()) catalog.sources_.push_back(std::move(source));
   if (!classified.empty()) {
     const std::string id = classified.begin()->first;
     throw InputError(class_map_path + ": entry '" + id + "' does not exist in catalog " +

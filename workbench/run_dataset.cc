@@ -6,6 +6,7 @@
 #include "core/error.h"
 #include "core/file_util.h"
 #include "renderers/frame_io.h"
+#include "scenes/room_composer.h"
 #include "workbench/cli_common.h"
 #include "workbench/commands.h"
 #include "workbench/dataset_commands.h"
@@ -65,6 +66,14 @@ int RunGenerate(int argc, char** argv) {
   const Catalog catalog = OpenCatalog(catalog_flags.spec, MakeOpenOptions(catalog_flags));
   for (const std::string& warning : catalog.warnings())
     std::fprintf(stderr, "warning: %s\n", warning.c_str());
+  if (options.room.max_clutter > 0 &&
+      ComposerCatalog::From(catalog, options.room.include_evaluation_only).clutter.empty()) {
+    std::fprintf(stderr,
+                 "warning: catalog %s offers no clutter (every entry is classified, or the rest "
+                 "are not 0.1-1.6 m across and 0.05-2 m tall): rooms hold targets only; list "
+                 "distractors as \"class\": \"clutter\" entries of a version-2 class map\n",
+                 catalog.description().c_str());
+  }
   const GenerateSummary summary = GenerateDataset(catalog, options, out);
   std::printf(
       "%s: %d rooms in shard %d/%d: %d written, %d already present; %d frames in %.1f s (%.1f "

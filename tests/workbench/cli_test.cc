@@ -11,6 +11,7 @@
 
 #include "core/error.h"
 #include "core/file_util.h"
+#include "core/mesh.h"
 #include "renderers/frame_io.h"
 #include "scenes/mesh_io.h"
 #include "tests/scenes/fixtures.h"
@@ -138,6 +139,29 @@ TEST(Cli, NonRegularFilesAreRefusedNotWaitedOn) {
   }
   EXPECT_THROW(ReadDepthImage(dir + "/in.png", std::nullopt), InputError);
   EXPECT_THROW(MappedFile(dir + "/m.fcm"), InputError);
+}
+
+// A class map of mesh files alone (issue 19): import, generate (which says
+// once that the rooms get no clutter) and list, from the map with no
+// --catalog-dir.
+TEST(Cli, MeshFolderImportsGeneratesAndSaysWhenThereIsNoClutter) {
+  const std::string dir = testing::ScratchDir();
+  std::filesystem::create_directories(dir + "/meshes/Tables");
+  ExportMesh(MakeBox(Eigen::Vector3f(0, 0, 0), Eigen::Vector3f(1.2f, 0.7f, 0.74f)),
+             dir + "/meshes/Tables/desk.ply");
+  const RunResult imported =
+      RunWorkbench("catalog import " + dir + "/meshes --out " + dir + "/map.json");
+  ASSERT_EQ(imported.exit_code, 0) << imported.output;
+  EXPECT_NE(imported.output.find("Tables/desk"), std::string::npos) << imported.output;
+  const RunResult generated = RunWorkbench("generate --catalog " + dir +
+                                           "/map.json --catalog-dir /nonexistent --rooms 1 "
+                                           "--frames 1 --quiet --out " +
+                                           dir + "/d.db");
+  ASSERT_EQ(generated.exit_code, 0) << generated.output;
+  const std::string warning = "offers no clutter";
+  const size_t first = generated.output.find(warning);
+  EXPECT_NE(first, std::string::npos) << generated.output;
+  EXPECT_EQ(generated.output.find(warning, first + 1), std::string::npos) << generated.output;
 }
 
 TEST(Cli, UsageMistakesExitWithTwo) {
