@@ -33,6 +33,22 @@ double Median(std::vector<double> values) {
   return values[values.size() / 2];
 }
 
+// Detects in the scans in turn, one per iteration; the median of every
+// stage (and of the total) as counters.
+void DetectInTurn(const Detector& detector,
+                  const std::vector<LoadedScan>& scans,
+                  benchmark::State& state) {
+  std::map<std::string, std::vector<double>> stages;
+  size_t next = 0;
+  for (auto _ : state) {
+    const DetectionResult result = detector.Detect(scans[next++ % scans.size()].input);
+    for (const auto& [stage, ms] : result.timings_ms) stages[stage].push_back(ms);
+    benchmark::DoNotOptimize(result.detections.size());
+  }
+  state.counters["frames"] = static_cast<double>(scans.size());
+  for (const auto& [stage, ms] : stages) state.counters[stage + "_ms"] = Median(ms);
+}
+
 void BM_DetectFrame(benchmark::State& state) {
   const std::string model_path = FromEnv("FURN_BENCH_MODEL", FURN_SOURCE_DIR "/out/model.fcm");
   const std::string db_path = FromEnv("FURN_BENCH_DB", FURN_SOURCE_DIR "/out/synth.db");
@@ -58,15 +74,7 @@ void BM_DetectFrame(benchmark::State& state) {
       }
     }
   }
-  std::map<std::string, std::vector<double>> stages;
-  size_t next = 0;
-  for (auto _ : state) {
-    const DetectionResult result = detector.Detect(scans[next++ % scans.size()].input);
-    for (const auto& [stage, ms] : result.timings_ms) stages[stage].push_back(ms);
-    benchmark::DoNotOptimize(result.detections.size());
-  }
-  state.counters["frames"] = static_cast<double>(scans.size());
-  for (const auto& [stage, ms] : stages) state.counters[stage + "_ms"] = Median(ms);
+  DetectInTurn(detector, scans, state);
 }
 BENCHMARK(BM_DetectFrame)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(81);
 
@@ -88,15 +96,7 @@ void BM_DetectRealFrame(benchmark::State& state) {
     if (state.range(0) == 0 || (loaded.input.width == 640 && loaded.input.height == 480))
       scans.push_back(std::move(loaded));
   }
-  std::map<std::string, std::vector<double>> stages;
-  size_t next = 0;
-  for (auto _ : state) {
-    const DetectionResult result = detector.Detect(scans[next++ % scans.size()].input);
-    for (const auto& [stage, ms] : result.timings_ms) stages[stage].push_back(ms);
-    benchmark::DoNotOptimize(result.detections.size());
-  }
-  state.counters["frames"] = static_cast<double>(scans.size());
-  for (const auto& [stage, ms] : stages) state.counters[stage + "_ms"] = Median(ms);
+  DetectInTurn(detector, scans, state);
 }
 BENCHMARK(BM_DetectRealFrame)
     ->Arg(1)
