@@ -179,6 +179,8 @@ void DetectorOptions::Check() const {
   Require(min_score >= 0 && min_score <= 1, "min score must be in 0..1");
   Require(min_seen_occupied >= 0 && min_seen_occupied <= 1, "min seen occupied must be in 0..1");
   Require(max_shared_support >= 0 && max_shared_support <= 1, "max shared support must be in 0..1");
+  Require(own_segment_share >= 0 && own_segment_share <= 1,
+          "own segment share " + std::to_string(own_segment_share) + " must be in 0..1");
   Require(scorer_min_covered_fraction >= 0 && scorer_min_covered_fraction <= 1,
           "scorer min covered fraction must be in 0..1");
   Require(scorer_min_verification >= 0 && scorer_min_verification <= 1,
@@ -219,6 +221,11 @@ struct Detector::Impl {
             const std::vector<std::vector<int>>& segment_neighbours,
             DetectionDebug::Hypothesis* hypothesis) const;
   // The best-scoring fit of the candidates, if it passes the checks.
+  double ExplainedOwnPoints(const PreparedScan& scan,
+                            int model_index,
+                            const PlanarPose& pose,
+                            const std::vector<Eigen::Vector3f>& scene_points,
+                            const std::vector<int>& cloud_index) const;
   void FitAndVerify(const PreparedScan& scan,
                     int hypothesis_index,
                     DetectionDebug::Hypothesis* hypothesis,
@@ -368,6 +375,52 @@ void Detector::Impl::Rank(const std::map<int, double>& support,
   }
 }
 
+// The share of the points in the fit's box that the posed model explains,
+// counting only the segments that lie mostly (own_segment_share) inside the
+// box: a desk top over a chair pushed under it, or a shelf running past a
+// cabinet, belongs to its own object and is not what the fit leaves
+// unexplained. Points in no segment count as the fit's own.
+double Detector::Impl::ExplainedOwnPoints(const PreparedScan& scan,
+                                          int model_index,
+                                          const PlanarPose& pose,
+                                          const std::vector<Eigen::Vector3f>& scene_points,
+                                          const std::vector<int>& cloud_index) const {
+  const ModelShape& shape = model.model_shapes[model_index];
+  const Eigen::Vector3f margin =
+      Eigen::Vector3f::Constant(static_cast<float>(options.fit.inlier_m));
+  const Eigen::Vector3f low = shape.low - margin;
+  const Eigen::Vector3f high =
+      shape.high + margin + Eigen::Vector3f(0, 0, static_cast<float>(options.fit.above_m));
+  const PlanarTransform transform(pose);
+  auto in_box = [&](const Eigen::Vector3f& p) {
+    const Eigen::Vector3f q = transform.Inverse(p);
+    return (q.array() >= low.array()).all() && (q.array() <= high.array()).all();
+  };
+  std::map<int, bool> own_segment;  // segment -> mostly inside the box
+  auto own = [&](int point) {
+    const int segment = scan.segment_of_point[point];
+    if (segment < 0) return true;
+    const auto found = own_segment.find(segment);
+    if (found != own_segment.end()) return found->second;
+    const std::vector<int>& members = scan.view.segments[segment];
+    size_t inside = 0;
+    for (int member : members) inside += in_box(scan.view.cloud.points[member]);
+    const bool mostly = inside >= options.own_segment_share * members.size();
+    own_segment.emplace(segment, mostly);
+    return mostly;
+  };
+  const std::vector<int> covered = fitters[model_index].CoveredIndices(scene_points, pose);
+  std::vector<char> is_covered(scene_points.size(), 0);
+  for (int i : covered) is_covered[i] = 1;
+  int own_inside = 0, own_covered = 0;
+  for (size_t i = 0; i < scene_points.size(); ++i) {
+    if (!in_box(scene_points[i]) || !own(cloud_index[i])) continue;
+    ++own_inside;
+    own_covered += is_covered[i];
+  }
+  return own_inside > 0 ? static_cast<double>(own_covered) / own_inside : 0;
+}
+
 void Detector::Impl::FitAndVerify(const PreparedScan& scan,
                                   int hypothesis_index,
                                   DetectionDebug::Hypothesis* hypothesis,
@@ -397,15 +450,18 @@ void Detector::Impl::FitAndVerify(const PreparedScan& scan,
     }
   }
   std::vector<Eigen::Vector3f> region_points = scene_points;
+  std::vector<int> fit_index = region;   // cloud index of each fitted scene point
   constexpr size_t kMaxFitPoints = 800;  // an even subsample keeps RANSAC scoring cheap
   if (scene_points.size() > kMaxFitPoints) {
     const double stride = static_cast<double>(scene_points.size()) / kMaxFitPoints;
     for (size_t k = 0; k < kMaxFitPoints; ++k) {
       scene_points[k] = scene_points[static_cast<size_t>(k * stride)];
       scene_normals[k] = scene_normals[static_cast<size_t>(k * stride)];
+      fit_index[k] = fit_index[static_cast<size_t>(k * stride)];
     }
     scene_points.resize(kMaxFitPoints);
     scene_normals.resize(kMaxFitPoints);
+    fit_index.resize(kMaxFitPoints);
   }
   const Eigen::Vector2f hint(static_cast<float>(hypothesis->x), static_cast<float>(hypothesis->y));
   // Every candidate fitted; the best by the ranking score is the
@@ -434,7 +490,10 @@ void Detector::Impl::FitAndVerify(const PreparedScan& scan,
         DeriveSeed(options.seed, static_cast<uint64_t>(hypothesis_index) * 64 + c));
     if (!candidate.fit.found) continue;
     ++fits;
-    candidate.covered = candidate.fit.Explained();
+    candidate.covered =
+        options.own_segment_share > 0
+            ? ExplainedOwnPoints(scan, candidate.model, candidate.fit.pose, scene_points, fit_index)
+            : candidate.fit.Explained();
     const std::vector<Eigen::Vector3f>& shape_points = model.model_shapes[candidate.model].points;
     candidate.posed.reserve(shape_points.size());
     const PlanarTransform transform(candidate.fit.pose);
@@ -733,6 +792,11 @@ PreparedScan Detector::Prepare(const DetectionInput& input) const {
   scan.timings_ms.emplace_back("segment", segment_timings.segment_ms);
   scan.timings_ms.emplace_back("features", segment_timings.features_ms);
   timer.Restart();  // the three stages above cover the time since the last lap
+  scan.segment_of_point.assign(scan.view.cloud.size(), -1);
+  for (size_t segment = 0; segment < scan.view.segments.size(); ++segment) {
+    for (int point : scan.view.segments[segment])
+      scan.segment_of_point[point] = static_cast<int>(segment);
+  }
 
   // Walls: they neither vote nor count against a fit (a sideboard stands
   // against one).

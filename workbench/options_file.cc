@@ -123,6 +123,7 @@ std::vector<Field> FieldsOf(DetectorOptions* o) {
       Plain("fit.refine_iterations", &o->fit.refine_iterations),
       Plain("fit.above_m", &o->fit.above_m),
       Plain("min_covered_fraction", &o->min_covered_fraction),
+      Plain("own_segment_share", &o->own_segment_share),
       Plain("occupancy_voxel_m", &o->occupancy_voxel_m),
       Plain("occupied_weight", &o->occupied_weight),
       Plain("min_verification", &o->min_verification),

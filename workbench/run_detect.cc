@@ -85,6 +85,11 @@ int RunDetect(int argc, char** argv) {
                  options.min_covered_fraction,
                  "Fixed gates: share of the box's points a fit must explain")
       ->capture_default_str();
+  app.add_option("--own-segments",
+                 options.own_segment_share,
+                 "Count in the covered share only segments at least this much inside the fit's "
+                 "box (0: off; e.g. 0.5 finds chairs pushed under desks)")
+      ->capture_default_str();
   app.add_option("--min-verification", options.min_verification, "Fixed gates: visibility score")
       ->capture_default_str();
   app.add_option("--min-seen",
@@ -133,6 +138,7 @@ int RunDetect(int argc, char** argv) {
     apply("--threshold", &DetectorOptions::relative_threshold);
     apply("--absolute-threshold", &DetectorOptions::absolute_threshold);
     apply("--min-covered", &DetectorOptions::min_covered_fraction);
+    apply("--own-segments", &DetectorOptions::own_segment_share);
     apply("--min-verification", &DetectorOptions::min_verification);
     apply("--min-seen", &DetectorOptions::min_seen_occupied);
     apply("--min-score", &DetectorOptions::min_score);
