@@ -88,14 +88,9 @@ void MeshCache::Store(const std::string& key, const CachedMesh& cached) const {
   }
 }
 
-std::string MeshCacheKey(const std::string& archive_path, const std::string& import_parameters) {
-  std::error_code path_error, size_error, time_error;
-  const std::filesystem::path absolute = std::filesystem::absolute(archive_path, path_error);
-  const auto size = std::filesystem::file_size(archive_path, size_error);
-  const auto modified = std::filesystem::last_write_time(archive_path, time_error);
-  std::string text = absolute.string() + '\n' + std::to_string(size_error ? 0 : size) + '\n' +
-                     std::to_string(time_error ? 0 : modified.time_since_epoch().count()) + '\n' +
-                     std::to_string(kImporterVersion) + '\n' + import_parameters;
+std::string MeshCacheKey(const std::string& content_digest, const std::string& import_parameters) {
+  const std::string text = "content " + content_digest + '\n' + std::to_string(kImporterVersion) +
+                           '\n' + import_parameters;
   ContentHasher hasher;
   hasher.Update(text.data(), text.size());
   return hasher.HexDigest();

@@ -2,9 +2,11 @@
 // (unzip, parse the OBJ, normalise) costs about 7 ms; every command that
 // loads models repeats it, and `generate` spends a fifth of a 50-room run on
 // it. The cache keeps the normalised mesh and its content hash under a key
-// made of what the import depends on (archive path, size and modification
-// time, entry, catalog sizes and rotation, the importer's version), so a
-// changed or replaced archive is imported afresh.
+// made of what the import depends on (the names, sizes and CRC-32s of the
+// model's entries in the archive, the catalog's sizes and rotation, the
+// importer's version), so a changed or replaced archive is imported afresh,
+// even one of the same size and modification time, and a copy of an archive
+// elsewhere shares the cache.
 //
 // Where: $FURN_MESH_CACHE ("off" disables it), else
 // $XDG_CACHE_HOME/furnidet/meshes, else ~/.cache/furnidet/meshes. Files are
@@ -47,8 +49,9 @@ class MeshCache {
   std::string directory_;
 };
 
-// The key of an archive entry's import: 32 hex digits over the archive's
-// absolute path, size and modification time and the given import parameters.
-std::string MeshCacheKey(const std::string& archive_path, const std::string& import_parameters);
+// The key of an import: 32 hex digits over what the source holds (e.g.
+// ZipArchive::EntriesDigest of the model's folder), the importer's version
+// and the given import parameters.
+std::string MeshCacheKey(const std::string& content_digest, const std::string& import_parameters);
 
 }  // namespace furn

@@ -169,7 +169,11 @@ CadModel Sh3fCatalog::LoadModel(const Sh3fEntry& entry) const {
   parameters << entry.model_path << '\n'
              << entry.width_cm << ' ' << entry.depth_cm << ' ' << entry.height_cm << '\n'
              << entry.model_rotation.format(Eigen::IOFormat(Eigen::FullPrecision));
-  const std::string key = MeshCacheKey(path_, parameters.str());
+  // The model's folder in the archive (its OBJ and MTL files), by content.
+  std::string folder = entry.model_path;
+  if (!folder.empty() && folder[0] == '/') folder.erase(0, 1);
+  folder.erase(folder.rfind('/') == std::string::npos ? 0 : folder.rfind('/') + 1);
+  const std::string key = MeshCacheKey(zip_->EntriesDigest(folder), parameters.str());
   CadModel model;
   model.id = entry.id;
   model.name = entry.name;

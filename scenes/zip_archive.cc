@@ -7,6 +7,7 @@
 
 #include "core/error.h"
 #include "core/file_util.h"
+#include "core/mesh.h"
 
 namespace furn {
 
@@ -101,6 +102,26 @@ std::string ZipArchive::Read(const std::string& name) const {
     if (crc != stat.crc) throw InputError(where + ": corrupt entry (CRC error)");
   }
   return bytes;
+}
+
+std::string ZipArchive::EntriesDigest(const std::string& prefix) const {
+  std::lock_guard<std::mutex> lock(handle_->mutex);
+  ContentHasher hasher;
+  const zip_int64_t entries = zip_get_num_entries(handle_->zip, 0);
+  for (zip_int64_t index = 0; index < entries; ++index) {
+    zip_stat_t stat;
+    zip_stat_init(&stat);
+    if (zip_stat_index(handle_->zip, index, 0, &stat) != 0 || !(stat.valid & ZIP_STAT_NAME))
+      continue;
+    const std::string name = stat.name;
+    if (name.compare(0, prefix.size(), prefix) != 0) continue;
+    const uint64_t size = (stat.valid & ZIP_STAT_SIZE) ? stat.size : 0;
+    const uint32_t crc = (stat.valid & ZIP_STAT_CRC) ? stat.crc : 0;
+    hasher.Update(name.data(), name.size() + 1);  // with its terminating NUL
+    hasher.Update(&size, sizeof(size));
+    hasher.Update(&crc, sizeof(crc));
+  }
+  return hasher.HexDigest();
 }
 
 }  // namespace furn

@@ -27,6 +27,10 @@ class ZipArchive {
   // Whole entry; throws InputError naming archive and entry when it is missing
   // or its data is corrupt (CRC, truncated).
   std::string Read(const std::string& name) const;
+  // 32 hex digits over the name, size and CRC-32 of every entry whose name
+  // starts with `prefix` ("" : all), from the central directory: what the
+  // entries hold, without reading them.
+  std::string EntriesDigest(const std::string& prefix) const;
 
  private:
   struct Handle;

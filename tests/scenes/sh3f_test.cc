@@ -7,6 +7,9 @@
 #include <chrono>
 #include <cstring>
 #include <filesystem>
+#include <map>
+#include <utility>
+#include <vector>
 
 #include "core/error.h"
 #include "core/file_util.h"
@@ -162,13 +165,13 @@ TEST_F(MeshCacheTest, SecondImportComesFromTheCacheUntilTheArchiveChanges) {
   }
   EXPECT_EQ(CachedFiles(), 1u);
 
-  // Damage the model in place and put the modification time back: only a
-  // cache hit can still give the mesh.
+  // Damage the model's bytes in place, its CRC left as it was: the archive
+  // still says it holds the same entry, so only a cache hit gives the mesh.
   const size_t at = bytes.find("mtllib marker.mtl");
   ASSERT_NE(at, std::string::npos);
-  bytes[at + 20] ^= 0x55;
-  testing::WriteText(path, bytes);
-  std::filesystem::last_write_time(path, written);
+  std::string damaged = bytes;
+  damaged[at + 20] ^= 0x55;
+  testing::WriteText(path, damaged);
   {
     const Sh3fCatalog catalog(path);
     const CadModel again = catalog.LoadModel(*catalog.Find("Cached/marker"));
@@ -176,12 +179,52 @@ TEST_F(MeshCacheTest, SecondImportComesFromTheCacheUntilTheArchiveChanges) {
     EXPECT_EQ(again.mesh.vertices, first.mesh.vertices);
     EXPECT_EQ(again.mesh.triangles, first.mesh.triangles);
   }
-  // A changed archive (new modification time) is imported afresh.
-  std::filesystem::last_write_time(path, written + std::chrono::seconds(5));
-  const Sh3fCatalog changed(path);
-  EXPECT_NE(
-      ErrorOf([&] { changed.LoadModel(*changed.Find("Cached/marker")); }).find("corrupt entry"),
-      std::string::npos);
+  EXPECT_EQ(CachedFiles(), 1u);
+
+  // Another archive of the same size and modification time whose model
+  // differs (two vertex lines swapped): imported afresh.
+  const std::string original = dir_ + "/original.sh3f";
+  testing::WriteText(original, bytes);
+  const ZipArchive zip(original);
+  std::map<std::string, std::string> files;
+  for (const char* name : {"PluginFurnitureCatalog.properties",
+                           "marker/marker.obj",
+                           "marker/marker.mtl",
+                           "rotated/rotated.obj"})
+    files[name] = zip.Read(name);
+  std::string& obj = files["marker/marker.obj"];
+  std::vector<std::pair<size_t, size_t>> lines;  // offset, length of each "v" line
+  for (size_t at = obj.find("\nv "); at != std::string::npos; at = obj.find("\nv ", at + 1))
+    lines.emplace_back(at + 1, obj.find('\n', at + 1) - at - 1);
+  bool swapped = false;
+  for (size_t a = 0; a < lines.size() && !swapped; ++a) {
+    for (size_t b = a + 1; b < lines.size() && !swapped; ++b) {
+      const std::string first_line = obj.substr(lines[a].first, lines[a].second);
+      const std::string second_line = obj.substr(lines[b].first, lines[b].second);
+      if (first_line.size() != second_line.size() || first_line == second_line) continue;
+      obj.replace(lines[a].first, first_line.size(), second_line);
+      obj.replace(lines[b].first, second_line.size(), first_line);
+      swapped = true;
+    }
+  }
+  ASSERT_TRUE(swapped);
+  testing::WriteZip(path, files, {"marker/marker.obj"});
+  ASSERT_EQ(std::filesystem::file_size(path), bytes.size());
+  std::filesystem::last_write_time(path, written);
+  {
+    const Sh3fCatalog catalog(path);
+    const CadModel replaced = catalog.LoadModel(*catalog.Find("Cached/marker"));
+    EXPECT_NE(replaced.content_hash, first.content_hash);
+  }
+  EXPECT_EQ(CachedFiles(), 2u);
+
+  // A copy of the first archive elsewhere shares its cache entry.
+  const std::string copy = dir_ + "/copy/Cached.sh3f";
+  std::filesystem::create_directories(dir_ + "/copy");
+  testing::WriteText(copy, bytes);
+  const Sh3fCatalog copied(copy);
+  EXPECT_EQ(copied.LoadModel(*copied.Find("Cached/marker")).content_hash, first.content_hash);
+  EXPECT_EQ(CachedFiles(), 2u);
 }
 
 TEST_F(MeshCacheTest, DamagedCacheFilesAreIgnoredAndRewritten) {
