@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <map>
 #include <mutex>
+#include <set>
 
 #include "core/error.h"
 #include "core/parallel.h"
@@ -77,6 +78,25 @@ Catalog::Catalog() = default;
 Catalog::~Catalog() = default;
 Catalog::Catalog(Catalog&&) noexcept = default;
 Catalog& Catalog::operator=(Catalog&&) noexcept = default;
+
+int Catalog::AddClutter(Catalog other) {
+  std::set<std::string> ids;
+  for (const CatalogEntry& entry : entries_) ids.insert(entry.id);
+  const int first_source = static_cast<int>(sources_.size());
+  int added = 0;
+  for (size_t k = 0; k < other.entries_.size(); ++k) {
+    CatalogEntry& entry = other.entries_[k];
+    if (entry.furniture_class || entry.door_or_window || !ids.insert(entry.id).second) continue;
+    entry.evaluation_only = false;
+    entries_.push_back(std::move(entry));
+    source_of_entry_.push_back(first_source + other.source_of_entry_[k]);
+    ++added;
+  }
+  for (std::unique_ptr<Source>& source : other.sources_) sources_.push_back(std::move(source));
+  for (std::string& warning : other.warnings_) warnings_.push_back(std::move(warning));
+  description_ += " + clutter of " + other.description_;
+  return added;
+}
 
 std::vector<const CatalogEntry*> Catalog::Classified() const {
   std::vector<const CatalogEntry*> classified;

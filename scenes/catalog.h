@@ -79,6 +79,11 @@ class Catalog {
   // catalog.
   const CatalogEntry& Get(const std::string& id) const;
 
+  // Adds `other`'s unclassified entries (not doors or windows, ids not
+  // already here) as room clutter; its classified entries are left out.
+  // Returns how many were added.
+  int AddClutter(Catalog other);
+
   // Throws InputError naming the entry when its model cannot be loaded.
   CadModel LoadModel(const std::string& id) const;
   // Loads several in parallel, skipping (and reporting) entries that fail.

@@ -450,6 +450,7 @@ std::string GenerateOptions::ContentJson() const {
         {"disparity_step_px", noise.disparity_step_px}}}};
   // Only when on, so datasets made before the option keep their content (and resume).
   if (model_folds > 0) json["model_folds"] = {{"folds", model_folds}, {"seed", fold_seed}};
+  if (!clutter_catalog_specs.empty()) json["clutter_catalogs"] = clutter_catalog_specs;
   return json.dump();
 }
 

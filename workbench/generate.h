@@ -28,8 +28,11 @@ class EmbreeCaster;
 
 struct GenerateOptions {
   std::string catalog_spec = "default";  // recorded in the database
-  int rooms = 50;                        // rooms of the whole run, all shards (1..1000000)
-  uint64_t seed = 1;                     // master seed
+  // Catalogs whose unclassified entries were added as clutter
+  // (Catalog::AddClutter); recorded in the database.
+  std::vector<std::string> clutter_catalog_specs;
+  int rooms = 50;       // rooms of the whole run, all shards (1..1000000)
+  uint64_t seed = 1;    // master seed
   int shard_index = 0;  // this process makes rooms k with k % shard_count == shard_index
   int shard_count = 1;
   RoomOptions room;

@@ -55,6 +55,10 @@ int RunGenerate(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--fold-seed", options.fold_seed, "Seed of the split into model folds")
       ->capture_default_str();
+  app.add_option("--clutter-catalog",
+                 options.clutter_catalog_specs,
+                 "Add this catalog's unclassified entries as clutter (repeatable; a class map, "
+                 "'default' or a .sh3f, whose every entry counts as unclassified)");
   if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
   ApplyGlobalFlags(catalog_flags);
   std::tie(options.shard_index, options.shard_count) = ParseShard(shard);
@@ -63,7 +67,16 @@ int RunGenerate(int argc, char** argv) {
   options.Check();
   Require(std::filesystem::path(out).extension() == ".db",
           out + ": the dataset file must end in .db");
-  const Catalog catalog = OpenCatalog(catalog_flags.spec, MakeOpenOptions(catalog_flags));
+  Catalog catalog = OpenCatalog(catalog_flags.spec, MakeOpenOptions(catalog_flags));
+  for (const std::string& spec : options.clutter_catalog_specs) {
+    const int added = catalog.AddClutter(OpenCatalog(spec, MakeOpenOptions(catalog_flags)));
+    Require(added > 0,
+            "--clutter-catalog " + spec +
+                ": no unclassified entry to add (every entry is classified, a door or window, "
+                "or already in the catalog)");
+    if (!catalog_flags.quiet)
+      std::fprintf(stderr, "clutter: %d entries of %s added\n", added, spec.c_str());
+  }
   for (const std::string& warning : catalog.warnings())
     std::fprintf(stderr, "warning: %s\n", warning.c_str());
   if (options.room.max_clutter > 0 &&
@@ -71,7 +84,8 @@ int RunGenerate(int argc, char** argv) {
     std::fprintf(stderr,
                  "warning: catalog %s offers no clutter (every entry is classified, or the rest "
                  "are not 0.1-1.6 m across and 0.05-2 m tall): rooms hold targets only; list "
-                 "distractors as \"class\": \"clutter\" entries of a version-2 class map\n",
+                 "distractors as \"class\": \"clutter\" entries of a version-2 class map, or add "
+                 "--clutter-catalog default\n",
                  catalog.description().c_str());
   }
   const GenerateSummary summary = GenerateDataset(catalog, options, out);

@@ -12,6 +12,7 @@
 #include "core/error.h"
 #include "core/file_util.h"
 #include "core/mesh.h"
+#include "db/dataset_db.h"
 #include "renderers/frame_io.h"
 #include "scenes/mesh_io.h"
 #include "tests/scenes/fixtures.h"
@@ -162,6 +163,37 @@ TEST(Cli, MeshFolderImportsGeneratesAndSaysWhenThereIsNoClutter) {
   const size_t first = generated.output.find(warning);
   EXPECT_NE(first, std::string::npos) << generated.output;
   EXPECT_EQ(generated.output.find(warning, first + 1), std::string::npos) << generated.output;
+
+  // --clutter-catalog adds another catalog's unclassified entries as clutter.
+  std::filesystem::create_directories(dir + "/boxes/Clutter");
+  ExportMesh(MakeBox(Eigen::Vector3f(0, 0, 0), Eigen::Vector3f(0.5f, 0.4f, 0.35f)),
+             dir + "/boxes/Clutter/crate.ply");
+  ASSERT_EQ(
+      RunWorkbench("catalog import " + dir + "/boxes --class clutter --out " + dir + "/boxes.json")
+          .exit_code,
+      0);
+  const RunResult cluttered = RunWorkbench(
+      "generate --catalog " + dir + "/map.json --clutter-catalog " + dir +
+      "/boxes.json --catalog-dir /nonexistent --rooms 2 --frames 1 --min-clutter 1 --out " + dir +
+      "/c.db");
+  ASSERT_EQ(cluttered.exit_code, 0) << cluttered.output;
+  EXPECT_EQ(cluttered.output.find(warning), std::string::npos) << cluttered.output;
+  EXPECT_NE(cluttered.output.find("clutter: 1 entries of"), std::string::npos) << cluttered.output;
+  bool crate = false;
+  for (const ModelRecord& model : DatasetDb(dir + "/c.db", DatasetDb::Mode::kReadOnly).ReadModels())
+    crate |= model.id == "Clutter/crate";
+  EXPECT_TRUE(crate);
+  // A catalog with nothing unclassified to add is refused by name.
+  const RunResult nothing =
+      RunWorkbench("generate --catalog " + dir + "/map.json --clutter-catalog " + dir +
+                   "/map.json --catalog-dir /nonexistent --rooms 1 "
+                   "--frames 1 --quiet --out " +
+                   dir + "/e.db");
+  EXPECT_NE(nothing.exit_code, 0);
+  EXPECT_NE(nothing.output.find("--clutter-catalog " + dir + "/map.json: no unclassified entry"),
+            std::string::npos)
+      << nothing.output;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/e.db"));
 }
 
 TEST(Cli, UsageMistakesExitWithTwo) {
