@@ -943,7 +943,10 @@ void Detector::RankCandidates(const PreparedScan& scan,
   }
   std::vector<VfhDescriptor> descriptors(queried.size());
   ParallelFor(0, static_cast<int>(queried.size()), [&](int q) {
-    descriptors[q] = ComputeVfh(view.cloud, view.segments[queried[q]], scan.sensor);
+    descriptors[q] = ComputeVfh(view.cloud,
+                                view.segments[queried[q]],
+                                scan.sensor,
+                                impl.model.options.part_subsets.vfh_size_component);
   });
   std::vector<std::vector<int>> nearest = impl.parts->NearestMany(descriptors, options.neighbours);
   std::vector<std::vector<int>> segment_neighbours(view.segments.size());

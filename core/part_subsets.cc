@@ -77,7 +77,8 @@ std::vector<std::vector<int>> PartSubsets(const ViewSegments& view,
 
 VfhDescriptor ComputeVfh(const PointCloud& cloud,
                          const std::vector<int>& indices,
-                         const Eigen::Vector3f& viewpoint) {
+                         const Eigen::Vector3f& viewpoint,
+                         bool size_component) {
   Require(indices.size() >= 3, "VFH needs at least 3 points");
   const auto [points, normals] = ToPclPointsWithNormals(cloud, indices);
   pcl::VFHEstimation<pcl::PointXYZ, pcl::Normal, pcl::VFHSignature308> vfh;
@@ -85,6 +86,10 @@ VfhDescriptor ComputeVfh(const PointCloud& cloud,
   vfh.setInputNormals(normals);
   vfh.setSearchMethod(pcl::make_shared<pcl::search::KdTree<pcl::PointXYZ>>());
   vfh.setViewPoint(viewpoint.x(), viewpoint.y(), viewpoint.z());
+  if (size_component) {  // distances from the centroid in centimetre bins (0..44 cm)
+    vfh.setNormalizeDistance(false);
+    vfh.setFillSizeComponent(true);
+  }
   pcl::PointCloud<pcl::VFHSignature308> signature;
   vfh.compute(signature);
   VfhDescriptor descriptor{};

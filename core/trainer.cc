@@ -16,9 +16,10 @@ namespace furn {
 namespace {
 
 constexpr char kMagic[8] = {'F', 'U', 'R', 'N', 'M', 'D', 'L', '\0'};
-constexpr uint32_t kFormatVersion = 6;  // 2: part-subset library and model shapes; 3: scorer;
+constexpr uint32_t kFormatVersion = 7;  // 2: part-subset library and model shapes; 3: scorer;
                                         // 4: render meshes; 5: the part index stored;
-                                        // 6: an XXH3-64 checksum of the payload at the end
+                                        // 6: an XXH3-64 checksum of the payload at the end;
+                                        // 7: the VFH size component flag
 constexpr uint32_t kOldestReadable = 2;
 constexpr size_t kHeaderBytes = 12;  // magic and version, outside the checksum
 
@@ -311,10 +312,11 @@ TrainedModel TrainModel(const std::vector<TrainingView>& views,
   lap(&times->segment_s);
   ParallelFor(0, static_cast<int>(views.size()), [&](int i) {
     for (const std::vector<int>& subset : PartSubsets(segmented[i], options.part_subsets)) {
-      subsets[i].push_back(
-          {ComputeVfh(
-               segmented[i].cloud, PointsOfSegments(segmented[i], subset), views[i].sensor_origin),
-           views[i].model_index});
+      subsets[i].push_back({ComputeVfh(segmented[i].cloud,
+                                       PointsOfSegments(segmented[i], subset),
+                                       views[i].sensor_origin,
+                                       options.part_subsets.vfh_size_component),
+                            views[i].model_index});
     }
   });
   lap(&times->part_subsets_s);
@@ -431,6 +433,7 @@ void SaveTrainedModel(const TrainedModel& model, const std::string& path) {
     w.U32(static_cast<uint32_t>(mesh.triangles.size()));
     w.Bytes(mesh.triangles.data(), sizeof(int) * 3 * mesh.triangles.size());
   }
+  w.I32(model.options.part_subsets.vfh_size_component ? 1 : 0);
   const std::string& bytes = w.bytes();
   const uint64_t checksum = XXH3_64bits(bytes.data() + kHeaderBytes, bytes.size() - kHeaderBytes);
   w.Bytes(&checksum, sizeof(checksum));
@@ -557,6 +560,12 @@ TrainedModel LoadTrainedModel(const std::string& path) {
             path + ": model file is corrupt (a render mesh triangle indexes no vertex)");
       }
     }
+  }
+  if (version >= 7) {
+    const int32_t size_component = r.I32();
+    Require(size_component == 0 || size_component == 1,
+            path + ": model file is corrupt (the VFH size component flag is neither 0 nor 1)");
+    model.options.part_subsets.vfh_size_component = size_component == 1;
   }
   Require(r.AtEnd(), path + ": model file has trailing bytes (corrupt)");
   model.options.Check();

@@ -19,7 +19,24 @@ void WriteConfusionPng(const std::vector<std::string>& labels,
   for (const auto& row : counts)
     Require(static_cast<int>(row.size()) == n, png_path + ": confusion matrix must be square");
   Require(FileExtension(png_path) == "png", png_path + ": the confusion matrix is written as .png");
-  constexpr int kCell = 70, kLeft = 110, kTop = 70;
+  // Short labels head the columns; long ones (CAD model ids) are numbered,
+  // the numbers head the columns and the rows say "k. label" in full.
+  const bool numbered =
+      std::any_of(labels.begin(), labels.end(), [](const std::string& l) { return l.size() > 9; });
+  std::vector<std::string> row_labels(labels), column_labels(labels);
+  int left = 110;
+  for (int k = 0; k < n; ++k) {
+    if (numbered) {
+      row_labels[k] = std::to_string(k + 1) + ". " + labels[k];
+      column_labels[k] = std::to_string(k + 1);
+    }
+    int baseline = 0;
+    const cv::Size size =
+        cv::getTextSize(row_labels[k], cv::FONT_HERSHEY_SIMPLEX, 0.45, 1, &baseline);
+    left = std::max(left, size.width + 16);
+  }
+  constexpr int kCell = 70, kTop = 70;
+  const int kLeft = std::min(left, 640);                    // longer labels are cut at the cells
   const int width = std::max(kLeft + n * kCell + 20, 560);  // room for the title
   cv::Mat image(kTop + n * kCell + 20, width, CV_8UC3, cv::Scalar(255, 255, 255));
   cv::putText(image,
@@ -33,16 +50,17 @@ void WriteConfusionPng(const std::vector<std::string>& labels,
   for (int r = 0; r < n; ++r) {
     int64_t row_total = 0;
     for (int64_t c : counts[r]) row_total += c;
-    cv::putText(image,
-                labels[r],
-                cv::Point(6, kTop + r * kCell + kCell / 2 + 5),
+    cv::Mat label_area = image(cv::Rect(0, kTop + r * kCell, kLeft - 4, kCell));
+    cv::putText(label_area,
+                row_labels[r],
+                cv::Point(6, kCell / 2 + 5),
                 cv::FONT_HERSHEY_SIMPLEX,
                 0.45,
                 cv::Scalar(0, 0, 0),
                 1,
                 cv::LINE_AA);
     cv::putText(image,
-                labels[r].substr(0, 8),
+                column_labels[r].substr(0, 9),
                 cv::Point(kLeft + r * kCell + 4, kTop - 8),
                 cv::FONT_HERSHEY_SIMPLEX,
                 0.4,

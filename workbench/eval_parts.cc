@@ -34,6 +34,16 @@ void MeanStd(const std::vector<double>& values, double* mean, double* stddev) {
 
 }  // namespace
 
+PartSplit ParsePartSplit(const std::string& text) {
+  if (text == "view") return PartSplit::kByView;
+  if (text == "subset") return PartSplit::kBySubset;
+  throw InputError("split '" + text + "' must be view or subset");
+}
+
+const char* PartSplitName(PartSplit split) {
+  return split == PartSplit::kByView ? "view" : "subset";
+}
+
 PartEvaluation EvaluatePartSubsets(const Catalog& catalog,
                                    const TrainedModel& model,
                                    const PartEvaluationOptions& options) {
@@ -41,6 +51,9 @@ PartEvaluation EvaluatePartSubsets(const Catalog& catalog,
   Require(options.test_fraction > 0 && options.test_fraction < 1,
           "test fraction must be in (0, 1)");
   Require(options.neighbours >= 1 && options.neighbours <= 50, "neighbours (k) must be in 1..50");
+  Require(options.index_dimensions >= 1 && options.index_dimensions <= 308,
+          "index dimensions " + std::to_string(options.index_dimensions) + " must be in 1..308");
+  options.subsets.Check();
   const LoadedModels loaded = catalog.LoadModels(model.model_names, /*show_progress=*/false);
   loaded.RequireAll();
   std::vector<TrainingView> views;
@@ -57,10 +70,12 @@ PartEvaluation EvaluatePartSubsets(const Catalog& catalog,
     const ViewSegments segmented =
         SegmentView(views[v].points, views[v].sensor_origin, model.options);
     for (const std::vector<int>& subset : PartSubsets(segmented, options.subsets)) {
-      per_view[v].push_back(
-          {ComputeVfh(segmented.cloud, PointsOfSegments(segmented, subset), views[v].sensor_origin),
-           v,
-           views[v].model_index});
+      per_view[v].push_back({ComputeVfh(segmented.cloud,
+                                        PointsOfSegments(segmented, subset),
+                                        views[v].sensor_origin,
+                                        options.subsets.vfh_size_component),
+                             v,
+                             views[v].model_index});
     }
     std::lock_guard<std::mutex> lock(progress_mutex);
     progress.Advance();
@@ -80,22 +95,35 @@ PartEvaluation EvaluatePartSubsets(const Catalog& catalog,
     result.classes.push_back(ClassName(c));
   }
   result.confusion.assign(result.classes.size(), std::vector<int64_t>(result.classes.size(), 0));
+  result.split = options.split;
+  result.model_names = model.model_names;
+  result.model_confusion.assign(model.model_names.size(),
+                                std::vector<int64_t>(model.model_names.size(), 0));
   for (int repetition = 0; repetition < options.repetitions; ++repetition) {
     Rng rng(DeriveSeed(options.seed, static_cast<uint64_t>(repetition)));
-    std::vector<bool> is_test(views.size());
-    for (size_t v = 0; v < views.size(); ++v) is_test[v] = rng.Uniform01() < options.test_fraction;
+    // A draw per view or per subset, in their order (the same seed, the same split).
+    std::vector<bool> is_test(options.split == PartSplit::kByView ? views.size() : subsets.size());
+    for (size_t k = 0; k < is_test.size(); ++k)
+      is_test[k] = rng.Uniform01() < options.test_fraction;
+    auto tested_subset = [&](size_t k) {
+      return is_test[options.split == PartSplit::kByView ? static_cast<size_t>(subsets[k].view)
+                                                         : k];
+    };
     std::vector<VfhDescriptor> library;
     std::vector<int> library_model;
-    for (const Subset& s : subsets) {
-      if (is_test[s.view]) continue;
-      library.push_back(s.descriptor);
-      library_model.push_back(s.model_index);
+    for (size_t k = 0; k < subsets.size(); ++k) {
+      if (tested_subset(k)) continue;
+      library.push_back(subsets[k].descriptor);
+      library_model.push_back(subsets[k].model_index);
     }
-    Require(!library.empty(), "every view fell in the test split; use more views");
-    const PartSubsetIndex index(library);
+    Require(!library.empty(),
+            std::string("every ") + PartSplitName(options.split) +
+                " fell in the test split; use more views");
+    const PartSubsetIndex index(library, options.index_dimensions);
     int64_t tested = 0, model_hits = 0, class_hits = 0;
-    for (const Subset& s : subsets) {
-      if (!is_test[s.view]) continue;
+    for (size_t k = 0; k < subsets.size(); ++k) {
+      if (!tested_subset(k)) continue;
+      const Subset& s = subsets[k];
       // Majority of the k nearest; a tie goes to the model met first (nearer).
       std::map<int, int> votes;
       int predicted = -1, best_votes = 0;
@@ -112,6 +140,7 @@ PartEvaluation EvaluatePartSubsets(const Catalog& catalog,
       model_hits += predicted == s.model_index;
       class_hits += guess == truth;
       ++result.confusion[class_index[truth]][class_index[guess]];
+      ++result.model_confusion[s.model_index][predicted];
     }
     result.model_accuracy.push_back(tested ? static_cast<double>(model_hits) / tested : 0);
     result.category_accuracy.push_back(tested ? static_cast<double>(class_hits) / tested : 0);
@@ -126,25 +155,33 @@ void WritePartEvaluation(const PartEvaluation& result, const std::string& out_di
   std::filesystem::create_directories(out_dir, ec);
   Require(std::filesystem::is_directory(out_dir, ec),
           out_dir + ": cannot create the output directory");
-  nlohmann::ordered_json json{{"protocol", "C: part-subset classification, 80/20 by view"},
-                              {"views", result.views},
-                              {"subsets", result.subsets},
-                              {"cad_model_accuracy",
-                               {{"mean", result.model_mean},
-                                {"std", result.model_std},
-                                {"per_repetition", result.model_accuracy}}},
-                              {"category_accuracy",
-                               {{"mean", result.category_mean},
-                                {"std", result.category_std},
-                                {"per_repetition", result.category_accuracy}}},
-                              {"classes", result.classes},
-                              {"confusion_true_by_predicted", result.confusion}};
+  nlohmann::ordered_json json{
+      {"protocol",
+       std::string("C: part-subset classification, 80/20 by ") + PartSplitName(result.split)},
+      {"views", result.views},
+      {"subsets", result.subsets},
+      {"cad_model_accuracy",
+       {{"mean", result.model_mean},
+        {"std", result.model_std},
+        {"per_repetition", result.model_accuracy}}},
+      {"category_accuracy",
+       {{"mean", result.category_mean},
+        {"std", result.category_std},
+        {"per_repetition", result.category_accuracy}}},
+      {"classes", result.classes},
+      {"confusion_true_by_predicted", result.confusion},
+      {"cad_models", result.model_names},
+      {"cad_model_confusion_true_by_predicted", result.model_confusion}};
   WriteFileAtomically((std::filesystem::path(out_dir) / "parts.json").string(),
                       json.dump(2) + "\n");
   WriteConfusionPng(result.classes,
                     result.confusion,
                     "Part-subset category",
                     (std::filesystem::path(out_dir) / "confusion.png").string());
+  WriteConfusionPng(result.model_names,
+                    result.model_confusion,
+                    "Part-subset CAD model",
+                    (std::filesystem::path(out_dir) / "confusion_models.png").string());
 }
 
 }  // namespace furn

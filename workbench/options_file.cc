@@ -85,6 +85,7 @@ std::vector<Field> FieldsOf(TrainingOptions* o) {
       Plain("part_subsets.max_subset_size", &t.part_subsets.max_subset_size),
       Plain("part_subsets.max_subsets_per_view", &t.part_subsets.max_subsets_per_view),
       Plain("part_subsets.adjacency_m", &t.part_subsets.adjacency_m),
+      Plain("part_subsets.vfh_size_component", &t.part_subsets.vfh_size_component),
       Plain("shape_voxel_m", &t.shape_voxel_m),
       Plain("scan.heights_m", &s.heights_m),
       Plain("scan.azimuths", &s.azimuths),

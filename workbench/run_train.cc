@@ -89,7 +89,7 @@ int RunTrain(int argc, char** argv) {
 }
 
 int RunEvalParts(int argc, char** argv) {
-  CLI::App app{"Protocol C: classify part subsets of held-out views (80/20 by view, repeated)",
+  CLI::App app{"Protocol C: classify held-out part subsets (80/20 by view or by subset, repeated)",
                "workbench eval-parts"};
   CatalogFlags catalog_flags;
   AddCatalogFlags(&app, &catalog_flags);
@@ -104,20 +104,44 @@ int RunEvalParts(int argc, char** argv) {
   app.add_option("--k", options.neighbours, "Nearest neighbours voting")->capture_default_str();
   app.add_option("--min-size", options.subsets.min_subset_size, "Smallest subset (segments)")
       ->capture_default_str();
+  app.add_option("--max-subsets",
+                 options.subsets.max_subsets_per_view,
+                 "Most subsets per view (singletons first, then pairs, then triples)")
+      ->capture_default_str();
+  app.add_option("--dimensions",
+                 options.index_dimensions,
+                 "Principal components of the VFH the neighbour search uses (308: plain L2)")
+      ->capture_default_str();
+  std::string vfh_size = "model";
+  app.add_option(
+         "--vfh-size", vfh_size, "VFH size component: model (as the model was trained), on or off")
+      ->capture_default_str();
+  std::string split = "view";
+  app.add_option("--split",
+                 split,
+                 "view: held-out views (no part of a tested subset in the library); subset: "
+                 "held-out subsets, as the paper split its data")
+      ->capture_default_str();
   if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
   ApplyGlobalFlags(catalog_flags);
+  options.split = ParsePartSplit(split);
+  Require(vfh_size == "model" || vfh_size == "on" || vfh_size == "off",
+          "--vfh-size " + vfh_size + " must be model, on or off");
   const TrainedModel model = LoadTrainedModel(model_path);
   options.scan.seed = model.options.vocabulary.seed;
+  options.subsets.vfh_size_component =
+      vfh_size == "model" ? model.options.part_subsets.vfh_size_component : vfh_size == "on";
   const Catalog catalog = OpenCatalog(catalog_flags.spec, MakeOpenOptions(catalog_flags));
   const PartEvaluation result = EvaluatePartSubsets(catalog, model, options);
   WritePartEvaluation(result, out);
   std::printf(
-      "%d views, %d part subsets, %d repetitions: CAD model %.1f %% +- %.1f, category %.1f %% +- "
-      "%.1f "
-      "(paper: 75.4 %%, 85.3 %%)\nwrote %s/parts.json and %s/confusion.png\n",
+      "%d views, %d part subsets, %d repetitions split by %s: CAD model %.1f %% +- %.1f, category "
+      "%.1f %% +- %.1f (paper, split by subset: 75.4 %%, 85.3 %%)\nwrote %s/parts.json, "
+      "%s/confusion.png and confusion_models.png\n",
       result.views,
       result.subsets,
       options.repetitions,
+      PartSplitName(options.split),
       100 * result.model_mean,
       100 * result.model_std,
       100 * result.category_mean,

@@ -167,6 +167,10 @@ std::string DescribeTrainedModel(const TrainedModel& model) {
       << model.options.region_growing.delta_m << " m, alpha "
       << model.options.region_growing.alpha_deg << " deg, min segment "
       << model.options.region_growing.min_segment_size << " points\n";
+  const PartSubsetOptions& p = model.options.part_subsets;
+  out << "part subsets: " << model.part_models.size() << " of " << p.min_subset_size << "-"
+      << p.max_subset_size << " segments, at most " << p.max_subsets_per_view
+      << " per view, VFH size component " << (p.vfh_size_component ? "on" : "off") << "\n";
   if (model.scorer.empty()) {
     out << "scorer:      none (fixed verification gates)\n";
   } else {

@@ -257,6 +257,56 @@ TEST(PartSubsets, SingletonsAdjacentPairsAndConnectedTriples) {
   EXPECT_GT(total, 0);
 }
 
+// The paper's VFH leaves its shape-distribution bins (135..179) empty. With
+// the size component they hold the points' distances from the centroid in
+// centimetres: the same part twice as large fills bins twice as far.
+TEST(PartSubsets, VfhSizeComponentTellsTheSameShapeAtTwoSizesApart) {
+  // A cap of a 20 cm sphere (normals outwards), and the same twice as large.
+  PointCloud small, large;
+  for (int i = 1; i <= 15; ++i) {
+    for (int j = 0; j < 20; ++j) {
+      const float theta = 0.07f * i, phi = 0.314159f * j;
+      const Eigen::Vector3f normal(
+          std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta));
+      small.points.push_back(0.2f * normal);
+      small.normals.push_back(normal);
+      small.curvature.push_back(0);
+      large.points.push_back(0.4f * normal);
+      large.normals.push_back(normal);
+      large.curvature.push_back(0);
+    }
+  }
+  std::vector<int> all(small.size());
+  for (size_t i = 0; i < all.size(); ++i) all[i] = static_cast<int>(i);
+  const Eigen::Vector3f viewpoint(0.1f, 0.3f, 1.0f);
+  // The shape-distribution part of the VFH: bins 135..179.
+  auto size_distance = [](const VfhDescriptor& a, const VfhDescriptor& b) {
+    float sum = 0;
+    for (int i = 135; i < 180; ++i) sum += (a[i] - b[i]) * (a[i] - b[i]);
+    return std::sqrt(sum);
+  };
+  const VfhDescriptor plain_small = ComputeVfh(small, all, viewpoint);
+  const VfhDescriptor plain_large = ComputeVfh(large, all, 2 * viewpoint);
+  const VfhDescriptor empty{};
+  EXPECT_EQ(size_distance(plain_small, empty), 0);  // the paper's VFH leaves them empty
+  EXPECT_EQ(size_distance(plain_large, empty), 0);
+  const VfhDescriptor sized_small = ComputeVfh(small, all, viewpoint, true);
+  const VfhDescriptor sized_large = ComputeVfh(large, all, 2 * viewpoint, true);
+  EXPECT_GT(size_distance(sized_small, sized_large), 20.0f);
+  for (int i = 0; i < 308; ++i) {  // the rest as without it
+    if (i < 135 || i >= 180) EXPECT_EQ(sized_small[i], plain_small[i]) << "bin " << i;
+  }
+  // Centimetre bins: the farthest point from the centroid lands twice as far.
+  auto last_filled = [](const VfhDescriptor& d) {
+    int last = -1;
+    for (int i = 135; i < 180; ++i)
+      if (d[i] > 0) last = i - 135;
+    return last;
+  };
+  EXPECT_GT(last_filled(sized_small), 5);
+  EXPECT_NEAR(last_filled(sized_large), 2 * last_filled(sized_small), 2);
+}
+
 // The index searches exactly in its principal components: against brute
 // force in double over the same projected rows, many queries at once give
 // what each gives alone, over more rows than one block (8192).

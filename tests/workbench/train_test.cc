@@ -49,6 +49,28 @@ TEST(Train, SameSeedGivesByteIdenticalModelFiles) {
   SaveTrainedModel(model, dir + "/c.fcm");
   EXPECT_EQ(ReadFileBytes(dir + "/a.fcm"), ReadFileBytes(dir + "/c.fcm"));
   EXPECT_NE(DescribeTrainedModel(model).find("RIM (k-means init, 8 words"), std::string::npos);
+  EXPECT_NE(DescribeTrainedModel(model).find("VFH size component off"), std::string::npos);
+}
+
+// The VFH size component is a trained option: stored in the model file and
+// used by its part-subset library (whose descriptors then differ).
+TEST(Train, VfhSizeComponentIsKeptInTheModelFile) {
+  Progress::SetQuiet(true);
+  const std::string dir = testing::ScratchDir();
+  const Catalog catalog = OpenCatalog("procedural:2");
+  TrainerOptions options = SmallVocabulary(VocabularyKind::kKMeans);
+  TrainFromCatalog(catalog, FewViews(), options, dir + "/plain.fcm");
+  options.part_subsets.vfh_size_component = true;
+  TrainFromCatalog(catalog, FewViews(), options, dir + "/sized.fcm");
+  const TrainedModel plain = LoadTrainedModel(dir + "/plain.fcm");
+  const TrainedModel sized = LoadTrainedModel(dir + "/sized.fcm");
+  EXPECT_FALSE(plain.options.part_subsets.vfh_size_component);
+  EXPECT_TRUE(sized.options.part_subsets.vfh_size_component);
+  EXPECT_NE(DescribeTrainedModel(sized).find("VFH size component on"), std::string::npos);
+  EXPECT_EQ(plain.part_models, sized.part_models);  // the same subsets,
+  EXPECT_FALSE(plain.part_index.projected.isApprox(sized.part_index.projected));  // other VFHs
+  SaveTrainedModel(sized, dir + "/again.fcm");
+  EXPECT_EQ(ReadFileBytes(dir + "/sized.fcm"), ReadFileBytes(dir + "/again.fcm"));
 }
 
 TEST(Train, ScaleVariantsAddAugmentedViewsButKeepTheTrueShapes) {
@@ -199,6 +221,33 @@ TEST(EvalParts, ClassifiesPartSubsetsBetterThanChanceAndReproducibly) {
   WritePartEvaluation(a, dir + "/out");
   EXPECT_TRUE(std::filesystem::exists(dir + "/out/parts.json"));
   EXPECT_TRUE(std::filesystem::exists(dir + "/out/confusion.png"));
+  EXPECT_TRUE(std::filesystem::exists(dir + "/out/confusion_models.png"));
+  ASSERT_EQ(a.model_confusion.size(), 16u);
+  int64_t model_total = 0;
+  for (size_t m = 0; m < a.model_confusion.size(); ++m)
+    for (int64_t c : a.model_confusion[m]) model_total += c;
+  EXPECT_EQ(model_total, total);
+
+  // Split by subset, as the paper did: a fifth of the subsets is tested in
+  // each repetition, and the parts they share with library subsets of the
+  // same view make it easier than held-out views.
+  options.split = PartSplit::kBySubset;
+  const PartEvaluation by_subset = EvaluatePartSubsets(catalog, model, options);
+  EXPECT_NEAR(static_cast<double>(model_total) / (options.repetitions * a.subsets), 0.2, 0.08);
+  int64_t subset_total = 0;
+  for (const auto& row : by_subset.confusion)
+    for (int64_t c : row) subset_total += c;
+  EXPECT_NEAR(
+      static_cast<double>(subset_total) / (options.repetitions * by_subset.subsets), 0.2, 0.03);
+  EXPECT_GT(by_subset.model_mean, a.model_mean);
+  EXPECT_EQ(ParsePartSplit("subset"), PartSplit::kBySubset);
+  EXPECT_THROW(ParsePartSplit("views"), InputError);
+  options.split = PartSplit::kByView;
+  options.index_dimensions = 309;
+  EXPECT_THROW(EvaluatePartSubsets(catalog, model, options), InputError);
+  options.index_dimensions = 308;  // plain L2
+  EXPECT_GT(EvaluatePartSubsets(catalog, model, options).category_mean, 0.5);
+
   options.neighbours = 0;
   EXPECT_THROW(EvaluatePartSubsets(catalog, model, options), InputError);
   options.neighbours = 1;
