@@ -397,6 +397,18 @@ void WriteIdPng(const DepthFrame& frame, const std::string& path) {
   WritePng(IdImage(frame), path);
 }
 
+void WriteMaskPng(const std::vector<uint8_t>& mask,
+                  int width,
+                  int height,
+                  const std::string& path) {
+  Require(width > 0 && height > 0 && mask.size() == static_cast<size_t>(width) * height,
+          path + ": a mask of " + std::to_string(mask.size()) + " pixels is not " +
+              std::to_string(width) + "x" + std::to_string(height));
+  cv::Mat image(height, width, CV_8UC1);
+  std::memcpy(image.data, mask.data(), mask.size());
+  WritePng(image, path);
+}
+
 std::vector<Eigen::Vector3f> BackProject(const DepthFrame& frame, const CameraIntrinsics& camera) {
   Require(frame.width == camera.width && frame.height == camera.height,
           "depth image is " + std::to_string(frame.width) + "x" + std::to_string(frame.height) +

@@ -29,6 +29,9 @@ DepthFrame ReadDepthPng(const std::string& path, double units_per_metre = 1000);
 // Throws InputError naming the file for other formats or channel counts.
 DepthFrame ReadDepthImage(const std::string& path, std::optional<double> units_per_metre);
 void WriteIdPng(const DepthFrame& frame, const std::string& path);
+// An 8-bit single-channel PNG of `mask` (row-major, width x height), e.g. 0
+// and 255 for a BOP object mask.
+void WriteMaskPng(const std::vector<uint8_t>& mask, int width, int height, const std::string& path);
 void WriteOrganizedPcd(const DepthFrame& frame,
                        const CameraIntrinsics& camera,
                        const std::string& path);

@@ -8,6 +8,7 @@
 #include "core/file_util.h"
 #include "db/dataset_db.h"
 #include "reports/dataset_sheet.h"
+#include "workbench/bop_export.h"
 
 namespace furn {
 namespace {
@@ -261,36 +262,28 @@ nlohmann::json Rows(const Eigen::Matrix3d& m) {
 
 int ExportDataset(const std::string& db_path,
                   const std::string& format,
-                  const std::string& out_dir) {
+                  const std::string& out_dir,
+                  const CatalogOpenOptions& catalog_options) {
   Require(format == "bop" || format == "png" || format == "pcd",
           "export format '" + format + "' is not one of bop, png, pcd");
-  DatasetDb dataset = OpenExisting(db_path);
+  OpenExisting(db_path);
   std::error_code ec;
   std::filesystem::create_directories(out_dir, ec);
   Require(std::filesystem::is_directory(out_dir, ec),
           out_dir + ": cannot create the output directory");
+  if (format == "bop") return ExportBop(db_path, out_dir, BopExportOptions{catalog_options});
+  DatasetDb dataset = OpenExisting(db_path);
   const std::filesystem::path root(out_dir);
-  std::map<std::string, int> bop_object_ids;  // model id -> 1-based BOP obj_id
-  nlohmann::ordered_json models = nlohmann::ordered_json::object();
-  for (const ModelRecord& model : dataset.ReadModels()) {
-    const int id = static_cast<int>(bop_object_ids.size()) + 1;
-    bop_object_ids[model.id] = id;
-    models[std::to_string(id)] = {{"model_id", model.id}, {"class", model.furniture_class}};
-  }
   nlohmann::ordered_json png_index = nlohmann::ordered_json::array();
   int written = 0;
   for (int64_t room_id : dataset.RoomIds()) {
     const RoomRecord room = dataset.ReadRoom(room_id, /*with_images=*/true);
-    std::map<int, const ObjectRecord*> objects;
-    for (const ObjectRecord& object : room.objects) objects[object.instance_id] = &object;
-    const std::filesystem::path scene_dir = root / room.split / Pad(room.id);
-    nlohmann::ordered_json scene_camera, scene_gt, scene_gt_info;
     for (const FrameRecord& frame : room.frames) {
       const std::string where = db_path + " frame " + std::to_string(frame.id);
       if (format == "pcd") {
         DepthFrame noisy = DecodeDepthPng(frame.depth_noisy_png, where);
         WriteOrganizedPcd(noisy, IntrinsicsOf(frame), (root / (Pad(frame.id) + ".pcd")).string());
-      } else if (format == "png") {
+      } else {
         std::filesystem::create_directories(root / "frames", ec);
         WriteBytes((root / "frames" / (Pad(frame.id) + "_depth.png")).string(),
                    frame.depth_noisy_png);
@@ -306,56 +299,10 @@ int ExportDataset(const std::string& db_path,
                               {frame.world_from_camera.translation().x(),
                                frame.world_from_camera.translation().y(),
                                frame.world_from_camera.translation().z()}}});
-      } else {
-        for (const char* sub : {"depth", "depth_ideal", "mask_ids"})
-          std::filesystem::create_directories(scene_dir / sub, ec);
-        WriteBytes((scene_dir / "depth" / (Pad(frame.frame_index) + ".png")).string(),
-                   frame.depth_noisy_png);
-        WriteBytes((scene_dir / "depth_ideal" / (Pad(frame.frame_index) + ".png")).string(),
-                   frame.depth_ideal_png);
-        WriteBytes((scene_dir / "mask_ids" / (Pad(frame.frame_index) + ".png")).string(),
-                   frame.ids_png);
-        const Eigen::Isometry3d camera_from_world = frame.world_from_camera.inverse();
-        const Eigen::Vector3d t = camera_from_world.translation() * 1000.0;
-        const std::string key = std::to_string(frame.frame_index);
-        scene_camera[key] = {{"cam_K", {frame.fx, 0, frame.cx, 0, frame.fy, frame.cy, 0, 0, 1}},
-                             {"depth_scale", 1.0},
-                             {"cam_R_w2c", Rows(camera_from_world.linear())},
-                             {"cam_t_w2c", {t.x(), t.y(), t.z()}}};
-        nlohmann::ordered_json gt = nlohmann::ordered_json::array(),
-                               info = nlohmann::ordered_json::array();
-        for (const FrameObjectRecord& seen : frame.objects) {
-          const ObjectRecord& object = *objects.at(seen.instance_id);
-          const Eigen::Isometry3d camera_from_object =
-              camera_from_world * PoseXYZYaw(object.x, object.y, object.z, object.yaw);
-          const Eigen::Vector3d tm = camera_from_object.translation() * 1000.0;
-          gt.push_back({{"obj_id", bop_object_ids.at(object.model_id)},
-                        {"instance_id", seen.instance_id},
-                        {"cam_R_m2c", Rows(camera_from_object.linear())},
-                        {"cam_t_m2c", {tm.x(), tm.y(), tm.z()}}});
-          auto box = [](const std::array<int, 4>& b) {
-            return b[2] < b[0] ? nlohmann::json{-1, -1, -1, -1}
-                               : nlohmann::json{b[0], b[1], b[2] - b[0] + 1, b[3] - b[1] + 1};
-          };
-          info.push_back({{"bbox_obj", box(seen.amodal_box)},
-                          {"bbox_visib", box(seen.visible_box)},
-                          {"px_count_all", seen.amodal_pixels},
-                          {"px_count_visib", seen.visible_pixels},
-                          {"visib_fract", seen.visibility}});
-        }
-        scene_gt[key] = gt;
-        scene_gt_info[key] = info;
       }
       ++written;
     }
-    if (format == "bop" && !room.frames.empty()) {
-      WriteFileAtomically((scene_dir / "scene_camera.json").string(), scene_camera.dump(1) + "\n");
-      WriteFileAtomically((scene_dir / "scene_gt.json").string(), scene_gt.dump(1) + "\n");
-      WriteFileAtomically((scene_dir / "scene_gt_info.json").string(),
-                          scene_gt_info.dump(1) + "\n");
-    }
   }
-  if (format == "bop") WriteFileAtomically((root / "models.json").string(), models.dump(1) + "\n");
   if (format == "png")
     WriteFileAtomically((root / "frames.json").string(), png_index.dump(1) + "\n");
   return written;

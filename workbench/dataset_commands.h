@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "scenes/catalog.h"
+
 namespace furn {
 
 struct DatasetInfo {
@@ -44,13 +46,15 @@ struct MergeSummary {
 MergeSummary MergeDatasets(const std::vector<std::string>& inputs, const std::string& out);
 
 // Writes every frame to `out_dir` as
-//   bop: <split>/<room>/depth/<frame>.png (noisy, mm), depth_ideal/, mask_ids/,
-//        scene_camera.json, scene_gt.json, scene_gt_info.json; models.json
+//   bop: a BOP dataset, models included (workbench/bop_export.h); the meshes
+//        come from the catalog the dataset was generated from, found with
+//        `catalog_options`
 //   png: frames/<frame>_depth.png, _depth_ideal.png, _ids.png; frames.json
 //   pcd: <frame>.pcd (organized, camera frame, noisy)
 // Returns the number of frames written.
 int ExportDataset(const std::string& db_path,
                   const std::string& format,
-                  const std::string& out_dir);
+                  const std::string& out_dir,
+                  const CatalogOpenOptions& catalog_options = {});
 
 }  // namespace furn

@@ -148,6 +148,20 @@ int RunDataset(int argc, char** argv) {
   export_command->add_option("db", db, "Dataset database")->required();
   export_command->add_option("--format", format, "bop, png or pcd")->capture_default_str();
   export_command->add_option("--out", out, "Output directory")->required();
+  CatalogFlags export_catalog;  // where BOP export finds the dataset's catalog
+  if (const char* env = std::getenv("FURN_CATALOG_DIR")) export_catalog.catalog_dir = env;
+  if (const char* env = std::getenv("FURN_DATA_DIR")) export_catalog.data_dir = env;
+  export_command
+      ->add_option("--catalog-dir",
+                   export_catalog.catalog_dir,
+                   "bop: directory of the .sh3f files of the dataset's catalog (env "
+                   "FURN_CATALOG_DIR)")
+      ->capture_default_str();
+  export_command
+      ->add_option("--data-dir",
+                   export_catalog.data_dir,
+                   "bop: directory of class_map.json (env FURN_DATA_DIR)")
+      ->capture_default_str();
   CLI::App* import_real = app.add_subcommand(
       "import-real", "Labelled real scans (a furnidet-real-set JSON) into a new dataset");
   std::string labels, sheets;
@@ -191,8 +205,9 @@ int RunDataset(int argc, char** argv) {
   }
   if (export_command->parsed()) {
     int frames = 0;  // a failed export leaves no partial folder
-    WriteDirectoryAtomically(
-        out, [&](const std::string& dir) { frames = ExportDataset(db, format, dir); });
+    WriteDirectoryAtomically(out, [&](const std::string& dir) {
+      frames = ExportDataset(db, format, dir, MakeOpenOptions(export_catalog));
+    });
     std::cout << "wrote " << frames << " frames to " << out << " (" << format << ")\n";
     return 0;
   }

@@ -311,7 +311,7 @@ TEST(Generate, InfoPreviewAndExportDescribeTheDataset) {
   EXPECT_EQ(sheet.rows, 240);
   EXPECT_EQ(ExportDataset(dir + "/d.db", "bop", dir + "/bop"), 8);
   EXPECT_EQ(ExportDataset(dir + "/d.db", "pcd", dir + "/pcd"), 8);
-  EXPECT_TRUE(std::filesystem::exists(dir + "/bop/models.json"));
+  EXPECT_TRUE(std::filesystem::exists(dir + "/bop/models/models_info.json"));
   EXPECT_THROW(ExportDataset(dir + "/d.db", "obj", dir + "/x"), InputError);
 }
 
