@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <sstream>
 #include <opencv2/imgcodecs.hpp>
 
 #include "core/error.h"
@@ -286,7 +287,11 @@ TEST(Generate, FramesAgreeOnEveryEmbreeIsa) {
     EXPECT_NE(bad.output.find(std::string("FURN_EMBREE_CONFIG='") + config + "'"),
               std::string::npos)
         << bad.output;
-    EXPECT_EQ(std::count(bad.output.begin(), bad.output.end(), '\n'), 1) << bad.output;
+    // One line besides the catalog's warning (procedural catalogs offer no clutter).
+    int lines = 0;
+    std::istringstream output(bad.output);
+    for (std::string line; std::getline(output, line);) lines += line.rfind("warning: ", 0) != 0;
+    EXPECT_EQ(lines, 1) << bad.output;
     EXPECT_FALSE(std::filesystem::exists(dir + "/bad.db")) << config;
   }
 }
