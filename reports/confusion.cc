@@ -22,7 +22,7 @@ void WriteConfusionPng(const std::vector<std::string>& labels,
   // Short labels head the columns; long ones (CAD model ids) are numbered,
   // the numbers head the columns and the rows say "k. label" in full.
   const bool numbered =
-      std::any_of(labels.begin(), labels.end(), [](const std::string& l) { return l.size() > 9; });
+      std::any_of(labels.begin(), labels.end(), [](const std::string& l) { return l.size() > 12; });
   std::vector<std::string> row_labels(labels), column_labels(labels);
   int left = 110;
   for (int k = 0; k < n; ++k) {
