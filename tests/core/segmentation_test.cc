@@ -294,7 +294,9 @@ TEST(PartSubsets, VfhSizeComponentTellsTheSameShapeAtTwoSizesApart) {
   const VfhDescriptor sized_large = ComputeVfh(large, all, 2 * viewpoint, true);
   EXPECT_GT(size_distance(sized_small, sized_large), 20.0f);
   for (int i = 0; i < 308; ++i) {  // the rest as without it
-    if (i < 135 || i >= 180) EXPECT_EQ(sized_small[i], plain_small[i]) << "bin " << i;
+    if (i < 135 || i >= 180) {
+      EXPECT_EQ(sized_small[i], plain_small[i]) << "bin " << i;
+    }
   }
   // Centimetre bins: the farthest point from the centroid lands twice as far.
   auto last_filled = [](const VfhDescriptor& d) {
