@@ -52,7 +52,9 @@ std::vector<Eigen::Vector3d> ReadPlyVertices(const fs::path& path, size_t* faces
     std::istringstream words(line);
     std::string word, kind;
     words >> word;
-    if (word == "format") EXPECT_NE(line.find("ascii 1.0"), std::string::npos);
+    if (word == "format") {
+      EXPECT_NE(line.find("ascii 1.0"), std::string::npos);
+    }
     if (word == "element") {
       words >> kind;
       in_vertex = kind == "vertex";
@@ -64,7 +66,9 @@ std::vector<Eigen::Vector3d> ReadPlyVertices(const fs::path& path, size_t* faces
       words >> type >> name;
       properties.push_back(name);
     }
-    if (word == "property" && !in_vertex) EXPECT_NE(line.find("vertex_indices"), std::string::npos);
+    if (word == "property" && !in_vertex) {
+      EXPECT_NE(line.find("vertex_indices"), std::string::npos);
+    }
   }
   EXPECT_EQ(properties, (std::vector<std::string>{"x", "y", "z"}));
   std::vector<Eigen::Vector3d> points(vertices);

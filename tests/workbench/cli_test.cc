@@ -129,7 +129,7 @@ TEST(Cli, NonRegularFilesAreRefusedNotWaitedOn) {
     EXPECT_NE(result.output.find(c.expected), std::string::npos) << result.output;
   }
   // The loaders themselves, for the inputs a model is not needed to reach.
-  for (const std::string path : {dir + "/in.pcd", dir + "/zero.pcd"}) {
+  for (const std::string& path : {dir + "/in.pcd", dir + "/zero.pcd"}) {
     try {
       ReadPointCloudFile(path);
       ADD_FAILURE() << path;
