@@ -8,6 +8,8 @@
 #include <cstdlib>
 #include <string>
 
+#include "core/leak_suppressions.h"
+
 namespace {
 
 class ReseedListener : public ::testing::EmptyTestEventListener {

@@ -7,6 +7,7 @@
 #include <cstring>
 #include <exception>
 
+#include "core/leak_suppressions.h"
 #include "workbench/commands.h"
 
 namespace {

@@ -7,6 +7,7 @@
 #include "core/file_util.h"
 #include "renderers/frame_io.h"
 #include "scenes/room_composer.h"
+#include "workbench/rosbag_io.h"
 #include "workbench/cli_common.h"
 #include "workbench/commands.h"
 #include "workbench/dataset_commands.h"
@@ -146,8 +147,12 @@ int RunDataset(int argc, char** argv) {
   CLI::App* export_command = app.add_subcommand("export", "Write frames as BOP, PNG or PCD files");
   std::string format = "bop";
   export_command->add_option("db", db, "Dataset database")->required();
-  export_command->add_option("--format", format, "bop, png or pcd")->capture_default_str();
-  export_command->add_option("--out", out, "Output directory")->required();
+  export_command->add_option("--format", format, "bop, png, pcd or rosbag")->capture_default_str();
+  export_command->add_option("--out", out, "Output directory (rosbag: the .bag file)")->required();
+  std::string export_split = "all";
+  export_command
+      ->add_option("--split", export_split, "rosbag: frames of train, val, test or all")
+      ->capture_default_str();
   CatalogFlags export_catalog;  // where BOP export finds the dataset's catalog
   if (const char* env = std::getenv("FURN_CATALOG_DIR")) export_catalog.catalog_dir = env;
   if (const char* env = std::getenv("FURN_DATA_DIR")) export_catalog.data_dir = env;
@@ -203,7 +208,13 @@ int RunDataset(int argc, char** argv) {
               << " datasets (" << summary.duplicate_rooms << " duplicate rooms were identical)\n";
     return 0;
   }
+  if (export_command->parsed() && format == "rosbag") {
+    const int frames = ExportRosbag(db, out, export_split);
+    std::cout << "wrote " << frames << " frames to " << out << " (rosbag)\n";
+    return 0;
+  }
   if (export_command->parsed()) {
+    Require(export_split == "all", "--split applies to --format rosbag");
     int frames = 0;  // a failed export leaves no partial folder
     WriteDirectoryAtomically(out, [&](const std::string& dir) {
       frames = ExportDataset(db, format, dir, MakeOpenOptions(export_catalog));

@@ -3,6 +3,9 @@
 #include <chrono>
 #include <cstdio>
 #include <map>
+#include <optional>
+
+#include <nlohmann/json.hpp>
 
 #include "core/error.h"
 #include "core/file_util.h"
@@ -11,6 +14,7 @@
 #include "workbench/commands.h"
 #include "workbench/detect_command.h"
 #include "workbench/evaluate_command.h"
+#include "workbench/rosbag_io.h"
 
 namespace furn {
 namespace {
@@ -28,6 +32,74 @@ void PrintDetections(const LoadedScan& scan, const DetectionResult& result) {
                  d.model_name.c_str());
   }
   std::fprintf(stderr, "\n");
+}
+
+// `detect --bag`: one JSON line per message (with its topic, stamp and
+// seq), the model loaded once; --out-bag adds the detections as markers.
+int DetectInBag(const BagScanOptions& bag,
+                const std::string& out_bag,
+                const std::string& model_path,
+                const DetectorOptions& options,
+                const std::string& out,
+                bool quiet,
+                bool explain) {
+  Require(RosbagSupported() || bag.bag_path.empty(),
+          "--bag: this build reads no ROS bags (configure with -DFURN_WITH_ROS=ON)");
+  RequireRegularFile(bag.bag_path);
+  const Detector detector(LoadTrainedModel(model_path), options);
+  std::optional<BagMarkerWriter> markers;
+  if (!out_bag.empty()) markers.emplace(bag.bag_path, out_bag);
+  std::string lines;
+  std::vector<double> totals;
+  int without = 0;
+  std::optional<Progress> progress;
+  ForEachBagScan(bag, [&](const BagScan& scan) {
+    const DetectionResult result = detector.Detect(scan.loaded.input, /*keep_debug=*/false);
+    // The message's place in the bag first, then what DetectionJson says.
+    const nlohmann::ordered_json place{{"topic", scan.topic},
+                                       {"stamp", scan.stamp},
+                                       {"seq", scan.seq},
+                                       {"frame_id", scan.frame_id}};
+    const std::string place_text = place.dump();  // {"topic":...}
+    std::string line;
+    if (result.status != DetectionStatus::kDetected) {
+      line = ScanErrorJson(scan.loaded.description, result.message);
+      ++without;
+    } else {
+      line = DetectionJson(result, scan.loaded, /*one_line=*/true);
+      totals.push_back(result.timings_ms.empty() ? 0 : result.timings_ms.back().second);
+    }
+    // Both are one-line JSON objects: splice the place in after the brace.
+    line = place_text.substr(0, place_text.size() - 1) + "," + line.substr(1);
+    lines += line;
+    if (markers) markers->Add(scan, result, detector.model());
+    if (explain) {
+      std::fprintf(stderr, "%s: ", scan.loaded.description.c_str());
+      std::fputs(ExplainDetection(result, detector.model()).c_str(), stderr);
+    }
+    if (!progress) progress.emplace("detect", scan.total, "messages");
+    progress->Advance();
+  });
+  if (progress) progress->Finish();
+  if (markers) markers->Finish();
+  if (!out.empty()) {
+    WriteFileAtomically(out, lines);
+  } else if (!quiet) {
+    std::fputs(lines.c_str(), stdout);
+  }
+  if (!quiet) {
+    std::sort(totals.begin(), totals.end());
+    std::fprintf(stderr,
+                 "%s %s: %zu messages, %d without points or floor; detection median %.0f ms%s%s\n",
+                 bag.bag_path.c_str(),
+                 bag.topic.c_str(),
+                 totals.size() + without,
+                 without,
+                 totals.empty() ? 0.0 : totals[totals.size() / 2],
+                 out_bag.empty() ? "" : "; markers in ",
+                 out_bag.c_str());
+  }
+  return 0;
 }
 
 }  // namespace
@@ -69,6 +141,25 @@ int RunDetect(int argc, char** argv) {
   app.add_option("--sensor",
                  source.sensor,
                  "Sensor position x,y,z of a floor-aligned unorganised cloud without a pose");
+  BagScanOptions bag;
+  std::string out_bag;
+  app.add_option("--bag", bag.bag_path, "ROS 1 bag: detect in every message of --topic");
+  app.add_option("--topic",
+                 bag.topic,
+                 "Bag topic: sensor_msgs/PointCloud2 (camera frame) or sensor_msgs/Image "
+                 "(16UC1/mono16 in mm unless --depth-scale, or 32FC1 in m)");
+  app.add_option("--camera-info",
+                 bag.camera_info_topic,
+                 "CameraInfo topic of an Image topic (default: <image namespace>/camera_info)");
+  app.add_option("--tf-world",
+                 bag.world_frame,
+                 "Floor-aligned TF frame (z up, floor at z = 0): where /tf connects it to a "
+                 "message's frame that pose is used; '' : find the floor in every scan")
+      ->capture_default_str();
+  app.add_option("--out-bag",
+                 out_bag,
+                 "Write a copy of --bag with the detections as visualization_msgs/MarkerArray "
+                 "on /furnidet/detections");
   app.add_option("--db", source.db_path, "Dataset database (with --frame)");
   app.add_option("--frame", source.frame_id, "Frame id in --db");
   app.add_option("--out", out, "Detections as JSON, or JSON lines for several scans");
@@ -153,6 +244,17 @@ int RunDetect(int argc, char** argv) {
   }
   if (no_scorer) options.use_scorer = false;
   options.Check();
+
+  if (!bag.bag_path.empty()) {
+    Require(inputs.empty() && source.cloud_path.empty() && source.depth_path.empty() &&
+                source.db_path.empty(),
+            "--bag takes no other scans (inputs, --cloud, --depth or --db)");
+    Require(debug_dir.empty() && repeat == 1, "--debug-dir and --repeat apply to one scan");
+    bag.depth_scale = source.depth_scale;
+    return DetectInBag(bag, out_bag, model_path, options, out, quiet, explain);
+  }
+  Require(out_bag.empty() && bag.topic.empty() && bag.camera_info_topic.empty(),
+          "--topic, --camera-info and --out-bag apply to --bag");
 
   // The scans: the positional inputs, or the one of --cloud/--depth/--db.
   std::vector<ScanSource> sources;

@@ -1,0 +1,191 @@
+"""The Python module against the workbench CLI on the same data.
+
+Run by ctest (python/furnidet) with PYTHONPATH at the build tree's python/
+folder and FURN_WORKBENCH naming the CLI binary.
+"""
+import json
+import os
+import subprocess
+import tempfile
+import threading
+import time
+import unittest
+
+import numpy as np
+
+import furnidet
+
+WORKBENCH = os.environ["FURN_WORKBENCH"]
+
+
+def workbench(*args):
+    done = subprocess.run([WORKBENCH, *args, "--quiet"], capture_output=True, text=True)
+    if done.returncode != 0:
+        raise AssertionError(f"workbench {' '.join(args)}: {done.stderr}")
+    return done.stdout
+
+
+class FurnidetTest(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        cls.dir = tempfile.mkdtemp(prefix="furnidet_py_")
+        cls.db = os.path.join(cls.dir, "synth.db")
+        cls.model = os.path.join(cls.dir, "model.fcm")
+        workbench("generate", "--catalog", "procedural:4", "--rooms", "5", "--frames", "2",
+                  "--seed", "3", "--out", cls.db)
+        workbench("train", "--catalog", "procedural:4", "--azimuths", "4", "--words", "20",
+                  "--vocab", "kmeans", "--out", cls.model)
+        cls.dataset = furnidet.Dataset(cls.db)
+        cls.detector = furnidet.Detector(cls.model)
+
+    def test_frames_come_as_arrays_with_their_ground_truth(self):
+        ids = self.dataset.frame_ids()
+        self.assertEqual(len(ids), 10)
+        self.assertEqual(len(self.dataset), 10)
+        by_split = sum(len(self.dataset.frame_ids(s)) for s in ("train", "val", "test"))
+        self.assertEqual(by_split, 10)
+        frames = list(self.dataset.frames())
+        self.assertEqual([f.id for f in frames], sorted(ids))
+        frame = frames[0]
+        depth = frame.depth
+        self.assertEqual(depth.dtype, np.float32)
+        self.assertEqual(depth.shape, (frame.height, frame.width))
+        self.assertFalse(depth.flags.owndata)  # a view of the decoded buffer, not a copy
+        self.assertGreater(np.count_nonzero(depth), depth.size // 2)
+        self.assertTrue(np.all((depth == 0) | ((depth > 0.4) & (depth < 5))))
+        # The ideal and noisy depths differ by sensor noise of millimetres to centimetres.
+        ideal = frame.depth_ideal
+        both = (depth > 0) & (ideal > 0)
+        self.assertLess(np.median(np.abs(depth[both] - ideal[both])), 0.02)
+        K = frame.K
+        self.assertEqual(K.shape, (3, 3))
+        self.assertEqual(tuple(frame.intrinsics), (K[0, 0], K[1, 1], K[0, 2], K[1, 2]))
+        pose = frame.world_from_camera
+        R = pose[:3, :3]
+        np.testing.assert_allclose(R.T @ R, np.eye(3), atol=1e-9)
+        self.assertTrue(0.5 < pose[2, 3] < 1.7)  # Kinect height over the floor
+        # Every object with visible pixels shows in the id image with that count.
+        instance_ids = frame.ids
+        self.assertEqual(instance_ids.dtype, np.uint16)
+        targets = [o for o in frame.objects if o["class"] is not None]
+        self.assertTrue(targets)
+        for obj in frame.objects:
+            self.assertEqual(int(np.count_nonzero(instance_ids == obj["instance_id"])),
+                             obj["visible_pixels"], obj)
+            self.assertIn(obj["class"], furnidet.CLASSES + [None])
+
+    def test_back_projected_floor_lies_at_zero_in_the_world(self):
+        frame = self.dataset.frame(self.dataset.frame_ids()[0])
+        depth, K = frame.depth_ideal, frame.K
+        v, u = np.nonzero((depth > 0) & (frame.ids == 0))
+        z = depth[v, u]
+        cam = np.stack([(u - K[0, 2]) / K[0, 0] * z, (v - K[1, 2]) / K[1, 1] * z, z, np.ones_like(z)])
+        world = frame.world_from_camera @ cam
+        # Background pixels are floor or walls; the lowest ones are the floor at z = 0.
+        self.assertLess(abs(np.percentile(world[2], 1)), 0.01)
+
+    def test_detection_matches_the_cli_on_the_same_frame(self):
+        for frame in self.dataset.frames("test"):
+            result = self.detector.detect_frame(frame)
+            self.assertEqual(result.status, "detected")
+            out = os.path.join(self.dir, f"det{frame.id}.json")
+            workbench("detect", "--model", self.model, "--db", self.db, "--frame", str(frame.id),
+                      "--out", out)
+            with open(out) as f:
+                cli = json.load(f)["detections"]
+            self.assertEqual(len(result.detections), len(cli))
+            for ours, theirs in zip(result.detections, cli):
+                self.assertEqual(ours.cls, theirs["class"])
+                self.assertAlmostEqual(ours.x, theirs["x"], places=3)
+                self.assertAlmostEqual(ours.y, theirs["y"], places=3)
+                self.assertAlmostEqual(ours.score, theirs["score"], places=3)
+
+    def test_points_and_depth_give_the_same_detections(self):
+        frame = self.dataset.frame(self.dataset.frame_ids("test")[0])
+        depth, K = frame.depth, frame.K
+        v, u = np.mgrid[0:depth.shape[0], 0:depth.shape[1]]
+        z = np.where(depth > 0, depth, np.nan)
+        organised = np.stack([(u - K[0, 2]) / K[0, 0] * z, (v - K[1, 2]) / K[1, 1] * z, z], axis=-1)
+        a = self.detector.detect_depth(depth, K, world_from_camera=frame.world_from_camera)
+        b = self.detector.detect_points(organised.astype(np.float32),
+                                        world_from_camera=frame.world_from_camera)
+        ra, rb = furnidet.records(a.detections), furnidet.records(b.detections)
+        self.assertEqual(list(ra.cls), list(rb.cls))
+        np.testing.assert_allclose(ra.x, rb.x, atol=1e-3)
+        # Millimetres as uint16 are read as millimetres.
+        mm = np.round(depth * 1000).astype(np.uint16)
+        c = self.detector.detect_depth(mm, (K[0, 0], K[1, 1], K[0, 2], K[1, 2]),
+                                       world_from_camera=frame.world_from_camera)
+        self.assertEqual(len(c.detections), len(a.detections))
+
+    def test_records_and_unknown_pose(self):
+        frame = self.dataset.frame(self.dataset.frame_ids()[1])
+        result = self.detector.detect_depth(frame.depth, frame.K)  # the floor is found
+        self.assertTrue(result.floor_estimated)
+        self.assertIn("total", result.timings_ms)
+        rec = furnidet.records(result.detections)
+        self.assertEqual(len(rec), len(result.detections))
+        self.assertEqual(rec.dtype, furnidet.DETECTION_DTYPE)
+        empty = self.detector.detect_points(np.zeros((0, 3), np.float32),
+                                            world_from_camera=np.eye(4))
+        self.assertEqual(empty.status, "no_points_in_range")
+        self.assertEqual(len(furnidet.records(empty.detections)), 0)
+
+    def test_detection_releases_the_gil(self):
+        frame = self.dataset.frame(self.dataset.frame_ids()[0])
+        depth, K, pose = frame.depth, frame.K, frame.world_from_camera
+        ticks = 0
+        running = threading.Event()
+
+        def detect():
+            running.set()
+            for _ in range(3):
+                self.detector.detect_depth(depth, K, world_from_camera=pose)
+            running.clear()
+
+        worker = threading.Thread(target=detect)
+        worker.start()
+        running.wait()
+        start = time.perf_counter()
+        while running.is_set():
+            ticks += 1
+            time.sleep(0.001)
+        elapsed = time.perf_counter() - start
+        worker.join()
+        # Holding the GIL, the loop would stall for whole detections.
+        self.assertGreater(ticks, elapsed / 0.001 * 0.3, (ticks, elapsed))
+
+    def test_evaluate_stores_a_run_and_returns_its_metrics(self):
+        summary = furnidet.evaluate(self.model, self.db, split="all", label="python")
+        self.assertEqual(summary["frames"], 10)
+        self.assertIn("mAP@10cm", summary["metrics"])
+        self.assertTrue(0 <= summary["metrics"]["mAP@10cm"] <= 1)
+        runs = furnidet.Dataset(self.db).runs()
+        self.assertEqual(runs[-1]["id"], summary["run_id"])
+        self.assertEqual(runs[-1]["label"], "python")
+        stored = furnidet.Dataset(self.db).run_metrics(summary["run_id"])
+        self.assertEqual(stored["mAP@10cm"], summary["metrics"]["mAP@10cm"])
+
+    def test_bad_input_is_one_clear_error(self):
+        frame = self.dataset.frame(self.dataset.frame_ids()[0])
+        with self.assertRaisesRegex(ValueError, "3x3 K matrix"):
+            self.detector.detect_depth(frame.depth, np.eye(2))
+        with self.assertRaisesRegex(ValueError, r"\(N, 3\)"):
+            self.detector.detect_points(np.zeros((5, 2), np.float32))
+        with self.assertRaisesRegex(ValueError, "rotation"):
+            self.detector.detect_depth(frame.depth, frame.K, world_from_camera=2 * np.eye(4))
+        with self.assertRaisesRegex(ValueError, "depth_scale"):
+            self.detector.detect_depth(frame.depth, frame.K, depth_scale=-1)
+        with self.assertRaisesRegex(ValueError, "split 'nope'"):
+            self.dataset.frame_ids("nope")
+        with self.assertRaisesRegex(ValueError, "no frame 999999"):
+            self.dataset.frame(999999)
+        with self.assertRaises((OSError, ValueError)) as caught:
+            furnidet.Dataset(os.path.join(self.dir, "missing.db"))
+        self.assertIn("missing.db", str(caught.exception))
+        with self.assertRaisesRegex(ValueError, "min_covered_fraction|unknown"):
+            furnidet.Detector(self.model, options={"no_such_option": 1})
+
+
+if __name__ == "__main__":
+    unittest.main()

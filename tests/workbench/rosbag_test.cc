@@ -1,0 +1,291 @@
+// ROS 1 bags end to end: a dataset exported as a bag and read back (depth,
+// intrinsics, TF pose, ground-truth markers), detection over the bag equal
+// to detection over the dataset's frames, markers written back, a
+// PointCloud2 bag written here, and bad bags refused with one line.
+#include <gtest/gtest.h>
+
+#include <rosbag/bag.h>
+#include <rosbag/view.h>
+#include <sensor_msgs/PointCloud2.h>
+#include <tf2_msgs/TFMessage.h>
+#include <visualization_msgs/MarkerArray.h>
+
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "core/file_util.h"
+#include "db/dataset_db.h"
+#include "renderers/frame_io.h"
+#include "tests/test_util.h"
+#include "workbench/detect_command.h"
+#include "workbench/rosbag_io.h"
+
+namespace furn {
+namespace {
+
+testing::CommandResult Workbench(const std::string& arguments) {
+  return testing::RunCommand(std::string(FURN_WORKBENCH_BINARY) + " " + arguments);
+}
+
+std::vector<nlohmann::json> JsonLines(const std::string& path) {
+  std::vector<nlohmann::json> lines;
+  std::istringstream in(ReadFileBytes(path));
+  for (std::string line; std::getline(in, line);) lines.push_back(nlohmann::json::parse(line));
+  return lines;
+}
+
+class RosbagTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = new std::string(testing::ScratchDir());
+    ASSERT_EQ(Workbench("generate --catalog procedural:4 --rooms 4 --frames 2 --seed 11 --quiet "
+                        "--out " +
+                        Db())
+                  .exit_code,
+              0);
+    ASSERT_EQ(Workbench("train --catalog procedural:4 --azimuths 4 --words 20 --vocab kmeans "
+                        "--quiet --out " +
+                        Model())
+                  .exit_code,
+              0);
+    const testing::CommandResult exported =
+        Workbench("dataset export " + Db() + " --format rosbag --out " + Bag());
+    ASSERT_EQ(exported.exit_code, 0) << exported.output;
+    ASSERT_NE(exported.output.find("wrote 8 frames"), std::string::npos) << exported.output;
+  }
+  static void TearDownTestSuite() { delete dir_; }
+  static std::string Db() { return *dir_ + "/s.db"; }
+  static std::string Model() { return *dir_ + "/m.fcm"; }
+  static std::string Bag() { return *dir_ + "/s.bag"; }
+  // `detect --db --frame` detections of a frame: what evaluate computes for it.
+  static nlohmann::json DetectFrame(int64_t frame) {
+    const std::string out = *dir_ + "/frame" + std::to_string(frame) + ".json";
+    const testing::CommandResult r = Workbench("detect --quiet --model " + Model() + " --db " +
+                                               Db() + " --frame " + std::to_string(frame) +
+                                               " --out " + out);
+    EXPECT_EQ(r.exit_code, 0) << r.output;
+    return nlohmann::json::parse(ReadFileBytes(out))["detections"];
+  }
+  static void ExpectSameDetections(const nlohmann::json& a, const nlohmann::json& b) {
+    ASSERT_EQ(a.size(), b.size());
+    for (size_t i = 0; i < a.size(); ++i) {
+      EXPECT_EQ(a[i]["class"], b[i]["class"]);
+      EXPECT_NEAR(a[i]["x"].get<double>(), b[i]["x"].get<double>(), 1e-6);
+      EXPECT_NEAR(a[i]["y"].get<double>(), b[i]["y"].get<double>(), 1e-6);
+      EXPECT_NEAR(a[i]["score"].get<double>(), b[i]["score"].get<double>(), 1e-6);
+    }
+  }
+  static std::string* dir_;
+};
+std::string* RosbagTest::dir_ = nullptr;
+
+TEST_F(RosbagTest, ExportedFramesReadBackAsTheDatasetHasThem) {
+  DatasetDb dataset(Db(), DatasetDb::Mode::kReadOnly);
+  std::map<int64_t, FrameRecord> frames;
+  for (int64_t room : dataset.RoomIds()) {
+    for (FrameRecord& frame : dataset.ReadRoom(room, true).frames) frames[frame.id] = frame;
+  }
+  BagScanOptions options;
+  options.bag_path = Bag();
+  options.topic = "/camera/depth/image_raw";
+  int seen = 0;
+  ForEachBagScan(options, [&](const BagScan& scan) {
+    ASSERT_EQ(frames.count(scan.seq), 1u);
+    const FrameRecord& frame = frames.at(scan.seq);
+    const DetectionInput expected = DetectionInputOf(frame, "frame");
+    ASSERT_EQ(scan.loaded.input.points.size(), expected.points.size());
+    for (size_t i = 0; i < expected.points.size(); ++i) {
+      const Eigen::Vector3f& a = scan.loaded.input.points[i];
+      const Eigen::Vector3f& b = expected.points[i];
+      ASSERT_EQ(a.allFinite(), b.allFinite()) << i;
+      if (a.allFinite()) ASSERT_LT((a - b).norm(), 1e-6f) << i;
+    }
+    EXPECT_EQ(scan.loaded.camera.fx, frame.fx);
+    EXPECT_EQ(scan.loaded.camera.cy, frame.cy);
+    ASSERT_TRUE(scan.pose_from_tf);
+    EXPECT_TRUE(scan.loaded.input.world_from_camera->isApprox(frame.world_from_camera, 1e-6));
+    EXPECT_EQ(scan.total, 8);
+    ++seen;
+  });
+  EXPECT_EQ(seen, 8);
+
+  // Ground truth: a cube per object, namespace = class, id = instance, on the floor.
+  rosbag::Bag bag(Bag(), rosbag::bagmode::Read);
+  rosbag::View view(bag, rosbag::TopicQuery("/furnidet/ground_truth"));
+  int arrays = 0;
+  for (const rosbag::MessageInstance& m : view) {
+    const auto truth = m.instantiate<visualization_msgs::MarkerArray>();
+    ASSERT_TRUE(truth);
+    ++arrays;
+  }
+  EXPECT_EQ(arrays, 8);
+  const RoomRecord room = dataset.ReadRoom(dataset.RoomIds().front(), false);
+  const auto first = view.begin()->instantiate<visualization_msgs::MarkerArray>();
+  ASSERT_EQ(first->markers.size(), room.objects.size() + 1);  // + DELETEALL
+  EXPECT_EQ(first->markers[0].action, 3);
+  for (size_t k = 0; k < room.objects.size(); ++k) {
+    const ObjectRecord& object = room.objects[k];
+    const visualization_msgs::Marker& box = first->markers[k + 1];
+    EXPECT_EQ(box.ns, object.furniture_class.empty() ? "clutter" : object.furniture_class);
+    EXPECT_EQ(box.id, object.instance_id);
+    EXPECT_EQ(box.header.frame_id, "world");
+    EXPECT_NEAR(box.pose.position.x, object.reference_x, 1e-9);
+    EXPECT_NEAR(box.pose.position.y, object.reference_y, 1e-9);
+    EXPECT_NEAR(box.pose.position.z, object.height / 2, 1e-9);
+    const double yaw = 2 * std::atan2(box.pose.orientation.z, box.pose.orientation.w);
+    EXPECT_NEAR(std::remainder(yaw - object.yaw, 2 * M_PI), 0, 1e-9);
+    EXPECT_NEAR(box.scale.x, object.width, 1e-9);
+    EXPECT_EQ(box.text, object.model_id);
+  }
+}
+
+TEST_F(RosbagTest, DetectionOverTheBagEqualsDetectionOverTheDatasetAndWritesMarkers) {
+  const std::string out = *dir_ + "/bag.jsonl", marked = *dir_ + "/marked.bag";
+  const testing::CommandResult r =
+      Workbench("detect --model " + Model() + " --bag " + Bag() +
+                " --topic /camera/depth/image_raw --out " + out + " --out-bag " + marked);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("8 messages, 0 without points or floor"), std::string::npos)
+      << r.output;
+  const std::vector<nlohmann::json> lines = JsonLines(out);
+  ASSERT_EQ(lines.size(), 8u);
+  std::vector<size_t> per_message;
+  for (const nlohmann::json& line : lines) {
+    EXPECT_EQ(line["pose_source"], "tf: world <- camera_depth_optical_frame");
+    EXPECT_EQ(line["topic"], "/camera/depth/image_raw");
+    ExpectSameDetections(line["detections"], DetectFrame(line["seq"].get<int64_t>()));
+    per_message.push_back(line["detections"].size());
+  }
+  // The marked bag: every message of the input, and a MarkerArray per scan.
+  rosbag::Bag in(Bag(), rosbag::bagmode::Read), with(marked, rosbag::bagmode::Read);
+  EXPECT_EQ(rosbag::View(with).size(), rosbag::View(in).size() + 8);
+  rosbag::View markers(with, rosbag::TopicQuery("/furnidet/detections"));
+  size_t k = 0, boxes = 0;
+  for (const rosbag::MessageInstance& m : markers) {
+    const auto array = m.instantiate<visualization_msgs::MarkerArray>();
+    ASSERT_TRUE(array);
+    ASSERT_LT(k, per_message.size());
+    EXPECT_EQ(array->markers.size(), 1 + 2 * per_message[k]);  // DELETEALL, cube + label each
+    for (size_t i = 1; i < array->markers.size(); i += 2) {
+      EXPECT_EQ(array->markers[i].header.frame_id, "world");
+      EXPECT_EQ(array->markers[i].type, visualization_msgs::Marker::CUBE);
+      EXPECT_EQ(array->markers[i + 1].type, visualization_msgs::Marker::TEXT_VIEW_FACING);
+      const nlohmann::json& d = lines[k]["detections"][(i - 1) / 2];
+      EXPECT_NEAR(array->markers[i].pose.position.x, d["x"].get<double>(), 1e-6);
+      ++boxes;
+    }
+    ++k;
+  }
+  EXPECT_EQ(k, 8u);
+  EXPECT_GT(boxes, 0u);  // the procedural rooms give detections
+  EXPECT_FALSE(std::filesystem::exists(marked + ".partial"));
+}
+
+TEST_F(RosbagTest, PointCloud2WithPaddingAndNoTfFindsTheFloor) {
+  // Organised PointCloud2 of one frame, x y z with an rgb field between y and z.
+  DatasetDb dataset(Db(), DatasetDb::Mode::kReadOnly);
+  const FrameRecord frame = dataset.ReadRoom(dataset.RoomIds().back(), true).frames.front();
+  const DetectionInput input = DetectionInputOf(frame, "frame");
+  sensor_msgs::PointCloud2 cloud;
+  cloud.header.frame_id = "kinect";
+  cloud.header.stamp = ros::Time(5, 0);
+  cloud.height = frame.height;
+  cloud.width = frame.width;
+  const char* names[4] = {"x", "y", "rgb", "z"};
+  for (int k = 0; k < 4; ++k) {
+    sensor_msgs::PointField field;
+    field.name = names[k];
+    field.offset = 4 * k;
+    field.datatype = sensor_msgs::PointField::FLOAT32;
+    field.count = 1;
+    cloud.fields.push_back(field);
+  }
+  cloud.point_step = 16;
+  cloud.row_step = cloud.point_step * cloud.width;
+  cloud.data.resize(cloud.row_step * cloud.height);
+  for (size_t i = 0; i < input.points.size(); ++i) {
+    const float xyz[4] = {input.points[i].x(), input.points[i].y(), 0.5f, input.points[i].z()};
+    std::memcpy(&cloud.data[16 * i], xyz, 16);
+  }
+  const std::string path = *dir_ + "/cloud.bag";
+  {
+    rosbag::Bag bag(path, rosbag::bagmode::Write);
+    bag.write("/points", ros::Time(5, 0), cloud);
+    // The same cloud with a world pose from TF, under another frame id.
+    tf2_msgs::TFMessage tf;
+    geometry_msgs::TransformStamped t;
+    t.header.frame_id = "world";
+    t.header.stamp = ros::Time(6, 0);
+    t.child_frame_id = "kinect_posed";
+    const Eigen::Quaterniond q(frame.world_from_camera.linear());
+    t.transform.rotation.w = q.w();
+    t.transform.rotation.x = q.x();
+    t.transform.rotation.y = q.y();
+    t.transform.rotation.z = q.z();
+    t.transform.translation.x = frame.world_from_camera.translation().x();
+    t.transform.translation.y = frame.world_from_camera.translation().y();
+    t.transform.translation.z = frame.world_from_camera.translation().z();
+    tf.transforms.push_back(t);
+    bag.write("/tf_static", ros::Time(6, 0), tf);
+    cloud.header.frame_id = "kinect_posed";
+    cloud.header.stamp = ros::Time(6, 0);
+    bag.write("/points", ros::Time(6, 0), cloud);
+  }
+  const std::string out = *dir_ + "/cloud.jsonl";
+  const testing::CommandResult r = Workbench("detect --quiet --model " + Model() + " --bag " +
+                                             path + " --topic /points --out " + out);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const std::vector<nlohmann::json> lines = JsonLines(out);
+  ASSERT_EQ(lines.size(), 2u);
+  EXPECT_EQ(lines[0]["pose_source"], "floor estimated");
+  EXPECT_EQ(lines[0]["frame_id"], "kinect");
+  EXPECT_EQ(lines[1]["pose_source"], "tf: world <- kinect_posed");
+  ExpectSameDetections(lines[1]["detections"], DetectFrame(frame.id));
+  // The floor found in the first: the camera at the frame's height.
+  const std::vector<double> pose = lines[0]["world_from_camera"];  // column-major
+  EXPECT_NEAR(pose[14], frame.world_from_camera.translation().z(), 0.03);
+}
+
+TEST_F(RosbagTest, BadBagsAndTopicsGetOneClearLine) {
+  const std::string junk = *dir_ + "/junk.bag";
+  testing::WriteText(junk, "#ROSBAG V2.0\nnot really");
+  const std::string base = "detect --model " + Model() + " ";
+  const struct {
+    std::string arguments, message;
+  } cases[] = {
+      {"--bag " + junk + " --topic /x", "junk.bag: not a readable ROS 1 bag"},
+      {"--bag " + *dir_ + "/missing.bag --topic /x", "missing.bag"},
+      {"--bag " + Bag(), "--bag needs --topic"},
+      {"--bag " + Bag() + " --topic /nothing", "no messages on topic /nothing"},
+      {"--bag " + Bag() + " --topic /tf", "topic /tf is tf2_msgs/TFMessage; it must be"},
+      {"--bag " + Bag() + " --topic /camera/depth/image_raw --camera-info /none",
+       "no sensor_msgs/CameraInfo on /none"},
+      {"--bag " + Bag() + " --topic /camera/depth/image_raw --camera-info /camera/depth/ids",
+       "no sensor_msgs/CameraInfo on /camera/depth/ids"},
+      {"--bag " + Bag() + " --topic /camera/depth/image_raw --out-bag " + Bag(),
+       "must not be the input bag"},
+      {"--cloud x.pcd --topic /points", "--topic, --camera-info and --out-bag apply to --bag"},
+      {"--bag " + Bag() + " --topic /points --db " + Db(), "--bag takes no other scans"},
+  };
+  for (const auto& c : cases) {
+    const testing::CommandResult r = Workbench(base + c.arguments);
+    EXPECT_NE(r.exit_code, 0) << c.arguments;
+    EXPECT_NE(r.output.find(c.message), std::string::npos) << c.arguments << "\n" << r.output;
+    EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
+  }
+  const testing::CommandResult split =
+      Workbench("dataset export " + Db() + " --format rosbag --split nope --out " + *dir_ + "/x.bag");
+  EXPECT_NE(split.exit_code, 0);
+  EXPECT_NE(split.output.find("--split 'nope' must be train, val, test or all"), std::string::npos)
+      << split.output;
+  EXPECT_FALSE(std::filesystem::exists(*dir_ + "/x.bag"));
+  EXPECT_FALSE(std::filesystem::exists(*dir_ + "/x.bag.partial"));
+}
+
+}  // namespace
+}  // namespace furn

@@ -1,0 +1,70 @@
+"""furnidet: furniture detection from web CAD models, from Python.
+
+    import furnidet
+    dataset = furnidet.Dataset("synth.db")
+    detector = furnidet.Detector("model.fcm")
+    for frame in dataset.frames("test"):
+        result = detector.detect_frame(frame)
+        print(frame.id, furnidet.records(result.detections))
+    metrics = furnidet.evaluate("model.fcm", "synth.db", split="test")["metrics"]
+
+Frames carry their images as NumPy arrays (depth in metres, 0 = no return;
+instance ids), their intrinsics (K), world_from_camera (4x4) and ground-truth
+objects. Detection takes a depth image with its K, or an (N, 3) / (H, W, 3)
+array of camera-frame points; world_from_camera is optional (without it the
+floor is found). Detection and evaluation release the GIL.
+"""
+
+import numpy as _np
+
+from ._furnidet import (CLASSES, DatabaseError, Detection, DetectionResult,
+                        Frame, InputError)
+from ._furnidet import Dataset as _Dataset
+from ._furnidet import Detector as _Detector
+from ._furnidet import evaluate
+
+__all__ = ["CLASSES", "Dataset", "DatabaseError", "Detection", "DetectionResult",
+           "Detector", "Frame", "InputError", "evaluate", "records",
+           "DETECTION_DTYPE"]
+
+
+class Dataset(_Dataset):
+    """A dataset database (read-only): rooms, frames and their ground truth."""
+
+    def frames(self, split=None):
+        """Frames of a split ('train', 'val', 'test'; None or 'all': every
+        frame) in id order, reading one room at a time."""
+        wanted = set(self.frame_ids(split))
+        for room_id in self.room_ids():
+            for frame in self.room(room_id):
+                if frame.id in wanted:
+                    yield frame
+
+    def __iter__(self):
+        return self.frames()
+
+    def __len__(self):
+        return len(self.frame_ids())
+
+
+class Detector(_Detector):
+    """A trained model (.fcm) loaded once; options as a dict, JSON text or None."""
+
+    def detect_frame(self, frame):
+        """Detect in a dataset frame as `workbench evaluate` does: its noisy
+        depth, its intrinsics and, when known, its pose."""
+        pose = frame.world_from_camera if frame.pose_known else None
+        return self.detect_depth(frame.depth, frame.K, world_from_camera=pose)
+
+
+DETECTION_DTYPE = _np.dtype([
+    ("cls", "U9"), ("x", "f8"), ("y", "f8"), ("z", "f8"), ("yaw", "f8"),
+    ("score", "f8"), ("vote_weight", "f8"), ("verification", "f8"),
+    ("covered_fraction", "f8"), ("model", "U64")])
+
+
+def records(detections):
+    """Detections as a NumPy record array (one row each, best score first)."""
+    rows = [(d.cls, d.x, d.y, d.z, d.yaw, d.score, d.vote_weight, d.verification,
+             d.covered_fraction, d.model) for d in detections]
+    return _np.rec.array(_np.array(rows, dtype=DETECTION_DTYPE))
