@@ -76,6 +76,15 @@ def main():
     left.set_title(f"frame {frame.id}: depth, truth (o) and detections (x) at floor level")
     left.axis("off")
 
+    # The scan from above: every 7th pixel back-projected into the world frame.
+    v, u = np.nonzero(frame.depth > 0)
+    v, u = v[::7], u[::7]
+    z = frame.depth[v, u]
+    K = frame.K
+    camera = np.stack([(u - K[0, 2]) / K[0, 0] * z, (v - K[1, 2]) / K[1, 1] * z, z, np.ones_like(z)])
+    world = frame.world_from_camera @ camera
+    above = world[2] > 0.05  # the floor left out
+    right.scatter(world[0, above], world[1, above], s=0.5, color="0.45", linewidths=0)
     for obj in targets:
         w, d, _ = obj["size"]
         xy = footprint(obj["x"], obj["y"], obj["yaw"], w, d)
@@ -86,12 +95,12 @@ def main():
                     0.25 * math.sin(det.yaw - math.pi / 2), color=COLOURS.get(det.cls, "k"),
                     head_width=0.05)
     sensor = frame.world_from_camera[:3, 3]
+    right.set_title("from above: points (grey), truth (dashed), detections (x, front arrow)")
     right.plot(sensor[0], sensor[1], "k^", ms=10, label="sensor")
     right.set_aspect("equal")
     right.grid(True, alpha=0.3)
     right.set_xlabel("x (m)")
     right.set_ylabel("y (m)")
-    right.set_title("from above: truth (dashed footprints), detections (x, front arrow)")
     handles = [plt.Line2D([], [], color=c, label=n) for n, c in COLOURS.items()]
     right.legend(handles=handles, loc="best", fontsize=8)
     fig.tight_layout()

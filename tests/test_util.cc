@@ -37,8 +37,13 @@ std::string ScratchDirFor(const std::string& base) {
 }  // namespace
 
 std::string ScratchDir() {
-  const ::testing::TestInfo* info = ::testing::UnitTest::GetInstance()->current_test_info();
-  return ScratchDirFor(std::string(info->test_suite_name()) + "." + info->name());
+  const ::testing::UnitTest* unit = ::testing::UnitTest::GetInstance();
+  if (const ::testing::TestInfo* info = unit->current_test_info()) {
+    return ScratchDirFor(std::string(info->test_suite_name()) + "." + info->name());
+  }
+  // A suite's SetUpTestSuite: one folder for the suite (register it WHOLE,
+  // so no two processes share it).
+  return ScratchDirFor(std::string(unit->current_test_suite()->name()) + ".suite");
 }
 
 void WriteText(const std::string& path, const std::string& text) {

@@ -6,7 +6,8 @@
 
 namespace furn::testing {
 
-// A new empty directory under the build tree, named after the running test.
+// A new empty directory under the build tree, named after the running test
+// (or suite, from SetUpTestSuite).
 std::string ScratchDir();
 
 void WriteText(const std::string& path, const std::string& text);

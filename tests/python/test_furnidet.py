@@ -32,7 +32,7 @@ class FurnidetTest(unittest.TestCase):
         cls.db = os.path.join(cls.dir, "synth.db")
         cls.model = os.path.join(cls.dir, "model.fcm")
         workbench("generate", "--catalog", "procedural:4", "--rooms", "5", "--frames", "2",
-                  "--seed", "3", "--out", cls.db)
+                  "--seed", "6", "--out", cls.db)  # rooms of all three splits
         workbench("train", "--catalog", "procedural:4", "--azimuths", "4", "--words", "20",
                   "--vocab", "kmeans", "--out", cls.model)
         cls.dataset = furnidet.Dataset(cls.db)
@@ -77,7 +77,8 @@ class FurnidetTest(unittest.TestCase):
     def test_back_projected_floor_lies_at_zero_in_the_world(self):
         frame = self.dataset.frame(self.dataset.frame_ids()[0])
         depth, K = frame.depth_ideal, frame.K
-        v, u = np.nonzero((depth > 0) & (frame.ids == 0))
+        furniture = [o["instance_id"] for o in frame.objects]
+        v, u = np.nonzero((depth > 0) & ~np.isin(frame.ids, furniture))
         z = depth[v, u]
         cam = np.stack([(u - K[0, 2]) / K[0, 0] * z, (v - K[1, 2]) / K[1, 1] * z, z, np.ones_like(z)])
         world = frame.world_from_camera @ cam
@@ -172,7 +173,10 @@ class FurnidetTest(unittest.TestCase):
             self.detector.detect_depth(frame.depth, np.eye(2))
         with self.assertRaisesRegex(ValueError, r"\(N, 3\)"):
             self.detector.detect_points(np.zeros((5, 2), np.float32))
+        scaled = np.diag([2.0, 2.0, 2.0, 1.0])
         with self.assertRaisesRegex(ValueError, "rotation"):
+            self.detector.detect_depth(frame.depth, frame.K, world_from_camera=scaled)
+        with self.assertRaisesRegex(ValueError, "last row 0 0 0 1"):
             self.detector.detect_depth(frame.depth, frame.K, world_from_camera=2 * np.eye(4))
         with self.assertRaisesRegex(ValueError, "depth_scale"):
             self.detector.detect_depth(frame.depth, frame.K, depth_scale=-1)

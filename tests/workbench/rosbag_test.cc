@@ -103,7 +103,9 @@ TEST_F(RosbagTest, ExportedFramesReadBackAsTheDatasetHasThem) {
       const Eigen::Vector3f& a = scan.loaded.input.points[i];
       const Eigen::Vector3f& b = expected.points[i];
       ASSERT_EQ(a.allFinite(), b.allFinite()) << i;
-      if (a.allFinite()) ASSERT_LT((a - b).norm(), 1e-6f) << i;
+      if (a.allFinite()) {
+        ASSERT_LT((a - b).norm(), 1e-6f) << i;
+      }
     }
     EXPECT_EQ(scan.loaded.camera.fx, frame.fx);
     EXPECT_EQ(scan.loaded.camera.cy, frame.cy);
