@@ -94,10 +94,10 @@ class TfBuffer {
       if (!(rotation.norm() > 0.5) || !std::isfinite(p.x + p.y + p.z)) continue;
       Edge& edge = edges_[Strip(t.child_frame_id)];
       edge.parent = Strip(t.header.frame_id);
-      edge.samples.push_back({is_static ? -std::numeric_limits<double>::infinity()
-                                        : t.header.stamp.toSec(),
-                              rotation.normalized(),
-                              Eigen::Vector3d(p.x, p.y, p.z)});
+      edge.samples.push_back(
+          {is_static ? -std::numeric_limits<double>::infinity() : t.header.stamp.toSec(),
+           rotation.normalized(),
+           Eigen::Vector3d(p.x, p.y, p.z)});
     }
   }
   void Sort() {
@@ -168,8 +168,8 @@ class TfBuffer {
 TfBuffer ReadTf(rosbag::Bag& bag, const std::string& path) {
   TfBuffer tf;
   try {
-    rosbag::View view(bag, rosbag::TopicQuery(std::vector<std::string>{"/tf", "/tf_static", "tf",
-                                                                       "tf_static"}));
+    rosbag::View view(
+        bag, rosbag::TopicQuery(std::vector<std::string>{"/tf", "/tf_static", "tf", "tf_static"}));
     for (const rosbag::MessageInstance& m : view) {
       if (m.getDataType() != "tf2_msgs/TFMessage") continue;
       const bool is_static = m.getTopic().find("tf_static") != std::string::npos;
@@ -209,10 +209,12 @@ DetectionInput PointsOf(const sensor_msgs::PointCloud2& cloud, const std::string
   const uint64_t width = cloud.width, height = cloud.height;
   Require(width * height <= (1u << 26),
           where + ": " + std::to_string(width * height) + " points is over the limit of 2^26");
-  Require(width * cloud.point_step <= cloud.row_step,
-          where + ": row_step " + std::to_string(cloud.row_step) + " is less than width x point_step");
+  Require(
+      width * cloud.point_step <= cloud.row_step,
+      where + ": row_step " + std::to_string(cloud.row_step) + " is less than width x point_step");
   Require(height * cloud.row_step <= cloud.data.size(),
-          where + ": data holds " + std::to_string(cloud.data.size()) + " bytes, less than height x row_step");
+          where + ": data holds " + std::to_string(cloud.data.size()) +
+              " bytes, less than height x row_step");
   DetectionInput input;
   if (height > 1) {
     input.width = static_cast<int>(width);
@@ -270,7 +272,8 @@ DepthFrame DepthOf(const sensor_msgs::Image& image, double depth_scale, const st
           where + ": step " + std::to_string(image.step) + " is less than width x " +
               std::to_string(bytes));
   Require(image.data.size() >= height * image.step,
-          where + ": data holds " + std::to_string(image.data.size()) + " bytes, less than height x step");
+          where + ": data holds " + std::to_string(image.data.size()) +
+              " bytes, less than height x step");
   Require(!image.is_bigendian, where + ": big-endian depth images are not supported");
   DepthFrame frame;
   frame.Resize(static_cast<int>(width), static_cast<int>(height));
@@ -361,9 +364,9 @@ bool RosbagSupported() { return true; }
 
 int ForEachBagScan(const BagScanOptions& options, const std::function<void(const BagScan&)>& each) {
   Require(!options.topic.empty(), "--bag needs --topic");
-  Require(options.depth_scale >= 0 && std::isfinite(options.depth_scale) &&
-              options.depth_scale <= 1e6,
-          "--depth-scale " + std::to_string(options.depth_scale) + " must be in 0..1e6");
+  Require(
+      options.depth_scale >= 0 && std::isfinite(options.depth_scale) && options.depth_scale <= 1e6,
+      "--depth-scale " + std::to_string(options.depth_scale) + " must be in 0..1e6");
   rosbag::Bag bag;
   OpenBag(options.bag_path, &bag);
   const TfBuffer tf = options.world_frame.empty() ? TfBuffer() : ReadTf(bag, options.bag_path);
@@ -497,9 +500,9 @@ void BagMarkerWriter::Add(const BagScan& scan,
   stamp.fromSec(scan.stamp > 0 ? scan.stamp : scan.bag_time);
   // The world frame of TF, else the sensor's frame (the detector's floor
   // frame exists only inside this scan).
-  const std::string frame = scan.pose_from_tf
-                                ? scan.loaded.pose_source.substr(4, scan.loaded.pose_source.find(" <- ") - 4)
-                                : scan.frame_id;
+  const std::string frame = scan.pose_from_tf ? scan.loaded.pose_source.substr(
+                                                    4, scan.loaded.pose_source.find(" <- ") - 4)
+                                              : scan.frame_id;
   const Eigen::Isometry3d frame_from_world =
       scan.pose_from_tf ? Eigen::Isometry3d::Identity() : result.world_from_camera.inverse();
   markers.markers.push_back(ClearMarkers());
@@ -555,7 +558,8 @@ void BagMarkerWriter::Finish() {
   }
   std::error_code ec;
   std::filesystem::rename(impl_->temporary, impl_->out_path, ec);
-  Require(!ec, impl_->out_path + ": cannot move the finished bag into place (" + ec.message() + ")");
+  Require(!ec,
+          impl_->out_path + ": cannot move the finished bag into place (" + ec.message() + ")");
   impl_->finished = true;
 }
 
@@ -637,15 +641,15 @@ int ExportRosbag(const std::string& db_path, const std::string& out_bag, const s
         truth.markers.front().header.frame_id = "world";
         truth.markers.front().header.stamp = stamp;
         for (const ObjectRecord& object : room.objects) {
-          visualization_msgs::Marker box = BoxMarker(
-              object.furniture_class.empty() ? "clutter" : object.furniture_class,
-              object.instance_id,
-              object.furniture_class,
-              object.reference_x,
-              object.reference_y,
-              object.yaw,
-              Eigen::Vector3d(object.width, object.depth, object.height),
-              Eigen::Isometry3d::Identity());
+          visualization_msgs::Marker box =
+              BoxMarker(object.furniture_class.empty() ? "clutter" : object.furniture_class,
+                        object.instance_id,
+                        object.furniture_class,
+                        object.reference_x,
+                        object.reference_y,
+                        object.yaw,
+                        Eigen::Vector3d(object.width, object.depth, object.height),
+                        Eigen::Isometry3d::Identity());
           box.header.frame_id = "world";
           box.header.stamp = stamp;
           box.text = object.model_id;

@@ -43,7 +43,7 @@ struct BagScanOptions {
 };
 
 struct BagScan {
-  LoadedScan loaded;     // input, description, camera, pose_source
+  LoadedScan loaded;  // input, description, camera, pose_source
   std::string topic;
   std::string frame_id;  // the message's header.frame_id
   double stamp = 0;      // header stamp, seconds

@@ -7,13 +7,13 @@
 #include "core/file_util.h"
 #include "renderers/frame_io.h"
 #include "scenes/room_composer.h"
-#include "workbench/rosbag_io.h"
 #include "workbench/cli_common.h"
 #include "workbench/commands.h"
 #include "workbench/dataset_commands.h"
 #include "workbench/detect_command.h"
 #include "workbench/generate.h"
 #include "workbench/real_set.h"
+#include "workbench/rosbag_io.h"
 #include "workbench/sensor_noise.h"
 
 namespace furn {
@@ -150,8 +150,7 @@ int RunDataset(int argc, char** argv) {
   export_command->add_option("--format", format, "bop, png, pcd or rosbag")->capture_default_str();
   export_command->add_option("--out", out, "Output directory (rosbag: the .bag file)")->required();
   std::string export_split = "all";
-  export_command
-      ->add_option("--split", export_split, "rosbag: frames of train, val, test or all")
+  export_command->add_option("--split", export_split, "rosbag: frames of train, val, test or all")
       ->capture_default_str();
   CatalogFlags export_catalog;  // where BOP export finds the dataset's catalog
   if (const char* env = std::getenv("FURN_CATALOG_DIR")) export_catalog.catalog_dir = env;

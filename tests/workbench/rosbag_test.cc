@@ -65,9 +65,9 @@ class RosbagTest : public ::testing::Test {
   // `detect --db --frame` detections of a frame: what evaluate computes for it.
   static nlohmann::json DetectFrame(int64_t frame) {
     const std::string out = *dir_ + "/frame" + std::to_string(frame) + ".json";
-    const testing::CommandResult r = Workbench("detect --quiet --model " + Model() + " --db " +
-                                               Db() + " --frame " + std::to_string(frame) +
-                                               " --out " + out);
+    const testing::CommandResult r =
+        Workbench("detect --quiet --model " + Model() + " --db " + Db() + " --frame " +
+                  std::to_string(frame) + " --out " + out);
     EXPECT_EQ(r.exit_code, 0) << r.output;
     return nlohmann::json::parse(ReadFileBytes(out))["detections"];
   }
@@ -152,8 +152,7 @@ TEST_F(RosbagTest, DetectionOverTheBagEqualsDetectionOverTheDatasetAndWritesMark
       Workbench("detect --model " + Model() + " --bag " + Bag() +
                 " --topic /camera/depth/image_raw --out " + out + " --out-bag " + marked);
   ASSERT_EQ(r.exit_code, 0) << r.output;
-  EXPECT_NE(r.output.find("8 messages, 0 without points or floor"), std::string::npos)
-      << r.output;
+  EXPECT_NE(r.output.find("8 messages, 0 without points or floor"), std::string::npos) << r.output;
   const std::vector<nlohmann::json> lines = JsonLines(out);
   ASSERT_EQ(lines.size(), 8u);
   std::vector<size_t> per_message;
@@ -280,8 +279,8 @@ TEST_F(RosbagTest, BadBagsAndTopicsGetOneClearLine) {
     EXPECT_NE(r.output.find(c.message), std::string::npos) << c.arguments << "\n" << r.output;
     EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
   }
-  const testing::CommandResult split =
-      Workbench("dataset export " + Db() + " --format rosbag --split nope --out " + *dir_ + "/x.bag");
+  const testing::CommandResult split = Workbench(
+      "dataset export " + Db() + " --format rosbag --split nope --out " + *dir_ + "/x.bag");
   EXPECT_NE(split.exit_code, 0);
   EXPECT_NE(split.output.find("--split 'nope' must be train, val, test or all"), std::string::npos)
       << split.output;

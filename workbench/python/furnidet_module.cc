@@ -175,7 +175,8 @@ class PyDataset {
     }
     for (int64_t room_id : db_.RoomIds()) {
       const RoomRecord room = db_.ReadRoom(room_id, /*with_images=*/false);
-      for (const FrameRecord& frame : room.frames) index_.push_back({frame.id, room_id, room.split});
+      for (const FrameRecord& frame : room.frames)
+        index_.push_back({frame.id, room_id, room.split});
     }
   }
 
@@ -435,7 +436,8 @@ PYBIND11_MODULE(_furnidet, m) {
       .def_readonly("room_id", &PyFrame::room_id)
       .def_readonly("frame_index", &PyFrame::frame_index)
       .def_readonly("split", &PyFrame::split)
-      .def_readonly("pose_known", &PyFrame::pose_known, "False for a real scan whose floor is found")
+      .def_readonly(
+          "pose_known", &PyFrame::pose_known, "False for a real scan whose floor is found")
       .def_property_readonly("width", [](const PyFrame& f) { return f.camera.width; })
       .def_property_readonly("height", [](const PyFrame& f) { return f.camera.height; })
       .def_property_readonly("K", [](const PyFrame& f) { return KArray(f.camera); })
@@ -459,8 +461,8 @@ PYBIND11_MODULE(_furnidet, m) {
       .def_property_readonly("ids", &PyFrame::Ids, "uint16 (H, W) instance ids; 0 = none")
       .def_readonly("objects", &PyFrame::objects, "ground truth: one dict per object")
       .def("__repr__", [](const PyFrame& f) {
-        return "<furnidet.Frame " + std::to_string(f.id) + " of room " +
-               std::to_string(f.room_id) + " (" + f.split + ")>";
+        return "<furnidet.Frame " + std::to_string(f.id) + " of room " + std::to_string(f.room_id) +
+               " (" + f.split + ")>";
       });
 
   py::class_<PyDataset>(m, "Dataset", "A dataset database, read-only.")
