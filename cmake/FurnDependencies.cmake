@@ -64,27 +64,43 @@ if(FURN_BUILD_BENCHMARKS)
   furn_find_package(benchmark libbenchmark-dev)
 endif()
 
-# ROS 1 bags (Debian's ROS Noetic packages): rosbag_storage reads and writes
-# bags. The message packages are headers only; their CMake configs need
-# catkin, so only their headers are looked for.
+# ROS 1 bags (Debian's ROS Noetic packages). Libraries and headers are
+# looked up directly: rosbag_storage's CMake config pulls in pluginlib and
+# ament, which run a Python of the PATH at configure time, and the message
+# packages' configs need catkin. The messages are headers only.
 if(FURN_WITH_ROS)
-  foreach(ros_package IN ITEMS rosbag_storage roscpp_serialization rostime cpp_common)
-    find_package(${ros_package} QUIET)
-    if(NOT ${ros_package}_FOUND)
-      furn_missing(${ros_package} librosbag-dev)
+  foreach(ros_library IN ITEMS rosbag_storage roscpp_serialization rostime cpp_common
+                               console_bridge roslz4)
+    find_library(FURN_ROS_LIBRARY_${ros_library} ${ros_library})
+    if(NOT FURN_ROS_LIBRARY_${ros_library})
+      furn_missing(${ros_library} librosbag-dev)
     endif()
-    list(APPEND FURN_ROS_INCLUDE_DIRS ${${ros_package}_INCLUDE_DIRS})
-    list(APPEND FURN_ROS_LIBRARIES ${${ros_package}_LIBRARIES})
+    list(APPEND FURN_ROS_LIBRARIES ${FURN_ROS_LIBRARY_${ros_library}})
   endforeach()
-  foreach(ros_header IN ITEMS sensor_msgs/PointCloud2.h sensor_msgs/Image.h
+  find_package(Boost COMPONENTS filesystem QUIET)
+  if(NOT Boost_FOUND)
+    furn_missing(boost_filesystem libboost-filesystem-dev)
+  endif()
+  list(APPEND FURN_ROS_LIBRARIES Boost::filesystem)
+  foreach(ros_header IN ITEMS rosbag/bag.h sensor_msgs/PointCloud2.h sensor_msgs/Image.h
                               visualization_msgs/MarkerArray.h tf2_msgs/TFMessage.h
-                              geometry_msgs/TransformStamped.h std_msgs/Header.h)
-    string(REGEX REPLACE "/.*" "" ros_message_package "${ros_header}")
-    string(REPLACE "_" "-" debian_name "${ros_message_package}")
-    find_path(FURN_ROS_HEADER_${ros_message_package} ${ros_header})
-    if(NOT FURN_ROS_HEADER_${ros_message_package})
-      furn_missing(${ros_message_package} lib${debian_name}-dev)
+                              geometry_msgs/TransformStamped.h std_msgs/Header.h ros/time.h)
+    string(REGEX REPLACE "/.*" "" ros_package "${ros_header}")
+    string(REPLACE "_" "-" debian_name "${ros_package}")
+    find_path(FURN_ROS_HEADER_${ros_package} ${ros_header})
+    if(NOT FURN_ROS_HEADER_${ros_package})
+      furn_missing(${ros_package} lib${debian_name}-dev)
     endif()
+    list(APPEND FURN_ROS_INCLUDE_DIRS ${FURN_ROS_HEADER_${ros_package}})
+  endforeach()
+  # rosbag/bag.h includes pluginlib, whose headers live one folder down.
+  foreach(nested IN ITEMS pluginlib class_loader ament_index_cpp rcpputils rcutils)
+    find_path(FURN_ROS_NESTED_${nested} ${nested} PATH_SUFFIXES ${nested} NO_DEFAULT_PATH
+              PATHS /usr/include)
+    if(NOT FURN_ROS_NESTED_${nested})
+      furn_missing(${nested} librosbag-dev)
+    endif()
+    list(APPEND FURN_ROS_INCLUDE_DIRS ${FURN_ROS_NESTED_${nested}})
   endforeach()
   list(REMOVE_DUPLICATES FURN_ROS_INCLUDE_DIRS)
 endif()

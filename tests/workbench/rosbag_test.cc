@@ -20,6 +20,7 @@
 
 #include "core/file_util.h"
 #include "db/dataset_db.h"
+#include "db/sqlite.h"
 #include "renderers/frame_io.h"
 #include "tests/test_util.h"
 #include "workbench/detect_command.h"
@@ -184,6 +185,26 @@ TEST_F(RosbagTest, DetectionOverTheBagEqualsDetectionOverTheDatasetAndWritesMark
   }
   EXPECT_EQ(k, 8u);
   EXPECT_GT(boxes, 0u);  // the procedural rooms give detections
+
+  // And the same as the detections `evaluate` stores for those frames.
+  const testing::CommandResult evaluated =
+      Workbench("evaluate --quiet --split all --model " + Model() + " --db " + Db());
+  ASSERT_EQ(evaluated.exit_code, 0) << evaluated.output;
+  Database db(Db(), Database::Mode::kReadOnly);
+  for (const nlohmann::json& line : lines) {
+    Statement query(&db,
+                    "SELECT class, x, y, score FROM run_detections WHERE frame_id = ? AND run_id = "
+                    "(SELECT MAX(id) FROM runs) ORDER BY rowid");
+    query.Bind(1, line["seq"].get<int64_t>());
+    nlohmann::json stored = nlohmann::json::array();
+    while (query.Step()) {
+      stored.push_back({{"class", query.ColumnText(0)},
+                        {"x", query.ColumnDouble(1)},
+                        {"y", query.ColumnDouble(2)},
+                        {"score", query.ColumnDouble(3)}});
+    }
+    ExpectSameDetections(line["detections"], stored);
+  }
   EXPECT_FALSE(std::filesystem::exists(marked + ".partial"));
 }
 
