@@ -54,6 +54,7 @@ int DetectInBag(const BagScanOptions& bag,
   int without = 0;
   std::optional<Progress> progress;
   ForEachBagScan(bag, [&](const BagScan& scan) {
+    if (!progress) progress.emplace("detect", scan.total, "messages");  // its clock starts here
     const DetectionResult result = detector.Detect(scan.loaded.input, /*keep_debug=*/false);
     // The message's place in the bag first, then what DetectionJson says.
     const nlohmann::ordered_json place{{"topic", scan.topic},
@@ -77,7 +78,6 @@ int DetectInBag(const BagScanOptions& bag,
       std::fprintf(stderr, "%s: ", scan.loaded.description.c_str());
       std::fputs(ExplainDetection(result, detector.model()).c_str(), stderr);
     }
-    if (!progress) progress.emplace("detect", scan.total, "messages");
     progress->Advance();
   });
   if (progress) progress->Finish();
