@@ -63,6 +63,16 @@ fi
 echo "== detect: furniture in one frame of the dataset, with the debug PNGs"
 "$workbench" detect --model "$out_dir/model.fcm" --db "$out_dir/synth.db" --frame 8 \
   --out "$out_dir/detect/detections.json" --debug-dir "$out_dir/detect" --timings
+echo "== ROS and Python: the test split as a ROS bag, detection over the bag with markers written"
+echo "   back, and the Python example on one frame"
+"$workbench" dataset export "$out_dir/synth.db" --format rosbag --split test --out "$out_dir/synth_test.bag"
+"$workbench" detect --model "$out_dir/model.fcm" --bag "$out_dir/synth_test.bag" \
+  --topic /camera/depth/image_raw --out "$out_dir/synth_test_bag.jsonl" \
+  --out-bag "$out_dir/synth_test_marked.bag"
+if [[ -d "$build_dir/python/furnidet" ]]; then
+  PYTHONPATH="$build_dir/python" MPLBACKEND=Agg /usr/bin/python3 "$repo/examples/detect_in_frame.py" \
+    "$out_dir/synth.db" "$out_dir/model.fcm" --out "$out_dir/python_frame.png"
+fi
 echo
 echo "main job done:"
 echo "  $out_dir/catalog.json   listing of the classified models"
@@ -77,6 +87,8 @@ echo "  $out_dir/tune/index.html    tune report: trials ranked, parameter effect
 echo "  $out_dir/crossval_report/index.html  leave-models-out report (protocol E), a report per fold"
 echo "  $out_dir/real.db, real_report/index.html, real_sheets/  the labelled real scans, their run and labels"
 echo "  $out_dir/history/history.html  every run of synth.db and real.db, side by side"
+echo "  $out_dir/synth_test.bag, synth_test_marked.bag  the test split as a ROS bag, and with detections"
+echo "  $out_dir/python_frame.png  the Python example's plot of one test frame"
 echo
 echo "headline metrics, models seen in training (test split):"
 cat "$out_dir/evaluate.txt"
