@@ -15,11 +15,9 @@ namespace {
 }  // namespace
 
 bool RosbagSupported() { return false; }
+struct BagMarkerWriter::Impl {};
 int ForEachBagScan(const BagScanOptions&, const std::function<void(const BagScan&)>&) { NoRos(); }
-BagMarkerWriter::BagMarkerWriter(const std::string&, const std::string&, std::string)
-    : impl_(nullptr) {
-  NoRos();
-}
+BagMarkerWriter::BagMarkerWriter(const std::string&, const std::string&, std::string) { NoRos(); }
 BagMarkerWriter::~BagMarkerWriter() = default;
 void BagMarkerWriter::Add(const BagScan&, const DetectionResult&, const TrainedModel&) { NoRos(); }
 void BagMarkerWriter::Finish() { NoRos(); }
@@ -467,29 +465,32 @@ struct BagMarkerWriter::Impl {
 BagMarkerWriter::BagMarkerWriter(const std::string& in_bag,
                                  const std::string& out_bag,
                                  std::string marker_topic)
-    : impl_(new Impl) {
+    : impl_(std::make_unique<Impl>()) {
   impl_->in_path = in_bag;
   impl_->out_path = out_bag;
   impl_->marker_topic = std::move(marker_topic);
   impl_->temporary = out_bag + ".partial";
-  Require(std::filesystem::weakly_canonical(in_bag) != std::filesystem::weakly_canonical(out_bag),
+  std::error_code ec_in, ec_out;
+  Require(std::filesystem::weakly_canonical(in_bag, ec_in) !=
+                  std::filesystem::weakly_canonical(out_bag, ec_out) ||
+              ec_in || ec_out,
           "--out-bag " + out_bag + " must not be the input bag");
   try {
     impl_->out.open(impl_->temporary, rosbag::bagmode::Write);
   } catch (const std::exception& e) {
-    delete impl_;
     throw InputError(out_bag + ": cannot write the bag (" + e.what() + ")");
   }
 }
 
 BagMarkerWriter::~BagMarkerWriter() {
-  if (impl_ == nullptr) return;
-  if (!impl_->finished) {
+  if (impl_ == nullptr || impl_->finished) return;
+  // Not finished (an error on the way): no half-written bag stays behind.
+  try {
     impl_->out.close();
-    std::error_code ec;
-    std::filesystem::remove(impl_->temporary, ec);
+  } catch (...) {
   }
-  delete impl_;
+  std::error_code ec;
+  std::filesystem::remove(impl_->temporary, ec);
 }
 
 void BagMarkerWriter::Add(const BagScan& scan,

@@ -16,6 +16,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -78,7 +79,7 @@ class BagMarkerWriter {
 
  private:
   struct Impl;
-  Impl* impl_;
+  std::unique_ptr<Impl> impl_;
 };
 
 // A dataset's frames as a bag: /camera/depth/image_raw (16UC1, mm; header.seq
