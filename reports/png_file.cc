@@ -6,6 +6,7 @@
 
 #include "core/error.h"
 #include "core/file_util.h"
+#include "reports/class_colours.h"
 
 namespace furn {
 
@@ -15,12 +16,17 @@ void WritePngAtomically(const cv::Mat& image, const std::string& png_path) {
   WriteFileAtomically(png_path, std::string(bytes.begin(), bytes.end()));
 }
 
+std::array<uint8_t, 3> ClassColourRgb(const std::string& name) {
+  if (name == "chair") return {60, 220, 60};
+  if (name == "armchair") return {40, 160, 255};
+  if (name == "table") return {255, 200, 40};
+  if (name == "sideboard") return {230, 80, 230};
+  return {255, 255, 255};
+}
+
 cv::Scalar ClassColour(const std::string& name) {
-  if (name == "chair") return cv::Scalar(60, 220, 60);
-  if (name == "armchair") return cv::Scalar(255, 160, 40);
-  if (name == "table") return cv::Scalar(40, 200, 255);
-  if (name == "sideboard") return cv::Scalar(230, 80, 230);
-  return cv::Scalar(255, 255, 255);
+  const std::array<uint8_t, 3> rgb = ClassColourRgb(name);
+  return cv::Scalar(rgb[2], rgb[1], rgb[0]);  // OpenCV's BGR
 }
 
 void DrawLabel(

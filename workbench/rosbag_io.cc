@@ -14,10 +14,11 @@ namespace {
 }
 }  // namespace
 
-bool RosbagSupported() { return false; }
 struct BagMarkerWriter::Impl {};
 int ForEachBagScan(const BagScanOptions&, const std::function<void(const BagScan&)>&) { NoRos(); }
-BagMarkerWriter::BagMarkerWriter(const std::string&, const std::string&, std::string) { NoRos(); }
+BagMarkerWriter::BagMarkerWriter(const std::string&, const std::string&, std::string, std::string) {
+  NoRos();
+}
 BagMarkerWriter::~BagMarkerWriter() = default;
 void BagMarkerWriter::Add(const BagScan&, const DetectionResult&, const TrainedModel&) { NoRos(); }
 void BagMarkerWriter::Finish() { NoRos(); }
@@ -49,6 +50,7 @@ int ExportRosbag(const std::string&, const std::string&, const std::string&) { N
 #include "core/trainer.h"
 #include "db/dataset_db.h"
 #include "renderers/frame_io.h"
+#include "reports/class_colours.h"
 
 namespace furn {
 namespace {
@@ -300,15 +302,6 @@ std::string Namespace(const std::string& topic) {
   return slash == std::string::npos ? std::string() : topic.substr(0, slash);
 }
 
-std::array<float, 3> ClassColour(const std::string& furniture_class) {
-  if (furniture_class == "chair") return {0.12f, 0.47f, 0.71f};
-  if (furniture_class == "armchair") return {1.0f, 0.5f, 0.05f};
-  if (furniture_class == "table") return {0.17f, 0.63f, 0.17f};
-  if (furniture_class == "sideboard") return {0.84f, 0.15f, 0.16f};
-  if (furniture_class == "sofa") return {0.58f, 0.4f, 0.74f};
-  return {0.6f, 0.6f, 0.6f};
-}
-
 void SetPose(const Eigen::Isometry3d& pose, geometry_msgs::Pose* out) {
   const Eigen::Quaterniond q(pose.linear());
   out->position.x = pose.translation().x();
@@ -318,6 +311,17 @@ void SetPose(const Eigen::Isometry3d& pose, geometry_msgs::Pose* out) {
   out->orientation.x = q.x();
   out->orientation.y = q.y();
   out->orientation.z = q.z();
+}
+
+void SetTransform(const Eigen::Isometry3d& pose, geometry_msgs::Transform* out) {
+  const Eigen::Quaterniond q(pose.linear());
+  out->translation.x = pose.translation().x();
+  out->translation.y = pose.translation().y();
+  out->translation.z = pose.translation().z();
+  out->rotation.w = q.w();
+  out->rotation.x = q.x();
+  out->rotation.y = q.y();
+  out->rotation.z = q.z();
 }
 
 // A cube for a box of `size` standing on the floor at (x, y) turned by yaw,
@@ -342,10 +346,10 @@ visualization_msgs::Marker BoxMarker(const std::string& ns,
   marker.scale.x = std::max(size.x(), 0.01);
   marker.scale.y = std::max(size.y(), 0.01);
   marker.scale.z = std::max(size.z(), 0.01);
-  const std::array<float, 3> rgb = ClassColour(furniture_class);
-  marker.color.r = rgb[0];
-  marker.color.g = rgb[1];
-  marker.color.b = rgb[2];
+  const std::array<uint8_t, 3> rgb = ClassColourRgb(furniture_class);
+  marker.color.r = rgb[0] / 255.0f;
+  marker.color.g = rgb[1] / 255.0f;
+  marker.color.b = rgb[2] / 255.0f;
   marker.color.a = 0.5f;
   return marker;
 }
@@ -357,8 +361,6 @@ visualization_msgs::Marker ClearMarkers() {
 }
 
 }  // namespace
-
-bool RosbagSupported() { return true; }
 
 int ForEachBagScan(const BagScanOptions& options, const std::function<void(const BagScan&)>& each) {
   Require(!options.topic.empty(), "--bag needs --topic");
@@ -457,16 +459,18 @@ int ForEachBagScan(const BagScanOptions& options, const std::function<void(const
 }
 
 struct BagMarkerWriter::Impl {
-  std::string in_path, out_path, temporary, marker_topic;
+  std::string in_path, out_path, temporary, world_frame, marker_topic;
   rosbag::Bag out;
   bool finished = false;
 };
 
 BagMarkerWriter::BagMarkerWriter(const std::string& in_bag,
                                  const std::string& out_bag,
+                                 std::string world_frame,
                                  std::string marker_topic)
     : impl_(std::make_unique<Impl>()) {
   impl_->in_path = in_bag;
+  impl_->world_frame = std::move(world_frame);
   impl_->out_path = out_bag;
   impl_->marker_topic = std::move(marker_topic);
   impl_->temporary = out_bag + ".partial";
@@ -501,9 +505,7 @@ void BagMarkerWriter::Add(const BagScan& scan,
   stamp.fromSec(scan.stamp > 0 ? scan.stamp : scan.bag_time);
   // The world frame of TF, else the sensor's frame (the detector's floor
   // frame exists only inside this scan).
-  const std::string frame = scan.pose_from_tf ? scan.loaded.pose_source.substr(
-                                                    4, scan.loaded.pose_source.find(" <- ") - 4)
-                                              : scan.frame_id;
+  const std::string& frame = scan.pose_from_tf ? impl_->world_frame : scan.frame_id;
   const Eigen::Isometry3d frame_from_world =
       scan.pose_from_tf ? Eigen::Isometry3d::Identity() : result.world_from_camera.inverse();
   markers.markers.push_back(ClearMarkers());
@@ -627,14 +629,7 @@ int ExportRosbag(const std::string& db_path, const std::string& out_bag, const s
         transform.header.stamp = stamp;
         transform.header.frame_id = "world";
         transform.child_frame_id = kCameraFrame;
-        const Eigen::Quaterniond q(frame.world_from_camera.linear());
-        transform.transform.translation.x = frame.world_from_camera.translation().x();
-        transform.transform.translation.y = frame.world_from_camera.translation().y();
-        transform.transform.translation.z = frame.world_from_camera.translation().z();
-        transform.transform.rotation.w = q.w();
-        transform.transform.rotation.x = q.x();
-        transform.transform.rotation.y = q.y();
-        transform.transform.rotation.z = q.z();
+        SetTransform(frame.world_from_camera, &transform.transform);
         tf.transforms.push_back(transform);
 
         visualization_msgs::MarkerArray truth;

@@ -25,9 +25,6 @@
 
 namespace furn {
 
-// True when this build reads and writes ROS bags.
-bool RosbagSupported();
-
 struct BagScanOptions {
   std::string bag_path;
   // A sensor_msgs/PointCloud2 topic (points in the message's frame, an
@@ -65,8 +62,11 @@ int ForEachBagScan(const BagScanOptions& options, const std::function<void(const
 // labels); written to a temporary name and renamed by Finish.
 class BagMarkerWriter {
  public:
+  // `world_frame`: the TF frame of scans whose pose came from TF
+  // (BagScanOptions::world_frame).
   BagMarkerWriter(const std::string& in_bag,
                   const std::string& out_bag,
+                  std::string world_frame,
                   std::string marker_topic = "/furnidet/detections");
   ~BagMarkerWriter();
   BagMarkerWriter(const BagMarkerWriter&) = delete;

@@ -43,12 +43,10 @@ int DetectInBag(const BagScanOptions& bag,
                 const std::string& out,
                 bool quiet,
                 bool explain) {
-  Require(RosbagSupported() || bag.bag_path.empty(),
-          "--bag: this build reads no ROS bags (configure with -DFURN_WITH_ROS=ON)");
-  RequireRegularFile(bag.bag_path);
+  RequireRegularFile(bag.bag_path);  // before the model loads: a wrong path fails at once
   const Detector detector(LoadTrainedModel(model_path), options);
   std::optional<BagMarkerWriter> markers;
-  if (!out_bag.empty()) markers.emplace(bag.bag_path, out_bag);
+  if (!out_bag.empty()) markers.emplace(bag.bag_path, out_bag, bag.world_frame);
   std::string lines;
   std::vector<double> totals;
   int without = 0;
