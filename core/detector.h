@@ -21,8 +21,10 @@
 // the smoothing SPEC §8.1 asks for; training and detection both get it.
 //
 // Each step is a stage of its own that tests and tools can call alone
-// (Prepare, Vote, FindMaxima, RankCandidates, FitAndScore, Suppress); Detect
-// runs them in order and times them.
+// (Prepare, Vote, FindMaxima, RankCandidates, then per hypothesis
+// FitHypothesis, VerifyFit and ScoreHypothesis, which FitAndVerify runs on
+// both cores, and Suppress); each fills an output struct; Detect runs them
+// in order, times them and keeps the hypotheses' records for reports.
 //
 // A model trained with a hypothesis scorer (hypothesis_scorer.h) replaces the
 // fixed verification thresholds by looser gates and the scorer's calibrated
@@ -150,8 +152,8 @@ struct Detection {
   double covered_fraction = 0;  // of the scene points inside the fitted box, those it explains
 };
 
-// What became of a Hough maximum, in pipeline order: each stage a hypothesis
-// can stop at (SPEC §8 steps 4 to 7).
+// What became of a Hough maximum, in pipeline order (a later value is a
+// further stage): each stage a hypothesis can stop at (SPEC §8 steps 4 to 7).
 enum class HypothesisOutcome {
   kNoSupport,        // no segment voted into it
   kSameSupport,      // backed by the same segments as a stronger maximum of its class
@@ -164,9 +166,73 @@ enum class HypothesisOutcome {
   kSuppressed,       // a better detection explains its points or overlaps it
   kDetected,
 };
-// "no_support", "same_support", "no_fit", "low_coverage", "low_verification",
-// "low_seen_occupied", "seen_through", "low_score", "suppressed", "detected".
-const char* OutcomeName(HypothesisOutcome outcome);
+template <>
+struct EnumText<HypothesisOutcome> {
+  static constexpr const char* kKind = "hypothesis outcome";
+  static constexpr EnumEntry<HypothesisOutcome> kEntries[] = {
+      {HypothesisOutcome::kNoSupport, "no_support"},
+      {HypothesisOutcome::kSameSupport, "same_support"},
+      {HypothesisOutcome::kNoFit, "no_fit"},
+      {HypothesisOutcome::kLowCoverage, "low_coverage"},
+      {HypothesisOutcome::kLowVerification, "low_verification"},
+      {HypothesisOutcome::kLowSeenOccupied, "low_seen_occupied"},
+      {HypothesisOutcome::kSeenThrough, "seen_through"},
+      {HypothesisOutcome::kLowScore, "low_score"},
+      {HypothesisOutcome::kSuppressed, "suppressed"},
+      {HypothesisOutcome::kDetected, "detected"},
+  };
+};
+inline const char* OutcomeName(HypothesisOutcome outcome) { return EnumName(outcome); }
+
+// The stages Detect times, in order; their names are the keys of
+// DetectionResult::timings_ms in JSON and runs.
+enum class DetectionStage {
+  kFloor,
+  kPreprocess,
+  kSegment,
+  kFeatures,
+  kOccupancy,
+  kVote,
+  kMaxima,
+  kRank,
+  kFitAndVerify,
+  kSuppress,
+  kTotal,  // the whole call
+};
+template <>
+struct EnumText<DetectionStage> {
+  static constexpr const char* kKind = "detection stage";
+  static constexpr EnumEntry<DetectionStage> kEntries[] = {
+      {DetectionStage::kFloor, "floor"},
+      {DetectionStage::kPreprocess, "preprocess"},
+      {DetectionStage::kSegment, "segment"},
+      {DetectionStage::kFeatures, "features"},
+      {DetectionStage::kOccupancy, "occupancy"},
+      {DetectionStage::kVote, "vote"},
+      {DetectionStage::kMaxima, "maxima"},
+      {DetectionStage::kRank, "rank"},
+      {DetectionStage::kFitAndVerify, "fit+verify"},
+      {DetectionStage::kSuppress, "suppress"},
+      {DetectionStage::kTotal, "total"},
+  };
+};
+
+struct StageTime {
+  DetectionStage stage = DetectionStage::kTotal;
+  double ms = 0;
+};
+// Per stage, in order of running; Detect's end with kTotal.
+struct StageTimings {
+  std::vector<StageTime> stages;
+  void Add(DetectionStage stage, double ms) { stages.push_back({stage, ms}); }
+  // The stage's time, or 0 when it did not run.
+  double Of(DetectionStage stage) const {
+    for (const StageTime& t : stages) {
+      if (t.stage == stage) return t.ms;
+    }
+    return 0;
+  }
+};
 
 // Everything a report needs to show how the detections came about.
 struct DetectionDebug {
@@ -197,9 +263,8 @@ struct DetectionDebug {
     // The best fit's pose and scorer features, set when it passed the
     // scorer's gates (whether or not a scorer decided): what a scorer
     // learns from.
-    bool has_features = false;
+    std::optional<HypothesisFeatures> features;
     double fit_x = 0, fit_y = 0;
-    HypothesisFeatures features{};
     double probability = -1;  // the scorer's, when one decided
   };
   // One line for people: "detected", "covers 0.62 of the points", ...
@@ -218,6 +283,15 @@ enum class DetectionStatus {
   kNoPointsInRange,  // no finite point within max_range_m of the sensor
   kNoFloor,          // no pose given and no floor found (message says why)
 };
+template <>
+struct EnumText<DetectionStatus> {
+  static constexpr const char* kKind = "detection status";
+  static constexpr EnumEntry<DetectionStatus> kEntries[] = {
+      {DetectionStatus::kDetected, "detected"},
+      {DetectionStatus::kNoPointsInRange, "no_points_in_range"},
+      {DetectionStatus::kNoFloor, "no_floor"},
+  };
+};
 
 struct DetectionResult {
   DetectionStatus status = DetectionStatus::kDetected;
@@ -226,7 +300,7 @@ struct DetectionResult {
   Eigen::Isometry3d world_from_camera = Eigen::Isometry3d::Identity();
   bool floor_estimated = false;  // world_from_camera came from FindFloor
   int input_points = 0, points = 0, segments = 0;
-  std::vector<std::pair<std::string, double>> timings_ms;  // per stage, in order, then "total"
+  StageTimings timings_ms;  // per stage, in order, then kTotal
   DetectionDebug debug;  // hypotheses always; points, grids and fits when asked for
 };
 
@@ -255,7 +329,7 @@ struct PreparedScan {
   std::optional<PinholeIntrinsics> intrinsics;
   std::vector<float> depth;
   int width = 0, height = 0;
-  std::vector<std::pair<std::string, double>> timings_ms;  // floor, preprocess, ...
+  StageTimings timings_ms;  // floor, preprocess, ...
 };
 
 // Stage 2: per-class vote grids (smoothed) and the votes behind them.
@@ -267,7 +341,59 @@ struct VoteMaps {
   std::vector<HoughVote> votes;
 };
 
-// Stage 5-6: a hypothesis' accepted fit, if any.
+// Stage 6 (fit): the scene around a hypothesis, and every candidate CAD
+// model fitted to it by RANSAC + ICP and ranked by its score.
+struct HypothesisRegion {
+  std::vector<Eigen::Vector3f> points;  // scene points within the candidates' reach (no structure)
+  std::vector<int> cloud_index;         // their indices into view.cloud
+  // An even subsample of at most kMaxFitPoints of them, what RANSAC fits to.
+  std::vector<Eigen::Vector3f> fit_points, fit_normals;
+  std::vector<int> fit_cloud_index;
+};
+inline constexpr size_t kMaxFitPoints = 800;
+
+struct CandidateFit {
+  int model = -1;  // into the trained model's names
+  int rank = 0;    // among the hypothesis' candidates
+  PoseFit fit;
+  VisibilityCounts counts;  // of the posed model against the occupancy grid
+  // The ranking score: the visibility score vs times the covered share
+  // times the seen share (occluded points neither help nor hurt).
+  double covered = 0, verification = 0, score = -1;
+  std::vector<Eigen::Vector3f> posed;  // the model's shape points at the fit, world frame
+};
+
+struct HypothesisFit {
+  HypothesisRegion region;
+  std::optional<CandidateFit> best;  // none: no candidate gave a pose
+  double second_score = 0;           // the best score of the other candidates
+  int fits = 0;                      // candidates that gave a pose
+  std::vector<DetectionDebug::Hypothesis::Fit> tried;  // every pose, for reports
+};
+
+// Stage 7 (verify): what the scan says of the best fit.
+struct FitVerification {
+  double covered = 0;        // share of the box's scene points it explains
+  double verification = 0;   // visibility score vs
+  double seen_occupied = 0;  // share of its observable surface the sensor saw
+  // Render-and-compare from the actual camera (organised scans; -1 else):
+  // shares of the compared pixels the sensor saw through, and that support it.
+  double seen_through = -1, render_support = -1;
+  bool scorer_gates = false;  // passes the scorer's looser gates
+};
+
+// Stage 8 (score): the scorer's features and probability, the gates, and
+// the outcome.
+struct HypothesisScore {
+  std::optional<HypothesisFeatures> features;  // set when it passed the scorer's gates
+  double score = 0;                            // the detection score
+  double probability = -1;                     // the scorer's, when one decided
+  HypothesisOutcome outcome = HypothesisOutcome::kDetected;
+  double failed_value = 0;             // the value that failed its gate
+  std::vector<int> explained_points;   // of region.points, when computed for the features
+};
+
+// Stages 6-8: a hypothesis' accepted fit, if any.
 struct FittedHypothesis {
   std::optional<Detection> detection;
   std::vector<Eigen::Vector3f> fitted_points;  // the posed model, world frame
@@ -299,8 +425,21 @@ class Detector {
   void RankCandidates(const PreparedScan& scan,
                       const VoteMaps& votes,
                       std::vector<DetectionDebug::Hypothesis>* hypotheses) const;
-  // Every candidate fitted, the best verified and scored (all cores).
-  std::vector<FittedHypothesis> FitAndScore(
+  // Stage 6: every candidate of a ranked hypothesis fitted (RANSAC draws
+  // seeded by `hypothesis_index`), the best by the ranking score.
+  HypothesisFit FitHypothesis(const PreparedScan& scan,
+                              const DetectionDebug::Hypothesis& hypothesis,
+                              int hypothesis_index) const;
+  // Stage 7: the best fit verified (`fit.best` must be set).
+  FitVerification VerifyFit(const PreparedScan& scan, const HypothesisFit& fit) const;
+  // Stage 8: features, probability, gates and outcome of a verified fit.
+  HypothesisScore ScoreHypothesis(const PreparedScan& scan,
+                                  const DetectionDebug::Hypothesis& hypothesis,
+                                  const HypothesisFit& fit,
+                                  const FitVerification& verification) const;
+  // Stages 6-8 for every hypothesis (both cores); their outcomes, fits and
+  // features recorded in `hypotheses`.
+  std::vector<FittedHypothesis> FitAndVerify(
       const PreparedScan& scan, std::vector<DetectionDebug::Hypothesis>* hypotheses) const;
   // Best score first, drops detections that better ones explain or overlap;
   // returns the indices of the kept hypotheses in that order.

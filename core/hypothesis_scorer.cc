@@ -23,16 +23,55 @@ const char* const kHypothesisFeatureNames[kHypothesisFeatures] = {
     "observed_height",   "range",
     "second_fit_ratio",  "fits",
     "candidate_rank",    "log_points_in_reach",
-    "seen_through",      "render_support"};
+    "seen_through",      "render_support",
+    "class_sofa"};
+
+FeatureVector HypothesisFeatures::Vector() const {
+  FeatureVector v{};
+  const int one_hot = furniture_class == FurnitureClass::kSofa ? kHypothesisFeatures - 1
+                                                                 : static_cast<int>(furniture_class);
+  v[one_hot] = 1;
+  const float named[] = {log_vote_weight,
+                         relative_weight,
+                         segments,
+                         covered,
+                         verification,
+                         seen_occupied,
+                         free_share,
+                         occluded_share,
+                         log_points_in_box,
+                         model_width,
+                         model_depth,
+                         model_height,
+                         observed_height,
+                         range,
+                         second_fit_ratio,
+                         fits,
+                         candidate_rank,
+                         log_points_in_reach,
+                         seen_through,
+                         render_support};
+  for (size_t k = 0; k < std::size(named); ++k) v[4 + k] = named[k];
+  return v;
+}
 
 namespace {
 
 constexpr char kHeader[] = "furnidet-scorer 1";
 
-cv::Mat Row(const HypothesisFeatures& features) {
-  cv::Mat row(1, kHypothesisFeatures, CV_32F);
-  for (int i = 0; i < kHypothesisFeatures; ++i) row.at<float>(0, i) = features[i];
+// The first `count` features as one sample row.
+cv::Mat Row(const FeatureVector& features, int count) {
+  cv::Mat row(1, count, CV_32F);
+  for (int i = 0; i < count; ++i) row.at<float>(0, i) = features[i];
   return row;
+}
+
+// 25 when a sample has the sofa's slot set, else the 24 of the older layout.
+int FeatureCount(const std::vector<ScorerSample>& samples) {
+  for (const ScorerSample& s : samples) {
+    if (s.features[kHypothesisFeatures - 1] != 0) return kHypothesisFeatures;
+  }
+  return kHypothesisFeaturesWithoutSofa;
 }
 
 }  // namespace
@@ -110,6 +149,7 @@ HypothesisScorer HypothesisScorer::Train(const std::vector<ScorerSample>& sample
   const auto calibration_frame = [&](uint64_t group) {
     return (DeriveSeed(0x5c0e, group) % 1000) < options.calibration_share * 1000;
   };
+  const int count = FeatureCount(samples);
   cv::Mat train_x, train_y;
   std::vector<const ScorerSample*> calibration;
   for (const ScorerSample& s : samples) {
@@ -117,7 +157,7 @@ HypothesisScorer HypothesisScorer::Train(const std::vector<ScorerSample>& sample
       calibration.push_back(&s);
       continue;
     }
-    train_x.push_back(Row(s.features));
+    train_x.push_back(Row(s.features, count));
     train_y.push_back(s.positive ? 1.0f : 0.0f);
   }
   if (train_x.rows < 10 || calibration.empty()) {  // too few frames to split: calibrate in-sample
@@ -125,7 +165,7 @@ HypothesisScorer HypothesisScorer::Train(const std::vector<ScorerSample>& sample
     train_y.release();
     calibration.clear();
     for (const ScorerSample& s : samples) {
-      train_x.push_back(Row(s.features));
+      train_x.push_back(Row(s.features, count));
       train_y.push_back(s.positive ? 1.0f : 0.0f);
       calibration.push_back(&s);
     }
@@ -157,12 +197,16 @@ HypothesisScorer HypothesisScorer::Train(const std::vector<ScorerSample>& sample
   return scorer;
 }
 
-double HypothesisScorer::RawScore(const HypothesisFeatures& features) const {
-  Require(!empty(), "the hypothesis scorer is empty");
-  return impl_->forest->predict(Row(features));
+int HypothesisScorer::feature_count() const {
+  return empty() ? 0 : impl_->forest->getVarCount();
 }
 
-double HypothesisScorer::Probability(const HypothesisFeatures& features) const {
+double HypothesisScorer::RawScore(const FeatureVector& features) const {
+  Require(!empty(), "the hypothesis scorer is empty");
+  return impl_->forest->predict(Row(features, feature_count()));
+}
+
+double HypothesisScorer::Probability(const FeatureVector& features) const {
   return 1 / (1 + std::exp(-(platt_a_ * RawScore(features) + platt_b_)));
 }
 
@@ -196,8 +240,10 @@ HypothesisScorer HypothesisScorer::Deserialize(const std::string& bytes,
     cv::FileStorage storage(yaml, cv::FileStorage::READ | cv::FileStorage::MEMORY);
     cv::Ptr<cv::ml::RTrees> forest = cv::ml::RTrees::create();
     forest->read(storage["forest"]);
-    Require(forest->isTrained() && forest->getVarCount() == kHypothesisFeatures,
+    Require(forest->isTrained() && (forest->getVarCount() == kHypothesisFeatures ||
+                                    forest->getVarCount() == kHypothesisFeaturesWithoutSofa),
             source + ": hypothesis scorer is not a trained forest over " +
+                std::to_string(kHypothesisFeaturesWithoutSofa) + " or " +
                 std::to_string(kHypothesisFeatures) + " features");
     scorer.impl_->forest = forest;
   } catch (const cv::Exception& e) {

@@ -20,25 +20,50 @@
 #include <string>
 #include <vector>
 
+#include "core/furniture_class.h"
+
 namespace furn {
 
-// The features of a hypothesis' best fit, in this order (see
-// kHypothesisFeatureNames): class one-hot (4), log(1 + vote weight), relative
-// vote weight, supporting segments, covered fraction, visibility score,
-// seen-occupied share, free and occluded shares of the model's points,
-// log(1 + scene points in the box), the fitted model's width, depth and
-// height, the observed height (highest explained point), range from the
-// sensor, second-best over best fit score, fits, the fitted model's
-// candidate rank, log(1 + scene points within reach), and render-and-compare's
-// seen-through share and support share (-1 each for unorganised scans).
-inline constexpr int kHypothesisFeatures = 24;
-using HypothesisFeatures = std::array<float, kHypothesisFeatures>;
+// The scorer's view of a hypothesis' best fit, by name (the detector's
+// score stage fills it; Vector() lays it out for the forest).
+struct HypothesisFeatures {
+  FurnitureClass furniture_class = FurnitureClass::kChair;  // one-hot in the vector
+  float log_vote_weight = 0;      // log(1 + smoothed vote weight at the maximum)
+  float relative_weight = 0;      // (vote - min) / (max - min) of its class grid
+  float segments = 0;             // segments that voted for it
+  float covered = 0;              // share of the box's scene points the fit explains
+  float verification = 0;         // visibility score vs
+  float seen_occupied = 0;        // share of the fit's observable surface seen
+  float free_share = 0;           // of the model's points, where the sensor saw through
+  float occluded_share = 0;       // of the model's points, hidden from the sensor
+  float log_points_in_box = 0;    // log(1 + scene points in the fit's box)
+  float model_width = 0, model_depth = 0, model_height = 0;  // the fitted model's size (m)
+  float observed_height = 0;      // the highest explained scene point (m)
+  float range = 0;                // horizontal distance from the sensor (m)
+  float second_fit_ratio = 0;     // second-best over best fit score
+  float fits = 0;                 // candidates that gave a pose
+  float candidate_rank = 0;       // the best fit's rank among the candidates
+  float log_points_in_reach = 0;  // log(1 + scene points within the candidates' reach)
+  float seen_through = -1;        // render-and-compare shares; -1 for unorganised scans
+  float render_support = -1;
+
+  // The forest's input, in kHypothesisFeatureNames order.
+  std::array<float, 25> Vector() const;
+};
+
+// The forest's input: the class one-hot of the paper's four classes, the
+// named features above in their order, then the sofa's one-hot slot (last,
+// so that scorers trained without sofas keep the 24-feature layout of
+// model files up to version 7).
+inline constexpr int kHypothesisFeatures = 25;
+inline constexpr int kHypothesisFeaturesWithoutSofa = 24;
+using FeatureVector = std::array<float, kHypothesisFeatures>;
 extern const char* const kHypothesisFeatureNames[kHypothesisFeatures];
 
 inline constexpr size_t kMinScorerSamples = 20;  // Train's minimum
 
 struct ScorerSample {
-  HypothesisFeatures features{};
+  FeatureVector features{};
   bool positive = false;  // right class within 10 cm of a true object
   uint64_t group = 0;     // frame id: calibration holds out whole frames
 };
@@ -63,7 +88,8 @@ class HypothesisScorer {
   // Whether Train accepts these: kMinScorerSamples or more, with both labels.
   static bool CanTrain(const std::vector<ScorerSample>& samples);
   // Throws InputError with fewer than 20 samples or no positive or negative
-  // one. Deterministic: the same samples give the same scorer.
+  // one. Deterministic: the same samples give the same scorer. The forest
+  // sees the sofa's slot only when a sample has it set.
   static HypothesisScorer Train(const std::vector<ScorerSample>& samples,
                                 const ScorerOptions& options);
   // Throws InputError naming `source` for bytes that are not a scorer.
@@ -71,8 +97,10 @@ class HypothesisScorer {
   std::string Serialize() const;
 
   bool empty() const;
-  double RawScore(const HypothesisFeatures& features) const;     // the forest's output
-  double Probability(const HypothesisFeatures& features) const;  // calibrated, in (0, 1)
+  double RawScore(const FeatureVector& features) const;     // the forest's output
+  double Probability(const FeatureVector& features) const;  // calibrated, in (0, 1)
+  // Features the forest reads: 24 (no sofa slot) or 25.
+  int feature_count() const;
   double platt_a() const { return platt_a_; }
   double platt_b() const { return platt_b_; }
   int training_samples() const { return samples_; }

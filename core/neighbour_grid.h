@@ -16,6 +16,8 @@
 #include <utility>
 #include <vector>
 
+#include "core/voxel_key.h"
+
 namespace furn {
 
 class NeighbourGrid {
@@ -82,12 +84,7 @@ class NeighbourGrid {
                            static_cast<int>(std::floor(p.y() * inverse_cell_)),
                            static_cast<int>(std::floor(p.z() * inverse_cell_)));
   }
-  static uint64_t Key(const Eigen::Vector3i& c) {
-    constexpr uint64_t kMask = (1u << 21) - 1;
-    return ((static_cast<uint64_t>(c.x() + (1 << 20)) & kMask) << 42) |
-           ((static_cast<uint64_t>(c.y() + (1 << 20)) & kMask) << 21) |
-           (static_cast<uint64_t>(c.z() + (1 << 20)) & kMask);
-  }
+  static uint64_t Key(const Eigen::Vector3i& c) { return VoxelKey(c); }
 
   const std::vector<Eigen::Vector3f>& points_;
   float inverse_cell_;

@@ -7,6 +7,7 @@
 
 #include "core/error.h"
 #include "core/neighbour_grid.h"
+#include "core/voxel_key.h"
 
 namespace furn {
 namespace {
@@ -114,12 +115,7 @@ SgfVector ComputeSgf(const PointCloud& cloud,
       variance[k] += t * t / n;
     }
     const Eigen::Vector3f& p = cloud.points[i];
-    uint64_t key = 0;
-    for (int k = 0; k < 3; ++k) {
-      const auto cell = static_cast<int64_t>(std::floor(p[k] / options.voxel_size_m)) + (1 << 20);
-      key = (key << 21) | (static_cast<uint64_t>(cell) & ((1u << 21) - 1));
-    }
-    voxels.push_back(key);
+    voxels.push_back(VoxelKey(p, options.voxel_size_m));
     curvature_sum += cloud.curvature[i];
   }
   const double voxel_volume = std::pow(options.voxel_size_m, 3);

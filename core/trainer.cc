@@ -11,6 +11,7 @@
 #include "core/error.h"
 #include "core/file_util.h"
 #include "core/parallel.h"
+#include "core/voxel_key.h"
 
 namespace furn {
 namespace {
@@ -168,13 +169,7 @@ std::vector<ModelShape> BuildModelShapes(const std::vector<TrainingView>& views,
     const PointCloud& cloud = segmented[v].cloud;
     for (size_t i = 0; i < cloud.size(); ++i) {
       const Eigen::Vector3f& p = cloud.points[i];
-      // 21 bits per axis, centred: models are far smaller than the 40 km range.
-      uint64_t key = 0;
-      for (int axis = 0; axis < 3; ++axis) {
-        const auto cell = static_cast<uint64_t>(std::floor(p[axis] / voxel_m) + (1 << 20));
-        key = (key << 21) | (cell & ((1u << 21) - 1));
-      }
-      if (!taken[m].insert(key).second) continue;
+      if (!taken[m].insert(VoxelKey(p, voxel_m)).second) continue;
       shapes[m].points.push_back(p);
       shapes[m].normals.push_back(cloud.normals[i]);
     }
@@ -583,6 +578,19 @@ TrainedModel LoadTrainedModel(const std::string& path) {
             corrupt + "a shape entry indexes no word, class or model)");
   }
   return model;
+}
+
+void ScanOptions::Check() const {
+  Require(!heights_m.empty(), "scan heights must not be empty");
+  for (double h : heights_m)
+    Require(h > 0 && h < 5, "scan height " + std::to_string(h) + " m must be in (0, 5)");
+  Require(azimuths >= 1 && azimuths <= 360, "scan azimuths must be in 1..360");
+  Require(min_distance_m > 0.5 && max_distance_m >= min_distance_m && max_distance_m < 10,
+          "scan distances must satisfy 0.5 < min <= max < 10 m");
+  Require(scale_variants >= 0 && scale_variants <= 10,
+          "scale variants " + std::to_string(scale_variants) + " must be in 0..10");
+  Require(scale_jitter >= 0 && scale_jitter <= 0.5,
+          "scale jitter " + std::to_string(scale_jitter) + " must be in 0..0.5");
 }
 
 }  // namespace furn

@@ -18,6 +18,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -41,6 +42,23 @@ struct TrainingView {
   // and join the part library, but the model's shape for fitting and
   // verification comes from the true-size views only.
   bool augmented = false;
+};
+
+// The virtual scans training takes of each CAD model (pipelines' ScanModel):
+// rings of viewpoints around the model standing at the origin.
+struct ScanOptions {
+  std::vector<double> heights_m = {0.9, 1.3, 1.7};  // camera heights, one ring each
+  int azimuths = 8;                                 // views per ring (>= 1)
+  double min_distance_m = 1.8;                      // ring radius grows with height (m)
+  double max_distance_m = 3.2;
+  uint64_t seed = 1;  // sensor noise, and the scale draws
+  // Augmentation: per model, this many extra copies scaled along x, y and z
+  // by factors drawn independently from [1 - scale_jitter, 1 + scale_jitter]
+  // are scanned the same way (TrainingView::augmented); 0: none.
+  int scale_variants = 0;
+  double scale_jitter = 0.15;
+
+  void Check() const;
 };
 
 struct TrainerOptions {

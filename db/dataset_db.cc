@@ -6,6 +6,21 @@
 namespace furn {
 namespace {
 
+// A class column: the class name, or empty for clutter.
+std::string ClassText(const std::optional<FurnitureClass>& furniture_class) {
+  return furniture_class ? ClassName(*furniture_class) : "";
+}
+
+std::optional<FurnitureClass> ClassOfColumn(const std::string& text, const std::string& db_path) {
+  if (text.empty()) return std::nullopt;
+  const std::optional<FurnitureClass> furniture_class = FurnitureClassNamed(text);
+  if (!furniture_class) {
+    throw DbError(db_path + ": unknown class '" + text + "' (allowed: " +
+                  EnumNameList<FurnitureClass>() + "; a damaged or newer file)");
+  }
+  return furniture_class;
+}
+
 constexpr char kSchemaV1[] = R"(
 CREATE TABLE meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);
 CREATE TABLE generation (
@@ -121,11 +136,11 @@ Eigen::Isometry3d ParsePose(const std::string& text, const std::string& where) {
 
 }  // namespace
 
-std::string SplitForSeed(uint64_t room_seed) {
+Split SplitForSeed(uint64_t room_seed) {
   // The top bits of a mixed seed, so neighbouring seeds spread over the splits.
   const uint64_t mixed = (room_seed ^ (room_seed >> 31)) * 0x9E3779B97F4A7C15ull;
   const uint64_t bucket = (mixed >> 40) % 10;
-  return bucket < 6 ? "train" : bucket < 8 ? "val" : "test";
+  return bucket < 6 ? Split::kTrain : bucket < 8 ? Split::kVal : Split::kTest;
 }
 
 namespace {
@@ -226,7 +241,7 @@ int64_t DatasetDb::WriteRun(const RunRecord& run,
       .Bind(6, run.model_path)
       .Bind(7, run.model_hash)
       .Bind(8, run.dataset_hash)
-      .Bind(9, run.split)
+      .Bind(9, std::string(EnumName(run.split)))
       .Bind(10, run.options_json)
       .Bind(11, run.results_json)
       .Run();
@@ -244,7 +259,7 @@ int64_t DatasetDb::WriteRun(const RunRecord& run,
     detection.Reset();
     detection.Bind(1, id)
         .Bind(2, d.frame_id)
-        .Bind(3, d.furniture_class)
+        .Bind(3, std::string(ClassName(d.furniture_class)))
         .Bind(4, d.x)
         .Bind(5, d.y)
         .Bind(6, d.z)
@@ -283,7 +298,7 @@ std::vector<RunRecord> DatasetDb::Runs() {
     run.model_path = query.ColumnText(6);
     run.model_hash = query.ColumnText(7);
     run.dataset_hash = query.ColumnText(8);
-    run.split = query.ColumnText(9);
+    run.split = ParseSplit(query.ColumnText(9), db_.path() + ": run split");
     run.options_json = query.ColumnText(10);
     run.results_json = query.ColumnText(11);
     runs.push_back(std::move(run));
@@ -343,7 +358,7 @@ void DatasetDb::WriteModels(const std::vector<ModelRecord>& models) {
     }
     find.Reset();
     insert.Bind(1, model.id)
-        .Bind(2, model.furniture_class)
+        .Bind(2, ClassText(model.furniture_class))
         .Bind(3, model.content_hash)
         .Bind(4, model.size_m.x())
         .Bind(5, model.size_m.y())
@@ -362,7 +377,7 @@ std::vector<ModelRecord> DatasetDb::ReadModels() {
   while (query.Step()) {
     ModelRecord model;
     model.id = query.ColumnText(0);
-    model.furniture_class = query.ColumnText(1);
+    model.furniture_class = ClassOfColumn(query.ColumnText(1), db_.path());
     model.content_hash = query.ColumnText(2);
     model.size_m =
         Eigen::Vector3d(query.ColumnDouble(3), query.ColumnDouble(4), query.ColumnDouble(5));
@@ -400,7 +415,7 @@ void DatasetDb::WriteRoom(const RoomRecord& room, const std::function<void()>& b
       "VALUES (?, ?, ?, ?, ?, ?, ?)");
   insert_room.Bind(1, room.id)
       .Bind(2, AsSigned(room.seed))
-      .Bind(3, room.split)
+      .Bind(3, std::string(EnumName(room.split)))
       .Bind(4, room.width)
       .Bind(5, room.depth)
       .Bind(6, int64_t{room.requested_furniture})
@@ -414,7 +429,7 @@ void DatasetDb::WriteRoom(const RoomRecord& room, const std::function<void()>& b
     insert_object.Bind(1, room.id)
         .Bind(2, int64_t{object.instance_id})
         .Bind(3, object.model_id)
-        .Bind(4, object.furniture_class)
+        .Bind(4, ClassText(object.furniture_class))
         .Bind(5, object.x)
         .Bind(6, object.y)
         .Bind(7, object.z)
@@ -478,7 +493,7 @@ RoomRecord DatasetDb::ReadRoom(int64_t room_id, bool with_images) {
   if (!query_room.Step()) throw DbError(db_.path() + ": no room " + std::to_string(room_id));
   room.id = room_id;
   room.seed = AsUnsigned(query_room.ColumnInt(0));
-  room.split = query_room.ColumnText(1);
+  room.split = ParseSplit(query_room.ColumnText(1), db_.path() + ": room split", false);
   room.width = query_room.ColumnDouble(2);
   room.depth = query_room.ColumnDouble(3);
   room.requested_furniture = static_cast<int>(query_room.ColumnInt(4));
@@ -492,7 +507,7 @@ RoomRecord DatasetDb::ReadRoom(int64_t room_id, bool with_images) {
     ObjectRecord object;
     object.instance_id = static_cast<int>(query_objects.ColumnInt(0));
     object.model_id = query_objects.ColumnText(1);
-    object.furniture_class = query_objects.ColumnText(2);
+    object.furniture_class = ClassOfColumn(query_objects.ColumnText(2), db_.path());
     object.x = query_objects.ColumnDouble(3);
     object.y = query_objects.ColumnDouble(4);
     object.z = query_objects.ColumnDouble(5);

@@ -22,6 +22,8 @@
 #include <string>
 #include <vector>
 
+#include "core/furniture_class.h"
+#include "db/split.h"
 #include "db/sqlite.h"
 
 namespace furn {
@@ -30,7 +32,7 @@ inline constexpr int kDatasetSchemaVersion = 2;  // 2: evaluation runs
 
 struct ModelRecord {
   std::string id;
-  std::string furniture_class;  // empty: clutter
+  std::optional<FurnitureClass> furniture_class;  // none: clutter
   std::string content_hash;
   Eigen::Vector3d size_m = Eigen::Vector3d::Zero();
   bool evaluation_only = false;
@@ -39,7 +41,7 @@ struct ModelRecord {
 struct ObjectRecord {
   int instance_id = 0;
   std::string model_id;
-  std::string furniture_class;              // empty: clutter, not a detection target
+  std::optional<FurnitureClass> furniture_class;  // none: clutter, not a detection target
   double x = 0, y = 0, z = 0, yaw = 0;      // world_from_object
   double reference_x = 0, reference_y = 0;  // footprint centre on the floor (SPEC §3)
   double width = 0, depth = 0, height = 0;  // m
@@ -70,7 +72,7 @@ struct FrameRecord {
 struct RoomRecord {
   int64_t id = 0;
   uint64_t seed = 0;
-  std::string split;  // train, val or test
+  Split split = Split::kTrain;  // train, val or test
   double width = 0, depth = 0;
   int requested_furniture = 0, placed_furniture = 0;
   std::vector<ObjectRecord> objects;
@@ -86,14 +88,15 @@ struct RunRecord {
   std::string git_commit;
   bool git_dirty = false;
   std::string model_path, model_hash, dataset_hash;
-  std::string split;
+  Split split = Split::kAll;  // the frames evaluated
   std::string options_json;  // every option used
   std::string results_json;  // PR curves and confusion, for reports
 };
 
 struct RunDetectionRecord {
   int64_t frame_id = 0;
-  std::string furniture_class, model_id;
+  FurnitureClass furniture_class = FurnitureClass::kChair;
+  std::string model_id;
   double x = 0, y = 0, z = 0, yaw = 0;
   double score = 0, vote_weight = 0, verification = 0, covered_fraction = 0;
 };
@@ -150,7 +153,7 @@ class DatasetDb {
   Database db_;
 };
 
-// "train", "val" or "test" for a room seed, by fixed ratios 0.6 / 0.2 / 0.2.
-std::string SplitForSeed(uint64_t room_seed);
+// Train, val or test for a room seed, by fixed ratios 0.6 / 0.2 / 0.2.
+Split SplitForSeed(uint64_t room_seed);
 
 }  // namespace furn

@@ -1,6 +1,7 @@
 #include "renderers/camera.h"
 
 #include <cmath>
+#include <limits>
 #include <sstream>
 
 #include "core/error.h"
@@ -31,6 +32,23 @@ std::string CameraIntrinsics::ToString() const {
   std::ostringstream text;
   text << width << "x" << height << " fx=" << fx << " fy=" << fy << " cx=" << cx << " cy=" << cy;
   return text.str();
+}
+
+std::vector<Eigen::Vector3f> BackProject(const DepthFrame& frame, const CameraIntrinsics& camera) {
+  Require(frame.width == camera.width && frame.height == camera.height,
+          "depth image is " + std::to_string(frame.width) + "x" + std::to_string(frame.height) +
+              " but the intrinsics are for " + std::to_string(camera.width) + "x" +
+              std::to_string(camera.height));
+  std::vector<Eigen::Vector3f> points;
+  points.reserve(static_cast<size_t>(frame.width) * frame.height);
+  for (int v = 0; v < frame.height; ++v) {
+    for (int u = 0; u < frame.width; ++u) {
+      const float z = frame.DepthAt(u, v);
+      points.push_back(z > 0 ? Eigen::Vector3f(z * camera.RayThroughPixel(u, v))
+                             : Eigen::Vector3f::Constant(std::numeric_limits<float>::quiet_NaN()));
+    }
+  }
+  return points;
 }
 
 }  // namespace furn

@@ -10,6 +10,9 @@
 
 #include <Eigen/Core>
 #include <string>
+#include <vector>
+
+#include "renderers/depth_frame.h"
 
 namespace furn {
 
@@ -41,5 +44,10 @@ struct CameraIntrinsics {
 
   std::string ToString() const;
 };
+
+// Camera-frame points of a depth frame, one per pixel in row order (an
+// organised cloud), NaN where there is no return.
+std::vector<Eigen::Vector3f> BackProject(const DepthFrame& frame, const CameraIntrinsics& camera);
+
 
 }  // namespace furn

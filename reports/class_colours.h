@@ -2,16 +2,18 @@
 // PNGs, and RViz markers of detections and ground truth. No OpenCV here, so
 // layers above reports can use it.
 //
-//   const std::array<uint8_t, 3> rgb = ClassColourRgb("chair");
+//   const std::array<uint8_t, 3> rgb = ClassColourRgb(FurnitureClass::kChair);
 #pragma once
 
 #include <array>
 #include <cstdint>
-#include <string>
+#include <optional>
+
+#include "core/furniture_class.h"
 
 namespace furn {
 
-// Red, green, blue of a class name; white for anything else (clutter).
-std::array<uint8_t, 3> ClassColourRgb(const std::string& class_name);
+// Red, green, blue of a class; white for none (clutter).
+std::array<uint8_t, 3> ClassColourRgb(std::optional<FurnitureClass> furniture_class);
 
 }  // namespace furn

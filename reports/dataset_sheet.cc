@@ -29,7 +29,7 @@ cv::Mat Tile(const SheetFrame& item, const DatasetSheetOptions& options) {
   for (const ObjectRecord& object : item.room->objects) objects[object.instance_id] = &object;
   for (const FrameObjectRecord& seen : frame.objects) {
     const auto it = objects.find(seen.instance_id);
-    if (it == objects.end() || it->second->furniture_class.empty() || seen.visible_pixels == 0)
+    if (it == objects.end() || !it->second->furniture_class || seen.visible_pixels == 0)
       continue;
     const bool clear = seen.visibility >= options.min_visibility;
     const cv::Scalar colour_of_box =
@@ -41,7 +41,7 @@ cv::Mat Tile(const SheetFrame& item, const DatasetSheetOptions& options) {
     cv::rectangle(tile, box, colour_of_box, clear ? 2 : 1);
     char label[64];
     std::snprintf(
-        label, sizeof(label), "%s %.2f", it->second->furniture_class.c_str(), seen.visibility);
+        label, sizeof(label), "%s %.2f", ClassName(*it->second->furniture_class), seen.visibility);
     const cv::Point at(box.x + 2, std::max(12, box.y - 3));
     DrawLabel(&tile, label, at, colour_of_box);
   }
@@ -51,7 +51,7 @@ cv::Mat Tile(const SheetFrame& item, const DatasetSheetOptions& options) {
                 "frame %lld  room %lld (%s)",
                 static_cast<long long>(frame.id),
                 static_cast<long long>(item.room->id),
-                item.room->split.c_str());
+                EnumName(item.room->split));
   DrawLabel(&tile, caption, cv::Point(4, tile.rows - 6), cv::Scalar(255, 255, 255));
   return tile;
 }

@@ -143,7 +143,7 @@ void WriteDetectionDebug(const DetectionResult& result,
     CameraView view(camera, result.world_from_camera);
     for (const Eigen::Vector3f& p : debug.points) view.Dot(p, GreyForDistance((p - sensor).norm()));
     for (size_t d = 0; d < result.detections.size(); ++d) {
-      const cv::Scalar colour = ClassColour(ClassName(result.detections[d].furniture_class));
+      const cv::Scalar colour = ClassColour(result.detections[d].furniture_class);
       for (const Eigen::Vector3f& p : debug.fitted_points[d]) view.Dot(p, colour);
     }
     for (const Detection& d : result.detections) {
@@ -155,7 +155,7 @@ void WriteDetectionDebug(const DetectionResult& result,
         DrawLabel(&view.image(),
                   text,
                   *at + cv::Point(-30, -6),
-                  ClassColour(ClassName(d.furniture_class)));
+                  ClassColour(d.furniture_class));
       }
     }
     Caption(&view.image(), std::to_string(result.detections.size()) + " detections: fitted models");
@@ -236,12 +236,12 @@ void WriteDetectionDebug(const DetectionResult& result,
           PlanarPose{g.x, g.y, g.yaw},
           -half,
           half,
-          g.furniture_class.empty() ? cv::Scalar(110, 110, 110) : cv::Scalar(255, 255, 255),
+          !g.furniture_class ? cv::Scalar(110, 110, 110) : cv::Scalar(255, 255, 255),
           1);
     }
     for (const Detection& d : result.detections) {
       const ModelShape& shape = model.model_shapes[d.model_index];
-      const cv::Scalar colour = ClassColour(ClassName(d.furniture_class));
+      const cv::Scalar colour = ClassColour(d.furniture_class);
       top.Footprint(
           PlanarPose{d.x, d.y, d.yaw}, shape.low.head<2>(), shape.high.head<2>(), colour, 2);
       char text[64];

@@ -19,7 +19,7 @@ namespace furn {
 
 // A true object for the top-down view (from a dataset frame).
 struct GroundTruthFootprint {
-  std::string furniture_class;  // empty for clutter
+  std::optional<FurnitureClass> furniture_class;  // none for clutter
   double x = 0, y = 0, yaw = 0, width = 0, depth = 0;
   double height = 0;
 };

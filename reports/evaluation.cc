@@ -11,10 +11,6 @@
 namespace furn {
 namespace {
 
-std::string CentimetreName(double metres) {
-  return std::to_string(static_cast<int>(std::lround(metres * 100))) + "cm";
-}
-
 double Percentile(std::vector<double> values, double q) {
   if (values.empty()) return 0;
   std::sort(values.begin(), values.end());
@@ -43,7 +39,7 @@ struct Matching {
 
 // Protocol B for one class and distance; `role` says how each true object counts.
 Matching MatchClass(const std::vector<FrameOutcome>& frames,
-                    const std::string& furniture_class,
+                    FurnitureClass furniture_class,
                     double distance,
                     const std::function<Role(const TruthObject&)>& role) {
   Matching result;
@@ -105,7 +101,7 @@ Matching MatchClass(const std::vector<FrameOutcome>& frames,
 
 // The funnel and the false-positive kinds at 10 cm (see evaluation.h).
 void CountLosses(const std::vector<FrameOutcome>& frames,
-                 const std::string& furniture_class,
+                 FurnitureClass furniture_class,
                  const Matching& matching,
                  const EvaluationOptions& options,
                  const std::function<Role(const TruthObject&)>& role,
@@ -116,16 +112,16 @@ void CountLosses(const std::vector<FrameOutcome>& frames,
     found.insert(t);
     true_positives.insert(d);
   }
-  auto count = [&](const std::string& stage) {
-    (*m)["funnel/" + furniture_class + "/" + stage] += 1;
-    (*m)["funnel/all/" + stage] += 1;
+  auto count = [&](FunnelStage stage) {
+    (*m)[MetricId::Funnel(furniture_class, stage).Name()] += 1;
+    (*m)[MetricId::Funnel(std::nullopt, stage).Name()] += 1;
   };
   const double window = options.funnel_window_m;
   for (const FrameOutcome& frame : frames) {
     for (const TruthObject& t : frame.truth) {
       if (t.furniture_class != furniture_class || role(t) != Role::kTarget) continue;
       if (found.count(&t)) {
-        count("detected");
+        count(FunnelStage::kDetected);
         continue;
       }
       bool any_maximum = false, own_class = false;
@@ -138,11 +134,9 @@ void CountLosses(const std::vector<FrameOutcome>& frames,
         own_class = true;
       }
       if (!own_class) {
-        count(any_maximum ? "wrong_class_only" : "no_maximum");
-      } else if (furthest == HypothesisOutcome::kDetected) {
-        count("detected_off_target");
+        count(any_maximum ? FunnelStage::kWrongClassOnly : FunnelStage::kNoMaximum);
       } else {
-        count(OutcomeName(furthest));
+        count(FunnelStageOf(furthest));
       }
     }
     for (const ScoredDetection& d : frame.detections) {
@@ -150,7 +144,7 @@ void CountLosses(const std::vector<FrameOutcome>& frames,
       double same = 1e9, other = 1e9;
       bool ignored_near = false;
       for (const TruthObject& t : frame.truth) {
-        if (t.furniture_class.empty() || role(t) == Role::kAbsent) continue;
+        if (!t.furniture_class || role(t) == Role::kAbsent) continue;
         const double distance = std::hypot(t.x - d.x, t.y - d.y);
         if (t.furniture_class == furniture_class) {
           same = std::min(same, distance);
@@ -160,11 +154,11 @@ void CountLosses(const std::vector<FrameOutcome>& frames,
         }
       }
       if (ignored_near) continue;  // matched an ignored object: not a false positive
-      const char* kind = same <= 0.10   ? "duplicate"
-                         : same <= 0.5  ? "mislocated"
-                         : other <= 0.3 ? "wrong_class"
-                                        : "background";
-      (*m)[std::string("false_positives/") + kind] += 1;
+      const FalsePositiveKind kind = same <= 0.10   ? FalsePositiveKind::kDuplicate
+                                     : same <= 0.5  ? FalsePositiveKind::kMislocated
+                                     : other <= 0.3 ? FalsePositiveKind::kWrongClass
+                                                    : FalsePositiveKind::kBackground;
+      (*m)[MetricId::FalsePositives(kind).Name()] += 1;
     }
   }
 }
@@ -200,119 +194,131 @@ double CalibrationError(const std::vector<CalibrationBin>& bins) {
   return total > 0 ? sum / total : std::nan("");
 }
 
-bool HigherIsBetter(const std::string& metric) {
-  return metric.find("error") == std::string::npos && metric.rfind("latency", 0) != 0;
-}
+bool HigherIsBetter(const std::string& metric) { return MetricId::Parse(metric).HigherIsBetter(); }
 
-double MetricOrNan(const std::map<std::string, double>& metrics, const std::string& name) {
-  const auto it = metrics.find(name);
-  return it == metrics.end() ? std::nan("") : it->second;
-}
-
-EvaluationResult EvaluateFrames(const std::vector<FrameOutcome>& frames,
-                                const EvaluationOptions& options) {
-  Require(!frames.empty(), "evaluation needs at least one frame");
-  EvaluationResult result;
-  std::map<std::string, double>& m = result.metrics;
-  auto in_reach = [&](const TruthObject& t) {
-    return t.visibility >= options.min_visibility && t.distance_m <= options.max_distance_m;
-  };
-  auto all_objects = [&](const TruthObject& t) {
-    if (t.visibility <= 0) return Role::kAbsent;
-    return in_reach(t) ? Role::kTarget : Role::kIgnore;
-  };
-  int objects = 0;
-  for (const FrameOutcome& f : frames) {
-    for (const TruthObject& t : f.truth)
-      objects += !t.furniture_class.empty() && all_objects(t) == Role::kTarget;
+std::map<std::string, std::map<std::string, int>> ConfusionByName(const EvaluationResult& result) {
+  std::map<std::string, std::map<std::string, int>> named;
+  for (const auto& [detected, row] : result.confusion) {
+    for (const auto& [truth, count] : row)
+      named[ClassName(detected)][truth ? ClassName(*truth) : "background"] = count;
   }
-  m["frames"] = static_cast<double>(frames.size());
-  m["objects"] = objects;
+  return named;
+}
 
+namespace {
+
+using RoleOf = std::function<Role(const TruthObject&)>;
+using Metrics = std::map<std::string, double>;
+
+// Protocol B: AP per class and distance, mAP over the classes with objects.
+void AddDetectionAp(const std::vector<FrameOutcome>& frames,
+                    const EvaluationOptions& options,
+                    const RoleOf& role,
+                    EvaluationResult* result) {
   for (double distance : options.distances_m) {
     double sum = 0;
     int classes = 0;
-    for (const std::string& c : options.classes) {
-      const Matching matching = MatchClass(frames, c, distance, all_objects);
+    for (FurnitureClass c : options.classes) {
+      const Matching matching = MatchClass(frames, c, distance, role);
       if (matching.targets == 0) continue;
       const double ap = AveragePrecision(matching.curve);
-      m["AP/" + c + "@" + CentimetreName(distance)] = ap;
+      result->metrics[MetricId::ClassAp(c, distance).Name()] = ap;
       sum += ap;
       ++classes;
       if (std::abs(distance - 0.10) < 1e-9) {
-        result.curves["B/" + c + "@10cm"] = matching.curve;
+        result->curves[std::string("B/") + ClassName(c) + "@10cm"] = matching.curve;
       }
     }
-    if (classes > 0) m["mAP@" + CentimetreName(distance)] = sum / classes;
+    if (classes > 0) result->metrics[MetricId::MeanAp(distance).Name()] = sum / classes;
   }
+}
 
-  // Frames where a false detection outscores every true one, at 20 cm (a
-  // frame with only false detections counts): what a user acting on the
-  // top detection of each frame would get wrong.
-  {
-    std::set<const ScoredDetection*> true_at_20;
-    for (const std::string& c : options.classes) {
-      for (const auto& [d, t] : MatchClass(frames, c, 0.20, all_objects).true_positives)
-        true_at_20.insert(d);
-    }
-    int wrong_top = 0;
-    for (const FrameOutcome& f : frames) {
-      double best_true = -1, best_false = -1;
-      for (const ScoredDetection& d : f.detections) {
-        if (true_at_20.count(&d) > 0) {
-          best_true = std::max(best_true, d.score);
-          continue;
-        }
-        bool ignored_near = false;
-        for (const TruthObject& t : f.truth) {
-          ignored_near |= t.furniture_class == d.furniture_class &&
-                          all_objects(t) == Role::kIgnore &&
-                          std::hypot(t.x - d.x, t.y - d.y) <= 0.20;
-        }
-        if (!ignored_near) best_false = std::max(best_false, d.score);
+// Frames where a false detection outscores every true one, at 20 cm (a
+// frame with only false detections counts): what a user acting on the top
+// detection of each frame would get wrong.
+double FalseAboveTrue(const std::vector<FrameOutcome>& frames,
+                      const EvaluationOptions& options,
+                      const RoleOf& role) {
+  std::set<const ScoredDetection*> true_at_20;
+  for (FurnitureClass c : options.classes) {
+    for (const auto& [d, t] : MatchClass(frames, c, 0.20, role).true_positives)
+      true_at_20.insert(d);
+  }
+  int wrong_top = 0;
+  for (const FrameOutcome& f : frames) {
+    double best_true = -1, best_false = -1;
+    for (const ScoredDetection& d : f.detections) {
+      if (true_at_20.count(&d) > 0) {
+        best_true = std::max(best_true, d.score);
+        continue;
       }
-      wrong_top += best_false >= 0 && best_false > best_true;
+      bool ignored_near = false;
+      for (const TruthObject& t : f.truth) {
+        ignored_near |= t.furniture_class == d.furniture_class && role(t) == Role::kIgnore &&
+                        std::hypot(t.x - d.x, t.y - d.y) <= 0.20;
+      }
+      if (!ignored_near) best_false = std::max(best_false, d.score);
     }
-    m["false_above_true_error@20cm"] = static_cast<double>(wrong_top) / frames.size();
+    wrong_top += best_false >= 0 && best_false > best_true;
   }
+  return static_cast<double>(wrong_top) / frames.size();
+}
 
-  // Pose errors, CAD identification and per-frame errors at 10 cm.
+// The class's detections at 10 cm into the reliability bins (those that
+// matched an ignored object left out).
+void AddToCalibration(const std::vector<FrameOutcome>& frames,
+                      FurnitureClass c,
+                      const Matching& matching,
+                      const RoleOf& role,
+                      std::vector<CalibrationBin>* bins) {
+  const int count = static_cast<int>(bins->size());
+  std::set<const ScoredDetection*> true_positives;
+  for (const auto& [d, t] : matching.true_positives) true_positives.insert(d);
+  for (const FrameOutcome& f : frames) {
+    for (const ScoredDetection& d : f.detections) {
+      if (d.furniture_class != c) continue;
+      const bool tp = true_positives.count(&d) > 0;
+      bool ignored_near = false;
+      for (const TruthObject& t : f.truth) {
+        ignored_near |= t.furniture_class == c && role(t) == Role::kIgnore &&
+                        std::hypot(t.x - d.x, t.y - d.y) <= 0.10;
+      }
+      if (!tp && ignored_near) continue;
+      const int b = std::clamp(static_cast<int>(std::floor(d.score * count)), 0, count - 1);
+      ++(*bins)[b].detections;
+      (*bins)[b].true_positives += tp;
+      (*bins)[b].score_sum += d.score;
+    }
+  }
+}
+
+// At 10 cm: the funnel, false positives, calibration, per-frame errors,
+// pose errors and CAD identification.
+void AddLossesAndPoseErrors(const std::vector<FrameOutcome>& frames,
+                            const EvaluationOptions& options,
+                            const RoleOf& role,
+                            EvaluationResult* result) {
+  Metrics& m = result->metrics;
   double xy_sum = 0, yaw_sum = 0;
   int tps = 0, identified = 0, identifiable = 0;
-  for (const FrameOutcome& f : frames) result.frame_errors[f.frame_id] = {0, 0};
-  for (const char* stage : kFunnelStages) m[std::string("funnel/all/") + stage] = 0;
-  for (const char* kind : kFalsePositiveKinds) m[std::string("false_positives/") + kind] = 0;
+  for (const FrameOutcome& f : frames) result->frame_errors[f.frame_id] = {0, 0};
+  for (FunnelStage stage : EnumValues<FunnelStage>())
+    m[MetricId::Funnel(std::nullopt, stage).Name()] = 0;
+  for (FalsePositiveKind kind : EnumValues<FalsePositiveKind>())
+    m[MetricId::FalsePositives(kind).Name()] = 0;
   constexpr int kCalibrationBins = 10;
   for (int b = 0; b < kCalibrationBins; ++b) {
     CalibrationBin bin;
     bin.low = static_cast<double>(b) / kCalibrationBins;
     bin.high = static_cast<double>(b + 1) / kCalibrationBins;
-    result.calibration.push_back(bin);
+    result->calibration.push_back(bin);
   }
-  for (const std::string& c : options.classes) {
-    const Matching matching = MatchClass(frames, c, 0.10, all_objects);
-    CountLosses(frames, c, matching, options, all_objects, &m);
-    std::set<const ScoredDetection*> true_positives;
-    for (const auto& [d, t] : matching.true_positives) true_positives.insert(d);
-    for (const FrameOutcome& f : frames) {
-      for (const ScoredDetection& d : f.detections) {
-        if (d.furniture_class != c) continue;
-        const bool tp = true_positives.count(&d) > 0;
-        bool ignored_near = false;
-        for (const TruthObject& t : f.truth) {
-          ignored_near |= t.furniture_class == c && all_objects(t) == Role::kIgnore &&
-                          std::hypot(t.x - d.x, t.y - d.y) <= 0.10;
-        }
-        if (!tp && ignored_near) continue;
-        const int b = std::clamp(
-            static_cast<int>(std::floor(d.score * kCalibrationBins)), 0, kCalibrationBins - 1);
-        ++result.calibration[b].detections;
-        result.calibration[b].true_positives += tp;
-        result.calibration[b].score_sum += d.score;
-      }
-    }
+  for (FurnitureClass c : options.classes) {
+    const Matching matching = MatchClass(frames, c, 0.10, role);
+    CountLosses(frames, c, matching, options, role, &m);
+    AddToCalibration(frames, c, matching, role, &result->calibration);
     for (size_t f = 0; f < frames.size(); ++f) {
-      std::pair<int, int>& errors = result.frame_errors[frames[f].frame_id];
+      std::pair<int, int>& errors = result->frame_errors[frames[f].frame_id];
       errors.first += matching.false_positives_in_frame[f];
       errors.second += matching.targets_in_frame[f] - matching.true_positives_in_frame[f];
     }
@@ -327,104 +333,167 @@ EvaluationResult EvaluateFrames(const std::vector<FrameOutcome>& frames,
     }
   }
   if (tps > 0) {
-    m["xy_error_mean_m"] = xy_sum / tps;
-    m["yaw_error_mean_deg"] = yaw_sum / tps;
+    m[MetricId::Plain(PlainMetric::kXyErrorMean).Name()] = xy_sum / tps;
+    m[MetricId::Plain(PlainMetric::kYawErrorMean).Name()] = yaw_sum / tps;
   }
-  if (identifiable > 0) m["cad_identified"] = static_cast<double>(identified) / identifiable;
-  const double calibration_error = CalibrationError(result.calibration);
-  if (std::isfinite(calibration_error)) m["calibration_error"] = calibration_error;
+  if (identifiable > 0)
+    m[MetricId::Plain(PlainMetric::kCadIdentified).Name()] =
+        static_cast<double>(identified) / identifiable;
+  const double calibration_error = CalibrationError(result->calibration);
+  if (std::isfinite(calibration_error))
+    m[MetricId::Plain(PlainMetric::kCalibrationError).Name()] = calibration_error;
+}
 
-  // Seen and unseen CAD models: the other group's objects become "ignore".
+// Seen and unseen CAD models: the other group's objects become "ignore".
+void AddSeenAndUnseen(const std::vector<FrameOutcome>& frames,
+                      const EvaluationOptions& options,
+                      const RoleOf& role,
+                      Metrics* m) {
   for (const bool seen : {true, false}) {
     double sum = 0;
     int classes = 0;
-    for (const std::string& c : options.classes) {
+    for (FurnitureClass c : options.classes) {
       const Matching matching = MatchClass(frames, c, 0.10, [&](const TruthObject& t) {
-        const Role role = all_objects(t);
-        return role == Role::kTarget && t.seen_in_training != seen ? Role::kIgnore : role;
+        const Role r = role(t);
+        return r == Role::kTarget && t.seen_in_training != seen ? Role::kIgnore : r;
       });
       if (matching.targets == 0) continue;
       sum += AveragePrecision(matching.curve);
       ++classes;
     }
-    if (classes > 0) m[seen ? "mAP_seen@10cm" : "mAP_unseen@10cm"] = sum / classes;
+    if (classes > 0) {
+      (*m)[MetricId::Plain(seen ? PlainMetric::kMeanApSeen : PlainMetric::kMeanApUnseen).Name()] =
+          sum / classes;
+    }
   }
+}
 
-  // Confusion at 10 cm: each detection against the nearest target object.
+// Confusion at 10 cm: each detection against the nearest target object.
+void AddConfusion(const std::vector<FrameOutcome>& frames,
+                  const RoleOf& role,
+                  EvaluationResult* result) {
   for (const FrameOutcome& f : frames) {
     for (const ScoredDetection& d : f.detections) {
-      std::string truth = "background";
+      std::optional<FurnitureClass> truth;
       double best = 0.10;
       for (const TruthObject& t : f.truth) {
-        if (t.furniture_class.empty() || all_objects(t) == Role::kAbsent) continue;
+        if (!t.furniture_class || role(t) == Role::kAbsent) continue;
         const double distance = std::hypot(t.x - d.x, t.y - d.y);
         if (distance <= best) {
           best = distance;
           truth = t.furniture_class;
         }
       }
-      ++result.confusion[d.furniture_class][truth];
+      ++result->confusion[d.furniture_class][truth];
     }
   }
+}
 
-  // Protocol A: maxima in a square window around the objects, threshold swept.
+// Protocol A for one class at one threshold: TPs, FPs, objects found and
+// objects to find.
+struct PaperCounts {
+  int tp = 0, fp = 0, found = 0, objects = 0;
+};
+PaperCounts CountPaperMaxima(const std::vector<FrameOutcome>& frames,
+                             FurnitureClass c,
+                             double threshold,
+                             double window_m,
+                             const RoleOf& role) {
+  PaperCounts counts;
+  for (const FrameOutcome& f : frames) {
+    std::vector<bool> hit(f.truth.size(), false);
+    for (const HoughMaximum& h : f.maxima) {
+      if (h.furniture_class != c || h.relative < threshold) continue;
+      bool inside = false;
+      for (size_t k = 0; k < f.truth.size(); ++k) {
+        const TruthObject& o = f.truth[k];
+        if (o.furniture_class != c || role(o) == Role::kAbsent) continue;
+        if (std::abs(o.x - h.x) <= window_m && std::abs(o.y - h.y) <= window_m) {
+          inside = true;
+          hit[k] = true;
+        }
+      }
+      inside ? ++counts.tp : ++counts.fp;
+    }
+    for (size_t k = 0; k < f.truth.size(); ++k) {
+      if (f.truth[k].furniture_class != c || role(f.truth[k]) != Role::kTarget) continue;
+      ++counts.objects;
+      counts.found += hit[k];
+    }
+  }
+  return counts;
+}
+
+// Protocol A: maxima in a square window around the objects, threshold swept.
+void AddPaperProtocol(const std::vector<FrameOutcome>& frames,
+                      const EvaluationOptions& options,
+                      const RoleOf& role,
+                      EvaluationResult* result) {
   std::vector<double> thresholds = options.paper_thresholds;
   if (thresholds.empty()) {
     for (int k = 0; k <= 20; ++k) thresholds.push_back(k * 0.05);
   }
-  for (const std::string& c : options.classes) {
+  for (FurnitureClass c : options.classes) {
     std::vector<PrPoint> curve;
     double best_f1 = 0;
     int class_objects = 0;
     for (double t : thresholds) {
-      int tp = 0, fp = 0, found = 0;
-      class_objects = 0;
-      for (const FrameOutcome& f : frames) {
-        std::vector<bool> hit(f.truth.size(), false);
-        for (const HoughMaximum& h : f.maxima) {
-          if (h.furniture_class != c || h.relative < t) continue;
-          bool inside = false;
-          for (size_t k = 0; k < f.truth.size(); ++k) {
-            const TruthObject& o = f.truth[k];
-            if (o.furniture_class != c || all_objects(o) == Role::kAbsent) continue;
-            if (std::abs(o.x - h.x) <= options.paper_window_m &&
-                std::abs(o.y - h.y) <= options.paper_window_m) {
-              inside = true;
-              hit[k] = true;
-            }
-          }
-          inside ? ++tp : ++fp;
-        }
-        for (size_t k = 0; k < f.truth.size(); ++k) {
-          if (f.truth[k].furniture_class != c || all_objects(f.truth[k]) != Role::kTarget) continue;
-          ++class_objects;
-          found += hit[k];
-        }
-      }
+      const PaperCounts counts = CountPaperMaxima(frames, c, t, options.paper_window_m, role);
+      class_objects = counts.objects;
       if (class_objects == 0) break;
-      const double recall = static_cast<double>(found) / class_objects;
-      const double precision = tp + fp > 0 ? static_cast<double>(tp) / (tp + fp) : 1.0;
+      const double recall = static_cast<double>(counts.found) / class_objects;
+      const double precision =
+          counts.tp + counts.fp > 0 ? static_cast<double>(counts.tp) / (counts.tp + counts.fp) : 1.0;
       curve.push_back({recall, precision, t});
       if (precision + recall > 0)
         best_f1 = std::max(best_f1, 2 * precision * recall / (precision + recall));
     }
     if (class_objects == 0) continue;
-    result.curves["A/" + c] = curve;
-    m["paper/" + c + "/best_f1"] = best_f1;
+    result->curves[std::string("A/") + ClassName(c)] = curve;
+    result->metrics[MetricId::PaperBestF1(c).Name()] = best_f1;
   }
+}
 
-  // Latency.
+void AddLatency(const std::vector<FrameOutcome>& frames, Metrics* m) {
   std::vector<double> totals;
-  std::map<std::string, std::vector<double>> stages;
+  std::map<DetectionStage, std::vector<double>> stages;
   for (const FrameOutcome& f : frames) {
     totals.push_back(f.total_ms);
     for (const auto& [stage, ms] : f.stage_ms) stages[stage].push_back(ms);
   }
-  m["latency_p50_ms"] = Percentile(totals, 0.5);
-  m["latency_p90_ms"] = Percentile(totals, 0.9);
-  m["latency_p99_ms"] = Percentile(totals, 0.99);
+  (*m)[MetricId::Plain(PlainMetric::kLatencyP50).Name()] = Percentile(totals, 0.5);
+  (*m)[MetricId::Plain(PlainMetric::kLatencyP90).Name()] = Percentile(totals, 0.9);
+  (*m)[MetricId::Plain(PlainMetric::kLatencyP99).Name()] = Percentile(totals, 0.99);
   for (const auto& [stage, values] : stages)
-    m["latency_" + stage + "_p50_ms"] = Percentile(values, 0.5);
+    (*m)[MetricId::StageLatency(stage).Name()] = Percentile(values, 0.5);
+}
+
+}  // namespace
+
+EvaluationResult EvaluateFrames(const std::vector<FrameOutcome>& frames,
+                                const EvaluationOptions& options) {
+  Require(!frames.empty(), "evaluation needs at least one frame");
+  EvaluationResult result;
+  Metrics& m = result.metrics;
+  const RoleOf role = [&](const TruthObject& t) {
+    if (t.visibility <= 0) return Role::kAbsent;
+    return t.visibility >= options.min_visibility && t.distance_m <= options.max_distance_m
+               ? Role::kTarget
+               : Role::kIgnore;
+  };
+  int objects = 0;
+  for (const FrameOutcome& f : frames) {
+    for (const TruthObject& t : f.truth) objects += t.furniture_class && role(t) == Role::kTarget;
+  }
+  m[MetricId::Plain(PlainMetric::kFrames).Name()] = static_cast<double>(frames.size());
+  m[MetricId::Plain(PlainMetric::kObjects).Name()] = objects;
+  AddDetectionAp(frames, options, role, &result);
+  m[MetricId::Plain(PlainMetric::kFalseAboveTrue).Name()] = FalseAboveTrue(frames, options, role);
+  AddLossesAndPoseErrors(frames, options, role, &result);
+  AddSeenAndUnseen(frames, options, role, &m);
+  AddConfusion(frames, role, &result);
+  AddPaperProtocol(frames, options, role, &result);
+  AddLatency(frames, &m);
   return result;
 }
 

@@ -16,7 +16,7 @@
 // with no maximum in their window are FNs; the relative threshold is swept.
 //
 //   EvaluationResult result = EvaluateFrames(frames, EvaluationOptions{});
-//   result.metrics["mAP@10cm"];
+//   MetricOrNan(result.metrics, MetricId::MeanAp(0.10));
 #pragma once
 
 #include <cstdint>
@@ -25,11 +25,12 @@
 #include <vector>
 
 #include "core/detector.h"  // HypothesisOutcome
+#include "reports/metric_id.h"
 
 namespace furn {
 
 struct TruthObject {
-  std::string furniture_class;  // empty: clutter, never a target
+  std::optional<FurnitureClass> furniture_class;  // none: clutter, never a target
   std::string model_id;
   double x = 0, y = 0, yaw = 0;  // reference point and yaw, world frame
   double visibility = 0;         // visible / amodal pixels in this frame
@@ -38,7 +39,7 @@ struct TruthObject {
 };
 
 struct ScoredDetection {
-  std::string furniture_class;
+  FurnitureClass furniture_class = FurnitureClass::kChair;
   std::string model_id;
   double x = 0, y = 0, yaw = 0;
   double score = 0;
@@ -46,7 +47,7 @@ struct ScoredDetection {
 };
 
 struct HoughMaximum {
-  std::string furniture_class;
+  FurnitureClass furniture_class = FurnitureClass::kChair;
   double x = 0, y = 0;
   double relative = 0;  // (value - min) / (max - min) of its class grid
   HypothesisOutcome outcome = HypothesisOutcome::kNoSupport;  // where it stopped
@@ -58,11 +59,13 @@ struct FrameOutcome {
   std::vector<ScoredDetection> detections;
   std::vector<HoughMaximum> maxima;
   double total_ms = 0;
-  std::map<std::string, double> stage_ms;
+  std::map<DetectionStage, double> stage_ms;  // every stage but kTotal
 };
 
 struct EvaluationOptions {
-  std::vector<std::string> classes = {"chair", "armchair", "table", "sideboard"};
+  // Classes evaluated: every class (one without objects or detections in the
+  // frames adds no metric).
+  std::vector<FurnitureClass> classes{kAllClasses.begin(), kAllClasses.end()};
   std::vector<double> distances_m = {0.05, 0.10, 0.20};
   double min_visibility = 0.25;
   double max_distance_m = 3.0;           // objects farther from the camera are "ignore"
@@ -90,8 +93,8 @@ struct EvaluationResult {
   // PR curves: "B/<class>@10cm" (by score) and "A/<class>" (by threshold).
   std::map<std::string, std::vector<PrPoint>> curves;
   // Confusion of detected class against the class of the true object it lies
-  // within 10 cm of ("background" when none): counts[detected][true].
-  std::map<std::string, std::map<std::string, int>> confusion;
+  // within 10 cm of (none: background): counts[detected][true].
+  std::map<FurnitureClass, std::map<std::optional<FurnitureClass>, int>> confusion;
   // Per frame id: false positives and missed objects at 10 cm (protocol B).
   std::map<int64_t, std::pair<int, int>> frame_errors;
   // Ten equal bins of score over [0, 1] (scores outside are clamped).
@@ -103,40 +106,20 @@ struct EvaluationResult {
 double CalibrationError(const std::vector<CalibrationBin>& bins);
 
 // Where objects are lost (at 10 cm, objects that count as targets): each is
-// "detected" (a TP), else the furthest stage reached by a maximum of its
-// class within funnel_window_m of it: an OutcomeName ("low_coverage",
-// "suppressed", ...; "detected_off_target" when that maximum's detection lies
-// farther than 10 cm or matched another object), "wrong_class_only" (maxima
-// of other classes only) or "no_maximum". Metrics funnel/<class>/<stage> and
-// funnel/all/<stage>, counts. False positives at 10 cm by kind,
-// false_positives/<kind>: "duplicate" (an object of its class within 10 cm,
-// already matched), "mislocated" (one within 0.5 m), "wrong_class" (an object
-// of another class within 0.3 m), "background" (none of these).
-inline constexpr char kFunnelStages[][24] = {"detected",
-                                             "detected_off_target",
-                                             "suppressed",
-                                             "low_score",
-                                             "seen_through",
-                                             "low_seen_occupied",
-                                             "low_verification",
-                                             "low_coverage",
-                                             "no_fit",
-                                             "same_support",
-                                             "no_support",
-                                             "wrong_class_only",
-                                             "no_maximum"};
-inline constexpr char kFalsePositiveKinds[][16] = {
-    "duplicate", "mislocated", "wrong_class", "background"};
+// FunnelStage::kDetected (a TP), else the furthest stage reached by a maximum
+// of its class within funnel_window_m of it (FunnelStageOf its outcome;
+// kDetectedOffTarget when that maximum's detection lies farther than 10 cm or
+// matched another object), kWrongClassOnly (maxima of other classes only) or
+// kNoMaximum. Metrics MetricId::Funnel(class or all, stage), counts. False
+// positives at 10 cm by kind (MetricId::FalsePositives): duplicate (an object
+// of its class within 10 cm, already matched), mislocated (one within 0.5 m),
+// wrong class (an object of another class within 0.3 m), background (none).
 
-// Metric names: AP/<class>@<d>cm, mAP@<d>cm, mAP_seen@10cm, mAP_unseen@10cm
-// (when such objects exist), xy_error_mean_m, yaw_error_mean_deg,
-// cad_identified (TPs at 10 cm whose model is the true one, seen models only),
-// latency_p50_ms, latency_p90_ms, latency_p99_ms, latency_<stage>_p50_ms,
-// paper/<class>/best_f1, calibration_error (when there are detections),
-// frames, objects.
-// The named metric, or NaN when a run lacks it (e.g. AP of a class that had
-// no objects).
-double MetricOrNan(const std::map<std::string, double>& metrics, const std::string& name);
+// Metrics (metric_id.h): ClassAp and MeanAp per distance, mAP_seen@10cm and
+// mAP_unseen@10cm (when such objects exist), pose errors, cad_identified (TPs
+// at 10 cm whose model is the true one, seen models only), latency
+// percentiles and per stage, PaperBestF1 per class, calibration_error (when
+// there are detections), frames, objects, the funnel and false positives.
 
 EvaluationResult EvaluateFrames(const std::vector<FrameOutcome>& frames,
                                 const EvaluationOptions& options);
@@ -144,7 +127,11 @@ EvaluationResult EvaluateFrames(const std::vector<FrameOutcome>& frames,
 // All-point interpolated average precision of a PR curve sorted by recall.
 double AveragePrecision(const std::vector<PrPoint>& curve);
 
-// Whether a higher value of the metric is better (false for errors and latency).
+// Whether a higher value of the named metric is better (false for errors
+// and latency); InputError for a name that is no metric.
 bool HigherIsBetter(const std::string& metric);
+
+// The confusion as JSON: {detected: {true class or "background": count}}.
+std::map<std::string, std::map<std::string, int>> ConfusionByName(const EvaluationResult& result);
 
 }  // namespace furn

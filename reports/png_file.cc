@@ -16,16 +16,25 @@ void WritePngAtomically(const cv::Mat& image, const std::string& png_path) {
   WriteFileAtomically(png_path, std::string(bytes.begin(), bytes.end()));
 }
 
-std::array<uint8_t, 3> ClassColourRgb(const std::string& name) {
-  if (name == "chair") return {60, 220, 60};
-  if (name == "armchair") return {40, 160, 255};
-  if (name == "table") return {255, 200, 40};
-  if (name == "sideboard") return {230, 80, 230};
+std::array<uint8_t, 3> ClassColourRgb(std::optional<FurnitureClass> furniture_class) {
+  if (!furniture_class) return {255, 255, 255};
+  switch (*furniture_class) {
+    case FurnitureClass::kChair:
+      return {60, 220, 60};
+    case FurnitureClass::kArmchair:
+      return {40, 160, 255};
+    case FurnitureClass::kTable:
+      return {255, 200, 40};
+    case FurnitureClass::kSideboard:
+      return {230, 80, 230};
+    case FurnitureClass::kSofa:
+      return {200, 110, 70};
+  }
   return {255, 255, 255};
 }
 
-cv::Scalar ClassColour(const std::string& name) {
-  const std::array<uint8_t, 3> rgb = ClassColourRgb(name);
+cv::Scalar ClassColour(std::optional<FurnitureClass> furniture_class) {
+  const std::array<uint8_t, 3> rgb = ClassColourRgb(furniture_class);
   return cv::Scalar(rgb[2], rgb[1], rgb[0]);  // OpenCV's BGR
 }
 

@@ -4,14 +4,17 @@
 #pragma once
 
 #include <opencv2/core/mat.hpp>
+#include <optional>
 #include <string>
+
+#include "core/furniture_class.h"
 
 namespace furn {
 
 void WritePngAtomically(const cv::Mat& image, const std::string& png_path);
 
-// One colour per detector class (BGR), white for anything else.
-cv::Scalar ClassColour(const std::string& class_name);
+// One colour per detector class (BGR), white for none (clutter).
+cv::Scalar ClassColour(std::optional<FurnitureClass> furniture_class);
 
 // Text with a dark outline, readable on any background.
 void DrawLabel(cv::Mat* image,

@@ -16,7 +16,27 @@
 namespace furn {
 namespace {
 
-const std::vector<std::string> kClasses = {"chair", "armchair", "table", "sideboard"};
+// The classes a report shows: the paper's four, then any other class the
+// run has data for (a sofa where the dataset has sofas).
+std::vector<FurnitureClass> ReportedClasses(const std::function<bool(FurnitureClass)>& has_data) {
+  std::vector<FurnitureClass> classes(kPaperClasses.begin(), kPaperClasses.end());
+  for (FurnitureClass c : kAllClasses) {
+    if (std::find(classes.begin(), classes.end(), c) == classes.end() && has_data(c))
+      classes.push_back(c);
+  }
+  return classes;
+}
+
+// Whether any metric of `metrics` is about class `c`.
+bool HasClassMetrics(const std::map<std::string, double>& metrics, FurnitureClass c) {
+  const std::string name = ClassName(c);
+  for (const auto& [metric, value] : metrics) {
+    if (metric.find("/" + name + "@") != std::string::npos ||
+        metric.find("/" + name + "/") != std::string::npos)
+      return true;
+  }
+  return false;
+}
 
 // A PR plot of the named curves (recall, precision) from the run's results.
 void PlotCurves(const nlohmann::json& curves,
@@ -29,7 +49,10 @@ void PlotCurves(const nlohmann::json& curves,
          << "set title '" << title << "'\nset xlabel 'recall'\nset ylabel 'precision'\n"
          << "set xrange [0:1]\nset yrange [0:1.02]\nset grid\nset key bottom left\n";
   bool any = false;
-  for (const std::string& c : kClasses) {
+  const std::vector<FurnitureClass> classes = ReportedClasses(
+      [&](FurnitureClass c) { return curves.contains(prefix + ClassName(c) + suffix); });
+  for (FurnitureClass furniture_class : classes) {
+    const std::string c = ClassName(furniture_class);
     const std::string name = prefix + c + suffix;
     if (!curves.contains(name) || curves[name].empty()) continue;
     script << "$" << c << " << EOD\n";
@@ -128,12 +151,13 @@ void WriteHistoryReport(const std::vector<HistoryDataset>& datasets, const std::
   std::filesystem::create_directories(dir, error);
   Require(!error, dir + ": cannot create the history directory (" + error.message() + ")");
   auto path = [&](const std::string& name) { return (std::filesystem::path(dir) / name).string(); };
-  const std::vector<std::string> plotted = {"mAP@10cm",
-                                            "mAP@5cm",
-                                            "mAP@20cm",
-                                            "false_above_true_error@20cm",
-                                            "xy_error_mean_m",
-                                            "latency_p50_ms"};
+  const std::vector<std::string> plotted = {
+      MetricId::MeanAp(0.10).Name(),
+      MetricId::MeanAp(0.05).Name(),
+      MetricId::MeanAp(0.20).Name(),
+      MetricId::Plain(PlainMetric::kFalseAboveTrue).Name(),
+      MetricId::Plain(PlainMetric::kXyErrorMean).Name(),
+      MetricId::Plain(PlainMetric::kLatencyP50).Name()};
   const char* colours[] = {"#aa3377", "#4477aa", "#228833", "#ccbb44", "#66ccee", "#ee6677"};
   for (size_t p = 0; p < plotted.size(); ++p) {
     std::ostringstream script;
@@ -192,8 +216,10 @@ void WriteHistoryReport(const std::vector<HistoryDataset>& datasets, const std::
          << HtmlEscape(run.started) << "</td><td>" << HtmlEscape(run.git_commit.substr(0, 10))
          << (run.git_dirty ? "+" : "") << "</td><td>" << HtmlEscape(run.kind) << "</td><td>"
          << HtmlEscape(run.label) << "</td>";
-    for (const std::string& name : names)
-      html << "<td>" << Number(MetricOrNan(*row.metrics, name), 3) << "</td>";
+    for (const std::string& name : names) {  // stored names, of any version
+      const auto it = row.metrics->find(name);
+      html << "<td>" << Number(it == row.metrics->end() ? std::nan("") : it->second, 3) << "</td>";
+    }
     html << "</tr>\n";
   }
   html << "</table>\n<p>+ after a commit: run on a working tree with uncommitted changes.</p>\n"
@@ -217,7 +243,7 @@ std::string PageHead(const std::string& title, const RunRecord& run) {
        << "<tr><th>started</th><td>" << HtmlEscape(run.started) << "</td></tr>"
        << "<tr><th>commit</th><td>" << HtmlEscape(run.git_commit)
        << (run.git_dirty ? " (dirty)" : "") << "</td></tr>"
-       << "<tr><th>split</th><td>" << HtmlEscape(run.split) << "</td></tr>"
+       << "<tr><th>split</th><td>" << HtmlEscape(EnumName(run.split)) << "</td></tr>"
        << "<tr><th>model</th><td>" << HtmlEscape(run.model_path) << " · "
        << HtmlEscape(run.model_hash) << "</td></tr>"
        << "<tr><th>dataset hash</th><td>" << HtmlEscape(run.dataset_hash) << "</td></tr>"
@@ -239,32 +265,35 @@ std::string PageTail(const RunRecord& run, const std::map<std::string, double>& 
 }
 
 // Where the objects were lost (evaluation.h's funnel), a row per class, and
-// the false positives by kind; `metric` gives a count by name (NaN: none).
-std::string FunnelHtml(const std::function<double(const std::string&)>& metric) {
+// the false positives by kind; `metric` gives a count (NaN: none).
+std::string FunnelHtml(const std::vector<FurnitureClass>& classes,
+                       const std::function<double(const MetricId&)>& metric) {
   std::ostringstream html;
   html << "<h2>Where objects are lost (10 cm)</h2>\n<p>Each object to find is counted once: "
           "found, or the furthest stage a Hough maximum of its class within 15 cm of it "
           "reached. Start tuning from the biggest loss.</p>\n<table><tr><th>class</th>";
-  for (std::string stage : kFunnelStages) {  // spaces, so the header wraps
+  for (FunnelStage funnel_stage : EnumValues<FunnelStage>()) {  // spaces, so the header wraps
+    std::string stage = EnumName(funnel_stage);
     std::replace(stage.begin(), stage.end(), '_', ' ');
     html << "<th>" << stage << "</th>";
   }
   html << "</tr>";
-  std::vector<std::string> rows = kClasses;
-  rows.push_back("all");
-  for (const std::string& c : rows) {
-    html << "<tr><td>" << c << "</td>";
-    for (const char* stage : kFunnelStages) {
-      const double n = metric("funnel/" + c + "/" + stage);
+  std::vector<std::optional<FurnitureClass>> rows(classes.begin(), classes.end());
+  rows.push_back(std::nullopt);  // all
+  for (const std::optional<FurnitureClass>& c : rows) {
+    html << "<tr><td>" << (c ? ClassName(*c) : "all") << "</td>";
+    for (FunnelStage stage : EnumValues<FunnelStage>()) {
+      const double n = metric(MetricId::Funnel(c, stage));
       html << "<td>" << (std::isnan(n) ? std::string("0") : Number(n, 0)) << "</td>";
     }
     html << "</tr>";
   }
   html << "</table>\n<table><tr><th>false positives (10 cm)</th>";
-  for (const char* kind : kFalsePositiveKinds) html << "<th>" << kind << "</th>";
+  for (FalsePositiveKind kind : EnumValues<FalsePositiveKind>())
+    html << "<th>" << EnumName(kind) << "</th>";
   html << "</tr><tr><td>all classes</td>";
-  for (const char* kind : kFalsePositiveKinds) {
-    const double n = metric(std::string("false_positives/") + kind);
+  for (FalsePositiveKind kind : EnumValues<FalsePositiveKind>()) {
+    const double n = metric(MetricId::FalsePositives(kind));
     html << "<td>" << (std::isnan(n) ? std::string("0") : Number(n, 0)) << "</td>";
   }
   html << "</tr></table>\n";
@@ -317,9 +346,122 @@ std::string ReliabilityHtml(const nlohmann::json& bins,
   return html.str();
 }
 
-double JsonMetric(const nlohmann::json& metrics, const std::string& name) {
+double JsonMetric(const nlohmann::json& metrics, const MetricId& id) {
+  const std::string name = id.Name();
   return metrics.contains(name) && metrics[name].is_number() ? metrics[name].get<double>()
                                                              : std::nan("");
+}
+
+}  // namespace
+
+namespace {
+
+const double kDistances[] = {0.05, 0.10, 0.20};
+
+// AP@10cm per class and fold, grouped bars.
+void PlotFoldAp(const nlohmann::json& folds,
+                const std::vector<FurnitureClass>& classes,
+                const std::string& png_path) {
+  std::ostringstream script;
+  script << "set terminal pngcairo noenhanced size 760,380 font 'sans,10'\n"
+         << "set title 'leave-models-out: AP@10cm per class, one bar per fold (0 = none found, "
+         << "gap = no such object)'\nset style data histograms\nset style histogram cluster "
+         << "gap 1\nset style fill solid 0.8 border -1\nset yrange [0:1.05]\nset grid ytics\n"
+         << "set ylabel 'AP@10cm'\nset key outside right\n$ap << EOD\n";
+  for (FurnitureClass c : classes) {
+    script << ClassName(c);
+    for (const nlohmann::json& fold : folds) {
+      const double ap = JsonMetric(fold["metrics"], MetricId::ClassAp(c, 0.10));
+      script << " " << (std::isfinite(ap) ? std::to_string(ap) : "NaN");
+    }
+    script << "\n";
+  }
+  script << "EOD\nplot ";
+  for (size_t k = 0; k < folds.size(); ++k) {
+    script << (k ? ", " : "") << "$ap using " << k + 2 << (k ? "" : ":xtic(1)") << " title 'fold "
+           << k << "'";
+  }
+  if (folds.empty()) script << "2 title 'no folds'";
+  script << "\n";
+  RunGnuplot(script.str(), png_path);
+}
+
+// One row of the folds table: what it held out, its size, mAP and APs.
+std::string FoldRowHtml(const nlohmann::json& fold,
+                        const std::vector<FurnitureClass>& classes,
+                        const std::string& fold_report) {
+  std::ostringstream html;
+  const nlohmann::json& fm = fold["metrics"];
+  html << "<tr><td>" << fold.value("fold", 0) << "</td><td>";
+  for (size_t c = 0; c < classes.size(); ++c)
+    html << (c ? "/" : "") << fold["held_out"].value(ClassName(classes[c]), 0);
+  html << "</td><td>" << Number(JsonMetric(fm, MetricId::Plain(PlainMetric::kFrames)), 0)
+       << "</td><td>" << Number(JsonMetric(fm, MetricId::Plain(PlainMetric::kObjects)), 0)
+       << "</td>";
+  for (double d : kDistances) html << "<td>" << Number(JsonMetric(fm, MetricId::MeanAp(d))) << "</td>";
+  for (FurnitureClass c : classes)
+    html << "<td>" << Number(JsonMetric(fm, MetricId::ClassAp(c, 0.10))) << "</td>";
+  html << "<td>";
+  if (!fold_report.empty()) {
+    html << "<a href=\"" << HtmlEscape(fold_report) << "/index.html\">run " << fold.value("run", 0)
+         << "</a>";
+  } else {
+    html << "run " << fold.value("run", 0);
+  }
+  html << "</td></tr>";
+  return html.str();
+}
+
+// The folds table: a row per fold, the mean +- spread, and the fixed gates.
+std::string FoldsTableHtml(const nlohmann::json& folds,
+                           const std::vector<FurnitureClass>& classes,
+                           const std::vector<std::string>& fold_reports,
+                           const std::map<std::string, double>& m) {
+  std::ostringstream html;
+  html << "<table><tr><th>fold</th><th>held out</th><th>frames</th>"
+          "<th>objects</th><th>mAP @5cm</th><th>mAP @10cm</th><th>mAP @20cm</th>";
+  for (FurnitureClass c : classes) html << "<th>" << ClassName(c) << " AP @10cm</th>";
+  html << "<th>report</th></tr>";
+  for (size_t k = 0; k < folds.size(); ++k)
+    html << FoldRowHtml(folds[k], classes, k < fold_reports.size() ? fold_reports[k] : "");
+  auto mean_spread = [&](const MetricId& id) {
+    return "<td><b>" + Number(MetricOrNan(m, id)) + "</b> &plusmn; " +
+           Number(MetricOrNan(m, id.InGroup(MetricId::Group::kSpread))) + "</td>";
+  };
+  html << "<tr><td><b>mean</b></td><td></td><td>"
+       << Number(MetricOrNan(m, MetricId::Plain(PlainMetric::kFrames)), 0) << "</td><td>"
+       << Number(MetricOrNan(m, MetricId::Plain(PlainMetric::kObjects)), 0) << "</td>";
+  for (double d : kDistances) html << mean_spread(MetricId::MeanAp(d));
+  for (FurnitureClass c : classes) html << mean_spread(MetricId::ClassAp(c, 0.10));
+  html << "<td></td></tr>";
+  const auto gates = [](const MetricId& id) { return id.InGroup(MetricId::Group::kGates); };
+  if (m.count(gates(MetricId::MeanAp(0.10)).Name())) {  // the same folds without the learned scorer
+    html << "<tr><td><b>fixed gates</b></td><td></td><td></td><td></td>";
+    for (double d : kDistances)
+      html << "<td>" << Number(MetricOrNan(m, gates(MetricId::MeanAp(d)))) << "</td>";
+    for (FurnitureClass c : classes)
+      html << "<td>" << Number(MetricOrNan(m, gates(MetricId::ClassAp(c, 0.10)))) << "</td>";
+    html << "<td></td></tr>";
+  }
+  html << "</table>\n";
+  return html.str();
+}
+
+// Pose and speed, mean and spread over the folds.
+std::string PoseAndSpeedHtml(const std::map<std::string, double>& m) {
+  std::ostringstream html;
+  html << "<h2>Pose and speed (mean over folds)</h2>\n<table><tr><th>metric</th><th>mean</th>"
+       << "<th>spread</th></tr>";
+  for (PlainMetric plain : {PlainMetric::kXyErrorMean,
+                            PlainMetric::kYawErrorMean,
+                            PlainMetric::kLatencyP50,
+                            PlainMetric::kLatencyP90}) {
+    const MetricId id = MetricId::Plain(plain);
+    html << "<tr><td>" << id.Name() << "</td><td>" << Number(MetricOrNan(m, id)) << "</td><td>"
+         << Number(MetricOrNan(m, id.InGroup(MetricId::Group::kSpread))) << "</td></tr>";
+  }
+  html << "</table>\n";
+  return html.str();
 }
 
 }  // namespace
@@ -333,31 +475,9 @@ void WriteCrossvalReport(const RunReportInput& input,
   const nlohmann::json results = nlohmann::json::parse(input.run.results_json);
   const nlohmann::json folds = results.value("folds", nlohmann::json::array());
   const std::map<std::string, double>& m = input.metrics;
-
-  {  // AP@10cm per class and fold, grouped bars.
-    std::ostringstream script;
-    script << "set terminal pngcairo noenhanced size 760,380 font 'sans,10'\n"
-           << "set title 'leave-models-out: AP@10cm per class, one bar per fold (0 = none found, "
-           << "gap = no such object)'\nset style data histograms\nset style histogram cluster "
-           << "gap 1\nset style fill solid 0.8 border -1\nset yrange [0:1.05]\nset grid ytics\n"
-           << "set ylabel 'AP@10cm'\nset key outside right\n$ap << EOD\n";
-    for (const std::string& c : kClasses) {
-      script << c;
-      for (const nlohmann::json& fold : folds) {
-        const double ap = JsonMetric(fold["metrics"], "AP/" + c + "@10cm");
-        script << " " << (std::isfinite(ap) ? std::to_string(ap) : "NaN");
-      }
-      script << "\n";
-    }
-    script << "EOD\nplot ";
-    for (size_t k = 0; k < folds.size(); ++k) {
-      script << (k ? ", " : "") << "$ap using " << k + 2 << (k ? "" : ":xtic(1)") << " title 'fold "
-             << k << "'";
-    }
-    if (folds.empty()) script << "2 title 'no folds'";
-    script << "\n";
-    RunGnuplot(script.str(), (std::filesystem::path(dir) / "folds_ap.png").string());
-  }
+  const std::vector<FurnitureClass> classes =
+      ReportedClasses([&](FurnitureClass c) { return HasClassMetrics(m, c); });
+  PlotFoldAp(folds, classes, (std::filesystem::path(dir) / "folds_ap.png").string());
 
   std::ostringstream html;
   html << PageHead("Leave-models-out run", input.run);
@@ -367,76 +487,27 @@ void WriteCrossvalReport(const RunReportInput& input,
        << " folds, stratified by class. Fold <i>k</i> is held "
           "out of training and its models are the only targets of the rooms that evaluate it "
           "(clutter as usual); every figure below is the mean over the folds &plusmn; the spread "
-          "(standard deviation) between them. Held out: models per class (chair / armchair / "
-          "table / sideboard).</p>\n<table><tr><th>fold</th><th>held out</th><th>frames</th>"
-          "<th>objects</th><th>mAP @5cm</th><th>mAP @10cm</th><th>mAP @20cm</th>";
-  for (const std::string& c : kClasses) html << "<th>" << c << " AP @10cm</th>";
-  html << "<th>report</th></tr>";
-  for (size_t k = 0; k < folds.size(); ++k) {
-    const nlohmann::json& fold = folds[k];
-    const nlohmann::json& fm = fold["metrics"];
-    html << "<tr><td>" << fold.value("fold", 0) << "</td><td>";
-    for (size_t c = 0; c < kClasses.size(); ++c)
-      html << (c ? "/" : "") << fold["held_out"].value(kClasses[c], 0);
-    html << "</td><td>" << Number(JsonMetric(fm, "frames"), 0) << "</td><td>"
-         << Number(JsonMetric(fm, "objects"), 0) << "</td>";
-    for (const char* name : {"mAP@5cm", "mAP@10cm", "mAP@20cm"})
-      html << "<td>" << Number(JsonMetric(fm, name)) << "</td>";
-    for (const std::string& c : kClasses)
-      html << "<td>" << Number(JsonMetric(fm, "AP/" + c + "@10cm")) << "</td>";
-    html << "<td>";
-    if (k < fold_reports.size() && !fold_reports[k].empty()) {
-      html << "<a href=\"" << HtmlEscape(fold_reports[k]) << "/index.html\">run "
-           << fold.value("run", 0) << "</a>";
-    } else {
-      html << "run " << fold.value("run", 0);
-    }
-    html << "</td></tr>";
-  }
-  auto mean_spread = [&](const std::string& name) {
-    return "<td><b>" + Number(MetricOrNan(m, name)) + "</b> &plusmn; " +
-           Number(MetricOrNan(m, "spread/" + name)) + "</td>";
-  };
-  html << "<tr><td><b>mean</b></td><td></td><td>" << Number(MetricOrNan(m, "frames"), 0)
-       << "</td><td>" << Number(MetricOrNan(m, "objects"), 0) << "</td>";
-  for (const char* name : {"mAP@5cm", "mAP@10cm", "mAP@20cm"}) html << mean_spread(name);
-  for (const std::string& c : kClasses) html << mean_spread("AP/" + c + "@10cm");
-  html << "<td></td></tr>";
-  if (m.count("gates/mAP@10cm")) {  // the same folds without the learned scorer
-    html << "<tr><td><b>fixed gates</b></td><td></td><td></td><td></td>";
-    for (const char* name : {"mAP@5cm", "mAP@10cm", "mAP@20cm"})
-      html << "<td>" << Number(MetricOrNan(m, std::string("gates/") + name)) << "</td>";
-    for (const std::string& c : kClasses)
-      html << "<td>" << Number(MetricOrNan(m, "gates/AP/" + c + "@10cm")) << "</td>";
-    html << "<td></td></tr>";
-  }
-  html << "</table>\n";
-  if (m.count("gates/mAP@10cm")) {
+          "(standard deviation) between them. Held out: models per class (";
+  for (size_t c = 0; c < classes.size(); ++c) html << (c ? " / " : "") << ClassName(classes[c]);
+  html << ").</p>\n" << FoldsTableHtml(folds, classes, fold_reports, m);
+  if (m.count(MetricId::MeanAp(0.10).InGroup(MetricId::Group::kGates).Name())) {
     html << "<p>Rows per fold and <b>mean</b>: detection scored by the learned hypothesis scorer "
             "of each fold, trained on the hypotheses of the other folds' rooms only (nested, so "
             "no fold's furniture is seen by its own scorer). <b>fixed gates</b>: the same fold "
             "models with the fixed verification thresholds instead.</p>\n";
   }
-  html << "<img src=\"folds_ap.png\" alt=\"AP per class and fold\">\n"
-       << "<h2>Pose and speed (mean over folds)</h2>\n<table><tr><th>metric</th><th>mean</th>"
-       << "<th>spread</th></tr>";
-  for (const char* name :
-       {"xy_error_mean_m", "yaw_error_mean_deg", "latency_p50_ms", "latency_p90_ms"}) {
-    html << "<tr><td>" << name << "</td><td>" << Number(MetricOrNan(m, name)) << "</td><td>"
-         << Number(MetricOrNan(m, std::string("spread/") + name)) << "</td></tr>";
-  }
-  html << "</table>\n";
+  html << "<img src=\"folds_ap.png\" alt=\"AP per class and fold\">\n" << PoseAndSpeedHtml(m);
   if (results.contains("calibration")) {  // pooled over the folds
     html << ReliabilityHtml(results["calibration"],
-                            MetricOrNan(m, "calibration_error"),
+                            MetricOrNan(m, MetricId::Plain(PlainMetric::kCalibrationError)),
                             (std::filesystem::path(dir) / "reliability.png").string(),
                             "reliability.png");
   }
-  html << FunnelHtml([&](const std::string& name) {  // counts: summed over the folds
+  html << FunnelHtml(classes, [&](const MetricId& id) {  // counts: summed over the folds
     double sum = 0;
     bool any = false;
     for (const nlohmann::json& fold : folds) {
-      const double n = JsonMetric(fold["metrics"], name);
+      const double n = JsonMetric(fold["metrics"], id);
       if (std::isnan(n)) continue;
       sum += n;
       any = true;
@@ -447,100 +518,98 @@ void WriteCrossvalReport(const RunReportInput& input,
   WriteFileAtomically((std::filesystem::path(dir) / "index.html").string(), html.str());
 }
 
-void WriteRunReport(const RunReportInput& input, const std::string& dir) {
-  std::error_code error;
-  std::filesystem::create_directories(dir, error);
-  Require(!error, dir + ": cannot create the report directory (" + error.message() + ")");
-  auto path = [&](const std::string& name) { return (std::filesystem::path(dir) / name).string(); };
-  const nlohmann::json results = nlohmann::json::parse(input.run.results_json);
-  const nlohmann::json curves = results.value("curves", nlohmann::json::object());
-  const std::map<std::string, double>& m = input.metrics;
+namespace {
 
-  PlotCurves(
-      curves, "B/", "@10cm", "protocol B: detections by score, 10 cm", path("pr_detection.png"));
-  PlotCurves(curves,
-             "A/",
-             "",
-             "protocol A (paper): Hough maxima, 5 cm window, threshold swept",
-             path("pr_paper.png"));
-  {  // Latency histogram (10 ms bins).
-    std::ostringstream script;
-    script << "set terminal pngcairo noenhanced size 640,360 font 'sans,10'\n"
-           << "set title 'detection time per frame (" << input.frame_ms.size() << " frames)'\n"
-           << "set xlabel 'ms'\nset ylabel 'frames'\nset style fill solid 0.6\nset boxwidth 9\n"
-           << "set grid ytics\n$t << EOD\n";
-    for (double ms : input.frame_ms) script << ms << "\n";
-    script
-        << "EOD\nbin(x) = 10 * floor(x / 10) + 5\n"
-        << "plot $t using (bin($1)):(1.0) smooth frequency with boxes lc rgb '#4477aa' notitle\n";
-    RunGnuplot(script.str(), path("latency.png"));
-  }
-  {  // Confusion of detected class against the true class at 10 cm.
-    std::vector<std::string> labels = kClasses;
-    labels.push_back("background");
-    std::vector<std::vector<int64_t>> counts(labels.size(), std::vector<int64_t>(labels.size(), 0));
-    const nlohmann::json confusion = results.value("confusion", nlohmann::json::object());
-    for (size_t predicted = 0; predicted < labels.size(); ++predicted) {
-      if (!confusion.contains(labels[predicted])) continue;
-      for (size_t truth = 0; truth < labels.size(); ++truth) {
-        counts[truth][predicted] = confusion[labels[predicted]].value(labels[truth], 0);
-      }
+// Latency histogram (10 ms bins).
+void PlotLatency(const std::vector<double>& frame_ms, const std::string& png_path) {
+  std::ostringstream script;
+  script << "set terminal pngcairo noenhanced size 640,360 font 'sans,10'\n"
+         << "set title 'detection time per frame (" << frame_ms.size() << " frames)'\n"
+         << "set xlabel 'ms'\nset ylabel 'frames'\nset style fill solid 0.6\nset boxwidth 9\n"
+         << "set grid ytics\n$t << EOD\n";
+  for (double ms : frame_ms) script << ms << "\n";
+  script << "EOD\nbin(x) = 10 * floor(x / 10) + 5\n"
+         << "plot $t using (bin($1)):(1.0) smooth frequency with boxes lc rgb '#4477aa' notitle\n";
+  RunGnuplot(script.str(), png_path);
+}
+
+// Confusion of detected class against the true class at 10 cm.
+void PlotConfusion(const nlohmann::json& results,
+                   const std::vector<FurnitureClass>& classes,
+                   const std::string& png_path) {
+  std::vector<std::string> labels;
+  for (FurnitureClass c : classes) labels.push_back(ClassName(c));
+  labels.push_back("background");
+  std::vector<std::vector<int64_t>> counts(labels.size(), std::vector<int64_t>(labels.size(), 0));
+  const nlohmann::json confusion = results.value("confusion", nlohmann::json::object());
+  for (size_t predicted = 0; predicted < labels.size(); ++predicted) {
+    if (!confusion.contains(labels[predicted])) continue;
+    for (size_t truth = 0; truth < labels.size(); ++truth) {
+      counts[truth][predicted] = confusion[labels[predicted]].value(labels[truth], 0);
     }
-    WriteConfusionPng(labels, counts, "detections at 10 cm", path("confusion.png"));
   }
+  WriteConfusionPng(labels, counts, "detections at 10 cm", png_path);
+}
 
+// The headline metrics and the per-class table.
+std::string SummaryHtml(const std::map<std::string, double>& m,
+                        const std::vector<FurnitureClass>& classes) {
   std::ostringstream html;
-  html << PageHead("Evaluation run", input.run);
   html << "<h2>Summary</h2>\n<table><tr><th>metric</th><th>value</th></tr>";
-  for (const char* name : {"frames",
-                           "objects",
-                           "mAP@5cm",
-                           "mAP@10cm",
-                           "mAP@20cm",
-                           "mAP_seen@10cm",
-                           "mAP_unseen@10cm",
-                           "xy_error_mean_m",
-                           "yaw_error_mean_deg",
-                           "cad_identified",
-                           "latency_p50_ms",
-                           "latency_p90_ms",
-                           "latency_p99_ms"}) {
-    const bool count = std::string(name) == "frames" || std::string(name) == "objects";
-    html << "<tr><td>" << name << "</td><td>" << Number(MetricOrNan(m, name), count ? 0 : 3)
+  const std::vector<MetricId> summary = {MetricId::Plain(PlainMetric::kFrames),
+                                         MetricId::Plain(PlainMetric::kObjects),
+                                         MetricId::MeanAp(0.05),
+                                         MetricId::MeanAp(0.10),
+                                         MetricId::MeanAp(0.20),
+                                         MetricId::Plain(PlainMetric::kMeanApSeen),
+                                         MetricId::Plain(PlainMetric::kMeanApUnseen),
+                                         MetricId::Plain(PlainMetric::kXyErrorMean),
+                                         MetricId::Plain(PlainMetric::kYawErrorMean),
+                                         MetricId::Plain(PlainMetric::kCadIdentified),
+                                         MetricId::Plain(PlainMetric::kLatencyP50),
+                                         MetricId::Plain(PlainMetric::kLatencyP90),
+                                         MetricId::Plain(PlainMetric::kLatencyP99)};
+  for (const MetricId& id : summary) {
+    const bool count = std::string(id.Unit()) == "count";
+    html << "<tr><td>" << id.Name() << "</td><td>" << Number(MetricOrNan(m, id), count ? 0 : 3)
          << "</td></tr>";
   }
   html << "</table>\n<h2>Per class</h2>\n<table><tr><th>class</th><th>AP@5cm</th><th>AP@10cm</th>"
        << "<th>AP@20cm</th><th>paper best F1</th></tr>";
-  for (const std::string& c : kClasses) {
-    html << "<tr><td>" << c << "</td>";
-    for (const char* d : {"@5cm", "@10cm", "@20cm"})
-      html << "<td>" << Number(MetricOrNan(m, "AP/" + c + d)) << "</td>";
-    html << "<td>" << Number(MetricOrNan(m, "paper/" + c + "/best_f1")) << "</td></tr>";
+  for (FurnitureClass c : classes) {
+    html << "<tr><td>" << ClassName(c) << "</td>";
+    for (double d : kDistances) html << "<td>" << Number(MetricOrNan(m, MetricId::ClassAp(c, d))) << "</td>";
+    html << "<td>" << Number(MetricOrNan(m, MetricId::PaperBestF1(c))) << "</td></tr>";
   }
-  html
-      << "</table>\n<div class=\"row\"><div><h3>PR, protocol B</h3><img src=\"pr_detection.png\" "
-      << "alt=\"protocol B PR curves\"></div><div><h3>PR, protocol A</h3><img src=\"pr_paper.png\" "
-      << "alt=\"protocol A PR curves\"></div></div>\n<div class=\"row\"><div><h3>Confusion (10 cm)"
-      << "</h3><img src=\"confusion.png\" alt=\"confusion matrix\"></div><div><h3>Latency</h3>"
-      << "<img src=\"latency.png\" alt=\"latency histogram\"><table><tr><th>stage</th>"
-      << "<th>p50 ms</th></tr>";
+  html << "</table>\n";
+  return html.str();
+}
+
+// The figures' row and the per-stage latency table.
+std::string FiguresHtml(const std::map<std::string, double>& m) {
+  std::ostringstream html;
+  html << "<div class=\"row\"><div><h3>PR, protocol B</h3><img src=\"pr_detection.png\" "
+       << "alt=\"protocol B PR curves\"></div><div><h3>PR, protocol A</h3><img src=\"pr_paper.png\" "
+       << "alt=\"protocol A PR curves\"></div></div>\n<div class=\"row\"><div><h3>Confusion (10 cm)"
+       << "</h3><img src=\"confusion.png\" alt=\"confusion matrix\"></div><div><h3>Latency</h3>"
+       << "<img src=\"latency.png\" alt=\"latency histogram\"><table><tr><th>stage</th>"
+       << "<th>p50 ms</th></tr>";
   for (const auto& [name, value] : m) {
-    if (name.rfind("latency_", 0) == 0 && name.find("_p50_ms") != std::string::npos &&
-        name != "latency_p50_ms") {
-      html << "<tr><td>" << HtmlEscape(name.substr(8, name.size() - 8 - 7)) << "</td><td>"
-           << Number(value, 1) << "</td></tr>";
-    }
+    const std::optional<MetricId> id = MetricId::TryParse(name);
+    if (!id || id->kind() != MetricId::Kind::kStageLatency) continue;
+    html << "<tr><td>" << HtmlEscape(name.substr(8, name.size() - 8 - 7)) << "</td><td>"
+         << Number(value, 1) << "</td></tr>";
   }
   html << "</table></div></div>\n";
-  html << ReliabilityHtml(results.value("calibration", nlohmann::json::array()),
-                          MetricOrNan(m, "calibration_error"),
-                          path("reliability.png"),
-                          "reliability.png");
-  html << FunnelHtml([&](const std::string& name) { return MetricOrNan(m, name); });
+  return html.str();
+}
+
+std::string GalleryHtml(const std::vector<GalleryFrame>& gallery) {
+  std::ostringstream html;
   html << "<h2>Frames with the most errors</h2>\n";
-  if (input.gallery.empty())
+  if (gallery.empty())
     html << "<p>No gallery (no frame had an error, or the model file is gone).</p>\n";
-  for (const GalleryFrame& g : input.gallery) {
+  for (const GalleryFrame& g : gallery) {
     html << "<h3>frame " << g.frame_id << ": " << g.false_positives << " false positive(s), "
          << g.false_negatives << " missed</h3>\n<div class=\"gallery row\">";
     for (const std::string& png : g.pngs) {
@@ -549,7 +618,40 @@ void WriteRunReport(const RunReportInput& input, const std::string& dir) {
     }
     html << "</div>\n";
   }
-  html << PageTail(input.run, m);
+  return html.str();
+}
+
+}  // namespace
+
+void WriteRunReport(const RunReportInput& input, const std::string& dir) {
+  std::error_code error;
+  std::filesystem::create_directories(dir, error);
+  Require(!error, dir + ": cannot create the report directory (" + error.message() + ")");
+  auto path = [&](const std::string& name) { return (std::filesystem::path(dir) / name).string(); };
+  const nlohmann::json results = nlohmann::json::parse(input.run.results_json);
+  const nlohmann::json curves = results.value("curves", nlohmann::json::object());
+  const std::map<std::string, double>& m = input.metrics;
+  const std::vector<FurnitureClass> classes =
+      ReportedClasses([&](FurnitureClass c) { return HasClassMetrics(m, c); });
+
+  PlotCurves(
+      curves, "B/", "@10cm", "protocol B: detections by score, 10 cm", path("pr_detection.png"));
+  PlotCurves(curves,
+             "A/",
+             "",
+             "protocol A (paper): Hough maxima, 5 cm window, threshold swept",
+             path("pr_paper.png"));
+  PlotLatency(input.frame_ms, path("latency.png"));
+  PlotConfusion(results, classes, path("confusion.png"));
+
+  std::ostringstream html;
+  html << PageHead("Evaluation run", input.run) << SummaryHtml(m, classes) << FiguresHtml(m);
+  html << ReliabilityHtml(results.value("calibration", nlohmann::json::array()),
+                          MetricOrNan(m, MetricId::Plain(PlainMetric::kCalibrationError)),
+                          path("reliability.png"),
+                          "reliability.png");
+  html << FunnelHtml(classes, [&](const MetricId& id) { return MetricOrNan(m, id); });
+  html << GalleryHtml(input.gallery) << PageTail(input.run, m);
   WriteFileAtomically(path("index.html"), html.str());
 }
 

@@ -50,7 +50,7 @@ void PlotEffect(const TuneReportInput& input, size_t parameter, const std::strin
   std::ostringstream script, others, base;
   std::map<double, std::pair<double, int>> mean;  // x -> (sum, count)
   for (const TuneReportTrial& trial : input.trials) {
-    const double y = MetricOrNan(trial.metrics, input.objective);
+    const double y = MetricOrNan(trial.metrics, MetricId::Parse(input.objective));
     if (std::isnan(y)) continue;
     const double x = x_of(trial.values[parameter]);
     (trial.index == 0 ? base : others) << x << " " << y << "\n";
@@ -94,7 +94,7 @@ void PlotEffect(const TuneReportInput& input, size_t parameter, const std::strin
 void PlotProgress(const TuneReportInput& input, const std::string& png_path) {
   std::vector<std::pair<int, double>> by_index;
   for (const TuneReportTrial& trial : input.trials)
-    by_index.emplace_back(trial.index, MetricOrNan(trial.metrics, input.objective));
+    by_index.emplace_back(trial.index, MetricOrNan(trial.metrics, MetricId::Parse(input.objective)));
   std::sort(by_index.begin(), by_index.end());
   std::ostringstream script;
   script << "set terminal pngcairo noenhanced size 520,340 font 'sans,10'\n"
@@ -113,17 +113,18 @@ void PlotProgress(const TuneReportInput& input, const std::string& png_path) {
 
 // Rows of headline metrics, base and best side by side per split.
 void WriteComparison(const TuneReportInput& input, std::ostringstream* html) {
-  const std::vector<std::string> rows = {"mAP@10cm",
-                                         "mAP@5cm",
-                                         "mAP@20cm",
-                                         "AP/chair@10cm",
-                                         "AP/armchair@10cm",
-                                         "AP/table@10cm",
-                                         "AP/sideboard@10cm",
-                                         "cad_identified",
-                                         "xy_error_mean_m",
-                                         "yaw_error_mean_deg",
-                                         "latency_p50_ms"};
+  std::vector<MetricId> rows = {MetricId::MeanAp(0.10), MetricId::MeanAp(0.05), MetricId::MeanAp(0.20)};
+  for (FurnitureClass c : kAllClasses) {
+    const MetricId ap = MetricId::ClassAp(c, 0.10);
+    const bool paper = std::find(kPaperClasses.begin(), kPaperClasses.end(), c) != kPaperClasses.end();
+    if (paper || input.base_validation.count(ap.Name()) || input.best_validation.count(ap.Name()))
+      rows.push_back(ap);
+  }
+  for (PlainMetric plain : {PlainMetric::kCadIdentified,
+                            PlainMetric::kXyErrorMean,
+                            PlainMetric::kYawErrorMean,
+                            PlainMetric::kLatencyP50})
+    rows.push_back(MetricId::Plain(plain));
   const bool test = !input.base_test.empty() || !input.best_test.empty();
   *html << "<table><tr><th>metric</th><th>base, " << HtmlEscape(input.validation_split)
         << "</th><th>best, " << HtmlEscape(input.validation_split) << "</th>";
@@ -133,8 +134,8 @@ void WriteComparison(const TuneReportInput& input, std::ostringstream* html) {
           << "</th>";
   }
   *html << "</tr>\n";
-  for (const std::string& name : rows) {
-    *html << "<tr><td>" << HtmlEscape(name) << "</td><td>"
+  for (const MetricId& name : rows) {
+    *html << "<tr><td>" << HtmlEscape(name.Name()) << "</td><td>"
           << Number(MetricOrNan(input.base_validation, name)) << "</td><td>"
           << Number(MetricOrNan(input.best_validation, name)) << "</td>";
     if (test) {
@@ -199,9 +200,9 @@ void WriteTuneReport(const TuneReportInput& input, const std::string& dir) {
                                                       : "";
     html << "<tr class=\"" << css << "\"><td>" << rank + 1 << "</td><td>" << trial.index
          << (trial.index == 0 ? " (base)" : "") << "</td><td>" << trial.run_id << "</td><td>"
-         << Number(MetricOrNan(trial.metrics, input.objective)) << "</td><td>"
-         << Number(MetricOrNan(trial.metrics, "mAP@5cm")) << "</td><td>"
-         << Number(MetricOrNan(trial.metrics, "latency_p50_ms"), 1) << "</td><td>"
+         << Number(MetricOrNan(trial.metrics, MetricId::Parse(input.objective))) << "</td><td>"
+         << Number(MetricOrNan(trial.metrics, MetricId::MeanAp(0.05))) << "</td><td>"
+         << Number(MetricOrNan(trial.metrics, MetricId::Plain(PlainMetric::kLatencyP50)), 1) << "</td><td>"
          << (trial.retrained ? "yes" : "no") << "</td>";
     for (const std::string& value : trial.values) html << "<td>" << HtmlEscape(value) << "</td>";
     html << "</tr>\n";

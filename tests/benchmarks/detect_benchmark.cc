@@ -17,8 +17,8 @@
 
 #include "core/detector.h"
 #include "db/dataset_db.h"
-#include "workbench/detect_command.h"
-#include "workbench/real_set.h"
+#include "workbench/formats/scan_file.h"
+#include "workbench/pipelines/import_real.h"
 
 namespace furn {
 namespace {
@@ -42,7 +42,7 @@ void DetectInTurn(const Detector& detector,
   size_t next = 0;
   for (auto _ : state) {
     const DetectionResult result = detector.Detect(scans[next++ % scans.size()].input);
-    for (const auto& [stage, ms] : result.timings_ms) stages[stage].push_back(ms);
+    for (const StageTime& t : result.timings_ms.stages) stages[EnumName(t.stage)].push_back(t.ms);
     benchmark::DoNotOptimize(result.detections.size());
   }
   state.counters["frames"] = static_cast<double>(scans.size());

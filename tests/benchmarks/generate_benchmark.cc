@@ -9,7 +9,7 @@
 #include <filesystem>
 
 #include "core/progress.h"
-#include "workbench/generate.h"
+#include "workbench/pipelines/generate.h"
 
 namespace furn {
 namespace {

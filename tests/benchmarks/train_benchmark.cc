@@ -9,7 +9,7 @@
 #include <filesystem>
 
 #include "core/progress.h"
-#include "workbench/train_command.h"
+#include "workbench/pipelines/train.h"
 
 namespace furn {
 namespace {

@@ -16,7 +16,7 @@ RoomRecord MakeRoom(int64_t id, size_t image_bytes) {
   ObjectRecord object;
   object.instance_id = 10;
   object.model_id = "m";
-  object.furniture_class = "chair";
+  object.furniture_class = FurnitureClass::kChair;
   room.objects.push_back(object);
   for (int j = 0; j < 2; ++j) {
     FrameRecord frame;
@@ -43,7 +43,7 @@ RoomRecord MakeRoom(int64_t id, size_t image_bytes) {
 TEST(DatasetDb, RoomsRoundTrip) {
   const std::string path = testing::ScratchDir() + "/d.db";
   DatasetDb dataset(path, DatasetDb::Mode::kReadWrite);
-  dataset.WriteModels({{"m", "chair", "abc", Eigen::Vector3d(0.5, 0.5, 0.9), false}});
+  dataset.WriteModels({{"m", FurnitureClass::kChair, "abc", Eigen::Vector3d(0.5, 0.5, 0.9), false}});
   const RoomRecord room = MakeRoom(3, 100);
   dataset.WriteRoom(room);
   EXPECT_TRUE(dataset.HasRoom(3));
@@ -51,9 +51,9 @@ TEST(DatasetDb, RoomsRoundTrip) {
   EXPECT_EQ(back.seed, room.seed);
   ASSERT_EQ(back.frames.size(), 2u);
   EXPECT_EQ(back.frames[1].depth_noisy_png, room.frames[1].depth_noisy_png);
-  EXPECT_EQ(back.objects[0].furniture_class, "chair");
+  EXPECT_EQ(back.objects[0].furniture_class, FurnitureClass::kChair);
   // The same model with another hash means the catalog changed: refused.
-  EXPECT_THROW(dataset.WriteModels({{"m", "chair", "xyz", Eigen::Vector3d::Ones(), false}}),
+  EXPECT_THROW(dataset.WriteModels({{"m", FurnitureClass::kChair, "xyz", Eigen::Vector3d::Ones(), false}}),
                DbError);
   EXPECT_THROW(dataset.WriteRoom(room), DbError);  // room 3 exists
 }
@@ -62,7 +62,7 @@ TEST(DatasetDb, FullDiskFailsCleanlyAndKeepsWholeRooms) {
   const std::string path = testing::ScratchDir() + "/full.db";
   {
     DatasetDb dataset(path, DatasetDb::Mode::kReadWrite);
-    dataset.WriteModels({{"m", "chair", "abc", Eigen::Vector3d(0.5, 0.5, 0.9), false}});
+    dataset.WriteModels({{"m", FurnitureClass::kChair, "abc", Eigen::Vector3d(0.5, 0.5, 0.9), false}});
     dataset.WriteRoom(MakeRoom(0, 20000));
     // A disk that is full after a few more pages, as SQLite sees it.
     Statement pages(dataset.database(), "PRAGMA page_count");
@@ -88,8 +88,8 @@ TEST(DatasetDb, FullDiskFailsCleanlyAndKeepsWholeRooms) {
 TEST(DatasetDb, SplitsFollowTheRatios) {
   int counts[3] = {0, 0, 0};
   for (uint64_t seed = 0; seed < 10000; ++seed) {
-    const std::string split = SplitForSeed(seed * 7919);
-    counts[split == "train" ? 0 : split == "val" ? 1 : 2]++;
+    const Split split = SplitForSeed(seed * 7919);
+    counts[split == Split::kTrain ? 0 : split == Split::kVal ? 1 : 2]++;
   }
   EXPECT_NEAR(counts[0] / 10000.0, 0.6, 0.03);
   EXPECT_NEAR(counts[1] / 10000.0, 0.2, 0.03);

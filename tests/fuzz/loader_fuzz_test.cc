@@ -27,13 +27,14 @@
 #include "core/progress.h"
 #include "db/dataset_db.h"
 #include "db/sqlite.h"
-#include "renderers/frame_io.h"
+#include "workbench/formats/depth_png.h"
+#include "workbench/formats/point_cloud_file.h"
 #include "scenes/catalog.h"
 #include "scenes/mesh_io.h"
 #include "tests/scenes/fixtures.h"
 #include "tests/test_util.h"
-#include "workbench/detect_command.h"
-#include "workbench/train_command.h"
+#include "workbench/formats/scan_file.h"
+#include "workbench/pipelines/train.h"
 
 #if defined(__SANITIZE_ADDRESS__)
 // Under ASan (FURN_SANITIZE=address,...) the 1 GB rule holds per allocation

@@ -10,7 +10,7 @@ namespace {
 
 TruthObject Chair(double x, double y, double visibility = 1.0, bool seen = true) {
   TruthObject t;
-  t.furniture_class = "chair";
+  t.furniture_class = FurnitureClass::kChair;
   t.model_id = seen ? "chair-a" : "chair-new";
   t.x = x;
   t.y = y;
@@ -22,7 +22,7 @@ TruthObject Chair(double x, double y, double visibility = 1.0, bool seen = true)
 
 ScoredDetection Found(double x, double y, double score, const std::string& model = "chair-a") {
   ScoredDetection d;
-  d.furniture_class = "chair";
+  d.furniture_class = FurnitureClass::kChair;
   d.model_id = model;
   d.x = x;
   d.y = y;
@@ -32,7 +32,7 @@ ScoredDetection Found(double x, double y, double score, const std::string& model
 
 EvaluationOptions ChairsOnly() {
   EvaluationOptions options;
-  options.classes = {"chair"};
+  options.classes = {FurnitureClass::kChair};
   return options;
 }
 
@@ -41,7 +41,7 @@ HoughMaximum Maximum(const std::string& furniture_class,
                      double y,
                      HypothesisOutcome outcome) {
   HoughMaximum h;
-  h.furniture_class = furniture_class;
+  h.furniture_class = ParseFurnitureClass(furniture_class);
   h.x = x;
   h.y = y;
   h.outcome = outcome;
@@ -69,7 +69,7 @@ TEST(Funnel, EachObjectIsCountedAtTheStageThatLostIt) {
                       Found(10.02, 0, 0.6),  // on the ignored chair: not an FP
                       Found(20, 0, 0.5)};    // background
   TruthObject table;
-  table.furniture_class = "table";
+  table.furniture_class = FurnitureClass::kTable;
   table.x = 30;
   table.visibility = 1;
   table.distance_m = 2;
@@ -84,7 +84,8 @@ TEST(Funnel, EachObjectIsCountedAtTheStageThatLostIt) {
   EXPECT_EQ(m.at("funnel/chair/detected_off_target"), 1);
   EXPECT_FALSE(m.count("funnel/chair/low_coverage"));
   double counted = 0;
-  for (const char* stage : kFunnelStages) counted += m.at(std::string("funnel/all/") + stage);
+  for (FunnelStage stage : EnumValues<FunnelStage>())
+    counted += m.at(std::string("funnel/all/") + EnumName(stage));
   EXPECT_EQ(counted, 5);  // every target once; the ignored chair not at all
   EXPECT_EQ(m.at("false_positives/duplicate"), 1);
   EXPECT_EQ(m.at("false_positives/mislocated"), 1);
@@ -182,7 +183,9 @@ TEST(ProtocolB, YawErrorIsTakenModuloTheModelSymmetry) {
 TEST(ProtocolA, MaximaInTheWindowAreFoundAsTheThresholdRises) {
   FrameOutcome frame;
   frame.truth = {Chair(0, 0), Chair(2, 0)};
-  frame.maxima = {{"chair", 0.03, -0.02, 0.9}, {"chair", 1.0, 1.0, 0.5}, {"chair", 2.0, 0.1, 0.95}};
+  frame.maxima = {{FurnitureClass::kChair, 0.03, -0.02, 0.9},
+                  {FurnitureClass::kChair, 1.0, 1.0, 0.5},
+                  {FurnitureClass::kChair, 2.0, 0.1, 0.95}};
   EvaluationOptions options = ChairsOnly();
   options.paper_thresholds = {0.0, 0.6, 0.92};
   const EvaluationResult r = EvaluateFrames({frame}, options);

@@ -19,8 +19,8 @@
 #include "core/progress.h"
 #include "db/sqlite.h"
 #include "tests/test_util.h"
-#include "workbench/dataset_commands.h"
-#include "workbench/generate.h"
+#include "workbench/pipelines/dataset_tools.h"
+#include "workbench/pipelines/generate.h"
 
 namespace furn {
 namespace {

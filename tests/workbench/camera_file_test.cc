@@ -1,6 +1,6 @@
 // Camera files as datasets ship them (BOP, ROS), poses as people type them,
 // and the cloud and depth-image formats real sensors' tools write.
-#include "workbench/camera_file.h"
+#include "workbench/formats/camera_file.h"
 
 #include <gtest/gtest.h>
 
@@ -9,7 +9,8 @@
 
 #include "core/error.h"
 #include "core/render_compare.h"
-#include "renderers/frame_io.h"
+#include "workbench/formats/depth_png.h"
+#include "workbench/formats/point_cloud_file.h"
 #include "tests/test_util.h"
 
 namespace furn {

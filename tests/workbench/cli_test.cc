@@ -13,11 +13,12 @@
 #include "core/file_util.h"
 #include "core/mesh.h"
 #include "db/dataset_db.h"
-#include "renderers/frame_io.h"
+#include "workbench/formats/depth_png.h"
+#include "workbench/formats/point_cloud_file.h"
 #include "scenes/mesh_io.h"
 #include "tests/scenes/fixtures.h"
 #include "tests/test_util.h"
-#include "workbench/catalog_commands.h"
+#include "workbench/pipelines/import_catalog.h"
 
 namespace furn {
 namespace {

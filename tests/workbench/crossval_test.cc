@@ -35,7 +35,7 @@ TEST(Crossval, LeaveModelsOutFoldsAreTrainedEvaluatedAggregatedAndGated) {
     int targets = 0;
     for (int64_t room : dataset.RoomIds()) {
       for (const ObjectRecord& object : dataset.ReadRoom(room, false).objects) {
-        if (object.furniture_class.empty()) continue;
+        if (!object.furniture_class) continue;
         ++targets;
         EXPECT_EQ(folds.fold_of_model.at(object.model_id), room % 3) << object.model_id;
       }

@@ -17,12 +17,13 @@
 #include "core/file_util.h"
 #include "core/progress.h"
 #include "renderers/embree_caster.h"
-#include "renderers/frame_io.h"
+#include "workbench/formats/depth_png.h"
+#include "workbench/formats/point_cloud_file.h"
 #include "renderers/kinect_simulator.h"
 #include "scenes/room_composer.h"
 #include "tests/test_util.h"
-#include "workbench/detect_command.h"
-#include "workbench/train_command.h"
+#include "workbench/formats/scan_file.h"
+#include "workbench/pipelines/train.h"
 
 namespace furn {
 namespace {

@@ -13,7 +13,7 @@
 #include "core/file_util.h"
 #include "db/dataset_db.h"
 #include "db/sqlite.h"
-#include "renderers/frame_io.h"
+#include "workbench/formats/depth_png.h"
 #include "tests/test_util.h"
 
 namespace furn {

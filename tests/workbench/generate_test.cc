@@ -1,6 +1,6 @@
 // Dataset generation end to end on the procedural catalog: ground truth,
 // determinism, shards, resuming after a crash, and clear errors.
-#include "workbench/generate.h"
+#include "workbench/pipelines/generate.h"
 
 #include <gtest/gtest.h>
 #include <sys/wait.h>
@@ -16,10 +16,10 @@
 #include "core/error.h"
 #include "db/dataset_db.h"
 #include "renderers/embree_caster.h"
-#include "renderers/frame_io.h"
+#include "workbench/formats/depth_png.h"
 #include "scenes/procedural_catalog.h"
 #include "tests/test_util.h"
-#include "workbench/dataset_commands.h"
+#include "workbench/pipelines/dataset_tools.h"
 
 namespace furn {
 namespace {

@@ -12,8 +12,8 @@
 #include "core/file_util.h"
 #include "db/dataset_db.h"
 #include "tests/test_util.h"
-#include "workbench/real_set.h"
-#include "workbench/sensor_noise.h"
+#include "workbench/pipelines/import_real.h"
+#include "workbench/pipelines/sensor_noise.h"
 
 namespace furn {
 namespace {
@@ -124,9 +124,9 @@ TEST(RealSet, ImportWritesFramesLabelsAndSheetsAndRefusesToOverwrite) {
     DatasetDb dataset(db, DatasetDb::Mode::kReadOnly);
     ASSERT_EQ(dataset.RoomIds().size(), 1u);
     const RoomRecord room = dataset.ReadRoom(1, /*with_images=*/true);
-    EXPECT_EQ(room.split, "test");
+    EXPECT_EQ(room.split, Split::kTest);
     ASSERT_EQ(room.objects.size(), 1u);
-    EXPECT_EQ(room.objects[0].furniture_class, "sideboard");
+    EXPECT_EQ(room.objects[0].furniture_class, FurnitureClass::kSideboard);
     EXPECT_NEAR(room.frames[0].world_from_camera.translation().z(), 1.2, 1e-6);
     // A floor-aligned scan keeps its pose: nothing to estimate.
     EXPECT_TRUE(FramesWithEstimatedPose(*dataset.GenerationOptions()).empty());
@@ -185,14 +185,14 @@ TEST(RealSet, EvaluationIsTheSameInAnyLabelFrame) {
           for (int c = 0; c < 4; ++c) rows.push_back(pose(r, c));
         nlohmann::json objects = nlohmann::json::array();
         for (const ObjectRecord& object : room.objects) {
-          if (object.furniture_class.empty()) continue;
+          if (!object.furniture_class) continue;
           const FloorPose at =
               MoveFloorPose({object.reference_x, object.reference_y, object.yaw}, label_from_world);
           double visibility = 0;
           for (const FrameObjectRecord& seen : frame.objects) {
             if (seen.instance_id == object.instance_id) visibility = seen.visibility;
           }
-          objects.push_back({{"class", object.furniture_class},
+          objects.push_back({{"class", ClassName(*object.furniture_class)},
                              {"x", at.x},
                              {"y", at.y},
                              {"yaw", at.yaw},

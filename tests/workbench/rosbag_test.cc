@@ -21,10 +21,10 @@
 #include "core/file_util.h"
 #include "db/dataset_db.h"
 #include "db/sqlite.h"
-#include "renderers/frame_io.h"
+#include "renderers/camera.h"
 #include "tests/test_util.h"
-#include "workbench/detect_command.h"
-#include "workbench/rosbag_io.h"
+#include "workbench/formats/scan_file.h"
+#include "workbench/formats/rosbag_io.h"
 
 namespace furn {
 namespace {
@@ -134,7 +134,7 @@ TEST_F(RosbagTest, ExportedFramesReadBackAsTheDatasetHasThem) {
   for (size_t k = 0; k < room.objects.size(); ++k) {
     const ObjectRecord& object = room.objects[k];
     const visualization_msgs::Marker& box = first->markers[k + 1];
-    EXPECT_EQ(box.ns, object.furniture_class.empty() ? "clutter" : object.furniture_class);
+    EXPECT_EQ(box.ns, object.furniture_class ? ClassName(*object.furniture_class) : "clutter");
     EXPECT_EQ(box.id, object.instance_id);
     EXPECT_EQ(box.header.frame_id, "world");
     EXPECT_NEAR(box.pose.position.x, object.reference_x, 1e-9);

@@ -7,7 +7,7 @@
 #include "core/file_util.h"
 #include "core/progress.h"
 #include "tests/test_util.h"
-#include "workbench/train_command.h"
+#include "workbench/pipelines/train.h"
 
 namespace furn {
 namespace {
@@ -188,7 +188,7 @@ TEST(Train, TooFewSegmentsForTheVocabularyIsRejected) {
 
 #include <filesystem>
 
-#include "workbench/eval_parts.h"
+#include "workbench/pipelines/eval_parts.h"
 
 namespace furn {
 namespace {

@@ -2,7 +2,7 @@
 // base first, every value checked before anything runs), options files, and
 // the whole command on a small procedural dataset: trials stored as runs,
 // models cached, a rerun resumes, the report and best_options.json.
-#include "workbench/tune_command.h"
+#include "workbench/pipelines/tune.h"
 
 #include <gtest/gtest.h>
 
@@ -16,7 +16,7 @@
 #include "core/file_util.h"
 #include "db/dataset_db.h"
 #include "tests/test_util.h"
-#include "workbench/evaluate_command.h"
+#include "workbench/pipelines/evaluate.h"
 
 namespace furn {
 namespace {
@@ -224,7 +224,7 @@ TEST(TuneCommand, TrialsAreRunsResumeAndTheReportAndBestOptionsWork) {
     for (const RunRecord& run : dataset.Runs()) {
       if (run.kind == "tune") {
         ++tune_runs;
-        EXPECT_EQ(run.split, "val");
+        EXPECT_EQ(run.split, Split::kVal);
         const auto options = nlohmann::json::parse(run.options_json);
         EXPECT_TRUE(options.contains("trainer"));
         EXPECT_EQ(options["tune"]["parameters"].size(), 2u);

@@ -34,11 +34,11 @@
 #include "db/dataset_db.h"
 #include "db/sqlite.h"
 #include "renderers/camera.h"
-#include "renderers/frame_io.h"
-#include "workbench/detect_command.h"
-#include "workbench/evaluate_command.h"
-#include "workbench/options_file.h"
-#include "workbench/real_set.h"
+#include "workbench/formats/depth_png.h"
+#include "workbench/formats/scan_file.h"
+#include "workbench/pipelines/evaluate.h"
+#include "workbench/formats/options_file.h"
+#include "workbench/pipelines/import_real.h"
 
 namespace py = pybind11;
 
@@ -152,8 +152,8 @@ py::dict ObjectDict(const ObjectRecord& object, const FrameObjectRecord* seen) {
   py::dict d;
   d["instance_id"] = object.instance_id;
   d["model"] = object.model_id;
-  d["class"] = object.furniture_class.empty() ? py::object(py::none())
-                                              : py::object(py::str(object.furniture_class));
+  d["class"] = object.furniture_class ? py::object(py::str(ClassName(*object.furniture_class)))
+                                      : py::object(py::none());
   d["x"] = object.reference_x;  // the reference point: footprint centre on the floor
   d["y"] = object.reference_y;
   d["z"] = object.z;
@@ -185,12 +185,10 @@ class PyDataset {
 
   // Frame ids of a split (train, val, test) or of all, in id order.
   std::vector<int64_t> FrameIds(const std::optional<std::string>& split) const {
-    if (split && *split != "train" && *split != "val" && *split != "test" && *split != "all") {
-      throw InputError("split '" + *split + "' must be train, val, test or all");
-    }
+    const Split selected = split ? ParseSplit(*split) : Split::kAll;
     std::vector<int64_t> ids;
     for (const Entry& entry : index_) {
-      if (!split || *split == "all" || entry.split == *split) ids.push_back(entry.frame_id);
+      if (InSplit(entry.split, selected)) ids.push_back(entry.frame_id);
     }
     return ids;
   }
@@ -204,7 +202,7 @@ class PyDataset {
       frame.id = record.id;
       frame.room_id = room.id;
       frame.frame_index = record.frame_index;
-      frame.split = room.split;
+      frame.split = EnumName(room.split);
       frame.camera = IntrinsicsOf(record);
       frame.world_from_camera = record.world_from_camera;
       frame.pose_known = estimated_pose_.count(record.id) == 0;
@@ -238,8 +236,8 @@ class PyDataset {
     for (const ModelRecord& model : db_.ReadModels()) {
       py::dict d;
       d["id"] = model.id;
-      d["class"] = model.furniture_class.empty() ? py::object(py::none())
-                                                 : py::object(py::str(model.furniture_class));
+      d["class"] = model.furniture_class ? py::object(py::str(ClassName(*model.furniture_class)))
+                                         : py::object(py::none());
       d["size"] = py::make_tuple(model.size_m.x(), model.size_m.y(), model.size_m.z());
       d["evaluation_only"] = model.evaluation_only;
       models.append(d);
@@ -256,7 +254,7 @@ class PyDataset {
       d["label"] = run.label;
       d["started"] = run.started;
       d["git_commit"] = run.git_commit;
-      d["split"] = run.split;
+      d["split"] = EnumName(run.split);
       d["model_path"] = run.model_path;
       runs.append(d);
     }
@@ -268,7 +266,7 @@ class PyDataset {
  private:
   struct Entry {
     int64_t frame_id, room_id;
-    std::string split;
+    Split split;
   };
   DatasetDb db_;
   std::string generation_json_;
@@ -376,7 +374,7 @@ py::dict EvaluateFromPython(const std::string& model,
                             const std::string& label,
                             const py::object& options) {
   EvaluateCommandOptions command;
-  command.split = split;
+  command.split = ParseSplit(split);
   command.max_frames = max_frames;
   command.label = label;
   command.detector = OptionsFromPython(options);
@@ -393,18 +391,6 @@ py::dict EvaluateFromPython(const std::string& model,
   d["seconds"] = summary.seconds;
   d["metrics"] = summary.result.metrics;
   return d;
-}
-
-const char* StatusName(DetectionStatus status) {
-  switch (status) {
-    case DetectionStatus::kDetected:
-      return "detected";
-    case DetectionStatus::kNoPointsInRange:
-      return "no_points_in_range";
-    case DetectionStatus::kNoFloor:
-      return "no_floor";
-  }
-  return "unknown";
 }
 
 }  // namespace
@@ -503,7 +489,7 @@ PYBIND11_MODULE(_furnidet, m) {
 
   py::class_<DetectionResult>(m, "DetectionResult")
       .def_property_readonly("status",
-                             [](const DetectionResult& r) { return StatusName(r.status); })
+                             [](const DetectionResult& r) { return EnumName(r.status); })
       .def_readonly("message", &DetectionResult::message)
       .def_readonly("detections", &DetectionResult::detections)
       .def_readonly("floor_estimated", &DetectionResult::floor_estimated)
@@ -514,7 +500,7 @@ PYBIND11_MODULE(_furnidet, m) {
           [](const DetectionResult& r) { return MatrixArray(r.world_from_camera.matrix()); })
       .def_property_readonly("timings_ms", [](const DetectionResult& r) {
         py::dict timings;
-        for (const auto& [stage, ms] : r.timings_ms) timings[py::str(stage)] = ms;
+        for (const StageTime& t : r.timings_ms.stages) timings[py::str(EnumName(t.stage))] = t.ms;
         return timings;
       });
 

@@ -1,0 +1,39 @@
+#!/usr/bin/env bash
+# The same small end-to-end run on the procedural catalog (generate, train,
+# evaluate, report, crossval with its scorer, a scored model, detect with
+# debug PNGs, the real set, exports), then a digest of everything it made
+# (tools/identity_digest.py). A refactoring must leave the digest unchanged:
+#   bash tools/identity_check.sh BUILD_BEFORE before/ > before.txt
+#   bash tools/identity_check.sh BUILD_AFTER after/ > after.txt
+#   diff before.txt after.txt
+# (BUILD is a build folder, or a folder holding a copied workbench binary.)
+set -euo pipefail
+repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+build="$1"
+out="$2"
+wb="$build/workbench/workbench"
+[[ -x "$wb" ]] || wb="$build/workbench/cli/workbench"
+[[ -x "$wb" ]] || wb="$build/workbench"
+rm -rf "$out"
+mkdir -p "$out"
+cd "$out"
+run() { "$wb" "$@" > /dev/null 2>> run.log; }
+run generate --catalog procedural --rooms 6 --frames 3 --seed 1 --out d.db --quiet
+run generate --catalog procedural --rooms 9 --frames 2 --seed 2 --model-folds 3 --out cv.db --quiet
+run train --catalog procedural --out m.fcm --quiet
+run evaluate --model m.fcm --db d.db --split all --quiet
+run crossval --db cv.db --work-dir cvm --quiet
+run train --catalog procedural --scorer cvm/scorer.yml --out ms.fcm --quiet
+run evaluate --model ms.fcm --db d.db --split test --quiet
+run evaluate --model ms.fcm --db cv.db --split all --max-frames 6 --quiet
+run report --db d.db --out report
+"$wb" detect --model ms.fcm --db d.db --frame 2 --debug-dir detect --explain --out detect.json \
+  > /dev/null 2> explain.txt
+run dataset import-real "$repo/data/real/labels.json" --out real.db
+run evaluate --model ms.fcm --db real.db --split test --quiet
+run dataset export d.db --format rosbag --out d.bag --split test 2>/dev/null || true
+run dataset export d.db --format bop --out bop
+run dataset export d.db --format pcd --out pcd
+rm -rf cvm/*.partial
+python3 "$repo/tools/identity_digest.py" "$out"
+grep -v "ms\b" explain.txt | sha256sum | sed 's/^/explain /'

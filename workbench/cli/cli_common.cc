@@ -1,0 +1,67 @@
+#include "workbench/cli/cli_common.h"
+
+#include <algorithm>
+
+#include <CLI/CLI.hpp>
+#include <cstdlib>
+
+#include "core/progress.h"
+
+namespace furn {
+
+void AddCatalogFlags(CLI::App* app, CatalogFlags* flags) {
+  if (const char* env = std::getenv("FURN_CATALOG_DIR")) flags->catalog_dir = env;
+  if (const char* env = std::getenv("FURN_DATA_DIR")) flags->data_dir = env;
+  app->add_option(
+         "--catalog", flags->spec, "default, procedural[:SEED], a class map .json, or a .sh3f file")
+      ->capture_default_str();
+  app->add_option(
+         "--catalog-dir", flags->catalog_dir, "Directory of the .sh3f files (env FURN_CATALOG_DIR)")
+      ->capture_default_str();
+  app->add_option("--data-dir", flags->data_dir, "Directory of class_map.json (env FURN_DATA_DIR)")
+      ->capture_default_str();
+  app->add_flag("--quiet,-q", flags->quiet, "No progress output");
+}
+
+void ApplyGlobalFlags(const CatalogFlags& flags) { Progress::SetQuiet(flags.quiet); }
+
+CatalogOpenOptions MakeOpenOptions(const CatalogFlags& flags) {
+  CatalogOpenOptions options;
+  options.catalog_dir = flags.catalog_dir;
+  options.data_dir = flags.data_dir;
+  return options;
+}
+
+namespace {
+
+// Seeds are unsigned 64-bit numbers; CLI11 would wrap "-1" to 2^64 - 1.
+void CheckSeedsAreUnsigned(CLI::App* app) {
+  for (CLI::Option* option : app->get_options()) {
+    if (option->get_name().find("seed") == std::string::npos) continue;
+    option->check(
+        [name = option->get_name()](const std::string& value) -> std::string {
+          const bool digits =
+              !value.empty() && value.size() <= 20 &&
+              std::all_of(value.begin(), value.end(), [](char c) { return c >= '0' && c <= '9'; });
+          if (digits && (value.size() < 20 || value <= "18446744073709551615")) return "";
+          return name + " " + value + " must be a whole number in 0..2^64-1";
+        },
+        "unsigned seed");
+  }
+  for (CLI::App* sub : app->get_subcommands([](CLI::App*) { return true; }))
+    CheckSeedsAreUnsigned(sub);
+}
+
+}  // namespace
+
+std::optional<int> ParseCommandLine(CLI::App* app, int argc, char** argv) {
+  CheckSeedsAreUnsigned(app);
+  try {
+    app->parse(argc, argv);
+  } catch (const CLI::ParseError& error) {
+    return app->exit(error) == 0 ? 0 : 2;
+  }
+  return std::nullopt;
+}
+
+}  // namespace furn

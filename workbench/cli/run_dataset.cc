@@ -1,0 +1,234 @@
+#include <CLI/CLI.hpp>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+
+#include "core/error.h"
+#include "core/file_util.h"
+#include "workbench/formats/depth_png.h"
+#include "scenes/room_composer.h"
+#include "workbench/cli/cli_common.h"
+#include "workbench/cli/commands.h"
+#include "workbench/pipelines/dataset_tools.h"
+#include "workbench/formats/scan_file.h"
+#include "workbench/pipelines/generate.h"
+#include "workbench/pipelines/import_real.h"
+#include "workbench/formats/rosbag_io.h"
+#include "workbench/pipelines/sensor_noise.h"
+
+namespace furn {
+
+int RunGenerate(int argc, char** argv) {
+  CLI::App app{
+      "Generate labelled synthetic Kinect frames of furnished rooms into a dataset database",
+      "workbench generate"};
+  CatalogFlags catalog_flags;
+  AddCatalogFlags(&app, &catalog_flags);
+  GenerateOptions options;
+  std::string out, shard = "0/1", renderer = "embree";
+  app.add_option("--rooms", options.rooms, "Rooms in the whole run (all shards)")
+      ->capture_default_str();
+  app.add_option("--frames", options.room.frames_per_room, "Frames per room")
+      ->capture_default_str();
+  app.add_option("--seed", options.seed, "Master seed")->capture_default_str();
+  app.add_option(
+         "--out", out, "Dataset database (.db); an existing one with the same options is resumed")
+      ->required();
+  app.add_option("--shard", shard, "i/N: make only rooms k with k % N == i")->capture_default_str();
+  app.add_option("--renderer", renderer, "embree or osmesa")->capture_default_str();
+  app.add_option("--min-side", options.room.min_side_m, "Smallest room side (m)")
+      ->capture_default_str();
+  app.add_option("--max-side", options.room.max_side_m, "Largest room side (m)")
+      ->capture_default_str();
+  app.add_option(
+         "--min-furniture", options.room.min_furniture, "Fewest class-mapped pieces per room")
+      ->capture_default_str();
+  app.add_option("--max-furniture", options.room.max_furniture, "Most class-mapped pieces per room")
+      ->capture_default_str();
+  app.add_option("--min-clutter", options.room.min_clutter, "Fewest clutter pieces per room")
+      ->capture_default_str();
+  app.add_option("--max-clutter", options.room.max_clutter, "Most clutter pieces per room")
+      ->capture_default_str();
+  app.add_option("--model-folds",
+                 options.model_folds,
+                 "Leave-models-out rooms: K folds of the class-mapped models, room k's targets "
+                 "from fold k % K only (for 'workbench crossval'); 0 = off")
+      ->capture_default_str();
+  app.add_option("--fold-seed", options.fold_seed, "Seed of the split into model folds")
+      ->capture_default_str();
+  app.add_option("--clutter-catalog",
+                 options.clutter_catalog_specs,
+                 "Add this catalog's unclassified entries as clutter (repeatable; a class map, "
+                 "'default' or a .sh3f, whose every entry counts as unclassified)");
+  if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
+  ApplyGlobalFlags(catalog_flags);
+  std::tie(options.shard_index, options.shard_count) = ParseShard(shard);
+  options.renderer = ParseRendererKind(renderer);
+  options.catalog_spec = catalog_flags.spec;
+  options.Check();
+  Require(std::filesystem::path(out).extension() == ".db",
+          out + ": the dataset file must end in .db");
+  Catalog catalog = OpenCatalog(catalog_flags.spec, MakeOpenOptions(catalog_flags));
+  for (const std::string& spec : options.clutter_catalog_specs) {
+    const int added = catalog.AddClutter(OpenCatalog(spec, MakeOpenOptions(catalog_flags)));
+    Require(added > 0,
+            "--clutter-catalog " + spec +
+                ": no unclassified entry to add (every entry is classified, a door or window, "
+                "or already in the catalog)");
+    if (!catalog_flags.quiet)
+      std::fprintf(stderr, "clutter: %d entries of %s added\n", added, spec.c_str());
+  }
+  for (const std::string& warning : catalog.warnings())
+    std::fprintf(stderr, "warning: %s\n", warning.c_str());
+  if (options.room.max_clutter > 0 &&
+      ComposerCatalog::From(catalog, options.room.include_evaluation_only).clutter.empty()) {
+    std::fprintf(stderr,
+                 "warning: catalog %s offers no clutter (every entry is classified, or the rest "
+                 "are not 0.1-1.6 m across and 0.05-2 m tall): rooms hold targets only; list "
+                 "distractors as \"class\": \"clutter\" entries of a version-2 class map, or add "
+                 "--clutter-catalog default\n",
+                 catalog.description().c_str());
+  }
+  const GenerateSummary summary = GenerateDataset(catalog, options, out);
+  std::printf(
+      "%s: %d rooms in shard %d/%d: %d written, %d already present; %d frames in %.1f s (%.1f "
+      "frames/s)\n",
+      out.c_str(),
+      summary.rooms_in_shard,
+      options.shard_index,
+      options.shard_count,
+      summary.rooms_written,
+      summary.rooms_already_present,
+      summary.frames_written,
+      summary.seconds,
+      summary.seconds > 0 ? summary.frames_written / summary.seconds : 0.0);
+  std::printf(
+      "time per stage (s; render to png summed over %d workers): compose %.2f, load models %.2f, "
+      "render+noise %.2f, ground truth %.2f, png %.2f, database %.2f\n",
+      summary.workers,
+      summary.compose_s,
+      summary.load_s,
+      summary.render_s,
+      summary.ground_truth_s,
+      summary.encode_s,
+      summary.insert_s);
+  if (summary.rooms_short > 0) {
+    std::printf(
+        "note: in %d of %d rooms not every requested piece fitted (rooms too small for the "
+        "request; "
+        "placed what fits)\n",
+        summary.rooms_short,
+        summary.rooms_written);
+  }
+  return 0;
+}
+
+int RunDataset(int argc, char** argv) {
+  CLI::App app{"Inspect, preview, merge and export dataset databases", "workbench dataset"};
+  app.require_subcommand(1);
+  std::string db, out;
+  bool json = false;
+  CLI::App* info =
+      app.add_subcommand("info", "Counts per split and class, visibility histogram, size");
+  info->add_option("db", db, "Dataset database")->required();
+  info->add_flag("--json", json, "JSON instead of text");
+  CLI::App* preview =
+      app.add_subcommand("preview", "Contact sheet: noisy depth with ground-truth boxes");
+  preview->add_option("db", db, "Dataset database")->required();
+  preview->add_option("--out", out, "Output .png")->required();
+  int max_frames = 12;
+  preview->add_option("--frames", max_frames, "How many frames (spread over the dataset)")
+      ->capture_default_str();
+  CLI::App* merge =
+      app.add_subcommand("merge", "Join datasets of one run (e.g. its shards) into a new file");
+  std::vector<std::string> inputs;
+  merge->add_option("inputs", inputs, "Input datasets")->required();
+  merge->add_option("--out", out, "New dataset file")->required();
+  CLI::App* export_command = app.add_subcommand("export", "Write frames as BOP, PNG or PCD files");
+  std::string format = "bop";
+  export_command->add_option("db", db, "Dataset database")->required();
+  export_command->add_option("--format", format, "bop, png, pcd or rosbag")->capture_default_str();
+  export_command->add_option("--out", out, "Output directory (rosbag: the .bag file)")->required();
+  std::string export_split = "all";
+  export_command->add_option("--split", export_split, "rosbag: frames of train, val, test or all")
+      ->capture_default_str();
+  CatalogFlags export_catalog;  // where BOP export finds the dataset's catalog
+  if (const char* env = std::getenv("FURN_CATALOG_DIR")) export_catalog.catalog_dir = env;
+  if (const char* env = std::getenv("FURN_DATA_DIR")) export_catalog.data_dir = env;
+  export_command
+      ->add_option("--catalog-dir",
+                   export_catalog.catalog_dir,
+                   "bop: directory of the .sh3f files of the dataset's catalog (env "
+                   "FURN_CATALOG_DIR)")
+      ->capture_default_str();
+  export_command
+      ->add_option("--data-dir",
+                   export_catalog.data_dir,
+                   "bop: directory of class_map.json (env FURN_DATA_DIR)")
+      ->capture_default_str();
+  CLI::App* import_real = app.add_subcommand(
+      "import-real", "Labelled real scans (a furnidet-real-set JSON) into a new dataset");
+  std::string labels, sheets;
+  import_real->add_option("labels", labels, "Real-set JSON (data/real/labels.json)")->required();
+  import_real->add_option("--out", out, "New dataset file")->required();
+  import_real->add_option("--sheets", sheets, "Write a top-down label sheet per scan here");
+  CLI::App* noise = app.add_subcommand(
+      "noise", "Sim-to-real: depth noise on a dataset's floors and walls against the sensor model");
+  noise->add_option("db", db, "Dataset database (an imported real set, or generated frames)")
+      ->required();
+  noise->add_flag("--json", json, "JSON instead of text");
+  int noise_frames = 0;
+  noise->add_option("--frames", noise_frames, "At most N frames (0: all)")->capture_default_str();
+  if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
+  if (noise->parsed()) {
+    Require(noise_frames >= 0, "--frames must be >= 0");
+    DatasetDb dataset(db, DatasetDb::Mode::kReadOnly);
+    std::vector<NoiseFrame> frames;
+    for (int64_t room_id : dataset.RoomIds()) {
+      for (const FrameRecord& frame : dataset.ReadRoom(room_id, /*with_images=*/true).frames) {
+        if (noise_frames > 0 && static_cast<int>(frames.size()) >= noise_frames) break;
+        const std::string what = db + " frame " + std::to_string(frame.id);
+        frames.push_back({DecodeDepthPng(frame.depth_noisy_png, what), IntrinsicsOf(frame), what});
+      }
+    }
+    const SensorNoiseComparison comparison = CompareSensorNoise(frames, KinectNoiseOptions{}, 1);
+    std::cout << (json ? SensorNoiseJson(comparison) : SensorNoiseText(comparison));
+    return 0;
+  }
+  if (import_real->parsed()) {
+    const RealImportSummary summary = ImportRealSet(ReadRealSet(labels), out, sheets);
+    std::cout << "wrote " << out << ": " << summary.frames << " real scans, " << summary.objects
+              << " labelled objects\n";
+    return 0;
+  }
+  if (merge->parsed()) {
+    const MergeSummary summary = MergeDatasets(inputs, out);
+    std::cout << "wrote " << out << ": " << summary.rooms << " rooms from " << inputs.size()
+              << " datasets (" << summary.duplicate_rooms << " duplicate rooms were identical)\n";
+    return 0;
+  }
+  if (export_command->parsed() && format == "rosbag") {
+    const int frames = ExportRosbag(db, out, export_split);
+    std::cout << "wrote " << frames << " frames to " << out << " (rosbag)\n";
+    return 0;
+  }
+  if (export_command->parsed()) {
+    Require(export_split == "all", "--split applies to --format rosbag");
+    int frames = 0;  // a failed export leaves no partial folder
+    WriteDirectoryAtomically(out, [&](const std::string& dir) {
+      frames = ExportDataset(db, format, dir, MakeOpenOptions(export_catalog));
+    });
+    std::cout << "wrote " << frames << " frames to " << out << " (" << format << ")\n";
+    return 0;
+  }
+  if (info->parsed()) {
+    const DatasetInfo summary = ReadDatasetInfo(db);
+    std::cout << (json ? DatasetInfoJson(summary) : DatasetInfoText(summary));
+    return 0;
+  }
+  WriteDatasetPreview(db, max_frames, out);
+  std::cout << "wrote " << out << "\n";
+  return 0;
+}
+
+}  // namespace furn

@@ -1,0 +1,120 @@
+#include <CLI/CLI.hpp>
+#include <string>
+#include <vector>
+
+#include "core/error.h"
+#include "workbench/cli/cli_common.h"
+#include "workbench/cli/commands.h"
+#include "workbench/cli/detector_flags.h"
+#include "workbench/formats/scan_inputs.h"
+#include "workbench/pipelines/detect_batch.h"
+
+namespace furn {
+
+int RunDetect(int argc, char** argv) {
+  CLI::App app{"Detect furniture in depth scans: one, or many with the model loaded once",
+               "workbench detect"};
+  std::string model_path, out, debug_dir;
+  std::vector<std::string> inputs;
+  ScanSource source;
+  bool timings = false, quiet = false, explain = false;
+  int repeat = 1;
+  app.add_option("--model", model_path, "Model file (.fcm) from workbench train")->required();
+  app.add_option("inputs",
+                 inputs,
+                 "Scans: .pcd/.ply clouds, .png/.tif/.exr depth images, glob patterns, TUM "
+                 "lists (.txt) or BOP scene/split folders; several give JSON lines");
+  app.add_option("--cloud", source.cloud_path, "Point cloud (.pcd or .ply), camera frame, metres");
+  app.add_option("--depth", source.depth_path, "Depth image (16-bit PNG/TIFF, float TIFF/EXR)");
+  app.add_option("--intrinsics", source.intrinsics, "kinect1 or fx,fy,cx,cy (depth images)")
+      ->capture_default_str();
+  app.add_option("--camera",
+                 source.camera_file,
+                 "Camera file for depth images: BOP camera.json or scene_camera.json, ROS "
+                 "CameraInfo YAML (instead of --intrinsics)");
+  app.add_option("--depth-scale",
+                 source.depth_scale,
+                 "Depth units per metre (default: the camera file's, else 1000 for 16-bit "
+                 "images, 1 for float; TUM: 5000)");
+  app.add_option("--world-from-camera",
+                 source.world_from_camera,
+                 "Cloud in a world frame: the camera's pose in it, 16 numbers (4x4, row by row) "
+                 "or x,y,z,qw,qx,qy,qz (default: the PCD VIEWPOINT)");
+  app.add_flag("--floor-aligned",
+               source.floor_aligned,
+               "The world frame is floor-aligned (z up, floor at z = 0): its pose is used, the "
+               "floor not searched");
+  app.add_option("--sensor",
+                 source.sensor,
+                 "Sensor position x,y,z of a floor-aligned unorganised cloud without a pose");
+  BagScanOptions bag;
+  std::string out_bag;
+  app.add_option("--bag", bag.bag_path, "ROS 1 bag: detect in every message of --topic");
+  app.add_option("--topic",
+                 bag.topic,
+                 "Bag topic: sensor_msgs/PointCloud2 (camera frame) or sensor_msgs/Image "
+                 "(16UC1/mono16 in mm unless --depth-scale, or 32FC1 in m)");
+  app.add_option("--camera-info",
+                 bag.camera_info_topic,
+                 "CameraInfo topic of an Image topic (default: <image namespace>/camera_info)");
+  app.add_option("--tf-world",
+                 bag.world_frame,
+                 "Floor-aligned TF frame (z up, floor at z = 0): where /tf connects it to a "
+                 "message's frame that pose is used; '' : find the floor in every scan")
+      ->capture_default_str();
+  app.add_option("--out-bag",
+                 out_bag,
+                 "Write a copy of --bag with the detections as visualization_msgs/MarkerArray "
+                 "on /furnidet/detections");
+  app.add_option("--db", source.db_path, "Dataset database (with --frame)");
+  app.add_option("--frame", source.frame_id, "Frame id in --db");
+  app.add_option("--out", out, "Detections as JSON, or JSON lines for several scans");
+  app.add_option("--debug-dir", debug_dir, "Write debug PNGs (segments, votes, fits, top-down)");
+  app.add_flag("--explain", explain, "Print every hypothesis and the test that rejected it");
+  app.add_flag("--timings", timings, "Print the time of every stage and of loading the model");
+  app.add_option("--repeat", repeat, "Run N times and report median stage times (benchmark)")
+      ->capture_default_str();
+  DetectorFlags detector_flags(&app);
+  app.add_flag("--quiet", quiet, "Print nothing but errors");
+  if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
+  Require(repeat >= 1 && repeat <= 1000,
+          "--repeat " + std::to_string(repeat) + " must be in 1..1000");
+  Require(app.count("--frame") == 0 || !source.db_path.empty(),
+          "--frame " + std::to_string(source.frame_id) + " applies to --db only");
+  DetectRunOptions run;
+  run.model_path = model_path;
+  run.detector = detector_flags.Resolve();
+  run.out = out;
+  run.debug_dir = debug_dir;
+  run.repeat = repeat;
+  run.quiet = quiet;
+  run.explain = explain;
+  run.timings = timings;
+
+  if (!bag.bag_path.empty()) {
+    Require(inputs.empty() && source.cloud_path.empty() && source.depth_path.empty() &&
+                source.db_path.empty(),
+            "--bag takes no other scans (inputs, --cloud, --depth or --db)");
+    Require(debug_dir.empty() && repeat == 1, "--debug-dir and --repeat apply to one scan");
+    bag.depth_scale = source.depth_scale;
+    return DetectInBag(bag, out_bag, run);
+  }
+  Require(out_bag.empty() && bag.topic.empty() && bag.camera_info_topic.empty(),
+          "--topic, --camera-info and --out-bag apply to --bag");
+
+  // The scans: the positional inputs, or the one of --cloud/--depth/--db.
+  std::vector<ScanSource> sources;
+  if (!inputs.empty()) {
+    Require(source.cloud_path.empty() && source.depth_path.empty() && source.db_path.empty(),
+            "give scans as inputs or with --cloud/--depth/--db, not both");
+    sources = ExpandScanInputs(
+        inputs, source, app.count("--intrinsics") > 0, app.count("--depth-scale") > 0);
+  } else {
+    sources.push_back(source);
+  }
+  // One plain scan file, or --cloud/--depth/--db: one indented JSON; any
+  // other inputs (several, a glob, a list, a folder): JSON lines.
+  return DetectScans(sources, IsBatch(inputs, sources), run);
+}
+
+}  // namespace furn

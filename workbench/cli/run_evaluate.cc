@@ -1,0 +1,412 @@
+#include <CLI/CLI.hpp>
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <vector>
+
+#include "core/error.h"
+#include "core/file_util.h"
+#include "core/progress.h"
+#include "db/dataset_db.h"
+#include "reports/run_report.h"
+#include "workbench/cli/cli_common.h"
+#include "workbench/cli/commands.h"
+#include "workbench/cli/detector_flags.h"
+#include "workbench/pipelines/compare_vocab.h"
+#include "workbench/pipelines/crossval.h"
+#include "workbench/pipelines/evaluate.h"
+#include "workbench/pipelines/train.h"
+
+namespace furn {
+namespace {
+
+// The classes a printout shows: the paper's four, then any other class the
+// metrics have an AP for.
+std::vector<FurnitureClass> PrintedClasses(const std::map<std::string, double>& metrics) {
+  std::vector<FurnitureClass> classes(kPaperClasses.begin(), kPaperClasses.end());
+  for (FurnitureClass c : kAllClasses) {
+    if (std::find(classes.begin(), classes.end(), c) == classes.end() &&
+        metrics.count(MetricId::ClassAp(c, 0.10).Name()))
+      classes.push_back(c);
+  }
+  return classes;
+}
+
+// Where the objects were lost, biggest first (the report has it per class).
+void PrintLosses(const std::map<std::string, double>& m) {
+  std::vector<std::pair<double, std::string>> losses;
+  for (FunnelStage stage : EnumValues<FunnelStage>()) {
+    const double n = MetricOrNan(m, MetricId::Funnel(std::nullopt, stage));
+    if (n > 0) losses.emplace_back(-n, EnumName(stage));
+  }
+  std::sort(losses.begin(), losses.end());
+  std::printf("  objects by stage reached:");
+  for (size_t k = 0; k < losses.size(); ++k)
+    std::printf("%s %s %.0f", k ? "," : "", losses[k].second.c_str(), -losses[k].first);
+  std::printf("\n  false positives: duplicate %.0f, mislocated %.0f, wrong class %.0f, background %.0f\n",
+              MetricOrNan(m, MetricId::FalsePositives(FalsePositiveKind::kDuplicate)),
+              MetricOrNan(m, MetricId::FalsePositives(FalsePositiveKind::kMislocated)),
+              MetricOrNan(m, MetricId::FalsePositives(FalsePositiveKind::kWrongClass)),
+              MetricOrNan(m, MetricId::FalsePositives(FalsePositiveKind::kBackground)));
+}
+
+void PrintHeadline(const EvaluateSummary& summary) {
+  const std::map<std::string, double>& m = summary.result.metrics;
+  auto get = [&](PlainMetric metric) { return MetricOrNan(m, MetricId::Plain(metric)); };
+  std::printf("run %lld: %d frames in %.1f s, %g objects to find\n",
+              static_cast<long long>(summary.run_id),
+              summary.frames,
+              summary.seconds,
+              get(PlainMetric::kObjects));
+  if (summary.frames_without_points > 0) {
+    std::printf("  %d frames had no point in range: counted with no detections\n",
+                summary.frames_without_points);
+  }
+  if (summary.frames_without_floor > 0) {
+    std::printf("  %d frames had no floor found: counted with no detections\n",
+                summary.frames_without_floor);
+  }
+  std::printf("  mAP@5cm %.3f  mAP@10cm %.3f  mAP@20cm %.3f  (seen %.3f, unseen %.3f)\n",
+              MetricOrNan(m, MetricId::MeanAp(0.05)),
+              MetricOrNan(m, MetricId::MeanAp(0.10)),
+              MetricOrNan(m, MetricId::MeanAp(0.20)),
+              get(PlainMetric::kMeanApSeen),
+              get(PlainMetric::kMeanApUnseen));
+  for (FurnitureClass c : PrintedClasses(m)) {
+    std::printf("  %-9s AP@10cm %.3f   paper protocol best F1 %.3f\n",
+                ClassName(c),
+                MetricOrNan(m, MetricId::ClassAp(c, 0.10)),
+                MetricOrNan(m, MetricId::PaperBestF1(c)));
+  }
+  std::printf("  pose error: xy %.3f m, yaw %.1f deg; CAD model identified %.3f\n",
+              get(PlainMetric::kXyErrorMean),
+              get(PlainMetric::kYawErrorMean),
+              get(PlainMetric::kCadIdentified));
+  PrintLosses(m);
+  std::printf("  latency per frame: p50 %.1f ms, p90 %.1f ms, p99 %.1f ms\n",
+              get(PlainMetric::kLatencyP50),
+              get(PlainMetric::kLatencyP90),
+              get(PlainMetric::kLatencyP99));
+}
+
+// A value of a table column `width` wide; "-" for a metric a fold lacks (no
+// object of that class in its frames).
+std::string Cell(double value, int width) {
+  char text[32];
+  if (std::isnan(value)) {
+    std::snprintf(text, sizeof(text), "%*s", width, "-");
+  } else {
+    std::snprintf(text, sizeof(text), "%*.3f", width, value);
+  }
+  return text;
+}
+
+// The per-fold table and its mean +- spread row.
+void PrintFolds(const CrossvalSummary& summary, const std::vector<FurnitureClass>& classes) {
+  const MetricId map10 = MetricId::MeanAp(0.10);
+  std::printf("%-6s %6s %7s %13s", "fold", "frames", "objects", "mAP@10cm");
+  for (FurnitureClass c : classes) std::printf(" %13s", ClassName(c));
+  std::printf("\n");
+  for (const CrossvalFold& fold : summary.per_fold) {
+    const auto& m = fold.evaluation.result.metrics;
+    std::printf("%-6d %6d %7.0f %s",
+                fold.fold,
+                fold.evaluation.frames,
+                MetricOrNan(m, MetricId::Plain(PlainMetric::kObjects)),
+                Cell(MetricOrNan(m, map10), 13).c_str());
+    for (FurnitureClass c : classes)
+      std::printf(" %s", Cell(MetricOrNan(m, MetricId::ClassAp(c, 0.10)), 13).c_str());
+    std::printf("\n");
+  }
+  auto both = [&](const MetricId& id) {
+    std::printf(" %s±%s",
+                Cell(MetricOrNan(summary.mean, id), 7).c_str(),
+                Cell(MetricOrNan(summary.spread, id), 5).c_str());
+  };
+  std::printf("%-6s %6.0f %7.0f",
+              "mean",
+              MetricOrNan(summary.mean, MetricId::Plain(PlainMetric::kFrames)),
+              MetricOrNan(summary.mean, MetricId::Plain(PlainMetric::kObjects)));
+  both(map10);
+  for (FurnitureClass c : classes) both(MetricId::ClassAp(c, 0.10));
+}
+
+void PrintCrossval(const CrossvalSummary& summary) {
+  const std::vector<FurnitureClass> classes = PrintedClasses(summary.mean);
+  std::printf("leave-models-out (protocol E): %d folds (fold seed %llu), run %lld, %.0f s\n",
+              summary.folds,
+              static_cast<unsigned long long>(summary.fold_seed),
+              static_cast<long long>(summary.run_id),
+              summary.seconds);
+  PrintFolds(summary, classes);
+  std::printf("\n  mAP@5cm %.3f  mAP@20cm %.3f  xy error %.3f m  latency p50 %.1f ms\n",
+              MetricOrNan(summary.mean, MetricId::MeanAp(0.05)),
+              MetricOrNan(summary.mean, MetricId::MeanAp(0.20)),
+              MetricOrNan(summary.mean, MetricId::Plain(PlainMetric::kXyErrorMean)),
+              MetricOrNan(summary.mean, MetricId::Plain(PlainMetric::kLatencyP50)));
+  if (summary.gates.empty()) return;
+  std::printf("  without the scorer (fixed gates): mAP@10cm %.3f;",
+              MetricOrNan(summary.gates, MetricId::MeanAp(0.10)));
+  for (FurnitureClass c : classes)
+    std::printf(" %s %.3f", ClassName(c), MetricOrNan(summary.gates, MetricId::ClassAp(c, 0.10)));
+  std::printf(
+      "\n  scorer: nested per fold; %d hypotheses in all; calibration error %.3f; "
+      "all-folds scorer written to %s\n",
+      summary.scorer_samples,
+      MetricOrNan(summary.mean, MetricId::Plain(PlainMetric::kCalibrationError)),
+      summary.scorer_path.empty() ? "(none: too few hypotheses)" : summary.scorer_path.c_str());
+}
+
+}  // namespace
+
+int RunEvaluate(int argc, char** argv) {
+  CLI::App app{"Run detection over a dataset split and store the metrics as a run",
+               "workbench evaluate"};
+  std::string model_path, db_path, split = "test";
+  EvaluateCommandOptions options;
+  app.add_option("--model", model_path, "Model file (.fcm)");
+  app.add_option("--db", db_path, "Dataset database")->required();
+  app.add_option("--split", split, "train, val, test or all")->capture_default_str();
+  app.add_option("--max-frames", options.max_frames, "Evaluate at most N frames (0: all)")
+      ->capture_default_str();
+  app.add_option("--label", options.label, "Free text stored with the run");
+  DetectorFlags detector_flags(&app);
+  bool compare_vocab = false;
+  int seeds = 3;
+  std::string work_dir;
+  CatalogFlags catalog_flags;
+  AddCatalogFlags(&app, &catalog_flags);
+  app.add_flag("--compare-vocab",
+               compare_vocab,
+               "Protocol D: train k-means, RIM (k-means init) and RIM (PCA init) on --catalog "
+               "for each seed and evaluate each (instead of --model)");
+  app.add_option("--seeds", seeds, "Seeds per vocabulary (with --compare-vocab)")
+      ->capture_default_str();
+  app.add_option("--work-dir", work_dir, "Where --compare-vocab writes its models");
+  if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
+  ApplyGlobalFlags(catalog_flags);  // --quiet: no progress bar
+  options.split = ParseSplit(split, "--split");
+  options.detector = detector_flags.Resolve();
+  if (compare_vocab) {
+    std::printf("%-16s %5s %10s %10s %10s %12s\n",
+                "vocabulary",
+                "seed",
+                "mAP@10cm",
+                "mAP@5cm",
+                "chair F1",
+                "run");
+    CompareVocabularies(
+        OpenCatalog(catalog_flags.spec, MakeOpenOptions(catalog_flags)),
+        db_path,
+        work_dir,
+        seeds,
+        options,
+        [](const VocabularyRun& run) {
+          std::printf("%-16s %5d %10.3f %10.3f %10.3f %12lld\n",
+                      run.vocabulary.c_str(),
+                      run.seed,
+                      run.map10,
+                      run.map5,
+                      run.chair_best_f1,
+                      static_cast<long long>(run.run_id));
+        },
+        [](const VocabularyMean& mean) {
+          std::printf("%-16s  mean mAP@10cm %.3f +- %.3f over %d seeds\n",
+                      mean.vocabulary.c_str(),
+                      mean.map10_mean,
+                      mean.map10_spread,
+                      mean.seeds);
+        });
+    return 0;
+  }
+  Require(!model_path.empty(), "--model is required (or --compare-vocab)");
+  const EvaluateSummary summary = EvaluateModel(model_path, db_path, options);
+  PrintHeadline(summary);
+  return 0;
+}
+
+int RunCrossval(int argc, char** argv) {
+  CLI::App app{
+      "Protocol E, leave-models-out: per fold, train without its models and evaluate on its "
+      "rooms; mean and spread stored as a run",
+      "workbench crossval"};
+  std::string db_path;
+  CrossvalOptions options;
+  CatalogFlags catalog_flags;
+  AddCatalogFlags(&app, &catalog_flags);
+  app.add_option("--db",
+                 db_path,
+                 "Dataset database made by 'generate --model-folds K' (runs are stored in it)")
+      ->required();
+  app.add_option("--work-dir", options.work_dir, "Where the fold models go (reused when unchanged)")
+      ->required();
+  std::string split = "all";
+  app.add_option("--split", split, "train, val, test or all")->capture_default_str();
+  app.add_option("--max-frames", options.evaluate.max_frames, "At most N frames per fold (0: all)")
+      ->capture_default_str();
+  app.add_option("--label", options.evaluate.label, "Free text stored with the run");
+  // --options: its "trainer" trains the fold models, its "detector" detects;
+  // --no-scorer: fixed verification gates only, no learned scorer per fold.
+  DetectorFlags detector_flags(&app);
+  app.add_option("--scorer-trees", options.scorer_options.trees, "Trees of the scorer's forest")
+      ->capture_default_str();
+  if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
+  ApplyGlobalFlags(catalog_flags);
+  options.quiet = catalog_flags.quiet;
+  options.scorer = !detector_flags.no_scorer();
+  options.scorer_options.Check();
+  options.evaluate.split = ParseSplit(split, "--split");
+  options.evaluate.detector = detector_flags.Resolve(/*apply_no_scorer=*/false);
+  if (const std::string& file = detector_flags.options_file(); !file.empty()) {
+    const std::string text = ReadFileBytes(file);
+    if (nlohmann::json::parse(text, nullptr, false).contains("trainer"))
+      options.training = TrainingOptionsFromJson(text, file);
+  }
+  // The catalog the dataset was generated from, unless --catalog says otherwise.
+  if (app.count("--catalog") == 0) {
+    const std::optional<std::string> generation =
+        DatasetDb(db_path, DatasetDb::Mode::kReadOnly).GenerationOptions();
+    if (generation)
+      catalog_flags.spec = nlohmann::json::parse(*generation).value("catalog", "default");
+  }
+  const Catalog catalog = OpenCatalog(catalog_flags.spec, MakeOpenOptions(catalog_flags));
+  const CrossvalSummary summary = RunLeaveModelsOut(catalog, db_path, options);
+
+  PrintCrossval(summary);
+  return 0;
+}
+
+int RunReport(int argc, char** argv) {
+  CLI::App app{"Write the HTML/PNG report of an evaluation run", "workbench report"};
+  std::string db_path, out;
+  int64_t run_id = 0;
+  app.add_option("--db", db_path, "Dataset database holding the run")->required();
+  app.add_option("--run", run_id, "Run id (0: the latest)")->capture_default_str();
+  app.add_option("--out", out, "Report directory (index.html and PNGs)")->required();
+  if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
+  // A failure leaves no half-written report behind.
+  WriteDirectoryAtomically(
+      out, [&](const std::string& dir) { WriteReportForRun(db_path, run_id, dir); });
+  std::printf("wrote %s/index.html\n", out.c_str());
+  return 0;
+}
+
+int RunHistory(int argc, char** argv) {
+  CLI::App app{"Every metric across runs and commits, as plots and a table", "workbench history"};
+  std::vector<std::string> db_paths;
+  std::string out;
+  app.add_option("--db",
+                 db_paths,
+                 "Dataset database holding the runs; repeat it to show datasets side by side "
+                 "(synthetic and real)")
+      ->required();
+  app.add_option("--out", out, "Directory for history.html and its plots")->required();
+  if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
+  std::vector<HistoryDataset> datasets;
+  size_t runs = 0;
+  for (const std::string& db_path : db_paths) {
+    DatasetDb dataset(db_path, DatasetDb::Mode::kReadOnly);
+    HistoryDataset history;
+    history.name = std::filesystem::path(db_path).filename().string();
+    history.runs = dataset.Runs();
+    Require(!history.runs.empty(), db_path + ": has no runs (run 'workbench evaluate' first)");
+    for (const RunRecord& run : history.runs) history.metrics.push_back(dataset.RunMetrics(run.id));
+    runs += history.runs.size();
+    datasets.push_back(std::move(history));
+  }
+  WriteDirectoryAtomically(out, [&](const std::string& dir) { WriteHistoryReport(datasets, dir); });
+  std::printf(
+      "wrote %s/history.html: %zu runs of %zu datasets\n", out.c_str(), runs, datasets.size());
+  return 0;
+}
+
+int RunRegress(int argc, char** argv) {
+  CLI::App app{"Compare a run's metrics with a baseline; exit 1 when any got worse",
+               "workbench regress"};
+  std::string db_path, baseline, write_baseline;
+  int64_t run_id = 0;
+  double tolerance = 0.02, latency_tolerance = 0;
+  app.add_option("--db", db_path, "Dataset database holding the run")->required();
+  app.add_option("--run", run_id, "Run id (0: the latest)")->capture_default_str();
+  app.add_option("--baseline", baseline, "Run id, or a baseline JSON file");
+  app.add_option("--tolerance", tolerance, "Allowed absolute worsening of a metric")
+      ->capture_default_str();
+  app.add_option("--latency-tolerance",
+                 latency_tolerance,
+                 "Allowed relative latency growth (0: latency not compared)")
+      ->capture_default_str();
+  app.add_option("--write-baseline", write_baseline, "Write the run's metrics as a baseline file");
+  if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
+  Require(tolerance >= 0, "--tolerance must be >= 0");
+  Require(!baseline.empty() || !write_baseline.empty(),
+          "give --baseline to compare, or --write-baseline to record one");
+  DatasetDb dataset(db_path, DatasetDb::Mode::kReadOnly);
+  const std::vector<RunRecord> runs = dataset.Runs();
+  Require(!runs.empty(), db_path + ": has no runs (run 'workbench evaluate' first)");
+  if (run_id == 0) run_id = runs.back().id;
+  const std::map<std::string, double> metrics = dataset.RunMetrics(run_id);
+  Require(!metrics.empty(), db_path + ": no run with id " + std::to_string(run_id));
+  if (!write_baseline.empty()) {
+    nlohmann::ordered_json json{{"run", run_id},
+                                {"db", db_path},
+                                {"metrics", metrics},
+                                {"tolerances", nlohmann::json::object()}};
+    WriteFileAtomically(write_baseline, json.dump(2) + "\n");
+    std::printf("wrote %s: %zu metrics of run %lld\n",
+                write_baseline.c_str(),
+                metrics.size(),
+                static_cast<long long>(run_id));
+    if (baseline.empty()) return 0;
+  }
+  std::map<std::string, double> base, overrides;
+  std::string base_name;
+  if (!baseline.empty() && baseline.find_first_not_of("0123456789") == std::string::npos) {
+    base = dataset.RunMetrics(std::stoll(baseline));
+    Require(!base.empty(), db_path + ": no baseline run with id " + baseline);
+    base_name = "run " + baseline;
+  } else {
+    nlohmann::json json;
+    try {
+      json = nlohmann::json::parse(ReadFileBytes(baseline));
+      base = json.at("metrics").get<std::map<std::string, double>>();
+      if (json.contains("tolerances"))
+        overrides = json["tolerances"].get<std::map<std::string, double>>();
+    } catch (const nlohmann::json::exception& error) {
+      throw InputError(baseline +
+                       ": not a baseline file ({\"metrics\": {name: value}}): " + error.what());
+    }
+    base_name = baseline;
+  }
+  const std::vector<Regression> regressions =
+      FindRegressions(metrics, base, tolerance, overrides, latency_tolerance);
+  if (regressions.empty()) {
+    std::printf("run %lld: no metric worse than %s beyond tolerance (%zu compared)\n",
+                static_cast<long long>(run_id),
+                base_name.c_str(),
+                base.size());
+    return 0;
+  }
+  for (const Regression& r : regressions) {
+    if (std::isnan(r.value)) {
+      std::printf("REGRESSION %s: missing from run %lld (baseline %.4f)\n",
+                  r.metric.c_str(),
+                  static_cast<long long>(run_id),
+                  r.baseline);
+    } else {
+      std::printf("REGRESSION %s: %.4f, baseline %.4f (allowed %.4f worse)\n",
+                  r.metric.c_str(),
+                  r.value,
+                  r.baseline,
+                  r.tolerance);
+    }
+  }
+  std::printf("run %lld: %zu metrics worse than %s\n",
+              static_cast<long long>(run_id),
+              regressions.size(),
+              base_name.c_str());
+  return 1;
+}
+
+}  // namespace furn

@@ -1,0 +1,174 @@
+#include <CLI/CLI.hpp>
+#include <cstdio>
+#include <iostream>
+
+#include "core/error.h"
+#include "core/file_util.h"
+#include "core/hypothesis_scorer.h"
+#include "workbench/cli/cli_common.h"
+#include "workbench/cli/commands.h"
+#include "workbench/pipelines/eval_parts.h"
+#include "workbench/formats/options_file.h"
+#include "workbench/pipelines/train.h"
+
+namespace furn {
+
+int RunTrain(int argc, char** argv) {
+  CLI::App app{"Learn a part vocabulary and shape model from virtual scans of the catalog's models",
+               "workbench train"};
+  CatalogFlags catalog_flags;
+  AddCatalogFlags(&app, &catalog_flags);
+  TrainerOptions trainer;
+  ScanOptions scan;
+  std::string out, vocab = "rim", init = "kmeans";
+  app.add_option("--out", out, "Model file (.fcm)")->required();
+  app.add_option("--vocab", vocab, "rim or kmeans")->capture_default_str();
+  app.add_option("--init", init, "RIM initialisation: kmeans or pca")->capture_default_str();
+  app.add_option("--words", trainer.vocabulary.words, "Vocabulary size")->capture_default_str();
+  app.add_option("--seed", trainer.vocabulary.seed, "Seed of clustering and scan noise")
+      ->capture_default_str();
+  app.add_option("--azimuths", scan.azimuths, "Views per ring")->capture_default_str();
+  std::string options_file, scorer_file;
+  app.add_option("--scorer",
+                 scorer_file,
+                 "A hypothesis scorer to store in the model (the scorer.yml 'crossval' writes)");
+  app.add_option("--options",
+                 options_file,
+                 "Trainer options as JSON (the \"trainer\" object of a tuned options file); the "
+                 "flags above apply on top when given");
+  if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
+  ApplyGlobalFlags(catalog_flags);
+  Require(vocab == "rim" || vocab == "kmeans", "--vocab '" + vocab + "' must be rim or kmeans");
+  Require(init == "kmeans" || init == "pca", "--init '" + init + "' must be kmeans or pca");
+  const VocabularyKind kind = vocab == "rim" ? VocabularyKind::kRim : VocabularyKind::kKMeans;
+  const RimInit rim_init = init == "pca" ? RimInit::kPcaSplit : RimInit::kKMeans;
+  if (options_file.empty()) {
+    trainer.vocabulary.kind = kind;
+    trainer.vocabulary.rim_init = rim_init;
+    scan.seed = trainer.vocabulary.seed;
+  } else {
+    const TrainingOptions flags{trainer, scan};  // explicitly given flags win
+    const TrainingOptions file = TrainingOptionsFromJson(ReadFileBytes(options_file), options_file);
+    trainer = file.trainer;
+    scan = file.scan;
+    if (app.count("--vocab")) trainer.vocabulary.kind = kind;
+    if (app.count("--init")) trainer.vocabulary.rim_init = rim_init;
+    if (app.count("--words")) trainer.vocabulary.words = flags.trainer.vocabulary.words;
+    if (app.count("--seed")) trainer.vocabulary.seed = scan.seed = flags.trainer.vocabulary.seed;
+    if (app.count("--azimuths")) scan.azimuths = flags.scan.azimuths;
+  }
+  const Catalog catalog = OpenCatalog(catalog_flags.spec, MakeOpenOptions(catalog_flags));
+  for (const std::string& warning : catalog.warnings())
+    std::fprintf(stderr, "warning: %s\n", warning.c_str());
+  // The scorer is read before training, so a bad file costs no training time.
+  const std::string scorer = scorer_file.empty() ? "" : ReadFileBytes(scorer_file);
+  if (!scorer.empty()) {
+    Require(!HypothesisScorer::Deserialize(scorer, scorer_file).empty(),
+            scorer_file + ": holds no hypothesis scorer");
+  }
+  const TrainSummary summary = TrainFromCatalog(catalog, scan, trainer, out, {}, scorer);
+  std::printf(
+      "wrote %s: %d models, %d views, %d segments, %d of %d words used; scans %.1f s, training "
+      "%.1f s\n",
+      out.c_str(),
+      summary.models,
+      summary.views,
+      summary.segments,
+      summary.used_words,
+      trainer.vocabulary.words,
+      summary.scan_s,
+      summary.train_s);
+  std::printf(
+      "  training stages (s): segmentation + features %.1f, part subsets + VFH %.1f, "
+      "vocabulary %.1f, shape model %.1f\n",
+      summary.stages.segment_s,
+      summary.stages.part_subsets_s,
+      summary.stages.vocabulary_s,
+      summary.stages.shape_s);
+  return 0;
+}
+
+int RunEvalParts(int argc, char** argv) {
+  CLI::App app{"Protocol C: classify held-out part subsets (80/20 by view or by subset, repeated)",
+               "workbench eval-parts"};
+  CatalogFlags catalog_flags;
+  AddCatalogFlags(&app, &catalog_flags);
+  std::string model_path, out;
+  PartEvaluationOptions options;
+  app.add_option("--model", model_path, "Model file (.fcm)")->required();
+  app.add_option("--out", out, "Output directory (parts.json, confusion.png)")->required();
+  app.add_option("--repetitions", options.repetitions, "Random 80/20 splits")
+      ->capture_default_str();
+  app.add_option("--seed", options.seed, "Seed of the splits")->capture_default_str();
+  app.add_option("--azimuths", options.scan.azimuths, "Views per ring")->capture_default_str();
+  app.add_option("--k", options.neighbours, "Nearest neighbours voting")->capture_default_str();
+  app.add_option("--min-size", options.subsets.min_subset_size, "Smallest subset (segments)")
+      ->capture_default_str();
+  app.add_option("--max-subsets",
+                 options.subsets.max_subsets_per_view,
+                 "Most subsets per view (singletons first, then pairs, then triples)")
+      ->capture_default_str();
+  app.add_option("--dimensions",
+                 options.index_dimensions,
+                 "Principal components of the VFH the neighbour search uses (308: plain L2)")
+      ->capture_default_str();
+  std::string vfh_size = "model";
+  app.add_option(
+         "--vfh-size", vfh_size, "VFH size component: model (as the model was trained), on or off")
+      ->capture_default_str();
+  std::string split = "view";
+  app.add_option("--split",
+                 split,
+                 "view: held-out views (no part of a tested subset in the library); subset: "
+                 "held-out subsets, as the paper split its data")
+      ->capture_default_str();
+  if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
+  ApplyGlobalFlags(catalog_flags);
+  options.split = ParsePartSplit(split);
+  Require(vfh_size == "model" || vfh_size == "on" || vfh_size == "off",
+          "--vfh-size " + vfh_size + " must be model, on or off");
+  const TrainedModel model = LoadTrainedModel(model_path);
+  options.scan.seed = model.options.vocabulary.seed;
+  options.subsets.vfh_size_component =
+      vfh_size == "model" ? model.options.part_subsets.vfh_size_component : vfh_size == "on";
+  const Catalog catalog = OpenCatalog(catalog_flags.spec, MakeOpenOptions(catalog_flags));
+  const PartEvaluation result = EvaluatePartSubsets(catalog, model, options);
+  WritePartEvaluation(result, out);
+  std::printf(
+      "%d views, %d part subsets, %d repetitions split by %s: CAD model %.1f %% +- %.1f, category "
+      "%.1f %% +- %.1f (paper, split by subset: 75.4 %%, 85.3 %%)\nwrote %s/parts.json, "
+      "%s/confusion.png and confusion_models.png\n",
+      result.views,
+      result.subsets,
+      options.repetitions,
+      PartSplitName(options.split),
+      100 * result.model_mean,
+      100 * result.model_std,
+      100 * result.category_mean,
+      100 * result.category_std,
+      out.c_str(),
+      out.c_str());
+  return 0;
+}
+
+int RunModel(int argc, char** argv) {
+  CLI::App app{"Describe or upgrade a trained model file", "workbench model"};
+  app.require_subcommand(1);
+  std::string path, out;
+  CLI::App* info = app.add_subcommand("info", "What the model file holds");
+  info->add_option("model", path, "Model file (.fcm)")->required();
+  CLI::App* upgrade = app.add_subcommand(
+      "upgrade", "Rewrite a model file of an older format in the current one (loads faster)");
+  upgrade->add_option("model", path, "Model file (.fcm) of any readable format")->required();
+  upgrade->add_option("--out", out, "Where to write it (may be the same file)")->required();
+  if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
+  if (upgrade->parsed()) {
+    SaveTrainedModel(LoadTrainedModel(path), out);
+    std::cout << out << ": written in the current model file format\n";
+    return 0;
+  }
+  std::cout << path << ":\n" << DescribeTrainedModel(LoadTrainedModel(path));
+  return 0;
+}
+
+}  // namespace furn

@@ -1,0 +1,85 @@
+#include <CLI/CLI.hpp>
+#include <cstdio>
+
+#include "core/error.h"
+#include "reports/evaluation.h"
+#include "workbench/cli/cli_common.h"
+#include "workbench/cli/commands.h"
+#include "workbench/cli/detector_flags.h"
+#include "workbench/pipelines/tune.h"
+
+namespace furn {
+
+int RunTune(int argc, char** argv) {
+  CLI::App app{"Search training and detection options on a validation split; every trial is a run",
+               "workbench tune"};
+  TuneOptions options;
+  std::string strategy = "random";
+  CatalogFlags catalog_flags;
+  AddCatalogFlags(&app, &catalog_flags);
+  app.add_option("--db", options.db_path, "Dataset database (trials are stored as runs)")
+      ->required();
+  app.add_option("--space", options.space_path, "Search space: JSON of option path -> values")
+      ->required();
+  app.add_option("--out", options.out_dir, "Report folder (index.html, best_options.json)")
+      ->required();
+  app.add_option("--work-dir", options.work_dir, "Cache of trained models (models/<hash>.fcm)")
+      ->required();
+  app.add_option("--trials", options.trials, "Trials, the base options included")
+      ->capture_default_str();
+  app.add_option("--strategy", strategy, "grid or random")->capture_default_str();
+  app.add_option("--seed", options.seed, "Seed of the random search and grid sampling")
+      ->capture_default_str();
+  app.add_option("--split", options.split, "Split the trials are scored on")->capture_default_str();
+  app.add_option("--test-split", options.test_split, "Split the best is checked on (none: skip)")
+      ->capture_default_str();
+  app.add_option("--max-frames", options.max_frames, "Frames per evaluation (0: all)")
+      ->capture_default_str();
+  app.add_option("--objective", options.objective, "Run metric to maximise")->capture_default_str();
+  app.add_option("--max-ms", options.max_ms, "Median latency bound in ms (0: none)")
+      ->capture_default_str();
+  app.add_option("--seeds",
+                 options.seeds,
+                 "Detector seeds per trial; metrics are their mean (RANSAC makes one run noisy)")
+      ->capture_default_str();
+  // --options FILE: the options the trials start from; detector flags on top.
+  DetectorFlags detector_flags(&app, {"--seed"});
+  app.add_option("--model",
+                 options.base_model_path,
+                 "A model trained with the base trainer options (saves training it again)");
+  if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
+  ApplyGlobalFlags(catalog_flags);
+  Require(strategy == "grid" || strategy == "random",
+          "--strategy '" + strategy + "' must be grid or random");
+  options.strategy = strategy == "grid" ? TuneStrategy::kGrid : TuneStrategy::kRandom;
+  options.catalog_spec = catalog_flags.spec;
+  options.base_options_path = detector_flags.options_file();
+  options.base_detector = detector_flags.Resolve();
+  options.Check();
+  const Catalog catalog = OpenCatalog(catalog_flags.spec, MakeOpenOptions(catalog_flags));
+  const TuneSummary summary = RunTuning(catalog, options);
+  std::printf(
+      "tune %s: %d trials (%d done before), %d models trained; best is trial %d (run %lld)\n",
+      summary.tune_id.c_str(),
+      summary.trials,
+      summary.trials_resumed,
+      summary.models_trained,
+      summary.best_index,
+      static_cast<long long>(summary.best_run));
+  std::printf("  %s on %s: base %.3f, best %.3f\n",
+              options.objective.c_str(),
+              options.split.c_str(),
+              MetricOrNan(summary.base_validation, MetricId::Parse(options.objective)),
+              MetricOrNan(summary.best_validation, MetricId::Parse(options.objective)));
+  if (!summary.base_test.empty()) {
+    std::printf("  %s on %s: base %.3f, best %.3f\n",
+                options.objective.c_str(),
+                options.test_split.c_str(),
+                MetricOrNan(summary.base_test, MetricId::Parse(options.objective)),
+                MetricOrNan(summary.best_test, MetricId::Parse(options.objective)));
+  }
+  std::printf("wrote %s and %s\n", summary.best_options_path.c_str(), summary.report_path.c_str());
+  return 0;
+}
+
+}  // namespace furn

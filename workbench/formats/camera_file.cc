@@ -1,0 +1,212 @@
+#include "workbench/formats/camera_file.h"
+
+#include <yaml-cpp/yaml.h>
+
+#include <cmath>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <vector>
+
+#include "core/error.h"
+#include "core/file_util.h"
+
+namespace furn {
+namespace {
+
+// The 3x3 row-major matrix K as intrinsics, checking its zeros.
+void SetFromMatrix(const std::vector<double>& k,
+                   const std::string& where,
+                   CameraIntrinsics* camera) {
+  Require(k.size() == 9,
+          where + " must hold 9 numbers (a 3x3 matrix), it holds " + std::to_string(k.size()));
+  Require(k[1] == 0 && k[3] == 0 && k[6] == 0 && k[7] == 0 && k[8] == 1,
+          where + " must be [fx, 0, cx, 0, fy, cy, 0, 0, 1]");
+  camera->fx = k[0];
+  camera->cx = k[2];
+  camera->fy = k[4];
+  camera->cy = k[5];
+}
+
+CameraFile FromJson(const nlohmann::json& json,
+                    const std::string& path,
+                    std::optional<int64_t> image_id) {
+  CameraFile file;
+  file.camera.width = file.camera.height = 0;
+  auto number = [&](const nlohmann::json& object, const char* key, const std::string& where) {
+    Require(object.contains(key) && object[key].is_number(),
+            path + ": " + where + "'" + key + "' must be a number");
+    return object[key].get<double>();
+  };
+  if (json.contains("fx")) {  // BOP camera.json
+    file.camera.fx = number(json, "fx", "");
+    file.camera.fy = number(json, "fy", "");
+    file.camera.cx = number(json, "cx", "");
+    file.camera.cy = number(json, "cy", "");
+    if (json.contains("width")) file.camera.width = static_cast<int>(number(json, "width", ""));
+    if (json.contains("height")) file.camera.height = static_cast<int>(number(json, "height", ""));
+    if (json.contains("depth_scale")) file.units_per_metre = 1000 / number(json, "depth_scale", "");
+  } else {  // BOP scene_camera.json
+    Require(image_id.has_value(),
+            path + ": a BOP scene_camera.json needs the image id (from the depth file's name)");
+    const std::string key = std::to_string(*image_id);
+    Require(json.contains(key) && json[key].is_object(),
+            path + ": no camera for image " + key +
+                " (neither camera.json keys fx.. nor a "
+                "scene_camera.json entry)");
+    const nlohmann::json& entry = json[key];
+    Require(entry.contains("cam_K") && entry["cam_K"].is_array(),
+            path + ": image " + key + " has no cam_K array");
+    std::vector<double> k;
+    for (const nlohmann::json& v : entry["cam_K"]) {
+      Require(v.is_number(), path + ": image " + key + " cam_K holds a non-number");
+      k.push_back(v.get<double>());
+    }
+    SetFromMatrix(k, path + ": image " + key + " cam_K", &file.camera);
+    if (entry.contains("depth_scale"))
+      file.units_per_metre = 1000 / number(entry, "depth_scale", "image " + key + " ");
+  }
+  if (file.units_per_metre) {
+    Require(std::isfinite(*file.units_per_metre) && *file.units_per_metre > 0,
+            path + ": depth_scale must be a finite number > 0");
+  }
+  return file;
+}
+
+CameraFile FromYaml(const YAML::Node& root, const std::string& path) {
+  CameraFile file;
+  file.camera.width = file.camera.height = 0;
+  Require(root.IsMap(), path + ": not a camera file (YAML without keys)");
+  auto integer = [&](const char* key) {
+    try {
+      return root[key].as<int>();
+    } catch (const YAML::Exception&) {
+      throw InputError(path + ": '" + std::string(key) + "' must be an integer");
+    }
+  };
+  auto numbers = [&](const YAML::Node& node, const std::string& where) {
+    std::vector<double> values;
+    try {
+      for (const YAML::Node& v : node) values.push_back(v.as<double>());
+    } catch (const YAML::Exception&) {
+      throw InputError(path + ": " + where + " must be a list of numbers");
+    }
+    return values;
+  };
+  if (root["camera_matrix"]) {  // camera_calibration's file
+    Require(root["camera_matrix"]["data"].IsSequence(), path + ": camera_matrix has no data list");
+    SetFromMatrix(numbers(root["camera_matrix"]["data"], "camera_matrix.data"),
+                  path + ": camera_matrix.data",
+                  &file.camera);
+    if (root["image_width"]) file.camera.width = integer("image_width");
+    if (root["image_height"]) file.camera.height = integer("image_height");
+    return file;
+  }
+  const char* k_key = root["K"] ? "K" : (root["k"] ? "k" : nullptr);
+  Require(k_key != nullptr,
+          path +
+              ": not a camera file (no fx, cam_K, camera_matrix, K or k: see README, "
+              "'Real scans')");
+  SetFromMatrix(numbers(root[k_key], k_key), path + ": " + k_key, &file.camera);
+  if (root["width"]) file.camera.width = integer("width");
+  if (root["height"]) file.camera.height = integer("height");
+  return file;
+}
+
+std::vector<double> Numbers(const std::string& text, const std::string& what) {
+  std::string spaced = text;
+  for (char& c : spaced) {
+    if (c == ',') c = ' ';
+  }
+  std::istringstream stream(spaced);
+  std::vector<double> values;
+  std::string item;
+  while (stream >> item) {
+    try {
+      size_t used = 0;
+      values.push_back(std::stod(item, &used));
+      Require(used == item.size() && std::isfinite(values.back()), "");
+    } catch (const std::exception&) {
+      throw InputError(what + " '" + text + "': '" + item + "' is not a finite number");
+    }
+  }
+  return values;
+}
+
+}  // namespace
+
+CameraFile ReadCameraFile(const std::string& path, std::optional<int64_t> image_id) {
+  const std::string text = ReadFileBytes(path);
+  CameraFile file;
+  const size_t first = text.find_first_not_of(" \t\r\n");
+  if (first != std::string::npos && text[first] == '{') {
+    nlohmann::json json;
+    try {
+      json = nlohmann::json::parse(text);
+    } catch (const nlohmann::json::exception& e) {
+      throw InputError(path + ": not valid JSON (" + std::string(e.what()) + ")");
+    }
+    file = FromJson(json, path, image_id);
+  } else {
+    YAML::Node root;
+    try {
+      // A message dump from rostopic echo ends its document with '---'.
+      root = YAML::LoadAll(text).empty() ? YAML::Node() : YAML::LoadAll(text).front();
+    } catch (const YAML::Exception& e) {
+      throw InputError(path + ": not a JSON or YAML camera file (" + e.msg + ")");
+    }
+    file = FromYaml(root, path);
+  }
+  const bool sized = file.camera.width > 0 || file.camera.height > 0;
+  CameraIntrinsics check = file.camera;
+  if (!sized) {  // the principal point is checked against the image later
+    check.width = static_cast<int>(std::ceil(std::max(1.0, 2 * check.cx + 1)));
+    check.height = static_cast<int>(std::ceil(std::max(1.0, 2 * check.cy + 1)));
+  }
+  try {
+    check.Check();
+  } catch (const InputError& e) {
+    throw InputError(path + ": " + e.what());
+  }
+  return file;
+}
+
+Eigen::Isometry3d ParsePose(const std::string& text, const std::string& what) {
+  const std::vector<double> v = Numbers(text, what);
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  if (v.size() == 7) {
+    const Eigen::Quaterniond q(v[3], v[4], v[5], v[6]);
+    Require(std::abs(q.norm() - 1) < 1e-3,
+            what + " '" + text + "': the quaternion qw,qx,qy,qz must have unit length (it has " +
+                std::to_string(q.norm()) + ")");
+    pose.linear() = q.normalized().toRotationMatrix();
+    pose.translation() = Eigen::Vector3d(v[0], v[1], v[2]);
+    return pose;
+  }
+  Require(v.size() == 16,
+          what + " '" + text +
+              "' must be 16 numbers (a 4x4 matrix, row by row) or 7 "
+              "(x,y,z,qw,qx,qy,qz); it has " +
+              std::to_string(v.size()));
+  Eigen::Matrix4d m;
+  for (int r = 0; r < 4; ++r) {
+    for (int c = 0; c < 4; ++c) m(r, c) = v[4 * r + c];
+  }
+  const Eigen::Matrix3d rotation = m.topLeftCorner<3, 3>();
+  Require(m.row(3).isApprox(Eigen::RowVector4d(0, 0, 0, 1)) &&
+              (rotation * rotation.transpose()).isApprox(Eigen::Matrix3d::Identity(), 1e-4) &&
+              rotation.determinant() > 0,
+          what + " '" + text +
+              "' is not a rigid transform (rotation and translation, last "
+              "row 0 0 0 1)");
+  pose.linear() = rotation;
+  pose.translation() = m.topRightCorner<3, 1>();
+  return pose;
+}
+
+Eigen::Vector3d ParsePosition(const std::string& text, const std::string& what) {
+  const std::vector<double> v = Numbers(text, what);
+  Require(v.size() == 3, what + " '" + text + "' must be x,y,z (three numbers)");
+  return Eigen::Vector3d(v[0], v[1], v[2]);
+}
+
+}  // namespace furn

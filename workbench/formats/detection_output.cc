@@ -1,0 +1,89 @@
+#include "workbench/formats/detection_output.h"
+
+#include <cstdio>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+namespace furn {
+
+std::string DetectionJson(const DetectionResult& result, const LoadedScan& scan, bool one_line) {
+  nlohmann::ordered_json detections = nlohmann::ordered_json::array();
+  for (const Detection& d : result.detections) {
+    detections.push_back({{"class", ClassName(d.furniture_class)},
+                          {"x", d.x},
+                          {"y", d.y},
+                          {"z", d.z},
+                          {"yaw", d.yaw},
+                          {"model", d.model_name},
+                          {"score", d.score},
+                          {"vote_weight", d.vote_weight},
+                          {"verification", d.verification},
+                          {"covered_fraction", d.covered_fraction}});
+  }
+  nlohmann::ordered_json timings = nlohmann::ordered_json::object();
+  for (const StageTime& t : result.timings_ms.stages) timings[EnumName(t.stage)] = t.ms;
+  const Eigen::Matrix4d pose = result.world_from_camera.matrix();
+  nlohmann::ordered_json json{
+      {"input", scan.description},
+      {"frame", "world: floor at z = 0, z up; x, y, z of the footprint centre; yaw about z"},
+      {"world_from_camera", std::vector<double>(pose.data(), pose.data() + 16)},
+      {"world_from_camera_layout", "4x4 column-major"},
+      {"floor_estimated", result.floor_estimated},
+      {"pose_source",
+       scan.pose_source.empty() ? std::string(result.floor_estimated ? "floor estimated" : "given")
+                                : scan.pose_source},
+      {"points_in_range", result.input_points},
+      {"points", result.points},
+      {"segments", result.segments},
+      {"detections", detections},
+      {"timings_ms", timings}};
+  return (one_line ? json.dump() : json.dump(2)) + "\n";
+}
+
+std::string ScanErrorJson(const std::string& input, const std::string& error) {
+  return nlohmann::ordered_json{{"input", input}, {"error", error}}.dump() + "\n";
+}
+
+std::string ExplainDetection(const DetectionResult& result, const TrainedModel& model) {
+  std::ostringstream out;
+  out << result.debug.hypotheses.size() << " hypotheses (Hough maxima):\n";
+  char line[256];
+  for (const DetectionDebug::Hypothesis& h : result.debug.hypotheses) {
+    std::snprintf(line,
+                  sizeof(line),
+                  "  %-9s x %6.2f  y %6.2f  votes %6.2f (rel %.2f)  %zu segments  ",
+                  ClassName(h.furniture_class),
+                  h.x,
+                  h.y,
+                  h.vote_weight,
+                  h.relative_weight,
+                  h.segments.size());
+    out << line;
+    // The best fit, if any: the one the outcome is about.
+    const DetectionDebug::Hypothesis::Fit* best = nullptr;
+    for (const DetectionDebug::Hypothesis::Fit& f : h.fits) {
+      if (best == nullptr || f.score > best->score) best = &f;
+    }
+    if (best != nullptr) {
+      std::snprintf(
+          line,
+          sizeof(line),
+          "fit %s covered %.2f verification %.2f",
+          best->model_index >= 0 && best->model_index < static_cast<int>(model.model_names.size())
+              ? model.model_names[best->model_index].c_str()
+              : "?",
+          best->covered_fraction,
+          best->verification);
+      out << line;
+      if (h.probability >= 0) {
+        std::snprintf(line, sizeof(line), " p %.2f", h.probability);
+        out << line;
+      }
+      out << "  ";
+    }
+    out << "-> " << DetectionDebug::Describe(h) << "\n";
+  }
+  return out.str();
+}
+
+}  // namespace furn

@@ -1,0 +1,96 @@
+// The one table of detector options: each option's key in options files and
+// runs, its command-line flag (empty: files only) and its help. Options files
+// (options_file.h) and the flags of `detect`, `evaluate`, `crossval` and
+// `tune` (cli/detector_flags.h) are both made from it, so a new option is
+// added once, here (COLMAP's AddAndRegisterDefaultOption).
+//
+//   ForEachDetectorOption(&options, [](const DetectorOptionInfo& info, auto& value) {
+//     std::cout << info.key << " = " << value << "\n";
+//   });
+#pragma once
+
+#include "core/detector.h"
+
+namespace furn {
+
+struct DetectorOptionInfo {
+  const char* key;   // dotted path in the "detector" object of options files
+  const char* flag;  // "--name", or "" for an option set by files only
+  const char* help;
+};
+
+// Calls visit(info, member) for every field of `options`, in the order runs
+// store them (that order is part of the stored text: do not reorder).
+template <typename Options, typename Visit>
+void ForEachDetectorOption(Options* options, Visit&& visit) {
+  Options& o = *options;
+  visit(DetectorOptionInfo{"max_range_m", "--max-range", "Drop points beyond (m)"}, o.max_range_m);
+  visit(DetectorOptionInfo{"floor_band_m", "--floor-band", "Points below this height are floor (m)"},
+        o.floor_band_m);
+  visit(DetectorOptionInfo{"floor.distance_m",
+                           "--floor-distance",
+                           "Floor search: RANSAC inlier distance (m)"},
+        o.floor.distance_m);
+  visit(DetectorOptionInfo{"floor.iterations", "", ""}, o.floor.iterations);
+  visit(DetectorOptionInfo{"floor.max_tilt_deg",
+                           "--floor-max-tilt",
+                           "Floor search: largest angle of the floor to the camera's up (deg)"},
+        o.floor.max_tilt_deg);
+  visit(DetectorOptionInfo{"floor.min_fraction", "", ""}, o.floor.min_fraction);
+  visit(DetectorOptionInfo{"floor.min_camera_height_m", "", ""}, o.floor.min_camera_height_m);
+  visit(DetectorOptionInfo{"max_segment_extent_m", "", ""}, o.max_segment_extent_m);
+  visit(DetectorOptionInfo{"cell_m", "", ""}, o.cell_m);
+  visit(DetectorOptionInfo{"vote_sigma_m", "", ""}, o.vote_sigma_m);
+  visit(DetectorOptionInfo{"vote_height_tolerance_m", "", ""}, o.vote_height_tolerance_m);
+  visit(DetectorOptionInfo{"relative_threshold", "--threshold", "Relative vote threshold t (eq. 8)"},
+        o.relative_threshold);
+  visit(DetectorOptionInfo{"absolute_threshold", "--absolute-threshold", "Minimum vote weight"},
+        o.absolute_threshold);
+  visit(DetectorOptionInfo{"max_hypotheses_per_class",
+                           "--max-hypotheses",
+                           "Strongest maxima kept per class"},
+        o.max_hypotheses_per_class);
+  visit(DetectorOptionInfo{"support_radius_m", "", ""}, o.support_radius_m);
+  visit(DetectorOptionInfo{"neighbours", "", ""}, o.neighbours);
+  visit(DetectorOptionInfo{"top_models", "--top-models", "CAD models fitted per hypothesis"},
+        o.top_models);
+  visit(DetectorOptionInfo{"fit.iterations", "--fit-iterations", "RANSAC draws per fit"},
+        o.fit.iterations);
+  visit(DetectorOptionInfo{"fit.height_tolerance_m", "", ""}, o.fit.height_tolerance_m);
+  visit(DetectorOptionInfo{"fit.inlier_m", "", ""}, o.fit.inlier_m);
+  visit(DetectorOptionInfo{"fit.max_offset_m", "", ""}, o.fit.max_offset_m);
+  visit(DetectorOptionInfo{"fit.refine_iterations", "", ""}, o.fit.refine_iterations);
+  visit(DetectorOptionInfo{"fit.above_m", "", ""}, o.fit.above_m);
+  visit(DetectorOptionInfo{"min_covered_fraction",
+                           "--min-covered",
+                           "Fixed gates: share of the box's points a fit must explain"},
+        o.min_covered_fraction);
+  visit(DetectorOptionInfo{"own_segment_share",
+                           "--own-segments",
+                           "Count in the covered share only segments at least this much inside "
+                           "the fit's box (0: off; e.g. 0.5 finds chairs pushed under desks)"},
+        o.own_segment_share);
+  visit(DetectorOptionInfo{"occupancy_voxel_m", "", ""}, o.occupancy_voxel_m);
+  visit(DetectorOptionInfo{"occupied_weight", "", ""}, o.occupied_weight);
+  visit(DetectorOptionInfo{"min_verification", "--min-verification", "Fixed gates: visibility score"},
+        o.min_verification);
+  visit(DetectorOptionInfo{"min_seen_occupied",
+                           "--min-seen",
+                           "Fixed gates: share of the fit's observable surface seen"},
+        o.min_seen_occupied);
+  visit(DetectorOptionInfo{"min_score", "--min-score", "Fixed gates: ranking score"}, o.min_score);
+  visit(DetectorOptionInfo{"max_shared_support", "", ""}, o.max_shared_support);
+  visit(DetectorOptionInfo{"max_footprint_overlap", "", ""}, o.max_footprint_overlap);
+  visit(DetectorOptionInfo{"use_scorer", "", ""}, o.use_scorer);
+  visit(DetectorOptionInfo{"scorer_min_covered_fraction", "", ""}, o.scorer_min_covered_fraction);
+  visit(DetectorOptionInfo{"scorer_min_verification", "", ""}, o.scorer_min_verification);
+  visit(DetectorOptionInfo{"scorer_min_seen_occupied", "", ""}, o.scorer_min_seen_occupied);
+  visit(DetectorOptionInfo{"min_probability",
+                           "--min-probability",
+                           "With the model's scorer: least detection probability"},
+        o.min_probability);
+  visit(DetectorOptionInfo{"scorer_max_seen_through", "", ""}, o.scorer_max_seen_through);
+  visit(DetectorOptionInfo{"seed", "--seed", "Seed of the RANSAC draws"}, o.seed);
+}
+
+}  // namespace furn

@@ -1,0 +1,80 @@
+// A scan to detect in, from any source: a PCD/PLY cloud (camera or world
+// frame), a depth image with intrinsics or a camera file, or a frame of a
+// dataset DB; the detector's input, its camera pose and its ground truth.
+//
+//   ScanSource source;
+//   source.db_path = "synth.db"; source.frame_id = 12;
+//   LoadedScan scan = LoadScan(source);
+//   DetectionResult result = detector.Detect(scan.input);
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/detector.h"
+#include "db/dataset_db.h"
+#include "renderers/camera.h"
+#include "reports/detection_debug.h"
+
+namespace furn {
+
+struct ScanSource {
+  std::string cloud_path;              // .pcd or .ply
+  std::string depth_path;              // depth image (ReadDepthImage's formats)
+  std::string intrinsics = "kinect1";  // kinect1, or fx,fy,cx,cy (size from the image)
+  std::string camera_file;             // or a camera file (ReadCameraFile), instead
+  std::optional<int64_t> image_id;     // the entry of a BOP scene_camera.json
+  // Depth units per metre; 0: the camera file's, else 1000 for 16-bit images
+  // (millimetres) and 1 for float images (metres). TUM: 5000.
+  double depth_scale = 0;
+  std::string db_path;    // dataset database ...
+  int64_t frame_id = -1;  // ... and one of its frames
+
+  // Clouds in a world frame rather than the camera's: the camera's pose in
+  // it (ParsePose's text), else the PCD's VIEWPOINT. With floor_aligned the
+  // world frame is the detector's (z up, floor at z = 0) and the pose is used
+  // as it is; otherwise the floor is found as for camera-frame clouds.
+  // A floor-aligned cloud without a pose: an organised cloud's camera is
+  // estimated from its pixel grid (CameraOfOrganisedCloud); an unorganised
+  // one needs `sensor` (x,y,z).
+  std::string world_from_camera;
+  bool floor_aligned = false;
+  std::string sensor;
+};
+
+struct LoadedScan {
+  DetectionInput input;
+  std::string description;  // for messages and the JSON
+  CameraIntrinsics camera;  // of the depth image or DB frame; Kinect v1 for clouds
+  std::vector<GroundTruthFootprint> ground_truth;  // DB frames only
+  std::string pose_source;  // where the pose came from, or empty (floor estimated)
+  // Imported real scans whose floor the detector estimates: the camera's pose
+  // in the labels' frame (ground_truth is in it, detections are not).
+  std::optional<Eigen::Isometry3d> label_from_camera;
+};
+
+// Exactly one of cloud, depth or db must be given. Throws InputError naming
+// the file or value for anything unreadable or inconsistent.
+LoadedScan LoadScan(const ScanSource& source);
+
+// The scan's ground truth in the detector's floor frame: as stored, or moved
+// there from the labels' frame of an imported real scan.
+std::vector<GroundTruthFootprint> GroundTruthInDetectorFrame(const LoadedScan& scan,
+                                                             const DetectionResult& result);
+
+// The intrinsics a dataset frame was rendered with, and their setter.
+CameraIntrinsics IntrinsicsOf(const FrameRecord& frame);
+void SetIntrinsics(const CameraIntrinsics& camera, FrameRecord* frame);
+
+// Detection input of a dataset frame: its noisy depth back-projected, with
+// its known pose. `what` names the frame in errors.
+DetectionInput DetectionInputOf(const FrameRecord& frame, const std::string& what);
+
+// "kinect1" or "fx,fy,cx,cy" for an image of width x height.
+CameraIntrinsics ParseIntrinsics(const std::string& text, int width, int height);
+
+// The scan a source names (its file, or db and frame), for messages.
+std::string ScanSourceName(const ScanSource& source);
+}  // namespace furn

@@ -1,0 +1,268 @@
+#include "workbench/pipelines/crossval.h"
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+
+#include "core/error.h"
+#include "core/file_util.h"
+#include "core/hypothesis_scorer.h"
+#include "core/mesh.h"
+#include "db/dataset_db.h"
+#include "scenes/model_folds.h"
+#include "workbench/pipelines/train.h"
+
+namespace furn {
+namespace {
+
+// The folds the dataset was generated with (`generate --model-folds`).
+ModelFolds DatasetFolds(const Catalog& catalog, const std::string& db_path, uint64_t* seed) {
+  DatasetDb dataset(db_path, DatasetDb::Mode::kReadOnly);
+  const std::optional<std::string> generation = dataset.GenerationOptions();
+  const nlohmann::json options =
+      generation ? nlohmann::json::parse(*generation) : nlohmann::json::object();
+  Require(options.contains("model_folds"),
+          db_path +
+              ": was not generated with leave-models-out folds (make one with "
+              "'workbench generate --model-folds 5 ...')");
+  const int count = options["model_folds"]["folds"].get<int>();
+  *seed = options["model_folds"]["seed"].get<uint64_t>();
+  ModelFolds folds = AssignModelFolds(catalog, count, *seed);
+  // The same catalog must give the same split: every target of room k is a
+  // model of fold k % K.
+  for (int64_t room_id : dataset.RoomIds()) {
+    for (const ObjectRecord& object : dataset.ReadRoom(room_id, /*with_images=*/false).objects) {
+      if (!object.furniture_class) continue;
+      const auto it = folds.fold_of_model.find(object.model_id);
+      Require(it != folds.fold_of_model.end() && it->second == folds.FoldOfRoom(room_id),
+              db_path + ": room " + std::to_string(room_id) + " has target " + object.model_id +
+                  ", which catalog " + catalog.description() + " does not put in fold " +
+                  std::to_string(folds.FoldOfRoom(room_id)) +
+                  " (use the catalog the dataset was generated from)");
+    }
+  }
+  return folds;
+}
+
+// A fold's model file: named by what decides it (trainer options, catalog,
+// held-out models), so a second run reuses it.
+std::string FoldModelPath(const Catalog& catalog,
+                          const CrossvalOptions& options,
+                          const std::set<std::string>& held_out,
+                          int fold,
+                          int folds) {
+  std::string key = TrainingOptionsJson(options.training) + "\n" + catalog.description();
+  for (const CatalogEntry* entry : catalog.Classified()) key += "\n" + entry->id;
+  key += "\nheld out:";
+  for (const std::string& id : held_out) key += "\n" + id;
+  ContentHasher hasher;
+  hasher.Update(key.data(), key.size());
+  return (std::filesystem::path(options.work_dir) /
+          ("fold-" + std::to_string(fold) + "-of-" + std::to_string(folds) + "-" +
+           hasher.HexDigest().substr(0, 12) + ".fcm"))
+      .string();
+}
+
+// Mean and population standard deviation of each metric over the folds that
+// have it (a fold may lack a class's AP when none of its objects is visible).
+void Aggregate(CrossvalSummary* summary) {
+  std::map<std::string, std::vector<double>> values;
+  for (const CrossvalFold& fold : summary->per_fold) {
+    for (const auto& [name, value] : fold.evaluation.result.metrics) {
+      if (std::isfinite(value)) values[name].push_back(value);
+    }
+  }
+  for (const auto& [name, v] : values) {
+    double mean = 0, square = 0;
+    for (double x : v) mean += x / v.size();
+    for (double x : v) square += (x - mean) * (x - mean) / v.size();
+    summary->mean[name] = mean;
+    summary->spread[name] = std::sqrt(square);
+  }
+  // Sizes are totals, not means.
+  for (const char* total : {"frames", "objects", "frames_without_points"}) {
+    if (!values.count(total)) continue;
+    double sum = 0;
+    for (double x : values[total]) sum += x;
+    summary->mean[total] = sum;
+    summary->spread.erase(total);
+  }
+}
+
+// Fold k's evaluation: its rooms only, stored as a "crossval-fold" run.
+EvaluateCommandOptions FoldEvaluation(const CrossvalOptions& options, int fold, int folds) {
+  EvaluateCommandOptions evaluate = options.evaluate;
+  evaluate.fold = fold;
+  evaluate.fold_count = folds;
+  evaluate.kind = "crossval-fold";
+  evaluate.label = "fold " + std::to_string(fold) + " of " + std::to_string(folds);
+  return evaluate;
+}
+
+}  // namespace
+
+CrossvalSummary RunLeaveModelsOut(const Catalog& catalog,
+                                  const std::string& db_path,
+                                  const CrossvalOptions& options) {
+  Require(!options.work_dir.empty(), "crossval needs a work directory for the fold models");
+  const auto start = std::chrono::steady_clock::now();
+  CrossvalSummary summary;
+  const ModelFolds folds = DatasetFolds(catalog, db_path, &summary.fold_seed);
+  summary.folds = folds.count;
+  std::filesystem::create_directories(options.work_dir);
+  std::vector<int64_t> fold_runs;
+  std::vector<std::vector<ScorerSample>> samples(folds.count);
+  for (int k = 0; k < folds.count; ++k) {
+    CrossvalFold fold;
+    fold.fold = k;
+    const std::set<std::string> held_out = folds.ModelsOf(k);
+    for (const std::string& id : held_out)
+      ++fold.held_out_per_class[ClassName(*catalog.Get(id).furniture_class)];
+    fold.model_path = FoldModelPath(catalog, options, held_out, k, folds.count);
+    fold.model_reused = std::filesystem::exists(fold.model_path);
+    if (!options.quiet) {
+      std::fprintf(stderr,
+                   "crossval: fold %d of %d: %zu models held out; %s\n",
+                   k + 1,
+                   folds.count,
+                   held_out.size(),
+                   fold.model_reused ? "model reused" : "training");
+    }
+    if (!fold.model_reused) {
+      TrainFromCatalog(
+          catalog, options.training.scan, options.training.trainer, fold.model_path, held_out);
+    }
+    EvaluateCommandOptions evaluate = FoldEvaluation(options, k, folds.count);
+    if (options.scorer) {
+      evaluate.kind = "crossval-gates";
+      evaluate.detector.use_scorer = false;
+      evaluate.collect_scorer_samples = true;
+      fold.gates = EvaluateModel(fold.model_path, db_path, evaluate);
+      samples[k] = std::move(fold.gates.scorer_samples);
+    } else {
+      fold.evaluation = EvaluateModel(fold.model_path, db_path, evaluate);
+      fold_runs.push_back(fold.evaluation.run_id);
+    }
+    summary.per_fold.push_back(std::move(fold));
+  }
+  if (options.scorer) {
+    // Nested: fold k's scorer never sees a hypothesis of fold k's rooms.
+    std::vector<ScorerSample> all;
+    for (const auto& fold_samples : samples)
+      all.insert(all.end(), fold_samples.begin(), fold_samples.end());
+    summary.scorer_samples = static_cast<int>(all.size());
+    for (int k = 0; k < folds.count; ++k) {
+      CrossvalFold& fold = summary.per_fold[k];
+      std::vector<ScorerSample> others;
+      for (int j = 0; j < folds.count; ++j) {
+        if (j != k) others.insert(others.end(), samples[j].begin(), samples[j].end());
+      }
+      if (!options.quiet) {
+        std::fprintf(stderr,
+                     "crossval: fold %d of %d: scorer from %zu hypotheses of the other folds\n",
+                     k + 1,
+                     folds.count,
+                     others.size());
+      }
+      if (!HypothesisScorer::CanTrain(
+              others)) {  // too small a dataset: this fold keeps the fixed gates
+        std::fprintf(stderr,
+                     "warning: crossval fold %d: %zu hypotheses of the other folds are too few to "
+                     "learn a scorer (20 with both labels needed); this fold uses the fixed "
+                     "gates\n",
+                     k,
+                     others.size());
+        fold.evaluation = fold.gates;
+        fold_runs.push_back(fold.gates.run_id);
+        continue;
+      }
+      TrainedModel model = LoadTrainedModel(fold.model_path);
+      model.scorer = HypothesisScorer::Train(others, options.scorer_options).Serialize();
+      const std::string scored_path =
+          (std::filesystem::path(options.work_dir) /
+           ("fold-" + std::to_string(k) + "-of-" + std::to_string(folds.count) + "-scored.fcm"))
+              .string();
+      SaveTrainedModel(model, scored_path);
+      EvaluateCommandOptions evaluate = FoldEvaluation(options, k, folds.count);
+      evaluate.detector.use_scorer = true;
+      fold.evaluation = EvaluateModel(scored_path, db_path, evaluate);
+      fold_runs.push_back(fold.evaluation.run_id);
+    }
+    if (HypothesisScorer::CanTrain(all)) {
+      summary.scorer_path = (std::filesystem::path(options.work_dir) / "scorer.yml").string();
+      WriteFileAtomically(summary.scorer_path,
+                          HypothesisScorer::Train(all, options.scorer_options).Serialize());
+    }
+  }
+  Aggregate(&summary);
+  std::map<std::string, double>& gates = summary.gates;
+  if (options.scorer) {
+    for (const CrossvalFold& fold : summary.per_fold) {
+      for (const auto& [name, value] : fold.gates.result.metrics) {
+        if (name.rfind("mAP", 0) == 0 || name.rfind("AP/", 0) == 0)
+          gates[name] += value / summary.per_fold.size();
+      }
+    }
+  }
+
+  RunRecord run = NewRunRecord("crossval",
+                               options.evaluate.label.empty()
+                                   ? "leave-models-out, " + std::to_string(folds.count) + " folds"
+                                   : options.evaluate.label);
+  run.model_path = options.work_dir;
+  run.split = options.evaluate.split;
+  nlohmann::ordered_json stored{
+      {"protocol", "leave-models-out"},
+      {"folds", folds.count},
+      {"fold_seed", summary.fold_seed},
+      {"fold_runs", fold_runs},
+      {"trainer", nlohmann::json::parse(TrainingOptionsJson(options.training))},
+      {"scorer",
+       options.scorer
+           ? nlohmann::json{{"trees", options.scorer_options.trees},
+                            {"max_depth", options.scorer_options.max_depth},
+                            {"min_sample_count", options.scorer_options.min_sample_count},
+                            {"calibration_share", options.scorer_options.calibration_share},
+                            {"samples", summary.scorer_samples}}
+           : nlohmann::json()},
+      {"detector", nlohmann::json::parse(DetectorOptionsJson(options.evaluate.detector))}};
+  run.options_json = stored.dump();
+  nlohmann::json per_fold = nlohmann::json::array();
+  for (const CrossvalFold& fold : summary.per_fold) {
+    per_fold.push_back({{"fold", fold.fold},
+                        {"run", fold.evaluation.run_id},
+                        {"held_out", fold.held_out_per_class},
+                        {"metrics", fold.evaluation.result.metrics}});
+  }
+  // Reliability bins pooled over the folds.
+  std::vector<CalibrationBin> calibration;
+  for (const CrossvalFold& fold : summary.per_fold) {
+    const std::vector<CalibrationBin>& bins = fold.evaluation.result.calibration;
+    if (calibration.empty()) {
+      calibration = bins;
+      continue;
+    }
+    for (size_t b = 0; b < bins.size() && b < calibration.size(); ++b) {
+      calibration[b].detections += bins[b].detections;
+      calibration[b].true_positives += bins[b].true_positives;
+      calibration[b].score_sum += bins[b].score_sum;
+    }
+  }
+  nlohmann::json results = CalibrationJson(calibration);
+  results["folds"] = per_fold;
+  run.results_json = results.dump();
+  std::map<std::string, double> metrics = summary.mean;
+  for (const auto& [name, value] : summary.spread) metrics["spread/" + name] = value;
+  metrics["folds"] = folds.count;
+  for (const auto& [name, value] : gates) metrics["gates/" + name] = value;
+  {
+    DatasetDb dataset(db_path, DatasetDb::Mode::kReadWriteExisting);
+    summary.run_id = dataset.WriteRun(run, metrics, {}, {});
+  }
+  summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return summary;
+}
+
+}  // namespace furn

@@ -1,0 +1,312 @@
+#include "workbench/pipelines/dataset_tools.h"
+
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "core/error.h"
+#include "core/file_util.h"
+#include "db/dataset_db.h"
+#include "reports/dataset_sheet.h"
+#include "workbench/pipelines/export_bop.h"
+
+namespace furn {
+namespace {
+
+DatasetDb OpenExisting(const std::string& db_path) {
+  RequireRegularFile(db_path);
+  std::error_code ec;
+  Require(std::filesystem::exists(db_path, ec), db_path + ": file does not exist");
+  return DatasetDb(db_path, DatasetDb::Mode::kReadOnly);
+}
+
+}  // namespace
+
+DatasetInfo ReadDatasetInfo(const std::string& db_path) {
+  DatasetDb dataset = OpenExisting(db_path);
+  Database& db = *dataset.database();
+  DatasetInfo info;
+  info.path = db_path;
+  info.file_bytes = static_cast<int64_t>(std::filesystem::file_size(db_path));
+  info.generation_options = dataset.GenerationOptions().value_or("");
+  Statement splits(&db, "SELECT split, count(*) FROM rooms GROUP BY split ORDER BY split");
+  while (splits.Step())
+    info.rooms_per_split[splits.ColumnText(0)] = static_cast<int>(splits.ColumnInt(1));
+  Statement frames(&db, "SELECT count(*) FROM frames");
+  frames.Step();
+  info.frames = frames.ColumnInt(0);
+  Statement objects(&db, "SELECT class, count(*) FROM objects GROUP BY class");
+  while (objects.Step()) {
+    if (objects.ColumnText(0).empty()) {
+      info.clutter_objects = objects.ColumnInt(1);
+    } else {
+      info.objects_per_class[objects.ColumnText(0)] = objects.ColumnInt(1);
+    }
+  }
+  Statement views(
+      &db,
+      "SELECT o.class, fo.visibility FROM frame_objects fo JOIN frames f ON f.id = fo.frame_id "
+      "JOIN objects o ON o.room_id = f.room_id AND o.instance_id = fo.instance_id "
+      "WHERE o.class != '' AND fo.in_frustum = 1");
+  while (views.Step()) {
+    ++info.views_per_class[views.ColumnText(0)];
+    const int bin = std::min(9, static_cast<int>(views.ColumnDouble(1) * 10));
+    ++info.visibility_histogram[bin];
+  }
+  for (const ModelRecord& model : dataset.ReadModels()) {
+    ++info.models_per_class[model.furniture_class ? ClassName(*model.furniture_class) : "clutter"];
+  }
+  return info;
+}
+
+std::string DatasetInfoText(const DatasetInfo& info) {
+  std::ostringstream out;
+  int rooms = 0;
+  for (const auto& [split, count] : info.rooms_per_split) rooms += count;
+  out << info.path << ": " << rooms << " rooms (";
+  bool first = true;
+  for (const auto& [split, count] : info.rooms_per_split) {
+    out << (first ? "" : ", ") << split << " " << count;
+    first = false;
+  }
+  out << "), " << info.frames << " frames, " << (info.file_bytes + 512 * 1024) / (1024 * 1024)
+      << " MiB\n";
+  out << "objects placed: ";
+  for (const auto& [name, count] : info.objects_per_class) out << name << " " << count << ", ";
+  out << "clutter " << info.clutter_objects << "\n";
+  out << "models used: ";
+  first = true;
+  for (const auto& [name, count] : info.models_per_class) {
+    out << (first ? "" : ", ") << name << " " << count;
+    first = false;
+  }
+  out << "\ntarget views in frustum: ";
+  first = true;
+  for (const auto& [name, count] : info.views_per_class) {
+    out << (first ? "" : ", ") << name << " " << count;
+    first = false;
+  }
+  int64_t total = 0;
+  for (int64_t count : info.visibility_histogram) total += count;
+  out << "\nvisibility histogram (target views):\n";
+  for (int bin = 0; bin < 10; ++bin) {
+    const int64_t count = info.visibility_histogram[bin];
+    char line[96];
+    std::snprintf(line,
+                  sizeof(line),
+                  "  %.1f-%.1f %7lld ",
+                  bin / 10.0,
+                  (bin + 1) / 10.0,
+                  static_cast<long long>(count));
+    out << line << std::string(total > 0 ? static_cast<size_t>(50.0 * count / total + 0.5) : 0, '#')
+        << "\n";
+  }
+  return out.str();
+}
+
+std::string DatasetInfoJson(const DatasetInfo& info) {
+  nlohmann::ordered_json json{
+      {"path", info.path},
+      {"file_bytes", info.file_bytes},
+      {"rooms_per_split", info.rooms_per_split},
+      {"frames", info.frames},
+      {"objects_per_class", info.objects_per_class},
+      {"clutter_objects", info.clutter_objects},
+      {"models_per_class", info.models_per_class},
+      {"target_views_per_class", info.views_per_class},
+      {"visibility_histogram", info.visibility_histogram},
+      {"generation_options",
+       nlohmann::json::parse(info.generation_options.empty() ? "null" : info.generation_options)}};
+  return json.dump(2) + "\n";
+}
+
+void WriteDatasetPreview(const std::string& db_path, int max_frames, const std::string& png_path) {
+  Require(max_frames >= 1 && max_frames <= 200,
+          "--frames " + std::to_string(max_frames) + " must be in 1..200");
+  DatasetDb dataset = OpenExisting(db_path);
+  const std::vector<int64_t> room_ids = dataset.RoomIds();
+  Require(!room_ids.empty(), db_path + ": the dataset has no rooms");
+  std::vector<RoomRecord> rooms;
+  for (int64_t id : room_ids) rooms.push_back(dataset.ReadRoom(id, /*with_images=*/false));
+  std::vector<std::pair<size_t, size_t>> all;  // (room, frame)
+  for (size_t r = 0; r < rooms.size(); ++r) {
+    for (size_t f = 0; f < rooms[r].frames.size(); ++f) all.emplace_back(r, f);
+  }
+  Require(!all.empty(), db_path + ": the dataset has no frames");
+  const size_t wanted = std::min(all.size(), static_cast<size_t>(max_frames));
+  std::vector<RoomRecord> chosen_rooms;
+  chosen_rooms.reserve(wanted);
+  std::vector<SheetFrame> frames;
+  for (size_t i = 0; i < wanted; ++i) {
+    const auto [r, f] = all[i * all.size() / wanted];
+    chosen_rooms.push_back(dataset.ReadRoom(rooms[r].id, /*with_images=*/true));
+    RoomRecord& room = chosen_rooms.back();
+    frames.push_back({&room.frames[f], &room});
+  }
+  WriteDatasetSheet(frames, DatasetSheetOptions{}, png_path);
+}
+
+}  // namespace furn
+
+#include <fstream>
+
+#include "core/file_util.h"
+#include "core/scene.h"
+#include "renderers/camera.h"
+#include "workbench/formats/depth_png.h"
+#include "workbench/formats/point_cloud_file.h"
+#include "workbench/formats/scan_file.h"
+
+namespace furn {
+namespace {
+
+std::string SqlQuote(const std::string& text) {
+  std::string quoted = "'";
+  for (char c : text) quoted += c == '\'' ? std::string("''") : std::string(1, c);
+  return quoted + "'";
+}
+
+}  // namespace
+
+MergeSummary MergeDatasets(const std::vector<std::string>& inputs, const std::string& out) {
+  Require(inputs.size() >= 1, "merge needs at least one input dataset");
+  std::error_code ec;
+  Require(!std::filesystem::exists(out, ec), out + ": already exists (merge writes a new file)");
+  std::string options;
+  for (const std::string& input : inputs) {
+    DatasetDb dataset = OpenExisting(input);
+    const std::string these = dataset.GenerationOptions().value_or("");
+    if (options.empty()) options = these;
+    Require(these == options,
+            input + ": generated with other options than " + inputs.front() +
+                " (only shards of one run can be merged)");
+  }
+  const std::string temp = out + ".partial";
+  std::filesystem::remove(temp, ec);
+  MergeSummary summary;
+  try {
+    DatasetDb merged(temp, DatasetDb::Mode::kReadWrite);
+    merged.SetGenerationOptions(options);
+    Database& db = *merged.database();
+    for (const std::string& input : inputs) {
+      {
+        DatasetDb source = OpenExisting(input);
+        merged.WriteModels(source.ReadModels());
+      }
+      db.Execute("ATTACH DATABASE " + SqlQuote(input) + " AS source");
+      int64_t conflicting = 0;
+      {  // statements on `source` must be finished before it is detached
+        Statement conflicts(
+            &db,
+            "SELECT count(*) FROM source.rooms s JOIN main.rooms m ON m.id = s.id "
+            "WHERE m.seed != s.seed OR EXISTS (SELECT 1 FROM source.frames sf JOIN main.frames mf "
+            "ON mf.id = sf.id WHERE sf.room_id = s.id AND sf.content_hash != mf.content_hash)");
+        conflicts.Step();
+        conflicting = conflicts.ColumnInt(0);
+        Statement duplicates(
+            &db, "SELECT count(*) FROM source.rooms WHERE id IN (SELECT id FROM main.rooms)");
+        duplicates.Step();
+        summary.duplicate_rooms += static_cast<int>(duplicates.ColumnInt(0));
+      }
+      if (conflicting > 0) {
+        throw InputError(input + ": " + std::to_string(conflicting) +
+                         " rooms have the same id as rooms already merged but other content");
+      }
+      Transaction transaction(&db);
+      db.Execute(
+          "INSERT INTO main.rooms SELECT * FROM source.rooms WHERE id NOT IN (SELECT id FROM "
+          "main.rooms)");
+      db.Execute(
+          "INSERT INTO main.objects SELECT * FROM source.objects WHERE (room_id, instance_id) NOT "
+          "IN "
+          "(SELECT room_id, instance_id FROM main.objects)");
+      db.Execute(
+          "INSERT INTO main.frames SELECT * FROM source.frames WHERE id NOT IN (SELECT id FROM "
+          "main.frames)");
+      db.Execute(
+          "INSERT INTO main.frame_objects SELECT * FROM source.frame_objects WHERE (frame_id, "
+          "instance_id) NOT IN "
+          "(SELECT frame_id, instance_id FROM main.frame_objects)");
+      transaction.Commit();
+      db.Execute("DETACH DATABASE source");
+    }
+    summary.rooms = static_cast<int>(merged.RoomIds().size());
+    db.Execute("PRAGMA wal_checkpoint(TRUNCATE)");
+  } catch (...) {
+    for (const char* suffix : {"", "-wal", "-shm"}) std::filesystem::remove(temp + suffix, ec);
+    throw;
+  }
+  std::filesystem::rename(temp, out, ec);
+  Require(!ec, out + ": cannot write (" + ec.message() + ")");
+  std::filesystem::remove(temp + "-wal", ec);
+  std::filesystem::remove(temp + "-shm", ec);
+  return summary;
+}
+
+namespace {
+
+void WriteBytes(const std::string& path, const std::vector<uint8_t>& bytes) {
+  WriteFileAtomically(path, std::string(bytes.begin(), bytes.end()));
+}
+
+std::string Pad(int64_t value) {
+  char text[16];
+  std::snprintf(text, sizeof(text), "%06lld", static_cast<long long>(value));
+  return text;
+}
+
+nlohmann::json Rows(const Eigen::Matrix3d& m) {
+  return {m(0, 0), m(0, 1), m(0, 2), m(1, 0), m(1, 1), m(1, 2), m(2, 0), m(2, 1), m(2, 2)};
+}
+
+}  // namespace
+
+int ExportDataset(const std::string& db_path,
+                  const std::string& format,
+                  const std::string& out_dir,
+                  const CatalogOpenOptions& catalog_options) {
+  Require(format == "bop" || format == "png" || format == "pcd",
+          "export format '" + format + "' is not one of bop, png, pcd");
+  OpenExisting(db_path);
+  std::error_code ec;
+  std::filesystem::create_directories(out_dir, ec);
+  Require(std::filesystem::is_directory(out_dir, ec),
+          out_dir + ": cannot create the output directory");
+  if (format == "bop") return ExportBop(db_path, out_dir, BopExportOptions{catalog_options});
+  DatasetDb dataset = OpenExisting(db_path);
+  const std::filesystem::path root(out_dir);
+  nlohmann::ordered_json png_index = nlohmann::ordered_json::array();
+  int written = 0;
+  for (int64_t room_id : dataset.RoomIds()) {
+    const RoomRecord room = dataset.ReadRoom(room_id, /*with_images=*/true);
+    for (const FrameRecord& frame : room.frames) {
+      const std::string where = db_path + " frame " + std::to_string(frame.id);
+      if (format == "pcd") {
+        DepthFrame noisy = DecodeDepthPng(frame.depth_noisy_png, where);
+        WriteOrganizedPcd(noisy, IntrinsicsOf(frame), (root / (Pad(frame.id) + ".pcd")).string());
+      } else {
+        std::filesystem::create_directories(root / "frames", ec);
+        WriteBytes((root / "frames" / (Pad(frame.id) + "_depth.png")).string(),
+                   frame.depth_noisy_png);
+        WriteBytes((root / "frames" / (Pad(frame.id) + "_depth_ideal.png")).string(),
+                   frame.depth_ideal_png);
+        WriteBytes((root / "frames" / (Pad(frame.id) + "_ids.png")).string(), frame.ids_png);
+        png_index.push_back({{"frame", frame.id},
+                             {"room", room.id},
+                             {"split", EnumName(room.split)},
+                             {"K", {frame.fx, 0, frame.cx, 0, frame.fy, frame.cy, 0, 0, 1}},
+                             {"world_from_camera", Rows(frame.world_from_camera.linear())},
+                             {"world_from_camera_t",
+                              {frame.world_from_camera.translation().x(),
+                               frame.world_from_camera.translation().y(),
+                               frame.world_from_camera.translation().z()}}});
+      }
+      ++written;
+    }
+  }
+  if (format == "png")
+    WriteFileAtomically((root / "frames.json").string(), png_index.dump(1) + "\n");
+  return written;
+}
+
+}  // namespace furn

@@ -1,0 +1,217 @@
+#include "workbench/pipelines/detect_batch.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <optional>
+
+#include "core/error.h"
+#include "core/file_util.h"
+#include "core/progress.h"
+#include "reports/detection_debug.h"
+#include "workbench/formats/detection_output.h"
+
+namespace furn {
+namespace {
+
+void PrintDetections(const LoadedScan& scan, const DetectionResult& result) {
+  std::fprintf(stderr, "%s: %zu detections", scan.description.c_str(), result.detections.size());
+  for (const Detection& d : result.detections) {
+    std::fprintf(stderr,
+                 "\n  %-9s x %6.2f  y %6.2f  yaw %5.1f deg  score %.2f  %s",
+                 ClassName(d.furniture_class),
+                 d.x,
+                 d.y,
+                 d.yaw * 180 / M_PI,
+                 d.score,
+                 d.model_name.c_str());
+  }
+  std::fprintf(stderr, "\n");
+}
+
+// JSON (lines) to --out, else to stdout unless quiet.
+void Emit(const std::string& text, const DetectRunOptions& run) {
+  if (!run.out.empty()) {
+    WriteFileAtomically(run.out, text);
+  } else if (!run.quiet) {
+    std::fputs(text.c_str(), stdout);
+  }
+}
+
+double Median(std::vector<double> values) {
+  if (values.empty()) return 0;
+  std::nth_element(values.begin(), values.begin() + values.size() / 2, values.end());
+  return values[values.size() / 2];
+}
+
+void Explain(const std::string& description, const DetectionResult& result, const Detector& detector) {
+  std::fprintf(stderr, "%s: ", description.c_str());
+  std::fputs(ExplainDetection(result, detector.model()).c_str(), stderr);
+}
+
+void PrintStageTimes(const DetectionResult& result,
+                     const std::map<DetectionStage, std::vector<double>>& stage_times,
+                     int repeat) {
+  std::fprintf(stderr,
+               "stage times (ms, %s of %d run%s):\n",
+               repeat > 1 ? "median" : "one",
+               repeat,
+               repeat > 1 ? "s" : "");
+  for (const StageTime& t : result.timings_ms.stages) {
+    std::fprintf(stderr, "  %-16s %8.1f\n", EnumName(t.stage), Median(stage_times.at(t.stage)));
+  }
+}
+
+// One scan given by the user: its errors throw, with debug PNGs and repeats.
+int DetectOneScan(const LoadedScan& scan, const Detector& detector, const DetectRunOptions& run) {
+  std::map<DetectionStage, std::vector<double>> stage_times;
+  DetectionResult result;
+  for (int k = 0; k < run.repeat; ++k) {
+    result = detector.Detect(scan.input, /*keep_debug=*/!run.debug_dir.empty() && k == run.repeat - 1);
+    // One scan given by the user: nothing in range is most likely a wrong file or unit.
+    Require(result.status == DetectionStatus::kDetected, scan.description + ": " + result.message);
+    for (const StageTime& t : result.timings_ms.stages) stage_times[t.stage].push_back(t.ms);
+  }
+  if (!run.debug_dir.empty()) {  // first: --out may name a file inside it
+    WriteDetectionDebug(result,
+                        detector.model(),
+                        scan.camera,
+                        GroundTruthInDetectorFrame(scan, result),
+                        run.debug_dir);
+  }
+  Emit(DetectionJson(result, scan), run);
+  if (!run.quiet) PrintDetections(scan, result);
+  if (run.explain) std::fputs(ExplainDetection(result, detector.model()).c_str(), stderr);
+  if (run.timings || run.repeat > 1) PrintStageTimes(result, stage_times, run.repeat);
+  return 0;
+}
+
+// A batch: one JSON line per scan, in input order; a scan that cannot be
+// read gets a line with its error and the others go on.
+int DetectBatch(const std::vector<ScanSource>& sources,
+                const Detector& detector,
+                double load_ms,
+                const DetectRunOptions& run) {
+  std::string lines;
+  int failed = 0;
+  std::vector<double> totals;
+  Progress progress("detect", sources.size(), "scans");
+  for (const ScanSource& source : sources) {
+    try {
+      const LoadedScan scan = LoadScan(source);
+      const DetectionResult result = detector.Detect(scan.input, /*keep_debug=*/false);
+      if (result.status != DetectionStatus::kDetected) {
+        lines += ScanErrorJson(scan.description, result.message);
+        ++failed;
+      } else {
+        lines += DetectionJson(result, scan, /*one_line=*/true);
+        totals.push_back(result.timings_ms.Of(DetectionStage::kTotal));
+        if (run.explain) Explain(scan.description, result, detector);
+      }
+    } catch (const InputError& e) {
+      lines += ScanErrorJson(ScanSourceName(source), e.what());
+      ++failed;
+    }
+    progress.Advance();
+  }
+  progress.Finish();
+  Emit(lines, run);
+  if (!run.quiet || failed > 0) {
+    std::sort(totals.begin(), totals.end());
+    std::fprintf(stderr,
+                 "%zu scans: %zu detected, %d failed (their lines say why); model loaded in "
+                 "%.0f ms, detection median %.0f ms\n",
+                 sources.size(),
+                 totals.size(),
+                 failed,
+                 load_ms,
+                 totals.empty() ? 0.0 : totals[totals.size() / 2]);
+  }
+  return failed > 0 ? 1 : 0;
+}
+
+// One message's JSON line: its place in the bag first, then what
+// DetectionJson (or the error line) says.
+std::string BagLine(const BagScan& scan, const DetectionResult& result) {
+  const nlohmann::ordered_json place{{"topic", scan.topic},
+                                     {"stamp", scan.stamp},
+                                     {"seq", scan.seq},
+                                     {"frame_id", scan.frame_id}};
+  const std::string place_text = place.dump();  // {"topic":...}
+  const std::string line = result.status != DetectionStatus::kDetected
+                               ? ScanErrorJson(scan.loaded.description, result.message)
+                               : DetectionJson(result, scan.loaded, /*one_line=*/true);
+  // Both are one-line JSON objects: splice the place in after the brace.
+  return place_text.substr(0, place_text.size() - 1) + "," + line.substr(1);
+}
+
+}  // namespace
+
+bool IsBatch(const std::vector<std::string>& inputs, const std::vector<ScanSource>& sources) {
+  if (sources.size() > 1) return true;
+  if (inputs.empty()) return false;
+  if (inputs[0].find_first_of("*?[") != std::string::npos) return true;
+  // A list or a folder that expanded to one scan is still a batch.
+  return !sources.empty() &&
+         (sources[0].cloud_path.empty() ? sources[0].depth_path : sources[0].cloud_path) !=
+             inputs[0];
+}
+
+int DetectScans(const std::vector<ScanSource>& sources, bool batch, const DetectRunOptions& run) {
+  Require(!batch || run.debug_dir.empty(), "--debug-dir applies to one scan");
+  Require(!batch || run.repeat == 1, "--repeat applies to one scan");
+  // One scan is checked before the model loads: a bad file fails fast.
+  std::optional<LoadedScan> first;
+  if (!batch) first = LoadScan(sources.at(0));
+  const auto load_start = std::chrono::steady_clock::now();
+  const Detector detector(LoadTrainedModel(run.model_path), run.detector);
+  const double load_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - load_start)
+          .count();
+  if (run.timings) std::fprintf(stderr, "model loaded in %.0f ms\n", load_ms);
+  return batch ? DetectBatch(sources, detector, load_ms, run) : DetectOneScan(*first, detector, run);
+}
+
+int DetectInBag(const BagScanOptions& bag, const std::string& out_bag, const DetectRunOptions& run) {
+  RequireRegularFile(bag.bag_path);  // before the model loads: a wrong path fails at once
+  const Detector detector(LoadTrainedModel(run.model_path), run.detector);
+  std::optional<BagMarkerWriter> markers;
+  if (!out_bag.empty()) markers.emplace(bag.bag_path, out_bag, bag.world_frame);
+  std::string lines;
+  std::vector<double> totals;
+  int without = 0;
+  std::optional<Progress> progress;
+  ForEachBagScan(bag, [&](const BagScan& scan) {
+    if (!progress) progress.emplace("detect", scan.total, "messages");  // its clock starts here
+    const DetectionResult result = detector.Detect(scan.loaded.input, /*keep_debug=*/false);
+    if (result.status != DetectionStatus::kDetected) {
+      ++without;
+    } else {
+      totals.push_back(result.timings_ms.Of(DetectionStage::kTotal));
+    }
+    lines += BagLine(scan, result);
+    if (markers) markers->Add(scan, result, detector.model());
+    if (run.explain) Explain(scan.loaded.description, result, detector);
+    progress->Advance();
+  });
+  if (progress) progress->Finish();
+  if (markers) markers->Finish();
+  Emit(lines, run);
+  if (!run.quiet) {
+    std::sort(totals.begin(), totals.end());
+    std::fprintf(stderr,
+                 "%s %s: %zu messages, %d without points or floor; detection median %.0f ms%s%s\n",
+                 bag.bag_path.c_str(),
+                 bag.topic.c_str(),
+                 totals.size() + without,
+                 without,
+                 totals.empty() ? 0.0 : totals[totals.size() / 2],
+                 out_bag.empty() ? "" : "; markers in ",
+                 out_bag.c_str());
+  }
+  return 0;
+}
+
+}  // namespace furn

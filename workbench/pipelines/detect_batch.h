@@ -1,0 +1,46 @@
+// `workbench detect`: detection over scans with the model loaded once.
+//
+//   one scan    one indented JSON (stdout or --out), optional debug PNGs,
+//               --repeat N for median stage times;
+//   a batch     one JSON line per scan, in input order; a scan that cannot
+//               be read gets a line with its error and the others go on;
+//   a ROS bag   one JSON line per message of a topic, optionally the
+//               detections written back as markers (--out-bag).
+//
+//   DetectRunOptions run;
+//   run.model_path = "model.fcm";
+//   return DetectScans({source}, /*batch=*/false, run);
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "core/detector.h"
+#include "workbench/formats/rosbag_io.h"
+#include "workbench/formats/scan_file.h"
+
+namespace furn {
+
+struct DetectRunOptions {
+  std::string model_path;
+  DetectorOptions detector;
+  std::string out;        // JSON (lines) written here atomically; empty: stdout
+  std::string debug_dir;  // one scan: debug PNGs here
+  int repeat = 1;         // one scan: runs, median stage times printed
+  bool quiet = false;     // nothing but errors
+  bool explain = false;   // every hypothesis and its outcome on stderr
+  bool timings = false;   // stage times and the model's load time on stderr
+};
+
+// Whether `inputs` (the command's positional scans) expanded into `sources`
+// make a batch (JSON lines): several scans, a glob, a list or a folder.
+bool IsBatch(const std::vector<std::string>& inputs, const std::vector<ScanSource>& sources);
+
+// One scan (batch false: errors throw) or a batch (an error is a line). The
+// exit code: 0, or 1 when a scan of a batch failed.
+int DetectScans(const std::vector<ScanSource>& sources, bool batch, const DetectRunOptions& run);
+
+// Every message of the bag's topic; markers into `out_bag` unless empty.
+int DetectInBag(const BagScanOptions& bag, const std::string& out_bag, const DetectRunOptions& run);
+
+}  // namespace furn

@@ -1,0 +1,466 @@
+#include "workbench/pipelines/evaluate.h"
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <ctime>
+#include <filesystem>
+#include <functional>
+#include <nlohmann/json.hpp>
+#include <set>
+
+#include "core/error.h"
+#include "core/file_util.h"
+#include "core/mesh.h"
+#include "core/pose_fit.h"
+#include "core/progress.h"
+#include "db/dataset_db.h"
+#include "renderers/camera.h"
+#include "reports/detection_debug.h"
+#include "reports/run_report.h"
+#include "scenes/model_folds.h"
+#include "workbench/formats/scan_file.h"
+#include "workbench/formats/json_text.h"
+#include "workbench/formats/real_labels.h"
+
+namespace furn {
+namespace {
+
+std::string CommandOutput(const std::string& command) {
+  std::string output;
+  FILE* pipe = popen((command + " 2>/dev/null").c_str(), "r");
+  if (pipe == nullptr) return output;
+  char buffer[256];
+  while (std::fgets(buffer, sizeof(buffer), pipe) != nullptr) output += buffer;
+  if (pclose(pipe) != 0) return "";
+  while (!output.empty() && (output.back() == '\n' || output.back() == '\r')) output.pop_back();
+  return output;
+}
+
+std::string UtcNow() {
+  const std::time_t now = std::time(nullptr);
+  std::tm utc{};
+  gmtime_r(&now, &utc);
+  char text[32];
+  std::strftime(text, sizeof(text), "%Y-%m-%dT%H:%M:%SZ", &utc);
+  return text;
+}
+
+nlohmann::json CurvesJson(const EvaluationResult& result) {
+  nlohmann::json curves = nlohmann::json::object();
+  for (const auto& [name, curve] : result.curves) {
+    nlohmann::json points = nlohmann::json::array();
+    for (const PrPoint& p : curve) points.push_back({p.recall, p.precision, p.threshold});
+    curves[name] = points;
+  }
+  nlohmann::json frame_errors = nlohmann::json::object();
+  for (const auto& [frame, errors] : result.frame_errors)
+    frame_errors[std::to_string(frame)] = {errors.first, errors.second};
+  const nlohmann::json calibration = CalibrationJson(result.calibration);
+  return {{"curves", curves},
+          {"curve_layout", "recall, precision, threshold"},
+          {"calibration", calibration["calibration"]},
+          {"calibration_layout", calibration["calibration_layout"]},
+          {"confusion", ConfusionByName(result)},
+          {"frame_errors", frame_errors},
+          {"frame_errors_layout", "false positives, missed objects at 10 cm"}};
+}
+
+}  // namespace
+
+nlohmann::json CalibrationJson(const std::vector<CalibrationBin>& bins) {
+  nlohmann::json rows = nlohmann::json::array();
+  for (const CalibrationBin& bin : bins)
+    rows.push_back({bin.low, bin.high, bin.detections, bin.true_positives, bin.score_sum});
+  return {{"calibration", rows},
+          {"calibration_layout", "low, high, detections, true positives, score sum"}};
+}
+
+RunRecord NewRunRecord(const std::string& kind, const std::string& label) {
+  RunRecord run;
+  run.kind = kind;
+  run.label = label;
+  run.started = UtcNow();
+  run.git_commit = CommandOutput("git -C '" FURN_SOURCE_DIR "' rev-parse HEAD");
+  if (run.git_commit.empty()) run.git_commit = "unknown";
+  run.git_dirty =
+      !CommandOutput("git -C '" FURN_SOURCE_DIR "' status --porcelain --untracked-files=no")
+           .empty();
+  return run;
+}
+
+int SymmetryOrder(const ModelShape& shape) {
+  if (shape.points.empty()) return 1;
+  const ModelFitter fitter(shape, FitOptions{});
+  auto maps_onto_itself = [&](double angle) {
+    return fitter.Covered(shape.points, PlanarPose{0, 0, angle}) >= 0.9 * shape.points.size();
+  };
+  if (maps_onto_itself(M_PI / 2)) return 4;
+  if (maps_onto_itself(M_PI)) return 2;
+  return 1;
+}
+
+namespace {
+
+// The rooms of the split (and fold) to evaluate, and how many frames.
+struct FrameSelection {
+  std::vector<int64_t> rooms;
+  int frames = 0;
+};
+
+FrameSelection SelectFrames(DatasetDb& dataset,
+                            const std::string& db_path,
+                            const EvaluateCommandOptions& options) {
+  FrameSelection selection;
+  for (int64_t id : dataset.RoomIds()) {
+    const RoomRecord room = dataset.ReadRoom(id, /*with_images=*/false);
+    if (!InSplit(room.split, options.split)) continue;
+    if (options.fold_count > 0 && FoldOfRoom(id, options.fold_count) != options.fold) continue;
+    selection.rooms.push_back(id);
+    selection.frames += static_cast<int>(room.frames.size());
+  }
+  if (options.max_frames > 0) selection.frames = std::min(selection.frames, options.max_frames);
+  Require(selection.frames > 0,
+          db_path + ": no frames in split '" + EnumName(options.split) + "'" +
+              (options.fold_count > 0 ? " of fold " + std::to_string(options.fold) : ""));
+  return selection;
+}
+
+// What the model knows that evaluation needs: each CAD model's rotational
+// symmetry, and which CAD models it was trained on (seen, whatever the
+// dataset's evaluation_only flags say: its rooms may come from other catalogs).
+struct ModelFacts {
+  std::vector<int> symmetry;
+  std::set<std::string> trained;
+};
+
+ModelFacts FactsOf(const TrainedModel& model) {
+  ModelFacts facts;
+  for (const ModelShape& shape : model.model_shapes) facts.symmetry.push_back(SymmetryOrder(shape));
+  facts.trained.insert(model.model_names.begin(), model.model_names.end());
+  return facts;
+}
+
+// The room's objects as the frame's ground truth.
+std::vector<TruthObject> TruthOf(const RoomRecord& room,
+                                 const FrameRecord& frame,
+                                 const ModelFacts& facts) {
+  std::vector<TruthObject> truth;
+  const Eigen::Vector3d eye = frame.world_from_camera.translation();
+  for (const ObjectRecord& object : room.objects) {
+    TruthObject t;
+    t.furniture_class = object.furniture_class;
+    t.model_id = object.model_id;
+    t.x = object.reference_x;
+    t.y = object.reference_y;
+    t.yaw = object.yaw;
+    t.distance_m = (Eigen::Vector3d(object.reference_x, object.reference_y, 0) - eye).norm();
+    t.seen_in_training = facts.trained.count(object.model_id) > 0;
+    for (const FrameObjectRecord& seen : frame.objects) {
+      if (seen.instance_id == object.instance_id) t.visibility = seen.visibility;
+    }
+    truth.push_back(t);
+  }
+  return truth;
+}
+
+// What the evaluation of one frame adds to the run.
+struct EvaluatedFrame {
+  DetectionStatus status = DetectionStatus::kDetected;
+  FrameOutcome outcome;
+  std::vector<RunDetectionRecord> detections;
+  RunFrameRecord record;
+  std::vector<ScorerSample> scorer_samples;
+};
+
+// Hypotheses that passed the scorer's gates, labelled by the ground truth:
+// positive when the fit lies within 10 cm of a true object of its class.
+void AddScorerSamples(const DetectionResult& result,
+                      const FrameRecord& frame,
+                      const Eigen::Isometry3d& to_labels,
+                      EvaluatedFrame* out) {
+  for (const DetectionDebug::Hypothesis& h : result.debug.hypotheses) {
+    if (!h.features) continue;
+    ScorerSample sample;
+    sample.features = h.features->Vector();
+    sample.group = static_cast<uint64_t>(frame.id);
+    const FloorPose fit = MoveFloorPose({h.fit_x, h.fit_y, 0}, to_labels);
+    for (const TruthObject& t : out->outcome.truth) {
+      sample.positive |=
+          t.furniture_class == h.furniture_class && std::hypot(t.x - fit.x, t.y - fit.y) <= 0.10;
+    }
+    out->scorer_samples.push_back(sample);
+  }
+}
+
+// The detector's output in the labels' frame, as the evaluation and the run
+// see it.
+void RecordDetections(const DetectionResult& result,
+                      const FrameRecord& frame,
+                      const Eigen::Isometry3d& to_labels,
+                      const ModelFacts& facts,
+                      EvaluatedFrame* out) {
+  for (const Detection& detected : result.detections) {
+    Detection d = detected;
+    const FloorPose moved = MoveFloorPose({d.x, d.y, d.yaw}, to_labels);
+    d.x = moved.x;
+    d.y = moved.y;
+    d.yaw = moved.yaw;
+    out->outcome.detections.push_back(
+        {d.furniture_class, d.model_name, d.x, d.y, d.yaw, d.score, facts.symmetry[d.model_index]});
+    out->detections.push_back({frame.id,
+                               d.furniture_class,
+                               d.model_name,
+                               d.x,
+                               d.y,
+                               d.z,
+                               d.yaw,
+                               d.score,
+                               d.vote_weight,
+                               d.verification,
+                               d.covered_fraction});
+  }
+  for (const DetectionDebug::Hypothesis& h : result.debug.hypotheses) {
+    const FloorPose maximum = MoveFloorPose({h.x, h.y, 0}, to_labels);
+    out->outcome.maxima.push_back(
+        {h.furniture_class, maximum.x, maximum.y, h.relative_weight, h.outcome});
+  }
+  nlohmann::ordered_json timings = nlohmann::ordered_json::object();
+  for (const StageTime& t : result.timings_ms.stages) {
+    timings[EnumName(t.stage)] = t.ms;
+    if (t.stage == DetectionStage::kTotal) {
+      out->outcome.total_ms = t.ms;
+    } else {
+      out->outcome.stage_ms[t.stage] = t.ms;
+    }
+  }
+  out->record = {frame.id, out->outcome.total_ms, timings.dump()};
+}
+
+// Detection in one frame, its ground truth, and the records of the run.
+// Real scans without a known floor: the detector finds it, and its
+// detections move from its floor frame into the labels'.
+EvaluatedFrame EvaluateFrame(const Detector& detector,
+                             const RoomRecord& room,
+                             const FrameRecord& frame,
+                             bool estimate_pose,
+                             const ModelFacts& facts,
+                             const std::string& db_path,
+                             bool collect_scorer_samples) {
+  DetectionInput input = DetectionInputOf(frame, db_path + " frame " + std::to_string(frame.id));
+  if (estimate_pose) input.world_from_camera.reset();
+  const DetectionResult result = detector.Detect(input);
+  Eigen::Isometry3d to_labels = Eigen::Isometry3d::Identity();
+  if (estimate_pose && result.status == DetectionStatus::kDetected)
+    to_labels = frame.world_from_camera * result.world_from_camera.inverse();
+  EvaluatedFrame out;
+  out.status = result.status;
+  out.outcome.frame_id = frame.id;
+  out.outcome.truth = TruthOf(room, frame, facts);
+  RecordDetections(result, frame, to_labels, facts, &out);
+  if (collect_scorer_samples) AddScorerSamples(result, frame, to_labels, &out);
+  return out;
+}
+
+// The run's stored options: every detector option and the evaluation's.
+std::string StoredOptionsJson(const EvaluateCommandOptions& options,
+                              const EvaluationOptions& evaluation) {
+  nlohmann::ordered_json stored{
+      {"detector", nlohmann::json::parse(DetectorOptionsJson(options.detector))},
+      {"max_frames", options.max_frames},
+      {"fold",
+       options.fold_count > 0 ? nlohmann::json{options.fold, options.fold_count}
+                              : nlohmann::json()},
+      {"min_visibility", evaluation.min_visibility},
+      {"paper_window_m", evaluation.paper_window_m}};
+  if (!options.extra_options_json.empty()) {
+    const nlohmann::ordered_json extra = nlohmann::ordered_json::parse(options.extra_options_json);
+    for (const auto& [key, value] : extra.items()) stored[key] = value;
+  }
+  return stored.dump();
+}
+
+}  // namespace
+
+EvaluateSummary EvaluateModel(const std::string& model_path,
+                              const std::string& db_path,
+                              const EvaluateCommandOptions& options) {
+  Require(options.max_frames >= 0, "max frames must be >= 0");
+  Require(options.fold_count == 0 || (options.fold >= 0 && options.fold < options.fold_count),
+          "fold " + std::to_string(options.fold) + " must be in 0.." +
+              std::to_string(options.fold_count - 1));
+  const auto start = std::chrono::steady_clock::now();
+  // The dataset first: a mistyped path fails before the model loads, and creates nothing.
+  DatasetDb dataset(db_path, DatasetDb::Mode::kReadWriteExisting);
+  const std::string model_bytes = ReadFileBytes(model_path);
+  const Detector detector(LoadTrainedModel(model_path), options.detector);
+  const ModelFacts facts = FactsOf(detector.model());
+  const std::set<int64_t> estimated_pose =
+      FramesWithEstimatedPose(dataset.GenerationOptions().value_or(""));
+  const FrameSelection selection = SelectFrames(dataset, db_path, options);
+
+  EvaluateSummary summary;
+  std::vector<FrameOutcome> outcomes;
+  std::vector<RunDetectionRecord> detections;
+  std::vector<RunFrameRecord> frame_records;
+  ContentHasher dataset_hash;
+  Progress progress("evaluate", selection.frames, "frames");
+  for (int64_t room_id : selection.rooms) {
+    if (static_cast<int>(outcomes.size()) >= selection.frames) break;
+    const RoomRecord room = dataset.ReadRoom(room_id, /*with_images=*/true);
+    for (const FrameRecord& frame : room.frames) {
+      if (static_cast<int>(outcomes.size()) >= selection.frames) break;
+      dataset_hash.Update(frame.content_hash.data(), frame.content_hash.size());
+      EvaluatedFrame evaluated = EvaluateFrame(detector,
+                                               room,
+                                               frame,
+                                               estimated_pose.count(frame.id) > 0,
+                                               facts,
+                                               db_path,
+                                               options.collect_scorer_samples);
+      // A frame with nothing in range (the camera against a wall, a dead
+      // sensor) has no detections; its objects count as missed or ignored.
+      summary.frames_without_points += evaluated.status == DetectionStatus::kNoPointsInRange;
+      summary.frames_without_floor += evaluated.status == DetectionStatus::kNoFloor;
+      detections.insert(detections.end(), evaluated.detections.begin(), evaluated.detections.end());
+      frame_records.push_back(evaluated.record);
+      summary.scorer_samples.insert(summary.scorer_samples.end(),
+                                    evaluated.scorer_samples.begin(),
+                                    evaluated.scorer_samples.end());
+      outcomes.push_back(std::move(evaluated.outcome));
+      progress.Advance();
+    }
+  }
+  progress.Finish();
+
+  summary.frames = static_cast<int>(outcomes.size());
+  EvaluationOptions evaluation = options.evaluation;
+  evaluation.max_distance_m = options.detector.max_range_m;
+  summary.result = EvaluateFrames(outcomes, evaluation);
+  summary.result.metrics[MetricId::Plain(PlainMetric::kFramesWithoutPoints).Name()] =
+      summary.frames_without_points;
+  summary.result.metrics[MetricId::Plain(PlainMetric::kFramesWithoutFloor).Name()] =
+      summary.frames_without_floor;
+
+  RunRecord run = NewRunRecord(options.kind, options.label);
+  run.model_path = model_path;
+  ContentHasher model_hash;
+  model_hash.Update(model_bytes.data(), model_bytes.size());
+  run.model_hash = model_hash.HexDigest();
+  run.dataset_hash = dataset_hash.HexDigest();
+  run.split = options.split;
+  run.options_json = StoredOptionsJson(options, evaluation);
+  run.results_json = CurvesJson(summary.result).dump();
+  summary.run_id = dataset.WriteRun(run, summary.result.metrics, detections, frame_records);
+  summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return summary;
+}
+
+void WriteReportForRun(const std::string& db_path, int64_t run_id, const std::string& out_dir) {
+  DatasetDb dataset(db_path, DatasetDb::Mode::kReadOnly);
+  const std::vector<RunRecord> runs = dataset.Runs();
+  Require(!runs.empty(), db_path + ": has no runs (run 'workbench evaluate' first)");
+  if (run_id == 0) run_id = runs.back().id;
+  const RunRecord* run = nullptr;
+  for (const RunRecord& r : runs) {
+    if (r.id == run_id) run = &r;
+  }
+  Require(run != nullptr, db_path + ": no run with id " + std::to_string(run_id));
+  RunReportInput input;
+  input.run = *run;
+  input.metrics = dataset.RunMetrics(run_id);
+  if (run->kind == "crossval") {  // protocol E: a page of its own, each fold's report beside it
+    const nlohmann::json fold_runs =
+        nlohmann::json::parse(run->options_json).value("fold_runs", nlohmann::json::array());
+    std::vector<std::string> fold_reports;
+    for (size_t k = 0; k < fold_runs.size(); ++k) {
+      fold_reports.push_back("fold-" + std::to_string(k));
+      WriteReportForRun(db_path,
+                        fold_runs[k].get<int64_t>(),
+                        (std::filesystem::path(out_dir) / fold_reports.back()).string());
+    }
+    WriteCrossvalReport(input, fold_reports, out_dir);
+    return;
+  }
+  for (const RunFrameRecord& f : dataset.RunFrames(run_id)) input.frame_ms.push_back(f.total_ms);
+
+  // Errors per frame at 10 cm, as evaluate counted them (protocol B).
+  const DetectorOptions options =
+      DetectorOptionsFromJson(run->options_json, db_path + " run options");
+  struct Errors {
+    int64_t frame_id;
+    int fp, fn;
+  };
+  std::vector<Errors> errors;
+  const nlohmann::json results = nlohmann::json::parse(run->results_json);
+  const nlohmann::json frame_errors = results.value("frame_errors", nlohmann::json::object());
+  for (const auto& [frame, counts] : frame_errors.items())
+    errors.push_back({std::stoll(frame), counts[0].get<int>(), counts[1].get<int>()});
+  std::sort(errors.begin(), errors.end(), [](const Errors& a, const Errors& b) {
+    return a.frame_id < b.frame_id;
+  });
+  std::stable_sort(errors.begin(), errors.end(), [](const Errors& a, const Errors& b) {
+    return a.fp + a.fn > b.fp + b.fn;
+  });
+  // The gallery: detection rerun (deterministic: the same result) with debug PNGs.
+  std::unique_ptr<Detector> detector;
+  if (std::filesystem::is_regular_file(run->model_path)) {
+    detector = std::make_unique<Detector>(LoadTrainedModel(run->model_path), options);
+  }
+  constexpr size_t kGallery = 6;
+  for (size_t k = 0; k < std::min(kGallery, errors.size()) && detector; ++k) {
+    if (errors[k].fp + errors[k].fn == 0) break;
+    ScanSource source;
+    source.db_path = db_path;
+    source.frame_id = errors[k].frame_id;
+    const LoadedScan scan = LoadScan(source);
+    const DetectionResult result = detector->Detect(scan.input, /*keep_debug=*/true);
+    GalleryFrame g;
+    g.frame_id = errors[k].frame_id;
+    g.false_positives = errors[k].fp;
+    g.false_negatives = errors[k].fn;
+    g.dir = "frames/" + std::to_string(g.frame_id);
+    WriteDetectionDebug(result,
+                        detector->model(),
+                        scan.camera,
+                        GroundTruthInDetectorFrame(scan, result),
+                        (std::filesystem::path(out_dir) / g.dir).string());
+    g.pngs = {"fitted.png", "topdown.png", "segments.png"};
+    for (const char* c : {"chair", "armchair", "table", "sideboard"}) {
+      if (std::filesystem::exists(std::filesystem::path(out_dir) / g.dir /
+                                  (std::string("votes_") + c + ".png")))
+        g.pngs.push_back(std::string("votes_") + c + ".png");
+    }
+    input.gallery.push_back(std::move(g));
+  }
+  WriteRunReport(input, out_dir);
+}
+
+std::vector<Regression> FindRegressions(const std::map<std::string, double>& run,
+                                        const std::map<std::string, double>& baseline,
+                                        double tolerance,
+                                        const std::map<std::string, double>& overrides,
+                                        double latency_tolerance) {
+  std::vector<Regression> regressions;
+  for (const auto& [metric, base] : baseline) {
+    const auto it = run.find(metric);
+    const MetricId id = MetricId::Parse(metric);  // a misspelt baseline metric is an error
+    const bool latency = id.Unit() == std::string("ms");
+    if (latency && latency_tolerance <= 0) continue;
+    if (id.Unit() == std::string("count") || id.group() == MetricId::Group::kSpread)
+      continue;  // sizes, spreads and diagnostic counts, not quality
+    if (it == run.end()) {
+      regressions.push_back({metric, std::nan(""), base, 0});  // a metric that vanished
+      continue;
+    }
+    const auto override_it = overrides.find(metric);
+    const double allowed = override_it != overrides.end() ? override_it->second
+                           : latency                      ? latency_tolerance * std::abs(base)
+                                                          : tolerance;
+    const double worse = id.HigherIsBetter() ? base - it->second : it->second - base;
+    if (worse > allowed) regressions.push_back({metric, it->second, base, allowed});
+  }
+  return regressions;
+}
+
+}  // namespace furn

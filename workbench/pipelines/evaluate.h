@@ -1,0 +1,93 @@
+// `workbench evaluate`: detection over the frames of a dataset split (both
+// cores per frame, a progress bar), protocols A and B (reports/evaluation.h),
+// and one run stored in the dataset: git commit and dirty flag, time, model
+// and dataset hashes, every option, detections, per-frame stage timings,
+// metrics, PR curves and confusion. `workbench regress` compares a run's
+// metrics with a baseline (another run or a JSON file).
+//
+//   EvaluateCommandOptions options;
+//   options.split = Split::kTest;
+//   EvaluateSummary summary = EvaluateModel("model.fcm", "synth.db", options);
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "core/detector.h"
+#include "db/dataset_db.h"  // RunRecord
+#include "reports/evaluation.h"
+#include "workbench/formats/options_file.h"  // DetectorOptionsJson, DetectorOptionsFromJson
+
+namespace furn {
+
+struct EvaluateCommandOptions {
+  Split split = Split::kTest;
+  int max_frames = 0;          // 0: every frame of the split
+  std::string label;           // free text stored with the run
+  std::string kind = "evaluate";
+  // A JSON object whose members join the run's stored options (tune puts its
+  // id, trial and parameters here); "" for none.
+  std::string extra_options_json;
+  // Only rooms k with k % fold_count == fold (a leave-models-out fold); off
+  // when fold_count is 0.
+  int fold = 0;
+  int fold_count = 0;
+  DetectorOptions detector;
+  EvaluationOptions evaluation;
+  // Keep every fitted hypothesis that passed the scorer's gates, labelled by
+  // the ground truth, for training a hypothesis scorer.
+  bool collect_scorer_samples = false;
+};
+
+struct EvaluateSummary {
+  int64_t run_id = 0;
+  EvaluationResult result;
+  int frames = 0;
+  int frames_without_points = 0;  // no point in range: counted, with no detections
+  int frames_without_floor = 0;   // no pose and no floor found: likewise
+  double seconds = 0;
+  // With collect_scorer_samples: positive when the fit lies within 10 cm of
+  // a true object of its class.
+  std::vector<ScorerSample> scorer_samples;
+};
+
+// Reliability bins as stored in a run's results: {"calibration": [[low,
+// high, detections, true positives, score sum], ...], "calibration_layout"}.
+nlohmann::json CalibrationJson(const std::vector<CalibrationBin>& bins);
+
+// Provenance of a new run: its kind and label, the time, the source commit
+// and whether the tree had uncommitted changes.
+RunRecord NewRunRecord(const std::string& kind, const std::string& label);
+
+// Throws InputError for a missing model or dataset, or a split with no frames.
+EvaluateSummary EvaluateModel(const std::string& model_path,
+                              const std::string& db_path,
+                              const EvaluateCommandOptions& options);
+
+// `workbench report`: the run's report folder, with a gallery of the frames
+// with the most errors (detection rerun with the run's options and model).
+void WriteReportForRun(const std::string& db_path, int64_t run_id, const std::string& out_dir);
+
+// Rotational symmetry order (4, 2 or 1) of a model shape about its origin:
+// the largest order whose rotation maps 90 % of its points onto itself.
+int SymmetryOrder(const ModelShape& shape);
+
+struct Regression {
+  std::string metric;
+  double value = 0, baseline = 0, tolerance = 0;
+};
+
+// Metrics of `run` that are worse than `baseline` by more than the tolerance
+// (absolute; per-metric overrides win). Latency metrics are compared only
+// when `latency_tolerance` (relative, e.g. 0.5 = 50 % slower) is positive.
+std::vector<Regression> FindRegressions(const std::map<std::string, double>& run,
+                                        const std::map<std::string, double>& baseline,
+                                        double tolerance,
+                                        const std::map<std::string, double>& overrides,
+                                        double latency_tolerance);
+
+}  // namespace furn

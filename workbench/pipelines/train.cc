@@ -1,0 +1,172 @@
+#include "workbench/pipelines/train.h"
+
+#include <chrono>
+#include <cmath>
+#include <map>
+#include <sstream>
+
+#include "core/error.h"
+#include "core/hypothesis_scorer.h"
+#include "core/progress.h"
+#include "core/random.h"
+#include "renderers/embree_caster.h"
+#include "renderers/kinect_noise.h"
+
+namespace furn {
+
+TriangleMesh ScaledMesh(const TriangleMesh& mesh, const Eigen::Vector3f& scale) {
+  TriangleMesh scaled = mesh;
+  for (Eigen::Vector3f& v : scaled.vertices) v = v.cwiseProduct(scale);
+  return scaled;
+}
+
+std::vector<TrainingView> ScanModel(const CadModel& model,
+                                    int model_index,
+                                    FurnitureClass furniture_class,
+                                    const ScanOptions& options) {
+  options.Check();
+  const CameraIntrinsics camera = CameraIntrinsics::KinectV1();
+  EmbreeCaster caster;
+  KinectNoiseModel noise{KinectNoiseOptions{}};
+  DepthFrame ideal, noisy;
+  std::vector<TrainingView> views;
+  for (int variant = 0; variant <= options.scale_variants; ++variant) {
+    Eigen::Vector3f scale = Eigen::Vector3f::Ones();
+    if (variant > 0) {
+      Rng random(DeriveSeed(DeriveSeed(options.seed ^ 0x5ca1e, static_cast<uint64_t>(model_index)),
+                            static_cast<uint64_t>(variant)));
+      for (int axis = 0; axis < 3; ++axis) {
+        scale[axis] =
+            static_cast<float>(random.Uniform(1 - options.scale_jitter, 1 + options.scale_jitter));
+      }
+    }
+    Scene scene;
+    scene.objects.push_back({std::make_shared<TriangleMesh>(ScaledMesh(model.mesh, scale)),
+                             Eigen::Isometry3d::Identity(),
+                             kFirstObjectId});
+    const double centre_height = BoundingBox(model.mesh).Size().z() * scale.z() / 2;
+    for (size_t ring = 0; ring < options.heights_m.size(); ++ring) {
+      const double t = options.heights_m.size() > 1
+                           ? static_cast<double>(ring) / (options.heights_m.size() - 1)
+                           : 0;
+      const double distance =
+          options.min_distance_m + t * (options.max_distance_m - options.min_distance_m);
+      for (int a = 0; a < options.azimuths; ++a) {
+        // Half a step between rings, so the rings see different sides.
+        const double azimuth = 2 * M_PI * (a + 0.5 * ring) / options.azimuths;
+        const Eigen::Vector3d eye(
+            distance * std::sin(azimuth), -distance * std::cos(azimuth), options.heights_m[ring]);
+        const Eigen::Isometry3d world_from_camera =
+            LookAlong(eye, Eigen::Vector3d(0, 0, centre_height) - eye);
+        caster.RenderInto(scene, camera, world_from_camera, &ideal);
+        const uint64_t seed =
+            DeriveSeed(DeriveSeed(options.seed, static_cast<uint64_t>(model_index)),
+                       variant * 1000000 + ring * 1000 + static_cast<uint64_t>(a));
+        noise.Apply(ideal, camera, seed, &noisy);
+        TrainingView view;
+        view.sensor_origin = eye.cast<float>();
+        view.model_index = model_index;
+        view.furniture_class = furniture_class;
+        view.augmented = variant > 0;
+        for (int v = 0; v < camera.height; ++v) {
+          for (int u = 0; u < camera.width; ++u) {
+            const float z = noisy.DepthAt(u, v);
+            if (z <= 0) continue;
+            view.points.push_back(
+                (world_from_camera * (z * camera.RayThroughPixel(u, v)).cast<double>())
+                    .cast<float>());
+          }
+        }
+        if (!view.points.empty()) views.push_back(std::move(view));
+      }
+    }
+  }
+  return views;
+}
+
+TrainSummary TrainFromCatalog(const Catalog& catalog,
+                              const ScanOptions& scan,
+                              const TrainerOptions& trainer,
+                              const std::string& out_path,
+                              const std::set<std::string>& held_out,
+                              const std::string& scorer) {
+  scan.Check();
+  trainer.Check();
+  std::vector<std::string> ids;
+  std::vector<FurnitureClass> classes;
+  for (const CatalogEntry* entry : catalog.Classified()) {
+    if (entry->evaluation_only || held_out.count(entry->id)) continue;
+    ids.push_back(entry->id);
+    classes.push_back(*entry->furniture_class);
+  }
+  Require(!ids.empty(),
+          "catalog " + catalog.description() + " has no class-mapped entries to train on");
+  TrainSummary summary;
+  auto start = std::chrono::steady_clock::now();
+  LoadedModels loaded = catalog.LoadModels(ids);
+  loaded.RequireAll();
+  std::vector<TrainingView> views;
+  Progress progress("scan", loaded.models.size(), "models");
+  for (size_t i = 0; i < loaded.models.size(); ++i) {
+    std::vector<TrainingView> model_views =
+        ScanModel(loaded.models[i], static_cast<int>(i), classes[i], scan);
+    views.insert(views.end(),
+                 std::make_move_iterator(model_views.begin()),
+                 std::make_move_iterator(model_views.end()));
+    progress.Advance();
+  }
+  progress.Finish();
+  summary.scan_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  start = std::chrono::steady_clock::now();
+  TrainedModel model = TrainModel(views, ids, classes, trainer, &summary.stages);
+  model.scorer = scorer;
+  for (const CadModel& cad : loaded.models)
+    model.render_meshes.push_back(SimplifyMesh(cad.mesh, kRenderMeshCellM));
+  SaveTrainedModel(model, out_path);
+  summary.train_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  summary.models = static_cast<int>(ids.size());
+  summary.views = static_cast<int>(views.size());
+  summary.segments = model.training_segments;
+  summary.used_words = model.vocabulary.NumUsedWords();
+  return summary;
+}
+
+std::string DescribeTrainedModel(const TrainedModel& model) {
+  std::ostringstream out;
+  std::map<std::string, int> per_class;
+  for (FurnitureClass c : model.model_classes) ++per_class[ClassName(c)];
+  out << "models:      " << model.model_names.size() << " (";
+  bool first = true;
+  for (const auto& [name, count] : per_class) {
+    out << (first ? "" : ", ") << name << " " << count;
+    first = false;
+  }
+  const VocabularyOptions& v = model.options.vocabulary;
+  out << ")\nsegments:    " << model.training_segments
+      << "\nvocabulary:  " << (v.kind == VocabularyKind::kRim ? "RIM" : "k-means") << " ("
+      << (v.kind == VocabularyKind::kRim
+              ? (v.rim_init == RimInit::kPcaSplit ? "PCA-split init, " : "k-means init, ")
+              : "")
+      << model.vocabulary.NumWords() << " words, " << model.vocabulary.NumUsedWords()
+      << " used, seed " << v.seed << ")\nshape model: " << model.shape.size()
+      << " entries\nsegmentation: voxel " << model.options.preprocess.voxel_size_m
+      << " m, normal radius " << model.options.preprocess.normal_radius_m << " m, delta "
+      << model.options.region_growing.delta_m << " m, alpha "
+      << model.options.region_growing.alpha_deg << " deg, min segment "
+      << model.options.region_growing.min_segment_size << " points\n";
+  const PartSubsetOptions& p = model.options.part_subsets;
+  out << "part subsets: " << model.part_models.size() << " of " << p.min_subset_size << "-"
+      << p.max_subset_size << " segments, at most " << p.max_subsets_per_view
+      << " per view, VFH size component " << (p.vfh_size_component ? "on" : "off") << "\n";
+  if (model.scorer.empty()) {
+    out << "scorer:      none (fixed verification gates)\n";
+  } else {
+    const HypothesisScorer scorer =
+        HypothesisScorer::Deserialize(model.scorer, "the model's scorer");
+    out << "scorer:      random forest from " << scorer.training_samples()
+        << " hypotheses, Platt a " << scorer.platt_a() << " b " << scorer.platt_b() << "\n";
+  }
+  return out.str();
+}
+
+}  // namespace furn

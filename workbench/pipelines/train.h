@@ -1,0 +1,50 @@
+// `workbench train`: virtual Kinect scans of every trainable class-mapped
+// model (Embree + the sensor model, rings of viewpoints around the model),
+// then core's TrainModel, saved as one model file.
+//
+//   TrainCommandOptions options;
+//   TrainSummary summary = TrainFromCatalog(catalog, options, "model.fcm");
+#pragma once
+
+#include <set>
+#include <string>
+#include <vector>
+
+#include "core/trainer.h"
+#include "scenes/catalog.h"
+
+namespace furn {
+
+// Partial views of one model standing at the origin, yaw 0 (and of its
+// scale variants, marked augmented).
+std::vector<TrainingView> ScanModel(const CadModel& model,
+                                    int model_index,
+                                    FurnitureClass furniture_class,
+                                    const ScanOptions& options);
+
+// The mesh scaled about the model origin (the footprint centre on the floor).
+TriangleMesh ScaledMesh(const TriangleMesh& mesh, const Eigen::Vector3f& scale);
+
+struct TrainSummary {
+  int models = 0;
+  int views = 0;
+  int segments = 0;
+  int used_words = 0;
+  double scan_s = 0, train_s = 0;  // train_s: TrainModel and saving
+  TrainStageTimes stages;
+};
+
+// Trains on the classified entries that are not evaluation-only and not in
+// `held_out` (a leave-models-out fold); `scorer` (HypothesisScorer bytes, or
+// empty) is stored in the model file as it is.
+TrainSummary TrainFromCatalog(const Catalog& catalog,
+                              const ScanOptions& scan,
+                              const TrainerOptions& trainer,
+                              const std::string& out_path,
+                              const std::set<std::string>& held_out = {},
+                              const std::string& scorer = "");
+
+// `model info`: what a model file holds, as text.
+std::string DescribeTrainedModel(const TrainedModel& model);
+
+}  // namespace furn
