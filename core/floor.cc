@@ -27,6 +27,109 @@ void FloorOptions::Check() const {
   Require(min_camera_height_m >= 0, "floor min camera height must be >= 0");
 }
 
+namespace {
+
+// World frame of a floor plane n.p + d = 0 (n towards the camera): z = n,
+// x = camera forward projected on the floor, the camera at height d.
+Eigen::Isometry3d WorldOfFloor(const Eigen::Vector3d& normal, double offset) {
+  const Eigen::Vector3d z = normal;
+  Eigen::Vector3d x = Eigen::Vector3d::UnitZ() - z * z.z();
+  if (x.norm() < 1e-6) x = Eigen::Vector3d::UnitX() - z * z.x();
+  x.normalize();
+  const Eigen::Vector3d y = z.cross(x);
+  Eigen::Matrix3d world_from_camera_rotation;
+  world_from_camera_rotation.row(0) = x.transpose();
+  world_from_camera_rotation.row(1) = y.transpose();
+  world_from_camera_rotation.row(2) = z.transpose();
+  Eigen::Isometry3d world_from_camera = Eigen::Isometry3d::Identity();
+  world_from_camera.linear() = world_from_camera_rotation;
+  world_from_camera.translation() = Eigen::Vector3d(0, 0, offset);
+  return world_from_camera;
+}
+
+// Planes found largest first by RANSAC among a fixed subsample; walls and
+// table tops are skipped by the axis test or by lying above other points.
+class FloorSearch {
+ public:
+  FloorSearch(const std::vector<Eigen::Vector3f>& sample, const FloorOptions& options)
+      : sample_(sample), options_(options), cloud_(ToPclPoints(sample)) {
+    // PCL prints its own complaints when a plane is not found; ours is the
+    // one line the user sees.
+    pcl::console::setVerbosityLevel(pcl::console::L_ALWAYS);
+    ransac_.setOptimizeCoefficients(true);
+    ransac_.setModelType(pcl::SACMODEL_PERPENDICULAR_PLANE);
+    ransac_.setMethodType(pcl::SAC_RANSAC);
+    ransac_.setAxis(Eigen::Vector3f(0, -1, 0));  // camera up
+    ransac_.setEpsAngle(options.max_tilt_deg * M_PI / 180);
+    ransac_.setDistanceThreshold(options.distance_m);
+    ransac_.setMaxIterations(options.iterations);
+    ransac_.setInputCloud(cloud_);
+  }
+
+  // A few planes among the `candidates` RANSAC may draw from.
+  std::optional<Eigen::Isometry3d> Among(const std::vector<bool>& candidates) {
+    std::vector<bool> removed(sample_.size(), false);
+    for (int attempt = 0; attempt < 4; ++attempt) {
+      auto indices = pcl::make_shared<pcl::Indices>();
+      for (size_t i = 0; i < sample_.size(); ++i) {
+        if (!removed[i] && candidates[i]) indices->push_back(static_cast<int>(i));
+      }
+      if (indices->size() < 3) break;
+      ransac_.setIndices(indices);
+      pcl::PointIndices inliers;
+      pcl::ModelCoefficients coefficients;
+      ransac_.segment(inliers, coefficients);
+      if (coefficients.values.size() != 4) break;
+      Eigen::Vector3d normal(coefficients.values[0], coefficients.values[1], coefficients.values[2]);
+      double offset = coefficients.values[3];
+      const double length = normal.norm();
+      normal /= length;
+      offset /= length;
+      if (offset < 0) {  // orient towards the camera: n.c + d > 0 at c = 0
+        normal = -normal;
+        offset = -offset;
+      }
+      // The plane's support among all sample points, not only the candidates.
+      size_t support = 0, below = 0;
+      for (const Eigen::Vector3f& p : sample_) {
+        const double distance = normal.dot(p.cast<double>()) + offset;
+        support += std::abs(distance) <= options_.distance_m;
+        below += distance < -3 * options_.distance_m;  // the floor has (almost) nothing below it
+      }
+      if (support < options_.min_fraction * sample_.size()) break;
+      if (offset >= options_.min_camera_height_m && below < 0.02 * sample_.size())
+        return WorldOfFloor(normal, offset);
+      for (int i : inliers.indices) removed[i] = true;
+    }
+    return std::nullopt;
+  }
+
+  // The sample points whose surface faces up (within the tilt).
+  std::vector<bool> FacingUp() const {
+    pcl::NormalEstimation<pcl::PointXYZ, pcl::Normal> estimation;
+    estimation.setInputCloud(cloud_);
+    estimation.setSearchMethod(pcl::make_shared<pcl::search::KdTree<pcl::PointXYZ>>());
+    estimation.setKSearch(12);
+    pcl::PointCloud<pcl::Normal> normals;
+    estimation.compute(normals);
+    const double cos_tilt = std::cos(options_.max_tilt_deg * M_PI / 180);
+    std::vector<bool> facing_up(sample_.size(), false);
+    for (size_t i = 0; i < sample_.size(); ++i) {
+      const pcl::Normal& n = normals[i];
+      facing_up[i] = std::isfinite(n.normal_y) && std::abs(n.normal_y) >= cos_tilt;
+    }
+    return facing_up;
+  }
+
+ private:
+  const std::vector<Eigen::Vector3f>& sample_;
+  const FloorOptions& options_;
+  pcl::PointCloud<pcl::PointXYZ>::Ptr cloud_;
+  pcl::SACSegmentation<pcl::PointXYZ> ransac_;
+};
+
+}  // namespace
+
 Eigen::Isometry3d FindFloor(const std::vector<Eigen::Vector3f>& points_in_camera,
                             const FloorOptions& options) {
   options.Check();
@@ -41,90 +144,11 @@ Eigen::Isometry3d FindFloor(const std::vector<Eigen::Vector3f>& points_in_camera
   const size_t stride = std::max<size_t>(1, finite.size() / 20000);
   std::vector<Eigen::Vector3f> sample;
   for (size_t i = 0; i < finite.size(); i += stride) sample.push_back(finite[i]);
-  auto cloud = ToPclPoints(sample);
-
-  // PCL prints its own complaints when a plane is not found; ours is the one
-  // line the user sees.
-  pcl::console::setVerbosityLevel(pcl::console::L_ALWAYS);
-  pcl::SACSegmentation<pcl::PointXYZ> ransac;
-  ransac.setOptimizeCoefficients(true);
-  ransac.setModelType(pcl::SACMODEL_PERPENDICULAR_PLANE);
-  ransac.setMethodType(pcl::SAC_RANSAC);
-  ransac.setAxis(Eigen::Vector3f(0, -1, 0));  // camera up
-  ransac.setEpsAngle(options.max_tilt_deg * M_PI / 180);
-  ransac.setDistanceThreshold(options.distance_m);
-  ransac.setMaxIterations(options.iterations);
-  ransac.setInputCloud(cloud);
-  // Planes are taken largest first; walls and table tops are skipped by the
-  // axis test or by lying above other points, so try a few. `candidates`
-  // are the sample points RANSAC may draw from.
-  auto search = [&](const std::vector<bool>& candidates) -> std::optional<Eigen::Isometry3d> {
-    std::vector<bool> removed(sample.size(), false);
-    for (int attempt = 0; attempt < 4; ++attempt) {
-      auto indices = pcl::make_shared<pcl::Indices>();
-      for (size_t i = 0; i < sample.size(); ++i) {
-        if (!removed[i] && candidates[i]) indices->push_back(static_cast<int>(i));
-      }
-      if (indices->size() < 3) break;
-      ransac.setIndices(indices);
-      pcl::PointIndices inliers;
-      pcl::ModelCoefficients coefficients;
-      ransac.segment(inliers, coefficients);
-      if (coefficients.values.size() != 4) break;
-      Eigen::Vector3d normal(
-          coefficients.values[0], coefficients.values[1], coefficients.values[2]);
-      double offset = coefficients.values[3];
-      const double length = normal.norm();
-      normal /= length;
-      offset /= length;
-      if (offset < 0) {  // orient towards the camera: n.c + d > 0 at c = 0
-        normal = -normal;
-        offset = -offset;
-      }
-      // The plane's support among all sample points, not only the candidates.
-      size_t support = 0, below = 0;
-      for (size_t i = 0; i < sample.size(); ++i) {
-        const double distance = normal.dot(sample[i].cast<double>()) + offset;
-        support += std::abs(distance) <= options.distance_m;
-        below += distance < -3 * options.distance_m;  // the floor has (almost) nothing below it
-      }
-      if (support < options.min_fraction * sample.size()) break;
-      if (offset >= options.min_camera_height_m && below < 0.02 * sample.size()) {
-        // World frame: z = normal, x = camera forward projected on the floor.
-        const Eigen::Vector3d z = normal;
-        Eigen::Vector3d x = Eigen::Vector3d::UnitZ() - z * z.z();
-        if (x.norm() < 1e-6) x = Eigen::Vector3d::UnitX() - z * z.x();
-        x.normalize();
-        const Eigen::Vector3d y = z.cross(x);
-        Eigen::Matrix3d world_from_camera_rotation;
-        world_from_camera_rotation.row(0) = x.transpose();
-        world_from_camera_rotation.row(1) = y.transpose();
-        world_from_camera_rotation.row(2) = z.transpose();
-        Eigen::Isometry3d world_from_camera = Eigen::Isometry3d::Identity();
-        world_from_camera.linear() = world_from_camera_rotation;
-        world_from_camera.translation() = Eigen::Vector3d(0, 0, offset);
-        return world_from_camera;
-      }
-      for (int i : inliers.indices) removed[i] = true;
-    }
-    return std::nullopt;
-  };
-  if (const auto floor = search(std::vector<bool>(sample.size(), true))) return *floor;
+  FloorSearch search(sample, options);
+  if (const auto floor = search.Among(std::vector<bool>(sample.size(), true))) return *floor;
   // A small floor among large walls (a real room seen level) is rarely drawn
   // by RANSAC; again among the points whose surface faces up.
-  pcl::NormalEstimation<pcl::PointXYZ, pcl::Normal> estimation;
-  estimation.setInputCloud(cloud);
-  estimation.setSearchMethod(pcl::make_shared<pcl::search::KdTree<pcl::PointXYZ>>());
-  estimation.setKSearch(12);
-  pcl::PointCloud<pcl::Normal> normals;
-  estimation.compute(normals);
-  const double cos_tilt = std::cos(options.max_tilt_deg * M_PI / 180);
-  std::vector<bool> facing_up(sample.size(), false);
-  for (size_t i = 0; i < sample.size(); ++i) {
-    const pcl::Normal& n = normals[i];
-    facing_up[i] = std::isfinite(n.normal_y) && std::abs(n.normal_y) >= cos_tilt;
-  }
-  if (const auto floor = search(facing_up)) return *floor;
+  if (const auto floor = search.Among(search.FacingUp())) return *floor;
   throw InputError("no floor found: no plane within " + std::to_string(options.max_tilt_deg) +
                    " degrees of the camera's up direction holds " +
                    std::to_string(static_cast<int>(100 * options.min_fraction)) +

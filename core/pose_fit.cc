@@ -254,6 +254,156 @@ PoseFit ModelFitter::Refine(const std::vector<Eigen::Vector3f>& scene_points,
   return best;
 }
 
+namespace {
+
+// One fit's RANSAC search (SPEC §8.5): candidate poses from draws, each
+// scored on an even subsample of the scene; the best kRefined kept, by
+// subsample coverage, then draw order. The draws take the generator in a
+// fixed order: the same seed gives the same candidates.
+class PoseSearch {
+ public:
+  PoseSearch(const ModelFitter& fitter,
+             const FitOptions& options,
+             const std::vector<std::vector<int>>& model_by_height,
+             int first_bucket,
+             const std::vector<Eigen::Vector3f>& scene_points,
+             const std::vector<Eigen::Vector3f>& scene_normals,
+             const Eigen::Vector2f& hint,
+             uint64_t seed)
+      : fitter_(fitter),
+        shape_(fitter.shape()),
+        options_(options),
+        by_height_(model_by_height),
+        first_bucket_(first_bucket),
+        points_(scene_points),
+        normals_(scene_normals),
+        hint_(hint),
+        rng_(seed) {
+    const size_t stride = std::max<size_t>(1, points_.size() / kScoringPoints);
+    for (size_t i = 0; i < points_.size(); i += stride) scoring_.push_back(points_[i]);
+    // Points with a horizontal normal fix the yaw; those with a vertical one
+    // only give a random guess, so most draws take the former.
+    for (size_t i = 0; i < points_.size(); ++i) {
+      if (!std::isnan(Azimuth(normals_[i]))) oriented_.push_back(i);
+    }
+    // Scene points by height bucket, for the two-point draws.
+    scene_by_height_.resize(by_height_.size() + 2);
+    for (size_t i = 0; i < points_.size(); ++i) {
+      const int b = static_cast<int>(std::floor(points_[i].z() / tolerance())) - scene_first_bucket();
+      if (b >= 0 && b < static_cast<int>(scene_by_height_.size()))
+        scene_by_height_[b].push_back(static_cast<int>(i));
+    }
+  }
+
+  // The hint itself at every yaw step (tables and other shapes whose normals
+  // say little about their yaw are found from these), then the draws.
+  const std::vector<std::pair<int, PlanarPose>>& Run() {
+    for (int k = 0; k < kHintYaws; ++k)
+      Consider(PlanarPose{hint_.x(), hint_.y(), 2 * M_PI * k / kHintYaws});
+    for (int it = 0; it < options_.iterations; ++it) {
+      if (rng_.Bernoulli(kTwoPointShare)) {
+        TwoPointDraw();
+      } else {
+        OnePointDraw();
+      }
+    }
+    return candidates_;
+  }
+
+ private:
+  double tolerance() const { return options_.height_tolerance_m; }
+  int scene_first_bucket() const { return first_bucket_ - 1; }
+
+  // A candidate that cannot beat the last of the kept ones stops being
+  // counted early.
+  void Consider(const PlanarPose& pose) {
+    if (Eigen::Vector2f(pose.x - hint_.x(), pose.y - hint_.y()).norm() > options_.max_offset_m)
+      return;
+    const int needed = candidates_.size() < kRefined ? 0 : candidates_.back().first + 1;
+    const int covered = fitter_.CoveredAtLeast(scoring_, pose, needed);
+    if (covered < needed) return;
+    auto at = std::upper_bound(
+        candidates_.begin(), candidates_.end(), covered, [](int value, const auto& c) {
+          return value > c.first;
+        });
+    candidates_.insert(at, {covered, pose});
+    if (candidates_.size() > kRefined) candidates_.pop_back();
+  }
+
+  // A model point at height `z` that `accept`s: a random one of its height
+  // bucket's and the neighbours' points, retried up to `tries` times; or -1.
+  template <typename Accept>
+  int ModelPointAt(float z, int tries, const Accept& accept) {
+    const int bucket = static_cast<int>(std::floor(z / tolerance())) - first_bucket_;
+    for (int attempt = 0; attempt < tries; ++attempt) {
+      const int b = bucket + static_cast<int>(rng_.UniformInt(-1, 1));
+      if (b < 0 || b >= static_cast<int>(by_height_.size()) || by_height_[b].empty()) continue;
+      const int candidate = by_height_[b][rng_.UniformInt(0, by_height_[b].size() - 1)];
+      if (std::abs(shape_.points[candidate].z() - z) <= tolerance() && accept(candidate))
+        return candidate;
+    }
+    return -1;
+  }
+
+  // Two scene points at one height and two model points as far apart: the
+  // yaw from the directions between them, whatever the normals.
+  void TwoPointDraw() {
+    const float model_span = (shape_.high - shape_.low).head<2>().norm();
+    const float min_pair = static_cast<float>(4 * options_.inlier_m);
+    const int i = static_cast<int>(rng_.UniformInt(0, points_.size() - 1));
+    const Eigen::Vector3f& s1 = points_[i];
+    const int sb = static_cast<int>(std::floor(s1.z() / tolerance())) - scene_first_bucket();
+    if (sb < 0 || sb >= static_cast<int>(scene_by_height_.size())) return;
+    const std::vector<int>& level = scene_by_height_[sb];
+    const Eigen::Vector3f& s2 = points_[level[rng_.UniformInt(0, level.size() - 1)]];
+    const float distance = (s2 - s1).head<2>().norm();
+    if (distance < min_pair || distance > model_span) return;
+    const int m1 = ModelPointAt(s1.z(), 4, [](int) { return true; });
+    if (m1 < 0) return;
+    const int m2 = ModelPointAt(s2.z(), 12, [&](int m) {
+      return std::abs((shape_.points[m] - shape_.points[m1]).head<2>().norm() - distance) <=
+             options_.inlier_m;
+    });
+    if (m2 < 0) return;
+    const Eigen::Vector3f sd = s2 - s1, md = shape_.points[m2] - shape_.points[m1];
+    const double yaw = std::atan2(sd.y(), sd.x()) - std::atan2(md.y(), md.x());
+    Consider(PoseFromPair((s1 + s2) / 2, (shape_.points[m1] + shape_.points[m2]) / 2, yaw));
+  }
+
+  // One scene point and a model point at its height: the yaw from their
+  // normals' azimuths (random when either is near vertical).
+  void OnePointDraw() {
+    const size_t i = !oriented_.empty() && rng_.Bernoulli(0.8)
+                         ? oriented_[rng_.UniformInt(0, oriented_.size() - 1)]
+                         : static_cast<size_t>(rng_.UniformInt(0, points_.size() - 1));
+    const Eigen::Vector3f& s = points_[i];
+    const int model_index = ModelPointAt(s.z(), 4, [](int) { return true; });
+    if (model_index < 0) return;
+    const double scene_azimuth = Azimuth(normals_[i]);
+    const double model_azimuth = Azimuth(shape_.normals[model_index]);
+    const double yaw = std::isnan(scene_azimuth) || std::isnan(model_azimuth)
+                           ? rng_.Uniform(0, 2 * M_PI)
+                           : scene_azimuth - model_azimuth;
+    Consider(PoseFromPair(s, shape_.points[model_index], yaw));
+  }
+
+  const ModelFitter& fitter_;
+  const ModelShape& shape_;
+  const FitOptions& options_;
+  const std::vector<std::vector<int>>& by_height_;
+  const int first_bucket_;
+  const std::vector<Eigen::Vector3f>& points_;
+  const std::vector<Eigen::Vector3f>& normals_;
+  const Eigen::Vector2f hint_;
+  Rng rng_;
+  std::vector<Eigen::Vector3f> scoring_;
+  std::vector<size_t> oriented_;
+  std::vector<std::vector<int>> scene_by_height_;
+  std::vector<std::pair<int, PlanarPose>> candidates_;
+};
+
+}  // namespace
+
 PoseFit ModelFitter::Fit(const std::vector<Eigen::Vector3f>& scene_points,
                          const std::vector<Eigen::Vector3f>& scene_normals,
                          const Eigen::Vector2f& hint,
@@ -263,103 +413,9 @@ PoseFit ModelFitter::Fit(const std::vector<Eigen::Vector3f>& scene_points,
   none.scene_points = static_cast<int>(scene_points.size());
   if (scene_points.empty()) return none;
   const Impl& impl = Built();
-  const ModelShape& shape = *shape_;
-  const double tolerance = options_.height_tolerance_m;
-  Rng rng(seed);
-  // Candidate poses are scored on an even subsample; the best few are then
-  // refined and rescored on every point.
-  std::vector<Eigen::Vector3f> scoring;
-  const size_t stride = std::max<size_t>(1, scene_points.size() / kScoringPoints);
-  for (size_t i = 0; i < scene_points.size(); i += stride) scoring.push_back(scene_points[i]);
-  // The kRefined best so far (by subsample coverage, then draw order); a
-  // candidate that cannot beat the last of them stops being counted early.
-  std::vector<std::pair<int, PlanarPose>> candidates;
-  auto consider = [&](const PlanarPose& pose) {
-    if (Eigen::Vector2f(pose.x - hint.x(), pose.y - hint.y()).norm() > options_.max_offset_m)
-      return;
-    const int needed = candidates.size() < kRefined ? 0 : candidates.back().first + 1;
-    const int covered = CoveredAtLeast(scoring, pose, needed);
-    if (covered < needed) return;
-    auto at = std::upper_bound(
-        candidates.begin(), candidates.end(), covered, [](int value, const auto& c) {
-          return value > c.first;
-        });
-    candidates.insert(at, {covered, pose});
-    if (candidates.size() > kRefined) candidates.pop_back();
-  };
-  // The hint itself at every yaw step: tables and other shapes whose
-  // normals say little about their yaw are found from these.
-  for (int k = 0; k < kHintYaws; ++k)
-    consider(PlanarPose{hint.x(), hint.y(), 2 * M_PI * k / kHintYaws});
-  // Points with a horizontal normal fix the yaw; those with a vertical one
-  // only give a random guess, so most draws take the former.
-  std::vector<size_t> oriented;
-  for (size_t i = 0; i < scene_points.size(); ++i) {
-    if (!std::isnan(Azimuth(scene_normals[i]))) oriented.push_back(i);
-  }
-  // Scene points by height bucket, for the two-point draws.
-  const int scene_first_bucket = impl.first_bucket - 1;
-  std::vector<std::vector<int>> scene_by_height(impl.by_height.size() + 2);
-  for (size_t i = 0; i < scene_points.size(); ++i) {
-    const int b =
-        static_cast<int>(std::floor(scene_points[i].z() / tolerance)) - scene_first_bucket;
-    if (b >= 0 && b < static_cast<int>(scene_by_height.size()))
-      scene_by_height[b].push_back(static_cast<int>(i));
-  }
-  const float model_span = (shape.high - shape.low).head<2>().norm();
-  const float min_pair = static_cast<float>(4 * options_.inlier_m);
-  // A model point at height `z` that `accept`s: a random one of its height
-  // bucket's and the neighbours' points, retried up to `tries` times; or -1.
-  auto any_point = [](int) { return true; };
-  auto model_point_at = [&](float z, int tries, const auto& accept) {
-    const int bucket = static_cast<int>(std::floor(z / tolerance)) - impl.first_bucket;
-    for (int attempt = 0; attempt < tries; ++attempt) {
-      const int b = bucket + static_cast<int>(rng.UniformInt(-1, 1));
-      if (b < 0 || b >= static_cast<int>(impl.by_height.size()) || impl.by_height[b].empty())
-        continue;
-      const int candidate = impl.by_height[b][rng.UniformInt(0, impl.by_height[b].size() - 1)];
-      if (std::abs(shape.points[candidate].z() - z) <= tolerance && accept(candidate))
-        return candidate;
-    }
-    return -1;
-  };
-  for (int it = 0; it < options_.iterations; ++it) {
-    if (rng.Bernoulli(kTwoPointShare)) {
-      // Two scene points at one height and two model points as far apart:
-      // the yaw from the directions between them, whatever the normals.
-      const int i = static_cast<int>(rng.UniformInt(0, scene_points.size() - 1));
-      const Eigen::Vector3f& s1 = scene_points[i];
-      const int sb = static_cast<int>(std::floor(s1.z() / tolerance)) - scene_first_bucket;
-      if (sb < 0 || sb >= static_cast<int>(scene_by_height.size())) continue;
-      const std::vector<int>& level = scene_by_height[sb];
-      const Eigen::Vector3f& s2 = scene_points[level[rng.UniformInt(0, level.size() - 1)]];
-      const float distance = (s2 - s1).head<2>().norm();
-      if (distance < min_pair || distance > model_span) continue;
-      const int m1 = model_point_at(s1.z(), 4, any_point);
-      if (m1 < 0) continue;
-      const int m2 = model_point_at(s2.z(), 12, [&](int m) {
-        return std::abs((shape.points[m] - shape.points[m1]).head<2>().norm() - distance) <=
-               options_.inlier_m;
-      });
-      if (m2 < 0) continue;
-      const Eigen::Vector3f sd = s2 - s1, md = shape.points[m2] - shape.points[m1];
-      const double yaw = std::atan2(sd.y(), sd.x()) - std::atan2(md.y(), md.x());
-      consider(PoseFromPair((s1 + s2) / 2, (shape.points[m1] + shape.points[m2]) / 2, yaw));
-      continue;
-    }
-    const size_t i = !oriented.empty() && rng.Bernoulli(0.8)
-                         ? oriented[rng.UniformInt(0, oriented.size() - 1)]
-                         : static_cast<size_t>(rng.UniformInt(0, scene_points.size() - 1));
-    const Eigen::Vector3f& s = scene_points[i];
-    const int model_index = model_point_at(s.z(), 4, any_point);
-    if (model_index < 0) continue;
-    const double scene_azimuth = Azimuth(scene_normals[i]);
-    const double model_azimuth = Azimuth(shape.normals[model_index]);
-    const double yaw = std::isnan(scene_azimuth) || std::isnan(model_azimuth)
-                           ? rng.Uniform(0, 2 * M_PI)
-                           : scene_azimuth - model_azimuth;
-    consider(PoseFromPair(s, shape.points[model_index], yaw));
-  }
+  PoseSearch search(
+      *this, options_, impl.by_height, impl.first_bucket, scene_points, scene_normals, hint, seed);
+  const std::vector<std::pair<int, PlanarPose>>& candidates = search.Run();
   if (candidates.empty()) return none;
   // The best few refined by ICP.
   PoseFit best = none;

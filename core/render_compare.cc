@@ -55,18 +55,13 @@ std::optional<PinholeIntrinsics> IntrinsicsOfOrganisedCloud(
   return k;
 }
 
-std::optional<OrganisedCloudCamera> CameraOfOrganisedCloud(
-    const std::vector<Eigen::Vector3f>& points, int width, int height) {
-  if (width <= 0 || height <= 0 || static_cast<size_t>(width) * height != points.size())
-    return std::nullopt;
-  // An even subsample of the valid pixels, normalised (Hartley): centred,
-  // mean distance sqrt(2) in the image and sqrt(3) in space.
-  std::vector<int> used;
-  const int step = std::max(1, static_cast<int>(points.size() / 4000));
-  for (size_t i = 0; i < points.size(); i += step) {
-    if (points[i].allFinite()) used.push_back(static_cast<int>(i));
-  }
-  if (used.size() < 50) return std::nullopt;
+namespace {
+
+// The 3 x 4 projection of an organised cloud's pixels by the normalised DLT
+// (Hartley: centred, mean distance sqrt(2) in the image and sqrt(3) in
+// space), over `used` pixels; nullopt when they are degenerate.
+std::optional<Eigen::Matrix<double, 3, 4>> ProjectionByDlt(
+    const std::vector<Eigen::Vector3f>& points, int width, const std::vector<int>& used) {
   Eigen::Vector3d mean_x = Eigen::Vector3d::Zero();
   Eigen::Vector2d mean_u = Eigen::Vector2d::Zero();
   for (int i : used) {
@@ -109,9 +104,16 @@ std::optional<OrganisedCloudCamera> CameraOfOrganisedCloud(
   // Points in front of the camera have positive depth.
   const Eigen::Vector4d first(points[used[0]].x(), points[used[0]].y(), points[used[0]].z(), 1);
   if ((projection * first).z() < 0) projection = -projection;
+  return projection;
+}
+
+// K [R | -R c] from a projection by RQ decomposition (the QR of the reversed
+// transpose): positive focal lengths, a proper rotation, no skew; nullopt
+// for anything else.
+std::optional<OrganisedCloudCamera> DecomposeProjection(
+    const Eigen::Matrix<double, 3, 4>& projection) {
   const Eigen::Matrix3d m = projection.leftCols<3>();
   if (std::abs(m.determinant()) < 1e-12) return std::nullopt;
-  // RQ decomposition M = K R through the QR of the reversed transpose.
   Eigen::Matrix3d flip = Eigen::Matrix3d::Zero();
   flip(0, 2) = flip(1, 1) = flip(2, 0) = 1;
   const Eigen::HouseholderQR<Eigen::Matrix3d> qr((flip * m).transpose());
@@ -119,7 +121,6 @@ std::optional<OrganisedCloudCamera> CameraOfOrganisedCloud(
   const Eigen::Matrix3d upper = qr.matrixQR().triangularView<Eigen::Upper>();
   Eigen::Matrix3d k = flip * upper.transpose() * flip;
   Eigen::Matrix3d r = flip * q.transpose();
-  // Positive focal lengths and a proper rotation.
   for (int c = 0; c < 3; ++c) {
     if (k(c, c) < 0) {
       k.col(c) = -k.col(c);
@@ -137,14 +138,34 @@ std::optional<OrganisedCloudCamera> CameraOfOrganisedCloud(
   const Eigen::Vector3d centre = -m.inverse() * projection.col(3);
   camera.world_from_camera.linear() = r.transpose();
   camera.world_from_camera.translation() = centre;
+  return camera;
+}
+
+}  // namespace
+
+std::optional<OrganisedCloudCamera> CameraOfOrganisedCloud(
+    const std::vector<Eigen::Vector3f>& points, int width, int height) {
+  if (width <= 0 || height <= 0 || static_cast<size_t>(width) * height != points.size())
+    return std::nullopt;
+  // An even subsample of the valid pixels.
+  std::vector<int> used;
+  const int step = std::max(1, static_cast<int>(points.size() / 4000));
+  for (size_t i = 0; i < points.size(); i += step) {
+    if (points[i].allFinite()) used.push_back(static_cast<int>(i));
+  }
+  if (used.size() < 50) return std::nullopt;
+  const std::optional<Eigen::Matrix<double, 3, 4>> projection = ProjectionByDlt(points, width, used);
+  if (!projection) return std::nullopt;
+  const std::optional<OrganisedCloudCamera> camera = DecomposeProjection(*projection);
+  if (!camera) return std::nullopt;
   // The camera reprojects the points onto their pixels.
-  const Eigen::Isometry3d camera_from_world = camera.world_from_camera.inverse();
+  const Eigen::Isometry3d camera_from_world = camera->world_from_camera.inverse();
   double error = 0;
   for (int i : used) {
     const Eigen::Vector3d c = camera_from_world * points[i].cast<double>();
     if (c.z() <= 0) return std::nullopt;
-    error += std::hypot(camera.intrinsics.fx * c.x() / c.z() + camera.intrinsics.cx - i % width,
-                        camera.intrinsics.fy * c.y() / c.z() + camera.intrinsics.cy - i / width);
+    error += std::hypot(camera->intrinsics.fx * c.x() / c.z() + camera->intrinsics.cx - i % width,
+                        camera->intrinsics.fy * c.y() / c.z() + camera->intrinsics.cy - i / width);
   }
   if (error / used.size() > 1.0) return std::nullopt;
   return camera;

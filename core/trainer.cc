@@ -275,6 +275,70 @@ ViewSegments SegmentView(const std::vector<Eigen::Vector3f>& points,
   return view;
 }
 
+namespace {
+
+// The implicit shape model: every segment of every view activates words,
+// each activation an entry with the segment's relation to the model origin
+// (view-aligned) and its height (SPEC §6).
+std::vector<ShapeEntry> BuildShapeEntries(const std::vector<TrainingView>& views,
+                                          const std::vector<ViewSegments>& segmented,
+                                          const Vocabulary& vocabulary,
+                                          const std::vector<Eigen::VectorXd>& normalised) {
+  std::vector<ShapeEntry> shape;
+  size_t next = 0;
+  for (size_t v = 0; v < views.size(); ++v) {
+    for (size_t s = 0; s < segmented[v].segments.size(); ++s, ++next) {
+      const Eigen::Vector3f& centroid = segmented[v].centroids[s];
+      // The reference point is the model origin (footprint centre on the floor).
+      const Eigen::Vector2f relation =
+          ViewAlignedFromWorld(views[v].sensor_origin, centroid) * (-centroid.head<2>());
+      for (const WordActivation& activation : vocabulary.Activate(normalised[next])) {
+        shape.push_back({activation.word,
+                         activation.probability,
+                         views[v].furniture_class,
+                         views[v].model_index,
+                         relation,
+                         centroid.z()});
+      }
+    }
+  }
+  return shape;
+}
+
+// Each view's part subsets described by VFH, on every core, in order.
+std::vector<std::vector<PartSubsetEntry>> DescribePartSubsets(
+    const std::vector<TrainingView>& views,
+    const std::vector<ViewSegments>& segmented,
+    const PartSubsetOptions& options) {
+  std::vector<std::vector<PartSubsetEntry>> subsets(views.size());
+  ParallelFor(0, static_cast<int>(views.size()), [&](int i) {
+    for (const std::vector<int>& subset : PartSubsets(segmented[i], options)) {
+      subsets[i].push_back({ComputeVfh(segmented[i].cloud,
+                                       PointsOfSegments(segmented[i], subset),
+                                       views[i].sensor_origin,
+                                       options.vfh_size_component),
+                            views[i].model_index});
+    }
+  });
+  return subsets;
+}
+
+void CheckTrainingInput(const std::vector<TrainingView>& views,
+                        const std::vector<std::string>& model_names,
+                        const std::vector<FurnitureClass>& model_classes,
+                        const TrainerOptions& options) {
+  options.Check();
+  Require(!views.empty(), "training needs at least one view");
+  Require(model_names.size() == model_classes.size(), "training: one class per model name");
+  for (const TrainingView& view : views) {
+    Require(
+        view.model_index >= 0 && view.model_index < static_cast<int>(model_names.size()),
+        "training view names model " + std::to_string(view.model_index) + ", which does not exist");
+  }
+}
+
+}  // namespace
+
 TrainedModel TrainModel(const std::vector<TrainingView>& views,
                         const std::vector<std::string>& model_names,
                         const std::vector<FurnitureClass>& model_classes,
@@ -288,32 +352,17 @@ TrainedModel TrainModel(const std::vector<TrainingView>& views,
     *seconds = std::chrono::duration<double>(now - last).count();
     last = now;
   };
-  options.Check();
-  Require(!views.empty(), "training needs at least one view");
-  Require(model_names.size() == model_classes.size(), "training: one class per model name");
-  for (const TrainingView& view : views) {
-    Require(
-        view.model_index >= 0 && view.model_index < static_cast<int>(model_names.size()),
-        "training view names model " + std::to_string(view.model_index) + ", which does not exist");
-  }
+  CheckTrainingInput(views, model_names, model_classes, options);
   // Views are independent: segment them, then describe their part subsets,
   // on every core, keeping the order.
   std::vector<ViewSegments> segmented(views.size());
-  std::vector<std::vector<PartSubsetEntry>> subsets(views.size());
   lap(&times->segment_s);
   ParallelFor(0, static_cast<int>(views.size()), [&](int i) {
     segmented[i] = SegmentView(views[i].points, views[i].sensor_origin, options);
   });
   lap(&times->segment_s);
-  ParallelFor(0, static_cast<int>(views.size()), [&](int i) {
-    for (const std::vector<int>& subset : PartSubsets(segmented[i], options.part_subsets)) {
-      subsets[i].push_back({ComputeVfh(segmented[i].cloud,
-                                       PointsOfSegments(segmented[i], subset),
-                                       views[i].sensor_origin,
-                                       options.part_subsets.vfh_size_component),
-                            views[i].model_index});
-    }
-  });
+  const std::vector<std::vector<PartSubsetEntry>> subsets =
+      DescribePartSubsets(views, segmented, options.part_subsets);
   lap(&times->part_subsets_s);
   std::vector<SgfVector> features;
   for (const ViewSegments& view : segmented)
@@ -344,24 +393,7 @@ TrainedModel TrainModel(const std::vector<TrainingView>& views,
   model.part_index = PartSubsetIndex(descriptors).state();
   model.model_shapes =
       BuildModelShapes(views, segmented, model_names.size(), options.shape_voxel_m);
-
-  size_t next = 0;
-  for (size_t v = 0; v < views.size(); ++v) {
-    for (size_t s = 0; s < segmented[v].segments.size(); ++s, ++next) {
-      const Eigen::Vector3f& centroid = segmented[v].centroids[s];
-      // The reference point is the model origin (footprint centre on the floor).
-      const Eigen::Vector2f relation =
-          ViewAlignedFromWorld(views[v].sensor_origin, centroid) * (-centroid.head<2>());
-      for (const WordActivation& activation : model.vocabulary.Activate(normalised[next])) {
-        model.shape.push_back({activation.word,
-                               activation.probability,
-                               views[v].furniture_class,
-                               views[v].model_index,
-                               relation,
-                               centroid.z()});
-      }
-    }
-  }
+  model.shape = BuildShapeEntries(views, segmented, model.vocabulary, normalised);
   lap(&times->shape_s);
   return model;
 }
@@ -435,136 +467,115 @@ void SaveTrainedModel(const TrainedModel& model, const std::string& path) {
   WriteFileAtomically(path, w.bytes());
 }
 
-TrainedModel LoadTrainedModel(const std::string& path) {
-  Require(!std::filesystem::is_directory(path), path + ": cannot read (is a directory)");
-  const MappedFile file(path);
-  Reader r(file.data(), file.size(), path);
-  char magic[sizeof(kMagic)] = {};
-  Require(file.size() >= sizeof(kMagic), path + ": not a furnidet model file");
-  r.Bytes(magic, sizeof(magic));
-  Require(std::memcmp(magic, kMagic, sizeof(kMagic)) == 0, path + ": not a furnidet model file");
-  const uint32_t version = r.U32();
-  Require(version >= kOldestReadable && version <= kFormatVersion,
-          path + ": model file format version " + std::to_string(version) +
-              " is not the version this build reads (" + std::to_string(kFormatVersion) +
-              "); train it again");
-  size_t payload_end = file.size();
-  if (version >= 6) {  // a damaged file stops here, before anything is parsed
-    Require(file.size() >= kHeaderBytes + sizeof(uint64_t), path + ": model file is truncated");
-    payload_end = file.size() - sizeof(uint64_t);
-    uint64_t stored = 0;
-    std::memcpy(&stored, file.data() + payload_end, sizeof(stored));
-    Require(XXH3_64bits(file.data() + kHeaderBytes, payload_end - kHeaderBytes) == stored,
-            path + ": model file is damaged (checksum mismatch); train it again or copy it anew");
-    r.Limit(payload_end);
-  }
-  TrainedModel model;
-  model.options = ReadOptions(&r);
-  const uint32_t models = r.Count(100000, 8);
-  for (uint32_t i = 0; i < models; ++i) {
-    model.model_names.push_back(r.String());
-    model.model_classes.push_back(static_cast<FurnitureClass>(r.I32()));
-  }
-  r.Bytes(model.normalizer.low.data(), sizeof(double) * kSgfCount);
-  r.Bytes(model.normalizer.high.data(), sizeof(double) * kSgfCount);
+namespace {
+
+Vocabulary ReadVocabulary(Reader* r) {
   Vocabulary::State state;
-  state.kind = static_cast<VocabularyKind>(r.I32());
-  state.activated_words = r.I32();
-  state.min_probability = r.F64();
-  state.used_words = r.I32();
-  const uint32_t centres = r.Count(100000);
-  for (uint32_t i = 0; i < centres; ++i) state.centres.push_back(r.Vector());
-  const uint32_t rows = r.Count(100000);
+  state.kind = static_cast<VocabularyKind>(r->I32());
+  state.activated_words = r->I32();
+  state.min_probability = r->F64();
+  state.used_words = r->I32();
+  const uint32_t centres = r->Count(100000);
+  for (uint32_t i = 0; i < centres; ++i) state.centres.push_back(r->Vector());
+  const uint32_t rows = r->Count(100000);
   std::vector<Eigen::VectorXd> weight_rows;
-  for (uint32_t i = 0; i < rows; ++i) weight_rows.push_back(r.Vector());
+  for (uint32_t i = 0; i < rows; ++i) weight_rows.push_back(r->Vector());
   state.weights.resize(rows, rows > 0 ? weight_rows[0].size() : 0);
   for (uint32_t i = 0; i < rows; ++i) state.weights.row(i) = weight_rows[i].transpose();
-  state.biases = r.Vector();
-  model.vocabulary = Vocabulary::FromState(state);
-  model.training_segments = r.I32();
-  const uint32_t entries = r.Count(1u << 28, 32);
-  model.shape.resize(entries);
-  for (ShapeEntry& e : model.shape) {
-    e.word = r.I32();
-    e.probability = r.F64();
-    e.furniture_class = static_cast<FurnitureClass>(r.I32());
-    e.model_index = r.I32();
-    e.relation.x() = r.F32();
-    e.relation.y() = r.F32();
-    e.height = r.F32();
+  state.biases = r->Vector();
+  return Vocabulary::FromState(state);
+}
+
+std::vector<ShapeEntry> ReadShapeEntries(Reader* r) {
+  std::vector<ShapeEntry> shape(r->Count(1u << 28, 32));
+  for (ShapeEntry& e : shape) {
+    e.word = r->I32();
+    e.probability = r->F64();
+    e.furniture_class = static_cast<FurnitureClass>(r->I32());
+    e.model_index = r->I32();
+    e.relation.x() = r->F32();
+    e.relation.y() = r->F32();
+    e.height = r->F32();
   }
-  model.model_shapes.resize(model.model_names.size());
+  return shape;
+}
+
+void ReadModelShapes(Reader* r, std::vector<ModelShape>* shapes) {
   std::vector<float> interleaved;
-  for (ModelShape& shape : model.model_shapes) {
-    shape.points.resize(r.Count(1u << 26, 24));
+  for (ModelShape& shape : *shapes) {
+    shape.points.resize(r->Count(1u << 26, 24));
     shape.normals.resize(shape.points.size());
     interleaved.resize(6 * shape.points.size());
-    r.Bytes(interleaved.data(), sizeof(float) * interleaved.size());
+    r->Bytes(interleaved.data(), sizeof(float) * interleaved.size());
     for (size_t i = 0; i < shape.points.size(); ++i) {
       shape.points[i] = Eigen::Map<const Eigen::Vector3f>(&interleaved[6 * i]);
       shape.normals[i] = Eigen::Map<const Eigen::Vector3f>(&interleaved[6 * i + 3]);
     }
-    shape.low = ReadVector3(&r);
-    shape.high = ReadVector3(&r);
+    shape.low = ReadVector3(r);
+    shape.high = ReadVector3(r);
   }
-  const uint32_t parts = r.Count(1u << 26, 4);
-  model.part_models.resize(parts);
+}
+
+// The part subsets' models and their descriptor index: as trained (version
+// 5 on), or raw descriptors indexed now.
+void ReadPartIndex(Reader* r,
+                   uint32_t version,
+                   size_t file_size,
+                   const std::string& path,
+                   TrainedModel* model) {
+  const uint32_t parts = r->Count(1u << 26, 4);
+  model->part_models.resize(parts);
   constexpr int kBins = static_cast<int>(std::tuple_size<VfhDescriptor>::value);
   if (version >= 5) {  // the index as trained
-    r.Bytes(model.part_models.data(), sizeof(int) * parts);
-    const uint32_t dimensions = r.Count(kBins);
-    Require(static_cast<uint64_t>(dimensions) * (kBins + parts) * sizeof(float) <= file.size(),
+    r->Bytes(model->part_models.data(), sizeof(int) * parts);
+    const uint32_t dimensions = r->Count(kBins);
+    Require(static_cast<uint64_t>(dimensions) * (kBins + parts) * sizeof(float) <= file_size,
             path + ": model file is corrupt (a part index larger than the file)");
     Require((dimensions >= 1) == (parts >= 1),
             path + ": model file is corrupt (a part index of no dimensions)");
-    PartSubsetIndex::State& index = model.part_index;
+    PartSubsetIndex::State& index = model->part_index;
     if (parts > 0) {  // a model without part subsets has no index (tests)
       index.mean.resize(kBins);
       index.basis.resize(kBins, dimensions);
       index.projected.resize(parts, dimensions);
-      r.Bytes(index.mean.data(), sizeof(float) * index.mean.size());
-      r.Bytes(index.basis.data(), sizeof(float) * index.basis.size());
-      r.Bytes(index.projected.data(), sizeof(float) * index.projected.size());
+      r->Bytes(index.mean.data(), sizeof(float) * index.mean.size());
+      r->Bytes(index.basis.data(), sizeof(float) * index.basis.size());
+      r->Bytes(index.projected.data(), sizeof(float) * index.projected.size());
     }
   } else {  // raw descriptors: index them now
     std::vector<VfhDescriptor> descriptors(parts);
     for (uint32_t i = 0; i < parts; ++i) {
-      model.part_models[i] = r.I32();
-      r.Bytes(descriptors[i].data(), sizeof(float) * kBins);
+      model->part_models[i] = r->I32();
+      r->Bytes(descriptors[i].data(), sizeof(float) * kBins);
     }
-    if (parts > 0) model.part_index = PartSubsetIndex(descriptors).state();
+    if (parts > 0) model->part_index = PartSubsetIndex(descriptors).state();
   }
-  for (int m : model.part_models) {
-    Require(m >= 0 && m < static_cast<int>(model.model_names.size()),
+  for (int m : model->part_models) {
+    Require(m >= 0 && m < static_cast<int>(model->model_names.size()),
             path + ": model file is corrupt (a part subset names no model)");
   }
-  if (version >= 3) model.scorer = r.String(1u << 28);
-  if (version >= 4) {
-    const uint32_t meshes = r.Count(100000);
-    Require(meshes == 0 || meshes == model.model_names.size(),
-            path + ": model file is corrupt (render meshes do not match the models)");
-    model.render_meshes.resize(meshes);
-    for (TriangleMesh& mesh : model.render_meshes) {
-      mesh.vertices.resize(r.Count(1u << 26, 12));
-      r.Bytes(mesh.vertices.data(), sizeof(float) * 3 * mesh.vertices.size());
-      mesh.triangles.resize(r.Count(1u << 26, 12));
-      r.Bytes(mesh.triangles.data(), sizeof(int) * 3 * mesh.triangles.size());
-      for (const Eigen::Vector3i& t : mesh.triangles) {
-        Require(
-            (t.array() >= 0).all() && (t.array() < static_cast<int>(mesh.vertices.size())).all(),
-            path + ": model file is corrupt (a render mesh triangle indexes no vertex)");
-      }
+}
+
+std::vector<TriangleMesh> ReadRenderMeshes(Reader* r, size_t models, const std::string& path) {
+  const uint32_t meshes = r->Count(100000);
+  Require(meshes == 0 || meshes == models,
+          path + ": model file is corrupt (render meshes do not match the models)");
+  std::vector<TriangleMesh> render_meshes(meshes);
+  for (TriangleMesh& mesh : render_meshes) {
+    mesh.vertices.resize(r->Count(1u << 26, 12));
+    r->Bytes(mesh.vertices.data(), sizeof(float) * 3 * mesh.vertices.size());
+    mesh.triangles.resize(r->Count(1u << 26, 12));
+    r->Bytes(mesh.triangles.data(), sizeof(int) * 3 * mesh.triangles.size());
+    for (const Eigen::Vector3i& t : mesh.triangles) {
+      Require((t.array() >= 0).all() && (t.array() < static_cast<int>(mesh.vertices.size())).all(),
+              path + ": model file is corrupt (a render mesh triangle indexes no vertex)");
     }
   }
-  if (version >= 7) {
-    const int32_t size_component = r.I32();
-    Require(size_component == 0 || size_component == 1,
-            path + ": model file is corrupt (the VFH size component flag is neither 0 nor 1)");
-    model.options.part_subsets.vfh_size_component = size_component == 1;
-  }
-  Require(r.AtEnd(), path + ": model file has trailing bytes (corrupt)");
-  model.options.Check();
-  // Every index the detector follows is in range.
+  return render_meshes;
+}
+
+// Every index the detector follows is in range.
+void CheckIndices(const TrainedModel& model, const std::string& path) {
   const std::string corrupt = path + ": model file is corrupt (";
   for (FurnitureClass c : model.model_classes) {
     Require(static_cast<int>(c) >= 0 && static_cast<size_t>(c) < kAllClasses.size(),
@@ -577,6 +588,65 @@ TrainedModel LoadTrainedModel(const std::string& path) {
                 e.model_index < static_cast<int>(model.model_names.size()),
             corrupt + "a shape entry indexes no word, class or model)");
   }
+}
+
+// The magic, the format version, and (version 6 on) the checksum over the
+// payload, checked before anything is parsed; returns the version.
+uint32_t ReadHeader(const MappedFile& file, const std::string& path, Reader* r) {
+  char magic[sizeof(kMagic)] = {};
+  Require(file.size() >= sizeof(kMagic), path + ": not a furnidet model file");
+  r->Bytes(magic, sizeof(magic));
+  Require(std::memcmp(magic, kMagic, sizeof(kMagic)) == 0, path + ": not a furnidet model file");
+  const uint32_t version = r->U32();
+  Require(version >= kOldestReadable && version <= kFormatVersion,
+          path + ": model file format version " + std::to_string(version) +
+              " is not the version this build reads (" + std::to_string(kFormatVersion) +
+              "); train it again");
+  if (version >= 6) {  // a damaged file stops here, before anything is parsed
+    Require(file.size() >= kHeaderBytes + sizeof(uint64_t), path + ": model file is truncated");
+    const size_t payload_end = file.size() - sizeof(uint64_t);
+    uint64_t stored = 0;
+    std::memcpy(&stored, file.data() + payload_end, sizeof(stored));
+    Require(XXH3_64bits(file.data() + kHeaderBytes, payload_end - kHeaderBytes) == stored,
+            path + ": model file is damaged (checksum mismatch); train it again or copy it anew");
+    r->Limit(payload_end);
+  }
+  return version;
+}
+
+}  // namespace
+
+TrainedModel LoadTrainedModel(const std::string& path) {
+  Require(!std::filesystem::is_directory(path), path + ": cannot read (is a directory)");
+  const MappedFile file(path);
+  Reader r(file.data(), file.size(), path);
+  const uint32_t version = ReadHeader(file, path, &r);
+  TrainedModel model;
+  model.options = ReadOptions(&r);
+  const uint32_t models = r.Count(100000, 8);
+  for (uint32_t i = 0; i < models; ++i) {
+    model.model_names.push_back(r.String());
+    model.model_classes.push_back(static_cast<FurnitureClass>(r.I32()));
+  }
+  r.Bytes(model.normalizer.low.data(), sizeof(double) * kSgfCount);
+  r.Bytes(model.normalizer.high.data(), sizeof(double) * kSgfCount);
+  model.vocabulary = ReadVocabulary(&r);
+  model.training_segments = r.I32();
+  model.shape = ReadShapeEntries(&r);
+  model.model_shapes.resize(model.model_names.size());
+  ReadModelShapes(&r, &model.model_shapes);
+  ReadPartIndex(&r, version, file.size(), path, &model);
+  if (version >= 3) model.scorer = r.String(1u << 28);
+  if (version >= 4) model.render_meshes = ReadRenderMeshes(&r, model.model_names.size(), path);
+  if (version >= 7) {
+    const int32_t size_component = r.I32();
+    Require(size_component == 0 || size_component == 1,
+            path + ": model file is corrupt (the VFH size component flag is neither 0 nor 1)");
+    model.options.part_subsets.vfh_size_component = size_component == 1;
+  }
+  Require(r.AtEnd(), path + ": model file has trailing bytes (corrupt)");
+  model.options.Check();
+  CheckIndices(model, path);
   return model;
 }
 

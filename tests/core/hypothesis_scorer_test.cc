@@ -149,5 +149,57 @@ TEST(FitPlatt, RecoversAKnownSigmoid) {
   EXPECT_NEAR(b, -2, 0.2);
 }
 
+// The sofa bug of the index-filled features: a sofa's one-hot slot was
+// kSofa == 4, the slot of log(1 + vote weight), which then overwrote it, so
+// a sofa hypothesis looked like one of no class. Named features keep both.
+TEST(HypothesisFeatures, ASofaKeepsItsClassAndItsVoteWeight) {
+  HypothesisFeatures sofa;
+  sofa.furniture_class = FurnitureClass::kSofa;
+  sofa.log_vote_weight = 0.7f;
+  sofa.covered = 0.8f;
+  const FeatureVector v = sofa.Vector();
+  EXPECT_EQ(v[kHypothesisFeatures - 1], 1.0f) << "the sofa's one-hot slot";
+  EXPECT_FLOAT_EQ(v[4], 0.7f) << "log vote weight, not overwritten";
+  for (int c = 0; c < 4; ++c) EXPECT_EQ(v[c], 0.0f) << "no other class' slot";
+  EXPECT_STREQ(kHypothesisFeatureNames[kHypothesisFeatures - 1], "class_sofa");
+  EXPECT_STREQ(kHypothesisFeatureNames[4], "log_vote_weight");
+  EXPECT_STREQ(kHypothesisFeatureNames[7], "covered");
+  EXPECT_FLOAT_EQ(v[7], 0.8f);
+
+  HypothesisFeatures chair = sofa;
+  chair.furniture_class = FurnitureClass::kChair;
+  const FeatureVector w = chair.Vector();
+  EXPECT_EQ(w[0], 1.0f);
+  EXPECT_EQ(w[kHypothesisFeatures - 1], 0.0f);
+  EXPECT_FLOAT_EQ(w[4], 0.7f);
+}
+
+// A scorer learns from the sofa's slot when its samples have sofas; without
+// sofas it keeps the 24 features of model files up to version 7.
+TEST(HypothesisScorer, LearnsTheSofaSlotOnlyFromSamplesWithSofas) {
+  ScorerOptions options;
+  options.trees = 20;
+  std::vector<ScorerSample> without = Samples(400, 3);
+  for (ScorerSample& s : without) s.features[kHypothesisFeatures - 1] = 0;
+  EXPECT_EQ(HypothesisScorer::Train(without, options).feature_count(),
+            kHypothesisFeaturesWithoutSofa);
+  // Sofas are the positives: only the sofa slot tells them apart.
+  std::vector<ScorerSample> with = without;
+  for (size_t i = 0; i < with.size(); ++i) {
+    with[i].positive = i % 2 == 0;
+    with[i].features[kHypothesisFeatures - 1] = with[i].positive ? 1.0f : 0.0f;
+  }
+  const HypothesisScorer scorer = HypothesisScorer::Train(with, options);
+  EXPECT_EQ(scorer.feature_count(), kHypothesisFeatures);
+  HypothesisFeatures sofa, chair;
+  sofa.furniture_class = FurnitureClass::kSofa;
+  chair.furniture_class = FurnitureClass::kChair;
+  EXPECT_GT(scorer.Probability(sofa.Vector()), 0.8);
+  EXPECT_LT(scorer.Probability(chair.Vector()), 0.2);
+  const HypothesisScorer back = HypothesisScorer::Deserialize(scorer.Serialize(), "s.yml");
+  EXPECT_EQ(back.feature_count(), kHypothesisFeatures);
+  EXPECT_NEAR(back.Probability(sofa.Vector()), scorer.Probability(sofa.Vector()), 1e-9);
+}
+
 }  // namespace
 }  // namespace furn

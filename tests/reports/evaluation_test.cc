@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "reports/evaluation.h"
+#include "tests/test_util.h"
 
 namespace furn {
 namespace {
@@ -203,6 +204,80 @@ TEST(Regressions, HigherOrLowerIsBetterByName) {
   EXPECT_TRUE(HigherIsBetter("mAP@10cm"));
   EXPECT_FALSE(HigherIsBetter("xy_error_mean_m"));
   EXPECT_FALSE(HigherIsBetter("latency_p50_ms"));
+}
+
+TEST(MetricId, NamesParseBackWithTheirDirectionAndUnit) {
+  const std::vector<MetricId> ids = {
+      MetricId::MeanAp(0.10),
+      MetricId::ClassAp(FurnitureClass::kSofa, 0.05),
+      MetricId::PaperBestF1(FurnitureClass::kTable),
+      MetricId::StageLatency(DetectionStage::kFitAndVerify),
+      MetricId::Funnel(FurnitureClass::kChair, FunnelStage::kNoMaximum),
+      MetricId::Funnel(std::nullopt, FunnelStage::kDetected),
+      MetricId::FalsePositives(FalsePositiveKind::kWrongClass),
+      MetricId::Plain(PlainMetric::kFalseAboveTrue),
+      MetricId::MeanAp(0.20).InGroup(MetricId::Group::kSpread),
+      MetricId::ClassAp(FurnitureClass::kChair, 0.10).InGroup(MetricId::Group::kGates)};
+  const std::vector<std::string> names = {"mAP@10cm",
+                                          "AP/sofa@5cm",
+                                          "paper/table/best_f1",
+                                          "latency_fit+verify_p50_ms",
+                                          "funnel/chair/no_maximum",
+                                          "funnel/all/detected",
+                                          "false_positives/wrong_class",
+                                          "false_above_true_error@20cm",
+                                          "spread/mAP@20cm",
+                                          "gates/AP/chair@10cm"};
+  for (size_t k = 0; k < ids.size(); ++k) {
+    EXPECT_EQ(ids[k].Name(), names[k]);
+    EXPECT_EQ(MetricId::Parse(names[k]).Name(), names[k]);
+  }
+  EXPECT_TRUE(MetricId::Parse("mAP@10cm").HigherIsBetter());
+  EXPECT_FALSE(MetricId::Parse("false_above_true_error@20cm").HigherIsBetter());
+  EXPECT_FALSE(MetricId::Parse("latency_vote_p50_ms").HigherIsBetter());
+  EXPECT_STREQ(MetricId::Parse("latency_vote_p50_ms").Unit(), "ms");
+  EXPECT_STREQ(MetricId::Parse("xy_error_mean_m").Unit(), "m");
+  EXPECT_STREQ(MetricId::Parse("objects").Unit(), "count");
+  // A misspelt name is an error, not a silent NaN.
+  for (const char* bad : {"mAP@10", "map@10cm", "AP/stool@10cm", "latency_nap_p50_ms", ""})
+    EXPECT_NE(testing::ErrorOf([&] { MetricId::Parse(bad); }).find("unknown metric"),
+              std::string::npos)
+        << bad;
+}
+
+TEST(MetricId, EveryOutcomeHasItsFunnelStage) {
+  for (HypothesisOutcome outcome : EnumValues<HypothesisOutcome>()) {
+    const FunnelStage stage = FunnelStageOf(outcome);
+    if (outcome == HypothesisOutcome::kDetected) {
+      EXPECT_EQ(stage, FunnelStage::kDetectedOffTarget);
+    } else {
+      EXPECT_STREQ(EnumName(stage), OutcomeName(outcome));
+    }
+  }
+}
+
+// Every metric an evaluation writes has an id: names are never typed by hand.
+TEST(MetricId, EveryMetricOfAnEvaluationParses) {
+  FrameOutcome frame;
+  frame.frame_id = 1;
+  frame.total_ms = 5;
+  frame.stage_ms[DetectionStage::kVote] = 1;
+  double x = 0;
+  for (FurnitureClass c : kAllClasses) {
+    x += 1;
+    TruthObject t;
+    t.furniture_class = c;
+    t.model_id = ClassName(c);
+    t.x = x;
+    t.visibility = 1;
+    frame.truth.push_back(t);
+    frame.detections.push_back({c, ClassName(c), x, 0, 0, 0.9, 1});
+  }
+  const EvaluationResult result = EvaluateFrames({frame}, EvaluationOptions{});
+  for (const auto& [name, value] : result.metrics)
+    EXPECT_TRUE(MetricId::TryParse(name).has_value()) << name;
+  EXPECT_EQ(result.metrics.at("AP/sofa@10cm"), 1.0);
+  EXPECT_EQ(ConfusionByName(result).at("sofa").at("sofa"), 1);
 }
 
 }  // namespace

@@ -205,6 +205,91 @@ TEST_F(DetectTest, OneChairIsFoundWithItsPoseClassAndModel) {
   EXPECT_EQ(d.model_name, chair);
 }
 
+// Each stage called alone, in order, on one chair: what it hands to the next
+// is right on its own, and the stages together give what Detect gives.
+TEST_F(DetectTest, EachStageAloneOnOneChair) {
+  const std::string chair = ModelOf(FurnitureClass::kChair, 1);
+  const DetectionInput input = Render({{chair, 0.2, 0.1, 30}});
+  const Detector& detector = *detector_;
+
+  const PreparedScan scan = detector.Prepare(input);
+  ASSERT_EQ(scan.status, DetectionStatus::kDetected) << scan.message;
+  EXPECT_GT(scan.view.segments.size(), 3u);
+  EXPECT_EQ(scan.structure.size(), scan.view.cloud.size());
+  ASSERT_TRUE(scan.occupancy.has_value());
+  ASSERT_TRUE(scan.intrinsics.has_value()) << "an organised scan keeps its depth image";
+  EXPECT_EQ(scan.depth.size(), 640u * 480u);
+  // (The room's walls are beyond the range here; a chair point is never structure.)
+  for (size_t i = 0; i < scan.view.cloud.size(); ++i) {
+    const Eigen::Vector3f& p = scan.view.cloud.points[i];
+    if (std::hypot(p.x() - 0.2, p.y() - 0.1) < 0.15 && p.z() > 0.1) {
+      EXPECT_FALSE(scan.structure[i]) << "a chair point marked as wall";
+    }
+  }
+
+  const VoteMaps votes = detector.Vote(scan);
+  ASSERT_EQ(votes.grids.size(), kAllClasses.size());
+  EXPECT_EQ(votes.grids[0].size(), static_cast<size_t>(votes.cols) * votes.rows);
+  EXPECT_FALSE(votes.votes.empty());
+
+  std::vector<DetectionDebug::VoteGrid> grids;
+  std::vector<DetectionDebug::Hypothesis> hypotheses = detector.FindMaxima(votes, &grids, true);
+  ASSERT_FALSE(hypotheses.empty());
+  int near_chair = -1;
+  for (size_t h = 0; h < hypotheses.size(); ++h) {
+    if (near_chair < 0 && hypotheses[h].furniture_class == FurnitureClass::kChair &&
+        std::hypot(hypotheses[h].x - 0.2, hypotheses[h].y - 0.1) < 0.15)
+      near_chair = static_cast<int>(h);
+  }
+  ASSERT_GE(near_chair, 0) << "no chair maximum within 15 cm";
+
+  detector.RankCandidates(scan, votes, &hypotheses);
+  const DetectionDebug::Hypothesis& hypothesis = hypotheses[near_chair];
+  ASSERT_FALSE(hypothesis.segments.empty());
+  ASSERT_EQ(hypothesis.candidate_models.size(), 3u);  // top_models
+  for (int m : hypothesis.candidate_models)
+    EXPECT_EQ(detector.model().model_classes[m], FurnitureClass::kChair);
+
+  const HypothesisFit fit = detector.FitHypothesis(scan, hypothesis, near_chair);
+  ASSERT_TRUE(fit.best.has_value());
+  EXPECT_LE(fit.region.fit_points.size(), kMaxFitPoints);
+  EXPECT_EQ(fit.region.points.size(), fit.region.cloud_index.size());
+  EXPECT_EQ(static_cast<int>(fit.tried.size()), fit.fits);
+  EXPECT_LT(std::hypot(fit.best->fit.pose.x - 0.2, fit.best->fit.pose.y - 0.1), 0.05);
+  EXPECT_LE(fit.second_score, fit.best->score);
+
+  const FitVerification verification = detector.VerifyFit(scan, fit);
+  EXPECT_GE(verification.covered, 0.75);
+  EXPECT_GE(verification.verification, 0.6);
+  EXPECT_GE(verification.seen_through, 0);  // organised: render-and-compare ran
+  EXPECT_LE(verification.seen_through, 0.3);
+  EXPECT_TRUE(verification.scorer_gates);
+
+  const HypothesisScore score = detector.ScoreHypothesis(scan, hypothesis, fit, verification);
+  EXPECT_EQ(score.outcome, HypothesisOutcome::kDetected);
+  ASSERT_TRUE(score.features.has_value());
+  EXPECT_EQ(score.features->furniture_class, FurnitureClass::kChair);
+  EXPECT_FLOAT_EQ(score.features->covered, static_cast<float>(verification.covered));
+  EXPECT_FLOAT_EQ(score.features->seen_through, static_cast<float>(verification.seen_through));
+  EXPECT_GT(score.features->observed_height, 0.5f);  // the chair's back
+  EXPECT_GT(score.explained_points.size(), 50u);
+
+  // The stages together, as Detect runs them, give Detect's detection.
+  std::vector<FittedHypothesis> fits = detector.FitAndVerify(scan, &hypotheses);
+  const std::vector<int> kept = detector.Suppress(scan, fits, &hypotheses);
+  ASSERT_EQ(kept.size(), 1u) << Describe(detector.Detect(input, true));
+  const DetectionResult whole = detector.Detect(input);
+  ASSERT_EQ(whole.detections.size(), 1u);
+  EXPECT_EQ(fits[kept[0]].detection->x, whole.detections[0].x);
+  EXPECT_EQ(fits[kept[0]].detection->yaw, whole.detections[0].yaw);
+  EXPECT_EQ(fits[kept[0]].detection->model_name, whole.detections[0].model_name);
+  // Detect's timings name every stage, in order, then the total.
+  std::vector<DetectionStage> stages;
+  for (const StageTime& t : whole.timings_ms.stages) stages.push_back(t.stage);
+  const auto values = EnumValues<DetectionStage>();
+  EXPECT_EQ(stages, std::vector<DetectionStage>(values.begin(), values.end()));
+}
+
 TEST_F(DetectTest, TwoTablesAndFourChairsAreAllFoundAndNothingElse) {
   const std::string square_table = ModelOf(FurnitureClass::kTable, 1);
   const std::string long_table = ModelOf(FurnitureClass::kTable, 3);

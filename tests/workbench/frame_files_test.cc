@@ -1,12 +1,14 @@
 #include "workbench/formats/depth_png.h"
 #include "workbench/formats/point_cloud_file.h"
 #include "reports/frame_preview.h"
+#include "workbench/formats/point_fields.h"
 
 #include <gtest/gtest.h>
 #include <pcl/io/pcd_io.h>
 #include <pcl/point_types.h>
 
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <opencv2/imgcodecs.hpp>
 
@@ -122,6 +124,63 @@ TEST(FrameIo, CrashingCloudsAreOneLineErrors) {
     EXPECT_NE(error.find(file), std::string::npos) << error;
     EXPECT_NE(error.find(rule), std::string::npos) << error;
   }
+}
+
+// The one decoder of packed points: every numeric type, row padding, and
+// each broken layout a clear error.
+TEST(PointFields, DecodesEveryTypeAndRowPaddingAndRefusesBrokenLayouts) {
+  // Two rows of two points: x as int16, y as float64, z as uint8; 3 bytes of
+  // padding per point (14 bytes), 4 per row.
+  struct Point {
+    int16_t x;
+    double y;
+    uint8_t z;
+  };
+  const int point_step = 14, row_step = 2 * point_step + 4;
+  std::vector<uint8_t> data(2 * row_step, 0xEE);
+  const Point points[4] = {{-3, 0.25, 7}, {5, -1.5, 0}, {100, 2.0, 255}, {0, 0.0, 1}};
+  for (int k = 0; k < 4; ++k) {
+    uint8_t* at = data.data() + (k / 2) * row_step + (k % 2) * point_step;
+    std::memcpy(at, &points[k].x, 2);
+    std::memcpy(at + 2, &points[k].y, 8);
+    std::memcpy(at + 10, &points[k].z, 1);
+  }
+  PackedPoints packed;
+  packed.data = data.data();
+  packed.size = data.size();
+  packed.width = 2;
+  packed.height = 2;
+  packed.point_step = point_step;
+  packed.row_step = row_step;
+  packed.fields = {{"x", 0, 3}, {"y", 2, 8}, {"z", 10, 2}, {"rgb", 11, 7}};
+  const std::vector<Eigen::Vector3f> xyz = DecodeXyz(packed, "c.pcd");
+  ASSERT_EQ(xyz.size(), 4u);
+  for (int k = 0; k < 4; ++k) {
+    EXPECT_EQ(xyz[k], Eigen::Vector3f(points[k].x, static_cast<float>(points[k].y), points[k].z))
+        << k;
+  }
+  auto error = [&](const PackedPoints& p) { return testing::ErrorOf([&] { DecodeXyz(p, "c.pcd"); }); };
+  PackedPoints broken = packed;
+  broken.fields.erase(broken.fields.begin() + 1);
+  EXPECT_NE(error(broken).find("c.pcd: the cloud has no x, y, z fields (no 'y')"), std::string::npos);
+  broken = packed;
+  broken.fields[0].datatype = 9;
+  EXPECT_NE(error(broken).find("datatype 9"), std::string::npos);
+  broken = packed;
+  broken.fields[1].offset = 7;  // 8 bytes from 7 pass the 14-byte point
+  EXPECT_NE(error(broken).find("lies outside point_step 14"), std::string::npos);
+  broken = packed;
+  broken.row_step = 20;
+  EXPECT_NE(error(broken).find("row_step 20 is less than width x point_step"), std::string::npos);
+  broken = packed;
+  broken.size = data.size() - 1;
+  EXPECT_NE(error(broken).find("shorter than its header declares"), std::string::npos);
+  broken = packed;
+  broken.width = broken.height = uint64_t{1} << 40;
+  EXPECT_NE(error(broken).find("over the limit of 2^26"), std::string::npos);
+  broken = packed;
+  broken.big_endian = true;
+  EXPECT_NE(error(broken).find("big-endian"), std::string::npos);
 }
 
 TEST(FrameIo, PcdAndPlyHeadersAreCheckedAgainstTheFile) {

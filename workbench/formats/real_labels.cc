@@ -1,5 +1,6 @@
 #include "workbench/formats/real_labels.h"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <map>
@@ -66,9 +67,12 @@ RealObject ReadObject(const nlohmann::json& json, const std::string& where) {
   const Fields fields(json, where, {"class", "x", "y", "yaw", "size", "visibility", "note"});
   RealObject object;
   const std::string name = fields.Text("class");
+  // The real set labels the paper's four classes (its sheets and baselines
+  // are theirs); a sofa or a later class is refused by name.
   const std::optional<FurnitureClass> furniture_class = FurnitureClassNamed(name);
-  Require(furniture_class.has_value(),
-          where + ": class '" + name + "' must be one of " + EnumNameList<FurnitureClass>());
+  Require(furniture_class && std::find(kPaperClasses.begin(), kPaperClasses.end(),
+                                       *furniture_class) != kPaperClasses.end(),
+          where + ": class '" + name + "' must be chair, armchair, table or sideboard");
   object.furniture_class = *furniture_class;
   Require(fields.Has("x") && fields.Has("y"), where + ": needs 'x' and 'y' (metres)");
   object.x = fields.Number("x", 0);
