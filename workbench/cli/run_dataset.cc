@@ -14,6 +14,7 @@
 #include "workbench/pipelines/generate.h"
 #include "workbench/pipelines/import_real.h"
 #include "workbench/formats/rosbag_io.h"
+#include "workbench/pipelines/export_rosbag.h"
 #include "workbench/pipelines/sensor_noise.h"
 
 namespace furn {

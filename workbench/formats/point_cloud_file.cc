@@ -43,11 +43,19 @@ std::optional<uint64_t> Count(const std::string& word, uint64_t limit) {
 
 }  // namespace
 
-void CheckPcdHeader(const std::string& bytes, const std::string& path) {
-  std::map<std::string, std::vector<std::string>> header;
+namespace {
+
+using PcdHeader = std::map<std::string, std::vector<std::string>>;
+
+// The header's keyword lines up to DATA; `body_at` gets the body's offset
+// and `data_kind` DATA's word.
+PcdHeader ReadPcdHeader(const std::string& bytes,
+                        const std::string& path,
+                        size_t* body_at,
+                        std::string* data_kind) {
+  PcdHeader header;
   size_t at = 0;
-  std::string data_kind;
-  while (at < bytes.size() && data_kind.empty()) {
+  while (at < bytes.size() && data_kind->empty()) {
     const size_t end = bytes.find('\n', at);
     Require(end != std::string::npos && end - at < 65536,
             path + ": not a PCD file (its header ends without a DATA line)");
@@ -58,7 +66,7 @@ void CheckPcdHeader(const std::string& bytes, const std::string& path) {
         "VERSION", "FIELDS", "SIZE", "TYPE", "COUNT", "WIDTH", "HEIGHT", "VIEWPOINT", "POINTS"};
     if (words[0] == "DATA") {
       Require(words.size() == 2, path + ": PCD DATA must be ascii, binary or binary_compressed");
-      data_kind = words[1];
+      *data_kind = words[1];
     } else {
       // PCL's reader misplaces the body after a line it does not know.
       Require(kKeywords.count(words[0]) > 0,
@@ -71,12 +79,12 @@ void CheckPcdHeader(const std::string& bytes, const std::string& path) {
       header[words[0]] = std::vector<std::string>(words.begin() + 1, words.end());
     }
   }
-  Require(!data_kind.empty(), path + ": not a PCD file (its header ends without a DATA line)");
-  for (const char* key : {"FIELDS", "SIZE", "TYPE", "WIDTH", "HEIGHT", "POINTS"}) {
-    Require(header.count(key), path + ": not a PCD file (its header lacks " + key + ")");
-  }
-  Require(data_kind == "ascii" || data_kind == "binary" || data_kind == "binary_compressed",
-          path + ": PCD DATA '" + data_kind + "' must be ascii, binary or binary_compressed");
+  *body_at = at;
+  return header;
+}
+
+// Bytes per point from SIZE, TYPE and COUNT, each entry checked.
+uint64_t PcdPointStep(PcdHeader& header, const std::string& path) {
   const size_t fields = header["FIELDS"].size();
   Require(fields >= 1 && fields <= 1024, path + ": PCD FIELDS must name 1 to 1024 fields");
   std::vector<std::string> counts =
@@ -100,24 +108,22 @@ void CheckPcdHeader(const std::string& bytes, const std::string& path) {
                 "' must be in 1..4096");
     point_step += *size * *count;
   }
-  const std::optional<uint64_t> width =
-      Count(header["WIDTH"].empty() ? "" : header["WIDTH"][0], 1u << 30);
-  const std::optional<uint64_t> height =
-      Count(header["HEIGHT"].empty() ? "" : header["HEIGHT"][0], 1u << 30);
-  const std::optional<uint64_t> points =
-      Count(header["POINTS"].empty() ? "" : header["POINTS"][0], 1u << 30);
-  Require(width && height && points,
-          path + ": PCD WIDTH, HEIGHT and POINTS must be whole numbers up to 2^30");
-  Require(*width * *height == *points,
-          path + ": PCD WIDTH x HEIGHT (" + std::to_string(*width) + " x " +
-              std::to_string(*height) + ") must equal POINTS (" + std::to_string(*points) + ")");
-  // The body must hold what the header declares: nothing is allocated for
-  // points the file does not have.
+  return point_step;
+}
+
+// The body must hold what the header declares: nothing is allocated for
+// points the file does not have.
+void CheckPcdBody(const std::string& bytes,
+                  size_t at,
+                  const std::string& data_kind,
+                  uint64_t points,
+                  uint64_t point_step,
+                  const std::string& path) {
   const uint64_t body = bytes.size() - at;
-  const uint64_t needed = *points * point_step;
+  const uint64_t needed = points * point_step;
   if (data_kind == "binary") {
     Require(needed <= body,
-            path + ": PCD declares " + std::to_string(*points) + " points of " +
+            path + ": PCD declares " + std::to_string(points) + " points of " +
                 std::to_string(point_step) + " bytes, but its body has " + std::to_string(body) +
                 " bytes");
   } else if (data_kind == "binary_compressed") {
@@ -138,10 +144,37 @@ void CheckPcdHeader(const std::string& bytes, const std::string& path) {
   } else {
     const uint64_t lines = static_cast<uint64_t>(
         std::count(bytes.begin() + static_cast<std::ptrdiff_t>(at), bytes.end(), '\n') + 1);
-    Require(*points <= lines,
-            path + ": PCD declares " + std::to_string(*points) +
+    Require(points <= lines,
+            path + ": PCD declares " + std::to_string(points) +
                 " points, but its ascii body has " + std::to_string(lines) + " lines");
   }
+}
+
+}  // namespace
+
+void CheckPcdHeader(const std::string& bytes, const std::string& path) {
+  size_t at = 0;
+  std::string data_kind;
+  PcdHeader header = ReadPcdHeader(bytes, path, &at, &data_kind);
+  Require(!data_kind.empty(), path + ": not a PCD file (its header ends without a DATA line)");
+  for (const char* key : {"FIELDS", "SIZE", "TYPE", "WIDTH", "HEIGHT", "POINTS"}) {
+    Require(header.count(key), path + ": not a PCD file (its header lacks " + key + ")");
+  }
+  Require(data_kind == "ascii" || data_kind == "binary" || data_kind == "binary_compressed",
+          path + ": PCD DATA '" + data_kind + "' must be ascii, binary or binary_compressed");
+  const uint64_t point_step = PcdPointStep(header, path);
+  const std::optional<uint64_t> width =
+      Count(header["WIDTH"].empty() ? "" : header["WIDTH"][0], 1u << 30);
+  const std::optional<uint64_t> height =
+      Count(header["HEIGHT"].empty() ? "" : header["HEIGHT"][0], 1u << 30);
+  const std::optional<uint64_t> points =
+      Count(header["POINTS"].empty() ? "" : header["POINTS"][0], 1u << 30);
+  Require(width && height && points,
+          path + ": PCD WIDTH, HEIGHT and POINTS must be whole numbers up to 2^30");
+  Require(*width * *height == *points,
+          path + ": PCD WIDTH x HEIGHT (" + std::to_string(*width) + " x " +
+              std::to_string(*height) + ") must equal POINTS (" + std::to_string(*points) + ")");
+  CheckPcdBody(bytes, at, data_kind, *points, point_step, path);
 }
 
 void CheckPlyHeader(const std::string& bytes, const std::string& path) {

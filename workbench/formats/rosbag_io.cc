@@ -22,7 +22,11 @@ BagMarkerWriter::BagMarkerWriter(const std::string&, const std::string&, std::st
 BagMarkerWriter::~BagMarkerWriter() = default;
 void BagMarkerWriter::Add(const BagScan&, const DetectionResult&, const TrainedModel&) { NoRos(); }
 void BagMarkerWriter::Finish() { NoRos(); }
-int ExportRosbag(const std::string&, const std::string&, const std::string&) { NoRos(); }
+struct FrameBagWriter::Impl {};
+FrameBagWriter::FrameBagWriter(const std::string&) { NoRos(); }
+FrameBagWriter::~FrameBagWriter() = default;
+void FrameBagWriter::Write(const RoomRecord&, const FrameRecord&, const std::string&) { NoRos(); }
+int FrameBagWriter::Finish() { NoRos(); }
 
 }  // namespace furn
 
@@ -325,6 +329,76 @@ visualization_msgs::Marker ClearMarkers() {
 
 }  // namespace
 
+namespace {
+
+// The topic's message type, which must be PointCloud2 or Image.
+std::string TopicType(rosbag::Bag& bag, const BagScanOptions& options) {
+  std::string type;
+  rosbag::View topic_view(bag, rosbag::TopicQuery(options.topic));
+  for (const rosbag::ConnectionInfo* connection : topic_view.getConnections())
+    type = connection->datatype;
+  Require(!type.empty(), options.bag_path + ": no messages on topic " + options.topic);
+  Require(type == "sensor_msgs/PointCloud2" || type == "sensor_msgs/Image",
+          options.bag_path + ": topic " + options.topic + " is " + type +
+              "; it must be sensor_msgs/PointCloud2 or sensor_msgs/Image");
+  return type;
+}
+
+// The first CameraInfo of the topic, so an image recorded before its first
+// CameraInfo still has intrinsics.
+CameraIntrinsics FirstCameraInfo(rosbag::Bag& bag,
+                                 const BagScanOptions& options,
+                                 const std::string& info_topic) {
+  rosbag::View info_view(bag, rosbag::TopicQuery(info_topic));
+  for (const rosbag::MessageInstance& m : info_view) {
+    if (const auto info = m.instantiate<sensor_msgs::CameraInfo>())
+      return IntrinsicsOf(*info, options.bag_path + " " + info_topic);
+  }
+  throw InputError(options.bag_path + ": no sensor_msgs/CameraInfo on " + info_topic +
+                   " for the images of " + options.topic + " (name it with --camera-info)");
+}
+
+// A message of the topic as a scan: a cloud's points, or an image's
+// back-projected through the latest CameraInfo; its header's frame, stamp
+// and sequence.
+BagScan ScanOfMessage(const rosbag::MessageInstance& m,
+                      const std::string& type,
+                      const std::optional<CameraIntrinsics>& camera,
+                      const BagScanOptions& options,
+                      const std::string& info_topic,
+                      const std::string& where) {
+  BagScan scan;
+  scan.topic = m.getTopic();
+  scan.bag_time = m.getTime().toSec();
+  std_msgs::Header header;
+  if (type == "sensor_msgs/PointCloud2") {
+    const sensor_msgs::PointCloud2::ConstPtr cloud = m.instantiate<sensor_msgs::PointCloud2>();
+    Require(cloud != nullptr, where + ": not a sensor_msgs/PointCloud2");
+    scan.loaded.input = PointsOf(*cloud, where);
+    header = cloud->header;
+  } else {
+    const sensor_msgs::Image::ConstPtr image = m.instantiate<sensor_msgs::Image>();
+    Require(image != nullptr, where + ": not a sensor_msgs/Image");
+    DepthFrame depth = DepthOf(*image, options.depth_scale, where);
+    Require(depth.width == camera->width && depth.height == camera->height,
+            where + ": the image is " + std::to_string(depth.width) + "x" +
+                std::to_string(depth.height) + " but the CameraInfo of " + info_topic +
+                " is for " + std::to_string(camera->width) + "x" + std::to_string(camera->height));
+    scan.loaded.input.points = BackProject(depth, *camera);
+    scan.loaded.input.width = depth.width;
+    scan.loaded.input.height = depth.height;
+    scan.loaded.camera = *camera;
+    header = image->header;
+  }
+  scan.frame_id = header.frame_id;
+  scan.stamp = header.stamp.toSec();
+  scan.seq = header.seq;
+  scan.loaded.description = options.bag_path + ":" + scan.topic + "@" + TimeText(header.stamp);
+  return scan;
+}
+
+}  // namespace
+
 int ForEachBagScan(const BagScanOptions& options, const std::function<void(const BagScan&)>& each) {
   Require(!options.topic.empty(), "--bag needs --topic");
   Require(
@@ -337,75 +411,24 @@ int ForEachBagScan(const BagScanOptions& options, const std::function<void(const
                                      ? Namespace(options.topic) + "/camera_info"
                                      : options.camera_info_topic;
   int scans = 0;
-  std::string type;
   try {
-    // The topic's type, and (for images) the first CameraInfo, so an image
-    // recorded before its first CameraInfo still has intrinsics.
-    rosbag::View topic_view(bag, rosbag::TopicQuery(options.topic));
-    for (const rosbag::ConnectionInfo* connection : topic_view.getConnections()) {
-      type = connection->datatype;
-    }
-    Require(!type.empty(), options.bag_path + ": no messages on topic " + options.topic);
-    Require(type == "sensor_msgs/PointCloud2" || type == "sensor_msgs/Image",
-            options.bag_path + ": topic " + options.topic + " is " + type +
-                "; it must be sensor_msgs/PointCloud2 or sensor_msgs/Image");
+    const std::string type = TopicType(bag, options);
     std::optional<CameraIntrinsics> camera;
-    if (type == "sensor_msgs/Image") {
-      rosbag::View info_view(bag, rosbag::TopicQuery(info_topic));
-      for (const rosbag::MessageInstance& m : info_view) {
-        if (const auto info = m.instantiate<sensor_msgs::CameraInfo>()) {
-          camera = IntrinsicsOf(*info, options.bag_path + " " + info_topic);
-          break;
-        }
-      }
-      Require(camera.has_value(),
-              options.bag_path + ": no sensor_msgs/CameraInfo on " + info_topic +
-                  " for the images of " + options.topic + " (name it with --camera-info)");
-    }
-    const int total = static_cast<int>(topic_view.size());
+    if (type == "sensor_msgs/Image") camera = FirstCameraInfo(bag, options, info_topic);
+    const int total = static_cast<int>(rosbag::View(bag, rosbag::TopicQuery(options.topic)).size());
     rosbag::View view(bag, rosbag::TopicQuery(std::vector<std::string>{options.topic, info_topic}));
     for (const rosbag::MessageInstance& m : view) {
       const std::string where =
           options.bag_path + " " + m.getTopic() + " at " + TimeText(m.getTime());
       if (m.getTopic() == info_topic && m.getTopic() != options.topic) {
-        if (const auto info = m.instantiate<sensor_msgs::CameraInfo>()) {
+        if (const auto info = m.instantiate<sensor_msgs::CameraInfo>())
           camera = IntrinsicsOf(*info, where);
-        }
         continue;
       }
-      BagScan scan;
-      scan.topic = m.getTopic();
+      BagScan scan = ScanOfMessage(m, type, camera, options, info_topic, where);
       scan.total = total;
-      scan.bag_time = m.getTime().toSec();
-      const std_msgs::Header* header = nullptr;
-      sensor_msgs::PointCloud2::ConstPtr cloud;
-      sensor_msgs::Image::ConstPtr image;
-      if (type == "sensor_msgs/PointCloud2") {
-        cloud = m.instantiate<sensor_msgs::PointCloud2>();
-        Require(cloud != nullptr, where + ": not a sensor_msgs/PointCloud2");
-        scan.loaded.input = PointsOf(*cloud, where);
-        header = &cloud->header;
-      } else {
-        image = m.instantiate<sensor_msgs::Image>();
-        Require(image != nullptr, where + ": not a sensor_msgs/Image");
-        DepthFrame depth = DepthOf(*image, options.depth_scale, where);
-        Require(depth.width == camera->width && depth.height == camera->height,
-                where + ": the image is " + std::to_string(depth.width) + "x" +
-                    std::to_string(depth.height) + " but the CameraInfo of " + info_topic +
-                    " is for " + std::to_string(camera->width) + "x" +
-                    std::to_string(camera->height));
-        scan.loaded.input.points = BackProject(depth, *camera);
-        scan.loaded.input.width = depth.width;
-        scan.loaded.input.height = depth.height;
-        scan.loaded.camera = *camera;
-        header = &image->header;
-      }
-      scan.frame_id = header->frame_id;
-      scan.stamp = header->stamp.toSec();
-      scan.seq = header->seq;
-      scan.loaded.description = options.bag_path + ":" + scan.topic + "@" + TimeText(header->stamp);
       if (!tf.empty()) {
-        const double time = header->stamp.isZero() ? scan.bag_time : scan.stamp;
+        const double time = scan.stamp == 0 ? scan.bag_time : scan.stamp;  // no header stamp
         if (const auto pose = tf.Lookup(options.world_frame, scan.frame_id, time)) {
           scan.loaded.input.world_from_camera = *pose;
           scan.loaded.pose_source = "tf: " + options.world_frame + " <- " + scan.frame_id;
@@ -529,114 +552,137 @@ void BagMarkerWriter::Finish() {
   impl_->finished = true;
 }
 
-int ExportRosbag(const std::string& db_path, const std::string& out_bag, const std::string& split) {
-  const Split selected = ParseSplit(split, "--split");
-  DatasetDb dataset(db_path, DatasetDb::Mode::kReadOnly);
-  const std::string temporary = out_bag + ".partial";
-  std::vector<int64_t> rooms;
-  size_t frames_total = 0;
-  for (int64_t room_id : dataset.RoomIds()) {
-    const RoomRecord room = dataset.ReadRoom(room_id, /*with_images=*/false);
-    if (!InSplit(room.split, selected)) continue;
-    rooms.push_back(room_id);
-    frames_total += room.frames.size();
+namespace {
+
+sensor_msgs::Image DepthImage(const DepthFrame& depth, const std_msgs::Header& header) {
+  sensor_msgs::Image image;
+  image.header = header;
+  image.width = depth.width;
+  image.height = depth.height;
+  image.encoding = "16UC1";
+  image.is_bigendian = 0;
+  image.step = 2 * depth.width;
+  image.data.resize(image.step * image.height);
+  for (size_t i = 0; i < depth.depth.size(); ++i) {
+    const uint16_t mm = static_cast<uint16_t>(std::lround(depth.depth[i] * 1000.0));
+    std::memcpy(&image.data[2 * i], &mm, 2);
   }
-  Progress progress("export", frames_total, "frames");
-  int written = 0;
+  return image;
+}
+
+sensor_msgs::CameraInfo CameraInfoOf(const FrameRecord& frame, const std_msgs::Header& header) {
+  sensor_msgs::CameraInfo info;
+  info.header = header;
+  info.width = frame.width;
+  info.height = frame.height;
+  info.distortion_model = "plumb_bob";
+  info.D.assign(5, 0.0);
+  info.K = {frame.fx, 0, frame.cx, 0, frame.fy, frame.cy, 0, 0, 1};
+  info.R = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+  info.P = {frame.fx, 0, frame.cx, 0, 0, frame.fy, frame.cy, 0, 0, 0, 1, 0};
+  return info;
+}
+
+// A cube per object of the room, namespace its class or "clutter".
+visualization_msgs::MarkerArray TruthMarkers(const RoomRecord& room, const ros::Time& stamp) {
+  visualization_msgs::MarkerArray truth;
+  truth.markers.push_back(ClearMarkers());
+  truth.markers.front().header.frame_id = "world";
+  truth.markers.front().header.stamp = stamp;
+  for (const ObjectRecord& object : room.objects) {
+    visualization_msgs::Marker box =
+        BoxMarker(object.furniture_class ? ClassName(*object.furniture_class) : "clutter",
+                  object.instance_id,
+                  object.furniture_class,
+                  object.reference_x,
+                  object.reference_y,
+                  object.yaw,
+                  Eigen::Vector3d(object.width, object.depth, object.height),
+                  Eigen::Isometry3d::Identity());
+    box.header.frame_id = "world";
+    box.header.stamp = stamp;
+    box.text = object.model_id;
+    truth.markers.push_back(box);
+  }
+  return truth;
+}
+
+}  // namespace
+
+struct FrameBagWriter::Impl {
+  std::string out_path, temporary;
+  rosbag::Bag bag;
+  int frames = 0;
+  bool finished = false;
+};
+
+FrameBagWriter::FrameBagWriter(const std::string& out_bag) : impl_(std::make_unique<Impl>()) {
+  impl_->out_path = out_bag;
+  impl_->temporary = out_bag + ".partial";
   try {
-    rosbag::Bag bag;
-    bag.open(temporary, rosbag::bagmode::Write);
-    bag.setCompression(rosbag::compression::LZ4);
-    for (int64_t room_id : rooms) {
-      const RoomRecord room = dataset.ReadRoom(room_id, /*with_images=*/true);
-      for (const FrameRecord& frame : room.frames) {
-        const std::string where = db_path + " frame " + std::to_string(frame.id);
-        ros::Time stamp(1 + written / 10, (written % 10) * 100000000);
-        std_msgs::Header header;
-        header.stamp = stamp;
-        header.frame_id = kCameraFrame;
-        header.seq = static_cast<uint32_t>(frame.id);
-
-        const DepthFrame depth = DecodeDepthPng(frame.depth_noisy_png, where);
-        sensor_msgs::Image image;
-        image.header = header;
-        image.width = depth.width;
-        image.height = depth.height;
-        image.encoding = "16UC1";
-        image.is_bigendian = 0;
-        image.step = 2 * depth.width;
-        image.data.resize(image.step * image.height);
-        for (size_t i = 0; i < depth.depth.size(); ++i) {
-          const uint16_t mm = static_cast<uint16_t>(std::lround(depth.depth[i] * 1000.0));
-          std::memcpy(&image.data[2 * i], &mm, 2);
-        }
-        sensor_msgs::Image ids = image;
-        DepthFrame labels;
-        labels.Resize(frame.width, frame.height);
-        DecodeIdPng(frame.ids_png, where + " ids", &labels);
-        std::memcpy(ids.data.data(), labels.instance_ids.data(), 2 * labels.instance_ids.size());
-
-        sensor_msgs::CameraInfo info;
-        info.header = header;
-        info.width = frame.width;
-        info.height = frame.height;
-        info.distortion_model = "plumb_bob";
-        info.D.assign(5, 0.0);
-        info.K = {frame.fx, 0, frame.cx, 0, frame.fy, frame.cy, 0, 0, 1};
-        info.R = {1, 0, 0, 0, 1, 0, 0, 0, 1};
-        info.P = {frame.fx, 0, frame.cx, 0, 0, frame.fy, frame.cy, 0, 0, 0, 1, 0};
-
-        tf2_msgs::TFMessage tf;
-        geometry_msgs::TransformStamped transform;
-        transform.header.stamp = stamp;
-        transform.header.frame_id = "world";
-        transform.child_frame_id = kCameraFrame;
-        SetTransform(frame.world_from_camera, &transform.transform);
-        tf.transforms.push_back(transform);
-
-        visualization_msgs::MarkerArray truth;
-        truth.markers.push_back(ClearMarkers());
-        truth.markers.front().header.frame_id = "world";
-        truth.markers.front().header.stamp = stamp;
-        for (const ObjectRecord& object : room.objects) {
-          visualization_msgs::Marker box =
-              BoxMarker(object.furniture_class ? ClassName(*object.furniture_class) : "clutter",
-                        object.instance_id,
-                        object.furniture_class,
-                        object.reference_x,
-                        object.reference_y,
-                        object.yaw,
-                        Eigen::Vector3d(object.width, object.depth, object.height),
-                        Eigen::Isometry3d::Identity());
-          box.header.frame_id = "world";
-          box.header.stamp = stamp;
-          box.text = object.model_id;
-          truth.markers.push_back(box);
-        }
-        bag.write("/tf", stamp, tf);
-        bag.write("/camera/depth/camera_info", stamp, info);
-        bag.write("/camera/depth/image_raw", stamp, image);
-        bag.write("/camera/depth/ids", stamp, ids);
-        bag.write("/furnidet/ground_truth", stamp, truth);
-        ++written;
-        progress.Advance();
-      }
-    }
-    bag.close();
-    progress.Finish();
+    impl_->bag.open(impl_->temporary, rosbag::bagmode::Write);
+    impl_->bag.setCompression(rosbag::compression::LZ4);
   } catch (...) {
     std::error_code ec;
-    std::filesystem::remove(temporary, ec);
+    std::filesystem::remove(impl_->temporary, ec);
     RethrowAsInputError(out_bag);
   }
-  std::error_code ec;
-  if (written == 0) {
-    std::filesystem::remove(temporary, ec);
-    throw InputError(db_path + ": no frames in split '" + std::string(EnumName(selected)) + "'");
+}
+
+FrameBagWriter::~FrameBagWriter() {
+  if (impl_->finished) return;
+  try {
+    impl_->bag.close();
+  } catch (...) {  // a destructor does not throw; the partial file goes anyway
   }
-  std::filesystem::rename(temporary, out_bag, ec);
-  Require(!ec, out_bag + ": cannot move the finished bag into place (" + ec.message() + ")");
-  return written;
+  std::error_code ec;
+  std::filesystem::remove(impl_->temporary, ec);
+}
+
+void FrameBagWriter::Write(const RoomRecord& room, const FrameRecord& frame, const std::string& where) {
+  try {
+    const int written = impl_->frames;
+    ros::Time stamp(1 + written / 10, (written % 10) * 100000000);
+    std_msgs::Header header;
+    header.stamp = stamp;
+    header.frame_id = kCameraFrame;
+    header.seq = static_cast<uint32_t>(frame.id);
+    const sensor_msgs::Image image = DepthImage(DecodeDepthPng(frame.depth_noisy_png, where), header);
+    sensor_msgs::Image ids = image;
+    DepthFrame labels;
+    labels.Resize(frame.width, frame.height);
+    DecodeIdPng(frame.ids_png, where + " ids", &labels);
+    std::memcpy(ids.data.data(), labels.instance_ids.data(), 2 * labels.instance_ids.size());
+    tf2_msgs::TFMessage tf;
+    geometry_msgs::TransformStamped transform;
+    transform.header.stamp = stamp;
+    transform.header.frame_id = "world";
+    transform.child_frame_id = kCameraFrame;
+    SetTransform(frame.world_from_camera, &transform.transform);
+    tf.transforms.push_back(transform);
+    impl_->bag.write("/tf", stamp, tf);
+    impl_->bag.write("/camera/depth/camera_info", stamp, CameraInfoOf(frame, header));
+    impl_->bag.write("/camera/depth/image_raw", stamp, image);
+    impl_->bag.write("/camera/depth/ids", stamp, ids);
+    impl_->bag.write("/furnidet/ground_truth", stamp, TruthMarkers(room, stamp));
+    ++impl_->frames;
+  } catch (...) {
+    RethrowAsInputError(impl_->out_path);
+  }
+}
+
+int FrameBagWriter::Finish() {
+  try {
+    impl_->bag.close();
+  } catch (...) {
+    RethrowAsInputError(impl_->out_path);
+  }
+  std::error_code ec;
+  std::filesystem::rename(impl_->temporary, impl_->out_path, ec);
+  Require(!ec,
+          impl_->out_path + ": cannot move the finished bag into place (" + ec.message() + ")");
+  impl_->finished = true;
+  return impl_->frames;
 }
 
 }  // namespace furn

@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "core/detector.h"
+#include "db/dataset_db.h"
 #include "workbench/formats/scan_file.h"
 
 namespace furn {
@@ -82,12 +83,29 @@ class BagMarkerWriter {
   std::unique_ptr<Impl> impl_;
 };
 
-// A dataset's frames as a bag: /camera/depth/image_raw (16UC1, mm; header.seq
-// = the frame id), /camera/depth/camera_info, /camera/depth/ids (16UC1
-// instance ids), /tf (world -> camera_depth_optical_frame), and
-// /furnidet/ground_truth (MarkerArray: a cube per object, namespace = its
-// class or "clutter", id = its instance id). Frames 0.1 s apart from t = 1 s.
-// `split`: train, val, test or all. Written atomically; returns the frames.
-int ExportRosbag(const std::string& db_path, const std::string& out_bag, const std::string& split);
+// Dataset frames as a Kinect driver would record them, with their truth:
+// per frame /camera/depth/image_raw (16UC1, mm; header.seq = the frame id),
+// /camera/depth/camera_info,
+// /camera/depth/ids (16UC1 instance ids), /tf (world -> the camera's optical
+// frame) and /furnidet/ground_truth (MarkerArray: a cube per object,
+// namespace = its class or "clutter", id = its instance id). Frames 0.1 s
+// apart from t = 1 s. Written to <out>.partial and moved into place by
+// Finish(); destroyed unfinished, it leaves no file.
+class FrameBagWriter {
+ public:
+  explicit FrameBagWriter(const std::string& out_bag);
+  ~FrameBagWriter();
+  FrameBagWriter(const FrameBagWriter&) = delete;
+  FrameBagWriter& operator=(const FrameBagWriter&) = delete;
+  // `where` names the frame in errors.
+  void Write(const RoomRecord& room, const FrameRecord& frame, const std::string& where);
+  // Returns the frames written.
+  int Finish();
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
 
 }  // namespace furn

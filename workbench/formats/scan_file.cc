@@ -195,81 +195,83 @@ std::optional<int64_t> BopImageId(const std::string& path) {
 
 }  // namespace
 
-LoadedScan LoadScan(const ScanSource& source) {
-  const int given =
-      !source.cloud_path.empty() + !source.depth_path.empty() + !source.db_path.empty();
-  Require(given == 1, "give exactly one of --cloud, --depth or --db (or inputs)");
-  Require(source.depth_scale == 0 || (source.depth_scale > 0 && std::isfinite(source.depth_scale)),
-          "--depth-scale " + std::to_string(source.depth_scale) + " must be a finite number > 0");
-  const bool world_options =
-      !source.world_from_camera.empty() || source.floor_aligned || !source.sensor.empty();
+namespace {
+
+LoadedScan LoadCloudScan(const ScanSource& source, bool world_options) {
   LoadedScan scan;
-  if (!source.cloud_path.empty()) {
-    ScanCloud cloud = ReadPointCloudFile(source.cloud_path);
-    Require(!cloud.points.empty(), source.cloud_path + ": the cloud is empty");
-    scan.camera = CameraIntrinsics::KinectV1();
-    scan.description = source.cloud_path;
-    if (world_options || cloud.viewpoint) {
-      CloudFromWorld(std::move(cloud), source, &scan);
-    } else {
-      scan.input.points = std::move(cloud.points);
-      scan.input.width = cloud.width;
-      scan.input.height = cloud.height;
-    }
-    if (scan.input.width * scan.input.height > 0) {
-      // An organised cloud tells its own intrinsics (debug views, reports).
-      if (const std::optional<PinholeIntrinsics> own =
-              IntrinsicsOfOrganisedCloud(scan.input.points, scan.input.width, scan.input.height)) {
-        const CameraIntrinsics fitted{
-            scan.input.width, scan.input.height, own->fx, own->fy, own->cx, own->cy};
-        if (own->fx > 0 && own->fy > 0 && own->cx >= 0 && own->cy >= 0 && own->cx < fitted.width &&
-            own->cy < fitted.height)
-          scan.camera = fitted;
-      }
-    }
-    return scan;
+  ScanCloud cloud = ReadPointCloudFile(source.cloud_path);
+  Require(!cloud.points.empty(), source.cloud_path + ": the cloud is empty");
+  scan.camera = CameraIntrinsics::KinectV1();
+  scan.description = source.cloud_path;
+  if (world_options || cloud.viewpoint) {
+    CloudFromWorld(std::move(cloud), source, &scan);
+  } else {
+    scan.input.points = std::move(cloud.points);
+    scan.input.width = cloud.width;
+    scan.input.height = cloud.height;
   }
-  Require(source.sensor.empty(), "--sensor applies to point clouds");
-  if (!source.depth_path.empty()) {
-    std::optional<double> units;
-    if (source.depth_scale > 0) units = source.depth_scale;
-    CameraFile camera_file;
-    if (!source.camera_file.empty()) {
-      camera_file = ReadCameraFile(
-          source.camera_file, source.image_id ? source.image_id : BopImageId(source.depth_path));
-      if (!units) units = camera_file.units_per_metre;
+  if (scan.input.width * scan.input.height > 0) {
+    // An organised cloud tells its own intrinsics (debug views, reports).
+    if (const std::optional<PinholeIntrinsics> own =
+            IntrinsicsOfOrganisedCloud(scan.input.points, scan.input.width, scan.input.height)) {
+      const CameraIntrinsics fitted{
+          scan.input.width, scan.input.height, own->fx, own->fy, own->cx, own->cy};
+      if (own->fx > 0 && own->fy > 0 && own->cx >= 0 && own->cy >= 0 && own->cx < fitted.width &&
+          own->cy < fitted.height)
+        scan.camera = fitted;
     }
-    const DepthFrame frame = ReadDepthImage(source.depth_path, units);
-    if (!source.camera_file.empty()) {
-      scan.camera = camera_file.camera;
-      Require((scan.camera.width == 0 && scan.camera.height == 0) ||
-                  (scan.camera.width == frame.width && scan.camera.height == frame.height),
-              source.camera_file + " is for " + std::to_string(scan.camera.width) + "x" +
-                  std::to_string(scan.camera.height) + " images, but " + source.depth_path +
-                  " is " + std::to_string(frame.width) + "x" + std::to_string(frame.height));
-      scan.camera.width = frame.width;
-      scan.camera.height = frame.height;
-      scan.camera.Check();
-    } else {
-      scan.camera = ParseIntrinsics(source.intrinsics, frame.width, frame.height);
-    }
-    scan.input.points = BackProject(frame, scan.camera);
-    scan.input.width = frame.width;
-    scan.input.height = frame.height;
-    scan.description = source.depth_path;
-    // A depth image's points are in the camera frame; a pose helps only as
-    // the camera's pose in the detector's floor-aligned world.
-    Require(source.world_from_camera.empty() == !source.floor_aligned,
-            source.depth_path +
-                ": with a depth image, --world-from-camera (the camera's pose "
-                "in a floor-aligned world) and --floor-aligned go together");
-    if (source.floor_aligned) {
-      scan.input.world_from_camera = ParsePose(source.world_from_camera, "--world-from-camera");
-      scan.pose_source = "--world-from-camera";
-    }
-    return scan;
   }
-  Require(!world_options, "--world-from-camera applies to clouds and depth images, not --db");
+  return scan;
+}
+
+// The depth image's camera: the camera file's (sized to the image), else
+// --intrinsics.
+CameraIntrinsics CameraOfDepthImage(const ScanSource& source,
+                                    const CameraFile& camera_file,
+                                    const DepthFrame& frame) {
+  if (source.camera_file.empty()) return ParseIntrinsics(source.intrinsics, frame.width, frame.height);
+  CameraIntrinsics camera = camera_file.camera;
+  Require((camera.width == 0 && camera.height == 0) ||
+              (camera.width == frame.width && camera.height == frame.height),
+          source.camera_file + " is for " + std::to_string(camera.width) + "x" +
+              std::to_string(camera.height) + " images, but " + source.depth_path + " is " +
+              std::to_string(frame.width) + "x" + std::to_string(frame.height));
+  camera.width = frame.width;
+  camera.height = frame.height;
+  camera.Check();
+  return camera;
+}
+
+LoadedScan LoadDepthScan(const ScanSource& source) {
+  LoadedScan scan;
+  std::optional<double> units;
+  if (source.depth_scale > 0) units = source.depth_scale;
+  CameraFile camera_file;
+  if (!source.camera_file.empty()) {
+    camera_file = ReadCameraFile(source.camera_file,
+                                 source.image_id ? source.image_id : BopImageId(source.depth_path));
+    if (!units) units = camera_file.units_per_metre;
+  }
+  const DepthFrame frame = ReadDepthImage(source.depth_path, units);
+  scan.camera = CameraOfDepthImage(source, camera_file, frame);
+  scan.input.points = BackProject(frame, scan.camera);
+  scan.input.width = frame.width;
+  scan.input.height = frame.height;
+  scan.description = source.depth_path;
+  // A depth image's points are in the camera frame; a pose helps only as
+  // the camera's pose in the detector's floor-aligned world.
+  Require(source.world_from_camera.empty() == !source.floor_aligned,
+          source.depth_path +
+              ": with a depth image, --world-from-camera (the camera's pose "
+              "in a floor-aligned world) and --floor-aligned go together");
+  if (source.floor_aligned) {
+    scan.input.world_from_camera = ParsePose(source.world_from_camera, "--world-from-camera");
+    scan.pose_source = "--world-from-camera";
+  }
+  return scan;
+}
+
+LoadedScan LoadDatasetFrame(const ScanSource& source) {
   Require(source.frame_id >= 0, "--db needs --frame ID (a frame id of that database)");
   DatasetDb db(source.db_path, DatasetDb::Mode::kReadOnly);
   const std::optional<int64_t> room_id = db.RoomOfFrame(source.frame_id);
@@ -283,6 +285,7 @@ LoadedScan LoadScan(const ScanSource& source) {
   Require(
       frame != nullptr,
       source.db_path + ": frame " + std::to_string(source.frame_id) + " is missing from its room");
+  LoadedScan scan;
   const std::string what = source.db_path + " frame " + std::to_string(frame->id);
   scan.camera = IntrinsicsOf(*frame);
   scan.input = DetectionInputOf(*frame, what);
@@ -301,6 +304,23 @@ LoadedScan LoadScan(const ScanSource& source) {
                                  object.depth});
   }
   return scan;
+}
+
+}  // namespace
+
+LoadedScan LoadScan(const ScanSource& source) {
+  const int given =
+      !source.cloud_path.empty() + !source.depth_path.empty() + !source.db_path.empty();
+  Require(given == 1, "give exactly one of --cloud, --depth or --db (or inputs)");
+  Require(source.depth_scale == 0 || (source.depth_scale > 0 && std::isfinite(source.depth_scale)),
+          "--depth-scale " + std::to_string(source.depth_scale) + " must be a finite number > 0");
+  const bool world_options =
+      !source.world_from_camera.empty() || source.floor_aligned || !source.sensor.empty();
+  if (!source.cloud_path.empty()) return LoadCloudScan(source, world_options);
+  Require(source.sensor.empty(), "--sensor applies to point clouds");
+  if (!source.depth_path.empty()) return LoadDepthScan(source);
+  Require(!world_options, "--world-from-camera applies to clouds and depth images, not --db");
+  return LoadDatasetFrame(source);
 }
 
 std::vector<GroundTruthFootprint> GroundTruthInDetectorFrame(const LoadedScan& scan,

@@ -82,7 +82,9 @@ void Aggregate(CrossvalSummary* summary) {
     summary->spread[name] = std::sqrt(square);
   }
   // Sizes are totals, not means.
-  for (const char* total : {"frames", "objects", "frames_without_points"}) {
+  for (const std::string& total : {MetricId::Plain(PlainMetric::kFrames).Name(),
+                                  MetricId::Plain(PlainMetric::kObjects).Name(),
+                                  MetricId::Plain(PlainMetric::kFramesWithoutPoints).Name()}) {
     if (!values.count(total)) continue;
     double sum = 0;
     for (double x : values[total]) sum += x;
@@ -103,119 +105,124 @@ EvaluateCommandOptions FoldEvaluation(const CrossvalOptions& options, int fold, 
 
 }  // namespace
 
-CrossvalSummary RunLeaveModelsOut(const Catalog& catalog,
-                                  const std::string& db_path,
-                                  const CrossvalOptions& options) {
-  Require(!options.work_dir.empty(), "crossval needs a work directory for the fold models");
-  const auto start = std::chrono::steady_clock::now();
-  CrossvalSummary summary;
-  const ModelFolds folds = DatasetFolds(catalog, db_path, &summary.fold_seed);
-  summary.folds = folds.count;
-  std::filesystem::create_directories(options.work_dir);
-  std::vector<int64_t> fold_runs;
-  std::vector<std::vector<ScorerSample>> samples(folds.count);
-  for (int k = 0; k < folds.count; ++k) {
-    CrossvalFold fold;
-    fold.fold = k;
-    const std::set<std::string> held_out = folds.ModelsOf(k);
-    for (const std::string& id : held_out)
-      ++fold.held_out_per_class[ClassName(*catalog.Get(id).furniture_class)];
-    fold.model_path = FoldModelPath(catalog, options, held_out, k, folds.count);
-    fold.model_reused = std::filesystem::exists(fold.model_path);
-    if (!options.quiet) {
-      std::fprintf(stderr,
-                   "crossval: fold %d of %d: %zu models held out; %s\n",
-                   k + 1,
-                   folds.count,
-                   held_out.size(),
-                   fold.model_reused ? "model reused" : "training");
-    }
-    if (!fold.model_reused) {
-      TrainFromCatalog(
-          catalog, options.training.scan, options.training.trainer, fold.model_path, held_out);
-    }
-    EvaluateCommandOptions evaluate = FoldEvaluation(options, k, folds.count);
-    if (options.scorer) {
-      evaluate.kind = "crossval-gates";
-      evaluate.detector.use_scorer = false;
-      evaluate.collect_scorer_samples = true;
-      fold.gates = EvaluateModel(fold.model_path, db_path, evaluate);
-      samples[k] = std::move(fold.gates.scorer_samples);
-    } else {
-      fold.evaluation = EvaluateModel(fold.model_path, db_path, evaluate);
-      fold_runs.push_back(fold.evaluation.run_id);
-    }
-    summary.per_fold.push_back(std::move(fold));
-  }
-  if (options.scorer) {
-    // Nested: fold k's scorer never sees a hypothesis of fold k's rooms.
-    std::vector<ScorerSample> all;
-    for (const auto& fold_samples : samples)
-      all.insert(all.end(), fold_samples.begin(), fold_samples.end());
-    summary.scorer_samples = static_cast<int>(all.size());
-    for (int k = 0; k < folds.count; ++k) {
-      CrossvalFold& fold = summary.per_fold[k];
-      std::vector<ScorerSample> others;
-      for (int j = 0; j < folds.count; ++j) {
-        if (j != k) others.insert(others.end(), samples[j].begin(), samples[j].end());
-      }
-      if (!options.quiet) {
-        std::fprintf(stderr,
-                     "crossval: fold %d of %d: scorer from %zu hypotheses of the other folds\n",
-                     k + 1,
-                     folds.count,
-                     others.size());
-      }
-      if (!HypothesisScorer::CanTrain(
-              others)) {  // too small a dataset: this fold keeps the fixed gates
-        std::fprintf(stderr,
-                     "warning: crossval fold %d: %zu hypotheses of the other folds are too few to "
-                     "learn a scorer (20 with both labels needed); this fold uses the fixed "
-                     "gates\n",
-                     k,
-                     others.size());
-        fold.evaluation = fold.gates;
-        fold_runs.push_back(fold.gates.run_id);
-        continue;
-      }
-      TrainedModel model = LoadTrainedModel(fold.model_path);
-      model.scorer = HypothesisScorer::Train(others, options.scorer_options).Serialize();
-      const std::string scored_path =
-          (std::filesystem::path(options.work_dir) /
-           ("fold-" + std::to_string(k) + "-of-" + std::to_string(folds.count) + "-scored.fcm"))
-              .string();
-      SaveTrainedModel(model, scored_path);
-      EvaluateCommandOptions evaluate = FoldEvaluation(options, k, folds.count);
-      evaluate.detector.use_scorer = true;
-      fold.evaluation = EvaluateModel(scored_path, db_path, evaluate);
-      fold_runs.push_back(fold.evaluation.run_id);
-    }
-    if (HypothesisScorer::CanTrain(all)) {
-      summary.scorer_path = (std::filesystem::path(options.work_dir) / "scorer.yml").string();
-      WriteFileAtomically(summary.scorer_path,
-                          HypothesisScorer::Train(all, options.scorer_options).Serialize());
-    }
-  }
-  Aggregate(&summary);
-  std::map<std::string, double>& gates = summary.gates;
-  if (options.scorer) {
-    for (const CrossvalFold& fold : summary.per_fold) {
-      for (const auto& [name, value] : fold.gates.result.metrics) {
-        if (name.rfind("mAP", 0) == 0 || name.rfind("AP/", 0) == 0)
-          gates[name] += value / summary.per_fold.size();
-      }
-    }
-  }
+namespace {
 
+// Fold k's model trained (or reused) without its models, then evaluated:
+// with the fixed gates collecting scorer samples when a scorer is to be
+// learnt, else as the fold's run.
+CrossvalFold TrainAndEvaluateFold(const Catalog& catalog,
+                                  const std::string& db_path,
+                                  const CrossvalOptions& options,
+                                  const ModelFolds& folds,
+                                  int k,
+                                  std::vector<ScorerSample>* samples) {
+  CrossvalFold fold;
+  fold.fold = k;
+  const std::set<std::string> held_out = folds.ModelsOf(k);
+  for (const std::string& id : held_out)
+    ++fold.held_out_per_class[ClassName(*catalog.Get(id).furniture_class)];
+  fold.model_path = FoldModelPath(catalog, options, held_out, k, folds.count);
+  fold.model_reused = std::filesystem::exists(fold.model_path);
+  if (!options.quiet) {
+    std::fprintf(stderr,
+                 "crossval: fold %d of %d: %zu models held out; %s\n",
+                 k + 1,
+                 folds.count,
+                 held_out.size(),
+                 fold.model_reused ? "model reused" : "training");
+  }
+  if (!fold.model_reused) {
+    TrainFromCatalog(
+        catalog, options.training.scan, options.training.trainer, fold.model_path, held_out);
+  }
+  EvaluateCommandOptions evaluate = FoldEvaluation(options, k, folds.count);
+  if (options.scorer) {
+    evaluate.kind = "crossval-gates";
+    evaluate.detector.use_scorer = false;
+    evaluate.collect_scorer_samples = true;
+    fold.gates = EvaluateModel(fold.model_path, db_path, evaluate);
+    *samples = std::move(fold.gates.scorer_samples);
+  } else {
+    fold.evaluation = EvaluateModel(fold.model_path, db_path, evaluate);
+  }
+  return fold;
+}
+
+// Nested: fold k's scorer learns from the other folds' hypotheses only, and
+// fold k is evaluated again with it (or keeps the fixed gates when they are
+// too few).
+void ScoreFold(const std::string& db_path,
+               const CrossvalOptions& options,
+               int k,
+               int folds,
+               const std::vector<std::vector<ScorerSample>>& samples,
+               CrossvalFold* fold) {
+  std::vector<ScorerSample> others;
+  for (int j = 0; j < folds; ++j) {
+    if (j != k) others.insert(others.end(), samples[j].begin(), samples[j].end());
+  }
+  if (!options.quiet) {
+    std::fprintf(stderr,
+                 "crossval: fold %d of %d: scorer from %zu hypotheses of the other folds\n",
+                 k + 1,
+                 folds,
+                 others.size());
+  }
+  if (!HypothesisScorer::CanTrain(others)) {  // too small a dataset: the fixed gates
+    std::fprintf(stderr,
+                 "warning: crossval fold %d: %zu hypotheses of the other folds are too few to "
+                 "learn a scorer (20 with both labels needed); this fold uses the fixed "
+                 "gates\n",
+                 k,
+                 others.size());
+    fold->evaluation = fold->gates;
+    return;
+  }
+  TrainedModel model = LoadTrainedModel(fold->model_path);
+  model.scorer = HypothesisScorer::Train(others, options.scorer_options).Serialize();
+  const std::string scored_path =
+      (std::filesystem::path(options.work_dir) /
+       ("fold-" + std::to_string(k) + "-of-" + std::to_string(folds) + "-scored.fcm"))
+          .string();
+  SaveTrainedModel(model, scored_path);
+  EvaluateCommandOptions evaluate = FoldEvaluation(options, k, folds);
+  evaluate.detector.use_scorer = true;
+  fold->evaluation = EvaluateModel(scored_path, db_path, evaluate);
+}
+
+// Reliability bins pooled over the folds.
+std::vector<CalibrationBin> PooledCalibration(const std::vector<CrossvalFold>& folds) {
+  std::vector<CalibrationBin> calibration;
+  for (const CrossvalFold& fold : folds) {
+    const std::vector<CalibrationBin>& bins = fold.evaluation.result.calibration;
+    if (calibration.empty()) {
+      calibration = bins;
+      continue;
+    }
+    for (size_t b = 0; b < bins.size() && b < calibration.size(); ++b) {
+      calibration[b].detections += bins[b].detections;
+      calibration[b].true_positives += bins[b].true_positives;
+      calibration[b].score_sum += bins[b].score_sum;
+    }
+  }
+  return calibration;
+}
+
+// The "crossval" run: its options, the folds' metrics and the pooled
+// calibration; the mean, spread and fixed-gate metrics.
+int64_t WriteCrossvalRun(const std::string& db_path,
+                         const CrossvalOptions& options,
+                         const CrossvalSummary& summary,
+                         const std::vector<int64_t>& fold_runs) {
   RunRecord run = NewRunRecord("crossval",
                                options.evaluate.label.empty()
-                                   ? "leave-models-out, " + std::to_string(folds.count) + " folds"
+                                   ? "leave-models-out, " + std::to_string(summary.folds) + " folds"
                                    : options.evaluate.label);
   run.model_path = options.work_dir;
   run.split = options.evaluate.split;
   nlohmann::ordered_json stored{
       {"protocol", "leave-models-out"},
-      {"folds", folds.count},
+      {"folds", summary.folds},
       {"fold_seed", summary.fold_seed},
       {"fold_runs", fold_runs},
       {"trainer", nlohmann::json::parse(TrainingOptionsJson(options.training))},
@@ -236,31 +243,65 @@ CrossvalSummary RunLeaveModelsOut(const Catalog& catalog,
                         {"held_out", fold.held_out_per_class},
                         {"metrics", fold.evaluation.result.metrics}});
   }
-  // Reliability bins pooled over the folds.
-  std::vector<CalibrationBin> calibration;
-  for (const CrossvalFold& fold : summary.per_fold) {
-    const std::vector<CalibrationBin>& bins = fold.evaluation.result.calibration;
-    if (calibration.empty()) {
-      calibration = bins;
-      continue;
-    }
-    for (size_t b = 0; b < bins.size() && b < calibration.size(); ++b) {
-      calibration[b].detections += bins[b].detections;
-      calibration[b].true_positives += bins[b].true_positives;
-      calibration[b].score_sum += bins[b].score_sum;
-    }
-  }
-  nlohmann::json results = CalibrationJson(calibration);
+  nlohmann::json results = CalibrationJson(PooledCalibration(summary.per_fold));
   results["folds"] = per_fold;
   run.results_json = results.dump();
   std::map<std::string, double> metrics = summary.mean;
-  for (const auto& [name, value] : summary.spread) metrics["spread/" + name] = value;
-  metrics["folds"] = folds.count;
-  for (const auto& [name, value] : gates) metrics["gates/" + name] = value;
-  {
-    DatasetDb dataset(db_path, DatasetDb::Mode::kReadWriteExisting);
-    summary.run_id = dataset.WriteRun(run, metrics, {}, {});
+  const auto in = [](const std::string& name, MetricId::Group group) {
+    return MetricId::Parse(name).InGroup(group).Name();
+  };
+  for (const auto& [name, value] : summary.spread) metrics[in(name, MetricId::Group::kSpread)] = value;
+  metrics[MetricId::Plain(PlainMetric::kFolds).Name()] = summary.folds;
+  for (const auto& [name, value] : summary.gates) metrics[in(name, MetricId::Group::kGates)] = value;
+  DatasetDb dataset(db_path, DatasetDb::Mode::kReadWriteExisting);
+  return dataset.WriteRun(run, metrics, {}, {});
+}
+
+}  // namespace
+
+CrossvalSummary RunLeaveModelsOut(const Catalog& catalog,
+                                  const std::string& db_path,
+                                  const CrossvalOptions& options) {
+  Require(!options.work_dir.empty(), "crossval needs a work directory for the fold models");
+  const auto start = std::chrono::steady_clock::now();
+  CrossvalSummary summary;
+  const ModelFolds folds = DatasetFolds(catalog, db_path, &summary.fold_seed);
+  summary.folds = folds.count;
+  std::filesystem::create_directories(options.work_dir);
+  std::vector<std::vector<ScorerSample>> samples(folds.count);
+  for (int k = 0; k < folds.count; ++k)
+    summary.per_fold.push_back(
+        TrainAndEvaluateFold(catalog, db_path, options, folds, k, &samples[k]));
+  if (options.scorer) {
+    std::vector<ScorerSample> all;
+    for (const auto& fold_samples : samples)
+      all.insert(all.end(), fold_samples.begin(), fold_samples.end());
+    summary.scorer_samples = static_cast<int>(all.size());
+    for (int k = 0; k < folds.count; ++k)
+      ScoreFold(db_path, options, k, folds.count, samples, &summary.per_fold[k]);
+    if (HypothesisScorer::CanTrain(all)) {
+      summary.scorer_path = (std::filesystem::path(options.work_dir) / "scorer.yml").string();
+      WriteFileAtomically(summary.scorer_path,
+                          HypothesisScorer::Train(all, options.scorer_options).Serialize());
+    }
   }
+  std::vector<int64_t> fold_runs;
+  for (const CrossvalFold& fold : summary.per_fold) fold_runs.push_back(fold.evaluation.run_id);
+  Aggregate(&summary);
+  if (options.scorer) {
+    for (const CrossvalFold& fold : summary.per_fold) {
+      for (const auto& [name, value] : fold.gates.result.metrics) {
+        // mAP at every distance, seen and unseen, and AP per class.
+        const MetricId id = MetricId::Parse(name);
+        const bool ap = id.kind() == MetricId::Kind::kMeanAp ||
+                        id.kind() == MetricId::Kind::kClassAp ||
+                        id == MetricId::Plain(PlainMetric::kMeanApSeen) ||
+                        id == MetricId::Plain(PlainMetric::kMeanApUnseen);
+        if (ap) summary.gates[name] += value / summary.per_fold.size();
+      }
+    }
+  }
+  summary.run_id = WriteCrossvalRun(db_path, options, summary, fold_runs);
   summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return summary;
 }

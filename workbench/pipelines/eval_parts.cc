@@ -44,36 +44,22 @@ const char* PartSplitName(PartSplit split) {
   return split == PartSplit::kByView ? "view" : "subset";
 }
 
-PartEvaluation EvaluatePartSubsets(const Catalog& catalog,
-                                   const TrainedModel& model,
-                                   const PartEvaluationOptions& options) {
-  Require(options.repetitions >= 1 && options.repetitions <= 100, "repetitions must be in 1..100");
-  Require(options.test_fraction > 0 && options.test_fraction < 1,
-          "test fraction must be in (0, 1)");
-  Require(options.neighbours >= 1 && options.neighbours <= 50, "neighbours (k) must be in 1..50");
-  Require(options.index_dimensions >= 1 && options.index_dimensions <= 308,
-          "index dimensions " + std::to_string(options.index_dimensions) + " must be in 1..308");
-  options.subsets.Check();
-  const LoadedModels loaded = catalog.LoadModels(model.model_names, /*show_progress=*/false);
-  loaded.RequireAll();
-  std::vector<TrainingView> views;
-  for (size_t m = 0; m < loaded.models.size(); ++m) {
-    std::vector<TrainingView> v =
-        ScanModel(loaded.models[m], static_cast<int>(m), model.model_classes[m], options.scan);
-    views.insert(views.end(), std::make_move_iterator(v.begin()), std::make_move_iterator(v.end()));
-  }
-  // Segments, subsets and VFHs per view, in parallel.
+namespace {
+
+// Every view's part subsets and their VFHs, in parallel, in view order.
+std::vector<Subset> DescribeSubsets(const std::vector<TrainingView>& views,
+                                    const TrainerOptions& trainer,
+                                    const PartSubsetOptions& options) {
   std::vector<std::vector<Subset>> per_view(views.size());
   Progress progress("part subsets", views.size(), "views");
   std::mutex progress_mutex;
   ParallelFor(0, static_cast<int>(views.size()), [&](int v) {
-    const ViewSegments segmented =
-        SegmentView(views[v].points, views[v].sensor_origin, model.options);
-    for (const std::vector<int>& subset : PartSubsets(segmented, options.subsets)) {
+    const ViewSegments segmented = SegmentView(views[v].points, views[v].sensor_origin, trainer);
+    for (const std::vector<int>& subset : PartSubsets(segmented, options)) {
       per_view[v].push_back({ComputeVfh(segmented.cloud,
                                         PointsOfSegments(segmented, subset),
                                         views[v].sensor_origin,
-                                        options.subsets.vfh_size_component),
+                                        options.vfh_size_component),
                              v,
                              views[v].model_index});
     }
@@ -84,7 +70,87 @@ PartEvaluation EvaluatePartSubsets(const Catalog& catalog,
   std::vector<Subset> subsets;
   for (const auto& v : per_view) subsets.insert(subsets.end(), v.begin(), v.end());
   Require(!subsets.empty(), "the views yield no part subsets");
+  return subsets;
+}
 
+// One repetition: a random split (per view or per subset), the library of
+// the training subsets, and each test subset classified by the majority of
+// its k nearest (a tie goes to the model met first, the nearer).
+void RunRepetition(const std::vector<Subset>& subsets,
+                   size_t views,
+                   const TrainedModel& model,
+                   const PartEvaluationOptions& options,
+                   int repetition,
+                   const std::map<FurnitureClass, int>& class_index,
+                   PartEvaluation* result) {
+  Rng rng(DeriveSeed(options.seed, static_cast<uint64_t>(repetition)));
+  // A draw per view or per subset, in their order (the same seed, the same split).
+  std::vector<bool> is_test(options.split == PartSplit::kByView ? views : subsets.size());
+  for (size_t k = 0; k < is_test.size(); ++k) is_test[k] = rng.Uniform01() < options.test_fraction;
+  auto tested_subset = [&](size_t k) {
+    return is_test[options.split == PartSplit::kByView ? static_cast<size_t>(subsets[k].view) : k];
+  };
+  std::vector<VfhDescriptor> library;
+  std::vector<int> library_model;
+  for (size_t k = 0; k < subsets.size(); ++k) {
+    if (tested_subset(k)) continue;
+    library.push_back(subsets[k].descriptor);
+    library_model.push_back(subsets[k].model_index);
+  }
+  Require(!library.empty(),
+          std::string("every ") + PartSplitName(options.split) +
+              " fell in the test split; use more views");
+  const PartSubsetIndex index(library, options.index_dimensions);
+  int64_t tested = 0, model_hits = 0, class_hits = 0;
+  for (size_t k = 0; k < subsets.size(); ++k) {
+    if (!tested_subset(k)) continue;
+    const Subset& s = subsets[k];
+    std::map<int, int> votes;
+    int predicted = -1, best_votes = 0;
+    for (int neighbour : index.Nearest(s.descriptor, options.neighbours)) {
+      const int candidate = library_model[neighbour];
+      if (++votes[candidate] > best_votes) {
+        best_votes = votes[candidate];
+        predicted = candidate;
+      }
+    }
+    const FurnitureClass truth = model.model_classes[s.model_index];
+    const FurnitureClass guess = model.model_classes[predicted];
+    ++tested;
+    model_hits += predicted == s.model_index;
+    class_hits += guess == truth;
+    ++result->confusion[class_index.at(truth)][class_index.at(guess)];
+    ++result->model_confusion[s.model_index][predicted];
+  }
+  result->model_accuracy.push_back(tested ? static_cast<double>(model_hits) / tested : 0);
+  result->category_accuracy.push_back(tested ? static_cast<double>(class_hits) / tested : 0);
+}
+
+void CheckPartEvaluationOptions(const PartEvaluationOptions& options) {
+  Require(options.repetitions >= 1 && options.repetitions <= 100, "repetitions must be in 1..100");
+  Require(options.test_fraction > 0 && options.test_fraction < 1,
+          "test fraction must be in (0, 1)");
+  Require(options.neighbours >= 1 && options.neighbours <= 50, "neighbours (k) must be in 1..50");
+  Require(options.index_dimensions >= 1 && options.index_dimensions <= 308,
+          "index dimensions " + std::to_string(options.index_dimensions) + " must be in 1..308");
+  options.subsets.Check();
+}
+
+}  // namespace
+
+PartEvaluation EvaluatePartSubsets(const Catalog& catalog,
+                                   const TrainedModel& model,
+                                   const PartEvaluationOptions& options) {
+  CheckPartEvaluationOptions(options);
+  const LoadedModels loaded = catalog.LoadModels(model.model_names, /*show_progress=*/false);
+  loaded.RequireAll();
+  std::vector<TrainingView> views;
+  for (size_t m = 0; m < loaded.models.size(); ++m) {
+    std::vector<TrainingView> v =
+        ScanModel(loaded.models[m], static_cast<int>(m), model.model_classes[m], options.scan);
+    views.insert(views.end(), std::make_move_iterator(v.begin()), std::make_move_iterator(v.end()));
+  }
+  const std::vector<Subset> subsets = DescribeSubsets(views, model.options, options.subsets);
   PartEvaluation result;
   result.views = static_cast<int>(views.size());
   result.subsets = static_cast<int>(subsets.size());
@@ -99,52 +165,8 @@ PartEvaluation EvaluatePartSubsets(const Catalog& catalog,
   result.model_names = model.model_names;
   result.model_confusion.assign(model.model_names.size(),
                                 std::vector<int64_t>(model.model_names.size(), 0));
-  for (int repetition = 0; repetition < options.repetitions; ++repetition) {
-    Rng rng(DeriveSeed(options.seed, static_cast<uint64_t>(repetition)));
-    // A draw per view or per subset, in their order (the same seed, the same split).
-    std::vector<bool> is_test(options.split == PartSplit::kByView ? views.size() : subsets.size());
-    for (size_t k = 0; k < is_test.size(); ++k)
-      is_test[k] = rng.Uniform01() < options.test_fraction;
-    auto tested_subset = [&](size_t k) {
-      return is_test[options.split == PartSplit::kByView ? static_cast<size_t>(subsets[k].view)
-                                                         : k];
-    };
-    std::vector<VfhDescriptor> library;
-    std::vector<int> library_model;
-    for (size_t k = 0; k < subsets.size(); ++k) {
-      if (tested_subset(k)) continue;
-      library.push_back(subsets[k].descriptor);
-      library_model.push_back(subsets[k].model_index);
-    }
-    Require(!library.empty(),
-            std::string("every ") + PartSplitName(options.split) +
-                " fell in the test split; use more views");
-    const PartSubsetIndex index(library, options.index_dimensions);
-    int64_t tested = 0, model_hits = 0, class_hits = 0;
-    for (size_t k = 0; k < subsets.size(); ++k) {
-      if (!tested_subset(k)) continue;
-      const Subset& s = subsets[k];
-      // Majority of the k nearest; a tie goes to the model met first (nearer).
-      std::map<int, int> votes;
-      int predicted = -1, best_votes = 0;
-      for (int neighbour : index.Nearest(s.descriptor, options.neighbours)) {
-        const int candidate = library_model[neighbour];
-        if (++votes[candidate] > best_votes) {
-          best_votes = votes[candidate];
-          predicted = candidate;
-        }
-      }
-      const FurnitureClass truth = model.model_classes[s.model_index];
-      const FurnitureClass guess = model.model_classes[predicted];
-      ++tested;
-      model_hits += predicted == s.model_index;
-      class_hits += guess == truth;
-      ++result.confusion[class_index[truth]][class_index[guess]];
-      ++result.model_confusion[s.model_index][predicted];
-    }
-    result.model_accuracy.push_back(tested ? static_cast<double>(model_hits) / tested : 0);
-    result.category_accuracy.push_back(tested ? static_cast<double>(class_hits) / tested : 0);
-  }
+  for (int repetition = 0; repetition < options.repetitions; ++repetition)
+    RunRepetition(subsets, views.size(), model, options, repetition, class_index, &result);
   MeanStd(result.model_accuracy, &result.model_mean, &result.model_std);
   MeanStd(result.category_accuracy, &result.category_mean, &result.category_std);
   return result;

@@ -120,10 +120,12 @@ ordered_json BoxOf(const std::vector<uint8_t>& mask, int width) {
 
 }  // namespace
 
-int ExportBop(const std::string& db_path,
-              const std::string& out_dir,
-              const BopExportOptions& options) {
-  DatasetDb dataset(db_path, DatasetDb::Mode::kReadOnly);
+namespace {
+
+// The catalog the dataset was generated from, with its clutter catalogs.
+Catalog CatalogOfDataset(DatasetDb& dataset,
+                         const std::string& db_path,
+                         const CatalogOpenOptions& open_options) {
   const std::optional<std::string> generation = dataset.GenerationOptions();
   Require(generation.has_value(),
           db_path +
@@ -133,16 +135,21 @@ int ExportBop(const std::string& db_path,
   Require(
       generated.is_object() && generated.contains("catalog") && generated["catalog"].is_string(),
       db_path + ": its generation options name no catalog");
-  Catalog catalog = OpenCatalog(generated["catalog"].get<std::string>(), options.catalog);
+  Catalog catalog = OpenCatalog(generated["catalog"].get<std::string>(), open_options);
   if (generated.contains("clutter_catalogs") && generated["clutter_catalogs"].is_array()) {
     for (const nlohmann::json& spec : generated["clutter_catalogs"]) {
-      if (spec.is_string())
-        catalog.AddClutter(OpenCatalog(spec.get<std::string>(), options.catalog));
+      if (spec.is_string()) catalog.AddClutter(OpenCatalog(spec.get<std::string>(), open_options));
     }
   }
+  return catalog;
+}
 
-  // Models: obj_id in the dataset's model order, meshes as generated.
-  const std::filesystem::path root(out_dir);
+// Models: obj_id in the dataset's model order, meshes as generated, written
+// in mm centred on their boxes with models_info.json.
+std::map<std::string, ExportedModel> ExportModels(DatasetDb& dataset,
+                                                  const Catalog& catalog,
+                                                  const std::filesystem::path& root,
+                                                  const std::string& db_path) {
   std::filesystem::create_directories(root / "models");
   const std::vector<ModelRecord> records = dataset.ReadModels();
   std::vector<std::string> ids;
@@ -181,124 +188,168 @@ int ExportBop(const std::string& db_path,
   WriteFileAtomically((root / "models" / "models_info.json").string(), models_info.dump(1) + "\n");
   WriteFileAtomically((root / "models" / "models_furnidet.json").string(),
                       models_extra.dump(1) + "\n");
+  return models;
+}
 
+void WriteCameraJson(const FrameRecord& frame, const std::filesystem::path& root) {
+  WriteFileAtomically((root / "camera.json").string(),
+                      ordered_json{{"cx", frame.cx},
+                                   {"cy", frame.cy},
+                                   {"depth_scale", 1.0},
+                                   {"fx", frame.fx},
+                                   {"fy", frame.fy},
+                                   {"height", frame.height},
+                                   {"width", frame.width}}
+                              .dump(1) +
+                          "\n");
+}
+
+// One room of the export: a scene per object (the object alone, for its
+// amodal mask) with its own caster, and the scene's JSON files.
+class BopRoomWriter {
+ public:
+  BopRoomWriter(const RoomRecord& room,
+                const std::map<std::string, ExportedModel>& models,
+                const std::filesystem::path& scene_dir)
+      : models_(models), scene_dir_(scene_dir) {
+    for (const ObjectRecord& object : room.objects) {
+      objects_[object.instance_id] = &object;
+      const ExportedModel& model = models.at(object.model_id);
+      Scene scene;
+      scene.objects.push_back(
+          {model.mesh, PoseXYZYaw(object.x, object.y, object.z, object.yaw), kFirstObjectId});
+      alone_[object.instance_id] = std::move(scene);
+      casters_[object.instance_id] = std::make_unique<EmbreeCaster>();
+    }
+    for (const char* sub : {"depth", "mask", "mask_visib", "depth_ideal", "mask_ids"})
+      std::filesystem::create_directories(scene_dir / sub);
+  }
+
+  void AddFrame(const FrameRecord& frame, const std::string& db_path) {
+    const std::string where = db_path + " frame " + std::to_string(frame.id);
+    DepthFrame ids = DecodeDepthPng(frame.depth_ideal_png, where);
+    DecodeIdPng(frame.ids_png, where, &ids);
+    const DepthFrame noisy = DecodeDepthPng(frame.depth_noisy_png, where);
+    const std::string image = Pad(frame.frame_index);
+    WriteFileAtomically((scene_dir_ / "depth" / (image + ".png")).string(),
+                        std::string(frame.depth_noisy_png.begin(), frame.depth_noisy_png.end()));
+    WriteFileAtomically((scene_dir_ / "depth_ideal" / (image + ".png")).string(),
+                        std::string(frame.depth_ideal_png.begin(), frame.depth_ideal_png.end()));
+    WriteFileAtomically((scene_dir_ / "mask_ids" / (image + ".png")).string(),
+                        std::string(frame.ids_png.begin(), frame.ids_png.end()));
+    const Eigen::Isometry3d camera_from_world = frame.world_from_camera.inverse();
+    const std::string key = std::to_string(frame.frame_index);
+    scene_camera_[key] = {{"cam_K", {frame.fx, 0, frame.cx, 0, frame.fy, frame.cy, 0, 0, 1}},
+                          {"depth_scale", 1.0},
+                          {"cam_R_w2c", Rows(camera_from_world.linear())},
+                          {"cam_t_w2c", Millimetres(camera_from_world.translation())}};
+    // Every object's masks and counts, objects in parallel.
+    const size_t n = frame.objects.size();
+    std::vector<ordered_json> gt(n), info(n), extra(n);
+    ParallelFor(0, static_cast<int>(n), [&](int k) {
+      ExportObject(frame, ids, noisy, image, k, &gt[k], &info[k], &extra[k]);
+    });
+    scene_gt_[key] = gt;
+    scene_gt_info_[key] = info;
+    scene_extra_[key] = extra;
+  }
+
+  void Finish() const {
+    WriteFileAtomically((scene_dir_ / "scene_camera.json").string(), scene_camera_.dump(1) + "\n");
+    WriteFileAtomically((scene_dir_ / "scene_gt.json").string(), scene_gt_.dump(1) + "\n");
+    WriteFileAtomically((scene_dir_ / "scene_gt_info.json").string(),
+                        scene_gt_info_.dump(1) + "\n");
+    WriteFileAtomically((scene_dir_ / "scene_gt_furnidet.json").string(),
+                        scene_extra_.dump(1) + "\n");
+  }
+
+ private:
+  // Object k of the frame: its amodal and visible masks, pose and counts.
+  void ExportObject(const FrameRecord& frame,
+                    const DepthFrame& ids,
+                    const DepthFrame& noisy,
+                    const std::string& image,
+                    int k,
+                    ordered_json* gt,
+                    ordered_json* info,
+                    ordered_json* extra) {
+    const FrameObjectRecord& seen = frame.objects[k];
+    const ObjectRecord& object = *objects_.at(seen.instance_id);
+    const ExportedModel& model = models_.at(object.model_id);
+    const CameraIntrinsics camera{frame.width, frame.height, frame.fx, frame.fy, frame.cx, frame.cy};
+    DepthFrame rendered;
+    casters_.at(seen.instance_id)
+        ->RenderInto(alone_.at(seen.instance_id), camera, frame.world_from_camera, &rendered);
+    const size_t pixels = static_cast<size_t>(frame.width) * frame.height;
+    std::vector<uint8_t> mask(pixels, 0), visible(pixels, 0);
+    int64_t all = 0, valid = 0, visib = 0;
+    for (size_t i = 0; i < pixels; ++i) {
+      if (rendered.instance_ids[i] == kFirstObjectId) {
+        mask[i] = 255;
+        ++all;
+        valid += noisy.depth[i] > 0;
+      }
+      if (ids.instance_ids[i] == seen.instance_id) {
+        visible[i] = 255;
+        ++visib;
+      }
+    }
+    const std::string name = image + "_" + Pad(k) + ".png";
+    WriteMaskPng(mask, frame.width, frame.height, (scene_dir_ / "mask" / name).string());
+    WriteMaskPng(visible, frame.width, frame.height, (scene_dir_ / "mask_visib" / name).string());
+    // BOP's model frame is centred on the bounding box.
+    const Eigen::Isometry3d camera_from_model =
+        frame.world_from_camera.inverse() * PoseXYZYaw(object.x, object.y, object.z, object.yaw) *
+        Eigen::Translation3d(model.centre.cast<double>());
+    *gt = {{"cam_R_m2c", Rows(camera_from_model.linear())},
+           {"cam_t_m2c", Millimetres(camera_from_model.translation())},
+           {"obj_id", model.obj_id}};
+    *info = {{"bbox_obj", visib > 0 ? BoxOf(mask, frame.width) : ordered_json{-1, -1, -1, -1}},
+             {"bbox_visib", BoxOf(visible, frame.width)},
+             {"px_count_all", all},
+             {"px_count_valid", valid},
+             {"px_count_visib", visib},
+             {"visib_fract", all > 0 ? static_cast<double>(visib) / all : 0.0}};
+    *extra = {{"instance_id", seen.instance_id},
+              {"model_id", object.model_id},
+              {"class", object.furniture_class ? ClassName(*object.furniture_class) : ""}};
+  }
+
+  const std::map<std::string, ExportedModel>& models_;
+  const std::filesystem::path scene_dir_;
+  std::map<int, const ObjectRecord*> objects_;
+  std::map<int, Scene> alone_;
+  std::map<int, std::unique_ptr<EmbreeCaster>> casters_;
+  ordered_json scene_camera_ = ordered_json::object(), scene_gt_ = ordered_json::object(),
+               scene_gt_info_ = ordered_json::object(), scene_extra_ = ordered_json::object();
+};
+
+}  // namespace
+
+int ExportBop(const std::string& db_path,
+              const std::string& out_dir,
+              const BopExportOptions& options) {
+  DatasetDb dataset(db_path, DatasetDb::Mode::kReadOnly);
+  const Catalog catalog = CatalogOfDataset(dataset, db_path, options.catalog);
+  const std::filesystem::path root(out_dir);
+  const std::map<std::string, ExportedModel> models =
+      ExportModels(dataset, catalog, root, db_path);
   const std::vector<int64_t> room_ids = dataset.RoomIds();
   Progress progress("export bop", room_ids.size(), "rooms");
   int written = 0;
   bool camera_written = false;
   for (int64_t room_id : room_ids) {
     const RoomRecord room = dataset.ReadRoom(room_id, /*with_images=*/true);
-    std::map<int, const ObjectRecord*> objects;
-    for (const ObjectRecord& object : room.objects) objects[object.instance_id] = &object;
-    // One caster per object, its scene the object alone, kept for the room's frames.
-    std::map<int, Scene> alone;
-    std::map<int, std::unique_ptr<EmbreeCaster>> casters;
-    for (const ObjectRecord& object : room.objects) {
-      const ExportedModel& model = models.at(object.model_id);
-      Scene scene;
-      scene.objects.push_back(
-          {model.mesh, PoseXYZYaw(object.x, object.y, object.z, object.yaw), kFirstObjectId});
-      alone[object.instance_id] = std::move(scene);
-      casters[object.instance_id] = std::make_unique<EmbreeCaster>();
-    }
-    const std::filesystem::path scene_dir = root / EnumName(room.split) / Pad(room.id);
-    for (const char* sub : {"depth", "mask", "mask_visib", "depth_ideal", "mask_ids"})
-      std::filesystem::create_directories(scene_dir / sub);
-    ordered_json scene_camera = ordered_json::object(), scene_gt = ordered_json::object(),
-                 scene_gt_info = ordered_json::object(), scene_extra = ordered_json::object();
+    BopRoomWriter writer(room, models, root / EnumName(room.split) / Pad(room.id));
     for (const FrameRecord& frame : room.frames) {
-      const std::string where = db_path + " frame " + std::to_string(frame.id);
-      const CameraIntrinsics camera{
-          frame.width, frame.height, frame.fx, frame.fy, frame.cx, frame.cy};
       if (!camera_written) {
-        WriteFileAtomically((root / "camera.json").string(),
-                            ordered_json{{"cx", frame.cx},
-                                         {"cy", frame.cy},
-                                         {"depth_scale", 1.0},
-                                         {"fx", frame.fx},
-                                         {"fy", frame.fy},
-                                         {"height", frame.height},
-                                         {"width", frame.width}}
-                                    .dump(1) +
-                                "\n");
+        WriteCameraJson(frame, root);
         camera_written = true;
       }
-      DepthFrame ids = DecodeDepthPng(frame.depth_ideal_png, where);
-      DecodeIdPng(frame.ids_png, where, &ids);
-      const DepthFrame noisy = DecodeDepthPng(frame.depth_noisy_png, where);
-      const std::string image = Pad(frame.frame_index);
-      WriteFileAtomically((scene_dir / "depth" / (image + ".png")).string(),
-                          std::string(frame.depth_noisy_png.begin(), frame.depth_noisy_png.end()));
-      WriteFileAtomically((scene_dir / "depth_ideal" / (image + ".png")).string(),
-                          std::string(frame.depth_ideal_png.begin(), frame.depth_ideal_png.end()));
-      WriteFileAtomically((scene_dir / "mask_ids" / (image + ".png")).string(),
-                          std::string(frame.ids_png.begin(), frame.ids_png.end()));
-      const Eigen::Isometry3d camera_from_world = frame.world_from_camera.inverse();
-      const std::string key = std::to_string(frame.frame_index);
-      scene_camera[key] = {{"cam_K", {frame.fx, 0, frame.cx, 0, frame.fy, frame.cy, 0, 0, 1}},
-                           {"depth_scale", 1.0},
-                           {"cam_R_w2c", Rows(camera_from_world.linear())},
-                           {"cam_t_w2c", Millimetres(camera_from_world.translation())}};
-
-      // Every object's masks and counts, objects in parallel.
-      const size_t n = frame.objects.size();
-      std::vector<ordered_json> gt(n), info(n), extra(n);
-      ParallelFor(0, static_cast<int>(n), [&](int k) {
-        const FrameObjectRecord& seen = frame.objects[k];
-        const ObjectRecord& object = *objects.at(seen.instance_id);
-        const ExportedModel& model = models.at(object.model_id);
-        DepthFrame rendered;
-        casters.at(seen.instance_id)
-            ->RenderInto(alone.at(seen.instance_id), camera, frame.world_from_camera, &rendered);
-        const size_t pixels = static_cast<size_t>(frame.width) * frame.height;
-        std::vector<uint8_t> mask(pixels, 0), visible(pixels, 0);
-        int64_t all = 0, valid = 0, visib = 0;
-        for (size_t i = 0; i < pixels; ++i) {
-          if (rendered.instance_ids[i] == kFirstObjectId) {
-            mask[i] = 255;
-            ++all;
-            valid += noisy.depth[i] > 0;
-          }
-          if (ids.instance_ids[i] == seen.instance_id) {
-            visible[i] = 255;
-            ++visib;
-          }
-        }
-        const std::string name = image + "_" + Pad(k) + ".png";
-        WriteMaskPng(mask, frame.width, frame.height, (scene_dir / "mask" / name).string());
-        WriteMaskPng(
-            visible, frame.width, frame.height, (scene_dir / "mask_visib" / name).string());
-        // BOP's model frame is centred on the bounding box.
-        const Eigen::Isometry3d camera_from_model =
-            camera_from_world * PoseXYZYaw(object.x, object.y, object.z, object.yaw) *
-            Eigen::Translation3d(model.centre.cast<double>());
-        gt[k] = {{"cam_R_m2c", Rows(camera_from_model.linear())},
-                 {"cam_t_m2c", Millimetres(camera_from_model.translation())},
-                 {"obj_id", model.obj_id}};
-        info[k] = {
-            {"bbox_obj", visib > 0 ? BoxOf(mask, frame.width) : ordered_json{-1, -1, -1, -1}},
-            {"bbox_visib", BoxOf(visible, frame.width)},
-            {"px_count_all", all},
-            {"px_count_valid", valid},
-            {"px_count_visib", visib},
-            {"visib_fract", all > 0 ? static_cast<double>(visib) / all : 0.0}};
-        extra[k] = {{"instance_id", seen.instance_id},
-                    {"model_id", object.model_id},
-                    {"class", object.furniture_class ? ClassName(*object.furniture_class) : ""}};
-      });
-      scene_gt[key] = gt;
-      scene_gt_info[key] = info;
-      scene_extra[key] = extra;
+      writer.AddFrame(frame, db_path);
       ++written;
     }
-    if (!room.frames.empty()) {
-      WriteFileAtomically((scene_dir / "scene_camera.json").string(), scene_camera.dump(1) + "\n");
-      WriteFileAtomically((scene_dir / "scene_gt.json").string(), scene_gt.dump(1) + "\n");
-      WriteFileAtomically((scene_dir / "scene_gt_info.json").string(),
-                          scene_gt_info.dump(1) + "\n");
-      WriteFileAtomically((scene_dir / "scene_gt_furnidet.json").string(),
-                          scene_extra.dump(1) + "\n");
-    }
+    if (!room.frames.empty()) writer.Finish();
     progress.Advance();
   }
   progress.Finish();

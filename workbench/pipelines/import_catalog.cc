@@ -211,9 +211,8 @@ std::optional<FurnitureClass> ClassOfFolder(const std::string& folder, bool* clu
   for (FurnitureClass furniture_class : kAllClasses) {
     if (name == ClassName(furniture_class)) return furniture_class;
   }
-  throw InputError("folder '" + folder +
-                   "' names no class (chair, armchair, table, sideboard, sofa, clutter; "
-                   "plural or not): give --class");
+  throw InputError("folder '" + folder + "' names no class (" + EnumNameList<FurnitureClass>() +
+                   ", clutter; plural or not): give --class");
 }
 
 // The unit under which the model's height is that of furniture (0.2 to 3 m).
@@ -265,23 +264,79 @@ std::optional<Eigen::Vector3f> GuessFrontFromBack(const TriangleMesh& mesh) {
 
 }  // namespace
 
+namespace {
+
+// The mesh files of a folder and below, sorted: every assimp format and VTK
+// legacy polydata; side files of other formats (materials, textures) are
+// not models.
+std::vector<std::filesystem::path> MeshFilesIn(const std::string& dir) {
+  std::error_code ec;
+  const std::vector<std::string> assimp = SupportedImportExtensions();
+  std::vector<std::filesystem::path> files;
+  for (const std::filesystem::directory_entry& entry :
+       std::filesystem::recursive_directory_iterator(dir, ec)) {
+    if (!entry.is_regular_file()) continue;
+    const std::string extension = FileExtension(entry.path().string());
+    if (extension == "vtk" ||
+        (extension != "mtl" && std::binary_search(assimp.begin(), assimp.end(), extension)))
+      files.push_back(entry.path());
+  }
+  std::sort(files.begin(), files.end());
+  return files;
+}
+
+// One file's class map entry: its class (or clutter), units guessed from its
+// height, up axis the format's, front from a back rest for seats. The model
+// loaded by the caller (`model`, in file units).
+ImportedMesh DescribeMesh(const std::filesystem::path& file,
+                          CadModel model,
+                          std::optional<FurnitureClass> furniture_class,
+                          bool clutter,
+                          const std::filesystem::path& out_folder) {
+  ImportedMesh mesh;
+  const std::string path = file.string();
+  mesh.id = file.parent_path().filename().string() + "/" + file.stem().string();
+  mesh.class_name = clutter ? "clutter" : ClassName(*furniture_class);
+  const auto [units, metres] = GuessUnits(BoundingBox(model.mesh).Size().z());
+  mesh.units = units;
+  TransformMesh(static_cast<float>(metres) * Eigen::Matrix3f::Identity(),
+                Eigen::Vector3f::Zero(),
+                &model.mesh);
+  mesh.size_m = BoundingBox(model.mesh).Size();
+  const bool y_up = LoadsYUpByDefault(FileExtension(path));
+  mesh.up = y_up ? "y" : "z";
+  const Eigen::Matrix3f engine_from_file = y_up ? ZUpFromYUp() : Eigen::Matrix3f::Identity();
+  Eigen::Vector3f front = engine_from_file.transpose() * Eigen::Vector3f(0, -1, 0);
+  mesh.note = "units " + mesh.units + (metres == 1.0 ? "" : " (guessed from the height)");
+  if (!clutter && (furniture_class == FurnitureClass::kChair ||
+                   furniture_class == FurnitureClass::kArmchair ||
+                   furniture_class == FurnitureClass::kSofa)) {
+    if (const auto guessed = GuessFrontFromBack(model.mesh)) {
+      front = engine_from_file.transpose() * *guessed;
+      mesh.note += "; front guessed from the back rest";
+    } else {
+      mesh.note += "; front not guessed (no back rest found): check it";
+    }
+  } else {
+    mesh.note += "; front is the format's: check it";
+  }
+  mesh.front = AxisText(front);
+  std::error_code ec;
+  mesh.mesh = std::filesystem::relative(std::filesystem::absolute(file), out_folder, ec)
+                  .generic_string();
+  if (ec || mesh.mesh.empty()) mesh.mesh = std::filesystem::absolute(file).string();
+  return mesh;
+}
+
+}  // namespace
+
 MeshFolderImport ImportMeshFolder(const MeshFolderImportOptions& options) {
   namespace fs = std::filesystem;
   std::error_code ec;
   Require(fs::is_directory(options.dir, ec), options.dir + ": no such folder");
   Require(options.overwrite || !fs::exists(options.out, ec),
           options.out + ": exists; give --overwrite to replace it (a class map may hold edits)");
-  const std::vector<std::string> assimp = SupportedImportExtensions();
-  std::vector<fs::path> files;
-  for (const fs::directory_entry& entry : fs::recursive_directory_iterator(options.dir, ec)) {
-    if (!entry.is_regular_file()) continue;
-    const std::string extension = FileExtension(entry.path().string());
-    // Side files of other formats (materials, textures) are not models.
-    if (extension == "vtk" ||
-        (extension != "mtl" && std::binary_search(assimp.begin(), assimp.end(), extension)))
-      files.push_back(entry.path());
-  }
-  std::sort(files.begin(), files.end());
+  const std::vector<fs::path> files = MeshFilesIn(options.dir);
   Require(!files.empty(),
           options.dir +
               ": no mesh file (vtk, obj, ply, stl, off, gltf, glb, "
@@ -290,47 +345,21 @@ MeshFolderImport ImportMeshFolder(const MeshFolderImportOptions& options) {
   MeshFolderImport import;
   ordered_json entries = ordered_json::array();
   for (const fs::path& file : files) {
-    const std::string path = file.string();
-    ImportedMesh mesh;
+    // The class from the options or the file's folder (an unknown folder is
+    // an error before the file loads).
     const std::string folder = file.parent_path().filename().string();
-    mesh.id = folder + "/" + file.stem().string();
     std::optional<FurnitureClass> furniture_class = options.furniture_class;
     bool clutter = options.clutter;
     if (!furniture_class && !clutter) furniture_class = ClassOfFolder(folder, &clutter);
-    mesh.class_name = clutter ? "clutter" : ClassName(*furniture_class);
     CadModel model;
     try {
-      model = LoadMeshFile(path);
+      model = LoadMeshFile(file.string());
     } catch (const InputError& error) {
-      import.skipped.push_back({mesh.id, error.what()});
+      import.skipped.push_back({folder + "/" + file.stem().string(), error.what()});
       continue;
     }
-    const auto [units, metres] = GuessUnits(BoundingBox(model.mesh).Size().z());
-    mesh.units = units;
-    TransformMesh(static_cast<float>(metres) * Eigen::Matrix3f::Identity(),
-                  Eigen::Vector3f::Zero(),
-                  &model.mesh);
-    mesh.size_m = BoundingBox(model.mesh).Size();
-    const bool y_up = LoadsYUpByDefault(FileExtension(path));
-    mesh.up = y_up ? "y" : "z";
-    const Eigen::Matrix3f engine_from_file = y_up ? ZUpFromYUp() : Eigen::Matrix3f::Identity();
-    Eigen::Vector3f front = engine_from_file.transpose() * Eigen::Vector3f(0, -1, 0);
-    mesh.note = "units " + mesh.units + (metres == 1.0 ? "" : " (guessed from the height)");
-    if (!clutter && (furniture_class == FurnitureClass::kChair ||
-                     furniture_class == FurnitureClass::kArmchair ||
-                     furniture_class == FurnitureClass::kSofa)) {
-      if (const auto guessed = GuessFrontFromBack(model.mesh)) {
-        front = engine_from_file.transpose() * *guessed;
-        mesh.note += "; front guessed from the back rest";
-      } else {
-        mesh.note += "; front not guessed (no back rest found): check it";
-      }
-    } else {
-      mesh.note += "; front is the format's: check it";
-    }
-    mesh.front = AxisText(front);
-    mesh.mesh = fs::relative(fs::absolute(file), out_folder, ec).generic_string();
-    if (ec || mesh.mesh.empty()) mesh.mesh = fs::absolute(file).string();
+    ImportedMesh mesh =
+        DescribeMesh(file, std::move(model), furniture_class, clutter, out_folder);
     entries.push_back(ordered_json{{"id", mesh.id},
                                    {"class", mesh.class_name},
                                    {"mesh", mesh.mesh},

@@ -43,19 +43,19 @@ std::set<FurnitureClass> LabelledClasses(const RealSet& set) {
 
 }  // namespace
 
-RealImportSummary ImportRealSet(const RealSet& set,
-                                const std::string& db_path,
-                                const std::string& sheet_dir) {
-  Require(!std::filesystem::exists(db_path),
-          db_path + ": exists; import-real writes a new dataset (remove it first)");
-  // Every scan loads before anything is written: a bad one leaves no file.
-  struct Loaded {
-    const RealScan* scan;
-    LoadedScan loaded;
-    Eigen::Isometry3d label_from_camera;
-    bool pose_known;
-  };
-  std::vector<Loaded> scans;
+namespace {
+
+// A scan loaded, with the camera's pose in the labels' frame.
+struct LoadedRealScan {
+  const RealScan* scan;
+  LoadedScan loaded;
+  Eigen::Isometry3d label_from_camera;
+  bool pose_known;
+};
+
+// Every scan loads before anything is written: a bad one leaves no file.
+std::vector<LoadedRealScan> LoadRealScans(const RealSet& set) {
+  std::vector<LoadedRealScan> scans;
   Progress progress("import-real", static_cast<int>(set.scans.size()), "scans");
   for (const RealScan& scan : set.scans) {
     LoadedScan loaded = LoadScan(scan.source);
@@ -65,110 +65,132 @@ RealImportSummary ImportRealSet(const RealSet& set,
     progress.Advance();
   }
   progress.Finish();
+  return scans;
+}
 
+std::vector<ModelRecord> LabelModels(const RealSet& set) {
+  std::vector<ModelRecord> models;
+  for (FurnitureClass c : LabelledClasses(set)) {
+    ModelRecord model;
+    model.id = std::string("real/") + ClassName(c);
+    model.furniture_class = c;
+    model.content_hash = "labelled by hand";
+    model.evaluation_only = true;
+    models.push_back(model);
+  }
+  return models;
+}
+
+// The scan's depth through its camera (the nearest point per pixel), its
+// labels as the room's objects; `in_label_frame` gets its points in the
+// labels' frame (for the sheet).
+RoomRecord RoomOfScan(const LoadedRealScan& entry,
+                      int64_t room_id,
+                      const std::string& set_path,
+                      std::vector<Eigen::Vector3f>* in_label_frame) {
+  const CameraIntrinsics& camera = entry.loaded.camera;
+  DepthFrame depth;
+  depth.Resize(camera.width, camera.height);
+  depth.normals.clear();
+  Eigen::Vector2d low(1e9, 1e9), high(-1e9, -1e9);
+  for (const Eigen::Vector3f& p : entry.loaded.input.points) {
+    if (!p.allFinite() || p.z() <= 0.05f) continue;
+    const Eigen::Vector2d pixel = camera.Project(p.cast<double>());
+    const int u = static_cast<int>(std::lround(pixel.x()));
+    const int v = static_cast<int>(std::lround(pixel.y()));
+    if (u < 0 || v < 0 || u >= camera.width || v >= camera.height) continue;
+    float& z = depth.depth[static_cast<size_t>(v) * camera.width + u];
+    if (z == 0 || p.z() < z) z = p.z();
+    const Eigen::Vector3f w = entry.label_from_camera.cast<float>() * p;
+    in_label_frame->push_back(w);
+    low = low.cwiseMin(w.head<2>().cast<double>());
+    high = high.cwiseMax(w.head<2>().cast<double>());
+  }
+  Require(!in_label_frame->empty(),
+          set_path + ": scan '" + entry.scan->id + "' has no point in front of its camera");
+  RoomRecord room;
+  room.id = room_id;
+  room.seed = 0;
+  room.split = Split::kTest;
+  room.width = high.x() - low.x();
+  room.depth = high.y() - low.y();
+  room.requested_furniture = room.placed_furniture = static_cast<int>(entry.scan->objects.size());
+  FrameRecord frame;
+  frame.id = room_id;
+  frame.frame_index = 0;
+  SetIntrinsics(camera, &frame);
+  frame.world_from_camera = entry.label_from_camera;
+  frame.depth_noisy_png = EncodeDepthPng(depth);
+  frame.depth_ideal_png = frame.depth_noisy_png;  // a real scan has one depth
+  frame.ids_png = EncodeIdPng(depth);
+  frame.ids_noisy_png = frame.ids_png;
+  ContentHasher hash;
+  hash.Update(frame.depth_noisy_png.data(), frame.depth_noisy_png.size());
+  frame.content_hash = hash.HexDigest();
+  int instance = 0;
+  for (const RealObject& o : entry.scan->objects) {
+    ObjectRecord object;
+    object.instance_id = ++instance;
+    object.model_id = std::string("real/") + ClassName(o.furniture_class);
+    object.furniture_class = o.furniture_class;
+    object.x = object.reference_x = o.x;
+    object.y = object.reference_y = o.y;
+    object.yaw = o.yaw ? *o.yaw : 0;
+    object.width = o.size.x();
+    object.depth = o.size.y();
+    object.height = o.size.z();
+    room.objects.push_back(object);
+    FrameObjectRecord seen;
+    seen.instance_id = object.instance_id;
+    seen.visibility = o.visibility;
+    seen.in_frustum = true;
+    frame.objects.push_back(seen);
+  }
+  room.frames.push_back(std::move(frame));
+  return room;
+}
+
+// The frame's entry of the generation options: where it came from, and
+// whether the detector must find its floor.
+nlohmann::ordered_json FrameEntry(const LoadedRealScan& entry, int64_t room_id) {
+  nlohmann::json defined = nlohmann::json::array();
+  for (const RealObject& o : entry.scan->objects) defined.push_back(o.yaw.has_value());
+  return {{"frame", room_id},
+          {"id", entry.scan->id},
+          {"pose", entry.pose_known ? "known" : "estimate"},
+          {"input", entry.loaded.description},
+          {"source", entry.scan->origin},
+          {"licence", entry.scan->licence},
+          {"yaw_defined", defined}};
+}
+
+}  // namespace
+
+RealImportSummary ImportRealSet(const RealSet& set,
+                                const std::string& db_path,
+                                const std::string& sheet_dir) {
+  Require(!std::filesystem::exists(db_path),
+          db_path + ": exists; import-real writes a new dataset (remove it first)");
+  const std::vector<LoadedRealScan> scans = LoadRealScans(set);
   const std::string temporary = db_path + ".partial";
   std::filesystem::remove(temporary);
   RealImportSummary summary;
   nlohmann::ordered_json frames = nlohmann::ordered_json::array();
-  auto remove_temporary = [&] {
-    for (const char* suffix : {"", "-wal", "-shm"}) std::filesystem::remove(temporary + suffix);
-  };
   try {
     DatasetDb db(temporary, DatasetDb::Mode::kReadWrite);
-    std::vector<ModelRecord> models;
-    for (FurnitureClass c : LabelledClasses(set)) {
-      ModelRecord model;
-      model.id = std::string("real/") + ClassName(c);
-      model.furniture_class = c;
-      model.content_hash = "labelled by hand";
-      model.evaluation_only = true;
-      models.push_back(model);
-    }
-    db.WriteModels(models);
+    db.WriteModels(LabelModels(set));
     int64_t room_id = 0;
-    for (const Loaded& entry : scans) {
+    for (const LoadedRealScan& entry : scans) {
       ++room_id;
-      const CameraIntrinsics& camera = entry.loaded.camera;
-      // Depth through the scan's camera, the nearest point per pixel.
-      DepthFrame depth;
-      depth.Resize(camera.width, camera.height);
-      depth.normals.clear();
-      Eigen::Vector2d low(1e9, 1e9), high(-1e9, -1e9);
       std::vector<Eigen::Vector3f> in_label_frame;
-      for (const Eigen::Vector3f& p : entry.loaded.input.points) {
-        if (!p.allFinite() || p.z() <= 0.05f) continue;
-        const Eigen::Vector2d pixel = camera.Project(p.cast<double>());
-        const int u = static_cast<int>(std::lround(pixel.x()));
-        const int v = static_cast<int>(std::lround(pixel.y()));
-        if (u < 0 || v < 0 || u >= camera.width || v >= camera.height) continue;
-        float& z = depth.depth[static_cast<size_t>(v) * camera.width + u];
-        if (z == 0 || p.z() < z) z = p.z();
-        const Eigen::Vector3f w = entry.label_from_camera.cast<float>() * p;
-        in_label_frame.push_back(w);
-        low = low.cwiseMin(w.head<2>().cast<double>());
-        high = high.cwiseMax(w.head<2>().cast<double>());
-      }
-      Require(!in_label_frame.empty(),
-              set.path + ": scan '" + entry.scan->id + "' has no point in front of its camera");
-      RoomRecord room;
-      room.id = room_id;
-      room.seed = 0;
-      room.split = Split::kTest;
-      room.width = high.x() - low.x();
-      room.depth = high.y() - low.y();
-      room.requested_furniture = room.placed_furniture =
-          static_cast<int>(entry.scan->objects.size());
-      FrameRecord frame;
-      frame.id = room_id;
-      frame.frame_index = 0;
-      SetIntrinsics(camera, &frame);
-      frame.world_from_camera = entry.label_from_camera;
-      frame.depth_noisy_png = EncodeDepthPng(depth);
-      frame.depth_ideal_png = frame.depth_noisy_png;  // a real scan has one depth
-      frame.ids_png = EncodeIdPng(depth);
-      frame.ids_noisy_png = frame.ids_png;
-      ContentHasher hash;
-      hash.Update(frame.depth_noisy_png.data(), frame.depth_noisy_png.size());
-      frame.content_hash = hash.HexDigest();
-      int instance = 0;
-      for (const RealObject& o : entry.scan->objects) {
-        ObjectRecord object;
-        object.instance_id = ++instance;
-        object.model_id = std::string("real/") + ClassName(o.furniture_class);
-        object.furniture_class = o.furniture_class;
-        object.x = object.reference_x = o.x;
-        object.y = object.reference_y = o.y;
-        object.yaw = o.yaw ? *o.yaw : 0;
-        object.width = o.size.x();
-        object.depth = o.size.y();
-        object.height = o.size.z();
-        room.objects.push_back(object);
-        FrameObjectRecord seen;
-        seen.instance_id = object.instance_id;
-        seen.visibility = o.visibility;
-        seen.in_frustum = true;
-        frame.objects.push_back(seen);
-        ++summary.objects;
-      }
-      room.frames.push_back(std::move(frame));
-      db.WriteRoom(room);
-      frames.push_back({{"frame", room_id},
-                        {"id", entry.scan->id},
-                        {"pose", entry.pose_known ? "known" : "estimate"},
-                        {"input", entry.loaded.description},
-                        {"source", entry.scan->origin},
-                        {"licence", entry.scan->licence},
-                        {"yaw_defined", [&] {
-                           nlohmann::json defined = nlohmann::json::array();
-                           for (const RealObject& o : entry.scan->objects)
-                             defined.push_back(o.yaw.has_value());
-                           return defined;
-                         }()}});
+      db.WriteRoom(RoomOfScan(entry, room_id, set.path, &in_label_frame));
+      summary.objects += static_cast<int>(entry.scan->objects.size());
+      frames.push_back(FrameEntry(entry, room_id));
       if (!sheet_dir.empty()) {
         std::filesystem::create_directories(sheet_dir);
         WriteRealScanSheet(in_label_frame,
                            entry.label_from_camera,
-                           camera,
+                           entry.loaded.camera,
                            Footprints(*entry.scan),
                            entry.scan->id,
                            (std::filesystem::path(sheet_dir) / (entry.scan->id + ".png")).string());
@@ -180,7 +202,7 @@ RealImportSummary ImportRealSet(const RealSet& set,
         {"labels", set.path},
         {"frames", frames}}.dump());
   } catch (...) {
-    remove_temporary();
+    for (const char* suffix : {"", "-wal", "-shm"}) std::filesystem::remove(temporary + suffix);
     throw;
   }
   for (const char* suffix : {"-wal", "-shm"}) std::filesystem::remove(temporary + suffix);

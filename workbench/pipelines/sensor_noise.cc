@@ -109,6 +109,155 @@ Plane RefitPlane(const std::vector<Eigen::Vector3d>& points, Plane plane) {
 
 }  // namespace
 
+namespace {
+
+// A frame's planes (floor, walls) and which pixel lies on which.
+struct FramePlanes {
+  std::vector<int> pixels;                // of the points in range
+  std::vector<Eigen::Vector3f> points;    // camera frame
+  std::vector<int> plane_of_pixel;        // -1: on none
+  std::vector<Plane> planes;
+};
+
+// Up to kMaxPlanes planes, largest first: RANSAC on a subsample, each refit
+// on the full-resolution pixels near it that no earlier plane took.
+void FindPlanes(FramePlanes* f) {
+  std::vector<Eigen::Vector3f> sample;
+  const size_t stride = std::max<size_t>(1, f->points.size() / 30000);
+  for (size_t i = 0; i < f->points.size(); i += stride) sample.push_back(f->points[i]);
+  auto cloud = ToPclPoints(sample);
+  pcl::SACSegmentation<pcl::PointXYZ> ransac;
+  ransac.setModelType(pcl::SACMODEL_PLANE);
+  ransac.setMethodType(pcl::SAC_RANSAC);
+  ransac.setDistanceThreshold(0.04);
+  ransac.setMaxIterations(500);
+  ransac.setInputCloud(cloud);
+  std::vector<bool> taken_sample(sample.size(), false);
+  for (int k = 0; k < kMaxPlanes; ++k) {
+    auto indices = pcl::make_shared<pcl::Indices>();
+    for (size_t i = 0; i < sample.size(); ++i) {
+      if (!taken_sample[i]) indices->push_back(static_cast<int>(i));
+    }
+    if (indices->size() < 100) break;
+    ransac.setIndices(indices);
+    pcl::PointIndices inliers;
+    pcl::ModelCoefficients coefficients;
+    ransac.segment(inliers, coefficients);
+    if (inliers.indices.size() < kMinPlaneShare * sample.size()) break;
+    for (int i : inliers.indices) taken_sample[i] = true;
+    // Refit on the full-resolution pixels near it, twice.
+    Plane plane;
+    plane.normal =
+        Eigen::Vector3d(coefficients.values[0], coefficients.values[1], coefficients.values[2]);
+    plane.offset = coefficients.values[3] / plane.normal.norm();
+    plane.normal.normalize();
+    std::vector<Eigen::Vector3d> free;
+    for (size_t i = 0; i < f->points.size(); ++i) {
+      if (f->plane_of_pixel[f->pixels[i]] < 0) free.push_back(f->points[i].cast<double>());
+    }
+    plane = RefitPlane(free, plane);
+    const int id = static_cast<int>(f->planes.size());
+    for (size_t i = 0; i < f->points.size(); ++i) {
+      if (f->plane_of_pixel[f->pixels[i]] < 0 && plane.Holds(f->points[i].cast<double>()))
+        f->plane_of_pixel[f->pixels[i]] = id;
+    }
+    f->planes.push_back(plane);
+  }
+}
+
+// Pixels without a return amid a plane's pixels are on it too: the ideal
+// frame must not have holes the real one had only by dropout, or the model's
+// lateral jitter would drop samples it would otherwise shift.
+void FillDropouts(const DepthFrame& depth, std::vector<int>* plane_of_pixel) {
+  const std::vector<int> assigned = *plane_of_pixel;
+  for (int v = 2; v + 2 < depth.height; ++v) {
+    for (int u = 2; u + 2 < depth.width; ++u) {
+      const size_t i = static_cast<size_t>(v) * depth.width + u;
+      if (depth.depth[i] > 0 || assigned[i] >= 0) continue;
+      std::array<int, kMaxPlanes> votes{};
+      for (int dv = -2; dv <= 2; ++dv) {
+        for (int du = -2; du <= 2; ++du) {
+          const int k = assigned[i + static_cast<ptrdiff_t>(dv) * depth.width + du];
+          if (k >= 0) ++votes[k];
+        }
+      }
+      const int best = static_cast<int>(std::max_element(votes.begin(), votes.end()) - votes.begin());
+      if (votes[best] >= 13) (*plane_of_pixel)[i] = best;  // most of the window
+    }
+  }
+}
+
+// The ideal frame: each plane pixel at its plane's depth along the ray;
+// `plane_depth` gets that depth (0 elsewhere).
+DepthFrame IdealFrame(const FramePlanes& f,
+                      const DepthFrame& depth,
+                      const CameraIntrinsics& camera,
+                      std::vector<double>* plane_depth) {
+  DepthFrame ideal;
+  ideal.Resize(depth.width, depth.height);
+  plane_depth->assign(depth.depth.size(), 0);
+  for (size_t i = 0; i < depth.depth.size(); ++i) {
+    const int k = f.plane_of_pixel[i];
+    if (k < 0) continue;
+    const int u = static_cast<int>(i % depth.width), v = static_cast<int>(i / depth.width);
+    const Eigen::Vector3d ray = camera.RayThroughPixel(u, v).cast<double>();
+    const double along = f.planes[k].normal.dot(ray);
+    if (std::abs(along) < 1e-6) continue;
+    (*plane_depth)[i] = -f.planes[k].offset / along;
+    ideal.depth[i] = static_cast<float>((*plane_depth)[i]);
+    ideal.instance_ids[i] = static_cast<uint16_t>(k + 1);
+    ideal.normals[i] = f.planes[k].normal.cast<float>();
+  }
+  return ideal;
+}
+
+// Residual against a local plane: the pixel's depth minus the least-squares
+// z = a + b du + c dv over its 7x7 window on the same plane. Real and
+// simulated depths get the same estimator, which a slightly misfitted global
+// plane or a bowed wall does not bias.
+bool LocalResidual(const DepthFrame& frame,
+                   const std::vector<int>& plane_of_pixel,
+                   size_t i,
+                   double* residual) {
+  const int u0 = static_cast<int>(i % frame.width), v0 = static_cast<int>(i / frame.width);
+  if (u0 < 3 || v0 < 3 || u0 + 3 >= frame.width || v0 + 3 >= frame.height) return false;
+  Eigen::Matrix3d normal_matrix = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d right_side = Eigen::Vector3d::Zero();
+  int count = 0;
+  for (int dv = -3; dv <= 3; ++dv) {
+    for (int du = -3; du <= 3; ++du) {
+      if (du == 0 && dv == 0) continue;  // the centre is what is tested
+      const size_t j = static_cast<size_t>(v0 + dv) * frame.width + (u0 + du);
+      if (plane_of_pixel[j] != plane_of_pixel[i] || frame.depth[j] <= 0) continue;
+      const Eigen::Vector3d x(1, du, dv);
+      normal_matrix += x * x.transpose();
+      right_side += x * frame.depth[j];
+      ++count;
+    }
+  }
+  if (count < 30) return false;
+  const Eigen::Vector3d fit = normal_matrix.ldlt().solve(right_side);
+  *residual = frame.depth[i] - fit.x();
+  return true;
+}
+
+// The frame's points within [kLowM, kHighM).
+FramePlanes PointsInRange(const DepthFrame& depth, const CameraIntrinsics& camera) {
+  FramePlanes f;
+  for (int v = 0; v < depth.height; ++v) {
+    for (int u = 0; u < depth.width; ++u) {
+      const float z = depth.depth[static_cast<size_t>(v) * depth.width + u];
+      if (!(z >= kLowM && z < kHighM)) continue;
+      f.pixels.push_back(v * depth.width + u);
+      f.points.push_back(camera.RayThroughPixel(u, v) * z);
+    }
+  }
+  f.plane_of_pixel.assign(depth.depth.size(), -1);
+  return f;
+}
+
+}  // namespace
+
 SensorNoiseComparison CompareSensorNoise(const std::vector<NoiseFrame>& frames,
                                          const KinectNoiseOptions& options,
                                          uint64_t seed) {
@@ -117,145 +266,29 @@ SensorNoiseComparison CompareSensorNoise(const std::vector<NoiseFrame>& frames,
   SensorNoiseComparison result;
   KinectNoiseModel model(options);
   pcl::console::setVerbosityLevel(pcl::console::L_ALWAYS);
-  for (size_t f = 0; f < frames.size(); ++f) {
-    const DepthFrame& depth = frames[f].depth;
-    const CameraIntrinsics& camera = frames[f].camera;
-    // The frame's points in range, a subsample for RANSAC.
-    std::vector<int> pixels;
-    std::vector<Eigen::Vector3f> points;
-    for (int v = 0; v < depth.height; ++v) {
-      for (int u = 0; u < depth.width; ++u) {
-        const float z = depth.depth[static_cast<size_t>(v) * depth.width + u];
-        if (!(z >= kLowM && z < kHighM)) continue;
-        pixels.push_back(v * depth.width + u);
-        points.push_back(camera.RayThroughPixel(u, v) * z);
-      }
-    }
-    if (points.size() < 1000) continue;
-    std::vector<Eigen::Vector3f> sample;
-    const size_t stride = std::max<size_t>(1, points.size() / 30000);
-    for (size_t i = 0; i < points.size(); i += stride) sample.push_back(points[i]);
-    auto cloud = ToPclPoints(sample);
-    pcl::SACSegmentation<pcl::PointXYZ> ransac;
-    ransac.setModelType(pcl::SACMODEL_PLANE);
-    ransac.setMethodType(pcl::SAC_RANSAC);
-    ransac.setDistanceThreshold(0.04);
-    ransac.setMaxIterations(500);
-    ransac.setInputCloud(cloud);
-    std::vector<bool> taken_sample(sample.size(), false);
-    std::vector<int> plane_of_pixel(depth.depth.size(), -1);
-    std::vector<Plane> planes;
-    for (int k = 0; k < kMaxPlanes; ++k) {
-      auto indices = pcl::make_shared<pcl::Indices>();
-      for (size_t i = 0; i < sample.size(); ++i) {
-        if (!taken_sample[i]) indices->push_back(static_cast<int>(i));
-      }
-      if (indices->size() < 100) break;
-      ransac.setIndices(indices);
-      pcl::PointIndices inliers;
-      pcl::ModelCoefficients coefficients;
-      ransac.segment(inliers, coefficients);
-      if (inliers.indices.size() < kMinPlaneShare * sample.size()) break;
-      for (int i : inliers.indices) taken_sample[i] = true;
-      // Refit on the full-resolution pixels near it, twice.
-      Plane plane;
-      plane.normal =
-          Eigen::Vector3d(coefficients.values[0], coefficients.values[1], coefficients.values[2]);
-      plane.offset = coefficients.values[3] / plane.normal.norm();
-      plane.normal.normalize();
-      {
-        std::vector<Eigen::Vector3d> free;
-        for (size_t i = 0; i < points.size(); ++i) {
-          if (plane_of_pixel[pixels[i]] < 0) free.push_back(points[i].cast<double>());
-        }
-        plane = RefitPlane(free, plane);
-      }
-      const int id = static_cast<int>(planes.size());
-      for (size_t i = 0; i < points.size(); ++i) {
-        if (plane_of_pixel[pixels[i]] < 0 && plane.Holds(points[i].cast<double>()))
-          plane_of_pixel[pixels[i]] = id;
-      }
-      planes.push_back(plane);
-    }
-    if (planes.empty()) continue;
-    // Pixels without a return amid a plane's pixels are on it too: the ideal
-    // frame must not have holes the real one had only by dropout, or the
-    // model's lateral jitter would drop samples it would otherwise shift.
-    {
-      const std::vector<int> assigned = plane_of_pixel;
-      for (int v = 2; v + 2 < depth.height; ++v) {
-        for (int u = 2; u + 2 < depth.width; ++u) {
-          const size_t i = static_cast<size_t>(v) * depth.width + u;
-          if (depth.depth[i] > 0 || assigned[i] >= 0) continue;
-          std::array<int, kMaxPlanes> votes{};
-          for (int dv = -2; dv <= 2; ++dv) {
-            for (int du = -2; du <= 2; ++du) {
-              const int k = assigned[i + static_cast<ptrdiff_t>(dv) * depth.width + du];
-              if (k >= 0) ++votes[k];
-            }
-          }
-          const int best =
-              static_cast<int>(std::max_element(votes.begin(), votes.end()) - votes.begin());
-          if (votes[best] >= 13) plane_of_pixel[i] = best;  // most of the window
-        }
-      }
-    }
+  for (size_t frame = 0; frame < frames.size(); ++frame) {
+    const DepthFrame& depth = frames[frame].depth;
+    const CameraIntrinsics& camera = frames[frame].camera;
+    FramePlanes f = PointsInRange(depth, camera);
+    if (f.points.size() < 1000) continue;
+    FindPlanes(&f);
+    if (f.planes.empty()) continue;
+    FillDropouts(depth, &f.plane_of_pixel);
     ++result.frames;
-    result.planes += static_cast<int>(planes.size());
-
-    // The ideal frame: each plane pixel at its plane's depth along the ray.
-    DepthFrame ideal;
-    ideal.Resize(depth.width, depth.height);
-    std::vector<double> plane_depth(depth.depth.size(), 0);
-    for (size_t i = 0; i < depth.depth.size(); ++i) {
-      const int k = plane_of_pixel[i];
-      if (k < 0) continue;
-      const int u = static_cast<int>(i % depth.width), v = static_cast<int>(i / depth.width);
-      const Eigen::Vector3d ray = camera.RayThroughPixel(u, v).cast<double>();
-      const double along = planes[k].normal.dot(ray);
-      if (std::abs(along) < 1e-6) continue;
-      plane_depth[i] = -planes[k].offset / along;
-      ideal.depth[i] = static_cast<float>(plane_depth[i]);
-      ideal.instance_ids[i] = static_cast<uint16_t>(k + 1);
-      ideal.normals[i] = planes[k].normal.cast<float>();
-    }
+    result.planes += static_cast<int>(f.planes.size());
+    std::vector<double> plane_depth;
+    const DepthFrame ideal = IdealFrame(f, depth, camera, &plane_depth);
     DepthFrame noisy;
-    model.Apply(ideal, camera, seed + f, &noisy);
-    // Residuals against a local plane: each plane pixel's depth minus the
-    // least-squares z = a + b du + c dv over its 7x7 window on the same
-    // plane. Real and simulated depths get the same estimator, which a
-    // slightly misfitted global plane or a bowed wall does not bias.
-    auto local_residual = [&](const DepthFrame& frame, size_t i, double* residual) {
-      const int u0 = static_cast<int>(i % depth.width), v0 = static_cast<int>(i / depth.width);
-      if (u0 < 3 || v0 < 3 || u0 + 3 >= depth.width || v0 + 3 >= depth.height) return false;
-      Eigen::Matrix3d normal_matrix = Eigen::Matrix3d::Zero();
-      Eigen::Vector3d right_side = Eigen::Vector3d::Zero();
-      int count = 0;
-      for (int dv = -3; dv <= 3; ++dv) {
-        for (int du = -3; du <= 3; ++du) {
-          if (du == 0 && dv == 0) continue;  // the centre is what is tested
-          const size_t j = static_cast<size_t>(v0 + dv) * depth.width + (u0 + du);
-          if (plane_of_pixel[j] != plane_of_pixel[i] || frame.depth[j] <= 0) continue;
-          const Eigen::Vector3d x(1, du, dv);
-          normal_matrix += x * x.transpose();
-          right_side += x * frame.depth[j];
-          ++count;
-        }
-      }
-      if (count < 30) return false;
-      const Eigen::Vector3d fit = normal_matrix.ldlt().solve(right_side);
-      *residual = frame.depth[i] - fit.x();
-      return true;
-    };
+    model.Apply(ideal, camera, seed + frame, &noisy);
     for (size_t i = 0; i < depth.depth.size(); ++i) {
       const double z = plane_depth[i];
       if (z < kLowM || z >= kHighM) continue;
       const int bin = std::min(bin_count - 1, static_cast<int>((z - kLowM) / kBinM));
       double residual = 0;
-      if (depth.depth[i] > 0 && local_residual(depth, i, &residual) &&
+      if (depth.depth[i] > 0 && LocalResidual(depth, f.plane_of_pixel, i, &residual) &&
           std::abs(residual) <= Band(z))
         real[bin].push_back(residual);
-      if (noisy.depth[i] > 0 && local_residual(noisy, i, &residual) &&
+      if (noisy.depth[i] > 0 && LocalResidual(noisy, f.plane_of_pixel, i, &residual) &&
           std::abs(residual) <= Band(z))
         simulated[bin].push_back(residual);
     }

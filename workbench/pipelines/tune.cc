@@ -193,6 +193,63 @@ TuneSpace ParseTuneSpace(const std::string& text, const std::string& what) {
   return space;
 }
 
+namespace {
+
+// Every value the search may use, alone on the base, must pass Check().
+void CheckEveryValue(const Json& base,
+                     const TuneSpace& space,
+                     const std::vector<std::string>& base_values) {
+  for (size_t p = 0; p < space.parameters.size(); ++p) {
+    const TuneParameter& parameter = space.parameters[p];
+    std::vector<std::string> candidates = GridValues(parameter);
+    if (parameter.is_range) {
+      candidates.push_back(NumberJson(parameter.min, parameter.integer));
+      candidates.push_back(NumberJson(parameter.max, parameter.integer));
+    }
+    for (const std::string& candidate : candidates) {
+      std::vector<std::string> values = base_values;
+      values[p] = candidate;
+      TrainingOptions training;
+      DetectorOptions detector;
+      BuildOptions(base,
+                   space,
+                   values,
+                   "tune space " + parameter.path + " = " + candidate,
+                   &training,
+                   &detector);
+    }
+  }
+}
+
+// The grid's points (every combination of every parameter's values); more
+// points than trials: a seeded sample, so every parameter varies.
+std::vector<std::vector<std::string>> GridPoints(const TuneSpace& space, int count, Rng* rng) {
+  std::vector<std::vector<std::string>> axes;
+  double points = 1;
+  for (const TuneParameter& parameter : space.parameters) {
+    axes.push_back(GridValues(parameter));
+    points *= axes.back().size();
+  }
+  Require(points <= 1e6,
+          "the grid has " + std::to_string(static_cast<long long>(points)) +
+              " points (at most 1000000); use fewer steps or --strategy random");
+  std::vector<std::vector<std::string>> grid = {{}};
+  for (const auto& axis : axes) {
+    std::vector<std::vector<std::string>> longer;
+    for (const auto& prefix : grid) {
+      for (const std::string& value : axis) {
+        longer.push_back(prefix);
+        longer.back().push_back(value);
+      }
+    }
+    grid = std::move(longer);
+  }
+  if (grid.size() + 1 > static_cast<size_t>(count)) std::shuffle(grid.begin(), grid.end(), rng->engine());
+  return grid;
+}
+
+}  // namespace
+
 std::vector<TuneTrial> MakeTrials(const TuneSpace& space,
                                   TuneStrategy strategy,
                                   int count,
@@ -209,28 +266,7 @@ std::vector<TuneTrial> MakeTrials(const TuneSpace& space,
     Require(value != nullptr, "unknown parameter '" + parameter.path + "'");
     first.values.push_back(value->dump());
   }
-  // Every value the search may use, alone on the base, must pass Check().
-  for (size_t p = 0; p < space.parameters.size(); ++p) {
-    const TuneParameter& parameter = space.parameters[p];
-    std::vector<std::string> candidates = GridValues(parameter);
-    if (parameter.is_range) {
-      candidates.push_back(NumberJson(parameter.min, parameter.integer));
-      candidates.push_back(NumberJson(parameter.max, parameter.integer));
-    }
-    for (const std::string& candidate : candidates) {
-      std::vector<std::string> values = first.values;
-      values[p] = candidate;
-      TrainingOptions training;
-      DetectorOptions detector;
-      BuildOptions(base,
-                   space,
-                   values,
-                   "tune space " + parameter.path + " = " + candidate,
-                   &training,
-                   &detector);
-    }
-  }
-
+  CheckEveryValue(base, space, first.values);
   std::vector<TuneTrial> trials = {first};
   std::set<std::vector<std::string>> seen = {first.values};
   auto add = [&](const std::vector<std::string>& values) {
@@ -248,30 +284,7 @@ std::vector<TuneTrial> MakeTrials(const TuneSpace& space,
   };
   Rng rng(DeriveSeed(seed, 0x7475'6e65));  // "tune"
   if (strategy == TuneStrategy::kGrid) {
-    std::vector<std::vector<std::string>> axes;
-    double points = 1;
-    for (const TuneParameter& parameter : space.parameters) {
-      axes.push_back(GridValues(parameter));
-      points *= axes.back().size();
-    }
-    Require(points <= 1e6,
-            "the grid has " + std::to_string(static_cast<long long>(points)) +
-                " points (at most 1000000); use fewer steps or --strategy random");
-    std::vector<std::vector<std::string>> grid = {{}};
-    for (const auto& axis : axes) {
-      std::vector<std::vector<std::string>> longer;
-      for (const auto& prefix : grid) {
-        for (const std::string& value : axis) {
-          longer.push_back(prefix);
-          longer.back().push_back(value);
-        }
-      }
-      grid = std::move(longer);
-    }
-    // More points than trials: a seeded sample, so every parameter varies.
-    if (grid.size() + 1 > static_cast<size_t>(count))
-      std::shuffle(grid.begin(), grid.end(), rng.engine());
-    for (const auto& values : grid) {
+    for (const auto& values : GridPoints(space, count, &rng)) {
       if (static_cast<int>(trials.size()) >= count) break;
       add(values);
     }
