@@ -147,18 +147,17 @@ namespace {
 
 // The database mode of a dataset mode; first checks that a dataset that must
 // exist does (SQLite's own "unable to open database file" names no cause).
-Database::Mode OpenMode(const std::string& path, DatasetDb::Mode mode) {
-  if (mode == DatasetDb::Mode::kReadWrite) return Database::Mode::kReadWrite;
+OpenMode CheckedOpenMode(const std::string& path, OpenMode mode) {
+  if (mode == OpenMode::kReadWrite) return mode;
   std::error_code error;
   if (!std::filesystem::exists(path, error))
     throw DbError(path + ": no such dataset file (make one with 'workbench generate')");
-  return mode == DatasetDb::Mode::kReadOnly ? Database::Mode::kReadOnly
-                                            : Database::Mode::kReadWriteExisting;
+  return mode;
 }
 
 }  // namespace
 
-DatasetDb::DatasetDb(const std::string& path, Mode mode) : db_(path, OpenMode(path, mode)) {
+DatasetDb::DatasetDb(const std::string& path, Mode mode) : db_(path, CheckedOpenMode(path, mode)) {
   CreateOrMigrate(mode);
 }
 

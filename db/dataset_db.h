@@ -109,7 +109,7 @@ struct RunFrameRecord {
 
 class DatasetDb {
  public:
-  enum class Mode { kReadWrite, kReadWriteExisting, kReadOnly };
+  using Mode = OpenMode;
   // kReadWrite creates the file and schema when missing; kReadWriteExisting
   // (adding runs to a dataset) and kReadOnly throw DbError for a missing file
   // and create nothing. Throws DbError for a file that is not SQLite, or a

@@ -28,9 +28,14 @@ class DbError : public std::runtime_error {
   explicit DbError(const std::string& message) : std::runtime_error(message) {}
 };
 
+// How a database file opens (one definition for Database and DatasetDb):
+// kReadWrite creates the file when missing; kReadWriteExisting and kReadOnly
+// need it to exist.
+enum class OpenMode { kReadWrite, kReadWriteExisting, kReadOnly };
+
 class Database {
  public:
-  enum class Mode { kReadWrite, kReadWriteExisting, kReadOnly };
+  using Mode = OpenMode;
   // kReadWrite creates the file when missing; kReadWriteExisting fails on a
   // missing file instead. Both turn on WAL; every mode turns on foreign keys.
   explicit Database(const std::string& path, Mode mode = Mode::kReadWrite);

@@ -10,7 +10,7 @@
 #include "scenes/catalog.h"
 #include "scenes/mesh_io.h"
 #include "tests/test_util.h"
-#include "workbench/pipelines/import_catalog.h"
+#include "workbench/pipelines/catalog_tools.h"
 
 namespace furn {
 namespace {

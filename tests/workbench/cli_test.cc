@@ -18,7 +18,7 @@
 #include "scenes/mesh_io.h"
 #include "tests/scenes/fixtures.h"
 #include "tests/test_util.h"
-#include "workbench/pipelines/import_catalog.h"
+#include "workbench/pipelines/catalog_tools.h"
 
 namespace furn {
 namespace {

@@ -6,7 +6,7 @@
 #include "core/progress.h"
 #include "reports/mesh_sheet.h"
 #include "scenes/mesh_io.h"
-#include "workbench/pipelines/import_catalog.h"
+#include "workbench/pipelines/catalog_tools.h"
 #include "workbench/cli/cli_common.h"
 #include "workbench/cli/commands.h"
 
@@ -35,6 +35,36 @@ std::string SheetSubtitle(const CatalogEntry& entry, const CadModel& model) {
          " " + entry.name;
 }
 
+// The listed entries drawn as a contact sheet; returns how many.
+int DrawCatalogSheet(const Catalog& catalog,
+                     const ListCatalogOptions& list_options,
+                     const MeshSheetOptions& sheet_options,
+                     const std::string& out_path) {
+  const CatalogListing listing = ListCatalog(catalog, list_options);
+  Require(!listing.rows.empty(), "catalog " + catalog.description() + " has no entries to draw");
+  std::vector<std::string> ids;
+  for (const CatalogListingRow& row : listing.rows) ids.push_back(row.entry->id);
+  const LoadedModels loaded = catalog.LoadModels(ids);
+  PrintFailures(loaded.failures);
+  std::vector<SheetTile> tiles;
+  for (const CadModel& model : loaded.models) {
+    tiles.push_back({&model.mesh, model.id, SheetSubtitle(catalog.Get(model.id), model)});
+  }
+  WriteMeshSheet(tiles, sheet_options, out_path);
+  return static_cast<int>(tiles.size());
+}
+
+// `catalog import DIR --class CLASS|auto`: the class map of a folder of meshes.
+int ImportFolder(MeshFolderImportOptions options, const std::string& import_class) {
+  if (import_class == "clutter") {
+    options.clutter = true;
+  } else if (import_class != "auto") {
+    options.furniture_class = ParseFurnitureClass(import_class);
+  }
+  std::cout << FormatMeshImport(ImportMeshFolder(options), options.out);
+  return 0;
+}
+
 }  // namespace
 
 int RunCatalog(int argc, char** argv) {
@@ -48,8 +78,7 @@ int RunCatalog(int argc, char** argv) {
   bool json = false;
   std::string class_name;
   list->add_flag("--all", list_options.all_entries, "Also list entries without a class");
-  list->add_option(
-      "--class", class_name, "Only this class (chair, armchair, table, sideboard, sofa)");
+  list->add_option("--class", class_name, "Only this class (" + EnumNameList<FurnitureClass>() + ")");
   list->add_flag("--load",
                  list_options.load_models,
                  "Import every listed model: triangle counts, hashes, skipped models");
@@ -86,23 +115,15 @@ int RunCatalog(int argc, char** argv) {
   import
       ->add_option("--class",
                    import_class,
-                   "chair, armchair, table, sideboard, sofa, clutter, or auto: each file's "
-                   "folder name (Chairs/, Tables/, ...)")
+                   EnumNameList<FurnitureClass>() +
+                       ", clutter, or auto: each file's folder name (Chairs/, Tables/, ...)")
       ->capture_default_str();
   import->add_option("--out", import_options.out, "Class map to write (.json)")->required();
   import->add_flag("--overwrite", import_options.overwrite, "Replace an existing class map");
 
   if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
   ApplyGlobalFlags(catalog_flags);
-  if (import->parsed()) {  // needs no catalog
-    if (import_class == "clutter") {
-      import_options.clutter = true;
-    } else if (import_class != "auto") {
-      import_options.furniture_class = ParseFurnitureClass(import_class);
-    }
-    std::cout << FormatMeshImport(ImportMeshFolder(import_options), import_options.out);
-    return 0;
-  }
+  if (import->parsed()) return ImportFolder(import_options, import_class);  // needs no catalog
   if (!class_name.empty()) list_options.only_class = ParseFurnitureClass(class_name);
   const Catalog catalog = OpenCatalog(catalog_flags.spec, MakeOpenOptions(catalog_flags));
   PrintWarnings(catalog.warnings());
@@ -125,18 +146,8 @@ int RunCatalog(int argc, char** argv) {
     return 0;
   }
   // sheet
-  const CatalogListing listing = ListCatalog(catalog, list_options);
-  Require(!listing.rows.empty(), "catalog " + catalog.description() + " has no entries to draw");
-  std::vector<std::string> ids;
-  for (const CatalogListingRow& row : listing.rows) ids.push_back(row.entry->id);
-  const LoadedModels loaded = catalog.LoadModels(ids);
-  PrintFailures(loaded.failures);
-  std::vector<SheetTile> tiles;
-  for (const CadModel& model : loaded.models) {
-    tiles.push_back({&model.mesh, model.id, SheetSubtitle(catalog.Get(model.id), model)});
-  }
-  WriteMeshSheet(tiles, sheet_options, out_path);
-  std::cout << "wrote " << out_path << " (" << tiles.size() << " models)\n";
+  const int drawn = DrawCatalogSheet(catalog, list_options, sheet_options, out_path);
+  std::cout << "wrote " << out_path << " (" << drawn << " models)\n";
   return 0;
 }
 

@@ -19,6 +19,45 @@
 
 namespace furn {
 
+namespace {
+
+void PrintGenerateSummary(const std::string& out,
+                          const GenerateOptions& options,
+                          const GenerateSummary& summary) {
+  std::printf(
+      "%s: %d rooms in shard %d/%d: %d written, %d already present; %d frames in %.1f s (%.1f "
+      "frames/s)\n",
+      out.c_str(),
+      summary.rooms_in_shard,
+      options.shard_index,
+      options.shard_count,
+      summary.rooms_written,
+      summary.rooms_already_present,
+      summary.frames_written,
+      summary.seconds,
+      summary.seconds > 0 ? summary.frames_written / summary.seconds : 0.0);
+  std::printf(
+      "time per stage (s; render to png summed over %d workers): compose %.2f, load models %.2f, "
+      "render+noise %.2f, ground truth %.2f, png %.2f, database %.2f\n",
+      summary.workers,
+      summary.compose_s,
+      summary.load_s,
+      summary.render_s,
+      summary.ground_truth_s,
+      summary.encode_s,
+      summary.insert_s);
+  if (summary.rooms_short > 0) {
+    std::printf(
+        "note: in %d of %d rooms not every requested piece fitted (rooms too small for the "
+        "request; "
+        "placed what fits)\n",
+        summary.rooms_short,
+        summary.rooms_written);
+  }
+}
+
+}  // namespace
+
 int RunGenerate(int argc, char** argv) {
   CLI::App app{
       "Generate labelled synthetic Kinect frames of furnished rooms into a dataset database",
@@ -69,60 +108,36 @@ int RunGenerate(int argc, char** argv) {
   options.Check();
   Require(std::filesystem::path(out).extension() == ".db",
           out + ": the dataset file must end in .db");
-  Catalog catalog = OpenCatalog(catalog_flags.spec, MakeOpenOptions(catalog_flags));
-  for (const std::string& spec : options.clutter_catalog_specs) {
-    const int added = catalog.AddClutter(OpenCatalog(spec, MakeOpenOptions(catalog_flags)));
-    Require(added > 0,
-            "--clutter-catalog " + spec +
-                ": no unclassified entry to add (every entry is classified, a door or window, "
-                "or already in the catalog)");
-    if (!catalog_flags.quiet)
-      std::fprintf(stderr, "clutter: %d entries of %s added\n", added, spec.c_str());
-  }
-  for (const std::string& warning : catalog.warnings())
-    std::fprintf(stderr, "warning: %s\n", warning.c_str());
-  if (options.room.max_clutter > 0 &&
-      ComposerCatalog::From(catalog, options.room.include_evaluation_only).clutter.empty()) {
-    std::fprintf(stderr,
-                 "warning: catalog %s offers no clutter (every entry is classified, or the rest "
-                 "are not 0.1-1.6 m across and 0.05-2 m tall): rooms hold targets only; list "
-                 "distractors as \"class\": \"clutter\" entries of a version-2 class map, or add "
-                 "--clutter-catalog default\n",
-                 catalog.description().c_str());
-  }
+  const Catalog catalog = OpenGenerationCatalog(catalog_flags.spec,
+                                                options.clutter_catalog_specs,
+                                                MakeOpenOptions(catalog_flags),
+                                                options.room,
+                                                catalog_flags.quiet);
   const GenerateSummary summary = GenerateDataset(catalog, options, out);
-  std::printf(
-      "%s: %d rooms in shard %d/%d: %d written, %d already present; %d frames in %.1f s (%.1f "
-      "frames/s)\n",
-      out.c_str(),
-      summary.rooms_in_shard,
-      options.shard_index,
-      options.shard_count,
-      summary.rooms_written,
-      summary.rooms_already_present,
-      summary.frames_written,
-      summary.seconds,
-      summary.seconds > 0 ? summary.frames_written / summary.seconds : 0.0);
-  std::printf(
-      "time per stage (s; render to png summed over %d workers): compose %.2f, load models %.2f, "
-      "render+noise %.2f, ground truth %.2f, png %.2f, database %.2f\n",
-      summary.workers,
-      summary.compose_s,
-      summary.load_s,
-      summary.render_s,
-      summary.ground_truth_s,
-      summary.encode_s,
-      summary.insert_s);
-  if (summary.rooms_short > 0) {
-    std::printf(
-        "note: in %d of %d rooms not every requested piece fitted (rooms too small for the "
-        "request; "
-        "placed what fits)\n",
-        summary.rooms_short,
-        summary.rooms_written);
-  }
+  PrintGenerateSummary(out, options, summary);
   return 0;
 }
+
+namespace {
+
+// BOP export's catalog folders, from the flags or the environment.
+void AddExportCatalogFlags(CLI::App* export_command, CatalogFlags* export_catalog) {
+  if (const char* env = std::getenv("FURN_CATALOG_DIR")) export_catalog->catalog_dir = env;
+  if (const char* env = std::getenv("FURN_DATA_DIR")) export_catalog->data_dir = env;
+  export_command
+      ->add_option("--catalog-dir",
+                   export_catalog->catalog_dir,
+                   "bop: directory of the .sh3f files of the dataset's catalog (env "
+                   "FURN_CATALOG_DIR)")
+      ->capture_default_str();
+  export_command
+      ->add_option("--data-dir",
+                   export_catalog->data_dir,
+                   "bop: directory of class_map.json (env FURN_DATA_DIR)")
+      ->capture_default_str();
+}
+
+}  // namespace
 
 int RunDataset(int argc, char** argv) {
   CLI::App app{"Inspect, preview, merge and export dataset databases", "workbench dataset"};
@@ -154,19 +169,7 @@ int RunDataset(int argc, char** argv) {
   export_command->add_option("--split", export_split, "rosbag: frames of train, val, test or all")
       ->capture_default_str();
   CatalogFlags export_catalog;  // where BOP export finds the dataset's catalog
-  if (const char* env = std::getenv("FURN_CATALOG_DIR")) export_catalog.catalog_dir = env;
-  if (const char* env = std::getenv("FURN_DATA_DIR")) export_catalog.data_dir = env;
-  export_command
-      ->add_option("--catalog-dir",
-                   export_catalog.catalog_dir,
-                   "bop: directory of the .sh3f files of the dataset's catalog (env "
-                   "FURN_CATALOG_DIR)")
-      ->capture_default_str();
-  export_command
-      ->add_option("--data-dir",
-                   export_catalog.data_dir,
-                   "bop: directory of class_map.json (env FURN_DATA_DIR)")
-      ->capture_default_str();
+  AddExportCatalogFlags(export_command, &export_catalog);
   CLI::App* import_real = app.add_subcommand(
       "import-real", "Labelled real scans (a furnidet-real-set JSON) into a new dataset");
   std::string labels, sheets;
@@ -183,16 +186,8 @@ int RunDataset(int argc, char** argv) {
   if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
   if (noise->parsed()) {
     Require(noise_frames >= 0, "--frames must be >= 0");
-    DatasetDb dataset(db, DatasetDb::Mode::kReadOnly);
-    std::vector<NoiseFrame> frames;
-    for (int64_t room_id : dataset.RoomIds()) {
-      for (const FrameRecord& frame : dataset.ReadRoom(room_id, /*with_images=*/true).frames) {
-        if (noise_frames > 0 && static_cast<int>(frames.size()) >= noise_frames) break;
-        const std::string what = db + " frame " + std::to_string(frame.id);
-        frames.push_back({DecodeDepthPng(frame.depth_noisy_png, what), IntrinsicsOf(frame), what});
-      }
-    }
-    const SensorNoiseComparison comparison = CompareSensorNoise(frames, KinectNoiseOptions{}, 1);
+    const SensorNoiseComparison comparison =
+        CompareSensorNoise(NoiseFramesOf(db, noise_frames), KinectNoiseOptions{}, 1);
     std::cout << (json ? SensorNoiseJson(comparison) : SensorNoiseText(comparison));
     return 0;
   }

@@ -11,19 +11,12 @@
 
 namespace furn {
 
-int RunDetect(int argc, char** argv) {
-  CLI::App app{"Detect furniture in depth scans: one, or many with the model loaded once",
-               "workbench detect"};
-  std::string model_path, out, debug_dir;
-  std::vector<std::string> inputs;
-  ScanSource source;
-  bool timings = false, quiet = false, explain = false;
-  int repeat = 1;
-  app.add_option("--model", model_path, "Model file (.fcm) from workbench train")->required();
-  app.add_option("inputs",
-                 inputs,
-                 "Scans: .pcd/.ply clouds, .png/.tif/.exr depth images, glob patterns, TUM "
-                 "lists (.txt) or BOP scene/split folders; several give JSON lines");
+namespace {
+
+// Where a scan comes from and how to read it.
+void AddScanFlags(CLI::App* app_pointer, ScanSource* source_pointer) {
+  CLI::App& app = *app_pointer;
+  ScanSource& source = *source_pointer;
   app.add_option("--cloud", source.cloud_path, "Point cloud (.pcd or .ply), camera frame, metres");
   app.add_option("--depth", source.depth_path, "Depth image (16-bit PNG/TIFF, float TIFF/EXR)");
   app.add_option("--intrinsics", source.intrinsics, "kinect1 or fx,fy,cx,cy (depth images)")
@@ -47,8 +40,13 @@ int RunDetect(int argc, char** argv) {
   app.add_option("--sensor",
                  source.sensor,
                  "Sensor position x,y,z of a floor-aligned unorganised cloud without a pose");
-  BagScanOptions bag;
-  std::string out_bag;
+}
+
+// Detection over a ROS bag's topic.
+void AddBagFlags(CLI::App* app_pointer, BagScanOptions* bag_pointer, std::string* out_bag_pointer) {
+  CLI::App& app = *app_pointer;
+  BagScanOptions& bag = *bag_pointer;
+  std::string& out_bag = *out_bag_pointer;
   app.add_option("--bag", bag.bag_path, "ROS 1 bag: detect in every message of --topic");
   app.add_option("--topic",
                  bag.topic,
@@ -66,6 +64,27 @@ int RunDetect(int argc, char** argv) {
                  out_bag,
                  "Write a copy of --bag with the detections as visualization_msgs/MarkerArray "
                  "on /furnidet/detections");
+}
+
+}  // namespace
+
+int RunDetect(int argc, char** argv) {
+  CLI::App app{"Detect furniture in depth scans: one, or many with the model loaded once",
+               "workbench detect"};
+  std::string model_path, out, debug_dir;
+  std::vector<std::string> inputs;
+  ScanSource source;
+  bool timings = false, quiet = false, explain = false;
+  int repeat = 1;
+  app.add_option("--model", model_path, "Model file (.fcm) from workbench train")->required();
+  app.add_option("inputs",
+                 inputs,
+                 "Scans: .pcd/.ply clouds, .png/.tif/.exr depth images, glob patterns, TUM "
+                 "lists (.txt) or BOP scene/split folders; several give JSON lines");
+  AddScanFlags(&app, &source);
+  BagScanOptions bag;
+  std::string out_bag;
+  AddBagFlags(&app, &bag, &out_bag);
   app.add_option("--db", source.db_path, "Dataset database (with --frame)");
   app.add_option("--frame", source.frame_id, "Frame id in --db");
   app.add_option("--out", out, "Detections as JSON, or JSON lines for several scans");

@@ -349,43 +349,21 @@ int RunRegress(int argc, char** argv) {
   const std::map<std::string, double> metrics = dataset.RunMetrics(run_id);
   Require(!metrics.empty(), db_path + ": no run with id " + std::to_string(run_id));
   if (!write_baseline.empty()) {
-    nlohmann::ordered_json json{{"run", run_id},
-                                {"db", db_path},
-                                {"metrics", metrics},
-                                {"tolerances", nlohmann::json::object()}};
-    WriteFileAtomically(write_baseline, json.dump(2) + "\n");
+    WriteBaselineFile(write_baseline, run_id, db_path, metrics);
     std::printf("wrote %s: %zu metrics of run %lld\n",
                 write_baseline.c_str(),
                 metrics.size(),
                 static_cast<long long>(run_id));
     if (baseline.empty()) return 0;
   }
-  std::map<std::string, double> base, overrides;
-  std::string base_name;
-  if (!baseline.empty() && baseline.find_first_not_of("0123456789") == std::string::npos) {
-    base = dataset.RunMetrics(std::stoll(baseline));
-    Require(!base.empty(), db_path + ": no baseline run with id " + baseline);
-    base_name = "run " + baseline;
-  } else {
-    nlohmann::json json;
-    try {
-      json = nlohmann::json::parse(ReadFileBytes(baseline));
-      base = json.at("metrics").get<std::map<std::string, double>>();
-      if (json.contains("tolerances"))
-        overrides = json["tolerances"].get<std::map<std::string, double>>();
-    } catch (const nlohmann::json::exception& error) {
-      throw InputError(baseline +
-                       ": not a baseline file ({\"metrics\": {name: value}}): " + error.what());
-    }
-    base_name = baseline;
-  }
+  const Baseline base = LoadBaseline(dataset, db_path, baseline);
   const std::vector<Regression> regressions =
-      FindRegressions(metrics, base, tolerance, overrides, latency_tolerance);
+      FindRegressions(metrics, base.metrics, tolerance, base.tolerances, latency_tolerance);
   if (regressions.empty()) {
     std::printf("run %lld: no metric worse than %s beyond tolerance (%zu compared)\n",
                 static_cast<long long>(run_id),
-                base_name.c_str(),
-                base.size());
+                base.name.c_str(),
+                base.metrics.size());
     return 0;
   }
   for (const Regression& r : regressions) {
@@ -405,7 +383,7 @@ int RunRegress(int argc, char** argv) {
   std::printf("run %lld: %zu metrics worse than %s\n",
               static_cast<long long>(run_id),
               regressions.size(),
-              base_name.c_str());
+              base.name.c_str());
   return 1;
 }
 

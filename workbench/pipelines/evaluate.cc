@@ -463,4 +463,35 @@ std::vector<Regression> FindRegressions(const std::map<std::string, double>& run
   return regressions;
 }
 
+Baseline LoadBaseline(DatasetDb& dataset, const std::string& db_path, const std::string& spec) {
+  Baseline baseline;
+  if (spec.find_first_not_of("0123456789") == std::string::npos) {
+    baseline.metrics = dataset.RunMetrics(std::stoll(spec));
+    Require(!baseline.metrics.empty(), db_path + ": no baseline run with id " + spec);
+    baseline.name = "run " + spec;
+    return baseline;
+  }
+  try {
+    const nlohmann::json json = nlohmann::json::parse(ReadFileBytes(spec));
+    baseline.metrics = json.at("metrics").get<std::map<std::string, double>>();
+    if (json.contains("tolerances"))
+      baseline.tolerances = json["tolerances"].get<std::map<std::string, double>>();
+  } catch (const nlohmann::json::exception& error) {
+    throw InputError(spec + ": not a baseline file ({\"metrics\": {name: value}}): " + error.what());
+  }
+  baseline.name = spec;
+  return baseline;
+}
+
+void WriteBaselineFile(const std::string& path,
+                       int64_t run_id,
+                       const std::string& db_path,
+                       const std::map<std::string, double>& metrics) {
+  nlohmann::ordered_json json{{"run", run_id},
+                              {"db", db_path},
+                              {"metrics", metrics},
+                              {"tolerances", nlohmann::json::object()}};
+  WriteFileAtomically(path, json.dump(2) + "\n");
+}
+
 }  // namespace furn

@@ -90,4 +90,17 @@ std::vector<Regression> FindRegressions(const std::map<std::string, double>& run
                                         const std::map<std::string, double>& overrides,
                                         double latency_tolerance);
 
+// What `regress` compares against: another run of the dataset (`spec` is
+// its id) or a baseline file ({"metrics": {name: value}, "tolerances":
+// {name: allowed worsening}}, as WriteBaselineFile writes it).
+struct Baseline {
+  std::string name;  // "run 7" or the file's path
+  std::map<std::string, double> metrics, tolerances;
+};
+Baseline LoadBaseline(DatasetDb& dataset, const std::string& db_path, const std::string& spec);
+void WriteBaselineFile(const std::string& path,
+                       int64_t run_id,
+                       const std::string& db_path,
+                       const std::map<std::string, double>& metrics);
+
 }  // namespace furn

@@ -1,6 +1,7 @@
 #include "workbench/pipelines/generate.h"
 
 #include <atomic>
+#include <cstdio>
 #include <chrono>
 #include <cstdlib>
 #include <future>
@@ -556,6 +557,34 @@ GenerateSummary GenerateDataset(const Catalog& catalog,
   progress.Finish();
   summary.seconds = SecondsSince(start);
   return summary;
+}
+
+Catalog OpenGenerationCatalog(const std::string& spec,
+                              const std::vector<std::string>& clutter_specs,
+                              const CatalogOpenOptions& open_options,
+                              const RoomOptions& room,
+                              bool quiet) {
+  Catalog catalog = OpenCatalog(spec, open_options);
+  for (const std::string& clutter : clutter_specs) {
+    const int added = catalog.AddClutter(OpenCatalog(clutter, open_options));
+    Require(added > 0,
+            "--clutter-catalog " + clutter +
+                ": no unclassified entry to add (every entry is classified, a door or window, "
+                "or already in the catalog)");
+    if (!quiet) std::fprintf(stderr, "clutter: %d entries of %s added\n", added, clutter.c_str());
+  }
+  for (const std::string& warning : catalog.warnings())
+    std::fprintf(stderr, "warning: %s\n", warning.c_str());
+  if (room.max_clutter > 0 &&
+      ComposerCatalog::From(catalog, room.include_evaluation_only).clutter.empty()) {
+    std::fprintf(stderr,
+                 "warning: catalog %s offers no clutter (every entry is classified, or the rest "
+                 "are not 0.1-1.6 m across and 0.05-2 m tall): rooms hold targets only; list "
+                 "distractors as \"class\": \"clutter\" entries of a version-2 class map, or add "
+                 "--clutter-catalog default\n",
+                 catalog.description().c_str());
+  }
+  return catalog;
 }
 
 }  // namespace furn

@@ -94,4 +94,14 @@ class ObjectGroundTruth {
 // "i/N" -> (i, N); throws InputError unless 0 <= i < N.
 std::pair<int, int> ParseShard(const std::string& text);
 
+// The catalog rooms are composed from: `spec`, with every catalog of
+// `clutter_specs` adding its unclassified entries as clutter (InputError for
+// one that adds none); the catalog's warnings, and a warning when rooms ask
+// for clutter it cannot offer, on stderr.
+Catalog OpenGenerationCatalog(const std::string& spec,
+                              const std::vector<std::string>& clutter_specs,
+                              const CatalogOpenOptions& open_options,
+                              const RoomOptions& room,
+                              bool quiet);
+
 }  // namespace furn

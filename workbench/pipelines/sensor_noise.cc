@@ -14,6 +14,9 @@
 #include <sstream>
 
 #include "core/pcl_conversion.h"
+#include "db/dataset_db.h"
+#include "workbench/formats/depth_png.h"
+#include "workbench/formats/scan_file.h"
 
 namespace furn {
 namespace {
@@ -343,6 +346,19 @@ std::string SensorNoiseJson(const SensorNoiseComparison& c) {
   return nlohmann::ordered_json{{"frames", c.frames}, {"planes", c.planes}, {"bins", bins}}.dump(
              2) +
          "\n";
+}
+
+std::vector<NoiseFrame> NoiseFramesOf(const std::string& db_path, int max_frames) {
+  DatasetDb dataset(db_path, DatasetDb::Mode::kReadOnly);
+  std::vector<NoiseFrame> frames;
+  for (int64_t room_id : dataset.RoomIds()) {
+    for (const FrameRecord& frame : dataset.ReadRoom(room_id, /*with_images=*/true).frames) {
+      if (max_frames > 0 && static_cast<int>(frames.size()) >= max_frames) break;
+      const std::string what = db_path + " frame " + std::to_string(frame.id);
+      frames.push_back({DecodeDepthPng(frame.depth_noisy_png, what), IntrinsicsOf(frame), what});
+    }
+  }
+  return frames;
 }
 
 }  // namespace furn

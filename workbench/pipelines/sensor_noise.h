@@ -45,4 +45,7 @@ SensorNoiseComparison CompareSensorNoise(const std::vector<NoiseFrame>& frames,
 std::string SensorNoiseText(const SensorNoiseComparison& comparison);
 std::string SensorNoiseJson(const SensorNoiseComparison& comparison);
 
+// The noisy depth of a dataset's frames (at most `max_frames`; 0: all).
+std::vector<NoiseFrame> NoiseFramesOf(const std::string& db_path, int max_frames);
+
 }  // namespace furn

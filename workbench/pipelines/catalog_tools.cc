@@ -1,4 +1,4 @@
-#include "workbench/pipelines/import_catalog.h"
+#include "workbench/pipelines/catalog_tools.h"
 
 #include <algorithm>
 #include <cctype>
