@@ -22,6 +22,7 @@
 #include "renderers/kinect_simulator.h"
 #include "scenes/room_composer.h"
 #include "tests/test_util.h"
+#include "workbench/formats/detection_output.h"
 #include "workbench/formats/scan_file.h"
 #include "workbench/pipelines/train.h"
 
@@ -131,13 +132,25 @@ class DetectTest : public ::testing::Test {
   }
 
   // FURN_TEST_DEBUG_DIR=dir writes each test's debug PNGs there, to look at.
-  static void MaybeWriteDebug(const DetectionResult& result) {
+  static void MaybeWriteDebug(const DetectionResult& result,
+                              const std::vector<Placement>& truth = {}) {
     if (const char* dir = std::getenv("FURN_TEST_DEBUG_DIR")) {
       const ::testing::TestInfo* info = ::testing::UnitTest::GetInstance()->current_test_info();
+      std::vector<GroundTruthFootprint> footprints;
+      for (const Placement& p : truth) {
+        const CatalogEntry& entry = catalog_->Get(p.model_id);
+        footprints.push_back({entry.furniture_class,
+                              p.x,
+                              p.y,
+                              p.yaw_deg * M_PI / 180,
+                              entry.size_m.x(),
+                              entry.size_m.y(),
+                              entry.size_m.z()});
+      }
       WriteDetectionDebug(result,
                           detector_->model(),
                           CameraIntrinsics::KinectV1(),
-                          {},
+                          footprints,
                           std::string(dir) + "/" + info->name());
     }
   }
@@ -169,19 +182,7 @@ class DetectTest : public ::testing::Test {
         text += line;
       }
     }
-    for (const Detection& d : result.detections) {
-      char line[200];
-      std::snprintf(line,
-                    sizeof(line),
-                    "\n  %s at (%.2f, %.2f) yaw %.0f score %.2f %s",
-                    ClassName(d.furniture_class),
-                    d.x,
-                    d.y,
-                    d.yaw * 180 / M_PI,
-                    d.score,
-                    d.model_name.c_str());
-      text += line;
-    }
+    for (const Detection& d : result.detections) text += "\n  " + DetectionLine(d);
     return text;
   }
 
@@ -318,6 +319,7 @@ TEST_F(DetectTest, TwoTablesAndFourChairsAreAllFoundAndNothingElse) {
   for (size_t k = 0; k < truth.size(); ++k)
     EXPECT_TRUE(matched[k]) << truth[k].model_id << " at " << truth[k].x << ", " << truth[k].y
                             << " missed" << Describe(result);
+  MaybeWriteDebug(result, truth);  // the README's picture (docs/images/detection_topdown.png)
 }
 
 TEST_F(DetectTest, EmptyRoomAndClutterGiveNothing) {

@@ -1,10 +1,25 @@
 #include "workbench/formats/detection_output.h"
 
+#include <cmath>
 #include <cstdio>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
 namespace furn {
+
+std::string DetectionLine(const Detection& d) {
+  char line[256];
+  std::snprintf(line,
+                sizeof(line),
+                "%-9s x %6.2f  y %6.2f  yaw %5.1f deg  score %.2f  %s",
+                ClassName(d.furniture_class),
+                d.x,
+                d.y,
+                d.yaw * 180 / M_PI,
+                d.score,
+                d.model_name.c_str());
+  return line;
+}
 
 std::string DetectionJson(const DetectionResult& result, const LoadedScan& scan, bool one_line) {
   nlohmann::ordered_json detections = nlohmann::ordered_json::array();

@@ -21,6 +21,10 @@ std::string DetectionJson(const DetectionResult& result,
 // A JSON line for a scan of a batch that could not be detected in.
 std::string ScanErrorJson(const std::string& input, const std::string& error);
 
+// One detection for people: "chair     x   0.20  y   0.10  yaw  30.0 deg
+// score 0.95  Scopia/chair3".
+std::string DetectionLine(const Detection& d);
+
 // Every hypothesis of a detection, one line each: class, place, vote weight,
 // best fit and what became of it (the --explain text).
 std::string ExplainDetection(const DetectionResult& result, const TrainedModel& model);

@@ -273,15 +273,8 @@ ScanCloud ReadPointCloudFile(const std::string& path) {
   Require(status >= 0, path + ": not a readable " + extension + " point cloud");
   // x, y, z of any numeric type (float, double, integers), read as PCL laid
   // them out: fields at their offsets within each point_step-long point.
-  PackedPoints packed;
-  packed.data = blob.data.data();
-  packed.size = blob.data.size();
-  packed.width = blob.width;
-  packed.height = blob.height;
-  packed.point_step = blob.point_step;
-  for (const pcl::PCLPointField& f : blob.fields) packed.fields.push_back({f.name, f.offset, f.datatype});
   ScanCloud scan;
-  scan.points = DecodeXyz(packed, path);
+  scan.points = DecodeXyz(PackedPointsOf(blob), path);
   if (blob.height > 1) {
     scan.width = static_cast<int>(blob.width);
     scan.height = static_cast<int>(blob.height);

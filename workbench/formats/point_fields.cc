@@ -1,6 +1,7 @@
 #include "workbench/formats/point_fields.h"
 
 #include <cstring>
+#include <iterator>
 #include <limits>
 
 #include "core/error.h"
@@ -15,26 +16,22 @@ double Load(const uint8_t* at) {
   return static_cast<double>(value);
 }
 
+// The value of a field of type `datatype` (a code 1..8, checked by
+// AxisField) at `at`; by code: int8, uint8, int16, uint16, int32, uint32,
+// float32, float64.
 double ValueAt(const uint8_t* at, uint8_t datatype) {
-  switch (static_cast<PointFieldType>(datatype)) {
-    case PointFieldType::kInt8:
-      return Load<int8_t>(at);
-    case PointFieldType::kUint8:
-      return Load<uint8_t>(at);
-    case PointFieldType::kInt16:
-      return Load<int16_t>(at);
-    case PointFieldType::kUint16:
-      return Load<uint16_t>(at);
-    case PointFieldType::kInt32:
-      return Load<int32_t>(at);
-    case PointFieldType::kUint32:
-      return Load<uint32_t>(at);
-    case PointFieldType::kFloat32:
-      return Load<float>(at);
-    case PointFieldType::kFloat64:
-      return Load<double>(at);
-  }
-  return std::numeric_limits<double>::quiet_NaN();
+  using Loader = double (*)(const uint8_t*);
+  constexpr Loader kLoaders[] = {nullptr,
+                                 &Load<int8_t>,
+                                 &Load<uint8_t>,
+                                 &Load<int16_t>,
+                                 &Load<uint16_t>,
+                                 &Load<int32_t>,
+                                 &Load<uint32_t>,
+                                 &Load<float>,
+                                 &Load<double>};
+  return datatype >= 1 && datatype < std::size(kLoaders) ? kLoaders[datatype](at)
+                                                          : std::numeric_limits<double>::quiet_NaN();
 }
 
 // The x, y or z field, checked against the point's size.
@@ -58,21 +55,9 @@ const PointFieldInfo& AxisField(const PackedPoints& points, char axis, const std
 }  // namespace
 
 int PointFieldBytes(uint8_t datatype) {
-  switch (static_cast<PointFieldType>(datatype)) {
-    case PointFieldType::kInt8:
-    case PointFieldType::kUint8:
-      return 1;
-    case PointFieldType::kInt16:
-    case PointFieldType::kUint16:
-      return 2;
-    case PointFieldType::kInt32:
-    case PointFieldType::kUint32:
-    case PointFieldType::kFloat32:
-      return 4;
-    case PointFieldType::kFloat64:
-      return 8;
-  }
-  return 0;
+  // By code: int8, uint8, int16, uint16, int32, uint32, float32, float64.
+  constexpr int kBytes[] = {0, 1, 1, 2, 2, 4, 4, 4, 8};
+  return datatype < std::size(kBytes) ? kBytes[datatype] : 0;
 }
 
 std::vector<Eigen::Vector3f> DecodeXyz(const PackedPoints& points, const std::string& where) {

@@ -55,6 +55,22 @@ struct PackedPoints {
 // allocation (2^26: 30 times a 640 x 480 frame).
 inline constexpr uint64_t kMaxPackedPoints = uint64_t{1} << 26;
 
+// The layout of a PCL PCLPointCloud2 or a ROS sensor_msgs/PointCloud2 (the
+// two name their members alike); `cloud` must outlive the result.
+template <typename Cloud>
+PackedPoints PackedPointsOf(const Cloud& cloud) {
+  PackedPoints packed;
+  packed.data = cloud.data.data();
+  packed.size = cloud.data.size();
+  packed.width = cloud.width;
+  packed.height = cloud.height;
+  packed.point_step = cloud.point_step;
+  packed.row_step = cloud.row_step;
+  packed.big_endian = cloud.is_bigendian;
+  for (const auto& field : cloud.fields) packed.fields.push_back({field.name, field.offset, field.datatype});
+  return packed;
+}
+
 // x, y, z of every point, in row order, as floats. Throws InputError naming
 // `where` and the rule when a field is missing, of an unknown type, lies
 // outside point_step, when the rows do not fit row_step or the data, when

@@ -189,19 +189,8 @@ TfBuffer ReadTf(rosbag::Bag& bag, const std::string& path) {
 
 // Camera-frame points of a PointCloud2: its x, y, z fields (FLOAT32 or FLOAT64).
 DetectionInput PointsOf(const sensor_msgs::PointCloud2& cloud, const std::string& where) {
-  PackedPoints packed;
-  packed.data = cloud.data.data();
-  packed.size = cloud.data.size();
-  packed.width = cloud.width;
-  packed.height = cloud.height;
-  packed.point_step = cloud.point_step;
-  packed.row_step = cloud.row_step;
-  packed.big_endian = cloud.is_bigendian;
-  for (const sensor_msgs::PointField& field : cloud.fields) {
-    packed.fields.push_back({field.name, field.offset, field.datatype});
-  }
   DetectionInput input;
-  input.points = DecodeXyz(packed, where);
+  input.points = DecodeXyz(PackedPointsOf(cloud), where);
   if (cloud.height > 1) {
     input.width = static_cast<int>(cloud.width);
     input.height = static_cast<int>(cloud.height);

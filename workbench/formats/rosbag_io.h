@@ -95,8 +95,6 @@ class FrameBagWriter {
  public:
   explicit FrameBagWriter(const std::string& out_bag);
   ~FrameBagWriter();
-  FrameBagWriter(const FrameBagWriter&) = delete;
-  FrameBagWriter& operator=(const FrameBagWriter&) = delete;
   // `where` names the frame in errors.
   void Write(const RoomRecord& room, const FrameRecord& frame, const std::string& where);
   // Returns the frames written.

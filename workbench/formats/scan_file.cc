@@ -64,14 +64,7 @@ void SetIntrinsics(const CameraIntrinsics& camera, FrameRecord* frame) {
 }
 
 CameraIntrinsics IntrinsicsOf(const FrameRecord& frame) {
-  CameraIntrinsics camera;
-  camera.width = frame.width;
-  camera.height = frame.height;
-  camera.fx = frame.fx;
-  camera.fy = frame.fy;
-  camera.cx = frame.cx;
-  camera.cy = frame.cy;
-  return camera;
+  return {frame.width, frame.height, frame.fx, frame.fy, frame.cx, frame.cy};
 }
 
 DetectionInput DetectionInputOf(const FrameRecord& frame, const std::string& what) {

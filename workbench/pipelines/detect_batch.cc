@@ -18,16 +18,8 @@ namespace {
 
 void PrintDetections(const LoadedScan& scan, const DetectionResult& result) {
   std::fprintf(stderr, "%s: %zu detections", scan.description.c_str(), result.detections.size());
-  for (const Detection& d : result.detections) {
-    std::fprintf(stderr,
-                 "\n  %-9s x %6.2f  y %6.2f  yaw %5.1f deg  score %.2f  %s",
-                 ClassName(d.furniture_class),
-                 d.x,
-                 d.y,
-                 d.yaw * 180 / M_PI,
-                 d.score,
-                 d.model_name.c_str());
-  }
+  for (const Detection& d : result.detections)
+    std::fprintf(stderr, "\n  %s", DetectionLine(d).c_str());
   std::fprintf(stderr, "\n");
 }
 

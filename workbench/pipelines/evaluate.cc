@@ -148,18 +148,19 @@ std::vector<TruthObject> TruthOf(const RoomRecord& room,
   std::vector<TruthObject> truth;
   const Eigen::Vector3d eye = frame.world_from_camera.translation();
   for (const ObjectRecord& object : room.objects) {
-    TruthObject t;
-    t.furniture_class = object.furniture_class;
-    t.model_id = object.model_id;
-    t.x = object.reference_x;
-    t.y = object.reference_y;
-    t.yaw = object.yaw;
-    t.distance_m = (Eigen::Vector3d(object.reference_x, object.reference_y, 0) - eye).norm();
-    t.seen_in_training = facts.trained.count(object.model_id) > 0;
+    double visibility = 0;
     for (const FrameObjectRecord& seen : frame.objects) {
-      if (seen.instance_id == object.instance_id) t.visibility = seen.visibility;
+      if (seen.instance_id == object.instance_id) visibility = seen.visibility;
     }
-    truth.push_back(t);
+    const Eigen::Vector3d reference(object.reference_x, object.reference_y, 0);
+    truth.push_back({object.furniture_class,
+                     object.model_id,
+                     object.reference_x,
+                     object.reference_y,
+                     object.yaw,
+                     visibility,
+                     (reference - eye).norm(),
+                     facts.trained.count(object.model_id) > 0});
   }
   return truth;
 }
