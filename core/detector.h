@@ -301,7 +301,7 @@ struct DetectionResult {
   bool floor_estimated = false;  // world_from_camera came from FindFloor
   int input_points = 0, points = 0, segments = 0;
   StageTimings timings_ms;  // per stage, in order, then kTotal
-  DetectionDebug debug;  // hypotheses always; points, grids and fits when asked for
+  DetectionDebug debug;     // hypotheses always; points, grids and fits when asked for
 };
 
 // One Hough vote, kept to find the segments behind a maximum.
@@ -365,9 +365,9 @@ struct CandidateFit {
 
 struct HypothesisFit {
   HypothesisRegion region;
-  std::optional<CandidateFit> best;  // none: no candidate gave a pose
-  double second_score = 0;           // the best score of the other candidates
-  int fits = 0;                      // candidates that gave a pose
+  std::optional<CandidateFit> best;                    // none: no candidate gave a pose
+  double second_score = 0;                             // the best score of the other candidates
+  int fits = 0;                                        // candidates that gave a pose
   std::vector<DetectionDebug::Hypothesis::Fit> tried;  // every pose, for reports
 };
 
@@ -389,8 +389,8 @@ struct HypothesisScore {
   double score = 0;                            // the detection score
   double probability = -1;                     // the scorer's, when one decided
   HypothesisOutcome outcome = HypothesisOutcome::kDetected;
-  double failed_value = 0;             // the value that failed its gate
-  std::vector<int> explained_points;   // of region.points, when computed for the features
+  double failed_value = 0;            // the value that failed its gate
+  std::vector<int> explained_points;  // of region.points, when computed for the features
 };
 
 // Stages 6-8: a hypothesis' accepted fit, if any.

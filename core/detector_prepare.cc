@@ -90,7 +90,6 @@ std::vector<char> FindStructure(const ViewSegments& view,
   return structure;
 }
 
-
 namespace {
 
 // The finite points within `max_range_m` of the sensor (camera frame).

@@ -22,14 +22,15 @@ RenderComparison CompareWithDepth(const ModelMeshCaster* mesh_caster,
     world_from_model.translation() =
         Eigen::Vector3f(static_cast<float>(pose.x), static_cast<float>(pose.y), 0.f);
     world_from_model.linear() =
-        Eigen::AngleAxisf(static_cast<float>(pose.yaw), Eigen::Vector3f::UnitZ()).toRotationMatrix();
+        Eigen::AngleAxisf(static_cast<float>(pose.yaw), Eigen::Vector3f::UnitZ())
+            .toRotationMatrix();
     return mesh_caster->Compare(best.model,
-                                     camera_from_world * world_from_model,
-                                     scan.depth,
-                                     scan.width,
-                                     scan.height,
-                                     *scan.intrinsics,
-                                     static_cast<float>(options.floor_band_m));
+                                camera_from_world * world_from_model,
+                                scan.depth,
+                                scan.width,
+                                scan.height,
+                                *scan.intrinsics,
+                                static_cast<float>(options.floor_band_m));
   }
   std::vector<Eigen::Vector3f> in_camera;
   in_camera.reserve(best.posed.size());

@@ -80,7 +80,8 @@ class FloorSearch {
       pcl::ModelCoefficients coefficients;
       ransac_.segment(inliers, coefficients);
       if (coefficients.values.size() != 4) break;
-      Eigen::Vector3d normal(coefficients.values[0], coefficients.values[1], coefficients.values[2]);
+      Eigen::Vector3d normal(
+          coefficients.values[0], coefficients.values[1], coefficients.values[2]);
       double offset = coefficients.values[3];
       const double length = normal.norm();
       normal /= length;

@@ -29,28 +29,18 @@ const char* const kHypothesisFeatureNames[kHypothesisFeatures] = {
 FeatureVector HypothesisFeatures::Vector() const {
   FeatureVector v{};
   const int one_hot = furniture_class == FurnitureClass::kSofa ? kHypothesisFeatures - 1
-                                                                 : static_cast<int>(furniture_class);
+                                                               : static_cast<int>(furniture_class);
   v[one_hot] = 1;
-  const float named[] = {log_vote_weight,
-                         relative_weight,
-                         segments,
-                         covered,
-                         verification,
-                         seen_occupied,
-                         free_share,
-                         occluded_share,
-                         log_points_in_box,
-                         model_width,
-                         model_depth,
-                         model_height,
-                         observed_height,
-                         range,
-                         second_fit_ratio,
-                         fits,
-                         candidate_rank,
-                         log_points_in_reach,
-                         seen_through,
-                         render_support};
+  const float named[] = {log_vote_weight,   relative_weight,
+                         segments,          covered,
+                         verification,      seen_occupied,
+                         free_share,        occluded_share,
+                         log_points_in_box, model_width,
+                         model_depth,       model_height,
+                         observed_height,   range,
+                         second_fit_ratio,  fits,
+                         candidate_rank,    log_points_in_reach,
+                         seen_through,      render_support};
   for (size_t k = 0; k < std::size(named); ++k) v[4 + k] = named[k];
   return v;
 }
@@ -197,9 +187,7 @@ HypothesisScorer HypothesisScorer::Train(const std::vector<ScorerSample>& sample
   return scorer;
 }
 
-int HypothesisScorer::feature_count() const {
-  return empty() ? 0 : impl_->forest->getVarCount();
-}
+int HypothesisScorer::feature_count() const { return empty() ? 0 : impl_->forest->getVarCount(); }
 
 double HypothesisScorer::RawScore(const FeatureVector& features) const {
   Require(!empty(), "the hypothesis scorer is empty");

@@ -28,15 +28,15 @@ namespace furn {
 // score stage fills it; Vector() lays it out for the forest).
 struct HypothesisFeatures {
   FurnitureClass furniture_class = FurnitureClass::kChair;  // one-hot in the vector
-  float log_vote_weight = 0;      // log(1 + smoothed vote weight at the maximum)
-  float relative_weight = 0;      // (vote - min) / (max - min) of its class grid
-  float segments = 0;             // segments that voted for it
-  float covered = 0;              // share of the box's scene points the fit explains
-  float verification = 0;         // visibility score vs
-  float seen_occupied = 0;        // share of the fit's observable surface seen
-  float free_share = 0;           // of the model's points, where the sensor saw through
-  float occluded_share = 0;       // of the model's points, hidden from the sensor
-  float log_points_in_box = 0;    // log(1 + scene points in the fit's box)
+  float log_vote_weight = 0;    // log(1 + smoothed vote weight at the maximum)
+  float relative_weight = 0;    // (vote - min) / (max - min) of its class grid
+  float segments = 0;           // segments that voted for it
+  float covered = 0;            // share of the box's scene points the fit explains
+  float verification = 0;       // visibility score vs
+  float seen_occupied = 0;      // share of the fit's observable surface seen
+  float free_share = 0;         // of the model's points, where the sensor saw through
+  float occluded_share = 0;     // of the model's points, hidden from the sensor
+  float log_points_in_box = 0;  // log(1 + scene points in the fit's box)
   float model_width = 0, model_depth = 0, model_height = 0;  // the fitted model's size (m)
   float observed_height = 0;      // the highest explained scene point (m)
   float range = 0;                // horizontal distance from the sensor (m)

@@ -289,7 +289,8 @@ class PoseSearch {
     // Scene points by height bucket, for the two-point draws.
     scene_by_height_.resize(by_height_.size() + 2);
     for (size_t i = 0; i < points_.size(); ++i) {
-      const int b = static_cast<int>(std::floor(points_[i].z() / tolerance())) - scene_first_bucket();
+      const int b =
+          static_cast<int>(std::floor(points_[i].z() / tolerance())) - scene_first_bucket();
       if (b >= 0 && b < static_cast<int>(scene_by_height_.size()))
         scene_by_height_[b].push_back(static_cast<int>(i));
     }

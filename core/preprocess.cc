@@ -120,7 +120,8 @@ Fitted FitPoint(const std::vector<Eigen::Vector3f>& base,
   const Eigen::Vector3d q = base[i].cast<double>() - mean;
   const double u = q.dot(u_axis), v = q.dot(v_axis);
   const double inverse_h2 = 1.0 / (static_cast<double>(radius) * radius);
-  const Eigen::Vector3d w = QuadricAt(base, neighbours, mean, normal, u_axis, v_axis, inverse_h2, u, v);
+  const Eigen::Vector3d w =
+      QuadricAt(base, neighbours, mean, normal, u_axis, v_axis, inverse_h2, u, v);
   const Eigen::Vector3d projected = mean + u * u_axis + v * v_axis + w[0] * normal;
   Eigen::Vector3d surface_normal = (normal - w[1] * u_axis - w[2] * v_axis).normalized();
   if (!projected.allFinite() || !surface_normal.allFinite()) return out;

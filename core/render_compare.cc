@@ -154,7 +154,8 @@ std::optional<OrganisedCloudCamera> CameraOfOrganisedCloud(
     if (points[i].allFinite()) used.push_back(static_cast<int>(i));
   }
   if (used.size() < 50) return std::nullopt;
-  const std::optional<Eigen::Matrix<double, 3, 4>> projection = ProjectionByDlt(points, width, used);
+  const std::optional<Eigen::Matrix<double, 3, 4>> projection =
+      ProjectionByDlt(points, width, used);
   if (!projection) return std::nullopt;
   const std::optional<OrganisedCloudCamera> camera = DecomposeProjection(*projection);
   if (!camera) return std::nullopt;

@@ -518,11 +518,8 @@ void ReadModelShapes(Reader* r, std::vector<ModelShape>* shapes) {
 
 // The part subsets' models and their descriptor index: as trained (version
 // 5 on), or raw descriptors indexed now.
-void ReadPartIndex(Reader* r,
-                   uint32_t version,
-                   size_t file_size,
-                   const std::string& path,
-                   TrainedModel* model) {
+void ReadPartIndex(
+    Reader* r, uint32_t version, size_t file_size, const std::string& path, TrainedModel* model) {
   const uint32_t parts = r->Count(1u << 26, 4);
   model->part_models.resize(parts);
   constexpr int kBins = static_cast<int>(std::tuple_size<VfhDescriptor>::value);

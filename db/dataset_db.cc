@@ -15,8 +15,8 @@ std::optional<FurnitureClass> ClassOfColumn(const std::string& text, const std::
   if (text.empty()) return std::nullopt;
   const std::optional<FurnitureClass> furniture_class = FurnitureClassNamed(text);
   if (!furniture_class) {
-    throw DbError(db_path + ": unknown class '" + text + "' (allowed: " +
-                  EnumNameList<FurnitureClass>() + "; a damaged or newer file)");
+    throw DbError(db_path + ": unknown class '" + text +
+                  "' (allowed: " + EnumNameList<FurnitureClass>() + "; a damaged or newer file)");
   }
   return furniture_class;
 }

@@ -42,9 +42,9 @@ struct ObjectRecord {
   int instance_id = 0;
   std::string model_id;
   std::optional<FurnitureClass> furniture_class;  // none: clutter, not a detection target
-  double x = 0, y = 0, z = 0, yaw = 0;      // world_from_object
-  double reference_x = 0, reference_y = 0;  // footprint centre on the floor (SPEC §3)
-  double width = 0, depth = 0, height = 0;  // m
+  double x = 0, y = 0, z = 0, yaw = 0;            // world_from_object
+  double reference_x = 0, reference_y = 0;        // footprint centre on the floor (SPEC §3)
+  double width = 0, depth = 0, height = 0;        // m
 };
 
 struct FrameObjectRecord {
@@ -89,8 +89,8 @@ struct RunRecord {
   bool git_dirty = false;
   std::string model_path, model_hash, dataset_hash;
   Split split = Split::kAll;  // the frames evaluated
-  std::string options_json;  // every option used
-  std::string results_json;  // PR curves and confusion, for reports
+  std::string options_json;   // every option used
+  std::string results_json;   // PR curves and confusion, for reports
 };
 
 struct RunDetectionRecord {

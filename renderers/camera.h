@@ -49,5 +49,4 @@ struct CameraIntrinsics {
 // organised cloud), NaN where there is no return.
 std::vector<Eigen::Vector3f> BackProject(const DepthFrame& frame, const CameraIntrinsics& camera);
 
-
 }  // namespace furn

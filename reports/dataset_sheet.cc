@@ -29,8 +29,7 @@ cv::Mat Tile(const SheetFrame& item, const DatasetSheetOptions& options) {
   for (const ObjectRecord& object : item.room->objects) objects[object.instance_id] = &object;
   for (const FrameObjectRecord& seen : frame.objects) {
     const auto it = objects.find(seen.instance_id);
-    if (it == objects.end() || !it->second->furniture_class || seen.visible_pixels == 0)
-      continue;
+    if (it == objects.end() || !it->second->furniture_class || seen.visible_pixels == 0) continue;
     const bool clear = seen.visibility >= options.min_visibility;
     const cv::Scalar colour_of_box =
         clear ? ClassColour(it->second->furniture_class) : cv::Scalar(150, 150, 150);

@@ -111,154 +111,158 @@ void Caption(cv::Mat* image, const std::string& text) {
   DrawLabel(image, text, cv::Point(6, 16), cv::Scalar(255, 255, 255), 0.45);
 }
 
-}  // namespace
+// What every debug figure is drawn from.
+struct DebugInput {
+  const DetectionResult& result;
+  const TrainedModel& model;
+  const CameraIntrinsics& camera;
+  const std::vector<GroundTruthFootprint>& ground_truth;
+  std::string dir;
 
-void WriteDetectionDebug(const DetectionResult& result,
-                         const TrainedModel& model,
-                         const CameraIntrinsics& camera,
-                         const std::vector<GroundTruthFootprint>& ground_truth,
-                         const std::string& dir) {
-  std::error_code error;
-  std::filesystem::create_directories(dir, error);
-  Require(!error, dir + ": cannot create the debug directory (" + error.message() + ")");
-  const DetectionDebug& debug = result.debug;
-  const Eigen::Vector3f sensor = result.world_from_camera.translation().cast<float>();
-  auto path = [&](const std::string& name) { return (std::filesystem::path(dir) / name).string(); };
-
-  // Segments, from the camera.
-  {
-    CameraView view(camera, result.world_from_camera);
-    for (size_t i = 0; i < debug.points.size(); ++i) {
-      const int s = debug.segment_of_point[i];
-      view.Dot(debug.points[i], s < 0 ? cv::Scalar(90, 90, 90) : SegmentColour(s));
-    }
-    Caption(&view.image(),
-            std::to_string(result.segments) + " segments of " + std::to_string(result.points) +
-                " points (floor removed)");
-    WritePngAtomically(view.image(), path("segments.png"));
+  const DetectionDebug& debug() const { return result.debug; }
+  Eigen::Vector3f sensor() const { return result.world_from_camera.translation().cast<float>(); }
+  std::string Path(const std::string& name) const {
+    return (std::filesystem::path(dir) / name).string();
   }
+};
 
-  // Fitted models over the scan, from the camera.
-  {
-    CameraView view(camera, result.world_from_camera);
-    for (const Eigen::Vector3f& p : debug.points) view.Dot(p, GreyForDistance((p - sensor).norm()));
-    for (size_t d = 0; d < result.detections.size(); ++d) {
-      const cv::Scalar colour = ClassColour(result.detections[d].furniture_class);
-      for (const Eigen::Vector3f& p : debug.fitted_points[d]) view.Dot(p, colour);
-    }
-    for (const Detection& d : result.detections) {
-      const ModelShape& shape = model.model_shapes[d.model_index];
-      const PlanarPose pose{d.x, d.y, d.yaw};
-      if (const auto at = view.Pixel(pose.Apply(Eigen::Vector3f(0, 0, shape.high.z())))) {
-        char text[96];
-        std::snprintf(text, sizeof(text), "%s %.2f", ClassName(d.furniture_class), d.score);
-        DrawLabel(&view.image(),
-                  text,
-                  *at + cv::Point(-30, -6),
-                  ClassColour(d.furniture_class));
-      }
-    }
-    Caption(&view.image(), std::to_string(result.detections.size()) + " detections: fitted models");
-    WritePngAtomically(view.image(), path("fitted.png"));
+// Segments, from the camera.
+void WriteSegmentsPng(const DebugInput& in) {
+  CameraView view(in.camera, in.result.world_from_camera);
+  for (size_t i = 0; i < in.debug().points.size(); ++i) {
+    const int s = in.debug().segment_of_point[i];
+    view.Dot(in.debug().points[i], s < 0 ? cv::Scalar(90, 90, 90) : SegmentColour(s));
   }
+  Caption(&view.image(),
+          std::to_string(in.result.segments) + " segments of " + std::to_string(in.result.points) +
+              " points (floor removed)");
+  WritePngAtomically(view.image(), in.Path("segments.png"));
+}
 
-  // Vote heat maps, one per class, top-down with y up.
-  for (const DetectionDebug::VoteGrid& grid : debug.grids) {
-    if (grid.values.empty()) continue;
-    cv::Mat values(grid.rows, grid.cols, CV_32F, const_cast<float*>(grid.values.data()));
-    double high = 0;
-    cv::minMaxLoc(values, nullptr, &high);
-    cv::Mat grey;
-    values.convertTo(grey, CV_8U, high > 0 ? 255.0 / high : 0.0);
-    cv::Mat flipped, heat;
-    cv::flip(grey, flipped, 0);
-    cv::applyColorMap(flipped, heat, cv::COLORMAP_INFERNO);
-    const double scale = std::clamp(700.0 / std::max(grid.cols, grid.rows), 1.0, 4.0);
-    cv::resize(heat, heat, cv::Size(), scale, scale, cv::INTER_NEAREST);
-    const double pixels_per_metre = scale / grid.cell_m;
-    auto at = [&](double x, double y) {
-      return cv::Point(static_cast<int>((x - grid.origin.x()) * pixels_per_metre),
-                       heat.rows - static_cast<int>((y - grid.origin.y()) * pixels_per_metre));
-    };
-    for (size_t i = 0; i < debug.points.size(); i += 3) {  // faint scene outline
-      const cv::Point p = at(debug.points[i].x(), debug.points[i].y());
-      if (p.x >= 0 && p.y >= 0 && p.x < heat.cols && p.y < heat.rows)
-        heat.at<cv::Vec3b>(p) = cv::Vec3b(110, 110, 110);
-    }
-    cv::circle(heat, at(sensor.x(), sensor.y()), 5, cv::Scalar(255, 255, 255), cv::FILLED);
-    int maxima = 0;
-    for (const DetectionDebug::Hypothesis& h : debug.hypotheses) {
-      if (h.furniture_class != grid.furniture_class) continue;
-      ++maxima;
-      const bool detected = h.outcome == HypothesisOutcome::kDetected;
-      const cv::Scalar colour = detected ? cv::Scalar(80, 255, 80) : cv::Scalar(200, 200, 200);
-      cv::circle(heat, at(h.x, h.y), detected ? 9 : 6, colour, 2, cv::LINE_AA);
+// Fitted models over the scan, from the camera.
+void WriteFittedPng(const DebugInput& in) {
+  CameraView view(in.camera, in.result.world_from_camera);
+  for (const Eigen::Vector3f& p : in.debug().points)
+    view.Dot(p, GreyForDistance((p - in.sensor()).norm()));
+  for (size_t d = 0; d < in.result.detections.size(); ++d) {
+    const cv::Scalar colour = ClassColour(in.result.detections[d].furniture_class);
+    for (const Eigen::Vector3f& p : in.debug().fitted_points[d]) view.Dot(p, colour);
+  }
+  for (const Detection& d : in.result.detections) {
+    const ModelShape& shape = in.model.model_shapes[d.model_index];
+    const PlanarPose pose{d.x, d.y, d.yaw};
+    if (const auto at = view.Pixel(pose.Apply(Eigen::Vector3f(0, 0, shape.high.z())))) {
       char text[96];
-      std::snprintf(
-          text, sizeof(text), "%.3g %s", h.vote_weight, DetectionDebug::Describe(h).c_str());
-      DrawLabel(&heat, text, at(h.x, h.y) + cv::Point(10, 4), colour, 0.38);
-    }
-    char caption[160];
-    std::snprintf(caption,
-                  sizeof(caption),
-                  "%s votes: max %.3g, threshold %.3g, %d maxima (green: detected)",
-                  ClassName(grid.furniture_class),
-                  high,
-                  grid.threshold,
-                  maxima);
-    Caption(&heat, caption);
-    WritePngAtomically(heat,
-                       path(std::string("votes_") + ClassName(grid.furniture_class) + ".png"));
-  }
-
-  // Top-down: points, ground truth (white), detections (class colour).
-  {
-    Eigen::Vector2f low = sensor.head<2>(), high = sensor.head<2>();
-    for (const Eigen::Vector3f& p : debug.points) {
-      low = low.cwiseMin(p.head<2>());
-      high = high.cwiseMax(p.head<2>());
-    }
-    for (const GroundTruthFootprint& g : ground_truth) {
-      low = low.cwiseMin(Eigen::Vector2f(g.x, g.y));
-      high = high.cwiseMax(Eigen::Vector2f(g.x, g.y));
-    }
-    low -= Eigen::Vector2f::Constant(0.5f);
-    high += Eigen::Vector2f::Constant(0.5f);
-    const double pixels_per_metre = std::clamp(700.0 / (high - low).maxCoeff(), 40.0, 200.0);
-    TopDown top(low, high, pixels_per_metre);
-    for (const Eigen::Vector3f& p : debug.points)
-      cv::circle(top.image(), top.At(p.x(), p.y()), 0, GreyForDistance(2.5f - p.z() * 1.5f), 1);
-    cv::circle(
-        top.image(), top.At(sensor.x(), sensor.y()), 6, cv::Scalar(255, 255, 255), cv::FILLED);
-    for (const GroundTruthFootprint& g : ground_truth) {
-      const Eigen::Vector2f half(static_cast<float>(g.width / 2), static_cast<float>(g.depth / 2));
-      top.Footprint(
-          PlanarPose{g.x, g.y, g.yaw},
-          -half,
-          half,
-          !g.furniture_class ? cv::Scalar(110, 110, 110) : cv::Scalar(255, 255, 255),
-          1);
-    }
-    for (const Detection& d : result.detections) {
-      const ModelShape& shape = model.model_shapes[d.model_index];
-      const cv::Scalar colour = ClassColour(d.furniture_class);
-      top.Footprint(
-          PlanarPose{d.x, d.y, d.yaw}, shape.low.head<2>(), shape.high.head<2>(), colour, 2);
-      char text[64];
       std::snprintf(text, sizeof(text), "%s %.2f", ClassName(d.furniture_class), d.score);
-      DrawLabel(&top.image(), text, top.At(d.x, d.y) + cv::Point(6, -6), colour, 0.4);
+      DrawLabel(&view.image(), text, *at + cv::Point(-30, -6), ClassColour(d.furniture_class));
     }
-    Caption(&top.image(), "top-down: detections (class colour) and ground truth (white)");
-    WritePngAtomically(top.image(), path("topdown.png"));
   }
+  Caption(&view.image(),
+          std::to_string(in.result.detections.size()) + " detections: fitted models");
+  WritePngAtomically(view.image(), in.Path("fitted.png"));
+}
 
+// A class's vote heat map, top-down with y up, with its maxima.
+void WriteVotesPng(const DebugInput& in, const DetectionDebug::VoteGrid& grid) {
+  if (grid.values.empty()) return;
+  cv::Mat values(grid.rows, grid.cols, CV_32F, const_cast<float*>(grid.values.data()));
+  double high = 0;
+  cv::minMaxLoc(values, nullptr, &high);
+  cv::Mat grey;
+  values.convertTo(grey, CV_8U, high > 0 ? 255.0 / high : 0.0);
+  cv::Mat flipped, heat;
+  cv::flip(grey, flipped, 0);
+  cv::applyColorMap(flipped, heat, cv::COLORMAP_INFERNO);
+  const double scale = std::clamp(700.0 / std::max(grid.cols, grid.rows), 1.0, 4.0);
+  cv::resize(heat, heat, cv::Size(), scale, scale, cv::INTER_NEAREST);
+  const double pixels_per_metre = scale / grid.cell_m;
+  auto at = [&](double x, double y) {
+    return cv::Point(static_cast<int>((x - grid.origin.x()) * pixels_per_metre),
+                     heat.rows - static_cast<int>((y - grid.origin.y()) * pixels_per_metre));
+  };
+  for (size_t i = 0; i < in.debug().points.size(); i += 3) {  // faint scene outline
+    const cv::Point p = at(in.debug().points[i].x(), in.debug().points[i].y());
+    if (p.x >= 0 && p.y >= 0 && p.x < heat.cols && p.y < heat.rows)
+      heat.at<cv::Vec3b>(p) = cv::Vec3b(110, 110, 110);
+  }
+  cv::circle(heat, at(in.sensor().x(), in.sensor().y()), 5, cv::Scalar(255, 255, 255), cv::FILLED);
+  int maxima = 0;
+  for (const DetectionDebug::Hypothesis& h : in.debug().hypotheses) {
+    if (h.furniture_class != grid.furniture_class) continue;
+    ++maxima;
+    const bool detected = h.outcome == HypothesisOutcome::kDetected;
+    const cv::Scalar colour = detected ? cv::Scalar(80, 255, 80) : cv::Scalar(200, 200, 200);
+    cv::circle(heat, at(h.x, h.y), detected ? 9 : 6, colour, 2, cv::LINE_AA);
+    char text[96];
+    std::snprintf(
+        text, sizeof(text), "%.3g %s", h.vote_weight, DetectionDebug::Describe(h).c_str());
+    DrawLabel(&heat, text, at(h.x, h.y) + cv::Point(10, 4), colour, 0.38);
+  }
+  char caption[160];
+  std::snprintf(caption,
+                sizeof(caption),
+                "%s votes: max %.3g, threshold %.3g, %d maxima (green: detected)",
+                ClassName(grid.furniture_class),
+                high,
+                grid.threshold,
+                maxima);
+  Caption(&heat, caption);
+  WritePngAtomically(heat,
+                     in.Path(std::string("votes_") + ClassName(grid.furniture_class) + ".png"));
+}
+
+// Top-down: points, ground truth (white), detections (class colour).
+void WriteTopDownPng(const DebugInput& in) {
+  Eigen::Vector2f low = in.sensor().head<2>(), high = in.sensor().head<2>();
+  for (const Eigen::Vector3f& p : in.debug().points) {
+    low = low.cwiseMin(p.head<2>());
+    high = high.cwiseMax(p.head<2>());
+  }
+  for (const GroundTruthFootprint& g : in.ground_truth) {
+    low = low.cwiseMin(Eigen::Vector2f(g.x, g.y));
+    high = high.cwiseMax(Eigen::Vector2f(g.x, g.y));
+  }
+  low -= Eigen::Vector2f::Constant(0.5f);
+  high += Eigen::Vector2f::Constant(0.5f);
+  const double pixels_per_metre = std::clamp(700.0 / (high - low).maxCoeff(), 40.0, 200.0);
+  TopDown top(low, high, pixels_per_metre);
+  for (const Eigen::Vector3f& p : in.debug().points)
+    cv::circle(top.image(), top.At(p.x(), p.y()), 0, GreyForDistance(2.5f - p.z() * 1.5f), 1);
+  cv::circle(top.image(),
+             top.At(in.sensor().x(), in.sensor().y()),
+             6,
+             cv::Scalar(255, 255, 255),
+             cv::FILLED);
+  for (const GroundTruthFootprint& g : in.ground_truth) {
+    const Eigen::Vector2f half(static_cast<float>(g.width / 2), static_cast<float>(g.depth / 2));
+    top.Footprint(PlanarPose{g.x, g.y, g.yaw},
+                  -half,
+                  half,
+                  !g.furniture_class ? cv::Scalar(110, 110, 110) : cv::Scalar(255, 255, 255),
+                  1);
+  }
+  for (const Detection& d : in.result.detections) {
+    const ModelShape& shape = in.model.model_shapes[d.model_index];
+    const cv::Scalar colour = ClassColour(d.furniture_class);
+    top.Footprint(
+        PlanarPose{d.x, d.y, d.yaw}, shape.low.head<2>(), shape.high.head<2>(), colour, 2);
+    char text[64];
+    std::snprintf(text, sizeof(text), "%s %.2f", ClassName(d.furniture_class), d.score);
+    DrawLabel(&top.image(), text, top.At(d.x, d.y) + cv::Point(6, -6), colour, 0.4);
+  }
+  Caption(&top.image(), "top-down: detections (class colour) and ground truth (white)");
+  WritePngAtomically(top.image(), in.Path("topdown.png"));
+}
+
+// Every hypothesis: class, position, votes, candidates, fits, outcome.
+void WriteHypothesesJson(const DebugInput& in) {
   nlohmann::ordered_json hypotheses = nlohmann::ordered_json::array();
-  for (const DetectionDebug::Hypothesis& h : debug.hypotheses) {
+  for (const DetectionDebug::Hypothesis& h : in.debug().hypotheses) {
     nlohmann::ordered_json candidates = nlohmann::ordered_json::array();
-    for (int m : h.candidate_models) candidates.push_back(model.model_names[m]);
+    for (int m : h.candidate_models) candidates.push_back(in.model.model_names[m]);
     nlohmann::ordered_json fits = nlohmann::ordered_json::array();
     for (const DetectionDebug::Hypothesis::Fit& f : h.fits) {
-      fits.push_back({{"model", model.model_names[f.model_index]},
+      fits.push_back({{"model", in.model.model_names[f.model_index]},
                       {"x", f.x},
                       {"y", f.y},
                       {"yaw", f.yaw},
@@ -276,7 +280,25 @@ void WriteDetectionDebug(const DetectionResult& result,
                           {"outcome", OutcomeName(h.outcome)},
                           {"outcome_text", DetectionDebug::Describe(h)}});
   }
-  WriteFileAtomically(path("hypotheses.json"), hypotheses.dump(2) + "\n");
+  WriteFileAtomically(in.Path("hypotheses.json"), hypotheses.dump(2) + "\n");
+}
+
+}  // namespace
+
+void WriteDetectionDebug(const DetectionResult& result,
+                         const TrainedModel& model,
+                         const CameraIntrinsics& camera,
+                         const std::vector<GroundTruthFootprint>& ground_truth,
+                         const std::string& dir) {
+  std::error_code error;
+  std::filesystem::create_directories(dir, error);
+  Require(!error, dir + ": cannot create the debug directory (" + error.message() + ")");
+  const DebugInput in{result, model, camera, ground_truth, dir};
+  WriteSegmentsPng(in);
+  WriteFittedPng(in);
+  for (const DetectionDebug::VoteGrid& grid : result.debug.grids) WriteVotesPng(in, grid);
+  WriteTopDownPng(in);
+  WriteHypothesesJson(in);
 }
 
 }  // namespace furn

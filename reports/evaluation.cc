@@ -442,8 +442,9 @@ void AddPaperProtocol(const std::vector<FrameOutcome>& frames,
       class_objects = counts.objects;
       if (class_objects == 0) break;
       const double recall = static_cast<double>(counts.found) / class_objects;
-      const double precision =
-          counts.tp + counts.fp > 0 ? static_cast<double>(counts.tp) / (counts.tp + counts.fp) : 1.0;
+      const double precision = counts.tp + counts.fp > 0
+                                   ? static_cast<double>(counts.tp) / (counts.tp + counts.fp)
+                                   : 1.0;
       curve.push_back({recall, precision, t});
       if (precision + recall > 0)
         best_f1 = std::max(best_f1, 2 * precision * recall / (precision + recall));

@@ -46,7 +46,8 @@ constexpr const char* kGroupPrefix[] = {"", "spread/", "gates/"};
 std::optional<int> ParseCentimetres(const std::string& text) {
   if (text.size() < 3 || text.compare(text.size() - 2, 2, "cm") != 0) return std::nullopt;
   const std::string digits = text.substr(0, text.size() - 2);
-  if (digits.empty() || digits.size() > 3 || digits.find_first_not_of("0123456789") != std::string::npos)
+  if (digits.empty() || digits.size() > 3 ||
+      digits.find_first_not_of("0123456789") != std::string::npos)
     return std::nullopt;
   return std::stoi(digits);
 }

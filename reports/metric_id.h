@@ -93,16 +93,24 @@ enum class PlainMetric {
 
 class MetricId {
  public:
-  enum class Kind { kPlain, kMeanAp, kClassAp, kPaperBestF1, kStageLatency, kFunnel, kFalsePositives };
+  enum class Kind {
+    kPlain,
+    kMeanAp,
+    kClassAp,
+    kPaperBestF1,
+    kStageLatency,
+    kFunnel,
+    kFalsePositives
+  };
   // Crossval runs store each metric's mean plainly, and its spread over the
   // folds and its value with the fixed gates under a prefix.
   enum class Group { kValue, kSpread, kGates };
 
   static MetricId Plain(PlainMetric metric);
-  static MetricId MeanAp(double distance_m);                             // mAP@10cm
+  static MetricId MeanAp(double distance_m);                                   // mAP@10cm
   static MetricId ClassAp(FurnitureClass furniture_class, double distance_m);  // AP/chair@10cm
-  static MetricId PaperBestF1(FurnitureClass furniture_class);          // paper/chair/best_f1
-  static MetricId StageLatency(DetectionStage stage);                    // latency_vote_p50_ms
+  static MetricId PaperBestF1(FurnitureClass furniture_class);  // paper/chair/best_f1
+  static MetricId StageLatency(DetectionStage stage);           // latency_vote_p50_ms
   // funnel/<class>/<stage>, or funnel/all/<stage> without a class.
   static MetricId Funnel(std::optional<FurnitureClass> furniture_class, FunnelStage stage);
   static MetricId FalsePositives(FalsePositiveKind kind);  // false_positives/<kind>

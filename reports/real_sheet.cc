@@ -111,7 +111,11 @@ void WriteRealScanSheet(const std::vector<Eigen::Vector3f>& points,
       cv::line(image, at(label.x, label.y), corner(0, -d), colour, 2, cv::LINE_AA);  // the front
     }
     cv::drawMarker(image, at(label.x, label.y), colour, cv::MARKER_CROSS, 8, 1);
-    DrawLabel(&image, label.furniture_class ? ClassName(*label.furniture_class) : "", at(label.x, label.y) + cv::Point(8, -8), colour, 0.45);
+    DrawLabel(&image,
+              label.furniture_class ? ClassName(*label.furniture_class) : "",
+              at(label.x, label.y) + cv::Point(8, -8),
+              colour,
+              0.45);
   }
   DrawLabel(&image,
             title + ": labels in the floor frame, 0.5 m grid, camera white, height 0-2 m coloured",
@@ -162,7 +166,11 @@ void WriteRealScanSheet(const std::vector<Eigen::Vector3f>& points,
       edge(k, 4 + k);
     }
     if (corners[4])
-      DrawLabel(&view, label.furniture_class ? ClassName(*label.furniture_class) : "", *corners[4] + cv::Point(0, -4), colour, 0.45);
+      DrawLabel(&view,
+                label.furniture_class ? ClassName(*label.furniture_class) : "",
+                *corners[4] + cv::Point(0, -4),
+                colour,
+                0.45);
   }
   const int rows = std::max(image.rows, view.rows);
   cv::Mat sheet(rows, image.cols + view.cols + 8, CV_8UC3, cv::Scalar(24, 24, 24));

@@ -151,13 +151,12 @@ void WriteHistoryReport(const std::vector<HistoryDataset>& datasets, const std::
   std::filesystem::create_directories(dir, error);
   Require(!error, dir + ": cannot create the history directory (" + error.message() + ")");
   auto path = [&](const std::string& name) { return (std::filesystem::path(dir) / name).string(); };
-  const std::vector<std::string> plotted = {
-      MetricId::MeanAp(0.10).Name(),
-      MetricId::MeanAp(0.05).Name(),
-      MetricId::MeanAp(0.20).Name(),
-      MetricId::Plain(PlainMetric::kFalseAboveTrue).Name(),
-      MetricId::Plain(PlainMetric::kXyErrorMean).Name(),
-      MetricId::Plain(PlainMetric::kLatencyP50).Name()};
+  const std::vector<std::string> plotted = {MetricId::MeanAp(0.10).Name(),
+                                            MetricId::MeanAp(0.05).Name(),
+                                            MetricId::MeanAp(0.20).Name(),
+                                            MetricId::Plain(PlainMetric::kFalseAboveTrue).Name(),
+                                            MetricId::Plain(PlainMetric::kXyErrorMean).Name(),
+                                            MetricId::Plain(PlainMetric::kLatencyP50).Name()};
   const char* colours[] = {"#aa3377", "#4477aa", "#228833", "#ccbb44", "#66ccee", "#ee6677"};
   for (size_t p = 0; p < plotted.size(); ++p) {
     std::ostringstream script;
@@ -398,7 +397,8 @@ std::string FoldRowHtml(const nlohmann::json& fold,
   html << "</td><td>" << Number(JsonMetric(fm, MetricId::Plain(PlainMetric::kFrames)), 0)
        << "</td><td>" << Number(JsonMetric(fm, MetricId::Plain(PlainMetric::kObjects)), 0)
        << "</td>";
-  for (double d : kDistances) html << "<td>" << Number(JsonMetric(fm, MetricId::MeanAp(d))) << "</td>";
+  for (double d : kDistances)
+    html << "<td>" << Number(JsonMetric(fm, MetricId::MeanAp(d))) << "</td>";
   for (FurnitureClass c : classes)
     html << "<td>" << Number(JsonMetric(fm, MetricId::ClassAp(c, 0.10))) << "</td>";
   html << "<td>";
@@ -578,7 +578,8 @@ std::string SummaryHtml(const std::map<std::string, double>& m,
        << "<th>AP@20cm</th><th>paper best F1</th></tr>";
   for (FurnitureClass c : classes) {
     html << "<tr><td>" << ClassName(c) << "</td>";
-    for (double d : kDistances) html << "<td>" << Number(MetricOrNan(m, MetricId::ClassAp(c, d))) << "</td>";
+    for (double d : kDistances)
+      html << "<td>" << Number(MetricOrNan(m, MetricId::ClassAp(c, d))) << "</td>";
     html << "<td>" << Number(MetricOrNan(m, MetricId::PaperBestF1(c))) << "</td></tr>";
   }
   html << "</table>\n";
@@ -588,12 +589,13 @@ std::string SummaryHtml(const std::map<std::string, double>& m,
 // The figures' row and the per-stage latency table.
 std::string FiguresHtml(const std::map<std::string, double>& m) {
   std::ostringstream html;
-  html << "<div class=\"row\"><div><h3>PR, protocol B</h3><img src=\"pr_detection.png\" "
-       << "alt=\"protocol B PR curves\"></div><div><h3>PR, protocol A</h3><img src=\"pr_paper.png\" "
-       << "alt=\"protocol A PR curves\"></div></div>\n<div class=\"row\"><div><h3>Confusion (10 cm)"
-       << "</h3><img src=\"confusion.png\" alt=\"confusion matrix\"></div><div><h3>Latency</h3>"
-       << "<img src=\"latency.png\" alt=\"latency histogram\"><table><tr><th>stage</th>"
-       << "<th>p50 ms</th></tr>";
+  html
+      << "<div class=\"row\"><div><h3>PR, protocol B</h3><img src=\"pr_detection.png\" "
+      << "alt=\"protocol B PR curves\"></div><div><h3>PR, protocol A</h3><img src=\"pr_paper.png\" "
+      << "alt=\"protocol A PR curves\"></div></div>\n<div class=\"row\"><div><h3>Confusion (10 cm)"
+      << "</h3><img src=\"confusion.png\" alt=\"confusion matrix\"></div><div><h3>Latency</h3>"
+      << "<img src=\"latency.png\" alt=\"latency histogram\"><table><tr><th>stage</th>"
+      << "<th>p50 ms</th></tr>";
   for (const auto& [name, value] : m) {
     const std::optional<MetricId> id = MetricId::TryParse(name);
     if (!id || id->kind() != MetricId::Kind::kStageLatency) continue;

@@ -94,7 +94,8 @@ void PlotEffect(const TuneReportInput& input, size_t parameter, const std::strin
 void PlotProgress(const TuneReportInput& input, const std::string& png_path) {
   std::vector<std::pair<int, double>> by_index;
   for (const TuneReportTrial& trial : input.trials)
-    by_index.emplace_back(trial.index, MetricOrNan(trial.metrics, MetricId::Parse(input.objective)));
+    by_index.emplace_back(trial.index,
+                          MetricOrNan(trial.metrics, MetricId::Parse(input.objective)));
   std::sort(by_index.begin(), by_index.end());
   std::ostringstream script;
   script << "set terminal pngcairo noenhanced size 520,340 font 'sans,10'\n"
@@ -113,10 +114,12 @@ void PlotProgress(const TuneReportInput& input, const std::string& png_path) {
 
 // Rows of headline metrics, base and best side by side per split.
 void WriteComparison(const TuneReportInput& input, std::ostringstream* html) {
-  std::vector<MetricId> rows = {MetricId::MeanAp(0.10), MetricId::MeanAp(0.05), MetricId::MeanAp(0.20)};
+  std::vector<MetricId> rows = {
+      MetricId::MeanAp(0.10), MetricId::MeanAp(0.05), MetricId::MeanAp(0.20)};
   for (FurnitureClass c : kAllClasses) {
     const MetricId ap = MetricId::ClassAp(c, 0.10);
-    const bool paper = std::find(kPaperClasses.begin(), kPaperClasses.end(), c) != kPaperClasses.end();
+    const bool paper =
+        std::find(kPaperClasses.begin(), kPaperClasses.end(), c) != kPaperClasses.end();
     if (paper || input.base_validation.count(ap.Name()) || input.best_validation.count(ap.Name()))
       rows.push_back(ap);
   }
@@ -202,8 +205,8 @@ void WriteTuneReport(const TuneReportInput& input, const std::string& dir) {
          << (trial.index == 0 ? " (base)" : "") << "</td><td>" << trial.run_id << "</td><td>"
          << Number(MetricOrNan(trial.metrics, MetricId::Parse(input.objective))) << "</td><td>"
          << Number(MetricOrNan(trial.metrics, MetricId::MeanAp(0.05))) << "</td><td>"
-         << Number(MetricOrNan(trial.metrics, MetricId::Plain(PlainMetric::kLatencyP50)), 1) << "</td><td>"
-         << (trial.retrained ? "yes" : "no") << "</td>";
+         << Number(MetricOrNan(trial.metrics, MetricId::Plain(PlainMetric::kLatencyP50)), 1)
+         << "</td><td>" << (trial.retrained ? "yes" : "no") << "</td>";
     for (const std::string& value : trial.values) html << "<td>" << HtmlEscape(value) << "</td>";
     html << "</tr>\n";
   }

@@ -28,7 +28,7 @@ run evaluate --model ms.fcm --db cv.db --split all --max-frames 6 --quiet
 run report --db d.db --out report
 "$wb" detect --model ms.fcm --db d.db --frame 2 --debug-dir detect --explain --out detect.json \
   > /dev/null 2> explain.txt
-run dataset import-real "$repo/data/real/labels.json" --out real.db
+run dataset import-real "$repo/data/real/labels.json" --out real.db --sheets sheets
 run evaluate --model ms.fcm --db real.db --split test --quiet
 run dataset export d.db --format rosbag --out d.bag --split test 2>/dev/null || true
 run dataset export d.db --format bop --out bop

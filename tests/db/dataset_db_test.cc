@@ -43,7 +43,8 @@ RoomRecord MakeRoom(int64_t id, size_t image_bytes) {
 TEST(DatasetDb, RoomsRoundTrip) {
   const std::string path = testing::ScratchDir() + "/d.db";
   DatasetDb dataset(path, DatasetDb::Mode::kReadWrite);
-  dataset.WriteModels({{"m", FurnitureClass::kChair, "abc", Eigen::Vector3d(0.5, 0.5, 0.9), false}});
+  dataset.WriteModels(
+      {{"m", FurnitureClass::kChair, "abc", Eigen::Vector3d(0.5, 0.5, 0.9), false}});
   const RoomRecord room = MakeRoom(3, 100);
   dataset.WriteRoom(room);
   EXPECT_TRUE(dataset.HasRoom(3));
@@ -53,8 +54,9 @@ TEST(DatasetDb, RoomsRoundTrip) {
   EXPECT_EQ(back.frames[1].depth_noisy_png, room.frames[1].depth_noisy_png);
   EXPECT_EQ(back.objects[0].furniture_class, FurnitureClass::kChair);
   // The same model with another hash means the catalog changed: refused.
-  EXPECT_THROW(dataset.WriteModels({{"m", FurnitureClass::kChair, "xyz", Eigen::Vector3d::Ones(), false}}),
-               DbError);
+  EXPECT_THROW(
+      dataset.WriteModels({{"m", FurnitureClass::kChair, "xyz", Eigen::Vector3d::Ones(), false}}),
+      DbError);
   EXPECT_THROW(dataset.WriteRoom(room), DbError);  // room 3 exists
 }
 
@@ -62,7 +64,8 @@ TEST(DatasetDb, FullDiskFailsCleanlyAndKeepsWholeRooms) {
   const std::string path = testing::ScratchDir() + "/full.db";
   {
     DatasetDb dataset(path, DatasetDb::Mode::kReadWrite);
-    dataset.WriteModels({{"m", FurnitureClass::kChair, "abc", Eigen::Vector3d(0.5, 0.5, 0.9), false}});
+    dataset.WriteModels(
+        {{"m", FurnitureClass::kChair, "abc", Eigen::Vector3d(0.5, 0.5, 0.9), false}});
     dataset.WriteRoom(MakeRoom(0, 20000));
     // A disk that is full after a few more pages, as SQLite sees it.
     Statement pages(dataset.database(), "PRAGMA page_count");

@@ -9,9 +9,9 @@
 
 #include "core/error.h"
 #include "core/render_compare.h"
+#include "tests/test_util.h"
 #include "workbench/formats/depth_png.h"
 #include "workbench/formats/point_cloud_file.h"
-#include "tests/test_util.h"
 
 namespace furn {
 namespace {

@@ -13,11 +13,11 @@
 #include "core/file_util.h"
 #include "core/mesh.h"
 #include "db/dataset_db.h"
-#include "workbench/formats/depth_png.h"
-#include "workbench/formats/point_cloud_file.h"
 #include "scenes/mesh_io.h"
 #include "tests/scenes/fixtures.h"
 #include "tests/test_util.h"
+#include "workbench/formats/depth_png.h"
+#include "workbench/formats/point_cloud_file.h"
 #include "workbench/pipelines/catalog_tools.h"
 
 namespace furn {

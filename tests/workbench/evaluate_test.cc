@@ -13,8 +13,8 @@
 #include "core/file_util.h"
 #include "db/dataset_db.h"
 #include "db/sqlite.h"
-#include "workbench/formats/depth_png.h"
 #include "tests/test_util.h"
+#include "workbench/formats/depth_png.h"
 
 namespace furn {
 namespace {

@@ -1,6 +1,6 @@
+#include "reports/frame_preview.h"
 #include "workbench/formats/depth_png.h"
 #include "workbench/formats/point_cloud_file.h"
-#include "reports/frame_preview.h"
 #include "workbench/formats/point_fields.h"
 
 #include <gtest/gtest.h>
@@ -159,10 +159,13 @@ TEST(PointFields, DecodesEveryTypeAndRowPaddingAndRefusesBrokenLayouts) {
     EXPECT_EQ(xyz[k], Eigen::Vector3f(points[k].x, static_cast<float>(points[k].y), points[k].z))
         << k;
   }
-  auto error = [&](const PackedPoints& p) { return testing::ErrorOf([&] { DecodeXyz(p, "c.pcd"); }); };
+  auto error = [&](const PackedPoints& p) {
+    return testing::ErrorOf([&] { DecodeXyz(p, "c.pcd"); });
+  };
   PackedPoints broken = packed;
   broken.fields.erase(broken.fields.begin() + 1);
-  EXPECT_NE(error(broken).find("c.pcd: the cloud has no x, y, z fields (no 'y')"), std::string::npos);
+  EXPECT_NE(error(broken).find("c.pcd: the cloud has no x, y, z fields (no 'y')"),
+            std::string::npos);
   broken = packed;
   broken.fields[0].datatype = 9;
   EXPECT_NE(error(broken).find("datatype 9"), std::string::npos);

@@ -10,15 +10,15 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
-#include <sstream>
 #include <opencv2/imgcodecs.hpp>
+#include <sstream>
 
 #include "core/error.h"
 #include "db/dataset_db.h"
 #include "renderers/embree_caster.h"
-#include "workbench/formats/depth_png.h"
 #include "scenes/procedural_catalog.h"
 #include "tests/test_util.h"
+#include "workbench/formats/depth_png.h"
 #include "workbench/pipelines/dataset_tools.h"
 
 namespace furn {

@@ -23,8 +23,8 @@
 #include "db/sqlite.h"
 #include "renderers/camera.h"
 #include "tests/test_util.h"
-#include "workbench/formats/scan_file.h"
 #include "workbench/formats/rosbag_io.h"
+#include "workbench/formats/scan_file.h"
 
 namespace furn {
 namespace {

@@ -20,21 +20,19 @@ DetectorFlags::DetectorFlags(CLI::App* app, const std::set<std::string>& skip)
                    options_file_,
                    "Options file (a run's options, a tuned file): its \"detector\" options; the "
                    "flags given apply on top");
-  app_->add_flag("--no-scorer",
-                 no_scorer_,
-                 "Decide by the fixed gates: no learned hypothesis scorer");
+  app_->add_flag(
+      "--no-scorer", no_scorer_, "Decide by the fixed gates: no learned hypothesis scorer");
 }
 
 DetectorOptions DetectorFlags::Resolve(bool apply_no_scorer) const {
-  DetectorOptions options = options_file_.empty()
-                                ? DetectorOptions{}
-                                : DetectorOptionsFromJson(ReadFileBytes(options_file_), options_file_);
+  DetectorOptions options =
+      options_file_.empty() ? DetectorOptions{}
+                            : DetectorOptionsFromJson(ReadFileBytes(options_file_), options_file_);
   // The table visits both structs in the same order: the k-th member of one
   // is the k-th of the other, of the same type.
   std::vector<void*> members;
-  ForEachDetectorOption(&options, [&members](const DetectorOptionInfo&, auto& value) {
-    members.push_back(&value);
-  });
+  ForEachDetectorOption(
+      &options, [&members](const DetectorOptionInfo&, auto& value) { members.push_back(&value); });
   size_t k = 0;
   DetectorOptions parsed = parsed_;
   ForEachDetectorOption(&parsed, [&](const DetectorOptionInfo& info, auto& value) {

@@ -6,9 +6,9 @@
 #include "core/progress.h"
 #include "reports/mesh_sheet.h"
 #include "scenes/mesh_io.h"
-#include "workbench/pipelines/catalog_tools.h"
 #include "workbench/cli/cli_common.h"
 #include "workbench/cli/commands.h"
+#include "workbench/pipelines/catalog_tools.h"
 
 namespace furn {
 namespace {
@@ -78,7 +78,8 @@ int RunCatalog(int argc, char** argv) {
   bool json = false;
   std::string class_name;
   list->add_flag("--all", list_options.all_entries, "Also list entries without a class");
-  list->add_option("--class", class_name, "Only this class (" + EnumNameList<FurnitureClass>() + ")");
+  list->add_option(
+      "--class", class_name, "Only this class (" + EnumNameList<FurnitureClass>() + ")");
   list->add_flag("--load",
                  list_options.load_models,
                  "Import every listed model: triangle counts, hashes, skipped models");

@@ -5,16 +5,16 @@
 
 #include "core/error.h"
 #include "core/file_util.h"
-#include "workbench/formats/depth_png.h"
 #include "scenes/room_composer.h"
 #include "workbench/cli/cli_common.h"
 #include "workbench/cli/commands.h"
-#include "workbench/pipelines/dataset_tools.h"
+#include "workbench/formats/depth_png.h"
+#include "workbench/formats/rosbag_io.h"
 #include "workbench/formats/scan_file.h"
+#include "workbench/pipelines/dataset_tools.h"
+#include "workbench/pipelines/export_rosbag.h"
 #include "workbench/pipelines/generate.h"
 #include "workbench/pipelines/import_real.h"
-#include "workbench/formats/rosbag_io.h"
-#include "workbench/pipelines/export_rosbag.h"
 #include "workbench/pipelines/sensor_noise.h"
 
 namespace furn {

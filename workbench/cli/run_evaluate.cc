@@ -45,11 +45,12 @@ void PrintLosses(const std::map<std::string, double>& m) {
   std::printf("  objects by stage reached:");
   for (size_t k = 0; k < losses.size(); ++k)
     std::printf("%s %s %.0f", k ? "," : "", losses[k].second.c_str(), -losses[k].first);
-  std::printf("\n  false positives: duplicate %.0f, mislocated %.0f, wrong class %.0f, background %.0f\n",
-              MetricOrNan(m, MetricId::FalsePositives(FalsePositiveKind::kDuplicate)),
-              MetricOrNan(m, MetricId::FalsePositives(FalsePositiveKind::kMislocated)),
-              MetricOrNan(m, MetricId::FalsePositives(FalsePositiveKind::kWrongClass)),
-              MetricOrNan(m, MetricId::FalsePositives(FalsePositiveKind::kBackground)));
+  std::printf(
+      "\n  false positives: duplicate %.0f, mislocated %.0f, wrong class %.0f, background %.0f\n",
+      MetricOrNan(m, MetricId::FalsePositives(FalsePositiveKind::kDuplicate)),
+      MetricOrNan(m, MetricId::FalsePositives(FalsePositiveKind::kMislocated)),
+      MetricOrNan(m, MetricId::FalsePositives(FalsePositiveKind::kWrongClass)),
+      MetricOrNan(m, MetricId::FalsePositives(FalsePositiveKind::kBackground)));
 }
 
 void PrintHeadline(const EvaluateSummary& summary) {

@@ -7,8 +7,8 @@
 #include "core/hypothesis_scorer.h"
 #include "workbench/cli/cli_common.h"
 #include "workbench/cli/commands.h"
-#include "workbench/pipelines/eval_parts.h"
 #include "workbench/formats/options_file.h"
+#include "workbench/pipelines/eval_parts.h"
 #include "workbench/pipelines/train.h"
 
 namespace furn {

@@ -1,9 +1,9 @@
 #include "workbench/formats/depth_png.h"
 
 #include <fcntl.h>
+#include <libdeflate.h>
 #include <png.h>
 #include <unistd.h>
-#include <libdeflate.h>
 #include <algorithm>
 #include <cmath>
 #include <cstdio>

@@ -25,12 +25,13 @@ template <typename Options, typename Visit>
 void ForEachDetectorOption(Options* options, Visit&& visit) {
   Options& o = *options;
   visit(DetectorOptionInfo{"max_range_m", "--max-range", "Drop points beyond (m)"}, o.max_range_m);
-  visit(DetectorOptionInfo{"floor_band_m", "--floor-band", "Points below this height are floor (m)"},
-        o.floor_band_m);
-  visit(DetectorOptionInfo{"floor.distance_m",
-                           "--floor-distance",
-                           "Floor search: RANSAC inlier distance (m)"},
-        o.floor.distance_m);
+  visit(
+      DetectorOptionInfo{"floor_band_m", "--floor-band", "Points below this height are floor (m)"},
+      o.floor_band_m);
+  visit(
+      DetectorOptionInfo{
+          "floor.distance_m", "--floor-distance", "Floor search: RANSAC inlier distance (m)"},
+      o.floor.distance_m);
   visit(DetectorOptionInfo{"floor.iterations", "", ""}, o.floor.iterations);
   visit(DetectorOptionInfo{"floor.max_tilt_deg",
                            "--floor-max-tilt",
@@ -42,14 +43,15 @@ void ForEachDetectorOption(Options* options, Visit&& visit) {
   visit(DetectorOptionInfo{"cell_m", "", ""}, o.cell_m);
   visit(DetectorOptionInfo{"vote_sigma_m", "", ""}, o.vote_sigma_m);
   visit(DetectorOptionInfo{"vote_height_tolerance_m", "", ""}, o.vote_height_tolerance_m);
-  visit(DetectorOptionInfo{"relative_threshold", "--threshold", "Relative vote threshold t (eq. 8)"},
-        o.relative_threshold);
+  visit(
+      DetectorOptionInfo{"relative_threshold", "--threshold", "Relative vote threshold t (eq. 8)"},
+      o.relative_threshold);
   visit(DetectorOptionInfo{"absolute_threshold", "--absolute-threshold", "Minimum vote weight"},
         o.absolute_threshold);
-  visit(DetectorOptionInfo{"max_hypotheses_per_class",
-                           "--max-hypotheses",
-                           "Strongest maxima kept per class"},
-        o.max_hypotheses_per_class);
+  visit(
+      DetectorOptionInfo{
+          "max_hypotheses_per_class", "--max-hypotheses", "Strongest maxima kept per class"},
+      o.max_hypotheses_per_class);
   visit(DetectorOptionInfo{"support_radius_m", "", ""}, o.support_radius_m);
   visit(DetectorOptionInfo{"neighbours", "", ""}, o.neighbours);
   visit(DetectorOptionInfo{"top_models", "--top-models", "CAD models fitted per hypothesis"},
@@ -72,8 +74,9 @@ void ForEachDetectorOption(Options* options, Visit&& visit) {
         o.own_segment_share);
   visit(DetectorOptionInfo{"occupancy_voxel_m", "", ""}, o.occupancy_voxel_m);
   visit(DetectorOptionInfo{"occupied_weight", "", ""}, o.occupied_weight);
-  visit(DetectorOptionInfo{"min_verification", "--min-verification", "Fixed gates: visibility score"},
-        o.min_verification);
+  visit(
+      DetectorOptionInfo{"min_verification", "--min-verification", "Fixed gates: visibility score"},
+      o.min_verification);
   visit(DetectorOptionInfo{"min_seen_occupied",
                            "--min-seen",
                            "Fixed gates: share of the fit's observable surface seen"},

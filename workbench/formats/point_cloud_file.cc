@@ -145,8 +145,8 @@ void CheckPcdBody(const std::string& bytes,
     const uint64_t lines = static_cast<uint64_t>(
         std::count(bytes.begin() + static_cast<std::ptrdiff_t>(at), bytes.end(), '\n') + 1);
     Require(points <= lines,
-            path + ": PCD declares " + std::to_string(points) +
-                " points, but its ascii body has " + std::to_string(lines) + " lines");
+            path + ": PCD declares " + std::to_string(points) + " points, but its ascii body has " +
+                std::to_string(lines) + " lines");
   }
 }
 

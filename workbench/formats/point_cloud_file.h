@@ -43,5 +43,4 @@ void WriteOrganizedPcd(const DepthFrame& frame,
                        const CameraIntrinsics& camera,
                        const std::string& path);
 
-
 }  // namespace furn

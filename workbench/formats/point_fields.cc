@@ -31,7 +31,7 @@ double ValueAt(const uint8_t* at, uint8_t datatype) {
                                  &Load<float>,
                                  &Load<double>};
   return datatype >= 1 && datatype < std::size(kLoaders) ? kLoaders[datatype](at)
-                                                          : std::numeric_limits<double>::quiet_NaN();
+                                                         : std::numeric_limits<double>::quiet_NaN();
 }
 
 // The x, y or z field, checked against the point's size.
@@ -66,10 +66,10 @@ std::vector<Eigen::Vector3f> DecodeXyz(const PackedPoints& points, const std::st
                                      &AxisField(points, 'y', where),
                                      &AxisField(points, 'z', where)};
   const uint64_t width = points.width, height = points.height;
-  Require(width <= kMaxPackedPoints && height <= kMaxPackedPoints &&
-              width * height <= kMaxPackedPoints,
-          where + ": " + std::to_string(width) + " x " + std::to_string(height) +
-              " points is over the limit of 2^26");
+  Require(
+      width <= kMaxPackedPoints && height <= kMaxPackedPoints && width * height <= kMaxPackedPoints,
+      where + ": " + std::to_string(width) + " x " + std::to_string(height) +
+          " points is over the limit of 2^26");
   const uint64_t row_step = points.row_step > 0 ? points.row_step : width * points.point_step;
   Require(width * points.point_step <= row_step,
           where + ": row_step " + std::to_string(row_step) + " is less than width x point_step");

@@ -67,7 +67,8 @@ PackedPoints PackedPointsOf(const Cloud& cloud) {
   packed.point_step = cloud.point_step;
   packed.row_step = cloud.row_step;
   packed.big_endian = cloud.is_bigendian;
-  for (const auto& field : cloud.fields) packed.fields.push_back({field.name, field.offset, field.datatype});
+  for (const auto& field : cloud.fields)
+    packed.fields.push_back({field.name, field.offset, field.datatype});
   return packed;
 }
 

@@ -70,9 +70,10 @@ RealObject ReadObject(const nlohmann::json& json, const std::string& where) {
   // The real set labels the paper's four classes (its sheets and baselines
   // are theirs); a sofa or a later class is refused by name.
   const std::optional<FurnitureClass> furniture_class = FurnitureClassNamed(name);
-  Require(furniture_class && std::find(kPaperClasses.begin(), kPaperClasses.end(),
-                                       *furniture_class) != kPaperClasses.end(),
-          where + ": class '" + name + "' must be chair, armchair, table or sideboard");
+  Require(
+      furniture_class && std::find(kPaperClasses.begin(), kPaperClasses.end(), *furniture_class) !=
+                             kPaperClasses.end(),
+      where + ": class '" + name + "' must be chair, armchair, table or sideboard");
   object.furniture_class = *furniture_class;
   Require(fields.Has("x") && fields.Has("y"), where + ": needs 'x' and 'y' (metres)");
   object.x = fields.Number("x", 0);

@@ -34,8 +34,8 @@ namespace furn {
 
 struct RealObject {
   FurnitureClass furniture_class = FurnitureClass::kChair;
-  double x = 0, y = 0;          // footprint centre, label frame, metres
-  std::optional<double> yaw;    // radians about z, the front along the model's -y
+  double x = 0, y = 0;        // footprint centre, label frame, metres
+  std::optional<double> yaw;  // radians about z, the front along the model's -y
   Eigen::Vector3d size = Eigen::Vector3d(0.5, 0.5, 0.8);  // width, depth, height (m)
   double visibility = 1;
   std::string note;

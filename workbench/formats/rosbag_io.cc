@@ -53,9 +53,9 @@ int FrameBagWriter::Finish() { NoRos(); }
 #include "core/progress.h"
 #include "core/trainer.h"
 #include "db/dataset_db.h"
+#include "reports/class_colours.h"
 #include "workbench/formats/depth_png.h"
 #include "workbench/formats/point_fields.h"
-#include "reports/class_colours.h"
 
 namespace furn {
 namespace {
@@ -371,8 +371,8 @@ BagScan ScanOfMessage(const rosbag::MessageInstance& m,
     DepthFrame depth = DepthOf(*image, options.depth_scale, where);
     Require(depth.width == camera->width && depth.height == camera->height,
             where + ": the image is " + std::to_string(depth.width) + "x" +
-                std::to_string(depth.height) + " but the CameraInfo of " + info_topic +
-                " is for " + std::to_string(camera->width) + "x" + std::to_string(camera->height));
+                std::to_string(depth.height) + " but the CameraInfo of " + info_topic + " is for " +
+                std::to_string(camera->width) + "x" + std::to_string(camera->height));
     scan.loaded.input.points = BackProject(depth, *camera);
     scan.loaded.input.width = depth.width;
     scan.loaded.input.height = depth.height;
@@ -492,8 +492,8 @@ void BagMarkerWriter::Add(const BagScan& scan,
       const ModelShape& shape = model.model_shapes[d.model_index];
       size = (shape.high - shape.low).cast<double>();
     }
-    visualization_msgs::Marker box =
-        BoxMarker("furnidet/" + name, id, d.furniture_class, d.x, d.y, d.yaw, size, frame_from_world);
+    visualization_msgs::Marker box = BoxMarker(
+        "furnidet/" + name, id, d.furniture_class, d.x, d.y, d.yaw, size, frame_from_world);
     visualization_msgs::Marker label = box;
     label.ns = "furnidet/labels";
     label.type = visualization_msgs::Marker::TEXT_VIEW_FACING;
@@ -628,7 +628,9 @@ FrameBagWriter::~FrameBagWriter() {
   std::filesystem::remove(impl_->temporary, ec);
 }
 
-void FrameBagWriter::Write(const RoomRecord& room, const FrameRecord& frame, const std::string& where) {
+void FrameBagWriter::Write(const RoomRecord& room,
+                           const FrameRecord& frame,
+                           const std::string& where) {
   try {
     const int written = impl_->frames;
     ros::Time stamp(1 + written / 10, (written % 10) * 100000000);
@@ -636,7 +638,8 @@ void FrameBagWriter::Write(const RoomRecord& room, const FrameRecord& frame, con
     header.stamp = stamp;
     header.frame_id = kCameraFrame;
     header.seq = static_cast<uint32_t>(frame.id);
-    const sensor_msgs::Image image = DepthImage(DecodeDepthPng(frame.depth_noisy_png, where), header);
+    const sensor_msgs::Image image =
+        DepthImage(DecodeDepthPng(frame.depth_noisy_png, where), header);
     sensor_msgs::Image ids = image;
     DepthFrame labels;
     labels.Resize(frame.width, frame.height);

@@ -105,5 +105,4 @@ class FrameBagWriter {
   std::unique_ptr<Impl> impl_;
 };
 
-
 }  // namespace furn

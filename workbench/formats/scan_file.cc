@@ -13,9 +13,9 @@
 #include "core/file_util.h"
 #include "core/render_compare.h"
 #include "db/dataset_db.h"
+#include "workbench/formats/camera_file.h"
 #include "workbench/formats/depth_png.h"
 #include "workbench/formats/point_cloud_file.h"
-#include "workbench/formats/camera_file.h"
 #include "workbench/formats/real_labels.h"
 
 namespace furn {
@@ -222,7 +222,8 @@ LoadedScan LoadCloudScan(const ScanSource& source, bool world_options) {
 CameraIntrinsics CameraOfDepthImage(const ScanSource& source,
                                     const CameraFile& camera_file,
                                     const DepthFrame& frame) {
-  if (source.camera_file.empty()) return ParseIntrinsics(source.intrinsics, frame.width, frame.height);
+  if (source.camera_file.empty())
+    return ParseIntrinsics(source.intrinsics, frame.width, frame.height);
   CameraIntrinsics camera = camera_file.camera;
   Require((camera.width == 0 && camera.height == 0) ||
               (camera.width == frame.width && camera.height == frame.height),

@@ -308,9 +308,9 @@ ImportedMesh DescribeMesh(const std::filesystem::path& file,
   const Eigen::Matrix3f engine_from_file = y_up ? ZUpFromYUp() : Eigen::Matrix3f::Identity();
   Eigen::Vector3f front = engine_from_file.transpose() * Eigen::Vector3f(0, -1, 0);
   mesh.note = "units " + mesh.units + (metres == 1.0 ? "" : " (guessed from the height)");
-  if (!clutter && (furniture_class == FurnitureClass::kChair ||
-                   furniture_class == FurnitureClass::kArmchair ||
-                   furniture_class == FurnitureClass::kSofa)) {
+  if (!clutter &&
+      (furniture_class == FurnitureClass::kChair || furniture_class == FurnitureClass::kArmchair ||
+       furniture_class == FurnitureClass::kSofa)) {
     if (const auto guessed = GuessFrontFromBack(model.mesh)) {
       front = engine_from_file.transpose() * *guessed;
       mesh.note += "; front guessed from the back rest";
@@ -322,8 +322,8 @@ ImportedMesh DescribeMesh(const std::filesystem::path& file,
   }
   mesh.front = AxisText(front);
   std::error_code ec;
-  mesh.mesh = std::filesystem::relative(std::filesystem::absolute(file), out_folder, ec)
-                  .generic_string();
+  mesh.mesh =
+      std::filesystem::relative(std::filesystem::absolute(file), out_folder, ec).generic_string();
   if (ec || mesh.mesh.empty()) mesh.mesh = std::filesystem::absolute(file).string();
   return mesh;
 }
@@ -358,8 +358,7 @@ MeshFolderImport ImportMeshFolder(const MeshFolderImportOptions& options) {
       import.skipped.push_back({folder + "/" + file.stem().string(), error.what()});
       continue;
     }
-    ImportedMesh mesh =
-        DescribeMesh(file, std::move(model), furniture_class, clutter, out_folder);
+    ImportedMesh mesh = DescribeMesh(file, std::move(model), furniture_class, clutter, out_folder);
     entries.push_back(ordered_json{{"id", mesh.id},
                                    {"class", mesh.class_name},
                                    {"mesh", mesh.mesh},

@@ -83,8 +83,8 @@ void Aggregate(CrossvalSummary* summary) {
   }
   // Sizes are totals, not means.
   for (const std::string& total : {MetricId::Plain(PlainMetric::kFrames).Name(),
-                                  MetricId::Plain(PlainMetric::kObjects).Name(),
-                                  MetricId::Plain(PlainMetric::kFramesWithoutPoints).Name()}) {
+                                   MetricId::Plain(PlainMetric::kObjects).Name(),
+                                   MetricId::Plain(PlainMetric::kFramesWithoutPoints).Name()}) {
     if (!values.count(total)) continue;
     double sum = 0;
     for (double x : values[total]) sum += x;
@@ -250,9 +250,11 @@ int64_t WriteCrossvalRun(const std::string& db_path,
   const auto in = [](const std::string& name, MetricId::Group group) {
     return MetricId::Parse(name).InGroup(group).Name();
   };
-  for (const auto& [name, value] : summary.spread) metrics[in(name, MetricId::Group::kSpread)] = value;
+  for (const auto& [name, value] : summary.spread)
+    metrics[in(name, MetricId::Group::kSpread)] = value;
   metrics[MetricId::Plain(PlainMetric::kFolds).Name()] = summary.folds;
-  for (const auto& [name, value] : summary.gates) metrics[in(name, MetricId::Group::kGates)] = value;
+  for (const auto& [name, value] : summary.gates)
+    metrics[in(name, MetricId::Group::kGates)] = value;
   DatasetDb dataset(db_path, DatasetDb::Mode::kReadWriteExisting);
   return dataset.WriteRun(run, metrics, {}, {});
 }

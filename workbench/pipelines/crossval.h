@@ -25,8 +25,8 @@
 #include <vector>
 
 #include "scenes/catalog.h"
-#include "workbench/pipelines/evaluate.h"
 #include "workbench/formats/options_file.h"
+#include "workbench/pipelines/evaluate.h"
 
 namespace furn {
 

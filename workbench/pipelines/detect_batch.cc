@@ -38,7 +38,9 @@ double Median(std::vector<double> values) {
   return values[values.size() / 2];
 }
 
-void Explain(const std::string& description, const DetectionResult& result, const Detector& detector) {
+void Explain(const std::string& description,
+             const DetectionResult& result,
+             const Detector& detector) {
   std::fprintf(stderr, "%s: ", description.c_str());
   std::fputs(ExplainDetection(result, detector.model()).c_str(), stderr);
 }
@@ -61,7 +63,8 @@ int DetectOneScan(const LoadedScan& scan, const Detector& detector, const Detect
   std::map<DetectionStage, std::vector<double>> stage_times;
   DetectionResult result;
   for (int k = 0; k < run.repeat; ++k) {
-    result = detector.Detect(scan.input, /*keep_debug=*/!run.debug_dir.empty() && k == run.repeat - 1);
+    result =
+        detector.Detect(scan.input, /*keep_debug=*/!run.debug_dir.empty() && k == run.repeat - 1);
     // One scan given by the user: nothing in range is most likely a wrong file or unit.
     Require(result.status == DetectionStatus::kDetected, scan.description + ": " + result.message);
     for (const StageTime& t : result.timings_ms.stages) stage_times[t.stage].push_back(t.ms);
@@ -127,10 +130,8 @@ int DetectBatch(const std::vector<ScanSource>& sources,
 // One message's JSON line: its place in the bag first, then what
 // DetectionJson (or the error line) says.
 std::string BagLine(const BagScan& scan, const DetectionResult& result) {
-  const nlohmann::ordered_json place{{"topic", scan.topic},
-                                     {"stamp", scan.stamp},
-                                     {"seq", scan.seq},
-                                     {"frame_id", scan.frame_id}};
+  const nlohmann::ordered_json place{
+      {"topic", scan.topic}, {"stamp", scan.stamp}, {"seq", scan.seq}, {"frame_id", scan.frame_id}};
   const std::string place_text = place.dump();  // {"topic":...}
   const std::string line = result.status != DetectionStatus::kDetected
                                ? ScanErrorJson(scan.loaded.description, result.message)
@@ -146,9 +147,8 @@ bool IsBatch(const std::vector<std::string>& inputs, const std::vector<ScanSourc
   if (inputs.empty()) return false;
   if (inputs[0].find_first_of("*?[") != std::string::npos) return true;
   // A list or a folder that expanded to one scan is still a batch.
-  return !sources.empty() &&
-         (sources[0].cloud_path.empty() ? sources[0].depth_path : sources[0].cloud_path) !=
-             inputs[0];
+  return !sources.empty() && (sources[0].cloud_path.empty() ? sources[0].depth_path
+                                                            : sources[0].cloud_path) != inputs[0];
 }
 
 int DetectScans(const std::vector<ScanSource>& sources, bool batch, const DetectRunOptions& run) {
@@ -163,10 +163,13 @@ int DetectScans(const std::vector<ScanSource>& sources, bool batch, const Detect
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - load_start)
           .count();
   if (run.timings) std::fprintf(stderr, "model loaded in %.0f ms\n", load_ms);
-  return batch ? DetectBatch(sources, detector, load_ms, run) : DetectOneScan(*first, detector, run);
+  return batch ? DetectBatch(sources, detector, load_ms, run)
+               : DetectOneScan(*first, detector, run);
 }
 
-int DetectInBag(const BagScanOptions& bag, const std::string& out_bag, const DetectRunOptions& run) {
+int DetectInBag(const BagScanOptions& bag,
+                const std::string& out_bag,
+                const DetectRunOptions& run) {
   RequireRegularFile(bag.bag_path);  // before the model loads: a wrong path fails at once
   const Detector detector(LoadTrainedModel(run.model_path), run.detector);
   std::optional<BagMarkerWriter> markers;

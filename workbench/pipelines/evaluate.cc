@@ -19,9 +19,9 @@
 #include "reports/detection_debug.h"
 #include "reports/run_report.h"
 #include "scenes/model_folds.h"
-#include "workbench/formats/scan_file.h"
 #include "workbench/formats/json_text.h"
 #include "workbench/formats/real_labels.h"
+#include "workbench/formats/scan_file.h"
 
 namespace furn {
 namespace {
@@ -478,7 +478,8 @@ Baseline LoadBaseline(DatasetDb& dataset, const std::string& db_path, const std:
     if (json.contains("tolerances"))
       baseline.tolerances = json["tolerances"].get<std::map<std::string, double>>();
   } catch (const nlohmann::json::exception& error) {
-    throw InputError(spec + ": not a baseline file ({\"metrics\": {name: value}}): " + error.what());
+    throw InputError(spec +
+                     ": not a baseline file ({\"metrics\": {name: value}}): " + error.what());
   }
   baseline.name = spec;
   return baseline;

@@ -26,8 +26,8 @@ namespace furn {
 
 struct EvaluateCommandOptions {
   Split split = Split::kTest;
-  int max_frames = 0;          // 0: every frame of the split
-  std::string label;           // free text stored with the run
+  int max_frames = 0;  // 0: every frame of the split
+  std::string label;   // free text stored with the run
   std::string kind = "evaluate";
   // A JSON object whose members join the run's stored options (tune puts its
   // id, trial and parameters here); "" for none.

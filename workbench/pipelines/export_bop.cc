@@ -276,7 +276,8 @@ class BopRoomWriter {
     const FrameObjectRecord& seen = frame.objects[k];
     const ObjectRecord& object = *objects_.at(seen.instance_id);
     const ExportedModel& model = models_.at(object.model_id);
-    const CameraIntrinsics camera{frame.width, frame.height, frame.fx, frame.fy, frame.cx, frame.cy};
+    const CameraIntrinsics camera{
+        frame.width, frame.height, frame.fx, frame.fy, frame.cx, frame.cy};
     DepthFrame rendered;
     casters_.at(seen.instance_id)
         ->RenderInto(alone_.at(seen.instance_id), camera, frame.world_from_camera, &rendered);
@@ -332,8 +333,7 @@ int ExportBop(const std::string& db_path,
   DatasetDb dataset(db_path, DatasetDb::Mode::kReadOnly);
   const Catalog catalog = CatalogOfDataset(dataset, db_path, options.catalog);
   const std::filesystem::path root(out_dir);
-  const std::map<std::string, ExportedModel> models =
-      ExportModels(dataset, catalog, root, db_path);
+  const std::map<std::string, ExportedModel> models = ExportModels(dataset, catalog, root, db_path);
   const std::vector<int64_t> room_ids = dataset.RoomIds();
   Progress progress("export bop", room_ids.size(), "rooms");
   int written = 0;

@@ -1,8 +1,8 @@
 #include "workbench/pipelines/generate.h"
 
 #include <atomic>
-#include <cstdio>
 #include <chrono>
+#include <cstdio>
 #include <cstdlib>
 #include <future>
 #include <map>
@@ -15,8 +15,8 @@
 #include "core/random.h"
 #include "db/dataset_db.h"
 #include "renderers/embree_caster.h"
-#include "workbench/formats/depth_png.h"
 #include "renderers/kinect_simulator.h"
+#include "workbench/formats/depth_png.h"
 #include "workbench/formats/scan_file.h"
 
 namespace furn {

@@ -116,9 +116,9 @@ namespace {
 
 // A frame's planes (floor, walls) and which pixel lies on which.
 struct FramePlanes {
-  std::vector<int> pixels;                // of the points in range
-  std::vector<Eigen::Vector3f> points;    // camera frame
-  std::vector<int> plane_of_pixel;        // -1: on none
+  std::vector<int> pixels;              // of the points in range
+  std::vector<Eigen::Vector3f> points;  // camera frame
+  std::vector<int> plane_of_pixel;      // -1: on none
   std::vector<Plane> planes;
 };
 
@@ -184,7 +184,8 @@ void FillDropouts(const DepthFrame& depth, std::vector<int>* plane_of_pixel) {
           if (k >= 0) ++votes[k];
         }
       }
-      const int best = static_cast<int>(std::max_element(votes.begin(), votes.end()) - votes.begin());
+      const int best =
+          static_cast<int>(std::max_element(votes.begin(), votes.end()) - votes.begin());
       if (votes[best] >= 13) (*plane_of_pixel)[i] = best;  // most of the window
     }
   }

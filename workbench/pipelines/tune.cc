@@ -14,8 +14,8 @@
 #include "core/random.h"
 #include "db/dataset_db.h"
 #include "reports/tune_report.h"
-#include "workbench/pipelines/evaluate.h"
 #include "workbench/formats/json_text.h"
+#include "workbench/pipelines/evaluate.h"
 #include "workbench/pipelines/train.h"
 
 namespace furn {
@@ -125,7 +125,8 @@ std::set<std::string> MetricNames() {
       frame.detections.push_back({c, name, x, 0, 0, 1.0, 1});
     }
   }
-  frame.detections.push_back({FurnitureClass::kChair, "chair", -5, 0, 0, 0.5, 1});  // a false positive
+  frame.detections.push_back(
+      {FurnitureClass::kChair, "chair", -5, 0, 0, 0.5, 1});  // a false positive
   std::set<std::string> names;
   for (const auto& [name, value] : EvaluateFrames({frame}, EvaluationOptions{}).metrics)
     names.insert(name);
@@ -244,7 +245,8 @@ std::vector<std::vector<std::string>> GridPoints(const TuneSpace& space, int cou
     }
     grid = std::move(longer);
   }
-  if (grid.size() + 1 > static_cast<size_t>(count)) std::shuffle(grid.begin(), grid.end(), rng->engine());
+  if (grid.size() + 1 > static_cast<size_t>(count))
+    std::shuffle(grid.begin(), grid.end(), rng->engine());
   return grid;
 }
 
@@ -412,8 +414,9 @@ class Tuning {
       if (!json.is_object() || !json.contains("tune") ||
           json["tune"].value("id", "") != summary_.tune_id)
         continue;
-      earlier_[{json["tune"]["trial"].get<int>(), std::string(EnumName(run.split)), json["tune"].value("seed", 0)}] = {
-          run.id, json["tune"]["parameters"].dump()};
+      earlier_[{json["tune"]["trial"].get<int>(),
+                std::string(EnumName(run.split)),
+                json["tune"].value("seed", 0)}] = {run.id, json["tune"]["parameters"].dump()};
     }
   }
 
@@ -524,8 +527,7 @@ class Tuning {
     row.run_id = run_id;
     row.values = trial.values;
     row.metrics = metrics;
-    row.within_latency =
-        options_.max_ms <= 0 || MetricOrNan(metrics, kLatency) <= options_.max_ms;
+    row.within_latency = options_.max_ms <= 0 || MetricOrNan(metrics, kLatency) <= options_.max_ms;
     row.retrained = TrainingOptionsJson(trial.training) != base_trainer_json_;
     summary_.trials_resumed += resumed;
     std::printf("tune: trial %d (%d of %d)%s: %s = %.3f, p50 %.1f ms (run %lld) %s\n",

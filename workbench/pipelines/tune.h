@@ -83,7 +83,7 @@ struct TuneOptions {
   // The trials' base detector options, when given (the CLI's detector flags
   // over the file); unset: the file's, or the defaults.
   std::optional<DetectorOptions> base_detector;
-  std::string base_model_path;    // optional: a model trained with the base trainer options
+  std::string base_model_path;  // optional: a model trained with the base trainer options
   std::string catalog_spec = "default";
   std::string split = "val";        // where trials are scored
   std::string test_split = "test";  // where the best is checked ("" or "none": skipped)

@@ -35,9 +35,9 @@
 #include "db/sqlite.h"
 #include "renderers/camera.h"
 #include "workbench/formats/depth_png.h"
+#include "workbench/formats/options_file.h"
 #include "workbench/formats/scan_file.h"
 #include "workbench/pipelines/evaluate.h"
-#include "workbench/formats/options_file.h"
 #include "workbench/pipelines/import_real.h"
 
 namespace py = pybind11;
@@ -488,8 +488,7 @@ PYBIND11_MODULE(_furnidet, m) {
       });
 
   py::class_<DetectionResult>(m, "DetectionResult")
-      .def_property_readonly("status",
-                             [](const DetectionResult& r) { return EnumName(r.status); })
+      .def_property_readonly("status", [](const DetectionResult& r) { return EnumName(r.status); })
       .def_readonly("message", &DetectionResult::message)
       .def_readonly("detections", &DetectionResult::detections)
       .def_readonly("floor_estimated", &DetectionResult::floor_estimated)
