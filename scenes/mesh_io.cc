@@ -12,6 +12,8 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <map>
+#include <optional>
 #include <set>
 #include <sstream>
 
@@ -109,11 +111,121 @@ void CheckObjFaces(const std::string& name, const std::string& bytes) {
   }
 }
 
+// Counts a mesh header declares must fit the file: assimp allocates them
+// before reading a vertex (an OFF header of 10^7 faces in 50 bytes aborted
+// it; an ASCII PLY of 10^7 faces took 830 MB).
+constexpr uint64_t kMaxMeshElements = uint64_t{1} << 26;
+
+void RequireCountsFit(const std::string& name,
+                      const char* what,
+                      uint64_t count,
+                      uint64_t min_bytes_each,
+                      uint64_t bytes_left) {
+  Require(count <= kMaxMeshElements,
+          name + ": declares " + std::to_string(count) + " " + what + " (at most 2^26)");
+  Require(count * min_bytes_each <= bytes_left,
+          name + ": declares " + std::to_string(count) + " " + what + ", more than its " +
+              std::to_string(bytes_left) + " bytes can hold");
+}
+
+// The whitespace-separated words of the lines from `at`, comments (#) skipped,
+// until `count` words are found; `at` moves past the line of the last one.
+std::vector<std::string> NextWords(const std::string& bytes, size_t* at, size_t count) {
+  std::vector<std::string> words;
+  while (*at < bytes.size() && words.size() < count) {
+    size_t end = bytes.find('\n', *at);
+    if (end == std::string::npos) end = bytes.size();
+    std::istringstream line(bytes.substr(*at, std::min<size_t>(end - *at, 4096)));
+    *at = end + 1;
+    for (std::string word; line >> word && word[0] != '#';) words.push_back(word);
+  }
+  return words;
+}
+
+std::optional<uint64_t> WholeNumber(const std::string& word) {
+  if (word.empty() || word.size() > 12 || word.find_first_not_of("0123456789") != std::string::npos)
+    return std::nullopt;
+  return std::stoull(word);
+}
+
+// OFF: "OFF" (or COFF, NOFF, ...) then vertex, face and edge counts; ASCII
+// vertices take at least 6 bytes, faces 8; binary ones 12 and 16.
+void CheckOffCounts(const std::string& name, const std::string& bytes) {
+  size_t at = 0;
+  std::vector<std::string> words = NextWords(bytes, &at, 1);
+  Require(!words.empty() && words[0].size() >= 3 &&
+              words[0].compare(words[0].size() - 3, 3, "OFF") == 0,
+          name + ": not an OFF file (no OFF line)");
+  const bool binary = words.size() > 1 && words[1] == "BINARY";
+  words.erase(words.begin(), words.begin() + (binary ? 2 : 1));
+  if (words.size() < 3) {
+    const std::vector<std::string> more = NextWords(bytes, &at, 3 - words.size());
+    words.insert(words.end(), more.begin(), more.end());
+  }
+  Require(words.size() >= 3, name + ": its OFF header lacks the vertex, face and edge counts");
+  const std::optional<uint64_t> vertices = WholeNumber(words[0]), faces = WholeNumber(words[1]);
+  Require(vertices && faces, name + ": OFF counts must be whole numbers");
+  const uint64_t left = at <= bytes.size() ? bytes.size() - at : 0;
+  RequireCountsFit(name, "vertices", *vertices, binary ? 12 : 6, left);
+  RequireCountsFit(name, "faces", *faces, binary ? 16 : 8, left - *vertices * (binary ? 12 : 6));
+}
+
+// PLY meshes: every element's count against the body (ASCII: 2 bytes per
+// property and row at least; binary: each property's size, lists their
+// count's).
+void CheckPlyMeshCounts(const std::string& name, const std::string& bytes) {
+  const size_t end = bytes.find("end_header");
+  Require(bytes.compare(0, 3, "ply") == 0 && end != std::string::npos && end < 65536,
+          name + ": not a PLY file (no 'ply' line or no end_header)");
+  static const std::map<std::string, uint64_t> kSizes = {
+      {"char", 1}, {"uchar", 1}, {"int8", 1}, {"uint8", 1}, {"short", 2}, {"ushort", 2},
+      {"int16", 2}, {"uint16", 2}, {"int", 4}, {"uint", 4}, {"int32", 4}, {"uint32", 4},
+      {"float", 4}, {"float32", 4}, {"double", 8}, {"float64", 8}};
+  std::istringstream header(bytes.substr(0, end));
+  bool ascii = false;
+  std::vector<std::pair<uint64_t, uint64_t>> elements;  // count, min bytes per row
+  for (std::string line; std::getline(header, line);) {
+    std::istringstream words(line);
+    std::string keyword, a, b, c;
+    words >> keyword >> a >> b >> c;
+    if (keyword == "format") ascii = a == "ascii";
+    if (keyword == "element") {
+      const std::optional<uint64_t> count = WholeNumber(b);
+      Require(count.has_value(), name + ": PLY element " + a + " has no whole-number count");
+      elements.push_back({*count, 0});
+    }
+    if (keyword == "property" && !elements.empty()) {
+      const std::string& type = a == "list" ? b : a;
+      const auto size = kSizes.find(type);
+      Require(size != kSizes.end(), name + ": PLY property type '" + type + "' is unknown");
+      elements.back().second += ascii ? 2 : size->second;
+    }
+  }
+  uint64_t left = bytes.size() - end;
+  for (const auto& [count, row] : elements) {
+    RequireCountsFit(name, "PLY rows", count, std::max<uint64_t>(row, 1), left);
+    left -= count * std::max<uint64_t>(row, 1);
+  }
+}
+
+// Binary STL: an 80-byte header, a triangle count, 50 bytes per triangle.
+void CheckStlCounts(const std::string& name, const std::string& bytes) {
+  if (bytes.compare(0, 5, "solid") == 0 && bytes.find("facet", 0) != std::string::npos) return;
+  Require(bytes.size() >= 84, name + ": not an STL file (shorter than a binary STL header)");
+  uint32_t triangles = 0;
+  std::memcpy(&triangles, bytes.data() + 80, 4);
+  RequireCountsFit(name, "triangles", triangles, 50, bytes.size() - 84);
+}
+
 // The bytes assimp gets for a file: MTL files sanitised (SanitizeMtl), OBJ
-// faces checked (CheckObjFaces).
+// faces checked (CheckObjFaces), the counts of OFF, PLY and STL headers
+// against the file.
 std::string ForAssimp(const std::string& name, std::string bytes) {
   const std::string extension = FileExtension(name);
   if (extension == "obj") CheckObjFaces(name, bytes);
+  if (extension == "off") CheckOffCounts(name, bytes);
+  if (extension == "ply") CheckPlyMeshCounts(name, bytes);
+  if (extension == "stl") CheckStlCounts(name, bytes);
   return extension == "mtl" ? SanitizeMtl(bytes) : bytes;
 }
 

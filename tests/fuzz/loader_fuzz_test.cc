@@ -8,6 +8,11 @@
 // memory must stay under 1 GB. Inputs that fail are saved under the
 // scratch directory's `failures/`.
 //
+// ROS 1 bags (issue 29): our exporter's bag of one frame, uncompressed (so
+// mutations reach the message fields, not only LZ4's stream), and the
+// hostile bags of tests/data/crashers/bags_meshes, read as `detect --bag`
+// reads them (TF included).
+//
 // FURN_FUZZ_RUNS sets the mutations per target (default 300: the fast
 // suite); FURN_FUZZ_SEED the seed (default 1). The slow suite runs 10^4.
 #include <gtest/gtest.h>
@@ -33,6 +38,7 @@
 #include "tests/test_util.h"
 #include "workbench/formats/depth_png.h"
 #include "workbench/formats/point_cloud_file.h"
+#include "workbench/formats/rosbag_io.h"
 #include "workbench/formats/scan_file.h"
 #include "workbench/pipelines/train.h"
 
@@ -342,6 +348,38 @@ TEST_F(LoaderFuzz, DatasetDatabases) {
             const RoomRecord room = db.ReadRoom(id, /*with_images=*/true);
             for (const FrameRecord& frame : room.frames) DetectionInputOf(frame, path);
           }
+        }},
+       dir_);
+}
+
+TEST_F(LoaderFuzz, RosBags) {
+  const testing::CommandResult made = testing::RunCommand(
+      std::string(FURN_WORKBENCH_BINARY) +
+      " generate --catalog procedural:2 --rooms 1 --frames 1 --seed 3 --quiet --out " + dir_ +
+      "/seed.db");
+  ASSERT_EQ(made.exit_code, 0) << made.output;
+  std::vector<std::string> seeds;
+  try {
+    DatasetDb db(dir_ + "/seed.db", DatasetDb::Mode::kReadOnly);
+    const RoomRecord room = db.ReadRoom(db.RoomIds().at(0), /*with_images=*/true);
+    FrameBagWriter writer(dir_ + "/seed.bag", /*compress=*/false);
+    writer.Write(room, room.frames.at(0), "seed frame");
+    writer.Finish();
+    seeds.push_back(ReadFileBytes(dir_ + "/seed.bag"));
+  } catch (const InputError& error) {  // a build without ROS: the crashers alone
+    std::printf("no seed bag: %s\n", error.what());
+  }
+  const std::string crashers = FURN_SOURCE_DIR "/tests/data/crashers/bags_meshes/";
+  for (const char* name : {"image_data_len_4G.bag", "tf_count_16M.bag", "index_offset_past_chunk.bag"})
+    seeds.push_back(ReadFileBytes(crashers + name));
+  Fuzz({"rosbag",
+        "bag",
+        seeds,
+        [](const std::string& path) {
+          BagScanOptions options;
+          options.bag_path = path;
+          options.topic = "/camera/depth/image_raw";
+          ForEachBagScan(options, [](const BagScan&) {});
         }},
        dir_);
 }

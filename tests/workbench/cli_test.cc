@@ -102,6 +102,34 @@ TEST(Cli, UserMistakesGiveOneLineAndNonZeroExit) {
   EXPECT_FALSE(std::filesystem::exists(dir + "/m.xyz"));
 }
 
+// Mesh headers whose counts the file cannot hold (issue 29): an OFF claiming
+// 10^7 vertices and faces aborted assimp; now the entry is skipped with a
+// warning naming the rule, and showing it is one error line, in little
+// memory and time. ASCII PLY and binary STL counts likewise.
+TEST(Cli, MeshHeadersThatLieAboutTheirCountsAreOneLine) {
+  const std::string map = FURN_SOURCE_DIR "/tests/data/crashers/bags_meshes/off_count_lie_map.json";
+  const RunResult show = testing::RunCommand("ulimit -v 2000000; timeout 10 " +
+                                             std::string(FURN_WORKBENCH_BINARY) +
+                                             " catalog show c1 --catalog " + map);
+  EXPECT_GT(show.exit_code, 0);
+  EXPECT_LT(show.exit_code, 124) << "a signal or the timeout";
+  EXPECT_NE(show.output.find("declares 10000000 vertices, more than its"), std::string::npos)
+      << show.output;
+  const std::string dir = testing::ScratchDir();
+  testing::WriteText(dir + "/lie.ply",
+                     "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                     "property float z\nelement face 10000000\nproperty list uchar int "
+                     "vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n");
+  std::string stl(84, '\0');
+  stl[80] = '\x10';  // 2^28 + 16 triangles in 84 bytes
+  stl[83] = '\x10';
+  testing::WriteText(dir + "/lie.stl", stl);
+  for (const char* file : {"/lie.ply", "/lie.stl"}) {
+    EXPECT_NE(testing::ErrorOf([&] { LoadMeshFile(dir + file); }).find("declares"), std::string::npos)
+        << file;
+  }
+}
+
 // A FIFO or a symlink to /dev/zero as any input: one line at once, not a
 // wait for a writer or an endless read (issue 21). `timeout` turns a hang
 // into exit code 124.

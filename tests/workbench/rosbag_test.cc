@@ -12,6 +12,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -23,6 +24,7 @@
 #include "db/sqlite.h"
 #include "renderers/camera.h"
 #include "tests/test_util.h"
+#include "workbench/formats/bag_check.h"
 #include "workbench/formats/rosbag_io.h"
 #include "workbench/formats/scan_file.h"
 
@@ -307,6 +309,54 @@ TEST_F(RosbagTest, BadBagsAndTopicsGetOneClearLine) {
       << split.output;
   EXPECT_FALSE(std::filesystem::exists(*dir_ + "/x.bag"));
   EXPECT_FALSE(std::filesystem::exists(*dir_ + "/x.bag.partial"));
+}
+
+// The hostile bags of issue 29 (tests/data/crashers/bags_meshes): each
+// ended in a crash, gigabytes or the library's own text; now one line, a
+// non-zero exit, within 2 GB and 10 s (ulimit and the clock).
+TEST_F(RosbagTest, HostileBagsAreOneLineWithinMemoryAndTime) {
+  const std::string dir = FURN_SOURCE_DIR "/tests/data/crashers/bags_meshes/";
+  const struct {
+    const char* bag;
+    const char* topic;
+    const char* message;
+  } cases[] = {
+      {"index_offset_past_chunk.bag", "/camera/depth/image_raw", "past its chunk"},
+      {"image_data_len_4G.bag", "/camera/depth/image_raw", "data claims"},
+      {"tf_count_16M.bag", "/camera/depth/image_raw", "transforms claims"},
+      {"bag_messy_seed3_run35.bag", "/camera/depth/points", "bag_messy_seed3_run35.bag"},
+  };
+  for (const auto& c : cases) {
+    const auto start = std::chrono::steady_clock::now();
+    const testing::CommandResult r =
+        testing::RunCommand("ulimit -v 2000000; " + std::string(FURN_WORKBENCH_BINARY) +
+                            " detect --model " + Model() + " --bag " + dir + c.bag + " --topic " +
+                            c.topic + " --out " + *dir_ + "/o.jsonl --out-bag " + *dir_ +
+                            "/out.bag");
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    EXPECT_GT(r.exit_code, 0) << c.bag;
+    EXPECT_LT(r.exit_code, 128) << c.bag << " (a signal)";
+    EXPECT_NE(r.output.find(c.message), std::string::npos) << c.bag << "\n" << r.output;
+    EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << c.bag << "\n" << r.output;
+    EXPECT_LT(seconds, 10) << c.bag;
+    EXPECT_FALSE(std::filesystem::exists(*dir_ + "/out.bag")) << c.bag;
+    EXPECT_FALSE(std::filesystem::exists(*dir_ + "/out.bag.partial")) << c.bag;
+  }
+}
+
+// A bag our exporter wrote passes the structure check, and every message of
+// it the field check; cut short, it fails with the record named.
+TEST_F(RosbagTest, TheBoundedReaderAcceptsOurBagsAndRefusesACutOne) {
+  EXPECT_NO_THROW(CheckBagFile(Bag()));
+  const std::string bytes = ReadFileBytes(Bag());
+  const std::string cut = *dir_ + "/cut.bag";
+  testing::WriteText(cut, bytes.substr(0, bytes.size() / 2));
+  EXPECT_NE(testing::ErrorOf([&] { CheckBagFile(cut); }).find("cut.bag: record at byte"),
+            std::string::npos);
+  testing::WriteText(cut, "#ROSBAG V1.2\n");
+  EXPECT_NE(testing::ErrorOf([&] { CheckBagFile(cut); }).find("not a ROS 1 bag of format 2.0"),
+            std::string::npos);
 }
 
 }  // namespace

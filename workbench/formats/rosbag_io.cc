@@ -23,7 +23,7 @@ BagMarkerWriter::~BagMarkerWriter() = default;
 void BagMarkerWriter::Add(const BagScan&, const DetectionResult&, const TrainedModel&) { NoRos(); }
 void BagMarkerWriter::Finish() { NoRos(); }
 struct FrameBagWriter::Impl {};
-FrameBagWriter::FrameBagWriter(const std::string&) { NoRos(); }
+FrameBagWriter::FrameBagWriter(const std::string&, bool) { NoRos(); }
 FrameBagWriter::~FrameBagWriter() = default;
 void FrameBagWriter::Write(const RoomRecord&, const FrameRecord&, const std::string&) { NoRos(); }
 int FrameBagWriter::Finish() { NoRos(); }
@@ -39,6 +39,7 @@ int FrameBagWriter::Finish() { NoRos(); }
 #include <sensor_msgs/PointCloud2.h>
 #include <tf2_msgs/TFMessage.h>
 #include <visualization_msgs/MarkerArray.h>
+#include <console_bridge/console.h>
 
 #include <Eigen/Geometry>
 #include <cmath>
@@ -54,6 +55,7 @@ int FrameBagWriter::Finish() { NoRos(); }
 #include "core/trainer.h"
 #include "db/dataset_db.h"
 #include "reports/class_colours.h"
+#include "workbench/formats/bag_check.h"
 #include "workbench/formats/depth_png.h"
 #include "workbench/formats/point_fields.h"
 
@@ -79,8 +81,23 @@ std::string TimeText(const ros::Time& time) {
   }
 }
 
+// The message as T, after our bounded check of its serialized fields (the
+// library allocates whatever a length field claims).
+template <typename T>
+boost::shared_ptr<T> CheckedInstantiate(const rosbag::MessageInstance& m, const std::string& where) {
+  std::vector<uint8_t> bytes(m.size());
+  ros::serialization::OStream stream(bytes.data(), static_cast<uint32_t>(bytes.size()));
+  m.write(stream);
+  CheckMessageFields(m.getDataType(), bytes, where);
+  return m.instantiate<T>();
+}
+
 void OpenBag(const std::string& path, rosbag::Bag* bag) {
   RequireRegularFile(path);
+  CheckBagFile(path);  // the library trusts every length and offset in the file
+  // The library prints its own complaints (console_bridge); ours is the one
+  // line the user sees.
+  console_bridge::setLogLevel(console_bridge::CONSOLE_BRIDGE_LOG_NONE);
   try {
     bag->open(path, rosbag::bagmode::Read);
   } catch (const std::exception& e) {
@@ -178,7 +195,8 @@ TfBuffer ReadTf(rosbag::Bag& bag, const std::string& path) {
     for (const rosbag::MessageInstance& m : view) {
       if (m.getDataType() != "tf2_msgs/TFMessage") continue;
       const bool is_static = m.getTopic().find("tf_static") != std::string::npos;
-      if (const auto message = m.instantiate<tf2_msgs::TFMessage>()) tf.Add(*message, is_static);
+      if (const auto message = CheckedInstantiate<tf2_msgs::TFMessage>(m, path + " /tf"))
+        tf.Add(*message, is_static);
     }
   } catch (...) {
     RethrowAsInputError(path + " /tf");
@@ -340,7 +358,7 @@ CameraIntrinsics FirstCameraInfo(rosbag::Bag& bag,
                                  const std::string& info_topic) {
   rosbag::View info_view(bag, rosbag::TopicQuery(info_topic));
   for (const rosbag::MessageInstance& m : info_view) {
-    if (const auto info = m.instantiate<sensor_msgs::CameraInfo>())
+    if (const auto info = CheckedInstantiate<sensor_msgs::CameraInfo>(m, options.bag_path + " " + info_topic))
       return IntrinsicsOf(*info, options.bag_path + " " + info_topic);
   }
   throw InputError(options.bag_path + ": no sensor_msgs/CameraInfo on " + info_topic +
@@ -361,12 +379,13 @@ BagScan ScanOfMessage(const rosbag::MessageInstance& m,
   scan.bag_time = m.getTime().toSec();
   std_msgs::Header header;
   if (type == "sensor_msgs/PointCloud2") {
-    const sensor_msgs::PointCloud2::ConstPtr cloud = m.instantiate<sensor_msgs::PointCloud2>();
+    const sensor_msgs::PointCloud2::ConstPtr cloud =
+        CheckedInstantiate<sensor_msgs::PointCloud2>(m, where);
     Require(cloud != nullptr, where + ": not a sensor_msgs/PointCloud2");
     scan.loaded.input = PointsOf(*cloud, where);
     header = cloud->header;
   } else {
-    const sensor_msgs::Image::ConstPtr image = m.instantiate<sensor_msgs::Image>();
+    const sensor_msgs::Image::ConstPtr image = CheckedInstantiate<sensor_msgs::Image>(m, where);
     Require(image != nullptr, where + ": not a sensor_msgs/Image");
     DepthFrame depth = DepthOf(*image, options.depth_scale, where);
     Require(depth.width == camera->width && depth.height == camera->height,
@@ -410,7 +429,7 @@ int ForEachBagScan(const BagScanOptions& options, const std::function<void(const
       const std::string where =
           options.bag_path + " " + m.getTopic() + " at " + TimeText(m.getTime());
       if (m.getTopic() == info_topic && m.getTopic() != options.topic) {
-        if (const auto info = m.instantiate<sensor_msgs::CameraInfo>())
+        if (const auto info = CheckedInstantiate<sensor_msgs::CameraInfo>(m, where))
           camera = IntrinsicsOf(*info, where);
         continue;
       }
@@ -605,12 +624,13 @@ struct FrameBagWriter::Impl {
   bool finished = false;
 };
 
-FrameBagWriter::FrameBagWriter(const std::string& out_bag) : impl_(std::make_unique<Impl>()) {
+FrameBagWriter::FrameBagWriter(const std::string& out_bag, bool compress)
+    : impl_(std::make_unique<Impl>()) {
   impl_->out_path = out_bag;
   impl_->temporary = out_bag + ".partial";
   try {
     impl_->bag.open(impl_->temporary, rosbag::bagmode::Write);
-    impl_->bag.setCompression(rosbag::compression::LZ4);
+    impl_->bag.setCompression(compress ? rosbag::compression::LZ4 : rosbag::compression::Uncompressed);
   } catch (...) {
     std::error_code ec;
     std::filesystem::remove(impl_->temporary, ec);

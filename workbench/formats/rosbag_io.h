@@ -90,10 +90,11 @@ class BagMarkerWriter {
 // frame) and /furnidet/ground_truth (MarkerArray: a cube per object,
 // namespace = its class or "clutter", id = its instance id). Frames 0.1 s
 // apart from t = 1 s. Written to <out>.partial and moved into place by
-// Finish(); destroyed unfinished, it leaves no file.
+// Finish(); destroyed unfinished, it leaves no file. Chunks are LZ4
+// compressed unless `compress` is false.
 class FrameBagWriter {
  public:
-  explicit FrameBagWriter(const std::string& out_bag);
+  explicit FrameBagWriter(const std::string& out_bag, bool compress = true);
   ~FrameBagWriter();
   // `where` names the frame in errors.
   void Write(const RoomRecord& room, const FrameRecord& frame, const std::string& where);
