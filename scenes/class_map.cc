@@ -44,8 +44,12 @@ void ParseMeshFields(const json& item,
     options.metres_per_unit = item["units"].is_number()
                                   ? item["units"].get<double>()
                                   : ParseUnits(StringField(item, "units", at), at + " \"units\"");
-    Require(std::isfinite(options.metres_per_unit) && options.metres_per_unit > 0,
-            at + " \"units\" must be m, cm, mm, in, ft or a positive number of metres");
+    // From a micrometre to a kilometre per unit: beyond, a number is a typo
+    // (1e300 made a mesh of size -inf).
+    Require(std::isfinite(options.metres_per_unit) && options.metres_per_unit >= 1e-6 &&
+                options.metres_per_unit <= 1e3,
+            at + " \"units\" must be m, cm, mm, in, ft or a positive number of metres per unit "
+                 "(1e-6..1000)");
   }
   std::optional<Eigen::Vector3f> up, front;
   if (item.contains("up")) up = ParseAxis(StringField(item, "up", at), at + " \"up\"");

@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
@@ -337,6 +338,21 @@ bool IsYUpByDefault(const std::string& extension) {
 
 bool LoadsYUpByDefault(const std::string& extension) { return IsYUpByDefault(extension); }
 
+void CheckFurnitureExtent(const TriangleMesh& mesh, const std::string& what) {
+  const Eigen::Vector3f size = BoundingBox(mesh).Size();
+  char text[160];
+  std::snprintf(text,
+                sizeof(text),
+                ": the mesh spans %g x %g x %g m; a model must be finite, at most 1 km, and span "
+                "two axes (its units?)",
+                size.x(),
+                size.y(),
+                size.z());
+  int spanned = 0;
+  for (int axis = 0; axis < 3; ++axis) spanned += size[axis] > 1e-7f;
+  Require(size.allFinite() && (size.array() <= 1000.f).all() && spanned >= 2, what + text);
+}
+
 bool MeshLoadOptions::Check() const {
   if (!(metres_per_unit > 0 && std::isfinite(metres_per_unit))) return false;
   if (size_m && !(size_m->allFinite() && (size_m->array() > 0).all())) return false;
@@ -453,6 +469,7 @@ CadModel LoadMeshFile(const std::string& path, const MeshLoadOptions& options) {
                                : y_up                   ? ZUpFromYUp()
                                                         : Eigen::Matrix3f::Identity();
   TransformMesh(static_cast<float>(options.metres_per_unit) * axes, Eigen::Vector3f::Zero(), &mesh);
+  CheckFurnitureExtent(mesh, path);
   if (options.size_m) {
     const Eigen::Vector3f size = BoundingBox(mesh).Size();
     Require((size.array() > 0).all(),

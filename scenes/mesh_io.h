@@ -90,4 +90,9 @@ Eigen::Matrix3f ZUpFromYUp();
 // passes MTL files through it.
 std::string SanitizeMtl(const std::string& bytes);
 
+// Throws InputError naming `what` when a mesh in metres cannot be furniture:
+// a non-finite box, beyond 1 km, or flat in two of its axes (all vertices
+// equal, or units of 1e-300).
+void CheckFurnitureExtent(const TriangleMesh& mesh, const std::string& what);
+
 }  // namespace furn

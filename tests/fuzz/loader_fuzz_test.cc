@@ -36,6 +36,7 @@
 #include "scenes/mesh_io.h"
 #include "tests/scenes/fixtures.h"
 #include "tests/test_util.h"
+#include "workbench/formats/camera_file.h"
 #include "workbench/formats/depth_png.h"
 #include "workbench/formats/point_cloud_file.h"
 #include "workbench/formats/rosbag_io.h"
@@ -381,6 +382,51 @@ TEST_F(LoaderFuzz, RosBags) {
           options.topic = "/camera/depth/image_raw";
           ForEachBagScan(options, [](const BagScan&) {});
         }},
+       dir_);
+}
+
+// Camera files of every kind ReadCameraFile reads (issue 29).
+TEST_F(LoaderFuzz, CameraFiles) {
+  Fuzz({"camera_json",
+        "json",
+        {R"({"fx": 525, "fy": 525, "cx": 319.5, "cy": 239.5, "width": 640, "height": 480,
+             "depth_scale": 1.0})",
+         R"({"3": {"cam_K": [600, 0, 320, 0, 601, 200, 0, 0, 1], "depth_scale": 0.5}})"},
+        [](const std::string& path) { ReadCameraFile(path, 3); }},
+       dir_);
+  Fuzz({"camera_yaml",
+        "yaml",
+        {"image_width: 640\nimage_height: 480\ncamera_name: depth\ncamera_matrix:\n  rows: 3\n"
+         "  cols: 3\n  data: [570.3, 0, 319.5, 0, 570.3, 239.5, 0, 0, 1]\n",
+         "header:\n  seq: 4\n  frame_id: camera\nheight: 480\nwidth: 640\n"
+         "distortion_model: plumb_bob\nD: [0.0, 0.0, 0.0, 0.0, 0.0]\n"
+         "K: [525.0, 0.0, 319.5, 0.0, 525.0, 239.5, 0.0, 0.0, 1.0]\n---\n"},
+        [](const std::string& path) { ReadCameraFile(path); }},
+       dir_);
+}
+
+// Version-2 class maps naming mesh files, with units, axes and sizes, loaded
+// as every command loads them (issue 29).
+TEST_F(LoaderFuzz, ClassMapsVersion2) {
+  testing::WriteText(dir_ + "/chair.obj",
+                     "v 0 0 0\nv 0.5 0 0\nv 0.5 0.5 0\nv 0 0.5 0\nv 0 0 0.9\nv 0.5 0 0.9\n"
+                     "f 1 2 3\nf 1 3 4\nf 1 2 6 5\n");
+  testing::WriteText(dir_ + "/table.off",
+                     "OFF\n4 2 0\n0 0 0\n120 0 0\n120 80 75\n0 80 75\n3 0 1 2\n3 0 2 3\n");
+  auto load_all = [](const Catalog& catalog) {
+    std::vector<std::string> ids;
+    for (const CatalogEntry& entry : catalog.entries()) ids.push_back(entry.id);
+    catalog.LoadModels(ids, /*show_progress=*/false);
+  };
+  Fuzz({"class_map_v2",
+        "json",
+        {R"({"format": "furnidet-class-map", "version": 2, "entries": [
+             {"id": "c", "class": "chair", "mesh": "chair.obj", "units": "m", "up": "z",
+              "front": "-y"},
+             {"id": "t", "class": "table", "mesh": "table.off", "units": "cm",
+              "size": [1.2, 0.8, 0.75]},
+             {"id": "k", "class": "clutter", "mesh": "chair.obj", "units": 0.5}]})"},
+        [&](const std::string& path) { load_all(OpenCatalog(path)); }},
        dir_);
 }
 

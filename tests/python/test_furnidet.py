@@ -200,6 +200,24 @@ class FurnidetTest(unittest.TestCase):
         with self.assertRaisesRegex(ValueError, "min_covered_fraction|unknown"):
             furnidet.Detector(self.model, options={"no_such_option": 1})
 
+    def test_hostile_arrays_and_arguments_are_one_input_error(self):
+        # Issue 29: bool, object, complex and negative integer depth, a K with
+        # skew, records of non-detections: each one InputError naming the rule.
+        frame = self.dataset.frame(self.dataset.frame_ids()[0])
+        shape = frame.depth.shape
+        for depth, rule in ((np.zeros(shape, bool), "dtype bool"),
+                            (np.zeros(shape, object), "dtype object"),
+                            (np.zeros(shape, complex), "dtype complex"),
+                            (np.full(shape, -5, np.int16), "negative integer")):
+            with self.assertRaisesRegex(furnidet.InputError, rule):
+                self.detector.detect_depth(depth, frame.K)
+        skewed = np.array(frame.K)
+        skewed[0, 1] = 3
+        with self.assertRaisesRegex(furnidet.InputError, "no skew"):
+            self.detector.detect_depth(frame.depth, skewed)
+        with self.assertRaisesRegex(furnidet.InputError, "furnidet.Detection objects"):
+            furnidet.records([1, 2, 3])
+
 
 if __name__ == "__main__":
     unittest.main()

@@ -87,6 +87,47 @@ TEST(CameraFile, BopCameraAndSceneCameraAndRosCameraInfo) {
             std::string::npos);
 }
 
+// Hostile camera files (issue 29): each one line naming the file and the
+// rule, no huge allocation, no misleading number.
+TEST(CameraFile, HostileFilesAreOneLineNamingTheFileAndTheRule) {
+  const std::string dir = testing::ScratchDir();
+  const struct {
+    const char* name;
+    std::string text;
+    const char* message;
+  } cases[] = {
+      {"scalar.yaml", "camera_matrix: 5\n", "scalar.yaml: camera_matrix has no data list"},
+      {"scalar_k.yaml", "K: {a: 1}\n", "scalar_k.yaml: K must be a list of numbers"},
+      {"no_fx.json", R"({"fy": 500, "cx": 320, "cy": 240})", "no_fx.json: 'fx' must be a number"},
+      {"wide.json", R"({"fx": 500, "fy": 500, "cx": 320, "cy": 240, "width": 1e20})",
+       "wide.json: 'width' must be a whole number in 1..16384"},
+      {"tiny_f.json", R"({"fx": 1e-300, "fy": 500, "cx": 320, "cy": 240})",
+       "must be at least 1 pixel"},
+      {"scale_small.json", R"({"fx": 500, "fy": 500, "cx": 320, "cy": 240, "depth_scale": 1e300})",
+       "scale_small.json: depth_scale gives 1e-297 depth units per metre"},
+      {"scale_big.json", R"({"fx": 500, "fy": 500, "cx": 320, "cy": 240, "depth_scale": 1e-300})",
+       "scale_big.json: depth_scale gives 1e+303 depth units per metre"},
+      {"skew.yaml", "K: [500, 3, 320, 0, 500, 240, 0, 0, 1]\n", "(no skew)"},
+      {"big.yaml", "K: [" + std::string(2 << 20, ' ') + "]\n", "big.yaml: a camera file of"},
+      // yaml-cpp 0.7's LoadAll looped forever on a document starting with ','
+      // (found by the fuzzer): only the first document is parsed, by Load.
+      {"comma.yaml", ", 0.0, 1.0], 1.0]\n", "comma.yaml: not a camera file"},
+  };
+  for (const auto& c : cases) {
+    testing::WriteText(dir + "/" + c.name, c.text);
+    const std::string error = testing::ErrorOf([&] { ReadCameraFile(dir + "/" + c.name); });
+    EXPECT_NE(error.find(c.message), std::string::npos) << c.name << ": " << error;
+    EXPECT_EQ(error.find('\n'), std::string::npos) << error;
+  }
+  testing::WriteText(dir + "/two.yaml",
+                     "K: [525.0, 0.0, 319.5, 0.0, 525.0, 239.5, 0.0, 0.0, 1.0]\n---\n, 1.0], 1]\n");
+  EXPECT_DOUBLE_EQ(ReadCameraFile(dir + "/two.yaml").camera.fx, 525);
+  EXPECT_NE(testing::ErrorOf([] {
+              CameraFromMatrix({500, 0, 320, 0, 500, 240, 0, 0, 1}, 640, 1 << 30, "info K");
+            }).find("info K: camera height"),
+            std::string::npos);
+}
+
 TEST(CameraFile, PosesAsMatricesOrTranslationAndQuaternion) {
   const Eigen::Isometry3d a = ParsePose("1,2,3,1,0,0,0", "--pose");
   EXPECT_TRUE(a.translation().isApprox(Eigen::Vector3d(1, 2, 3)));

@@ -4,6 +4,7 @@
 #include <iostream>
 
 #include "core/error.h"
+#include "core/progress.h"
 #include "core/file_util.h"
 #include "scenes/room_composer.h"
 #include "workbench/cli/cli_common.h"
@@ -183,7 +184,11 @@ int RunDataset(int argc, char** argv) {
   noise->add_flag("--json", json, "JSON instead of text");
   int noise_frames = 0;
   noise->add_option("--frames", noise_frames, "At most N frames (0: all)")->capture_default_str();
+  bool quiet = false;
+  for (CLI::App* command : {info, preview, merge, export_command, import_real, noise})
+    command->add_flag("--quiet,-q", quiet, "No progress output");
   if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
+  Progress::SetQuiet(quiet);
   if (noise->parsed()) {
     Require(noise_frames >= 0, "--frames must be >= 0");
     const SensorNoiseComparison comparison =

@@ -3,6 +3,7 @@
 #include <vector>
 
 #include "core/error.h"
+#include "core/progress.h"
 #include "workbench/cli/cli_common.h"
 #include "workbench/cli/commands.h"
 #include "workbench/cli/detector_flags.h"
@@ -96,6 +97,7 @@ int RunDetect(int argc, char** argv) {
   DetectorFlags detector_flags(&app);
   app.add_flag("--quiet", quiet, "Print nothing but errors");
   if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
+  Progress::SetQuiet(quiet);  // batches and bags show progress unless --quiet
   Require(repeat >= 1 && repeat <= 1000,
           "--repeat " + std::to_string(repeat) + " must be in 1..1000");
   Require(app.count("--frame") == 0 || !source.db_path.empty(),

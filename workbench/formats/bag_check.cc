@@ -80,7 +80,7 @@ class BagWalker {
 
   // One record at `at` (within [at, end)): returns the next record's offset.
   uint64_t Record(std::istream& in, uint64_t at, uint64_t end, bool in_chunk) {
-    const std::string where = path_ + ": record at byte " + std::to_string(at) +
+    const std::string where = path_ + ": not a readable ROS 1 bag: record at byte " + std::to_string(at) +
                               (in_chunk ? " of a chunk" : "");
     Require(end - at >= 8, where + ": cut off (its lengths need 8 bytes)");
     char length[4];

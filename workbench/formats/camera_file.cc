@@ -3,6 +3,8 @@
 #include <yaml-cpp/yaml.h>
 
 #include <cmath>
+#include <filesystem>
+#include <cstdio>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <vector>
@@ -13,18 +15,26 @@
 namespace furn {
 namespace {
 
+// A camera file is a few hundred bytes; a large one is not parsed at all
+// (yaml-cpp took 2 GB for a 12 MB list).
+constexpr size_t kMaxCameraFileBytes = 1 << 20;
+
 // The 3x3 row-major matrix K as intrinsics, checking its zeros.
 void SetFromMatrix(const std::vector<double>& k,
                    const std::string& where,
                    CameraIntrinsics* camera) {
-  Require(k.size() == 9,
-          where + " must hold 9 numbers (a 3x3 matrix), it holds " + std::to_string(k.size()));
-  Require(k[1] == 0 && k[3] == 0 && k[6] == 0 && k[7] == 0 && k[8] == 1,
-          where + " must be [fx, 0, cx, 0, fy, cy, 0, 0, 1]");
-  camera->fx = k[0];
-  camera->cx = k[2];
-  camera->fy = k[4];
-  camera->cy = k[5];
+  const CameraIntrinsics from_k = CameraFromMatrix(k, 0, 0, where);
+  camera->fx = from_k.fx;
+  camera->cx = from_k.cx;
+  camera->fy = from_k.fy;
+  camera->cy = from_k.cy;
+}
+
+// An image size from a file: a whole number in 1..16384.
+int ImageSize(double value, const std::string& where) {
+  Require(std::isfinite(value) && value >= 1 && value <= 16384 && value == std::floor(value),
+          where + " must be a whole number in 1..16384");
+  return static_cast<int>(value);
 }
 
 CameraFile FromJson(const nlohmann::json& json,
@@ -37,13 +47,17 @@ CameraFile FromJson(const nlohmann::json& json,
             path + ": " + where + "'" + key + "' must be a number");
     return object[key].get<double>();
   };
-  if (json.contains("fx")) {  // BOP camera.json
+  const bool camera_json = json.contains("fx") || json.contains("fy") || json.contains("cx") ||
+                           json.contains("cy") || json.contains("width") || json.contains("height");
+  if (camera_json) {  // BOP camera.json
     file.camera.fx = number(json, "fx", "");
     file.camera.fy = number(json, "fy", "");
     file.camera.cx = number(json, "cx", "");
     file.camera.cy = number(json, "cy", "");
-    if (json.contains("width")) file.camera.width = static_cast<int>(number(json, "width", ""));
-    if (json.contains("height")) file.camera.height = static_cast<int>(number(json, "height", ""));
+    if (json.contains("width"))
+      file.camera.width = ImageSize(number(json, "width", ""), path + ": 'width'");
+    if (json.contains("height"))
+      file.camera.height = ImageSize(number(json, "height", ""), path + ": 'height'");
     if (json.contains("depth_scale")) file.units_per_metre = 1000 / number(json, "depth_scale", "");
   } else {  // BOP scene_camera.json
     Require(image_id.has_value(),
@@ -65,10 +79,7 @@ CameraFile FromJson(const nlohmann::json& json,
     if (entry.contains("depth_scale"))
       file.units_per_metre = 1000 / number(entry, "depth_scale", "image " + key + " ");
   }
-  if (file.units_per_metre) {
-    Require(std::isfinite(*file.units_per_metre) && *file.units_per_metre > 0,
-            path + ": depth_scale must be a finite number > 0");
-  }
+  if (file.units_per_metre) CheckUnitsPerMetre(*file.units_per_metre, path + ": depth_scale");
   return file;
 }
 
@@ -77,11 +88,13 @@ CameraFile FromYaml(const YAML::Node& root, const std::string& path) {
   file.camera.width = file.camera.height = 0;
   Require(root.IsMap(), path + ": not a camera file (YAML without keys)");
   auto integer = [&](const char* key) {
+    double value = 0;
     try {
-      return root[key].as<int>();
+      value = root[key].as<double>();
     } catch (const YAML::Exception&) {
       throw InputError(path + ": '" + std::string(key) + "' must be an integer");
     }
+    return ImageSize(value, path + ": '" + key + "'");
   };
   auto numbers = [&](const YAML::Node& node, const std::string& where) {
     std::vector<double> values;
@@ -93,7 +106,8 @@ CameraFile FromYaml(const YAML::Node& root, const std::string& path) {
     return values;
   };
   if (root["camera_matrix"]) {  // camera_calibration's file
-    Require(root["camera_matrix"]["data"].IsSequence(), path + ": camera_matrix has no data list");
+    Require(root["camera_matrix"].IsMap() && root["camera_matrix"]["data"].IsSequence(),
+            path + ": camera_matrix has no data list");
     SetFromMatrix(numbers(root["camera_matrix"]["data"], "camera_matrix.data"),
                   path + ": camera_matrix.data",
                   &file.camera);
@@ -110,6 +124,23 @@ CameraFile FromYaml(const YAML::Node& root, const std::string& path) {
   if (root["width"]) file.camera.width = integer("width");
   if (root["height"]) file.camera.height = integer("height");
   return file;
+}
+
+// The text of a YAML stream's first document: up to a line '---' or '...'
+// that follows some content.
+std::string FirstYamlDocument(const std::string& text) {
+  size_t at = 0;
+  bool content = false;
+  while (at < text.size()) {
+    size_t end = text.find('\n', at);
+    if (end == std::string::npos) end = text.size();
+    const std::string line = text.substr(at, end - at);
+    const bool marker = line.rfind("---", 0) == 0 || line.rfind("...", 0) == 0;
+    if (marker && content) return text.substr(0, at);
+    content |= !marker && line.find_first_not_of(" \t\r") != std::string::npos;
+    at = end + 1;
+  }
+  return text;
 }
 
 std::vector<double> Numbers(const std::string& text, const std::string& what) {
@@ -134,7 +165,42 @@ std::vector<double> Numbers(const std::string& text, const std::string& what) {
 
 }  // namespace
 
+CameraIntrinsics CameraFromMatrix(const std::vector<double>& k,
+                                  int width,
+                                  int height,
+                                  const std::string& where) {
+  Require(k.size() == 9,
+          where + " must hold 9 numbers (a 3x3 matrix), it holds " + std::to_string(k.size()));
+  Require(k[1] == 0 && k[3] == 0 && k[6] == 0 && k[7] == 0 && k[8] == 1,
+          where + " must be [fx, 0, cx, 0, fy, cy, 0, 0, 1] (no skew)");
+  CameraIntrinsics camera{width, height, k[0], k[4], k[2], k[5]};
+  if (width > 0 && height > 0) {
+    try {
+      camera.Check();
+    } catch (const InputError& e) {
+      throw InputError(where + ": " + e.what());
+    }
+  }
+  return camera;
+}
+
+void CheckUnitsPerMetre(double units_per_metre, const std::string& what) {
+  char text[128];
+  std::snprintf(text,
+                sizeof(text),
+                " gives %g depth units per metre, not in 1..1000000 (1: metres, 1000: mm)",
+                units_per_metre);
+  Require(std::isfinite(units_per_metre) && units_per_metre >= 1 && units_per_metre <= 1e6,
+          what + text);
+}
+
 CameraFile ReadCameraFile(const std::string& path, std::optional<int64_t> image_id) {
+  RequireRegularFile(path);
+  std::error_code error;
+  const uintmax_t bytes = std::filesystem::file_size(path, error);
+  Require(error || bytes <= kMaxCameraFileBytes,
+          path + ": a camera file of " + std::to_string(bytes) +
+              " bytes (a camera file is at most 1 MiB)");
   const std::string text = ReadFileBytes(path);
   CameraFile file;
   const size_t first = text.find_first_not_of(" \t\r\n");
@@ -149,12 +215,18 @@ CameraFile ReadCameraFile(const std::string& path, std::optional<int64_t> image_
   } else {
     YAML::Node root;
     try {
-      // A message dump from rostopic echo ends its document with '---'.
-      root = YAML::LoadAll(text).empty() ? YAML::Node() : YAML::LoadAll(text).front();
+      // A message dump from rostopic echo ends its document with '---'; only
+      // the first document is parsed, with Load: yaml-cpp 0.7's LoadAll loops
+      // forever on a document that starts with ',' (yaml-cpp issue #1040).
+      root = YAML::Load(FirstYamlDocument(text));
     } catch (const YAML::Exception& e) {
       throw InputError(path + ": not a JSON or YAML camera file (" + e.msg + ")");
     }
-    file = FromYaml(root, path);
+    try {
+      file = FromYaml(root, path);
+    } catch (const YAML::Exception& e) {  // a key of the wrong kind (a scalar for a map)
+      throw InputError(path + ": not a camera file (" + e.msg + ")");
+    }
   }
   const bool sized = file.camera.width > 0 || file.camera.height > 0;
   CameraIntrinsics check = file.camera;

@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "renderers/camera.h"
 
@@ -32,6 +33,16 @@ struct CameraFile {
 // BOP's depth_scale is millimetres per unit (units per metre = 1000 /
 // depth_scale). Throws InputError naming the file and the missing or bad key.
 CameraFile ReadCameraFile(const std::string& path, std::optional<int64_t> image_id = std::nullopt);
+
+// The one check of a camera matrix from any source (camera files, ROS
+// CameraInfo, Python): K = [fx, 0, cx, 0, fy, cy, 0, 0, 1] (9 numbers, row by
+// row; a skewed K is refused), then CameraIntrinsics::Check when the size is
+// known (width and height > 0). Throws InputError naming `where`.
+CameraIntrinsics CameraFromMatrix(const std::vector<double>& k, int width, int height, const std::string& where);
+
+// Depth units per metre from a camera file, flag or message: in [1, 10^6]
+// (1: metres, 1000: millimetres, 5000: TUM). Throws InputError naming `what`.
+void CheckUnitsPerMetre(double units_per_metre, const std::string& what);
 
 // A pose as 16 numbers (a 4x4 matrix, row by row; the last row 0 0 0 1) or 7
 // (x,y,z,qw,qx,qy,qz), separated by commas or spaces. Throws InputError

@@ -8,6 +8,7 @@
 
 #include "core/error.h"
 #include "core/file_util.h"
+#include "workbench/formats/camera_file.h"
 
 namespace furn {
 namespace {
@@ -78,7 +79,12 @@ RealObject ReadObject(const nlohmann::json& json, const std::string& where) {
   Require(fields.Has("x") && fields.Has("y"), where + ": needs 'x' and 'y' (metres)");
   object.x = fields.Number("x", 0);
   object.y = fields.Number("y", 0);
-  if (fields.Has("yaw")) object.yaw = fields.Number("yaw", 0);
+  if (fields.Has("yaw")) {
+    object.yaw = fields.Number("yaw", 0);
+    // Radians: beyond +-2 pi a value is degrees or a typo.
+    Require(std::abs(*object.yaw) <= 2 * M_PI + 1e-9,
+            where + ": 'yaw' " + std::to_string(*object.yaw) + " must be radians in -2 pi..2 pi");
+  }
   if (fields.Has("size")) {
     const std::vector<double> size = fields.Numbers("size", 3);
     Require(
@@ -134,8 +140,11 @@ RealScan ReadScan(const nlohmann::json& json,
   const std::string named = where + " ('" + scan.id + "')";
   auto resolve = [&](const std::string& relative) {
     const std::filesystem::path path = base / relative;
-    Require(std::filesystem::is_regular_file(path),
+    std::error_code ec;
+    Require(std::filesystem::exists(path, ec),
             named + ": file '" + path.string() + "' does not exist");
+    Require(std::filesystem::is_regular_file(path, ec),
+            named + ": '" + path.string() + "' is not a regular file (a device, FIFO or folder)");
     return path.lexically_normal().string();
   };
   Require(fields.Has("cloud") != fields.Has("depth"),
@@ -147,6 +156,13 @@ RealScan ReadScan(const nlohmann::json& json,
   scan.source.depth_scale = fields.Number("depth_scale", 0);
   Require(scan.source.depth_scale >= 0, named + ": 'depth_scale' must be > 0");
   scan.source.world_from_camera = fields.Text("world_from_camera");
+  if (!scan.source.world_from_camera.empty()) {  // checked here, named as the labels' field
+    try {
+      ParsePose(scan.source.world_from_camera, "'world_from_camera'");
+    } catch (const InputError& error) {
+      throw InputError(named + ": " + error.what());
+    }
+  }
   scan.source.floor_aligned = fields.Flag("floor_aligned");
   scan.source.sensor = fields.Text("sensor");
   scan.origin = fields.Text("source");

@@ -56,6 +56,7 @@ int FrameBagWriter::Finish() { NoRos(); }
 #include "db/dataset_db.h"
 #include "reports/class_colours.h"
 #include "workbench/formats/bag_check.h"
+#include "workbench/formats/camera_file.h"
 #include "workbench/formats/depth_png.h"
 #include "workbench/formats/point_fields.h"
 
@@ -108,12 +109,28 @@ void OpenBag(const std::string& path, rosbag::Bag* bag) {
 // /tf and /tf_static: every edge's transforms over time (parent_from_child).
 class TfBuffer {
  public:
-  void Add(const tf2_msgs::TFMessage& message, bool is_static) {
+  // Throws InputError naming `where` and the transform for non-finite
+  // values or a rotation that is not a unit quaternion (tf2 refuses them too).
+  void Add(const tf2_msgs::TFMessage& message, bool is_static, const std::string& where) {
     for (const geometry_msgs::TransformStamped& t : message.transforms) {
       const auto& q = t.transform.rotation;
       const auto& p = t.transform.translation;
       Eigen::Quaterniond rotation(q.w, q.x, q.y, q.z);
-      if (!(rotation.norm() > 0.5) || !std::isfinite(p.x + p.y + p.z)) continue;
+      const double norm = rotation.norm();
+      char text[160];
+      std::snprintf(text,
+                    sizeof(text),
+                    " at %.3f: translation (%g, %g, %g), rotation of norm %g; it must be finite "
+                    "with a unit quaternion",
+                    t.header.stamp.toSec(),
+                    p.x,
+                    p.y,
+                    p.z,
+                    norm);
+      Require(std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z) &&
+                  std::isfinite(norm) && std::abs(norm - 1) < 0.01,
+              where + ": transform " + Strip(t.header.frame_id).substr(0, 64) + " -> " +
+                  Strip(t.child_frame_id).substr(0, 64) + text);
       Edge& edge = edges_[Strip(t.child_frame_id)];
       edge.parent = Strip(t.header.frame_id);
       edge.samples.push_back(
@@ -195,8 +212,9 @@ TfBuffer ReadTf(rosbag::Bag& bag, const std::string& path) {
     for (const rosbag::MessageInstance& m : view) {
       if (m.getDataType() != "tf2_msgs/TFMessage") continue;
       const bool is_static = m.getTopic().find("tf_static") != std::string::npos;
-      if (const auto message = CheckedInstantiate<tf2_msgs::TFMessage>(m, path + " /tf"))
-        tf.Add(*message, is_static);
+      const std::string where = path + " " + m.getTopic();
+      if (const auto message = CheckedInstantiate<tf2_msgs::TFMessage>(m, where))
+        tf.Add(*message, is_static, where);
     }
   } catch (...) {
     RethrowAsInputError(path + " /tf");
@@ -217,19 +235,13 @@ DetectionInput PointsOf(const sensor_msgs::PointCloud2& cloud, const std::string
 }
 
 CameraIntrinsics IntrinsicsOf(const sensor_msgs::CameraInfo& info, const std::string& where) {
-  CameraIntrinsics camera;
-  camera.width = static_cast<int>(info.width);
-  camera.height = static_cast<int>(info.height);
-  camera.fx = info.K[0];
-  camera.fy = info.K[4];
-  camera.cx = info.K[2];
-  camera.cy = info.K[5];
-  try {
-    camera.Check();
-  } catch (const InputError& e) {
-    throw InputError(where + ": " + e.what());
-  }
-  return camera;
+  Require(info.width >= 1 && info.width <= 16384 && info.height >= 1 && info.height <= 16384,
+          where + ": CameraInfo size " + std::to_string(info.width) + "x" +
+              std::to_string(info.height) + " must be in 1..16384 each");
+  return CameraFromMatrix(std::vector<double>(info.K.begin(), info.K.end()),
+                          static_cast<int>(info.width),
+                          static_cast<int>(info.height),
+                          where + ": CameraInfo K");
 }
 
 DepthFrame DepthOf(const sensor_msgs::Image& image, double depth_scale, const std::string& where) {
@@ -496,7 +508,13 @@ void BagMarkerWriter::Add(const BagScan& scan,
                           const TrainedModel& model) {
   visualization_msgs::MarkerArray markers;
   ros::Time stamp;
-  stamp.fromSec(scan.stamp > 0 ? scan.stamp : scan.bag_time);
+  const double seconds = scan.stamp > 0 ? scan.stamp : scan.bag_time;
+  char text_of_time[64];
+  std::snprintf(text_of_time, sizeof(text_of_time), "%.17g", seconds);
+  Require(seconds >= 0 && seconds < 4294967295.0,
+          scan.loaded.description + ": its time stamp " + text_of_time +
+              " s lies outside ROS time (0 to 2^32 s): no marker can carry it");
+  stamp.fromSec(seconds);
   // The world frame of TF, else the sensor's frame (the detector's floor
   // frame exists only inside this scan).
   const std::string& frame = scan.pose_from_tf ? impl_->world_frame : scan.frame_id;

@@ -306,8 +306,7 @@ LoadedScan LoadScan(const ScanSource& source) {
   const int given =
       !source.cloud_path.empty() + !source.depth_path.empty() + !source.db_path.empty();
   Require(given == 1, "give exactly one of --cloud, --depth or --db (or inputs)");
-  Require(source.depth_scale == 0 || (source.depth_scale > 0 && std::isfinite(source.depth_scale)),
-          "--depth-scale " + std::to_string(source.depth_scale) + " must be a finite number > 0");
+  if (source.depth_scale != 0) CheckUnitsPerMetre(source.depth_scale, "--depth-scale");
   const bool world_options =
       !source.world_from_camera.empty() || source.floor_aligned || !source.sensor.empty();
   if (!source.cloud_path.empty()) return LoadCloudScan(source, world_options);

@@ -87,7 +87,13 @@ void AddTumList(const std::string& list, const ScanSource& common, std::vector<S
             list + ":" + std::to_string(number) +
                 ": a TUM list line is 'timestamp depth/x.png' or 'timestamp rgb/x.png "
                 "timestamp depth/y.png'");
-    out->push_back(SourceOfFile((base / depth).string(), common));
+    // Whatever the line names is its depth image: a directory or a file of
+    // another kind fails as that scan's own line, and the others go on.
+    ScanSource source = common;
+    source.cloud_path.clear();
+    source.db_path.clear();
+    source.depth_path = (base / depth).string();
+    out->push_back(source);
   }
   Require(out->size() > before, list + ": the TUM list names no depth image");
 }

@@ -269,19 +269,24 @@ namespace {
 // The mesh files of a folder and below, sorted: every assimp format and VTK
 // legacy polydata; side files of other formats (materials, textures) are
 // not models.
-std::vector<std::filesystem::path> MeshFilesIn(const std::string& dir) {
+// A mesh file name that is no regular file (a FIFO, a device or a link to
+// one) goes to `not_regular`: the import says it skipped it.
+std::vector<std::filesystem::path> MeshFilesIn(const std::string& dir,
+                                               std::vector<std::filesystem::path>* not_regular) {
   std::error_code ec;
   const std::vector<std::string> assimp = SupportedImportExtensions();
   std::vector<std::filesystem::path> files;
   for (const std::filesystem::directory_entry& entry :
        std::filesystem::recursive_directory_iterator(dir, ec)) {
-    if (!entry.is_regular_file()) continue;
+    if (entry.is_directory()) continue;
     const std::string extension = FileExtension(entry.path().string());
-    if (extension == "vtk" ||
-        (extension != "mtl" && std::binary_search(assimp.begin(), assimp.end(), extension)))
-      files.push_back(entry.path());
+    if (extension != "vtk" &&
+        (extension == "mtl" || !std::binary_search(assimp.begin(), assimp.end(), extension)))
+      continue;
+    (entry.is_regular_file() ? files : *not_regular).push_back(entry.path());
   }
   std::sort(files.begin(), files.end());
+  std::sort(not_regular->begin(), not_regular->end());
   return files;
 }
 
@@ -336,13 +341,19 @@ MeshFolderImport ImportMeshFolder(const MeshFolderImportOptions& options) {
   Require(fs::is_directory(options.dir, ec), options.dir + ": no such folder");
   Require(options.overwrite || !fs::exists(options.out, ec),
           options.out + ": exists; give --overwrite to replace it (a class map may hold edits)");
-  const std::vector<fs::path> files = MeshFilesIn(options.dir);
+  std::vector<fs::path> not_regular;
+  const std::vector<fs::path> files = MeshFilesIn(options.dir, &not_regular);
   Require(!files.empty(),
           options.dir +
               ": no mesh file (vtk, obj, ply, stl, off, gltf, glb, "
               "dae, fbx, 3ds, ...) in this folder or below");
   const fs::path out_folder = fs::absolute(fs::path(options.out)).parent_path();
   MeshFolderImport import;
+  for (const fs::path& file : not_regular) {
+    import.skipped.push_back({file.parent_path().filename().string() + "/" + file.stem().string(),
+                              file.string() + ": not a regular file (a FIFO, device or a link "
+                                              "to one)"});
+  }
   ordered_json entries = ordered_json::array();
   for (const fs::path& file : files) {
     // The class from the options or the file's folder (an unknown folder is

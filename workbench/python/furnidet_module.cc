@@ -36,6 +36,7 @@
 #include "renderers/camera.h"
 #include "workbench/formats/depth_png.h"
 #include "workbench/formats/options_file.h"
+#include "workbench/formats/camera_file.h"
 #include "workbench/formats/scan_file.h"
 #include "workbench/pipelines/evaluate.h"
 #include "workbench/pipelines/import_real.h"
@@ -93,10 +94,11 @@ CameraIntrinsics IntrinsicsFromPython(const py::handle& k, int width, int height
   const auto array = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(k);
   if (array && array.ndim() == 2 && array.shape(0) == 3 && array.shape(1) == 3) {
     auto view = array.unchecked<2>();
-    camera.fx = view(0, 0);
-    camera.fy = view(1, 1);
-    camera.cx = view(0, 2);
-    camera.cy = view(1, 2);
+    std::vector<double> values;
+    for (int r = 0; r < 3; ++r) {
+      for (int c = 0; c < 3; ++c) values.push_back(view(r, c));
+    }
+    return CameraFromMatrix(values, width, height, "K");  // one check for every source
   } else if (array && array.ndim() == 1 && array.shape(0) == 4) {
     auto view = array.unchecked<1>();
     camera.fx = view(0);
@@ -301,6 +303,13 @@ class PyDetector {
                               const py::object& world_from_camera,
                               std::optional<double> depth_scale) const {
     if (depth.ndim() != 2) throw InputError("depth must be a 2-D array (height, width)");
+    // Depth is float metres or integer units; booleans, objects and complex
+    // numbers are refused, and so are negative integers.
+    const char kind = depth.dtype().kind();
+    if (kind != 'f' && kind != 'u' && kind != 'i') {
+      throw InputError("depth must hold floats (metres) or integers (units), not dtype " +
+                       std::string(py::str(depth.dtype())));
+    }
     const int height = static_cast<int>(depth.shape(0)), width = static_cast<int>(depth.shape(1));
     const CameraIntrinsics camera = IntrinsicsFromPython(k, width, height);
     const bool integer = py::isinstance<py::array_t<uint16_t>>(depth) ||
@@ -317,6 +326,11 @@ class PyDetector {
     DepthFrame frame;
     frame.Reshape(width, height);
     const double* values = metres.data();
+    if (kind == 'i') {
+      for (size_t i = 0; i < frame.depth.size(); ++i) {
+        if (values[i] < 0) throw InputError("depth holds a negative integer (" + std::to_string(values[i]) + ")");
+      }
+    }
     for (size_t i = 0; i < frame.depth.size(); ++i) {
       const double z = values[i] / scale;
       frame.depth[i] = std::isfinite(z) && z > 0 ? static_cast<float>(z) : 0.0f;

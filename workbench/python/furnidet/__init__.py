@@ -65,6 +65,12 @@ DETECTION_DTYPE = _np.dtype([
 
 def records(detections):
     """Detections as a NumPy record array (one row each, best score first)."""
+    if isinstance(detections, DetectionResult):
+        detections = detections.detections
+    bad = [d for d in detections if not isinstance(d, Detection)]
+    if bad:
+        raise InputError("records: detections must be furnidet.Detection objects (e.g. "
+                         "result.detections), not %s" % type(bad[0]).__name__)
     rows = [(d.cls, d.x, d.y, d.z, d.yaw, d.score, d.vote_weight, d.verification,
              d.covered_fraction, d.model) for d in detections]
     return _np.rec.array(_np.array(rows, dtype=DETECTION_DTYPE))
