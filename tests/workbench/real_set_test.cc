@@ -88,6 +88,16 @@ TEST(RealSet, ReadsAScanAndRefusesBadFieldsWithOneLine) {
   EXPECT_NE(error_of(scan_with("\"id\"", "\"idd\"")).find("unknown key 'idd'"), std::string::npos);
   EXPECT_NE(error_of(scan_with(cloud, "missing.pcd")).find("missing.pcd' does not exist"),
             std::string::npos);
+  // Issue 29: a yaw in degrees (or 1e308), a device as a scan, a bad pose
+  // named as the labels' field.
+  EXPECT_NE(error_of(scan_with("\"yaw\": null", "\"yaw\": 1e308")).find("must be radians"),
+            std::string::npos);
+  EXPECT_NE(error_of(scan_with(cloud, "/dev/zero")).find("is not a regular file"),
+            std::string::npos);
+  EXPECT_NE(error_of(scan_with("\"floor_aligned\": true",
+                               "\"floor_aligned\": true, \"world_from_camera\": \"1,2\""))
+                .find("'world_from_camera'"),
+            std::string::npos);
   EXPECT_NE(error_of(scan_with("\"chair\"", "\"sofa\"")).find("class 'sofa' must be"),
             std::string::npos);
   EXPECT_NE(error_of(scan_with("\"CC0\"", "\"\"")).find("needs 'source' and 'licence'"),
