@@ -243,6 +243,13 @@ DepthFrame SmallDepth() {
   return frame;
 }
 
+// Every entry of a catalog loaded, as `catalog list --load` does.
+void LoadAllModels(const Catalog& catalog) {
+  std::vector<std::string> ids;
+  for (const CatalogEntry& entry : catalog.entries()) ids.push_back(entry.id);
+  catalog.LoadModels(ids, /*show_progress=*/false);
+}
+
 class LoaderFuzz : public ::testing::Test {
  protected:
   void SetUp() override {
@@ -281,15 +288,10 @@ TEST_F(LoaderFuzz, DepthImages) {
 
 TEST_F(LoaderFuzz, CatalogsAndClassMaps) {
   const std::string sh3f = testing::WriteTestSh3f(dir_, "Test.sh3f");
-  auto load_all = [](const Catalog& catalog) {
-    std::vector<std::string> ids;
-    for (const CatalogEntry& entry : catalog.entries()) ids.push_back(entry.id);
-    catalog.LoadModels(ids, /*show_progress=*/false);
-  };
   Fuzz({"sh3f",
         "sh3f",
         {ReadFileBytes(sh3f)},
-        [&](const std::string& path) { load_all(OpenCatalog(path)); }},
+        [&](const std::string& path) { LoadAllModels(OpenCatalog(path)); }},
        dir_);
   CatalogOpenOptions options;
   options.catalog_dir = dir_;
@@ -298,7 +300,7 @@ TEST_F(LoaderFuzz, CatalogsAndClassMaps) {
         {R"({"format": "furnidet-class-map", "version": 1, "catalogs": ["Test.sh3f"],
              "entries": [{"id": "Test/marker", "class": "chair"},
                          {"id": "Test/rotated", "class": "table", "evaluation_only": true}]})"},
-        [&](const std::string& path) { load_all(OpenCatalog(path, options)); }},
+        [&](const std::string& path) { LoadAllModels(OpenCatalog(path, options)); }},
        dir_);
 }
 
@@ -413,11 +415,6 @@ TEST_F(LoaderFuzz, ClassMapsVersion2) {
                      "f 1 2 3\nf 1 3 4\nf 1 2 6 5\n");
   testing::WriteText(dir_ + "/table.off",
                      "OFF\n4 2 0\n0 0 0\n120 0 0\n120 80 75\n0 80 75\n3 0 1 2\n3 0 2 3\n");
-  auto load_all = [](const Catalog& catalog) {
-    std::vector<std::string> ids;
-    for (const CatalogEntry& entry : catalog.entries()) ids.push_back(entry.id);
-    catalog.LoadModels(ids, /*show_progress=*/false);
-  };
   Fuzz({"class_map_v2",
         "json",
         {R"({"format": "furnidet-class-map", "version": 2, "entries": [
@@ -426,7 +423,7 @@ TEST_F(LoaderFuzz, ClassMapsVersion2) {
              {"id": "t", "class": "table", "mesh": "table.off", "units": "cm",
               "size": [1.2, 0.8, 0.75]},
              {"id": "k", "class": "clutter", "mesh": "chair.obj", "units": 0.5}]})"},
-        [&](const std::string& path) { load_all(OpenCatalog(path)); }},
+        [&](const std::string& path) { LoadAllModels(OpenCatalog(path)); }},
        dir_);
 }
 
