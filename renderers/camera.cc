@@ -23,7 +23,8 @@ void CameraIntrinsics::Check() const {
           "camera fy " + std::to_string(fy) + " must be in (0, 100000] pixels");
   // Below a pixel, a focal length is a unit mistake (metres for pixels).
   char focal[96];
-  std::snprintf(focal, sizeof(focal), "camera focal lengths %g, %g must be at least 1 pixel", fx, fy);
+  std::snprintf(
+      focal, sizeof(focal), "camera focal lengths %g, %g must be at least 1 pixel", fx, fy);
   Require(fx >= 1 && fy >= 1, focal);
   Require(std::isfinite(cx) && cx >= 0 && cx <= width,
           "camera cx " + std::to_string(cx) + " must lie in the image width 0.." +

@@ -178,10 +178,22 @@ void CheckPlyMeshCounts(const std::string& name, const std::string& bytes) {
   const size_t end = bytes.find("end_header");
   Require(bytes.compare(0, 3, "ply") == 0 && end != std::string::npos && end < 65536,
           name + ": not a PLY file (no 'ply' line or no end_header)");
-  static const std::map<std::string, uint64_t> kSizes = {
-      {"char", 1}, {"uchar", 1}, {"int8", 1}, {"uint8", 1}, {"short", 2}, {"ushort", 2},
-      {"int16", 2}, {"uint16", 2}, {"int", 4}, {"uint", 4}, {"int32", 4}, {"uint32", 4},
-      {"float", 4}, {"float32", 4}, {"double", 8}, {"float64", 8}};
+  static const std::map<std::string, uint64_t> kSizes = {{"char", 1},
+                                                         {"uchar", 1},
+                                                         {"int8", 1},
+                                                         {"uint8", 1},
+                                                         {"short", 2},
+                                                         {"ushort", 2},
+                                                         {"int16", 2},
+                                                         {"uint16", 2},
+                                                         {"int", 4},
+                                                         {"uint", 4},
+                                                         {"int32", 4},
+                                                         {"uint32", 4},
+                                                         {"float", 4},
+                                                         {"float32", 4},
+                                                         {"double", 8},
+                                                         {"float64", 8}};
   std::istringstream header(bytes.substr(0, end));
   bool ascii = false;
   std::vector<std::pair<uint64_t, uint64_t>> elements;  // count, min bytes per row

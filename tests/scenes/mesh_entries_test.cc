@@ -158,10 +158,8 @@ TEST(MeshEntries, BadMetadataGivesOneLineNamingTheEntry) {
       {R"({"id": "t/a", "class": "chair", "mesh": "box.vtk", "units": -1})",
        "\"units\" must be m, cm, mm, in, ft or a positive number"},
       // Issue 29: units of 1e300 made a mesh of size -inf, 1e-300 one of 0 x 0 x 0.
-      {R"({"id": "t/a", "class": "chair", "mesh": "box.vtk", "units": 1e300})",
-       "(1e-6..1000)"},
-      {R"({"id": "t/a", "class": "chair", "mesh": "box.vtk", "units": "1e-300"})",
-       "(1e-6..1000)"},
+      {R"({"id": "t/a", "class": "chair", "mesh": "box.vtk", "units": 1e300})", "(1e-6..1000)"},
+      {R"({"id": "t/a", "class": "chair", "mesh": "box.vtk", "units": "1e-300"})", "(1e-6..1000)"},
       {R"({"id": "t/a", "class": "chair", "mesh": "box.vtk", "up": "w"})",
        "entry 't/a' \"up\" 'w' is not an axis"},
       {R"({"id": "t/a", "class": "chair", "mesh": "box.vtk", "up": "z", "front": "-z"})",

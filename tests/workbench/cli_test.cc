@@ -108,9 +108,9 @@ TEST(Cli, UserMistakesGiveOneLineAndNonZeroExit) {
 // memory and time. ASCII PLY and binary STL counts likewise.
 TEST(Cli, MeshHeadersThatLieAboutTheirCountsAreOneLine) {
   const std::string map = FURN_SOURCE_DIR "/tests/data/crashers/bags_meshes/off_count_lie_map.json";
-  const RunResult show = testing::RunCommand("ulimit -v 2000000; timeout 10 " +
-                                             std::string(FURN_WORKBENCH_BINARY) +
-                                             " catalog show c1 --catalog " + map);
+  const RunResult show =
+      testing::RunCommand("ulimit -v 2000000; timeout 10 " + std::string(FURN_WORKBENCH_BINARY) +
+                          " catalog show c1 --catalog " + map);
   EXPECT_GT(show.exit_code, 0);
   EXPECT_LT(show.exit_code, 124) << "a signal or the timeout";
   EXPECT_NE(show.output.find("declares 10000000 vertices, more than its"), std::string::npos)
@@ -125,7 +125,8 @@ TEST(Cli, MeshHeadersThatLieAboutTheirCountsAreOneLine) {
   stl[83] = '\x10';
   testing::WriteText(dir + "/lie.stl", stl);
   for (const char* file : {"/lie.ply", "/lie.stl"}) {
-    EXPECT_NE(testing::ErrorOf([&] { LoadMeshFile(dir + file); }).find("declares"), std::string::npos)
+    EXPECT_NE(testing::ErrorOf([&] { LoadMeshFile(dir + file); }).find("declares"),
+              std::string::npos)
         << file;
   }
 }

@@ -10,9 +10,9 @@
 #include <tf2_msgs/TFMessage.h>
 #include <visualization_msgs/MarkerArray.h>
 
+#include <chrono>
 #include <cmath>
 #include <cstring>
-#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -328,11 +328,10 @@ TEST_F(RosbagTest, HostileBagsAreOneLineWithinMemoryAndTime) {
   };
   for (const auto& c : cases) {
     const auto start = std::chrono::steady_clock::now();
-    const testing::CommandResult r =
-        testing::RunCommand("ulimit -v 2000000; " + std::string(FURN_WORKBENCH_BINARY) +
-                            " detect --model " + Model() + " --bag " + dir + c.bag + " --topic " +
-                            c.topic + " --out " + *dir_ + "/o.jsonl --out-bag " + *dir_ +
-                            "/out.bag");
+    const testing::CommandResult r = testing::RunCommand(
+        "ulimit -v 2000000; " + std::string(FURN_WORKBENCH_BINARY) + " detect --model " + Model() +
+        " --bag " + dir + c.bag + " --topic " + c.topic + " --out " + *dir_ +
+        "/o.jsonl --out-bag " + *dir_ + "/out.bag");
     const double seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     EXPECT_GT(r.exit_code, 0) << c.bag;
@@ -352,7 +351,9 @@ TEST_F(RosbagTest, TheBoundedReaderAcceptsOurBagsAndRefusesACutOne) {
   const std::string bytes = ReadFileBytes(Bag());
   const std::string cut = *dir_ + "/cut.bag";
   testing::WriteText(cut, bytes.substr(0, bytes.size() / 2));
-  EXPECT_NE(testing::ErrorOf([&] { CheckBagFile(cut); }).find("cut.bag: not a readable ROS 1 bag: record at byte"),
+  EXPECT_NE(testing::ErrorOf([&] {
+              CheckBagFile(cut);
+            }).find("cut.bag: not a readable ROS 1 bag: record at byte"),
             std::string::npos);
   testing::WriteText(cut, "#ROSBAG V1.2\n");
   EXPECT_NE(testing::ErrorOf([&] { CheckBagFile(cut); }).find("not a ROS 1 bag of format 2.0"),

@@ -4,8 +4,8 @@
 #include <iostream>
 
 #include "core/error.h"
-#include "core/progress.h"
 #include "core/file_util.h"
+#include "core/progress.h"
 #include "scenes/room_composer.h"
 #include "workbench/cli/cli_common.h"
 #include "workbench/cli/commands.h"

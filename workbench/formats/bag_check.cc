@@ -14,19 +14,15 @@ namespace {
 
 constexpr char kMagic[] = "#ROSBAG V2.0\n";
 constexpr size_t kMagicBytes = sizeof(kMagic) - 1;
-constexpr uint32_t kMaxHeaderBytes = 1u << 20;         // record headers are a few hundred bytes
+constexpr uint32_t kMaxHeaderBytes = 1u << 20;  // record headers are a few hundred bytes
 // A chunk's uncompressed size: the bag library allocates it before reading
 // (rosbag's chunks are 768 KiB by default; 256 MiB is far beyond any real one).
 constexpr uint64_t kMaxChunkBytes = uint64_t{1} << 28;
 
-enum Op : uint8_t {
-  kMessageData = 0x02,
-  kBagHeader = 0x03,
-  kIndexData = 0x04,
-  kChunk = 0x05,
-  kChunkInfo = 0x06,
-  kConnection = 0x07,
-};
+// Record op codes of the bag format 2.0: message data, bag header, index
+// data, chunk, chunk info, connection.
+constexpr uint8_t kMessageData = 0x02, kBagHeader = 0x03, kIndexData = 0x04, kChunk = 0x05,
+                  kChunkInfo = 0x06, kConnection = 0x07;
 
 uint32_t U32(const char* at) {
   uint32_t value;
@@ -41,7 +37,8 @@ uint64_t U64(const char* at) {
 }
 
 // A record header's fields, name -> value bytes, each within the header.
-std::map<std::string, std::string> HeaderFields(const std::string& header, const std::string& where) {
+std::map<std::string, std::string> HeaderFields(const std::string& header,
+                                                const std::string& where) {
   std::map<std::string, std::string> fields;
   size_t at = 0;
   while (at < header.size()) {
@@ -49,8 +46,8 @@ std::map<std::string, std::string> HeaderFields(const std::string& header, const
     const uint32_t length = U32(header.data() + at);
     at += 4;
     Require(length <= header.size() - at,
-            where + ": a header field of " + std::to_string(length) + " bytes runs past its header (" +
-                std::to_string(header.size() - at) + " left)");
+            where + ": a header field of " + std::to_string(length) +
+                " bytes runs past its header (" + std::to_string(header.size() - at) + " left)");
     const std::string field = header.substr(at, length);
     at += length;
     const size_t equals = field.find('=');
@@ -80,8 +77,8 @@ class BagWalker {
 
   // One record at `at` (within [at, end)): returns the next record's offset.
   uint64_t Record(std::istream& in, uint64_t at, uint64_t end, bool in_chunk) {
-    const std::string where = path_ + ": not a readable ROS 1 bag: record at byte " + std::to_string(at) +
-                              (in_chunk ? " of a chunk" : "");
+    const std::string where = path_ + ": not a readable ROS 1 bag: record at byte " +
+                              std::to_string(at) + (in_chunk ? " of a chunk" : "");
     Require(end - at >= 8, where + ": cut off (its lengths need 8 bytes)");
     char length[4];
     Read(in, length, 4, where);
@@ -165,9 +162,9 @@ class BagWalker {
              uint64_t data_bytes,
              const std::string& where) {
     const std::string& compression = Field(fields, "compression", 0, where);
-    Require(compression == "none" || compression == "lz4" || compression == "bz2",
-            where + ": chunk compression '" + compression.substr(0, 20) +
-                "' is not none, lz4 or bz2");
+    Require(
+        compression == "none" || compression == "lz4" || compression == "bz2",
+        where + ": chunk compression '" + compression.substr(0, 20) + "' is not none, lz4 or bz2");
     const uint64_t size = U32(Field(fields, "size", 4, where).data());
     Require(size <= kMaxChunkBytes, where + ": a chunk of " + std::to_string(size) + " bytes");
     Require(compression != "none" || size == data_bytes,
@@ -205,8 +202,8 @@ class BagWalker {
   }
 
   void ConnectionHeader(std::istream& in, uint64_t data_bytes, const std::string& where) {
-    Require(data_bytes <= kMaxHeaderBytes, where + ": a connection header of " +
-                                               std::to_string(data_bytes) + " bytes");
+    Require(data_bytes <= kMaxHeaderBytes,
+            where + ": a connection header of " + std::to_string(data_bytes) + " bytes");
     std::string header(data_bytes, '\0');
     Read(in, header.data(), data_bytes, where);
     HeaderFields(header, where + " (connection header)");

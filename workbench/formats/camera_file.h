@@ -38,7 +38,10 @@ CameraFile ReadCameraFile(const std::string& path, std::optional<int64_t> image_
 // CameraInfo, Python): K = [fx, 0, cx, 0, fy, cy, 0, 0, 1] (9 numbers, row by
 // row; a skewed K is refused), then CameraIntrinsics::Check when the size is
 // known (width and height > 0). Throws InputError naming `where`.
-CameraIntrinsics CameraFromMatrix(const std::vector<double>& k, int width, int height, const std::string& where);
+CameraIntrinsics CameraFromMatrix(const std::vector<double>& k,
+                                  int width,
+                                  int height,
+                                  const std::string& where);
 
 // Depth units per metre from a camera file, flag or message: in [1, 10^6]
 // (1: metres, 1000: millimetres, 5000: TUM). Throws InputError naming `what`.

@@ -32,6 +32,7 @@ int FrameBagWriter::Finish() { NoRos(); }
 
 #else
 
+#include <console_bridge/console.h>
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
 #include <sensor_msgs/CameraInfo.h>
@@ -39,7 +40,6 @@ int FrameBagWriter::Finish() { NoRos(); }
 #include <sensor_msgs/PointCloud2.h>
 #include <tf2_msgs/TFMessage.h>
 #include <visualization_msgs/MarkerArray.h>
-#include <console_bridge/console.h>
 
 #include <Eigen/Geometry>
 #include <cmath>
@@ -85,7 +85,8 @@ std::string TimeText(const ros::Time& time) {
 // The message as T, after our bounded check of its serialized fields (the
 // library allocates whatever a length field claims).
 template <typename T>
-boost::shared_ptr<T> CheckedInstantiate(const rosbag::MessageInstance& m, const std::string& where) {
+boost::shared_ptr<T> CheckedInstantiate(const rosbag::MessageInstance& m,
+                                        const std::string& where) {
   std::vector<uint8_t> bytes(m.size());
   ros::serialization::OStream stream(bytes.data(), static_cast<uint32_t>(bytes.size()));
   m.write(stream);
@@ -370,7 +371,8 @@ CameraIntrinsics FirstCameraInfo(rosbag::Bag& bag,
                                  const std::string& info_topic) {
   rosbag::View info_view(bag, rosbag::TopicQuery(info_topic));
   for (const rosbag::MessageInstance& m : info_view) {
-    if (const auto info = CheckedInstantiate<sensor_msgs::CameraInfo>(m, options.bag_path + " " + info_topic))
+    if (const auto info =
+            CheckedInstantiate<sensor_msgs::CameraInfo>(m, options.bag_path + " " + info_topic))
       return IntrinsicsOf(*info, options.bag_path + " " + info_topic);
   }
   throw InputError(options.bag_path + ": no sensor_msgs/CameraInfo on " + info_topic +
@@ -648,7 +650,8 @@ FrameBagWriter::FrameBagWriter(const std::string& out_bag, bool compress)
   impl_->temporary = out_bag + ".partial";
   try {
     impl_->bag.open(impl_->temporary, rosbag::bagmode::Write);
-    impl_->bag.setCompression(compress ? rosbag::compression::LZ4 : rosbag::compression::Uncompressed);
+    impl_->bag.setCompression(compress ? rosbag::compression::LZ4
+                                       : rosbag::compression::Uncompressed);
   } catch (...) {
     std::error_code ec;
     std::filesystem::remove(impl_->temporary, ec);

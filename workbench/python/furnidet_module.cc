@@ -34,9 +34,9 @@
 #include "db/dataset_db.h"
 #include "db/sqlite.h"
 #include "renderers/camera.h"
+#include "workbench/formats/camera_file.h"
 #include "workbench/formats/depth_png.h"
 #include "workbench/formats/options_file.h"
-#include "workbench/formats/camera_file.h"
 #include "workbench/formats/scan_file.h"
 #include "workbench/pipelines/evaluate.h"
 #include "workbench/pipelines/import_real.h"
@@ -328,7 +328,8 @@ class PyDetector {
     const double* values = metres.data();
     if (kind == 'i') {
       for (size_t i = 0; i < frame.depth.size(); ++i) {
-        if (values[i] < 0) throw InputError("depth holds a negative integer (" + std::to_string(values[i]) + ")");
+        if (values[i] < 0)
+          throw InputError("depth holds a negative integer (" + std::to_string(values[i]) + ")");
       }
     }
     for (size_t i = 0; i < frame.depth.size(); ++i) {
