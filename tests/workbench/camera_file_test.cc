@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
 #include <opencv2/imgcodecs.hpp>
 
 #include "core/error.h"
@@ -12,6 +13,7 @@
 #include "tests/test_util.h"
 #include "workbench/formats/depth_png.h"
 #include "workbench/formats/point_cloud_file.h"
+#include "workbench/formats/scan_inputs.h"
 
 namespace furn {
 namespace {
@@ -262,6 +264,21 @@ TEST(RealScans, FloatTiffAndExrDepthImagesInMetres) {
               ReadDepthImage(dir + "/broken.exr", std::nullopt);
             }).find("broken.exr: not a readable exr image"),
             std::string::npos);
+}
+
+// A TUM list line naming a folder or a file of another kind is that scan's
+// own failure, not the batch's (issue 29): it expands to a depth source.
+TEST(ScanInputs, TumListLinesOfOtherKindsStayScansOfTheirOwn) {
+  const std::string dir = testing::ScratchDir();
+  std::filesystem::create_directories(dir + "/depth/folder.png");
+  testing::WriteText(dir + "/depth.txt",
+                     "# timestamp filename\n1.0 depth/a.png\n2.0 depth/folder.png\n3.0 list.txt\n");
+  const std::vector<ScanSource> sources =
+      ExpandScanInputs({dir + "/depth.txt"}, ScanSource{}, false, false);
+  ASSERT_EQ(sources.size(), 3u);
+  EXPECT_EQ(sources[1].depth_path, dir + "/depth/folder.png");
+  EXPECT_EQ(sources[2].depth_path, dir + "/list.txt");
+  EXPECT_NE(testing::ErrorOf([&] { LoadScan(sources[1]); }).find("folder.png"), std::string::npos);
 }
 
 }  // namespace

@@ -220,9 +220,12 @@ TEST(RealSet, EvaluationIsTheSameInAnyLabelFrame) {
     testing::WriteText(
         dir + "/" + name + ".json",
         nlohmann::json{{"format", "furnidet-real-set"}, {"version", 1}, {"scans", scans}}.dump());
-    const testing::CommandResult imported = Workbench("dataset import-real " + dir + "/" + name +
-                                                      ".json --out " + dir + "/" + name + ".db");
+    const testing::CommandResult imported =
+        Workbench("dataset import-real --quiet " + dir + "/" + name + ".json --out " + dir + "/" +
+                  name + ".db");
     ASSERT_EQ(imported.exit_code, 0) << imported.output;
+    // --quiet silences the progress lines (issue 29): only the summary line.
+    EXPECT_EQ(imported.output.find("import-real:"), std::string::npos) << imported.output;
     const testing::CommandResult run = Workbench("evaluate --quiet --split all --model " + model +
                                                  " --db " + dir + "/" + name + ".db");
     ASSERT_EQ(run.exit_code, 0) << run.output;

@@ -6,6 +6,8 @@
 
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
+#include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/Image.h>
 #include <sensor_msgs/PointCloud2.h>
 #include <tf2_msgs/TFMessage.h>
 #include <visualization_msgs/MarkerArray.h>
@@ -346,6 +348,58 @@ TEST_F(RosbagTest, HostileBagsAreOneLineWithinMemoryAndTime) {
 
 // A bag our exporter wrote passes the structure check, and every message of
 // it the field check; cut short, it fails with the record named.
+// A /tf transform that is not finite or not a unit quaternion, and a scan
+// stamped beyond ROS time with --out-bag: one line naming the rule (issue 29).
+TEST_F(RosbagTest, BadTransformsAndStampsAreNamed) {
+  const std::string tf_bag = *dir_ + "/bad_tf.bag";
+  {
+    rosbag::Bag bag(tf_bag, rosbag::bagmode::Write);
+    tf2_msgs::TFMessage tf;
+    geometry_msgs::TransformStamped t;
+    t.header.stamp = ros::Time(1, 0);
+    t.header.frame_id = "world";
+    t.child_frame_id = "camera";
+    t.transform.rotation.w = 1e200;
+    tf.transforms.push_back(t);
+    bag.write("/tf", ros::Time(1, 0), tf);
+  }
+  const testing::CommandResult tf =
+      Workbench("detect --model " + Model() + " --bag " + tf_bag + " --topic /x");
+  EXPECT_EQ(tf.exit_code, 1);
+  EXPECT_NE(tf.output.find("transform world -> camera at 1.000"), std::string::npos) << tf.output;
+  EXPECT_NE(tf.output.find("unit quaternion"), std::string::npos) << tf.output;
+
+  // The exported bag's first image and camera info, stamped 2^32 - 1 s.
+  const std::string late = *dir_ + "/late.bag";
+  {
+    rosbag::Bag in(Bag(), rosbag::bagmode::Read);
+    rosbag::Bag out(late, rosbag::bagmode::Write);
+    rosbag::View view(in,
+                      rosbag::TopicQuery(std::vector<std::string>{"/camera/depth/image_raw",
+                                                                  "/camera/depth/camera_info"}));
+    bool image_written = false, info_written = false;
+    for (const rosbag::MessageInstance& m : view) {
+      if (auto image = m.instantiate<sensor_msgs::Image>()) {
+        if (image_written) continue;
+        image->header.stamp = ros::Time(4294967295u, 0);
+        out.write(m.getTopic(), m.getTime(), *image);
+        image_written = true;
+      } else if (auto info = m.instantiate<sensor_msgs::CameraInfo>()) {
+        out.write(m.getTopic(), m.getTime(), *info);
+        info_written = true;
+      }
+      if (image_written && info_written) break;
+    }
+  }
+  const testing::CommandResult stamp = Workbench(
+      "detect --quiet --model " + Model() + " --bag " + late +
+      " --topic /camera/depth/image_raw --tf-world '' --out-bag " + *dir_ + "/late_out.bag");
+  EXPECT_EQ(stamp.exit_code, 1) << stamp.output;
+  EXPECT_NE(stamp.output.find("lies outside ROS time"), std::string::npos) << stamp.output;
+  EXPECT_EQ(std::count(stamp.output.begin(), stamp.output.end(), '\n'), 1) << stamp.output;
+  EXPECT_FALSE(std::filesystem::exists(*dir_ + "/late_out.bag"));
+}
+
 TEST_F(RosbagTest, TheBoundedReaderAcceptsOurBagsAndRefusesACutOne) {
   EXPECT_NO_THROW(CheckBagFile(Bag()));
   const std::string bytes = ReadFileBytes(Bag());
