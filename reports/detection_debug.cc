@@ -142,8 +142,9 @@ void WriteSegmentsPng(const DebugInput& in) {
 // Fitted models over the scan, from the camera.
 void WriteFittedPng(const DebugInput& in) {
   CameraView view(in.camera, in.result.world_from_camera);
+  const Eigen::Vector3f sensor = in.sensor();
   for (const Eigen::Vector3f& p : in.debug().points)
-    view.Dot(p, GreyForDistance((p - in.sensor()).norm()));
+    view.Dot(p, GreyForDistance((p - sensor).norm()));
   for (size_t d = 0; d < in.result.detections.size(); ++d) {
     const cv::Scalar colour = ClassColour(in.result.detections[d].furniture_class);
     for (const Eigen::Vector3f& p : in.debug().fitted_points[d]) view.Dot(p, colour);

@@ -58,6 +58,7 @@ int RunTune(int argc, char** argv) {
   options.Check();
   const Catalog catalog = OpenCatalog(catalog_flags.spec, MakeOpenOptions(catalog_flags));
   const TuneSummary summary = RunTuning(catalog, options);
+  const MetricId objective = MetricId::Parse(options.objective);
   std::printf(
       "tune %s: %d trials (%d done before), %d models trained; best is trial %d (run %lld)\n",
       summary.tune_id.c_str(),
@@ -69,14 +70,14 @@ int RunTune(int argc, char** argv) {
   std::printf("  %s on %s: base %.3f, best %.3f\n",
               options.objective.c_str(),
               options.split.c_str(),
-              MetricOrNan(summary.base_validation, MetricId::Parse(options.objective)),
-              MetricOrNan(summary.best_validation, MetricId::Parse(options.objective)));
+              MetricOrNan(summary.base_validation, objective),
+              MetricOrNan(summary.best_validation, objective));
   if (!summary.base_test.empty()) {
     std::printf("  %s on %s: base %.3f, best %.3f\n",
                 options.objective.c_str(),
                 options.test_split.c_str(),
-                MetricOrNan(summary.base_test, MetricId::Parse(options.objective)),
-                MetricOrNan(summary.best_test, MetricId::Parse(options.objective)));
+                MetricOrNan(summary.base_test, objective),
+                MetricOrNan(summary.best_test, objective));
   }
   std::printf("wrote %s and %s\n", summary.best_options_path.c_str(), summary.report_path.c_str());
   return 0;
