@@ -28,6 +28,8 @@ furn_find_package(yaml-cpp libyaml-cpp-dev)
 furn_find_package(Threads build-essential)
 furn_find_package(ZLIB zlib1g-dev)
 furn_find_package(PNG libpng-dev)
+# The learned vote map (core/vote_net.cc): PyTorch's C++ library, CPU.
+furn_find_package(Torch libtorch-dev)
 
 find_package(PkgConfig QUIET)
 if(NOT PkgConfig_FOUND)

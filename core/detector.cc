@@ -48,6 +48,13 @@ void DetectorOptions::Check() const {
   Require(min_probability >= 0 && min_probability <= 1, "min probability must be in 0..1");
   Require(scorer_max_seen_through >= 0 && scorer_max_seen_through <= 1,
           "scorer max seen through must be in 0..1");
+  Require(learned_min_heat >= 0 && learned_min_heat <= 1,
+          "learned min heat " + std::to_string(learned_min_heat) + " must be in 0..1");
+  Require(learned_max_per_class >= 1 && learned_max_per_class <= 1000,
+          "learned max per class must be in 1..1000");
+  Require(learned_suppress_m >= 0 && learned_suppress_m <= 5,
+          "learned suppress radius must be in 0..5 m");
+  Require(torch_threads >= 0 && torch_threads <= 256, "torch threads must be in 0..256");
 }
 
 Detector::Detector(TrainedModel model, const DetectorOptions& options)
@@ -86,6 +93,13 @@ Detector::Detector(TrainedModel model, const DetectorOptions& options)
   impl.scored = options.use_scorer && !impl.scorer.empty();
   if (!m.render_meshes.empty())
     impl.mesh_caster = std::make_unique<ModelMeshCaster>(&impl.model.render_meshes);
+  if (!m.vote_net.empty())
+    impl.vote_net = VoteNet::Deserialize(m.vote_net, "the model's vote network");
+  Require(options.voting != VotingMode::kLearned || !impl.vote_net.empty(),
+          "--voting learned: the model holds no vote network (train it with the default "
+          "--vote-net, or use --voting codebook)");
+  impl.learned = options.voting == VotingMode::kLearned ||
+                 (options.voting == VotingMode::kAuto && !impl.vote_net.empty());
 }
 
 Detector::~Detector() = default;
@@ -93,6 +107,22 @@ Detector::~Detector() = default;
 const TrainedModel& Detector::model() const { return impl_->model; }
 const DetectorOptions& Detector::options() const { return impl_->options; }
 bool Detector::scored() const { return impl_->scored; }
+bool Detector::learned() const { return impl_->learned; }
+
+DetectionBox BoxOf(const Detection& d, const TrainedModel& model) {
+  DetectionBox box;
+  if (d.model_index >= 0 && d.model_index < static_cast<int>(model.model_shapes.size())) {
+    box.low = model.model_shapes[d.model_index].low;
+    box.high = model.model_shapes[d.model_index].high;
+    return box;
+  }
+  constexpr float kHeightM[] = {0.9f, 0.85f, 0.75f, 0.85f, 0.85f};  // per class, enum order
+  static_assert(sizeof(kHeightM) / sizeof(float) == kAllClasses.size());
+  const Eigen::Vector2f half(static_cast<float>(d.width / 2), static_cast<float>(d.depth / 2));
+  box.low << -half, 0;
+  box.high << half, kHeightM[static_cast<int>(d.furniture_class)];
+  return box;
+}
 
 std::string DetectionDebug::Describe(const Hypothesis& h) {
   char text[96];
@@ -148,6 +178,10 @@ DetectionResult Detector::Detect(const DetectionInput& input, bool keep_debug) c
   result.segments = static_cast<int>(scan.view.segments.size());
   for (const StageTime& stage : scan.timings_ms.stages) result.timings_ms.stages.push_back(stage);
   timer.Restart();
+  if (impl_->learned) {
+    DetectLearned(scan, keep_debug, &timer, &result);
+    return result;
+  }
 
   const VoteMaps votes = Vote(scan);
   timer.Lap(DetectionStage::kVote);

@@ -50,8 +50,23 @@
 #include "core/render_compare.h"
 #include "core/trainer.h"
 #include "core/view_segments.h"
+#include "core/vote_net.h"
 
 namespace furn {
+
+// Where hypotheses come from: the codebook's Hough votes (the paper's
+// path), the learned vote map of the model file (issue 30), or (auto) the
+// learned map when the model holds one.
+enum class VotingMode { kAuto, kCodebook, kLearned };
+template <>
+struct EnumText<VotingMode> {
+  static constexpr const char* kKind = "voting";
+  static constexpr EnumEntry<VotingMode> kEntries[] = {
+      {VotingMode::kAuto, "auto"},
+      {VotingMode::kCodebook, "codebook"},
+      {VotingMode::kLearned, "learned"},
+  };
+};
 
 struct DetectorOptions {
   // Input (m): points farther from the sensor are dropped; points below the
@@ -129,6 +144,17 @@ struct DetectorOptions {
 
   uint64_t seed = 1;  // RANSAC draws
 
+  // Learned voting (vote_net.h): heat-map maxima of at least learned_min_heat
+  // become detections, at most learned_max_per_class per class; a weaker
+  // maximum of any class within learned_suppress_m of a stronger one is
+  // dropped (one piece of furniture, one label). torch_threads: the
+  // network's intra-op threads (0: the library's default).
+  VotingMode voting = VotingMode::kAuto;
+  double learned_min_heat = 0.1;
+  int learned_max_per_class = 16;
+  double learned_suppress_m = 0.3;
+  int torch_threads = 1;
+
   // Throws InputError naming the field and the rule.
   void Check() const;
 };
@@ -146,11 +172,20 @@ struct Detection {
   double x = 0, y = 0, z = 0, yaw = 0;  // reference point and yaw, world frame
   int model_index = -1;                 // into the trained model's names
   std::string model_name;
-  double score = 0;             // the scorer's probability, else verification x covered x seen
+  double width = 0, depth = 0;  // footprint (m) along the object's x and y; 0: unknown
+  double score = 0;  // learned: the heat; else the scorer's probability or vs x covered x seen
   double vote_weight = 0;       // smoothed Hough value at the maximum
   double verification = 0;      // visibility score vs
   double covered_fraction = 0;  // of the scene points inside the fitted box, those it explains
 };
+
+// A detection's box in its own frame (yaw about its reference point, base on
+// the floor): the fitted CAD model's bounds, else the learned footprint with
+// a class's typical height.
+struct DetectionBox {
+  Eigen::Vector3f low = Eigen::Vector3f::Zero(), high = Eigen::Vector3f::Zero();
+};
+DetectionBox BoxOf(const Detection& detection, const TrainedModel& model);
 
 // What became of a Hough maximum, in pipeline order (a later value is a
 // further stage): each stage a hypothesis can stop at (SPEC §8 steps 4 to 7).
@@ -193,6 +228,8 @@ enum class DetectionStage {
   kFeatures,
   kOccupancy,
   kVote,
+  kBev,
+  kNetwork,
   kMaxima,
   kRank,
   kFitAndVerify,
@@ -209,6 +246,8 @@ struct EnumText<DetectionStage> {
       {DetectionStage::kFeatures, "features"},
       {DetectionStage::kOccupancy, "occupancy"},
       {DetectionStage::kVote, "vote"},
+      {DetectionStage::kBev, "bev"},
+      {DetectionStage::kNetwork, "network"},
       {DetectionStage::kMaxima, "maxima"},
       {DetectionStage::kRank, "rank"},
       {DetectionStage::kFitAndVerify, "fit+verify"},
@@ -266,6 +305,8 @@ struct DetectionDebug {
     std::optional<HypothesisFeatures> features;
     double fit_x = 0, fit_y = 0;
     double probability = -1;  // the scorer's, when one decided
+    // Learned voting: the network's yaw and footprint at the maximum.
+    double yaw = 0, width = 0, depth = 0;
   };
   // One line for people: "detected", "covers 0.62 of the points", ...
   static std::string Describe(const Hypothesis& hypothesis);
@@ -330,6 +371,9 @@ struct PreparedScan {
   std::vector<float> depth;
   int width = 0, height = 0;
   StageTimings timings_ms;  // floor, preprocess, ...
+  // Learned voting: the camera-frame points the scan was given (what the
+  // network's grid is rasterised from); empty on the codebook path.
+  std::vector<Eigen::Vector3f> camera_points;
 };
 
 // Stage 2: per-class vote grids (smoothed) and the votes behind them.
@@ -400,6 +444,8 @@ struct FittedHypothesis {
   std::vector<int> support;                    // scan points (view.cloud) it explains
 };
 
+class StageTimer;
+
 class Detector {
  public:
   // Checks the options; indexes the shape model and part-subset library.
@@ -447,13 +493,28 @@ class Detector {
                             const std::vector<FittedHypothesis>& fits,
                             std::vector<DetectionDebug::Hypothesis>* hypotheses) const;
 
+  // Learned voting (when learned()): the maxima of the network's output for
+  // the scan's BEV image (RasteriseScan) as hypotheses and detections (best
+  // first).
+  std::vector<DetectionDebug::Hypothesis> LearnedMaxima(const BevImage& image,
+                                                        const BevOutput& output,
+                                                        std::vector<Detection>* detections) const;
+
   // Whether detection scores are the scorer's probabilities.
   bool scored() const;
+  // Whether hypotheses come from the learned vote map.
+  bool learned() const;
 
   const TrainedModel& model() const;
   const DetectorOptions& options() const;
 
  private:
+  // Detect's learned path after Prepare: vote map, maxima, detections.
+  void DetectLearned(const PreparedScan& scan,
+                     bool keep_debug,
+                     StageTimer* timer,
+                     DetectionResult* result) const;
+
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };

@@ -179,6 +179,12 @@ PreparedScan Detector::Prepare(const DetectionInput& input) const {
     return scan;
   }
   if (!PlaceInWorld(input, options, &scan)) return scan;
+  if (impl.learned) {  // the network's grid is rasterised from the points as given
+    scan.sensor = scan.world_from_camera.translation().cast<float>();
+    scan.camera_points = input.points;
+    timer.Lap(DetectionStage::kFloor);
+    return scan;
+  }
   const Eigen::Matrix3f rotation = scan.world_from_camera.linear().cast<float>();
   const Eigen::Vector3f translation = scan.world_from_camera.translation().cast<float>();
   scan.sensor = translation;

@@ -1,5 +1,7 @@
 #include "core/progress.h"
 
+#include <cstring>
+
 #include <unistd.h>
 
 #include <algorithm>
@@ -51,6 +53,8 @@ void Progress::Finish() {
   Draw(true);
 }
 
+void Progress::SetNote(std::string note) { note_ = std::move(note); }
+
 void Progress::Draw(bool final_line) {
   if (g_quiet || total_ == 0) return;
   const auto now = std::chrono::steady_clock::now();
@@ -58,10 +62,14 @@ void Progress::Draw(bool final_line) {
   const double rate = elapsed > 0 ? done_ / elapsed : 0.0;
   const double eta = rate > 0 ? (total_ - done_) / rate : 0.0;
   const double fraction = static_cast<double>(done_) / total_;
-  char secondary[64] = "";
+  char secondary[128] = "";
   if (!secondary_unit_.empty() && elapsed > 0) {
     std::snprintf(
         secondary, sizeof(secondary), ", %.1f %s/s", secondary_ / elapsed, secondary_unit_.c_str());
+  }
+  if (!note_.empty()) {
+    const size_t used = std::strlen(secondary);
+    std::snprintf(secondary + used, sizeof(secondary) - used, ", %s", note_.c_str());
   }
   if (on_terminal_) {
     if (!final_line && now - last_draw_ < std::chrono::milliseconds(100)) return;

@@ -20,6 +20,8 @@ class Progress {
   void Advance(size_t steps = 1);
   // A second count shown as a rate beside the main one (e.g. frames beside rooms).
   void AddSecondary(size_t count, const std::string& unit);
+  // A short note shown after the counts (e.g. "loss 0.412"), until replaced.
+  void SetNote(std::string note);
   void Finish();
 
   // Set once by the CLI (--quiet); applies to every Progress.
@@ -34,6 +36,7 @@ class Progress {
   size_t done_ = 0;
   size_t secondary_ = 0;
   std::string secondary_unit_;
+  std::string note_;
   bool on_terminal_;
   bool finished_ = false;
   int last_logged_decile_ = -1;

@@ -17,10 +17,10 @@ namespace furn {
 namespace {
 
 constexpr char kMagic[8] = {'F', 'U', 'R', 'N', 'M', 'D', 'L', '\0'};
-constexpr uint32_t kFormatVersion = 7;  // 2: part-subset library and model shapes; 3: scorer;
+constexpr uint32_t kFormatVersion = 8;  // 2: part-subset library and model shapes; 3: scorer;
                                         // 4: render meshes; 5: the part index stored;
                                         // 6: an XXH3-64 checksum of the payload at the end;
-                                        // 7: the VFH size component flag
+                                        // 7: the VFH size component flag; 8: vote network
 constexpr uint32_t kOldestReadable = 2;
 constexpr size_t kHeaderBytes = 12;  // magic and version, outside the checksum
 
@@ -461,6 +461,7 @@ void SaveTrainedModel(const TrainedModel& model, const std::string& path) {
     w.Bytes(mesh.triangles.data(), sizeof(int) * 3 * mesh.triangles.size());
   }
   w.I32(model.options.part_subsets.vfh_size_component ? 1 : 0);
+  w.String(model.vote_net);
   const std::string& bytes = w.bytes();
   const uint64_t checksum = XXH3_64bits(bytes.data() + kHeaderBytes, bytes.size() - kHeaderBytes);
   w.Bytes(&checksum, sizeof(checksum));
@@ -641,6 +642,7 @@ TrainedModel LoadTrainedModel(const std::string& path) {
             path + ": model file is corrupt (the VFH size component flag is neither 0 nor 1)");
     model.options.part_subsets.vfh_size_component = size_component == 1;
   }
+  if (version >= 8) model.vote_net = r.String(1u << 28);
   Require(r.AtEnd(), path + ": model file has trailing bytes (corrupt)");
   model.options.Check();
   CheckIndices(model, path);

@@ -128,6 +128,9 @@ struct TrainedModel {
   // name, or none (a model file older than format 4, or meshes not given):
   // then verification draws the model shapes' samples instead.
   std::vector<TriangleMesh> render_meshes;
+  // The learned vote map (VoteNet::Serialize, issue 30), or empty: then
+  // detection votes with the codebook (the paper's path).
+  std::string vote_net;
 };
 
 // The vertex-clustering cell of TrainedModel::render_meshes (m).

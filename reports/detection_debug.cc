@@ -145,14 +145,14 @@ void WriteFittedPng(const DebugInput& in) {
   const Eigen::Vector3f sensor = in.sensor();
   for (const Eigen::Vector3f& p : in.debug().points)
     view.Dot(p, GreyForDistance((p - sensor).norm()));
-  for (size_t d = 0; d < in.result.detections.size(); ++d) {
+  for (size_t d = 0; d < in.debug().fitted_points.size(); ++d) {  // none when learned
     const cv::Scalar colour = ClassColour(in.result.detections[d].furniture_class);
     for (const Eigen::Vector3f& p : in.debug().fitted_points[d]) view.Dot(p, colour);
   }
   for (const Detection& d : in.result.detections) {
-    const ModelShape& shape = in.model.model_shapes[d.model_index];
+    const DetectionBox box = BoxOf(d, in.model);
     const PlanarPose pose{d.x, d.y, d.yaw};
-    if (const auto at = view.Pixel(pose.Apply(Eigen::Vector3f(0, 0, shape.high.z())))) {
+    if (const auto at = view.Pixel(pose.Apply(Eigen::Vector3f(0, 0, box.high.z())))) {
       char text[96];
       std::snprintf(text, sizeof(text), "%s %.2f", ClassName(d.furniture_class), d.score);
       DrawLabel(&view.image(), text, *at + cv::Point(-30, -6), ClassColour(d.furniture_class));
@@ -243,10 +243,9 @@ void WriteTopDownPng(const DebugInput& in) {
                   1);
   }
   for (const Detection& d : in.result.detections) {
-    const ModelShape& shape = in.model.model_shapes[d.model_index];
+    const DetectionBox box = BoxOf(d, in.model);
     const cv::Scalar colour = ClassColour(d.furniture_class);
-    top.Footprint(
-        PlanarPose{d.x, d.y, d.yaw}, shape.low.head<2>(), shape.high.head<2>(), colour, 2);
+    top.Footprint(PlanarPose{d.x, d.y, d.yaw}, box.low.head<2>(), box.high.head<2>(), colour, 2);
     char text[64];
     std::snprintf(text, sizeof(text), "%s %.2f", ClassName(d.furniture_class), d.score);
     DrawLabel(&top.image(), text, top.At(d.x, d.y) + cv::Point(6, -6), colour, 0.4);

@@ -5,7 +5,7 @@
 // text swapped for hostile ones) and loads each result. A load must succeed
 // or throw our InputError/DbError: any other exception fails the test, a
 // crash kills it. Each input must load within 10 s, and the process's peak
-// memory must stay under 1 GB. Inputs that fail are saved under the
+// memory must stay under 1 GB (2 GB under ASan, see below). Inputs that fail are saved under the
 // scratch directory's `failures/`.
 //
 // ROS 1 bags (issue 29): our exporter's bag of one frame, uncompressed (so
@@ -44,10 +44,17 @@
 #include "workbench/pipelines/train.h"
 
 #if defined(__SANITIZE_ADDRESS__)
-// Under ASan (FURN_SANITIZE=address,...) the 1 GB rule holds per allocation
-// as well: any single request above it is reported and ends the run, where
-// a plain build only sees the peak resident size.
-extern "C" const char* __asan_default_options() { return "max_allocation_size_mb=1024"; }
+// Under ASan (FURN_SANITIZE=address,...) the 1 GB rule holds per allocation:
+// any single request above it is reported and ends the run. The process's
+// resident size is not the loader's there: shadow memory and the quarantine
+// of freed blocks grow over 10^5 inputs in one process (1.0 GB after 300 k
+// class-map loads, no leak), so the peak bound is the issue's 2 GB.
+extern "C" const char* __asan_default_options() {
+  return "max_allocation_size_mb=1024:quarantine_size_mb=64";
+}
+constexpr double kPeakLimitGb = 2.0;
+#else
+constexpr double kPeakLimitGb = 1.0;
 #endif
 
 namespace furn {
@@ -177,7 +184,7 @@ void Fuzz(const Target& target, const std::string& dir) {
                     << ")";
     }
   }
-  EXPECT_LT(PeakRssGb(), 1.0) << target.name << ": peak memory";
+  EXPECT_LT(PeakRssGb(), kPeakLimitGb) << target.name << ": peak memory";
   std::printf("%s: %d inputs, %d loaded, %d refused with one line, slowest %.3f s, peak %.2f GB\n",
               target.name.c_str(),
               runs,

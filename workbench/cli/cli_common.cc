@@ -64,4 +64,31 @@ std::optional<int> ParseCommandLine(CLI::App* app, int argc, char** argv) {
   return std::nullopt;
 }
 
+void AddVoteNetFlags(CLI::App* app, VoteNetFlags* flags) {
+  app->add_flag("--vote-net,!--no-vote-net",
+                flags->enabled,
+                "Train the learned vote map (generated rooms, a CNN) into the model; "
+                "--no-vote-net: the codebook alone")
+      ->capture_default_str();
+  VoteNetTrainingOptions& o = flags->options;
+  app->add_option("--vote-rooms", o.rooms, "Vote network: generated training rooms")
+      ->capture_default_str();
+  app->add_option("--vote-epochs", o.epochs, "Vote network: passes over the frames")
+      ->capture_default_str();
+  app->add_option("--vote-threads", o.threads, "Vote network: torch threads while training")
+      ->capture_default_str();
+  app->add_option("--vote-seed", o.seed, "Vote network: seed of rooms, weights and batches")
+      ->capture_default_str();
+  app->add_flag("--keep-rooms",
+                o.keep_rooms,
+                "Keep the vote network's training rooms (<model>.rooms.db) for reuse");
+}
+
+const VoteNetTrainingOptions* VoteNetFlags::Resolve(bool quiet) {
+  if (!enabled) return nullptr;
+  options.quiet = quiet;
+  options.Check();
+  return &options;
+}
+
 }  // namespace furn

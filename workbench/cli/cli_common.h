@@ -5,6 +5,7 @@
 #include <string>
 
 #include "scenes/catalog.h"
+#include "workbench/pipelines/train_vote_net.h"
 
 namespace CLI {
 class App;
@@ -24,6 +25,17 @@ void AddCatalogFlags(CLI::App* app, CatalogFlags* flags);
 // Applies --quiet (progress off) and the FURN_DATA_DIR environment override.
 void ApplyGlobalFlags(const CatalogFlags& flags);
 CatalogOpenOptions MakeOpenOptions(const CatalogFlags& flags);
+
+// The vote network's training (train, crossval): --vote-net / --no-vote-net
+// (on by default), --vote-rooms, --vote-epochs, --vote-threads, --vote-seed,
+// --keep-rooms.
+struct VoteNetFlags {
+  bool enabled = true;
+  VoteNetTrainingOptions options;
+  // The options, or null with --no-vote-net; quiet follows --quiet.
+  const VoteNetTrainingOptions* Resolve(bool quiet);
+};
+void AddVoteNetFlags(CLI::App* app, VoteNetFlags* flags);
 
 // Parses the command line. Returns the exit code when the command should stop
 // here: 0 after --help, 2 for every usage mistake (CLI11 prints the message).

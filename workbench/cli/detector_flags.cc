@@ -1,6 +1,7 @@
 #include "workbench/cli/detector_flags.h"
 
 #include <CLI/CLI.hpp>
+#include <map>
 #include <type_traits>
 #include <vector>
 
@@ -14,7 +15,16 @@ DetectorFlags::DetectorFlags(CLI::App* app, const std::set<std::string>& skip)
     : app_(app), skip_(skip) {
   ForEachDetectorOption(&parsed_, [this](const DetectorOptionInfo& info, auto& value) {
     if (*info.flag == '\0' || skip_.count(info.flag)) return;
-    app_->add_option(info.flag, value, info.help)->capture_default_str();
+    using T = std::remove_reference_t<decltype(value)>;
+    if constexpr (std::is_enum_v<T>) {  // by name: "--voting learned"
+      std::map<std::string, T> names;
+      for (T v : EnumValues<T>()) names[EnumName(v)] = v;
+      app_->add_option(info.flag, value, info.help)
+          ->transform(CLI::CheckedTransformer(names))
+          ->default_str(EnumName(value));
+    } else {
+      app_->add_option(info.flag, value, info.help)->capture_default_str();
+    }
   });
   app_->add_option("--options",
                    options_file_,

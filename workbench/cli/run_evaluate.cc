@@ -253,9 +253,12 @@ int RunCrossval(int argc, char** argv) {
   DetectorFlags detector_flags(&app);
   app.add_option("--scorer-trees", options.scorer_options.trees, "Trees of the scorer's forest")
       ->capture_default_str();
+  VoteNetFlags vote_net;
+  AddVoteNetFlags(&app, &vote_net);
   if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
   ApplyGlobalFlags(catalog_flags);
   options.quiet = catalog_flags.quiet;
+  if (const VoteNetTrainingOptions* v = vote_net.Resolve(catalog_flags.quiet)) options.vote_net = *v;
   options.scorer = !detector_flags.no_scorer();
   options.scorer_options.Check();
   options.evaluate.split = ParseSplit(split, "--split");

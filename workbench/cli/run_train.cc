@@ -28,6 +28,8 @@ int RunTrain(int argc, char** argv) {
   app.add_option("--seed", trainer.vocabulary.seed, "Seed of clustering and scan noise")
       ->capture_default_str();
   app.add_option("--azimuths", scan.azimuths, "Views per ring")->capture_default_str();
+  VoteNetFlags vote_net;
+  AddVoteNetFlags(&app, &vote_net);
   std::string options_file, scorer_file;
   app.add_option("--scorer",
                  scorer_file,
@@ -66,7 +68,9 @@ int RunTrain(int argc, char** argv) {
     Require(!HypothesisScorer::Deserialize(scorer, scorer_file).empty(),
             scorer_file + ": holds no hypothesis scorer");
   }
-  const TrainSummary summary = TrainFromCatalog(catalog, scan, trainer, out, {}, scorer);
+  const VoteNetTrainingOptions* vote_net_options = vote_net.Resolve(catalog_flags.quiet);
+  const TrainSummary summary =
+      TrainFromCatalog(catalog, scan, trainer, out, {}, scorer, vote_net_options);
   std::printf(
       "wrote %s: %d models, %d views, %d segments, %d of %d words used; scans %.1f s, training "
       "%.1f s\n",
@@ -85,6 +89,21 @@ int RunTrain(int argc, char** argv) {
       summary.stages.part_subsets_s,
       summary.stages.vocabulary_s,
       summary.stages.shape_s);
+  if (summary.vote_net) {
+    const VoteNetTrainingSummary& v = summary.vote_net_training;
+    std::printf(
+        "  vote net: %d rooms, %d frames (%d objects), %d validation frames, %lld parameters; "
+        "generate %.1f s, rasterise %.1f s, train %.1f s; validation loss %.3f\n",
+        v.rooms,
+        v.frames,
+        v.objects,
+        v.validation_frames,
+        static_cast<long long>(v.parameters),
+        v.generate_s,
+        v.raster_s,
+        v.train_s,
+        v.epochs.empty() ? 0.0 : v.epochs.back().validation_loss);
+  }
   return 0;
 }
 

@@ -18,7 +18,12 @@ std::string DetectionLine(const Detection& d) {
                 d.yaw * 180 / M_PI,
                 d.score,
                 d.model_name.c_str());
-  return line;
+  std::string text = line;
+  if (d.width > 0) {
+    std::snprintf(line, sizeof(line), "footprint %.2f x %.2f m", d.width, d.depth);
+    text += line;
+  }
+  return text;
 }
 
 std::string DetectionJson(const DetectionResult& result, const LoadedScan& scan, bool one_line) {
@@ -34,6 +39,10 @@ std::string DetectionJson(const DetectionResult& result, const LoadedScan& scan,
                           {"vote_weight", d.vote_weight},
                           {"verification", d.verification},
                           {"covered_fraction", d.covered_fraction}});
+    if (d.width > 0) {  // learned voting: the network's footprint
+      detections.back()["width"] = d.width;
+      detections.back()["depth"] = d.depth;
+    }
   }
   nlohmann::ordered_json timings = nlohmann::ordered_json::object();
   for (const StageTime& t : result.timings_ms.stages) timings[EnumName(t.stage)] = t.ms;

@@ -94,6 +94,25 @@ void ForEachDetectorOption(Options* options, Visit&& visit) {
         o.min_probability);
   visit(DetectorOptionInfo{"scorer_max_seen_through", "", ""}, o.scorer_max_seen_through);
   visit(DetectorOptionInfo{"seed", "--seed", "Seed of the RANSAC draws"}, o.seed);
+  visit(DetectorOptionInfo{"voting",
+                           "--voting",
+                           "Hypotheses from: auto (the model's vote network when it has one), "
+                           "learned, or codebook (the paper's Hough votes)"},
+        o.voting);
+  visit(DetectorOptionInfo{"learned_min_heat",
+                           "--min-heat",
+                           "Learned voting: least heat of a maximum that becomes a detection"},
+        o.learned_min_heat);
+  visit(DetectorOptionInfo{"learned_max_per_class", "", ""}, o.learned_max_per_class);
+  visit(DetectorOptionInfo{"learned_suppress_m",
+                           "--suppress-radius",
+                           "Learned voting: a weaker maximum of any class this near a stronger "
+                           "one is dropped (m)"},
+        o.learned_suppress_m);
+  visit(DetectorOptionInfo{"torch_threads",
+                           "--torch-threads",
+                           "Learned voting: the network's threads (0: the library's default)"},
+        o.torch_threads);
 }
 
 }  // namespace furn

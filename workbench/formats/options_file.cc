@@ -24,9 +24,18 @@ struct Field {
 
 template <typename T>
 Field Plain(const std::string& path, T* value) {
-  return {path,
-          [value] { return Json(*value); },
-          [value](const nlohmann::json& j) { *value = j.get<T>(); }};
+  if constexpr (std::is_enum_v<T>) {  // spelled as its EnumText name
+    return {path,
+            [value] { return Json(EnumName(*value)); },
+            [value, path](const nlohmann::json& j) {
+              Require(j.is_string(), "'" + path + "' must be one of " + EnumNameList<T>());
+              *value = ParseEnum<T>(j.get<std::string>());
+            }};
+  } else {
+    return {path,
+            [value] { return Json(*value); },
+            [value](const nlohmann::json& j) { *value = j.get<T>(); }};
+  }
 }
 
 // A two-valued enum spelled as text.

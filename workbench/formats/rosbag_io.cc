@@ -526,11 +526,8 @@ void BagMarkerWriter::Add(const BagScan& scan,
   int id = 0;
   for (const Detection& d : result.detections) {
     const std::string name = ClassName(d.furniture_class);
-    Eigen::Vector3d size(0.5, 0.5, 0.8);
-    if (d.model_index >= 0 && d.model_index < static_cast<int>(model.model_shapes.size())) {
-      const ModelShape& shape = model.model_shapes[d.model_index];
-      size = (shape.high - shape.low).cast<double>();
-    }
+    const DetectionBox detection_box = BoxOf(d, model);
+    const Eigen::Vector3d size = (detection_box.high - detection_box.low).cast<double>();
     visualization_msgs::Marker box = BoxMarker(
         "furnidet/" + name, id, d.furniture_class, d.x, d.y, d.yaw, size, frame_from_world);
     visualization_msgs::Marker label = box;

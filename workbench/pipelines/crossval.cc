@@ -54,6 +54,7 @@ std::string FoldModelPath(const Catalog& catalog,
                           int fold,
                           int folds) {
   std::string key = TrainingOptionsJson(options.training) + "\n" + catalog.description();
+  if (options.vote_net) key += "\nvote net: " + options.vote_net->Json();
   for (const CatalogEntry* entry : catalog.Classified()) key += "\n" + entry->id;
   key += "\nheld out:";
   for (const std::string& id : held_out) key += "\n" + id;
@@ -132,11 +133,16 @@ CrossvalFold TrainAndEvaluateFold(const Catalog& catalog,
                  fold.model_reused ? "model reused" : "training");
   }
   if (!fold.model_reused) {
-    TrainFromCatalog(
-        catalog, options.training.scan, options.training.trainer, fold.model_path, held_out);
+    TrainFromCatalog(catalog,
+                     options.training.scan,
+                     options.training.trainer,
+                     fold.model_path,
+                     held_out,
+                     "",
+                     options.vote_net ? &*options.vote_net : nullptr);
   }
   EvaluateCommandOptions evaluate = FoldEvaluation(options, k, folds.count);
-  if (options.scorer) {
+  if (options.scorer && !options.vote_net) {
     evaluate.kind = "crossval-gates";
     evaluate.detector.use_scorer = false;
     evaluate.collect_scorer_samples = true;
@@ -227,7 +233,7 @@ int64_t WriteCrossvalRun(const std::string& db_path,
       {"fold_runs", fold_runs},
       {"trainer", nlohmann::json::parse(TrainingOptionsJson(options.training))},
       {"scorer",
-       options.scorer
+       options.scorer && !options.vote_net
            ? nlohmann::json{{"trees", options.scorer_options.trees},
                             {"max_depth", options.scorer_options.max_depth},
                             {"min_sample_count", options.scorer_options.min_sample_count},
@@ -235,6 +241,7 @@ int64_t WriteCrossvalRun(const std::string& db_path,
                             {"samples", summary.scorer_samples}}
            : nlohmann::json()},
       {"detector", nlohmann::json::parse(DetectorOptionsJson(options.evaluate.detector))}};
+  if (options.vote_net) stored["vote_net"] = nlohmann::json::parse(options.vote_net->Json());
   run.options_json = stored.dump();
   nlohmann::json per_fold = nlohmann::json::array();
   for (const CrossvalFold& fold : summary.per_fold) {
@@ -274,7 +281,8 @@ CrossvalSummary RunLeaveModelsOut(const Catalog& catalog,
   for (int k = 0; k < folds.count; ++k)
     summary.per_fold.push_back(
         TrainAndEvaluateFold(catalog, db_path, options, folds, k, &samples[k]));
-  if (options.scorer) {
+  const bool scorer = options.scorer && !options.vote_net;
+  if (scorer) {
     std::vector<ScorerSample> all;
     for (const auto& fold_samples : samples)
       all.insert(all.end(), fold_samples.begin(), fold_samples.end());
@@ -290,7 +298,7 @@ CrossvalSummary RunLeaveModelsOut(const Catalog& catalog,
   std::vector<int64_t> fold_runs;
   for (const CrossvalFold& fold : summary.per_fold) fold_runs.push_back(fold.evaluation.run_id);
   Aggregate(&summary);
-  if (options.scorer) {
+  if (scorer) {
     for (const CrossvalFold& fold : summary.per_fold) {
       for (const auto& [name, value] : fold.gates.result.metrics) {
         // mAP at every distance, seen and unseen, and AP per class.

@@ -21,12 +21,14 @@
 #pragma once
 
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "scenes/catalog.h"
 #include "workbench/formats/options_file.h"
 #include "workbench/pipelines/evaluate.h"
+#include "workbench/pipelines/train_vote_net.h"
 
 namespace furn {
 
@@ -35,6 +37,10 @@ struct CrossvalOptions {
   TrainingOptions training;         // how each fold's model is trained
   EvaluateCommandOptions evaluate;  // detector, split ("all" by default), ...
   bool scorer = true;               // learn a hypothesis scorer per fold (nested)
+  // With a vote network (issue 30): each fold's model holds one trained on
+  // rooms generated without the fold's models, and the folds are evaluated
+  // with learned voting (no scorer: it learns from the codebook's fits).
+  std::optional<VoteNetTrainingOptions> vote_net;
   ScorerOptions scorer_options;
   bool quiet = false;
 

@@ -207,8 +207,11 @@ void RecordDetections(const DetectionResult& result,
     d.x = moved.x;
     d.y = moved.y;
     d.yaw = moved.yaw;
+    // A learned detection names no CAD model: its class's symmetry.
+    const int symmetry =
+        d.model_index >= 0 ? facts.symmetry[d.model_index] : BevYawSymmetry(d.furniture_class);
     out->outcome.detections.push_back(
-        {d.furniture_class, d.model_name, d.x, d.y, d.yaw, d.score, facts.symmetry[d.model_index]});
+        {d.furniture_class, d.model_name, d.x, d.y, d.yaw, d.score, symmetry});
     out->detections.push_back({frame.id,
                                d.furniture_class,
                                d.model_name,

@@ -323,8 +323,14 @@ class RoomGenerator {
   // What rooms are composed from: one, or one per leave-models-out fold.
   static std::vector<ComposerCatalog> ComposerCatalogsOf(const Catalog& catalog,
                                                          const GenerateOptions& options) {
-    const ComposerCatalog all =
-        ComposerCatalog::From(catalog, options.room.include_evaluation_only);
+    ComposerCatalog all = ComposerCatalog::From(catalog, options.room.include_evaluation_only);
+    if (!options.excluded_models.empty()) {
+      std::set<std::string> kept;
+      for (const ComposerCatalog::Item& item : all.furniture) {
+        if (!options.excluded_models.count(item.id)) kept.insert(item.id);
+      }
+      all = all.WithFurnitureFrom(kept);
+    }
     if (options.model_folds == 0) return {all};
     const ModelFolds folds = AssignModelFolds(catalog, options.model_folds, options.fold_seed);
     std::vector<ComposerCatalog> per_fold;
@@ -452,6 +458,7 @@ std::string GenerateOptions::ContentJson() const {
   // Only when on, so datasets made before the option keep their content (and resume).
   if (model_folds > 0) json["model_folds"] = {{"folds", model_folds}, {"seed", fold_seed}};
   if (!clutter_catalog_specs.empty()) json["clutter_catalogs"] = clutter_catalog_specs;
+  if (!excluded_models.empty()) json["excluded_models"] = excluded_models;
   return json.dump();
 }
 

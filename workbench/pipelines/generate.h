@@ -12,6 +12,7 @@
 #pragma once
 
 #include <cstdint>
+#include <set>
 #include <string>
 
 #include "db/dataset_db.h"
@@ -45,6 +46,9 @@ struct GenerateOptions {
   // usual). 0: every class-mapped model may appear in every room.
   int model_folds = 0;
   uint64_t fold_seed = 1;
+  // Class-mapped models never placed (the held-out models of a fold when a
+  // vote network's training rooms are made); empty: none.
+  std::set<std::string> excluded_models;
 
   // Throws InputError naming the field and the rule.
   void Check() const;

@@ -89,9 +89,11 @@ TrainSummary TrainFromCatalog(const Catalog& catalog,
                               const TrainerOptions& trainer,
                               const std::string& out_path,
                               const std::set<std::string>& held_out,
-                              const std::string& scorer) {
+                              const std::string& scorer,
+                              const VoteNetTrainingOptions* vote_net) {
   scan.Check();
   trainer.Check();
+  if (vote_net != nullptr) vote_net->Check();
   std::vector<std::string> ids;
   std::vector<FurnitureClass> classes;
   for (const CatalogEntry* entry : catalog.Classified()) {
@@ -122,6 +124,11 @@ TrainSummary TrainFromCatalog(const Catalog& catalog,
   model.scorer = scorer;
   for (const CadModel& cad : loaded.models)
     model.render_meshes.push_back(SimplifyMesh(cad.mesh, kRenderMeshCellM));
+  if (vote_net != nullptr) {
+    model.vote_net = TrainVoteNet(
+        catalog, held_out, *vote_net, out_path + ".rooms.db", &summary.vote_net_training);
+    summary.vote_net = true;
+  }
   SaveTrainedModel(model, out_path);
   summary.train_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   summary.models = static_cast<int>(ids.size());
@@ -165,6 +172,15 @@ std::string DescribeTrainedModel(const TrainedModel& model) {
         HypothesisScorer::Deserialize(model.scorer, "the model's scorer");
     out << "scorer:      random forest from " << scorer.training_samples()
         << " hypotheses, Platt a " << scorer.platt_a() << " b " << scorer.platt_b() << "\n";
+  }
+  if (model.vote_net.empty()) {
+    out << "vote net:    none (codebook voting)\n";
+  } else {
+    const VoteNet net = VoteNet::Deserialize(model.vote_net, "the model's vote network");
+    const BevGridSpec& grid = net.options().grid;
+    out << "vote net:    U-Net, " << net.Parameters() << " parameters, width "
+        << net.options().width << "; BEV grid " << grid.rows << " x " << grid.cols << " cells of "
+        << grid.cell_m << " m (" << model.vote_net.size() / 1024 << " KiB)\n";
   }
   return out.str();
 }

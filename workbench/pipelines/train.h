@@ -12,6 +12,7 @@
 
 #include "core/trainer.h"
 #include "scenes/catalog.h"
+#include "workbench/pipelines/train_vote_net.h"
 
 namespace furn {
 
@@ -32,17 +33,22 @@ struct TrainSummary {
   int used_words = 0;
   double scan_s = 0, train_s = 0;  // train_s: TrainModel and saving
   TrainStageTimes stages;
+  bool vote_net = false;  // a vote network was trained
+  VoteNetTrainingSummary vote_net_training;
 };
 
 // Trains on the classified entries that are not evaluation-only and not in
 // `held_out` (a leave-models-out fold); `scorer` (HypothesisScorer bytes, or
-// empty) is stored in the model file as it is.
+// empty) is stored in the model file as it is. With `vote_net`, a vote
+// network is trained too (train_vote_net.h) on rooms generated into
+// `out_path`.rooms.db from the same models.
 TrainSummary TrainFromCatalog(const Catalog& catalog,
                               const ScanOptions& scan,
                               const TrainerOptions& trainer,
                               const std::string& out_path,
                               const std::set<std::string>& held_out = {},
-                              const std::string& scorer = "");
+                              const std::string& scorer = "",
+                              const VoteNetTrainingOptions* vote_net = nullptr);
 
 // `model info`: what a model file holds, as text.
 std::string DescribeTrainedModel(const TrainedModel& model);

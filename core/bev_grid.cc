@@ -1,0 +1,201 @@
+#include "core/bev_grid.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "core/error.h"
+
+namespace furn {
+namespace {
+
+// Bearings of the "seen" channel: the farthest return per bearing bin.
+constexpr int kBearingBins = 720;  // 0.5 degree
+
+float LogCount(float count) { return std::log1p(count) / 4.0f; }
+
+int BearingBin(double u, double v) {
+  const double angle = std::atan2(v, u);  // -pi..pi
+  const int bin = static_cast<int>((angle + M_PI) / (2 * M_PI) * kBearingBins);
+  return std::clamp(bin, 0, kBearingBins - 1);
+}
+
+}  // namespace
+
+void BevGridSpec::Check() const {
+  Require(cell_m >= 0.01 && cell_m <= 0.5,
+          "BEV cell " + std::to_string(cell_m) + " m must be in 0.01..0.5");
+  Require(rows >= 8 && rows <= 1024 && rows % 8 == 0,
+          "BEV rows " + std::to_string(rows) + " must be a multiple of 8 in 8..1024");
+  Require(cols >= 8 && cols <= 1024 && cols % 8 == 0,
+          "BEV cols " + std::to_string(cols) + " must be a multiple of 8 in 8..1024");
+  Require(floor_band_m >= 0 && floor_band_m < kSliceTopsM[0],
+          "BEV floor band must be in 0..0.25 m");
+}
+
+bool BevGridSpec::operator==(const BevGridSpec& other) const {
+  return cell_m == other.cell_m && rows == other.rows && cols == other.cols &&
+         floor_band_m == other.floor_band_m;
+}
+
+Eigen::Vector2d BevFrame::CellOf(const Eigen::Vector2d& world_xy, const BevGridSpec& spec) const {
+  const Eigen::Vector2d d = world_xy - origin;
+  return {d.dot(forward) / spec.cell_m, d.dot(Left()) / spec.cell_m + spec.cols / 2.0};
+}
+
+Eigen::Vector2d BevFrame::WorldOf(const Eigen::Vector2d& cell, const BevGridSpec& spec) const {
+  return origin + forward * (cell.x() * spec.cell_m) +
+         Left() * ((cell.y() - spec.cols / 2.0) * spec.cell_m);
+}
+
+BevFrame BevFrameOf(const Eigen::Isometry3d& world_from_camera) {
+  BevFrame frame;
+  frame.origin = world_from_camera.translation().head<2>();
+  Eigen::Vector2d forward = (world_from_camera.linear() * Eigen::Vector3d::UnitZ()).head<2>();
+  if (forward.norm() < 1e-6)  // looking straight down: the image's up
+    forward = (world_from_camera.linear() * -Eigen::Vector3d::UnitY()).head<2>();
+  if (forward.norm() < 1e-9) forward = Eigen::Vector2d::UnitX();
+  frame.forward = forward.normalized();
+  frame.heading = std::atan2(frame.forward.y(), frame.forward.x());
+  return frame;
+}
+
+BevImage BevImage::Mirrored() const {
+  BevImage out = *this;
+  for (int k = 0; k < kBevChannels; ++k) {
+    for (int r = 0; r < spec.rows; ++r) {
+      for (int c = 0; c < spec.cols; ++c) out.At(k, r, c) = At(k, r, spec.cols - 1 - c);
+    }
+  }
+  return out;
+}
+
+BevImage RasteriseBev(const std::vector<Eigen::Vector3f>& world_points,
+                      const Eigen::Vector3f& sensor,
+                      const BevFrame& frame,
+                      const BevGridSpec& spec) {
+  BevImage image;
+  image.spec = spec;
+  image.frame = frame;
+  image.values.assign(static_cast<size_t>(kBevChannels) * spec.rows * spec.cols, 0.0f);
+  std::vector<double> farthest(kBearingBins, 0.0);
+  const Eigen::Vector2d left = frame.Left();
+  const Eigen::Vector2d sensor_xy = sensor.head<2>().cast<double>();
+  for (const Eigen::Vector3f& p : world_points) {
+    if (!p.allFinite()) continue;
+    const Eigen::Vector2d from_sensor = p.head<2>().cast<double>() - sensor_xy;
+    const double u = from_sensor.dot(frame.forward), v = from_sensor.dot(left);
+    const int bin = BearingBin(u, v);
+    farthest[bin] = std::max(farthest[bin], std::hypot(u, v));
+    const Eigen::Vector2d cell = frame.CellOf(p.head<2>().cast<double>(), spec);
+    const int row = static_cast<int>(std::floor(cell.x()));
+    const int col = static_cast<int>(std::floor(cell.y()));
+    if (row < 0 || row >= spec.rows || col < 0 || col >= spec.cols) continue;
+    if (p.z() < spec.floor_band_m) {
+      image.At(0, row, col) += 1.0f;
+      continue;
+    }
+    const auto slice = std::upper_bound(kSliceTopsM.begin(), kSliceTopsM.end(), p.z());
+    if (slice != kSliceTopsM.end())
+      image.At(1 + static_cast<int>(slice - kSliceTopsM.begin()), row, col) += 1.0f;
+    image.At(6, row, col) = std::max(image.At(6, row, col), std::min(p.z(), 4.0f) / 2.0f);
+  }
+  for (int k = 0; k < 6; ++k) {
+    for (int r = 0; r < spec.rows; ++r) {
+      for (int c = 0; c < spec.cols; ++c) image.At(k, r, c) = LogCount(image.At(k, r, c));
+    }
+  }
+  // Seen: the cell's centre is nearer than the farthest return of its bearing.
+  for (int r = 0; r < spec.rows; ++r) {
+    for (int c = 0; c < spec.cols; ++c) {
+      const Eigen::Vector2d d = frame.WorldOf({r + 0.5, c + 0.5}, spec) - sensor_xy;
+      const double u = d.dot(frame.forward), v = d.dot(left);
+      image.At(7, r, c) = std::hypot(u, v) < farthest[BearingBin(u, v)] ? 1.0f : 0.0f;
+    }
+  }
+  return image;
+}
+
+BevImage RasteriseScan(const std::vector<Eigen::Vector3f>& camera_points,
+                       const Eigen::Isometry3d& world_from_camera,
+                       double max_range_m,
+                       const BevGridSpec& spec) {
+  const Eigen::Matrix3f rotation = world_from_camera.linear().cast<float>();
+  const Eigen::Vector3f translation = world_from_camera.translation().cast<float>();
+  const float max_range2 = static_cast<float>(max_range_m * max_range_m);
+  std::vector<Eigen::Vector3f> world;
+  world.reserve(camera_points.size());
+  for (const Eigen::Vector3f& p : camera_points) {
+    if (p.allFinite() && p.squaredNorm() > 0 && p.squaredNorm() <= max_range2)
+      world.push_back(rotation * p + translation);
+  }
+  return RasteriseBev(world, translation, BevFrameOf(world_from_camera), spec);
+}
+
+int BevYawSymmetry(FurnitureClass furniture_class) {
+  return furniture_class == FurnitureClass::kTable ? 2 : 1;
+}
+
+double BevSplatSigma(double width_m, double depth_m, const BevGridSpec& spec) {
+  return std::clamp(std::min(width_m, depth_m) / (6 * spec.cell_m), 1.0, 3.0);
+}
+
+BevTargets BevTargetsOf(const std::vector<BevObject>& objects,
+                        const BevFrame& frame,
+                        const BevGridSpec& spec) {
+  BevTargets targets;
+  const size_t plane = static_cast<size_t>(spec.rows) * spec.cols;
+  targets.values.assign(kBevOutputs * plane, 0.0f);
+  targets.mask.assign(plane, 0.0f);
+  for (const BevObject& object : objects) {
+    const Eigen::Vector2d cell = frame.CellOf(object.centre, spec);
+    const int row = static_cast<int>(std::floor(cell.x()));
+    const int col = static_cast<int>(std::floor(cell.y()));
+    if (row < 0 || row >= spec.rows || col < 0 || col >= spec.cols) continue;
+    ++targets.objects;
+    const int k = static_cast<int>(object.furniture_class);
+    float* heat = &targets.values[k * plane];
+    const double sigma = BevSplatSigma(object.width, object.depth, spec);
+    const int reach = static_cast<int>(std::ceil(3 * sigma));
+    for (int r = std::max(0, row - reach); r <= std::min(spec.rows - 1, row + reach); ++r) {
+      for (int c = std::max(0, col - reach); c <= std::min(spec.cols - 1, col + reach); ++c) {
+        const double d2 = (r - row) * (r - row) + (c - col) * (c - col);
+        const float value = static_cast<float>(std::exp(-d2 / (2 * sigma * sigma)));
+        float& h = heat[static_cast<size_t>(r) * spec.cols + c];
+        h = std::max(h, value);
+      }
+    }
+    const size_t at = static_cast<size_t>(row) * spec.cols + col;
+    const int symmetry = BevYawSymmetry(object.furniture_class);
+    const double yaw = symmetry * (object.yaw - frame.heading);
+    const float regression[6] = {static_cast<float>(cell.x() - row),
+                                 static_cast<float>(cell.y() - col),
+                                 static_cast<float>(std::log(std::max(object.width, 0.05))),
+                                 static_cast<float>(std::log(std::max(object.depth, 0.05))),
+                                 static_cast<float>(std::cos(yaw)),
+                                 static_cast<float>(std::sin(yaw))};
+    for (int j = 0; j < 6; ++j) targets.values[(kBevClasses + j) * plane + at] = regression[j];
+    targets.mask[at] = 1.0f;
+  }
+  return targets;
+}
+
+BevTargets BevTargets::Mirrored(const BevGridSpec& spec) const {
+  BevTargets out = *this;
+  const size_t plane = static_cast<size_t>(spec.rows) * spec.cols;
+  for (int r = 0; r < spec.rows; ++r) {
+    for (int c = 0; c < spec.cols; ++c) {
+      const size_t to = static_cast<size_t>(r) * spec.cols + c;
+      const size_t from = static_cast<size_t>(r) * spec.cols + (spec.cols - 1 - c);
+      for (int k = 0; k < kBevOutputs; ++k) out.values[k * plane + to] = values[k * plane + from];
+      out.mask[to] = mask[from];
+      if (mask[from] > 0) {
+        out.values[(kBevClasses + 1) * plane + to] =
+            1.0f - values[(kBevClasses + 1) * plane + from];
+        out.values[(kBevClasses + 5) * plane + to] = -values[(kBevClasses + 5) * plane + from];
+      }
+    }
+  }
+  return out;
+}
+
+}  // namespace furn

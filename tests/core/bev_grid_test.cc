@@ -1,0 +1,170 @@
+// The bird's-eye-view rasteriser and targets of the learned vote stage: a
+// known box's points, floor, free space and unknown cells land where they
+// belong; mirroring and targets agree.
+#include "core/bev_grid.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+namespace furn {
+namespace {
+
+// Camera 1.2 m up at the world origin looking along +x (optical z), level.
+Eigen::Isometry3d LevelCamera() {
+  Eigen::Matrix3d rotation;
+  rotation.col(0) = -Eigen::Vector3d::UnitY();  // image x: right
+  rotation.col(1) = -Eigen::Vector3d::UnitZ();  // image y: down
+  rotation.col(2) = Eigen::Vector3d::UnitX();   // optical axis: forward
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.linear() = rotation;
+  pose.translation() = Eigen::Vector3d(0, 0, 1.2);
+  return pose;
+}
+
+// Floor points on a fan in front of the sensor (stopping at the box's
+// bearing before it), and the front face of a 0.4 m wide, 0.7 m tall box
+// whose front is 2 m ahead, centred 0.5 m to the left.
+std::vector<Eigen::Vector3f> Scene() {
+  std::vector<Eigen::Vector3f> points;
+  for (double u = 0.5; u < 3.0; u += 0.02) {
+    for (double v = -1.0; v <= 1.0; v += 0.02) {
+      const bool behind_box = u >= 2.0 && v > 0.28 && v < 0.72;
+      if (!behind_box) points.emplace_back(u, v, 0.0f);
+    }
+  }
+  for (double v = 0.3; v <= 0.7; v += 0.01) {
+    for (double z = 0.05; z <= 0.7; z += 0.01) points.emplace_back(2.0f, v, z);
+  }
+  return points;
+}
+
+TEST(BevGrid, FrameFollowsTheHorizontalViewDirection) {
+  const BevFrame frame = BevFrameOf(LevelCamera());
+  EXPECT_NEAR(frame.heading, 0, 1e-9);
+  const BevGridSpec spec;
+  const Eigen::Vector2d cell = frame.CellOf({2.0, 0.5}, spec);
+  EXPECT_NEAR(cell.x(), 40, 1e-9);                    // 2 m ahead, 5 cm rows
+  EXPECT_NEAR(cell.y(), spec.cols / 2.0 + 10, 1e-9);  // 0.5 m left
+  EXPECT_TRUE(frame.WorldOf(cell, spec).isApprox(Eigen::Vector2d(2.0, 0.5)));
+  // Pitched down 40 degrees and turned 90 degrees left: heading +90 degrees.
+  Eigen::Isometry3d turned = LevelCamera();
+  turned.linear() = Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ()).toRotationMatrix() *
+                    turned.linear() *
+                    Eigen::AngleAxisd(-0.7, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  EXPECT_NEAR(BevFrameOf(turned).heading, M_PI / 2, 1e-9);
+}
+
+TEST(BevGrid, BoxFloorFreeAndUnknownCellsWhereTheyBelong) {
+  const BevGridSpec spec;
+  const Eigen::Isometry3d camera = LevelCamera();
+  std::vector<Eigen::Vector3f> camera_points;
+  for (const Eigen::Vector3f& p : Scene())
+    camera_points.push_back(camera.inverse().cast<float>() * p);
+  const BevImage image = RasteriseScan(camera_points, camera, 3.5, spec);
+  const BevFrame& frame = image.frame;
+  auto cell = [&](double x, double y) {
+    const Eigen::Vector2d c = frame.CellOf({x, y}, spec);
+    return std::make_pair(static_cast<int>(std::floor(c.x())), static_cast<int>(std::floor(c.y())));
+  };
+  // The box's face: slices 1..3 (0.03-0.8 m) counted, max height 0.7 m / 2.
+  const auto [box_row, box_col] = cell(2.01, 0.51);
+  for (int k = 1; k <= 3; ++k) EXPECT_GT(image.At(k, box_row, box_col), 0.5f) << "slice " << k;
+  EXPECT_EQ(image.At(4, box_row, box_col), 0.0f);  // nothing 0.8..1.1 m
+  EXPECT_NEAR(image.At(6, box_row, box_col), 0.35f, 0.01f);
+  EXPECT_EQ(image.At(0, box_row, box_col), 0.0f);  // no floor under the face
+  // Floor in front: floor counted, nothing above, seen.
+  const auto [floor_row, floor_col] = cell(1.2, -0.4);
+  EXPECT_GT(image.At(0, floor_row, floor_col), 0.3f);  // 4 points: log(5) / 4
+  for (int k = 1; k <= 6; ++k) EXPECT_EQ(image.At(k, floor_row, floor_col), 0.0f);
+  EXPECT_EQ(image.At(7, floor_row, floor_col), 1.0f);
+  // Free space in front of the box on its bearing: seen, nothing above the floor.
+  const auto [free_row, free_col] = cell(1.5, 0.38);
+  EXPECT_EQ(image.At(7, free_row, free_col), 1.0f);
+  for (int k = 1; k <= 6; ++k) EXPECT_EQ(image.At(k, free_row, free_col), 0.0f);
+  // Behind the box: unknown (not seen), empty.
+  const auto [hidden_row, hidden_col] = cell(2.6, 0.5);
+  EXPECT_EQ(image.At(7, hidden_row, hidden_col), 0.0f);
+  EXPECT_EQ(image.At(0, hidden_row, hidden_col), 0.0f);
+  // Outside the field of points (far right, nothing returned there): unknown.
+  const auto [side_row, side_col] = cell(0.5, -1.5);
+  EXPECT_EQ(image.At(7, side_row, side_col), 0.0f);
+  // Beyond the range given: not rasterised.
+  const BevImage near = RasteriseScan(camera_points, camera, 1.5, spec);
+  EXPECT_EQ(near.At(1, box_row, box_col), 0.0f);
+}
+
+TEST(BevGrid, MirroredImageIsTheImageOfMirroredPoints) {
+  const BevGridSpec spec;
+  const Eigen::Isometry3d camera = LevelCamera();
+  std::vector<Eigen::Vector3f> points = Scene(), mirrored;
+  for (const Eigen::Vector3f& p : points) mirrored.emplace_back(p.x(), -p.y(), p.z());
+  const BevFrame frame = BevFrameOf(camera);
+  const Eigen::Vector3f sensor = camera.translation().cast<float>();
+  const BevImage a = RasteriseBev(points, sensor, frame, spec).Mirrored();
+  const BevImage b = RasteriseBev(mirrored, sensor, frame, spec);
+  int differing = 0;
+  for (size_t i = 0; i < a.values.size(); ++i)
+    differing += std::abs(a.values[i] - b.values[i]) > 1e-6;
+  // Points exactly on a cell edge may fall on either side once mirrored.
+  EXPECT_LT(differing, static_cast<int>(a.values.size() / 200));
+}
+
+TEST(BevGrid, TargetsPeakAtCentresWithOffsetSizeAndSymmetricYaw) {
+  const BevGridSpec spec;
+  const BevFrame frame = BevFrameOf(LevelCamera());
+  const BevObject table{FurnitureClass::kTable, {2.012, 0.537}, 0.3, 1.2, 0.8};
+  const BevObject chair{FurnitureClass::kChair, {1.013, -0.513}, 2.0, 0.5, 0.55};
+  const BevObject outside{FurnitureClass::kChair, {-1.0, 0.0}, 0.0, 0.5, 0.5};
+  const BevTargets t = BevTargetsOf({table, chair, outside}, frame, spec);
+  EXPECT_EQ(t.objects, 2);
+  const size_t plane = static_cast<size_t>(spec.rows) * spec.cols;
+  const Eigen::Vector2d cell = frame.CellOf(table.centre, spec);
+  const int row = static_cast<int>(cell.x()), col = static_cast<int>(cell.y());
+  const size_t at = static_cast<size_t>(row) * spec.cols + col;
+  const int k = static_cast<int>(FurnitureClass::kTable);
+  EXPECT_FLOAT_EQ(t.values[k * plane + at], 1.0f);
+  EXPECT_LT(t.values[k * plane + at + 3], 1.0f);  // falls off around it
+  EXPECT_GT(t.values[k * plane + at + 3], 0.1f);
+  EXPECT_EQ(t.values[static_cast<int>(FurnitureClass::kChair) * plane + at], 0.0f);
+  EXPECT_EQ(t.mask[at], 1.0f);
+  EXPECT_NEAR(t.values[(kBevClasses + 0) * plane + at], cell.x() - row, 1e-5);
+  EXPECT_NEAR(t.values[(kBevClasses + 1) * plane + at], cell.y() - col, 1e-5);
+  EXPECT_NEAR(std::exp(t.values[(kBevClasses + 2) * plane + at]), 1.2, 1e-5);
+  EXPECT_NEAR(std::exp(t.values[(kBevClasses + 3) * plane + at]), 0.8, 1e-5);
+  // A table turned half a turn is the same table: the same yaw target.
+  const BevTargets turned =
+      BevTargetsOf({{FurnitureClass::kTable, table.centre, 0.3 + M_PI, 1.2, 0.8}}, frame, spec);
+  EXPECT_NEAR(turned.values[(kBevClasses + 4) * plane + at],
+              t.values[(kBevClasses + 4) * plane + at],
+              1e-5);
+  EXPECT_NEAR(turned.values[(kBevClasses + 5) * plane + at],
+              t.values[(kBevClasses + 5) * plane + at],
+              1e-5);
+  EXPECT_NEAR(t.values[(kBevClasses + 4) * plane + at], std::cos(0.6), 1e-5);
+  // Mirrored: the centre cell moves to the mirrored column, offsets and yaw follow.
+  const BevTargets m = t.Mirrored(spec);
+  const size_t mirrored_at = static_cast<size_t>(row) * spec.cols + (spec.cols - 1 - col);
+  EXPECT_EQ(m.mask[mirrored_at], 1.0f);
+  EXPECT_NEAR(m.values[(kBevClasses + 1) * plane + mirrored_at], 1 - (cell.y() - col), 1e-5);
+  EXPECT_NEAR(m.values[(kBevClasses + 5) * plane + mirrored_at], -std::sin(0.6), 1e-5);
+  const BevObject mirrored_table{FurnitureClass::kTable, {2.012, -0.537}, -0.3, 1.2, 0.8};
+  const BevTargets direct = BevTargetsOf(
+      {mirrored_table, {FurnitureClass::kChair, {1.013, 0.513}, -2.0, 0.5, 0.55}}, frame, spec);
+  for (size_t i = 0; i < direct.values.size(); ++i)
+    ASSERT_NEAR(direct.values[i], m.values[i], 1e-4) << "at " << i;
+}
+
+TEST(BevGrid, SpecChecksNameTheRule) {
+  BevGridSpec spec;
+  spec.rows = 70;
+  try {
+    spec.Check();
+    FAIL() << "rows 70 accepted";
+  } catch (const std::exception& error) {
+    EXPECT_NE(std::string(error.what()).find("multiple of 8"), std::string::npos) << error.what();
+  }
+}
+
+}  // namespace
+}  // namespace furn

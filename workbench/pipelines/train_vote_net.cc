@@ -1,0 +1,278 @@
+#include "workbench/pipelines/train_vote_net.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <random>
+
+#include "core/error.h"
+#include "core/progress.h"
+#include "db/dataset_db.h"
+#include "workbench/formats/scan_file.h"
+#include "workbench/pipelines/generate.h"
+
+namespace furn {
+namespace {
+
+double Seconds(std::chrono::steady_clock::time_point since) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
+}
+
+// The labelled objects of one frame that are targets: a class, seen at least
+// min_visibility.
+std::vector<BevObject> TargetsOfFrame(const RoomRecord& room,
+                                      const FrameRecord& frame,
+                                      double min_visibility) {
+  std::vector<BevObject> objects;
+  for (const ObjectRecord& object : room.objects) {
+    if (!object.furniture_class) continue;
+    double visibility = 0;
+    for (const FrameObjectRecord& seen : frame.objects) {
+      if (seen.instance_id == object.instance_id) visibility = seen.visibility;
+    }
+    if (visibility < min_visibility) continue;
+    objects.push_back({*object.furniture_class,
+                       {object.reference_x, object.reference_y},
+                       object.yaw,
+                       object.width,
+                       object.depth});
+  }
+  return objects;
+}
+
+// A batch's images and targets, each mirrored when its coin says so.
+struct Batch {
+  std::vector<BevImage> images;
+  std::vector<BevTargets> targets;
+};
+
+Batch MakeBatch(const std::vector<BevSample>& samples,
+                const std::vector<size_t>& indices,
+                const std::vector<char>& mirror) {
+  Batch batch;
+  for (size_t i = 0; i < indices.size(); ++i) {
+    const BevSample& sample = samples[indices[i]];
+    BevTargets targets = BevTargetsOf(sample.objects, sample.image.frame, sample.image.spec);
+    if (mirror.empty() || !mirror[i]) {
+      batch.images.push_back(sample.image);
+      batch.targets.push_back(std::move(targets));
+    } else {
+      batch.images.push_back(sample.image.Mirrored());
+      batch.targets.push_back(targets.Mirrored(sample.image.spec));
+    }
+  }
+  return batch;
+}
+
+template <typename T>
+std::vector<const T*> Pointers(const std::vector<T>& items) {
+  std::vector<const T*> out;
+  for (const T& item : items) out.push_back(&item);
+  return out;
+}
+
+VoteNetLoss ValidationLoss(const VoteNet& net,
+                           const std::vector<BevSample>& validation,
+                           int batch_size) {
+  VoteNetLoss sum;
+  int batches = 0;
+  for (size_t start = 0; start < validation.size(); start += batch_size) {
+    std::vector<size_t> indices;
+    for (size_t i = start; i < std::min(validation.size(), start + batch_size); ++i)
+      indices.push_back(i);
+    const Batch batch = MakeBatch(validation, indices, {});
+    const VoteNetLoss loss = net.Loss(Pointers(batch.images), Pointers(batch.targets));
+    sum.heat += loss.heat;
+    sum.offset += loss.offset;
+    sum.size += loss.size;
+    sum.yaw += loss.yaw;
+    ++batches;
+  }
+  if (batches > 0) {
+    sum.heat /= batches;
+    sum.offset /= batches;
+    sum.size /= batches;
+    sum.yaw /= batches;
+  }
+  return sum;
+}
+
+}  // namespace
+
+void VoteNetTrainingOptions::Check() const {
+  Require(rooms >= 1 && rooms <= 100000,
+          "vote-net rooms " + std::to_string(rooms) + " must be in 1..100000");
+  Require(frames_per_room >= 1 && frames_per_room <= 64,
+          "vote-net frames per room must be in 1..64");
+  Require(epochs >= 1 && epochs <= 1000,
+          "vote-net epochs " + std::to_string(epochs) + " must be in 1..1000");
+  Require(batch_size >= 1 && batch_size <= 512, "vote-net batch size must be in 1..512");
+  Require(learning_rate > 0 && learning_rate <= 1, "vote-net learning rate must be in (0, 1]");
+  Require(threads >= 0 && threads <= 256, "vote-net threads must be in 0..256");
+  Require(min_visibility >= 0 && min_visibility <= 1, "vote-net min visibility must be in 0..1");
+  Require(max_range_m > 0 && max_range_m <= 20, "vote-net max range must be in (0, 20] m");
+  Require(validation_share >= 0 && validation_share < 1,
+          "vote-net validation share must be in [0, 1)");
+  net.Check();
+  room.Check();
+}
+
+std::string VoteNetTrainingOptions::Json() const {
+  const nlohmann::json json = {{"rooms", rooms},
+                               {"frames_per_room", frames_per_room},
+                               {"seed", seed},
+                               {"epochs", epochs},
+                               {"batch_size", batch_size},
+                               {"learning_rate", learning_rate},
+                               {"threads", threads},
+                               {"min_visibility", min_visibility},
+                               {"max_range_m", max_range_m},
+                               {"validation_share", validation_share},
+                               {"grid",
+                                {{"cell_m", net.grid.cell_m},
+                                 {"rows", net.grid.rows},
+                                 {"cols", net.grid.cols},
+                                 {"floor_band_m", net.grid.floor_band_m}}},
+                               {"width", net.width},
+                               {"room",
+                                {{"min_side_m", room.min_side_m},
+                                 {"max_side_m", room.max_side_m},
+                                 {"min_furniture", room.min_furniture},
+                                 {"max_furniture", room.max_furniture},
+                                 {"min_clutter", room.min_clutter},
+                                 {"max_clutter", room.max_clutter},
+                                 {"min_camera_height_m", room.min_camera_height_m},
+                                 {"max_camera_height_m", room.max_camera_height_m},
+                                 {"min_pitch_deg", room.min_pitch_deg},
+                                 {"max_pitch_deg", room.max_pitch_deg}}}};
+  return json.dump();
+}
+
+void ReadBevSamples(const std::string& db_path,
+                    const VoteNetTrainingOptions& options,
+                    std::vector<BevSample>* training,
+                    std::vector<BevSample>* validation) {
+  DatasetDb db(db_path, DatasetDb::Mode::kReadOnly);
+  const std::vector<int64_t> rooms = db.RoomIds();
+  // Every k-th room validates (none when the share is 0 or there is one room).
+  const int every = options.validation_share > 0 && rooms.size() > 1
+                        ? std::max(2, static_cast<int>(std::lround(1 / options.validation_share)))
+                        : 0;
+  Progress progress("rasterise", rooms.size(), "rooms");
+  for (size_t k = 0; k < rooms.size(); ++k) {
+    const RoomRecord room = db.ReadRoom(rooms[k], /*with_images=*/true);
+    std::vector<BevSample>* out =
+        every > 0 && static_cast<int>(k % every) == every - 1 ? validation : training;
+    for (const FrameRecord& frame : room.frames) {
+      const DetectionInput input =
+          DetectionInputOf(frame, db_path + " frame " + std::to_string(frame.id));
+      BevSample sample;
+      sample.image = RasteriseScan(
+          input.points, frame.world_from_camera, options.max_range_m, options.net.grid);
+      sample.objects = TargetsOfFrame(room, frame, options.min_visibility);
+      out->push_back(std::move(sample));
+    }
+    progress.Advance();
+  }
+  progress.Finish();
+}
+
+VoteNet TrainVoteNetOnSamples(const std::vector<BevSample>& training,
+                              const std::vector<BevSample>& validation,
+                              const VoteNetTrainingOptions& options,
+                              VoteNetTrainingSummary* summary) {
+  options.Check();
+  Require(!training.empty(), "the vote network has no training frames");
+  const int previous_threads = TorchThreads();
+  SetTorchThreads(options.threads);
+  VoteNet net = VoteNet::Create(options.net, options.seed);
+  summary->parameters = net.Parameters();
+  summary->frames = static_cast<int>(training.size());
+  summary->validation_frames = static_cast<int>(validation.size());
+  for (const BevSample& sample : training)
+    summary->objects += static_cast<int>(sample.objects.size());
+  std::mt19937_64 random(options.seed * 7919 + 17);
+  const size_t steps_per_epoch = (training.size() + options.batch_size - 1) / options.batch_size;
+  const size_t total_steps = steps_per_epoch * options.epochs;
+  Progress progress("train vote net", total_steps, "steps");
+  std::vector<size_t> order(training.size());
+  size_t step = 0;
+  const auto start = std::chrono::steady_clock::now();
+  for (int epoch = 0; epoch < options.epochs; ++epoch) {
+    const auto epoch_start = std::chrono::steady_clock::now();
+    for (size_t i = 0; i < order.size(); ++i) order[i] = i;
+    std::shuffle(order.begin(), order.end(), random);
+    double loss_sum = 0;
+    for (size_t first = 0; first < order.size(); first += options.batch_size) {
+      std::vector<size_t> indices(
+          order.begin() + first,
+          order.begin() + std::min(order.size(), first + options.batch_size));
+      std::vector<char> mirror(indices.size());
+      for (char& m : mirror) m = static_cast<char>(random() & 1);
+      const Batch batch = MakeBatch(training, indices, mirror);
+      const double progress_share = static_cast<double>(step) / total_steps;
+      const double rate =
+          options.learning_rate * (0.05 + 0.95 * 0.5 * (1 + std::cos(M_PI * progress_share)));
+      const VoteNetLoss loss = net.TrainStep(Pointers(batch.images), Pointers(batch.targets), rate);
+      loss_sum += loss.Total();
+      ++step;
+      char note[64];
+      std::snprintf(note, sizeof(note), "epoch %d loss %.3f", epoch + 1, loss.Total());
+      progress.SetNote(note);
+      progress.Advance();
+    }
+    VoteNetEpoch record;
+    record.epoch = epoch + 1;
+    record.train_loss = loss_sum / steps_per_epoch;
+    if (!validation.empty()) {
+      record.validation_terms = ValidationLoss(net, validation, options.batch_size);
+      record.validation_loss = record.validation_terms.Total();
+    }
+    record.seconds = Seconds(epoch_start);
+    summary->epochs.push_back(record);
+  }
+  progress.Finish();
+  summary->train_s = Seconds(start);
+  SetTorchThreads(previous_threads);
+  return net;
+}
+
+std::string TrainVoteNet(const Catalog& catalog,
+                         const std::set<std::string>& held_out,
+                         const VoteNetTrainingOptions& options,
+                         const std::string& rooms_db,
+                         VoteNetTrainingSummary* summary) {
+  options.Check();
+  GenerateOptions generate;
+  generate.catalog_spec = catalog.description();
+  generate.rooms = options.rooms;
+  generate.seed = options.seed;
+  generate.room = options.room;
+  generate.room.frames_per_room = options.frames_per_room;
+  generate.room.include_evaluation_only = false;
+  generate.excluded_models = held_out;
+  auto start = std::chrono::steady_clock::now();
+  // A database kept from an earlier run resumes (rooms already in it are
+  // skipped); one of other options is refused by GenerateDataset.
+  if (!options.keep_rooms) std::filesystem::remove(rooms_db);
+  if (!options.quiet)
+    std::fprintf(stderr,
+                 "vote net: generating %d training rooms into %s\n",
+                 options.rooms,
+                 rooms_db.c_str());
+  const GenerateSummary generated = GenerateDataset(catalog, generate, rooms_db);
+  summary->rooms = generated.rooms_in_shard;
+  summary->generate_s = Seconds(start);
+  start = std::chrono::steady_clock::now();
+  std::vector<BevSample> training, validation;
+  ReadBevSamples(rooms_db, options, &training, &validation);
+  summary->raster_s = Seconds(start);
+  const VoteNet net = TrainVoteNetOnSamples(training, validation, options, summary);
+  if (!options.keep_rooms) std::filesystem::remove(rooms_db);
+  return net.Serialize();
+}
+
+}  // namespace furn

@@ -1,0 +1,90 @@
+// Training of the learned vote map (issue 30) from the workbench's own rooms:
+// `generate` composes rooms from the training catalog only (held-out models
+// and evaluation-only entries never placed), renders them with the sensor
+// model, and each frame becomes a bird's-eye-view image (RasteriseScan, as
+// detection makes it) with its labelled objects as targets. The network is
+// trained with Adam on a cosine schedule, mirrored images as augmentation,
+// a progress bar showing the loss, and a validation loss per epoch.
+//
+//   VoteNetTrainingOptions options;
+//   VoteNetTrainingSummary summary;
+//   const std::string bytes = TrainVoteNet(catalog, held_out, options, &summary);
+//   model.vote_net = bytes;
+#pragma once
+
+#include <cstdint>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "core/bev_grid.h"
+#include "core/vote_net.h"
+#include "scenes/catalog.h"
+#include "scenes/room_composer.h"
+
+namespace furn {
+
+struct VoteNetTrainingOptions {
+  int rooms = 300;  // generated training rooms
+  int frames_per_room = 4;
+  uint64_t seed = 1;  // rooms, weights, batches, augmentation
+  int epochs = 12;
+  int batch_size = 16;
+  double learning_rate = 2e-3;  // peak; cosine decay to 5 % of it
+  int threads = 2;              // torch's intra-op threads while training
+  // Objects seen less than this (visible / amodal pixels) are not targets.
+  double min_visibility = 0.15;
+  double max_range_m = 3.0;       // rasterised like detection's (DetectorOptions::max_range_m)
+  double validation_share = 0.1;  // of the rooms, for the per-epoch validation loss
+  VoteNetOptions net;
+  RoomOptions room;         // of the training rooms (evaluation-only entries never placed)
+  bool keep_rooms = false;  // keep the rooms' database after training (else deleted)
+  bool quiet = false;
+
+  void Check() const;
+  // Everything that decides the weights, as JSON (for caches).
+  std::string Json() const;
+};
+
+// One training frame: its BEV image and labelled objects.
+struct BevSample {
+  BevImage image;
+  std::vector<BevObject> objects;
+};
+
+struct VoteNetEpoch {
+  int epoch = 0;
+  double train_loss = 0, validation_loss = 0;
+  VoteNetLoss validation_terms;
+  double seconds = 0;
+};
+
+struct VoteNetTrainingSummary {
+  int rooms = 0, frames = 0, objects = 0, validation_frames = 0;
+  int64_t parameters = 0;
+  std::vector<VoteNetEpoch> epochs;
+  double generate_s = 0, raster_s = 0, train_s = 0;
+};
+
+// Trains on samples already made (tests, tools); `validation` may be empty.
+VoteNet TrainVoteNetOnSamples(const std::vector<BevSample>& training,
+                              const std::vector<BevSample>& validation,
+                              const VoteNetTrainingOptions& options,
+                              VoteNetTrainingSummary* summary);
+
+// Generates the rooms into options.rooms_db (resuming one already there),
+// rasterises their frames and trains; returns VoteNet::Serialize's bytes.
+std::string TrainVoteNet(const Catalog& catalog,
+                         const std::set<std::string>& held_out,
+                         const VoteNetTrainingOptions& options,
+                         const std::string& rooms_db,
+                         VoteNetTrainingSummary* summary);
+
+// The frames of a dataset database as samples (noisy depth; objects seen at
+// least min_visibility), split by room into training and validation.
+void ReadBevSamples(const std::string& db_path,
+                    const VoteNetTrainingOptions& options,
+                    std::vector<BevSample>* training,
+                    std::vector<BevSample>* validation);
+
+}  // namespace furn
