@@ -149,6 +149,11 @@ std::string DetectionDebug::Describe(const Hypothesis& h) {
       std::snprintf(text, sizeof(text), "score %.2f", h.outcome_values[0]);
       return text;
     case HypothesisOutcome::kSuppressed:
+      if (h.learned) {
+        std::snprintf(text, sizeof(text), "suppressed (a stronger maximum %.2f m away)",
+                      h.outcome_values[0]);
+        return text;
+      }
       std::snprintf(text,
                     sizeof(text),
                     "suppressed (shares %.2f, overlaps %.2f)",

@@ -282,6 +282,7 @@ struct DetectionDebug {
     int cols = 0, rows = 0;
     std::vector<float> values;  // smoothed votes, row-major, row = y
     double threshold = 0;       // of the maxima
+    bool learned = false;       // the network's heat (0..1), not Hough votes
   };
   struct Hypothesis {
     FurnitureClass furniture_class = FurnitureClass::kChair;
@@ -305,7 +306,9 @@ struct DetectionDebug {
     std::optional<HypothesisFeatures> features;
     double fit_x = 0, fit_y = 0;
     double probability = -1;  // the scorer's, when one decided
-    // Learned voting: the network's yaw and footprint at the maximum.
+    // Learned voting: the network's yaw and footprint at the maximum; for
+    // kSuppressed, outcome_values[0] is the distance to the stronger maximum.
+    bool learned = false;
     double yaw = 0, width = 0, depth = 0;
   };
   // One line for people: "detected", "covers 0.62 of the points", ...

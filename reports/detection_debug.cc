@@ -169,8 +169,11 @@ void WriteVotesPng(const DebugInput& in, const DetectionDebug::VoteGrid& grid) {
   cv::Mat values(grid.rows, grid.cols, CV_32F, const_cast<float*>(grid.values.data()));
   double high = 0;
   cv::minMaxLoc(values, nullptr, &high);
+  // Learned heat is a probability-like 0..1: drawn on that scale, so a weak
+  // map looks weak; Hough votes have no scale but their own maximum.
+  const double top = grid.learned ? 1.0 : high;
   cv::Mat grey;
-  values.convertTo(grey, CV_8U, high > 0 ? 255.0 / high : 0.0);
+  values.convertTo(grey, CV_8U, top > 0 ? 255.0 / top : 0.0);
   cv::Mat flipped, heat;
   cv::flip(grey, flipped, 0);
   cv::applyColorMap(flipped, heat, cv::COLORMAP_INFERNO);
@@ -202,8 +205,9 @@ void WriteVotesPng(const DebugInput& in, const DetectionDebug::VoteGrid& grid) {
   char caption[160];
   std::snprintf(caption,
                 sizeof(caption),
-                "%s votes: max %.3g, threshold %.3g, %d maxima (green: detected)",
+                "%s %s: max %.3g, threshold %.3g, %d maxima (green: detected)",
                 ClassName(grid.furniture_class),
+                grid.learned ? "learned heat (0..1)" : "votes",
                 high,
                 grid.threshold,
                 maxima);

@@ -20,6 +20,12 @@ double Percentile(std::vector<double> values, double q) {
   return values[low] + (position - low) * (values[high] - values[low]);
 }
 
+double Median(std::vector<double> values) {
+  std::sort(values.begin(), values.end());
+  const size_t n = values.size();
+  return n % 2 == 1 ? values[n / 2] : (values[n / 2 - 1] + values[n / 2]) / 2;
+}
+
 // Yaw difference in degrees, modulo 360 / symmetry.
 double YawErrorDeg(double a, double b, int symmetry) {
   const double period = 2 * M_PI / std::max(1, symmetry);
@@ -300,6 +306,7 @@ void AddLossesAndPoseErrors(const std::vector<FrameOutcome>& frames,
                             EvaluationResult* result) {
   Metrics& m = result->metrics;
   double xy_sum = 0, yaw_sum = 0;
+  std::vector<double> yaw_errors, size_errors;
   int tps = 0, identified = 0, identifiable = 0;
   for (const FrameOutcome& f : frames) result->frame_errors[f.frame_id] = {0, 0};
   for (FunnelStage stage : EnumValues<FunnelStage>())
@@ -325,6 +332,14 @@ void AddLossesAndPoseErrors(const std::vector<FrameOutcome>& frames,
     for (const auto& [d, t] : matching.true_positives) {
       xy_sum += std::hypot(d->x - t->x, d->y - t->y);
       yaw_sum += YawErrorDeg(d->yaw, t->yaw, d->symmetry);
+      yaw_errors.push_back(YawErrorDeg(d->yaw, t->yaw, d->symmetry));
+      if (d->width > 0 && t->width > 0 && t->depth > 0) {
+        auto relative = [&](double w, double h) {
+          return (std::abs(w / t->width - 1) + std::abs(h / t->depth - 1)) / 2;
+        };
+        size_errors.push_back(
+            std::min(relative(d->width, d->depth), relative(d->depth, d->width)));
+      }
       ++tps;
       if (t->seen_in_training) {
         ++identifiable;
@@ -335,7 +350,10 @@ void AddLossesAndPoseErrors(const std::vector<FrameOutcome>& frames,
   if (tps > 0) {
     m[MetricId::Plain(PlainMetric::kXyErrorMean).Name()] = xy_sum / tps;
     m[MetricId::Plain(PlainMetric::kYawErrorMean).Name()] = yaw_sum / tps;
+    m[MetricId::Plain(PlainMetric::kYawErrorMedian).Name()] = Median(yaw_errors);
   }
+  if (!size_errors.empty())
+    m[MetricId::Plain(PlainMetric::kSizeErrorMedian).Name()] = Median(size_errors);
   if (identifiable > 0)
     m[MetricId::Plain(PlainMetric::kCadIdentified).Name()] =
         static_cast<double>(identified) / identifiable;

@@ -7,8 +7,9 @@
 // point lies beyond the detector's range, are "ignore": neither TP nor FN, and
 // matching one is not an FP. AP is all-point interpolated (the area under the
 // precision envelope); mAP averages the classes with at least one object to
-// find. For TPs: xy error, yaw error modulo the model's rotational symmetry,
-// and whether the CAD model was identified. Metrics are also computed over
+// find. For TPs: xy error, yaw error modulo the model's rotational symmetry
+// (mean and median), the footprint's relative size error (median; detections
+// that give a footprint), and whether the CAD model was identified. Metrics are also computed over
 // objects whose CAD model was seen in training and over unseen ones.
 //
 // A (the paper's): per class, a local maximum within a square window (5 cm)
@@ -36,6 +37,7 @@ struct TruthObject {
   double visibility = 0;         // visible / amodal pixels in this frame
   double distance_m = 0;         // from the camera to the reference point
   bool seen_in_training = true;  // false for evaluation-only CAD models
+  double width = 0, depth = 0;   // footprint (m); 0: unknown
 };
 
 struct ScoredDetection {
@@ -44,6 +46,7 @@ struct ScoredDetection {
   double x = 0, y = 0, yaw = 0;
   double score = 0;
   int symmetry = 1;  // rotational symmetry order of the detected model (1, 2 or 4)
+  double width = 0, depth = 0;  // footprint (m) when the detector gives one (learned voting)
 };
 
 struct HoughMaximum {

@@ -22,6 +22,8 @@ constexpr PlainEntry kPlainMetrics[] = {
     {PlainMetric::kMeanApUnseen, "mAP_unseen@10cm", "", true},
     {PlainMetric::kXyErrorMean, "xy_error_mean_m", "m", false},
     {PlainMetric::kYawErrorMean, "yaw_error_mean_deg", "deg", false},
+    {PlainMetric::kYawErrorMedian, "yaw_error_median_deg", "deg", false},
+    {PlainMetric::kSizeErrorMedian, "size_error_median", "", false},
     {PlainMetric::kCadIdentified, "cad_identified", "", true},
     {PlainMetric::kFalseAboveTrue, "false_above_true_error@20cm", "", false},
     {PlainMetric::kCalibrationError, "calibration_error", "", false},

@@ -80,6 +80,8 @@ enum class PlainMetric {
   kMeanApUnseen,  // ... and over the others
   kXyErrorMean,
   kYawErrorMean,
+  kYawErrorMedian,
+  kSizeErrorMedian,  // footprint: mean of |width| and |depth| relative errors, sides either way
   kCadIdentified,
   kFalseAboveTrue,  // share of frames whose best false detection outscores every true one (20 cm)
   kCalibrationError,

@@ -7,6 +7,8 @@
 #include "core/file_util.h"
 #include "core/progress.h"
 #include "tests/test_util.h"
+#include "core/detector.h"
+#include "db/dataset_db.h"
 #include "workbench/pipelines/train.h"
 
 namespace furn {
@@ -169,6 +171,67 @@ TEST(Train, BadModelFilesAreRejected) {
   EXPECT_NE(
       testing::ErrorOf([&] { LoadTrainedModel(dir + "/newer.fcm"); }).find("format version 9"),
       std::string::npos);
+}
+
+// The vote network (issue 30): trained from rooms without the held-out
+// models, stored in the model file and read back byte for byte; a garbled
+// network block (under a valid checksum) is one line naming it; detection
+// votes with it by default and with the codebook when asked.
+TEST(Train, VoteNetIsStoredUsedAndItsRoomsHoldNoHeldOutModel) {
+  Progress::SetQuiet(true);
+  const std::string dir = testing::ScratchDir();
+  const Catalog catalog = OpenCatalog("procedural:2");
+  const std::string held_out = catalog.Classified().front()->id;
+  VoteNetTrainingOptions vote;
+  vote.rooms = 4;
+  vote.frames_per_room = 2;
+  vote.epochs = 1;
+  vote.net.width = 4;
+  vote.keep_rooms = true;
+  vote.quiet = true;
+  const TrainSummary summary = TrainFromCatalog(catalog,
+                                                FewViews(),
+                                                SmallVocabulary(VocabularyKind::kKMeans),
+                                                dir + "/net.fcm",
+                                                {held_out},
+                                                "",
+                                                &vote);
+  ASSERT_TRUE(summary.vote_net);
+  EXPECT_EQ(summary.vote_net_training.epochs.size(), 1u);
+  {
+    DatasetDb rooms(dir + "/net.fcm.rooms.db", DatasetDb::Mode::kReadOnly);
+    int objects = 0;
+    for (int64_t id : rooms.RoomIds()) {
+      for (const ObjectRecord& object : rooms.ReadRoom(id, false).objects) {
+        EXPECT_NE(object.model_id, held_out);
+        objects += object.furniture_class.has_value();
+      }
+    }
+    EXPECT_GT(objects, 4);
+  }
+  TrainedModel model = LoadTrainedModel(dir + "/net.fcm");
+  ASSERT_FALSE(model.vote_net.empty());
+  EXPECT_EQ(VoteNet::Deserialize(model.vote_net, "net").Serialize(), model.vote_net);
+  EXPECT_NE(DescribeTrainedModel(model).find("vote net:    U-Net"), std::string::npos);
+  EXPECT_TRUE(Detector(model, DetectorOptions{}).learned());
+  DetectorOptions codebook;
+  codebook.voting = VotingMode::kCodebook;
+  EXPECT_FALSE(Detector(model, codebook).learned());
+
+  model.vote_net = "FURNVNET" + std::string(200, 'q');
+  SaveTrainedModel(model, dir + "/garbled.fcm");
+  const std::string garbled =
+      testing::ErrorOf([&] { Detector(LoadTrainedModel(dir + "/garbled.fcm"), {}); });
+  EXPECT_NE(garbled.find("vote network"), std::string::npos) << garbled;
+  EXPECT_EQ(garbled.find('\n'), std::string::npos) << garbled;
+
+  TrainFromCatalog(catalog, FewViews(), SmallVocabulary(VocabularyKind::kKMeans), dir + "/plain.fcm");
+  DetectorOptions learned;
+  learned.voting = VotingMode::kLearned;
+  const std::string none =
+      testing::ErrorOf([&] { Detector(LoadTrainedModel(dir + "/plain.fcm"), learned); });
+  EXPECT_NE(none.find("holds no vote network"), std::string::npos) << none;
+  EXPECT_FALSE(Detector(LoadTrainedModel(dir + "/plain.fcm"), {}).learned());
 }
 
 TEST(Train, TooFewSegmentsForTheVocabularyIsRejected) {

@@ -81,10 +81,14 @@ void PrintHeadline(const EvaluateSummary& summary) {
                 MetricOrNan(m, MetricId::ClassAp(c, 0.10)),
                 MetricOrNan(m, MetricId::PaperBestF1(c)));
   }
-  std::printf("  pose error: xy %.3f m, yaw %.1f deg; CAD model identified %.3f\n",
-              get(PlainMetric::kXyErrorMean),
-              get(PlainMetric::kYawErrorMean),
-              get(PlainMetric::kCadIdentified));
+  std::printf(
+      "  pose error: xy %.3f m, yaw %.1f deg (median %.1f); footprint size error median %.3f; "
+      "CAD model identified %.3f\n",
+      get(PlainMetric::kXyErrorMean),
+      get(PlainMetric::kYawErrorMean),
+      get(PlainMetric::kYawErrorMedian),
+      get(PlainMetric::kSizeErrorMedian),
+      get(PlainMetric::kCadIdentified));
   PrintLosses(m);
   std::printf("  latency per frame: p50 %.1f ms, p90 %.1f ms, p99 %.1f ms\n",
               get(PlainMetric::kLatencyP50),

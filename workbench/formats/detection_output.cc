@@ -70,9 +70,26 @@ std::string ScanErrorJson(const std::string& input, const std::string& error) {
 
 std::string ExplainDetection(const DetectionResult& result, const TrainedModel& model) {
   std::ostringstream out;
-  out << result.debug.hypotheses.size() << " hypotheses (Hough maxima):\n";
+  const bool learned =
+      !result.debug.hypotheses.empty() && result.debug.hypotheses.front().learned;
+  out << result.debug.hypotheses.size()
+      << (learned ? " hypotheses (learned heat maxima):\n" : " hypotheses (Hough maxima):\n");
   char line[256];
   for (const DetectionDebug::Hypothesis& h : result.debug.hypotheses) {
+    if (h.learned) {
+      std::snprintf(line,
+                    sizeof(line),
+                    "  %-9s x %6.2f  y %6.2f  yaw %6.1f deg  footprint %.2f x %.2f m  heat %.3f  ",
+                    ClassName(h.furniture_class),
+                    h.x,
+                    h.y,
+                    h.yaw * 180 / M_PI,
+                    h.width,
+                    h.depth,
+                    h.vote_weight);
+      out << line << "-> " << DetectionDebug::Describe(h) << "\n";
+      continue;
+    }
     std::snprintf(line,
                   sizeof(line),
                   "  %-9s x %6.2f  y %6.2f  votes %6.2f (rel %.2f)  %zu segments  ",

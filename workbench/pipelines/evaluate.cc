@@ -160,7 +160,9 @@ std::vector<TruthObject> TruthOf(const RoomRecord& room,
                      object.yaw,
                      visibility,
                      (reference - eye).norm(),
-                     facts.trained.count(object.model_id) > 0});
+                     facts.trained.count(object.model_id) > 0,
+                     object.width,
+                     object.depth});
   }
   return truth;
 }
@@ -211,7 +213,7 @@ void RecordDetections(const DetectionResult& result,
     const int symmetry =
         d.model_index >= 0 ? facts.symmetry[d.model_index] : BevYawSymmetry(d.furniture_class);
     out->outcome.detections.push_back(
-        {d.furniture_class, d.model_name, d.x, d.y, d.yaw, d.score, symmetry});
+        {d.furniture_class, d.model_name, d.x, d.y, d.yaw, d.score, symmetry, d.width, d.depth});
     out->detections.push_back({frame.id,
                                d.furniture_class,
                                d.model_name,

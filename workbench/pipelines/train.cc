@@ -125,8 +125,10 @@ TrainSummary TrainFromCatalog(const Catalog& catalog,
   for (const CadModel& cad : loaded.models)
     model.render_meshes.push_back(SimplifyMesh(cad.mesh, kRenderMeshCellM));
   if (vote_net != nullptr) {
+    VoteNetTrainingOptions options = *vote_net;
+    if (options.curve_png.empty()) options.curve_png = out_path + ".training.png";
     model.vote_net = TrainVoteNet(
-        catalog, held_out, *vote_net, out_path + ".rooms.db", &summary.vote_net_training);
+        catalog, held_out, options, out_path + ".rooms.db", &summary.vote_net_training);
     summary.vote_net = true;
   }
   SaveTrainedModel(model, out_path);

@@ -9,8 +9,11 @@
 #include <random>
 
 #include "core/error.h"
+#include "core/bev_decode.h"
 #include "core/progress.h"
 #include "db/dataset_db.h"
+#include "reports/evaluation.h"
+#include "reports/training_curve.h"
 #include "workbench/formats/scan_file.h"
 #include "workbench/pipelines/generate.h"
 
@@ -98,6 +101,43 @@ VoteNetLoss ValidationLoss(const VoteNet& net,
     sum.yaw /= batches;
   }
   return sum;
+}
+
+// mAP@10cm of the network's decoded maxima on the validation frames (every
+// labelled object a target; protocol B's matching).
+double ValidationMeanAp(const VoteNet& net, const std::vector<BevSample>& validation) {
+  std::vector<FrameOutcome> frames;
+  BevDecodeOptions decode;
+  decode.min_heat = 0.02;  // low: AP sweeps the score
+  for (size_t i = 0; i < validation.size(); ++i) {
+    const BevSample& sample = validation[i];
+    FrameOutcome frame;
+    frame.frame_id = static_cast<int64_t>(i);
+    for (const BevObject& object : sample.objects) {
+      TruthObject truth;
+      truth.furniture_class = object.furniture_class;
+      truth.x = object.centre.x();
+      truth.y = object.centre.y();
+      truth.yaw = object.yaw;
+      truth.visibility = 1;
+      frame.truth.push_back(truth);
+    }
+    for (const BevPeak& peak : DecodeBevOutput(sample.image, net.Predict(sample.image), decode)) {
+      if (peak.suppressed) continue;
+      ScoredDetection d;
+      d.furniture_class = peak.furniture_class;
+      d.x = peak.x;
+      d.y = peak.y;
+      d.yaw = peak.yaw;
+      d.score = peak.heat;
+      frame.detections.push_back(d);
+    }
+    frames.push_back(std::move(frame));
+  }
+  EvaluationOptions options;
+  options.max_distance_m = 1e9;  // the samples' objects are all targets
+  const EvaluationResult result = EvaluateFrames(frames, options);
+  return MetricOrNan(result.metrics, MetricId::MeanAp(0.10));
 }
 
 }  // namespace
@@ -230,9 +270,21 @@ VoteNet TrainVoteNetOnSamples(const std::vector<BevSample>& training,
     if (!validation.empty()) {
       record.validation_terms = ValidationLoss(net, validation, options.batch_size);
       record.validation_loss = record.validation_terms.Total();
+      record.validation_map = ValidationMeanAp(net, validation);
     }
     record.seconds = Seconds(epoch_start);
     summary->epochs.push_back(record);
+    if (!options.quiet) {
+      std::fprintf(stderr,
+                   "vote net: epoch %d/%d: training loss %.3f, validation loss %.3f, "
+                   "validation mAP@10cm %.3f (%.0f s)\n",
+                   record.epoch,
+                   options.epochs,
+                   record.train_loss,
+                   record.validation_loss,
+                   validation.empty() ? std::nan("") : record.validation_map,
+                   record.seconds);
+    }
   }
   progress.Finish();
   summary->train_s = Seconds(start);
@@ -272,6 +324,18 @@ std::string TrainVoteNet(const Catalog& catalog,
   summary->raster_s = Seconds(start);
   const VoteNet net = TrainVoteNetOnSamples(training, validation, options, summary);
   if (!options.keep_rooms) std::filesystem::remove(rooms_db);
+  if (!options.curve_png.empty()) {
+    std::vector<TrainingCurvePoint> curve;
+    for (const VoteNetEpoch& e : summary->epochs)
+      curve.push_back({e.epoch,
+                       e.train_loss,
+                       e.validation_loss,
+                       validation.empty() ? std::nan("") : e.validation_map});
+    WriteTrainingCurvePng(curve,
+                          "vote network: " + std::to_string(summary->frames) + " frames of " +
+                              std::to_string(summary->rooms) + " rooms",
+                          options.curve_png);
+  }
   return net.Serialize();
 }
 

@@ -39,6 +39,7 @@ struct VoteNetTrainingOptions {
   VoteNetOptions net;
   RoomOptions room;         // of the training rooms (evaluation-only entries never placed)
   bool keep_rooms = false;  // keep the rooms' database after training (else deleted)
+  std::string curve_png;    // the training curve (loss, validation mAP); empty: none
   bool quiet = false;
 
   void Check() const;
@@ -56,6 +57,7 @@ struct VoteNetEpoch {
   int epoch = 0;
   double train_loss = 0, validation_loss = 0;
   VoteNetLoss validation_terms;
+  double validation_map = 0;  // mAP@10cm of the decoded maxima (NaN: no objects)
   double seconds = 0;
 };
 
