@@ -19,10 +19,10 @@ cd "$out"
 run() { "$wb" "$@" > /dev/null 2>> run.log; }
 run generate --catalog procedural --rooms 6 --frames 3 --seed 1 --out d.db --quiet
 run generate --catalog procedural --rooms 9 --frames 2 --seed 2 --model-folds 3 --out cv.db --quiet
-run train --catalog procedural --out m.fcm --quiet
+run train --no-vote-net --catalog procedural --out m.fcm --quiet
 run evaluate --model m.fcm --db d.db --split all --quiet
-run crossval --db cv.db --work-dir cvm --quiet
-run train --catalog procedural --scorer cvm/scorer.yml --out ms.fcm --quiet
+run crossval --no-vote-net --db cv.db --work-dir cvm --quiet
+run train --no-vote-net --catalog procedural --scorer cvm/scorer.yml --out ms.fcm --quiet
 run evaluate --model ms.fcm --db d.db --split test --quiet
 run evaluate --model ms.fcm --db cv.db --split all --max-frames 6 --quiet
 run report --db d.db --out report

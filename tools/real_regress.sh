@@ -11,7 +11,7 @@ work="${2:?usage: real_regress.sh BUILD_DIR WORK_DIR}"
 workbench="$build_dir/workbench/workbench"
 mkdir -p "$work"
 echo "== train the default model (about 70 s on 2 cores)"
-"$workbench" train --catalog default --out "$work/model.fcm" --quiet
+"$workbench" train --no-vote-net --catalog default --out "$work/model.fcm" --quiet
 echo "== import the real scans"
 rm -f "$work/real.db"
 "$workbench" dataset import-real "$repo/data/real/labels.json" --out "$work/real.db" \

@@ -58,7 +58,9 @@ void BM_DetectFrame(benchmark::State& state) {
                             .c_str());
     return;
   }
-  const Detector detector(LoadTrainedModel(model_path), DetectorOptions{});
+  DetectorOptions options;
+  options.torch_threads = static_cast<int>(state.range(0));  // the learned path's network
+  const Detector detector(LoadTrainedModel(model_path), options);
   // Every 3rd frame of the dataset (up to 27; every frame index of the
   // rooms is represented), loaded once.
   std::vector<LoadedScan> scans;
@@ -76,12 +78,20 @@ void BM_DetectFrame(benchmark::State& state) {
   }
   DetectInTurn(detector, scans, state);
 }
-BENCHMARK(BM_DetectFrame)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(81);
+// Arg: the network's torch threads (learned voting; the codebook path ignores it).
+BENCHMARK(BM_DetectFrame)
+    ->Arg(1)
+    ->Arg(2)
+    ->ArgName("torch_threads")
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->Iterations(81);
 
 // Detection in the real scans of data/real/ (issue 17: median <= 150 ms on
 // a 640x480 real frame, 2 cores), each loaded as `detect` would: the floor
 // searched where the pose is unknown, which synthetic frames never need.
 // Arg 1: the organised 640x480 scans only (the target's frames); 0: all.
+// Second arg: the network's torch threads.
 void BM_DetectRealFrame(benchmark::State& state) {
   const std::string model_path = FromEnv("FURN_BENCH_MODEL", FURN_SOURCE_DIR "/out/model.fcm");
   const std::string labels = FromEnv("FURN_BENCH_REAL", FURN_SOURCE_DIR "/data/real/labels.json");
@@ -89,7 +99,9 @@ void BM_DetectRealFrame(benchmark::State& state) {
     state.SkipWithError(("needs " + model_path + " (run the main job)").c_str());
     return;
   }
-  const Detector detector(LoadTrainedModel(model_path), DetectorOptions{});
+  DetectorOptions options;
+  options.torch_threads = static_cast<int>(state.range(1));
+  const Detector detector(LoadTrainedModel(model_path), options);
   std::vector<LoadedScan> scans;
   for (const RealScan& scan : ReadRealSet(labels).scans) {
     LoadedScan loaded = LoadScan(scan.source);
@@ -99,9 +111,10 @@ void BM_DetectRealFrame(benchmark::State& state) {
   DetectInTurn(detector, scans, state);
 }
 BENCHMARK(BM_DetectRealFrame)
-    ->Arg(1)
-    ->Arg(0)
-    ->ArgName("organised640")
+    ->Args({1, 1})
+    ->Args({1, 2})
+    ->Args({0, 1})
+    ->ArgNames({"organised640", "torch_threads"})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime()
     ->Iterations(44);

@@ -7,8 +7,10 @@
 #include <benchmark/benchmark.h>
 
 #include <filesystem>
+#include <random>
 
 #include "core/progress.h"
+#include "core/vote_net.h"
 #include "workbench/pipelines/train.h"
 
 namespace furn {
@@ -32,6 +34,69 @@ void BM_TrainDefaultCatalog(benchmark::State& state) {
   std::filesystem::remove(path);
 }
 BENCHMARK(BM_TrainDefaultCatalog)->Unit(benchmark::kSecond)->UseRealTime()->Iterations(1);
+
+// The vote network (issue 30): one training step and one inference on the
+// default grid (72 x 96 cells), random images. Args: batch, width, torch
+// threads. Counters: frames per second through training.
+BevImage RandomImage(std::mt19937_64* random) {
+  BevImage image;
+  image.values.resize(static_cast<size_t>(kBevChannels) * image.spec.rows * image.spec.cols);
+  std::uniform_real_distribution<float> value(0, 1);
+  for (float& v : image.values) v = value(*random) < 0.9f ? 0.0f : value(*random);
+  return image;
+}
+
+void BM_VoteNetTrainStep(benchmark::State& state) {
+  const int batch = static_cast<int>(state.range(0));
+  VoteNetOptions options;
+  options.width = static_cast<int>(state.range(1));
+  SetTorchThreads(static_cast<int>(state.range(2)));
+  VoteNet net = VoteNet::Create(options, 1);
+  std::mt19937_64 random(1);
+  std::vector<BevImage> images;
+  std::vector<BevTargets> targets;
+  for (int i = 0; i < batch; ++i) {
+    images.push_back(RandomImage(&random));
+    targets.push_back(BevTargetsOf(
+        {{FurnitureClass::kChair, {1.5, 0.2}, 0.5, 0.5, 0.5}}, images.back().frame, options.grid));
+  }
+  std::vector<const BevImage*> image_pointers;
+  std::vector<const BevTargets*> target_pointers;
+  for (int i = 0; i < batch; ++i) {
+    image_pointers.push_back(&images[i]);
+    target_pointers.push_back(&targets[i]);
+  }
+  for (auto _ : state)
+    benchmark::DoNotOptimize(net.TrainStep(image_pointers, target_pointers, 1e-3));
+  state.counters["frames_per_s"] = benchmark::Counter(
+      static_cast<double>(batch) * state.iterations(), benchmark::Counter::kIsRate);
+  state.counters["parameters"] = static_cast<double>(net.Parameters());
+}
+BENCHMARK(BM_VoteNetTrainStep)
+    ->Args({16, 16, 2})
+    ->Args({16, 16, 1})
+    ->Args({4, 16, 2})
+    ->Args({16, 12, 2})
+    ->Args({16, 8, 2})
+    ->ArgNames({"batch", "width", "threads"})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+
+void BM_VoteNetPredict(benchmark::State& state) {
+  VoteNetOptions options;
+  options.width = static_cast<int>(state.range(0));
+  SetTorchThreads(static_cast<int>(state.range(1)));
+  const VoteNet net = VoteNet::Create(options, 1);
+  std::mt19937_64 random(1);
+  const BevImage image = RandomImage(&random);
+  for (auto _ : state) benchmark::DoNotOptimize(net.Predict(image).values.size());
+}
+BENCHMARK(BM_VoteNetPredict)
+    ->Args({16, 1})
+    ->Args({16, 2})
+    ->ArgNames({"width", "threads"})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 }  // namespace
 }  // namespace furn

@@ -19,7 +19,7 @@ export FURN_MESH_CACHE=off
 unset FURN_EMBREE_CONFIG
 
 # The model is trained natively: training is not what this pass checks.
-"$workbench" train --catalog "$catalog" --vocab kmeans --words 20 --azimuths 6 --quiet \
+"$workbench" train --no-vote-net --catalog "$catalog" --vocab kmeans --words 20 --azimuths 6 --quiet \
   --out "$dir/model.fcm"
 
 memcheck=(valgrind --tool=memcheck --error-exitcode=99 --track-origins=yes --num-callers=40

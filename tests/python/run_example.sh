@@ -5,7 +5,7 @@ set -euo pipefail
 source_dir=$1 work=$2 workbench=$3 python=$4
 rm -rf "$work" && mkdir -p "$work"
 "$workbench" generate --catalog procedural:4 --rooms 3 --frames 2 --seed 7 --quiet --out "$work/s.db"
-"$workbench" train --catalog procedural:4 --azimuths 4 --words 20 --vocab kmeans --quiet \
+"$workbench" train --no-vote-net --catalog procedural:4 --azimuths 4 --words 20 --vocab kmeans --quiet \
   --out "$work/m.fcm"
 "$python" "$source_dir/examples/detect_in_frame.py" "$work/s.db" "$work/m.fcm" \
   --out "$work/frame.png" | tee "$work/stdout.txt"

@@ -45,7 +45,7 @@ TEST(Crossval, LeaveModelsOutFoldsAreTrainedEvaluatedAggregatedAndGated) {
 
   const std::string work = dir + "/models";
   const testing::CommandResult run =
-      Workbench("crossval --quiet --db " + db + " --work-dir " + work);
+      Workbench("crossval --no-vote-net --quiet --db " + db + " --work-dir " + work);
   ASSERT_EQ(run.exit_code, 0) << run.output;
   EXPECT_NE(run.output.find("leave-models-out (protocol E): 3 folds"), std::string::npos)
       << run.output;
@@ -81,7 +81,8 @@ TEST(Crossval, LeaveModelsOutFoldsAreTrainedEvaluatedAggregatedAndGated) {
 
   // The all-folds scorer goes into a model with `train --scorer`.
   ASSERT_TRUE(std::filesystem::exists(work + "/scorer.yml"));
-  ASSERT_EQ(Workbench("train --catalog procedural:4 --quiet --azimuths 4 --words 20 --vocab kmeans "
+  ASSERT_EQ(Workbench("train --no-vote-net --catalog procedural:4 --quiet --azimuths 4 --words 20 "
+                      "--vocab kmeans "
                       "--scorer " +
                       work + "/scorer.yml --out " + dir + "/scored.fcm")
                 .exit_code,
@@ -89,8 +90,9 @@ TEST(Crossval, LeaveModelsOutFoldsAreTrainedEvaluatedAggregatedAndGated) {
   const testing::CommandResult info = Workbench("model info " + dir + "/scored.fcm");
   EXPECT_NE(info.output.find("scorer:      random forest from"), std::string::npos) << info.output;
   WriteFileAtomically(dir + "/bad.yml", "not a scorer\n");
-  const testing::CommandResult bad = Workbench("train --catalog procedural:4 --quiet --scorer " +
-                                               dir + "/bad.yml --out " + dir + "/bad.fcm");
+  const testing::CommandResult bad =
+      Workbench("train --no-vote-net --catalog procedural:4 --quiet --scorer " + dir +
+                "/bad.yml --out " + dir + "/bad.fcm");
   EXPECT_EQ(bad.exit_code, 1);
   EXPECT_NE(bad.output.find("bad.yml: not a hypothesis scorer"), std::string::npos) << bad.output;
   EXPECT_FALSE(std::filesystem::exists(dir + "/bad.fcm"));
@@ -114,7 +116,8 @@ TEST(Crossval, LeaveModelsOutFoldsAreTrainedEvaluatedAggregatedAndGated) {
   EXPECT_GT(ReadFileBytes(dir + "/report/fold-0/reliability.png").size(), 1000u);
 
   // Again: the fold models are reused, and the result is the same.
-  const testing::CommandResult again = Workbench("crossval --db " + db + " --work-dir " + work);
+  const testing::CommandResult again =
+      Workbench("crossval --no-vote-net --db " + db + " --work-dir " + work);
   ASSERT_EQ(again.exit_code, 0) << again.output;
   EXPECT_NE(again.output.find("model reused"), std::string::npos) << again.output;
   EXPECT_EQ(Workbench("regress --db " + db + " --run 14 --baseline 7 --tolerance 0").exit_code, 0);
@@ -127,7 +130,7 @@ TEST(Crossval, DatasetsWithoutFoldsAndImpossibleFoldsAreClearErrors) {
                 .exit_code,
             0);
   const testing::CommandResult plain =
-      Workbench("crossval --db " + dir + "/plain.db --work-dir " + dir + "/m");
+      Workbench("crossval --no-vote-net --db " + dir + "/plain.db --work-dir " + dir + "/m");
   EXPECT_EQ(plain.exit_code, 1);
   EXPECT_NE(plain.output.find("was not generated with leave-models-out folds"), std::string::npos)
       << plain.output;
@@ -155,7 +158,7 @@ TEST(Crossval, DatasetsWithoutFoldsAndImpossibleFoldsAreClearErrors) {
     database.Execute("UPDATE objects SET model_id = 'other/' || model_id");
   }
   const testing::CommandResult other =
-      Workbench("crossval --db " + dir + "/f.db --work-dir " + dir + "/m");
+      Workbench("crossval --no-vote-net --db " + dir + "/f.db --work-dir " + dir + "/m");
   EXPECT_EQ(other.exit_code, 1);
   EXPECT_NE(other.output.find("use the catalog the dataset was generated from"), std::string::npos)
       << other.output;

@@ -30,7 +30,8 @@ TEST(Evaluate, SmallRunIsStoredAndGatedByTheCommittedBaseline) {
       Workbench("generate --catalog procedural:4 --rooms 4 --frames 2 --seed 5 --quiet --out " + db)
           .exit_code,
       0);
-  ASSERT_EQ(Workbench("train --catalog procedural:4 --vocab kmeans --words 20 --azimuths 8 --quiet "
+  ASSERT_EQ(Workbench("train --no-vote-net --catalog procedural:4 --vocab kmeans --words 20 "
+                      "--azimuths 8 --quiet "
                       "--out " +
                       model)
                 .exit_code,
@@ -255,11 +256,12 @@ TEST(Evaluate, EmptyFramesMissingDatasetsAndSeenModels) {
                       data.dir + "/base.db")
                 .exit_code,
             0);
-  ASSERT_EQ(Workbench("train --catalog procedural:4 --vocab kmeans --words 20 --azimuths 8 "
-                      "--quiet --out " +
-                      data.model)
-                .exit_code,
-            0);
+  ASSERT_EQ(
+      Workbench("train --no-vote-net --catalog procedural:4 --vocab kmeans --words 20 --azimuths 8 "
+                "--quiet --out " +
+                data.model)
+          .exit_code,
+      0);
   {
     SCOPED_TRACE("missing dataset");
     MissingDatasetIsOneLineAndCreatesNothing(data);

@@ -168,7 +168,8 @@ TEST(RealSet, EvaluationIsTheSameInAnyLabelFrame) {
                 synth)
           .exit_code,
       0);
-  ASSERT_EQ(Workbench("train --catalog procedural:4 --vocab kmeans --words 20 --azimuths 8 --quiet "
+  ASSERT_EQ(Workbench("train --no-vote-net --catalog procedural:4 --vocab kmeans --words 20 "
+                      "--azimuths 8 --quiet "
                       "--out " +
                       model)
                 .exit_code,

@@ -53,11 +53,13 @@ class RosbagTest : public ::testing::Test {
                         Db())
                   .exit_code,
               0);
-    ASSERT_EQ(Workbench("train --catalog procedural:4 --azimuths 4 --words 20 --vocab kmeans "
-                        "--quiet --out " +
-                        Model())
-                  .exit_code,
-              0);
+    ASSERT_EQ(
+        Workbench(
+            "train --no-vote-net --catalog procedural:4 --azimuths 4 --words 20 --vocab kmeans "
+            "--quiet --out " +
+            Model())
+            .exit_code,
+        0);
     const testing::CommandResult exported =
         Workbench("dataset export " + Db() + " --format rosbag --out " + Bag());
     ASSERT_EQ(exported.exit_code, 0) << exported.output;

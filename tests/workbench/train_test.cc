@@ -3,12 +3,12 @@
 
 #include <Eigen/Geometry>
 
+#include "core/detector.h"
 #include "core/error.h"
 #include "core/file_util.h"
 #include "core/progress.h"
-#include "tests/test_util.h"
-#include "core/detector.h"
 #include "db/dataset_db.h"
+#include "tests/test_util.h"
 #include "workbench/pipelines/train.h"
 
 namespace furn {
@@ -225,7 +225,8 @@ TEST(Train, VoteNetIsStoredUsedAndItsRoomsHoldNoHeldOutModel) {
   EXPECT_NE(garbled.find("vote network"), std::string::npos) << garbled;
   EXPECT_EQ(garbled.find('\n'), std::string::npos) << garbled;
 
-  TrainFromCatalog(catalog, FewViews(), SmallVocabulary(VocabularyKind::kKMeans), dir + "/plain.fcm");
+  TrainFromCatalog(
+      catalog, FewViews(), SmallVocabulary(VocabularyKind::kKMeans), dir + "/plain.fcm");
   DetectorOptions learned;
   learned.voting = VotingMode::kLearned;
   const std::string none =

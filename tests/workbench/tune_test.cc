@@ -289,8 +289,9 @@ TEST(TuneCommand, TrialsAreRunsResumeAndTheReportAndBestOptionsWork) {
   EXPECT_TRUE(training.trainer.region_growing.delta_m == 0.05 ||
               training.trainer.region_growing.delta_m == 0.04);
   EXPECT_EQ(training.scan.azimuths, 6);  // the base options carry through
-  const testing::CommandResult trained = Workbench(
-      "train --catalog procedural:4 --quiet --options " + best + " --out " + dir + "/best.fcm");
+  const testing::CommandResult trained =
+      Workbench("train --no-vote-net --catalog procedural:4 --quiet --options " + best + " --out " +
+                dir + "/best.fcm");
   ASSERT_EQ(trained.exit_code, 0) << trained.output;
   const testing::CommandResult evaluated =
       Workbench("evaluate --quiet --split val --options " + best + " --model " + dir +

@@ -79,6 +79,14 @@ void AddVoteNetFlags(CLI::App* app, VoteNetFlags* flags) {
       ->capture_default_str();
   app->add_option("--vote-seed", o.seed, "Vote network: seed of rooms, weights and batches")
       ->capture_default_str();
+  app->add_option("--vote-frames", o.frames_per_room, "Vote network: frames per training room")
+      ->capture_default_str();
+  app->add_option("--vote-width", o.net.width, "Vote network: channels of its first level")
+      ->capture_default_str();
+  app->add_option("--vote-batch", o.batch_size, "Vote network: frames per training step")
+      ->capture_default_str();
+  app->add_option("--vote-lr", o.learning_rate, "Vote network: peak learning rate (Adam)")
+      ->capture_default_str();
   app->add_flag("--keep-rooms",
                 o.keep_rooms,
                 "Keep the vote network's training rooms (<model>.rooms.db) for reuse");

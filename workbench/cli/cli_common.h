@@ -28,7 +28,7 @@ CatalogOpenOptions MakeOpenOptions(const CatalogFlags& flags);
 
 // The vote network's training (train, crossval): --vote-net / --no-vote-net
 // (on by default), --vote-rooms, --vote-epochs, --vote-threads, --vote-seed,
-// --keep-rooms.
+// --vote-frames, --vote-width, --keep-rooms.
 struct VoteNetFlags {
   bool enabled = true;
   VoteNetTrainingOptions options;

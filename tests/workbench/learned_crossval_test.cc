@@ -1,0 +1,48 @@
+// Issue 30: protocol E with the learned vote map against the codebook on the
+// same leave-models-out folds of the procedural catalog (label slow: each
+// fold trains a network, minutes on 2 cores).
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <vector>
+
+#include "db/dataset_db.h"
+#include "tests/test_util.h"
+
+namespace furn {
+namespace {
+
+testing::CommandResult Workbench(const std::string& arguments) {
+  return testing::RunCommand(std::string(FURN_WORKBENCH_BINARY) + " " + arguments);
+}
+
+// On the same leave-models-out folds, the learned vote
+// map (each fold's network trained on rooms generated without that fold's
+// models) beats the codebook.
+TEST(Crossval, LearnedVotingBeatsTheCodebookOnTheSameFolds) {
+  const std::string dir = testing::ScratchDir();
+  const std::string db = dir + "/folds.db";
+  ASSERT_EQ(Workbench("generate --catalog procedural:4 --rooms 12 --frames 2 --seed 7 "
+                      "--model-folds 3 --quiet --out " +
+                      db)
+                .exit_code,
+            0);
+  const testing::CommandResult codebook = Workbench(
+      "crossval --no-vote-net --no-scorer --quiet --db " + db + " --work-dir " + dir + "/codebook");
+  ASSERT_EQ(codebook.exit_code, 0) << codebook.output;
+  const testing::CommandResult learned = Workbench(
+      "crossval --vote-rooms 60 --vote-epochs 20 --vote-batch 8 --vote-lr 4e-3 --quiet --db " + db +
+      " --work-dir " + dir + "/learned");
+  ASSERT_EQ(learned.exit_code, 0) << learned.output;
+  DatasetDb dataset(db, DatasetDb::Mode::kReadOnly);
+  std::vector<double> map;
+  for (const RunRecord& run : dataset.Runs()) {
+    if (run.kind == "crossval") map.push_back(dataset.RunMetrics(run.id).at("mAP@10cm"));
+  }
+  ASSERT_EQ(map.size(), 2u);
+  std::printf("protocol E, procedural:4: codebook mAP@10cm %.3f, learned %.3f\n", map[0], map[1]);
+  EXPECT_GT(map[1], map[0] + 0.05) << "codebook " << map[0] << ", learned " << map[1];
+}
+
+}  // namespace
+}  // namespace furn
