@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "core/error.h"
+#include "core/pose_fit.h"
 
 namespace furn {
 namespace {
@@ -179,23 +180,13 @@ BevTargets BevTargetsOf(const std::vector<BevObject>& objects,
   return targets;
 }
 
-BevTargets BevTargets::Mirrored(const BevGridSpec& spec) const {
-  BevTargets out = *this;
-  const size_t plane = static_cast<size_t>(spec.rows) * spec.cols;
-  for (int r = 0; r < spec.rows; ++r) {
-    for (int c = 0; c < spec.cols; ++c) {
-      const size_t to = static_cast<size_t>(r) * spec.cols + c;
-      const size_t from = static_cast<size_t>(r) * spec.cols + (spec.cols - 1 - c);
-      for (int k = 0; k < kBevOutputs; ++k) out.values[k * plane + to] = values[k * plane + from];
-      out.mask[to] = mask[from];
-      if (mask[from] > 0) {
-        out.values[(kBevClasses + 1) * plane + to] =
-            1.0f - values[(kBevClasses + 1) * plane + from];
-        out.values[(kBevClasses + 5) * plane + to] = -values[(kBevClasses + 5) * plane + from];
-      }
-    }
-  }
-  return out;
+BevObject MirroredObject(const BevObject& object, const BevFrame& frame) {
+  BevObject mirrored = object;
+  const Eigen::Vector2d d = object.centre - frame.origin;
+  mirrored.centre =
+      frame.origin + frame.forward * d.dot(frame.forward) - frame.Left() * d.dot(frame.Left());
+  mirrored.yaw = WrapAngle(frame.heading + M_PI - (object.yaw - frame.heading));
+  return mirrored;
 }
 
 }  // namespace furn

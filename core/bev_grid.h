@@ -112,6 +112,12 @@ struct BevObject {
   double width = 0, depth = 0;
 };
 
+// The object mirrored as BevImage::Mirrored mirrors the image (v -> -v in
+// the grid's frame). A piece's front faces its -y (docs/cad-models.md), and
+// furniture is mirror-symmetric about that axis, so the mirrored piece is the
+// piece turned to yaw' = heading + pi - (yaw - heading).
+BevObject MirroredObject(const BevObject& object, const BevFrame& frame);
+
 // kBevOutputs x rows x cols: heat (0..1, 1 at each centre cell), and at the
 // centre cells the regression targets; `mask` (rows x cols) is 1 where the
 // regressions count.
@@ -119,7 +125,6 @@ struct BevTargets {
   std::vector<float> values;
   std::vector<float> mask;
   int objects = 0;  // inside the grid
-  BevTargets Mirrored(const BevGridSpec& spec) const;
 };
 
 BevTargets BevTargetsOf(const std::vector<BevObject>& objects,

@@ -28,15 +28,17 @@ echo "== generate: a labelled synthetic dataset from the default catalog (resume
 echo "== dataset: summary and contact sheet"
 "$workbench" dataset info "$out_dir/synth.db"
 "$workbench" dataset preview "$out_dir/synth.db" --out "$out_dir/synth_preview.png" --frames 12
-echo "== crossval: protocol E, leave-models-out (5 folds; furniture the model never saw), with"
-echo "   a hypothesis scorer learnt per fold from the other folds' rooms (nested)"
+echo "== crossval: protocol E, leave-models-out (5 folds; furniture the model never saw), codebook"
+echo "   voting with a hypothesis scorer learnt per fold from the other folds' rooms (nested);"
+echo "   the learned vote map's protocol E trains a network per fold: see docs/learned-voting.md"
 "$workbench" generate --catalog default --rooms "${FURN_CROSSVAL_ROOMS:-20}" --frames 4 --seed 2 \
   --model-folds 5 --quiet --out "$out_dir/crossval.db"
-"$workbench" crossval --db "$out_dir/crossval.db" --work-dir "$out_dir/crossval_models" --quiet \
+"$workbench" crossval --no-vote-net --db "$out_dir/crossval.db" --work-dir "$out_dir/crossval_models" --quiet \
   | tee "$out_dir/crossval.txt"
 "$workbench" report --db "$out_dir/crossval.db" --out "$out_dir/crossval_report"
 echo "== train: part vocabulary and shape model from virtual scans of the catalog, with the"
-echo "   hypothesis scorer crossval learnt from every fold"
+echo "   hypothesis scorer crossval learnt from every fold, and the learned vote map (a CNN"
+echo "   trained on rooms generated from the catalog; detection votes with it)"
 "$workbench" train --catalog default --scorer "$out_dir/crossval_models/scorer.yml" \
   --out "$out_dir/model.fcm" --quiet
 "$workbench" model info "$out_dir/model.fcm"

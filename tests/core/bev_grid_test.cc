@@ -142,17 +142,34 @@ TEST(BevGrid, TargetsPeakAtCentresWithOffsetSizeAndSymmetricYaw) {
               t.values[(kBevClasses + 5) * plane + at],
               1e-5);
   EXPECT_NEAR(t.values[(kBevClasses + 4) * plane + at], std::cos(0.6), 1e-5);
-  // Mirrored: the centre cell moves to the mirrored column, offsets and yaw follow.
-  const BevTargets m = t.Mirrored(spec);
-  const size_t mirrored_at = static_cast<size_t>(row) * spec.cols + (spec.cols - 1 - col);
-  EXPECT_EQ(m.mask[mirrored_at], 1.0f);
-  EXPECT_NEAR(m.values[(kBevClasses + 1) * plane + mirrored_at], 1 - (cell.y() - col), 1e-5);
-  EXPECT_NEAR(m.values[(kBevClasses + 5) * plane + mirrored_at], -std::sin(0.6), 1e-5);
-  const BevObject mirrored_table{FurnitureClass::kTable, {2.012, -0.537}, -0.3, 1.2, 0.8};
-  const BevTargets direct = BevTargetsOf(
-      {mirrored_table, {FurnitureClass::kChair, {1.013, 0.513}, -2.0, 0.5, 0.55}}, frame, spec);
-  for (size_t i = 0; i < direct.values.size(); ++i)
-    ASSERT_NEAR(direct.values[i], m.values[i], 1e-4) << "at " << i;
+}
+
+// Mirroring (augmentation): a chair facing the camera's left, mirrored, faces
+// its right; its centre moves to the other side; a table keeps its axis
+// reflected. Fronts face -y (docs/cad-models.md), so yaw' = pi - yaw in the
+// grid's frame.
+TEST(BevGrid, MirroredObjectsFaceTheMirroredWay) {
+  BevFrame frame = BevFrameOf(LevelCamera());
+  // A chair 2 m ahead, 0.4 m left, turned so its front (-y) faces the
+  // camera's left (+y of the world here): yaw pi.
+  const BevObject chair{FurnitureClass::kChair, {2.0, 0.4}, M_PI, 0.5, 0.5};
+  const BevObject mirrored = MirroredObject(chair, frame);
+  EXPECT_TRUE(mirrored.centre.isApprox(Eigen::Vector2d(2.0, -0.4)));
+  const Eigen::Vector2d front = Eigen::Rotation2Dd(mirrored.yaw) * Eigen::Vector2d(0, -1);
+  EXPECT_NEAR(front.y(), -1, 1e-9) << "faces the camera's right once mirrored";
+  // Twice mirrored is the object itself; under another heading too.
+  frame = BevFrameOf(Eigen::Isometry3d(Eigen::AngleAxisd(0.7, Eigen::Vector3d::UnitZ())) *
+                     LevelCamera());
+  const BevObject table{FurnitureClass::kTable, {1.3, -0.9}, 0.25, 1.2, 0.8};
+  const BevObject twice = MirroredObject(MirroredObject(table, frame), frame);
+  EXPECT_TRUE(twice.centre.isApprox(table.centre));
+  EXPECT_NEAR(std::remainder(twice.yaw - table.yaw, 2 * M_PI), 0, 1e-9);
+  // Its cell is the image's mirrored column.
+  const BevGridSpec spec;
+  const Eigen::Vector2d a = frame.CellOf(table.centre, spec);
+  const Eigen::Vector2d b = frame.CellOf(MirroredObject(table, frame).centre, spec);
+  EXPECT_NEAR(a.x(), b.x(), 1e-9);
+  EXPECT_NEAR(a.y(), spec.cols - b.y(), 1e-9);
 }
 
 TEST(BevGrid, SpecChecksNameTheRule) {

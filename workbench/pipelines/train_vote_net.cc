@@ -8,8 +8,8 @@
 #include <nlohmann/json.hpp>
 #include <random>
 
-#include "core/error.h"
 #include "core/bev_decode.h"
+#include "core/error.h"
 #include "core/progress.h"
 #include "db/dataset_db.h"
 #include "reports/evaluation.h"
@@ -58,13 +58,16 @@ Batch MakeBatch(const std::vector<BevSample>& samples,
   Batch batch;
   for (size_t i = 0; i < indices.size(); ++i) {
     const BevSample& sample = samples[indices[i]];
-    BevTargets targets = BevTargetsOf(sample.objects, sample.image.frame, sample.image.spec);
+    const BevFrame& frame = sample.image.frame;
     if (mirror.empty() || !mirror[i]) {
       batch.images.push_back(sample.image);
-      batch.targets.push_back(std::move(targets));
+      batch.targets.push_back(BevTargetsOf(sample.objects, frame, sample.image.spec));
     } else {
+      std::vector<BevObject> mirrored;
+      for (const BevObject& object : sample.objects)
+        mirrored.push_back(MirroredObject(object, frame));
       batch.images.push_back(sample.image.Mirrored());
-      batch.targets.push_back(targets.Mirrored(sample.image.spec));
+      batch.targets.push_back(BevTargetsOf(mirrored, frame, sample.image.spec));
     }
   }
   return batch;
