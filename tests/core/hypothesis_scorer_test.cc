@@ -103,7 +103,7 @@ TEST(HypothesisScorer, SameSamplesSameBytesAndTheBytesRoundTrip) {
   EXPECT_TRUE(LoadTrainedModel(path).scorer.empty());
   // A version-2 file (before scorers: no trailing scorer string) still loads.
   std::string v2 = ReadFileBytes(path);
-  v2.resize(v2.size() - 24);  // no dimensions, scorer, meshes, VFH flag or checksum
+  v2.resize(v2.size() - 28);  // no dimensions, scorer, meshes, VFH flag, vote net or checksum
   const uint32_t version = 2;
   std::memcpy(&v2[8], &version, sizeof(version));  // after the 8-byte magic
   WriteFileAtomically(path, v2);

@@ -33,7 +33,7 @@ class FurnidetTest(unittest.TestCase):
         cls.model = os.path.join(cls.dir, "model.fcm")
         workbench("generate", "--catalog", "procedural:4", "--rooms", "5", "--frames", "2",
                   "--seed", "6", "--out", cls.db)  # rooms of all three splits
-        workbench("train", "--catalog", "procedural:4", "--azimuths", "4", "--words", "20",
+        workbench("train", "--no-vote-net", "--catalog", "procedural:4", "--azimuths", "4", "--words", "20",
                   "--vocab", "kmeans", "--out", cls.model)
         cls.dataset = furnidet.Dataset(cls.db)
         cls.detector = furnidet.Detector(cls.model)

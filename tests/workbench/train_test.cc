@@ -9,6 +9,7 @@
 #include "core/progress.h"
 #include "db/dataset_db.h"
 #include "tests/test_util.h"
+#include "workbench/formats/scan_file.h"
 #include "workbench/pipelines/train.h"
 
 namespace furn {
@@ -213,7 +214,28 @@ TEST(Train, VoteNetIsStoredUsedAndItsRoomsHoldNoHeldOutModel) {
   ASSERT_FALSE(model.vote_net.empty());
   EXPECT_EQ(VoteNet::Deserialize(model.vote_net, "net").Serialize(), model.vote_net);
   EXPECT_NE(DescribeTrainedModel(model).find("vote net:    U-Net"), std::string::npos);
-  EXPECT_TRUE(Detector(model, DetectorOptions{}).learned());
+  const Detector learned_detector(model, DetectorOptions{});
+  EXPECT_TRUE(learned_detector.learned());
+  {  // The learned path on a frame of its own rooms: floor, bev, network, maxima.
+    DatasetDb rooms(dir + "/net.fcm.rooms.db", DatasetDb::Mode::kReadOnly);
+    const RoomRecord room = rooms.ReadRoom(rooms.RoomIds().front(), true);
+    const DetectionResult result =
+        learned_detector.Detect(DetectionInputOf(room.frames.front(), "frame"), true);
+    std::vector<DetectionStage> stages;
+    for (const StageTime& t : result.timings_ms.stages) stages.push_back(t.stage);
+    EXPECT_EQ(stages,
+              (std::vector<DetectionStage>{DetectionStage::kFloor,
+                                           DetectionStage::kBev,
+                                           DetectionStage::kNetwork,
+                                           DetectionStage::kMaxima,
+                                           DetectionStage::kTotal}));
+    EXPECT_EQ(result.debug.grids.size(), kAllClasses.size());
+    for (const DetectionDebug::Hypothesis& h : result.debug.hypotheses) EXPECT_TRUE(h.learned);
+    for (const Detection& d : result.detections) {
+      EXPECT_EQ(d.model_index, -1);
+      EXPECT_GT(d.width, 0);
+    }
+  }
   DetectorOptions codebook;
   codebook.voting = VotingMode::kCodebook;
   EXPECT_FALSE(Detector(model, codebook).learned());

@@ -29,8 +29,10 @@ struct VoteNetTrainingOptions {
   int frames_per_room = 4;
   uint64_t seed = 1;  // rooms, weights, batches, augmentation
   int epochs = 12;
-  int batch_size = 16;
-  double learning_rate = 2e-3;  // peak; cosine decay to 5 % of it
+  // Batch 8 at peak rate 0.004 measured better than 16 at 0.002 for the same
+  // frames (seen-model rooms, mAP@10cm 0.27 against 0.17): more steps.
+  int batch_size = 8;
+  double learning_rate = 4e-3;  // peak; cosine decay to 5 % of it
   int threads = 2;              // torch's intra-op threads while training
   // Objects seen less than this (visible / amodal pixels) are not targets.
   double min_visibility = 0.15;
