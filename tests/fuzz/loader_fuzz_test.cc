@@ -174,6 +174,18 @@ void Fuzz(const Target& target, const std::string& dir) {
     const double seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     slowest_s = std::max(slowest_s, seconds);
+    // Long runs report as they go: a stopped run still says how far it got.
+    if (runs >= 10000 && (run + 1) % (runs / 10) == 0) {
+      std::printf("%s: %d of %d inputs, %d loaded, %d refused, slowest %.3f s, peak %.2f GB\n",
+                  target.name.c_str(),
+                  run + 1,
+                  runs,
+                  loaded,
+                  refused,
+                  slowest_s,
+                  PeakRssGb());
+      std::fflush(stdout);
+    }
     if (seconds > 10) failure = "took " + std::to_string(seconds) + " s";
     if (!failure.empty()) {
       std::filesystem::create_directories(dir + "/failures");
