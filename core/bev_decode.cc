@@ -67,9 +67,9 @@ std::vector<BevPeak> DecodeBevOutput(const BevImage& image,
     peak.y = xy.y();
     peak.width = std::exp(std::clamp(regressed(2), -3.0f, 1.5f));
     peak.depth = std::exp(std::clamp(regressed(3), -3.0f, 1.5f));
-    peak.yaw = WrapAngle(std::atan2(regressed(5), regressed(4)) /
-                             BevYawSymmetry(peak.furniture_class) +
-                         image.frame.heading);
+    peak.yaw =
+        WrapAngle(std::atan2(regressed(5), regressed(4)) / BevYawSymmetry(peak.furniture_class) +
+                  image.frame.heading);
     peak.heat = cell.heat;
     for (const BevPeak& kept : peaks) {
       const double distance = std::hypot(kept.x - peak.x, kept.y - peak.y);

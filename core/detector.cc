@@ -150,8 +150,8 @@ std::string DetectionDebug::Describe(const Hypothesis& h) {
       return text;
     case HypothesisOutcome::kSuppressed:
       if (h.learned) {
-        std::snprintf(text, sizeof(text), "suppressed (a stronger maximum %.2f m away)",
-                      h.outcome_values[0]);
+        std::snprintf(
+            text, sizeof(text), "suppressed (a stronger maximum %.2f m away)", h.outcome_values[0]);
         return text;
       }
       std::snprintf(text,

@@ -50,8 +50,8 @@ struct Detector::Impl {
   std::unique_ptr<PartSubsetIndex> parts;
   HypothesisScorer scorer;  // empty: the fixed gates decide
   bool scored = false;      // the scorer decides (the model has one and use_scorer)
-  VoteNet vote_net;      // empty: the model has none
-  bool learned = false;  // hypotheses from vote_net
+  VoteNet vote_net;         // empty: the model has none
+  bool learned = false;     // hypotheses from vote_net
   // Ray casts the models' meshes for render-and-compare; null for a model
   // file without meshes (its shape samples are splatted instead).
   std::unique_ptr<ModelMeshCaster> mesh_caster;

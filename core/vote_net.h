@@ -41,6 +41,16 @@ struct BevOutput {
 struct VoteNetLoss {
   double heat = 0, offset = 0, size = 0, yaw = 0;
   double Total() const { return heat + offset + size + yaw; }
+  VoteNetLoss& operator+=(const VoteNetLoss& other) {
+    heat += other.heat;
+    offset += other.offset;
+    size += other.size;
+    yaw += other.yaw;
+    return *this;
+  }
+  VoteNetLoss Scaled(double factor) const {
+    return {heat * factor, offset * factor, size * factor, yaw * factor};
+  }
 };
 
 class VoteNet {

@@ -337,8 +337,7 @@ void AddLossesAndPoseErrors(const std::vector<FrameOutcome>& frames,
         auto relative = [&](double w, double h) {
           return (std::abs(w / t->width - 1) + std::abs(h / t->depth - 1)) / 2;
         };
-        size_errors.push_back(
-            std::min(relative(d->width, d->depth), relative(d->depth, d->width)));
+        size_errors.push_back(std::min(relative(d->width, d->depth), relative(d->depth, d->width)));
       }
       ++tps;
       if (t->seen_in_training) {

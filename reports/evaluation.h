@@ -45,7 +45,7 @@ struct ScoredDetection {
   std::string model_id;
   double x = 0, y = 0, yaw = 0;
   double score = 0;
-  int symmetry = 1;  // rotational symmetry order of the detected model (1, 2 or 4)
+  int symmetry = 1;             // rotational symmetry order of the detected model (1, 2 or 4)
   double width = 0, depth = 0;  // footprint (m) when the detector gives one (learned voting)
 };
 

@@ -262,7 +262,8 @@ int RunCrossval(int argc, char** argv) {
   if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
   ApplyGlobalFlags(catalog_flags);
   options.quiet = catalog_flags.quiet;
-  if (const VoteNetTrainingOptions* v = vote_net.Resolve(catalog_flags.quiet)) options.vote_net = *v;
+  if (const VoteNetTrainingOptions* v = vote_net.Resolve(catalog_flags.quiet))
+    options.vote_net = *v;
   options.scorer = !detector_flags.no_scorer();
   options.scorer_options.Check();
   options.evaluate.split = ParseSplit(split, "--split");

@@ -12,6 +12,48 @@
 #include "workbench/pipelines/train.h"
 
 namespace furn {
+namespace {
+
+// What training made and how long each stage took.
+void PrintTrainSummary(const std::string& out,
+                       const TrainerOptions& trainer,
+                       const TrainSummary& summary) {
+  std::printf(
+      "wrote %s: %d models, %d views, %d segments, %d of %d words used; scans %.1f s, training "
+      "%.1f s\n",
+      out.c_str(),
+      summary.models,
+      summary.views,
+      summary.segments,
+      summary.used_words,
+      trainer.vocabulary.words,
+      summary.scan_s,
+      summary.train_s);
+  std::printf(
+      "  training stages (s): segmentation + features %.1f, part subsets + VFH %.1f, "
+      "vocabulary %.1f, shape model %.1f\n",
+      summary.stages.segment_s,
+      summary.stages.part_subsets_s,
+      summary.stages.vocabulary_s,
+      summary.stages.shape_s);
+  if (summary.vote_net) {
+    const VoteNetTrainingSummary& v = summary.vote_net_training;
+    std::printf(
+        "  vote net: %d rooms, %d frames (%d objects), %d validation frames, %lld parameters; "
+        "generate %.1f s, rasterise %.1f s, train %.1f s; validation loss %.3f\n",
+        v.rooms,
+        v.frames,
+        v.objects,
+        v.validation_frames,
+        static_cast<long long>(v.parameters),
+        v.generate_s,
+        v.raster_s,
+        v.train_s,
+        v.epochs.empty() ? 0.0 : v.epochs.back().validation_loss);
+  }
+}
+
+}  // namespace
 
 int RunTrain(int argc, char** argv) {
   CLI::App app{"Learn a part vocabulary and shape model from virtual scans of the catalog's models",
@@ -71,39 +113,7 @@ int RunTrain(int argc, char** argv) {
   const VoteNetTrainingOptions* vote_net_options = vote_net.Resolve(catalog_flags.quiet);
   const TrainSummary summary =
       TrainFromCatalog(catalog, scan, trainer, out, {}, scorer, vote_net_options);
-  std::printf(
-      "wrote %s: %d models, %d views, %d segments, %d of %d words used; scans %.1f s, training "
-      "%.1f s\n",
-      out.c_str(),
-      summary.models,
-      summary.views,
-      summary.segments,
-      summary.used_words,
-      trainer.vocabulary.words,
-      summary.scan_s,
-      summary.train_s);
-  std::printf(
-      "  training stages (s): segmentation + features %.1f, part subsets + VFH %.1f, "
-      "vocabulary %.1f, shape model %.1f\n",
-      summary.stages.segment_s,
-      summary.stages.part_subsets_s,
-      summary.stages.vocabulary_s,
-      summary.stages.shape_s);
-  if (summary.vote_net) {
-    const VoteNetTrainingSummary& v = summary.vote_net_training;
-    std::printf(
-        "  vote net: %d rooms, %d frames (%d objects), %d validation frames, %lld parameters; "
-        "generate %.1f s, rasterise %.1f s, train %.1f s; validation loss %.3f\n",
-        v.rooms,
-        v.frames,
-        v.objects,
-        v.validation_frames,
-        static_cast<long long>(v.parameters),
-        v.generate_s,
-        v.raster_s,
-        v.train_s,
-        v.epochs.empty() ? 0.0 : v.epochs.back().validation_loss);
-  }
+  PrintTrainSummary(out, trainer, summary);
   return 0;
 }
 

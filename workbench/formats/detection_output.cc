@@ -70,8 +70,7 @@ std::string ScanErrorJson(const std::string& input, const std::string& error) {
 
 std::string ExplainDetection(const DetectionResult& result, const TrainedModel& model) {
   std::ostringstream out;
-  const bool learned =
-      !result.debug.hypotheses.empty() && result.debug.hypotheses.front().learned;
+  const bool learned = !result.debug.hypotheses.empty() && result.debug.hypotheses.front().learned;
   out << result.debug.hypotheses.size()
       << (learned ? " hypotheses (learned heat maxima):\n" : " hypotheses (Hough maxima):\n");
   char line[256];

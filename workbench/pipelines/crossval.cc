@@ -142,7 +142,7 @@ CrossvalFold TrainAndEvaluateFold(const Catalog& catalog,
                      options.vote_net ? &*options.vote_net : nullptr);
   }
   EvaluateCommandOptions evaluate = FoldEvaluation(options, k, folds.count);
-  if (options.scorer && !options.vote_net) {
+  if (options.LearnsScorer()) {
     evaluate.kind = "crossval-gates";
     evaluate.detector.use_scorer = false;
     evaluate.collect_scorer_samples = true;
@@ -233,7 +233,7 @@ int64_t WriteCrossvalRun(const std::string& db_path,
       {"fold_runs", fold_runs},
       {"trainer", nlohmann::json::parse(TrainingOptionsJson(options.training))},
       {"scorer",
-       options.scorer && !options.vote_net
+       options.LearnsScorer()
            ? nlohmann::json{{"trees", options.scorer_options.trees},
                             {"max_depth", options.scorer_options.max_depth},
                             {"min_sample_count", options.scorer_options.min_sample_count},
@@ -281,7 +281,7 @@ CrossvalSummary RunLeaveModelsOut(const Catalog& catalog,
   for (int k = 0; k < folds.count; ++k)
     summary.per_fold.push_back(
         TrainAndEvaluateFold(catalog, db_path, options, folds, k, &samples[k]));
-  const bool scorer = options.scorer && !options.vote_net;
+  const bool scorer = options.LearnsScorer();
   if (scorer) {
     std::vector<ScorerSample> all;
     for (const auto& fold_samples : samples)

@@ -45,6 +45,8 @@ struct CrossvalOptions {
   bool quiet = false;
 
   CrossvalOptions() { evaluate.split = Split::kAll; }
+  // Whether folds learn a scorer: asked for, and voting with the codebook.
+  bool LearnsScorer() const { return scorer && !vote_net; }
 };
 
 struct CrossvalFold {

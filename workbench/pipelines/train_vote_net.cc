@@ -90,20 +90,10 @@ VoteNetLoss ValidationLoss(const VoteNet& net,
     for (size_t i = start; i < std::min(validation.size(), start + batch_size); ++i)
       indices.push_back(i);
     const Batch batch = MakeBatch(validation, indices, {});
-    const VoteNetLoss loss = net.Loss(Pointers(batch.images), Pointers(batch.targets));
-    sum.heat += loss.heat;
-    sum.offset += loss.offset;
-    sum.size += loss.size;
-    sum.yaw += loss.yaw;
+    sum += net.Loss(Pointers(batch.images), Pointers(batch.targets));
     ++batches;
   }
-  if (batches > 0) {
-    sum.heat /= batches;
-    sum.offset /= batches;
-    sum.size /= batches;
-    sum.yaw /= batches;
-  }
-  return sum;
+  return batches > 0 ? sum.Scaled(1.0 / batches) : sum;
 }
 
 // mAP@10cm of the network's decoded maxima on the validation frames (every
@@ -143,6 +133,22 @@ double ValidationMeanAp(const VoteNet& net, const std::vector<BevSample>& valida
   return MetricOrNan(result.metrics, MetricId::MeanAp(0.10));
 }
 
+// What `generate` makes the training rooms with: the training catalog's
+// models only (evaluation-only entries and `held_out` never placed).
+GenerateOptions TrainingRooms(const VoteNetTrainingOptions& options,
+                              const std::string& catalog_spec,
+                              const std::set<std::string>& held_out) {
+  GenerateOptions generate;
+  generate.catalog_spec = catalog_spec;
+  generate.rooms = options.rooms;
+  generate.seed = options.seed;
+  generate.room = options.room;
+  generate.room.frames_per_room = options.frames_per_room;
+  generate.room.include_evaluation_only = false;
+  generate.excluded_models = held_out;
+  return generate;
+}
+
 }  // namespace
 
 void VoteNetTrainingOptions::Check() const {
@@ -164,33 +170,26 @@ void VoteNetTrainingOptions::Check() const {
 }
 
 std::string VoteNetTrainingOptions::Json() const {
-  const nlohmann::json json = {{"rooms", rooms},
-                               {"frames_per_room", frames_per_room},
-                               {"seed", seed},
-                               {"epochs", epochs},
-                               {"batch_size", batch_size},
-                               {"learning_rate", learning_rate},
-                               {"threads", threads},
-                               {"min_visibility", min_visibility},
-                               {"max_range_m", max_range_m},
-                               {"validation_share", validation_share},
-                               {"grid",
-                                {{"cell_m", net.grid.cell_m},
-                                 {"rows", net.grid.rows},
-                                 {"cols", net.grid.cols},
-                                 {"floor_band_m", net.grid.floor_band_m}}},
-                               {"width", net.width},
-                               {"room",
-                                {{"min_side_m", room.min_side_m},
-                                 {"max_side_m", room.max_side_m},
-                                 {"min_furniture", room.min_furniture},
-                                 {"max_furniture", room.max_furniture},
-                                 {"min_clutter", room.min_clutter},
-                                 {"max_clutter", room.max_clutter},
-                                 {"min_camera_height_m", room.min_camera_height_m},
-                                 {"max_camera_height_m", room.max_camera_height_m},
-                                 {"min_pitch_deg", room.min_pitch_deg},
-                                 {"max_pitch_deg", room.max_pitch_deg}}}};
+  const nlohmann::json json = {
+      {"rooms", rooms},
+      {"frames_per_room", frames_per_room},
+      {"seed", seed},
+      {"epochs", epochs},
+      {"batch_size", batch_size},
+      {"learning_rate", learning_rate},
+      {"threads", threads},
+      {"min_visibility", min_visibility},
+      {"max_range_m", max_range_m},
+      {"validation_share", validation_share},
+      {"grid",
+       {{"cell_m", net.grid.cell_m},
+        {"rows", net.grid.rows},
+        {"cols", net.grid.cols},
+        {"floor_band_m", net.grid.floor_band_m}}},
+      {"width", net.width},
+      // The rooms as `generate` records them (held-out models
+      // are keyed by the caller).
+      {"rooms_content", nlohmann::json::parse(TrainingRooms(*this, "", {}).ContentJson())}};
   return json.dump();
 }
 
@@ -301,14 +300,7 @@ std::string TrainVoteNet(const Catalog& catalog,
                          const std::string& rooms_db,
                          VoteNetTrainingSummary* summary) {
   options.Check();
-  GenerateOptions generate;
-  generate.catalog_spec = catalog.description();
-  generate.rooms = options.rooms;
-  generate.seed = options.seed;
-  generate.room = options.room;
-  generate.room.frames_per_room = options.frames_per_room;
-  generate.room.include_evaluation_only = false;
-  generate.excluded_models = held_out;
+  const GenerateOptions generate = TrainingRooms(options, catalog.description(), held_out);
   auto start = std::chrono::steady_clock::now();
   // A database kept from an earlier run resumes (rooms already in it are
   // skipped); one of other options is refused by GenerateDataset.
