@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 
 #include "core/error.h"
 #include "core/random.h"
@@ -57,11 +58,46 @@ PlacedObject MakeObject(const ComposerCatalog::Item& item, double x, double y, d
   object.model_id = item.id;
   object.furniture_class = item.furniture_class;
   object.size_m = item.size_m;
+  object.scale = item.scale;
   object.x = x;
   object.y = y;
   object.yaw = yaw;
   return object;
 }
+
+// Draws the size jitter of RoomOptions::size_jitter: per axis a factor in
+// [1 - j, 1 + j], the result kept within the sizes the catalog has of the class
+// (or the model's own size, where that lies outside them).
+class SizeJitter {
+ public:
+  SizeJitter(const ComposerCatalog& catalog, double jitter) : jitter_(jitter) {
+    for (const ComposerCatalog::Item& item : catalog.furniture) {
+      auto [it, inserted] = ranges_.try_emplace(*item.furniture_class, item.size_m, item.size_m);
+      if (inserted) continue;
+      it->second.first = it->second.first.cwiseMin(item.size_m);
+      it->second.second = it->second.second.cwiseMax(item.size_m);
+    }
+  }
+
+  // `item` resized; no random draw when the jitter is 0.
+  ComposerCatalog::Item Apply(const ComposerCatalog::Item& item, Rng* rng) const {
+    if (jitter_ <= 0 || !item.furniture_class) return item;
+    const auto& [low, high] = ranges_.at(*item.furniture_class);
+    ComposerCatalog::Item resized = item;
+    for (int axis = 0; axis < 3; ++axis) {
+      const double drawn = item.size_m[axis] * rng->Uniform(1 - jitter_, 1 + jitter_);
+      resized.size_m[axis] = std::clamp(drawn,
+                                        std::min(low[axis], item.size_m[axis]),
+                                        std::max(high[axis], item.size_m[axis]));
+      resized.scale[axis] = item.scale[axis] * resized.size_m[axis] / item.size_m[axis];
+    }
+    return resized;
+  }
+
+ private:
+  double jitter_;
+  std::map<FurnitureClass, std::pair<Eigen::Vector3d, Eigen::Vector3d>> ranges_;
+};
 
 // Yaw that turns the model's front (-y in the model frame) towards `direction`.
 double YawFacing(const Eigen::Vector2d& direction) {
@@ -118,14 +154,21 @@ bool PlaceAgainstWall(const ComposerCatalog::Item& item,
 }
 
 // A table with chairs at its sides, facing it. Returns how many pieces it placed.
-int PlaceDiningGroup(
-    const ComposerCatalog& catalog, int budget, RoomLayout* room, double clearance, Rng* rng) {
+int PlaceDiningGroup(const ComposerCatalog& catalog,
+                     const SizeJitter& jitter,
+                     int budget,
+                     RoomLayout* room,
+                     double clearance,
+                     Rng* rng) {
   const ComposerCatalog::Item* table = PickOfClass(catalog, FurnitureClass::kTable, rng);
-  if (table == nullptr || !PlaceFreeStanding(*table, room, clearance, rng)) return 0;
+  if (table == nullptr || !PlaceFreeStanding(jitter.Apply(*table, rng), room, clearance, rng))
+    return 0;
   const PlacedObject placed_table = room->objects.back();
   int placed = 1;
-  const ComposerCatalog::Item* chair = PickOfClass(catalog, FurnitureClass::kChair, rng);
-  if (chair == nullptr) return placed;
+  const ComposerCatalog::Item* picked_chair = PickOfClass(catalog, FurnitureClass::kChair, rng);
+  if (picked_chair == nullptr) return placed;
+  const ComposerCatalog::Item resized_chair = jitter.Apply(*picked_chair, rng);
+  const ComposerCatalog::Item* chair = &resized_chair;
   // Sides of the table in its own frame: -y, +y, -x, +x, in random order.
   std::vector<int> sides = {0, 1, 2, 3};
   std::shuffle(sides.begin(), sides.end(), rng->engine());
@@ -168,6 +211,8 @@ void RoomOptions::Check() const {
           "camera heights must satisfy 0 < min <= max < wall height");
   Require(min_pitch_deg >= -30 && max_pitch_deg >= min_pitch_deg && max_pitch_deg <= 80,
           "camera pitch must satisfy -30 <= min <= max <= 80 degrees");
+  Require(size_jitter >= 0 && size_jitter <= 0.5,
+          "size_jitter " + std::to_string(size_jitter) + " must be in [0, 0.5]");
 }
 
 ComposerCatalog ComposerCatalog::From(const Catalog& catalog, bool include_evaluation_only) {
@@ -242,14 +287,18 @@ RoomLayout ComposeRoom(const ComposerCatalog& catalog,
 
   // Arrangements people make: a dining group, sideboards against walls, then
   // free-standing pieces of any class.
+  const SizeJitter jitter(catalog, options.size_jitter);
   int placed = 0;
-  if (rng.Bernoulli(0.75))
-    placed += PlaceDiningGroup(catalog, room.requested_furniture, &room, options.clearance_m, &rng);
+  if (rng.Bernoulli(0.75)) {
+    placed += PlaceDiningGroup(
+        catalog, jitter, room.requested_furniture, &room, options.clearance_m, &rng);
+  }
   int attempts = 0;
   while (placed < room.requested_furniture && attempts < 3 * room.requested_furniture + 10) {
     ++attempts;
-    const ComposerCatalog::Item& item =
-        catalog.furniture[rng.UniformInt(0, static_cast<int64_t>(catalog.furniture.size()) - 1)];
+    const ComposerCatalog::Item item = jitter.Apply(
+        catalog.furniture[rng.UniformInt(0, static_cast<int64_t>(catalog.furniture.size()) - 1)],
+        &rng);
     const bool wall_piece =
         item.furniture_class == FurnitureClass::kSideboard || rng.Bernoulli(0.2);
     if (wall_piece ? PlaceAgainstWall(item, &room, options.clearance_m, &rng)
@@ -338,7 +387,15 @@ Scene BuildRoomScene(const RoomLayout& layout,
   for (const PlacedObject& object : layout.objects) {
     const auto it = meshes.find(object.model_id);
     Require(it != meshes.end(), "no mesh loaded for model " + object.model_id);
-    scene.objects.push_back({it->second, object.WorldFromObject(), object.instance_id});
+    std::shared_ptr<const TriangleMesh> mesh = it->second;
+    if (object.scale != Eigen::Vector3d::Ones()) {  // size jitter: a resized copy
+      auto resized = std::make_shared<TriangleMesh>(*mesh);
+      TransformMesh(object.scale.cast<float>().asDiagonal().toDenseMatrix(),
+                    Eigen::Vector3f::Zero(),
+                    resized.get());
+      mesh = std::move(resized);
+    }
+    scene.objects.push_back({mesh, object.WorldFromObject(), object.instance_id});
   }
   return scene;
 }

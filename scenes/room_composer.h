@@ -41,6 +41,11 @@ struct RoomOptions {
   double min_pitch_deg = 0.0;  // camera pitch down (degrees)
   double max_pitch_deg = 35.0;
   bool include_evaluation_only = true;  // evaluation-only entries may appear in rooms
+  // Per-object anisotropic size jitter of the class-mapped pieces: each side is
+  // scaled by a factor drawn in [1 - j, 1 + j], then kept within the range of
+  // that class's sizes in the catalog (a vote network's training rooms; 0: the
+  // CAD models' own sizes, and no random draws, so older datasets stay the same).
+  double size_jitter = 0.0;
 
   // Throws InputError naming the field and the rule.
   void Check() const;
@@ -52,6 +57,7 @@ struct ComposerCatalog {
     std::string id;
     std::optional<FurnitureClass> furniture_class;     // none: clutter
     Eigen::Vector3d size_m = Eigen::Vector3d::Zero();  // width (x), depth (y), height (z)
+    Eigen::Vector3d scale = Eigen::Vector3d::Ones();   // of the model's mesh, per axis
   };
   std::vector<Item> furniture;  // class-mapped
   std::vector<Item> clutter;    // plausible distractors outside the class map
@@ -68,6 +74,7 @@ struct PlacedObject {
   uint16_t instance_id = 0;
   double x = 0, y = 0, yaw = 0;  // pose of the model frame (base on the floor, z = 0)
   Eigen::Vector3d size_m = Eigen::Vector3d::Zero();
+  Eigen::Vector3d scale = Eigen::Vector3d::Ones();  // of the model's mesh (size jitter)
 
   bool IsTarget() const { return furniture_class.has_value(); }
   Eigen::Isometry3d WorldFromObject() const { return PoseXYZYaw(x, y, 0, yaw); }

@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <map>
+#include <memory>
 
 #include "core/error.h"
 #include "scenes/catalog.h"
@@ -97,6 +99,67 @@ TEST(RoomComposer, SameSeedSameRoomDifferentSeedDifferent) {
   }
   EXPECT_TRUE(a.world_from_cameras[0].isApprox(b.world_from_cameras[0], 0));
   EXPECT_NE(a.width_m, c.width_m);
+}
+
+TEST(RoomComposer, SizeJitterResizesPiecesWithinTheirClassAndTheMeshFollows) {
+  const ComposerCatalog catalog = ProceduralComposerCatalog();
+  std::map<FurnitureClass, std::pair<Eigen::Vector3d, Eigen::Vector3d>> ranges;
+  std::map<std::string, Eigen::Vector3d> own_size;
+  for (const auto& item : catalog.furniture) {
+    own_size[item.id] = item.size_m;
+    auto [it, inserted] = ranges.try_emplace(*item.furniture_class, item.size_m, item.size_m);
+    it->second.first = it->second.first.cwiseMin(item.size_m);
+    it->second.second = it->second.second.cwiseMax(item.size_m);
+  }
+  RoomOptions options;
+  const RoomLayout plain = ComposeRoom(catalog, options, 5);
+  for (const PlacedObject& object : plain.objects) {
+    EXPECT_EQ(object.scale, Eigen::Vector3d::Ones()) << "no jitter asked for";
+  }
+  options.size_jitter = 0.2;
+  int resized = 0, anisotropic = 0;
+  for (uint64_t seed = 1; seed <= 20; ++seed) {
+    const RoomLayout room = ComposeRoom(catalog, options, seed);
+    for (const PlacedObject& object : room.objects) {
+      if (!object.IsTarget()) {
+        EXPECT_EQ(object.scale, Eigen::Vector3d::Ones()) << "clutter keeps its size";
+        continue;
+      }
+      const Eigen::Vector3d own = own_size.at(object.model_id);
+      EXPECT_TRUE(object.size_m.isApprox(own.cwiseProduct(object.scale), 1e-12));
+      const auto& [low, high] = ranges.at(*object.furniture_class);
+      for (int axis = 0; axis < 3; ++axis) {
+        EXPECT_GE(object.scale[axis], 0.8 - 1e-12);
+        EXPECT_LE(object.scale[axis], 1.2 + 1e-12);
+        EXPECT_GE(object.size_m[axis], std::min(low[axis], own[axis]) - 1e-12);
+        EXPECT_LE(object.size_m[axis], std::max(high[axis], own[axis]) + 1e-12);
+      }
+      resized += (object.scale - Eigen::Vector3d::Ones()).norm() > 1e-3;
+      anisotropic += std::abs(object.scale.x() - object.scale.z()) > 1e-3;
+    }
+    // The rendered mesh has the jittered size.
+    std::map<std::string, std::shared_ptr<const TriangleMesh>> meshes;
+    for (const PlacedObject& object : room.objects) {
+      const Eigen::Vector3d own = object.IsTarget() ? own_size.at(object.model_id)
+                                                    : Eigen::Vector3d(0.4, 0.3, 0.3);
+      const Eigen::Vector3f size = own.cast<float>();
+      meshes[object.model_id] = std::make_shared<TriangleMesh>(
+          MakeBox(Eigen::Vector3f(-size.x() / 2, -size.y() / 2, 0.0f),
+                  Eigen::Vector3f(size.x() / 2, size.y() / 2, size.z())));
+    }
+    const Scene scene = BuildRoomScene(room, meshes);
+    const size_t first_object = scene.objects.size() - room.objects.size();
+    for (size_t k = 0; k < room.objects.size(); ++k) {
+      if (!room.objects[k].IsTarget()) continue;
+      const Eigen::Vector3d size =
+          BoundingBox(*scene.objects[first_object + k].mesh).Size().cast<double>();
+      EXPECT_TRUE(size.isApprox(room.objects[k].size_m, 1e-5)) << size.transpose();
+    }
+  }
+  EXPECT_GT(resized, 50);
+  EXPECT_GT(anisotropic, 50);
+  options.size_jitter = 0.6;
+  EXPECT_THROW(ComposeRoom(catalog, options, 1), InputError);
 }
 
 TEST(RoomComposer, SmallRoomPlacesWhatFitsAndSaysSo) {

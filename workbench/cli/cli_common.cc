@@ -87,6 +87,10 @@ void AddVoteNetFlags(CLI::App* app, VoteNetFlags* flags) {
       ->capture_default_str();
   app->add_option("--vote-lr", o.learning_rate, "Vote network: peak learning rate (Adam)")
       ->capture_default_str();
+  app->add_option("--vote-size-jitter",
+                  o.room.size_jitter,
+                  "Vote network: per-side size jitter of the training rooms' furniture (0..0.5)")
+      ->capture_default_str();
   app->add_flag("--keep-rooms",
                 o.keep_rooms,
                 "Keep the vote network's training rooms (<model>.rooms.db) for reuse");

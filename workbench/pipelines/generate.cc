@@ -459,6 +459,7 @@ std::string GenerateOptions::ContentJson() const {
   if (model_folds > 0) json["model_folds"] = {{"folds", model_folds}, {"seed", fold_seed}};
   if (!clutter_catalog_specs.empty()) json["clutter_catalogs"] = clutter_catalog_specs;
   if (!excluded_models.empty()) json["excluded_models"] = excluded_models;
+  if (room.size_jitter > 0) json["room"]["size_jitter"] = room.size_jitter;
   return json.dump();
 }
 

@@ -42,7 +42,13 @@ struct VoteNetTrainingOptions {
   double max_range_m = 3.0;       // rasterised like detection's (DetectorOptions::max_range_m)
   double validation_share = 0.1;  // of the rooms, for the per-epoch validation loss
   VoteNetOptions net;
-  RoomOptions room;         // of the training rooms (evaluation-only entries never placed)
+  // Of the training rooms (evaluation-only entries never placed); sizes
+  // jittered by 20 % per side so that the network learns classes, not models.
+  RoomOptions room = [] {
+    RoomOptions jittered;
+    jittered.size_jitter = 0.2;
+    return jittered;
+  }();
   bool keep_rooms = false;  // keep the rooms' database after training (else deleted)
   std::string curve_png;    // the training curve (loss, validation mAP); empty: none
   bool quiet = false;
