@@ -55,6 +55,9 @@ void DetectorOptions::Check() const {
   Require(learned_suppress_m >= 0 && learned_suppress_m <= 5,
           "learned suppress radius must be in 0..5 m");
   Require(torch_threads >= 0 && torch_threads <= 256, "torch threads must be in 0..256");
+  Require(learned_fit_agree_m > 0 && learned_fit_agree_m <= 2,
+          "learned fit agreement radius " + std::to_string(learned_fit_agree_m) +
+              " must be in (0, 2] m");
 }
 
 Detector::Detector(TrainedModel model, const DetectorOptions& options)

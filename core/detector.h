@@ -154,6 +154,13 @@ struct DetectorOptions {
   int learned_max_per_class = 16;
   double learned_suppress_m = 0.3;
   int torch_threads = 1;
+  // The paper's stages after the learned vote: each detection's CAD models
+  // ranked by the VFH part subsets of the segments inside its box (top_models
+  // of them) and fitted by 3-DOF RANSAC; where the best fit's reference point
+  // lies within learned_fit_agree_m of the network's, the fit's pose and CAD
+  // model replace the network's box. Off: the network's boxes alone.
+  bool learned_fit = false;
+  double learned_fit_agree_m = 0.15;
 
   // Throws InputError naming the field and the rule.
   void Check() const;
@@ -310,6 +317,9 @@ struct DetectionDebug {
     // kSuppressed, outcome_values[0] is the distance to the stronger maximum.
     bool learned = false;
     double yaw = 0, width = 0, depth = 0;
+    // Learned voting with learned_fit: the best fit agreed with the network
+    // and replaced its box (fit_x, fit_y and the fits say where it was).
+    bool refined = false;
   };
   // One line for people: "detected", "covers 0.62 of the points", ...
   static std::string Describe(const Hypothesis& hypothesis);
@@ -512,6 +522,11 @@ class Detector {
   const DetectorOptions& options() const;
 
  private:
+  // Learned voting's fit stage (DetectorOptions::learned_fit): `detections`
+  // are the non-suppressed `hypotheses` in order.
+  void FitLearned(const PreparedScan& scan,
+                  std::vector<DetectionDebug::Hypothesis>* hypotheses,
+                  std::vector<Detection>* detections) const;
   // Detect's learned path after Prepare: vote map, maxima, detections.
   void DetectLearned(const PreparedScan& scan,
                      bool keep_debug,

@@ -65,6 +65,10 @@ struct Detector::Impl {
   // (detector_rank.cc).
   std::map<int, double> Support(const std::vector<HoughVote>& class_votes,
                                 DetectionDebug::Hypothesis* hypothesis) const;
+  // Per segment of the scan, the nearest part subsets (VFH) of those that
+  // back any of `supports` (segment -> weight); empty for the rest.
+  std::vector<std::vector<int>> SegmentNeighbours(
+      const PreparedScan& scan, const std::vector<std::map<int, double>>& supports) const;
   void Rank(const std::map<int, double>& support,
             const std::vector<std::vector<int>>& segment_neighbours,
             DetectionDebug::Hypothesis* hypothesis) const;

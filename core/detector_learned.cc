@@ -4,11 +4,13 @@
 // with the network's position, yaw and footprint.
 #include <algorithm>
 #include <cmath>
+#include <map>
 
 #include "core/bev_decode.h"
 #include "core/detector.h"
 #include "core/detector_impl.h"
 #include "core/error.h"
+#include "core/parallel.h"
 
 namespace furn {
 namespace {
@@ -51,7 +53,80 @@ DetectionDebug::VoteGrid WorldGridOf(const BevImage& image,
   return grid;
 }
 
+// Segments mostly inside a learned hypothesis's box (widened by
+// kSupportMarginM), structure left out, weighted by their points inside:
+// what the CAD models are ranked by.
+constexpr double kSupportMarginM = 0.1;
+constexpr double kMostlyInside = 0.5;
+
+std::map<int, double> SegmentsInBox(const PreparedScan& scan,
+                                    const DetectionDebug::Hypothesis& hypothesis) {
+  const double c = std::cos(hypothesis.yaw), s = std::sin(hypothesis.yaw);
+  const double half_w = hypothesis.width / 2 + kSupportMarginM,
+               half_d = hypothesis.depth / 2 + kSupportMarginM;
+  std::map<int, double> support;
+  const ViewSegments& view = scan.view;
+  for (size_t segment = 0; segment < view.segments.size(); ++segment) {
+    if (scan.structure_segment[segment]) continue;
+    const std::vector<int>& members = view.segments[segment];
+    size_t inside = 0;
+    for (int i : members) {
+      const Eigen::Vector3f& p = view.cloud.points[i];
+      const double dx = p.x() - hypothesis.x, dy = p.y() - hypothesis.y;
+      inside += std::abs(c * dx + s * dy) <= half_w && std::abs(-s * dx + c * dy) <= half_d;
+    }
+    if (inside > 0 && inside >= kMostlyInside * members.size())
+      support.emplace(static_cast<int>(segment), static_cast<double>(inside));
+  }
+  return support;
+}
+
 }  // namespace
+
+void Detector::FitLearned(const PreparedScan& scan,
+                          std::vector<DetectionDebug::Hypothesis>* hypotheses,
+                          std::vector<Detection>* detections) const {
+  const Impl& impl = *impl_;
+  std::vector<int> fitted;  // hypotheses with a detection, in detection order
+  for (size_t h = 0; h < hypotheses->size(); ++h) {
+    if ((*hypotheses)[h].outcome == HypothesisOutcome::kDetected)
+      fitted.push_back(static_cast<int>(h));
+  }
+  Require(fitted.size() == detections->size(), "FitLearned: hypotheses and detections differ");
+  std::vector<std::map<int, double>> supports(fitted.size());
+  for (size_t k = 0; k < fitted.size(); ++k) {
+    DetectionDebug::Hypothesis& hypothesis = (*hypotheses)[fitted[k]];
+    supports[k] = SegmentsInBox(scan, hypothesis);
+    for (const auto& [segment, weight] : supports[k]) hypothesis.segments.push_back(segment);
+  }
+  const std::vector<std::vector<int>> neighbours = impl.SegmentNeighbours(scan, supports);
+  ParallelFor(0, static_cast<int>(fitted.size()), [&](int k) {
+    DetectionDebug::Hypothesis& hypothesis = (*hypotheses)[fitted[k]];
+    if (supports[k].empty()) return;
+    impl.Rank(supports[k], neighbours, &hypothesis);
+    hypothesis.outcome = HypothesisOutcome::kDetected;  // the network decided; Rank may not
+    HypothesisFit fit = FitHypothesis(scan, hypothesis, fitted[k]);
+    hypothesis.fits = std::move(fit.tried);
+    if (!fit.best) return;
+    const PlanarPose& pose = fit.best->fit.pose;
+    hypothesis.fit_x = pose.x;
+    hypothesis.fit_y = pose.y;
+    if (std::hypot(pose.x - hypothesis.x, pose.y - hypothesis.y) > impl.options.learned_fit_agree_m)
+      return;
+    hypothesis.refined = true;
+    Detection& d = (*detections)[k];
+    d.x = pose.x;
+    d.y = pose.y;
+    d.yaw = pose.yaw;
+    d.model_index = fit.best->model;
+    d.model_name = impl.model.model_names[fit.best->model];
+    const ModelShape& shape = impl.model.model_shapes[fit.best->model];
+    d.width = shape.high.x() - shape.low.x();
+    d.depth = shape.high.y() - shape.low.y();
+    d.verification = fit.best->verification;
+    d.covered_fraction = fit.best->covered;
+  });
+}
 
 std::vector<DetectionDebug::Hypothesis> Detector::LearnedMaxima(
     const BevImage& image, const BevOutput& output, std::vector<Detection>* detections) const {
@@ -103,6 +178,10 @@ void Detector::DetectLearned(const PreparedScan& scan,
   timer->Lap(DetectionStage::kNetwork);
   result->debug.hypotheses = LearnedMaxima(image, output, &result->detections);
   timer->Lap(DetectionStage::kMaxima);
+  if (impl.options.learned_fit) {
+    FitLearned(scan, &result->debug.hypotheses, &result->detections);
+    timer->Lap(DetectionStage::kFitAndVerify);
+  }
   timer->Total();
   result->points = scan.input_points;
   if (!keep_debug) return;

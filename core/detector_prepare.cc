@@ -180,10 +180,12 @@ PreparedScan Detector::Prepare(const DetectionInput& input) const {
   }
   if (!PlaceInWorld(input, options, &scan)) return scan;
   if (impl.learned) {  // the network's grid is rasterised from the points as given
-    scan.sensor = scan.world_from_camera.translation().cast<float>();
     scan.camera_points = input.points;
-    timer.Lap(DetectionStage::kFloor);
-    return scan;
+    if (!options.learned_fit) {  // else segments, structure and occupancy for the fits
+      scan.sensor = scan.world_from_camera.translation().cast<float>();
+      timer.Lap(DetectionStage::kFloor);
+      return scan;
+    }
   }
   const Eigen::Matrix3f rotation = scan.world_from_camera.linear().cast<float>();
   const Eigen::Vector3f translation = scan.world_from_camera.translation().cast<float>();

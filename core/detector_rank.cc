@@ -60,22 +60,9 @@ void Detector::Impl::Rank(const std::map<int, double>& support,
   }
 }
 
-void Detector::RankCandidates(const PreparedScan& scan,
-                              const VoteMaps& votes,
-                              std::vector<DetectionDebug::Hypothesis>* hypotheses_out) const {
-  const Impl& impl = *impl_;
-  const DetectorOptions& options = impl.options;
+std::vector<std::vector<int>> Detector::Impl::SegmentNeighbours(
+    const PreparedScan& scan, const std::vector<std::map<int, double>>& supports) const {
   const ViewSegments& view = scan.view;
-  std::vector<DetectionDebug::Hypothesis>& hypotheses = *hypotheses_out;
-  // The segments behind each maximum; then each such segment's nearest
-  // part subsets, once for all hypotheses.
-  std::vector<std::vector<HoughVote>> votes_of_class(kClasses);
-  for (const HoughVote& vote : votes.votes) votes_of_class[vote.class_index].push_back(vote);
-  std::vector<std::map<int, double>> supports(hypotheses.size());
-  ParallelFor(0, static_cast<int>(hypotheses.size()), [&](int h) {
-    supports[h] = impl.Support(votes_of_class[static_cast<int>(hypotheses[h].furniture_class)],
-                               &hypotheses[h]);
-  });
   std::vector<char> needed(view.segments.size(), 0);
   for (const auto& support : supports) {
     for (const auto& [segment, weight] : support) needed[segment] = 1;
@@ -89,12 +76,30 @@ void Detector::RankCandidates(const PreparedScan& scan,
     descriptors[q] = ComputeVfh(view.cloud,
                                 view.segments[queried[q]],
                                 scan.sensor,
-                                impl.model.options.part_subsets.vfh_size_component);
+                                model.options.part_subsets.vfh_size_component);
   });
-  std::vector<std::vector<int>> nearest = impl.parts->NearestMany(descriptors, options.neighbours);
+  std::vector<std::vector<int>> nearest = parts->NearestMany(descriptors, options.neighbours);
   std::vector<std::vector<int>> segment_neighbours(view.segments.size());
   for (size_t q = 0; q < queried.size(); ++q)
     segment_neighbours[queried[q]] = std::move(nearest[q]);
+  return segment_neighbours;
+}
+
+void Detector::RankCandidates(const PreparedScan& scan,
+                              const VoteMaps& votes,
+                              std::vector<DetectionDebug::Hypothesis>* hypotheses_out) const {
+  const Impl& impl = *impl_;
+  std::vector<DetectionDebug::Hypothesis>& hypotheses = *hypotheses_out;
+  // The segments behind each maximum; then each such segment's nearest
+  // part subsets, once for all hypotheses.
+  std::vector<std::vector<HoughVote>> votes_of_class(kClasses);
+  for (const HoughVote& vote : votes.votes) votes_of_class[vote.class_index].push_back(vote);
+  std::vector<std::map<int, double>> supports(hypotheses.size());
+  ParallelFor(0, static_cast<int>(hypotheses.size()), [&](int h) {
+    supports[h] = impl.Support(votes_of_class[static_cast<int>(hypotheses[h].furniture_class)],
+                               &hypotheses[h]);
+  });
+  const std::vector<std::vector<int>> segment_neighbours = impl.SegmentNeighbours(scan, supports);
   for (size_t h = 0; h < hypotheses.size(); ++h)
     impl.Rank(supports[h], segment_neighbours, &hypotheses[h]);
   // Maxima of one class backed by (almost) the same segments would give the

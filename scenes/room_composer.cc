@@ -86,9 +86,8 @@ class SizeJitter {
     ComposerCatalog::Item resized = item;
     for (int axis = 0; axis < 3; ++axis) {
       const double drawn = item.size_m[axis] * rng->Uniform(1 - jitter_, 1 + jitter_);
-      resized.size_m[axis] = std::clamp(drawn,
-                                        std::min(low[axis], item.size_m[axis]),
-                                        std::max(high[axis], item.size_m[axis]));
+      resized.size_m[axis] = std::clamp(
+          drawn, std::min(low[axis], item.size_m[axis]), std::max(high[axis], item.size_m[axis]));
       resized.scale[axis] = item.scale[axis] * resized.size_m[axis] / item.size_m[axis];
     }
     return resized;

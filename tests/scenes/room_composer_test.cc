@@ -140,8 +140,8 @@ TEST(RoomComposer, SizeJitterResizesPiecesWithinTheirClassAndTheMeshFollows) {
     // The rendered mesh has the jittered size.
     std::map<std::string, std::shared_ptr<const TriangleMesh>> meshes;
     for (const PlacedObject& object : room.objects) {
-      const Eigen::Vector3d own = object.IsTarget() ? own_size.at(object.model_id)
-                                                    : Eigen::Vector3d(0.4, 0.3, 0.3);
+      const Eigen::Vector3d own =
+          object.IsTarget() ? own_size.at(object.model_id) : Eigen::Vector3d(0.4, 0.3, 0.3);
       const Eigen::Vector3f size = own.cast<float>();
       meshes[object.model_id] = std::make_shared<TriangleMesh>(
           MakeBox(Eigen::Vector3f(-size.x() / 2, -size.y() / 2, 0.0f),

@@ -1,6 +1,9 @@
 // Training end to end on the procedural catalog with few views (fast).
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <filesystem>
+
 #include <Eigen/Geometry>
 
 #include "core/detector.h"
@@ -235,10 +238,51 @@ TEST(Train, VoteNetIsStoredUsedAndItsRoomsHoldNoHeldOutModel) {
       EXPECT_EQ(d.model_index, -1);
       EXPECT_GT(d.width, 0);
     }
+    // With the paper's stages after the vote: a fit that agrees names its
+    // CAD model and gives the pose (here every fit agrees: 2 m).
+    DetectorOptions fitting;
+    fitting.learned_fit = true;
+    fitting.learned_fit_agree_m = 2.0;
+    fitting.learned_min_heat = 0.0;
+    const DetectionResult fitted =
+        Detector(model, fitting).Detect(DetectionInputOf(room.frames.front(), "frame"), true);
+    stages.clear();
+    for (const StageTime& t : fitted.timings_ms.stages) stages.push_back(t.stage);
+    EXPECT_NE(std::find(stages.begin(), stages.end(), DetectionStage::kFitAndVerify), stages.end());
+    int refined = 0, k = 0;
+    for (const DetectionDebug::Hypothesis& h : fitted.debug.hypotheses) {
+      if (h.outcome != HypothesisOutcome::kDetected) continue;
+      const Detection& d = fitted.detections.at(k++);
+      if (!h.refined) {
+        EXPECT_EQ(d.model_index, -1);
+        continue;
+      }
+      ++refined;
+      ASSERT_GE(d.model_index, 0);
+      EXPECT_EQ(model.model_classes[d.model_index], h.furniture_class);
+      EXPECT_EQ(d.model_name, model.model_names[d.model_index]);
+      EXPECT_EQ(d.x, h.fit_x);
+      EXPECT_EQ(d.y, h.fit_y);
+      EXPECT_FALSE(h.segments.empty());
+    }
+    EXPECT_EQ(k, static_cast<int>(fitted.detections.size()));
+    EXPECT_GT(refined, 0) << "no hypothesis was fitted";
   }
   DetectorOptions codebook;
   codebook.voting = VotingMode::kCodebook;
   EXPECT_FALSE(Detector(model, codebook).learned());
+
+  // Without keep_rooms the rooms' database goes, with SQLite's files beside it.
+  vote.keep_rooms = false;
+  TrainFromCatalog(catalog,
+                   FewViews(),
+                   SmallVocabulary(VocabularyKind::kKMeans),
+                   dir + "/gone.fcm",
+                   {},
+                   "",
+                   &vote);
+  for (const char* suffix : {"", "-wal", "-shm"})
+    EXPECT_FALSE(std::filesystem::exists(dir + "/gone.fcm.rooms.db" + suffix)) << suffix;
 
   model.vote_net = "FURNVNET" + std::string(200, 'q');
   SaveTrainedModel(model, dir + "/garbled.fcm");

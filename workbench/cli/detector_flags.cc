@@ -2,6 +2,7 @@
 
 #include <CLI/CLI.hpp>
 #include <map>
+#include <string>
 #include <type_traits>
 #include <vector>
 
@@ -22,6 +23,9 @@ DetectorFlags::DetectorFlags(CLI::App* app, const std::set<std::string>& skip)
       app_->add_option(info.flag, value, info.help)
           ->transform(CLI::CheckedTransformer(names))
           ->default_str(EnumName(value));
+    } else if constexpr (std::is_same_v<T, bool>) {  // "--learned-fit" / "--no-learned-fit"
+      app_->add_flag(std::string(info.flag) + ",!--no-" + (info.flag + 2), value, info.help)
+          ->capture_default_str();
     } else {
       app_->add_option(info.flag, value, info.help)->capture_default_str();
     }

@@ -1,5 +1,6 @@
 #include "workbench/formats/detection_output.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <nlohmann/json.hpp>
@@ -86,7 +87,24 @@ std::string ExplainDetection(const DetectionResult& result, const TrainedModel& 
                     h.width,
                     h.depth,
                     h.vote_weight);
-      out << line << "-> " << DetectionDebug::Describe(h) << "\n";
+      out << line;
+      if (!h.fits.empty()) {  // learned_fit: the best fit, and whether it agreed
+        const auto best =
+            std::max_element(h.fits.begin(), h.fits.end(), [](const auto& a, const auto& b) {
+              return a.score < b.score;
+            });
+        std::snprintf(
+            line,
+            sizeof(line),
+            "fit %s %.2f m away (%s)  ",
+            best->model_index >= 0 && best->model_index < static_cast<int>(model.model_names.size())
+                ? model.model_names[best->model_index].c_str()
+                : "?",
+            std::hypot(h.fit_x - h.x, h.fit_y - h.y),
+            h.refined ? "agrees: its pose" : "disagrees: the network's box");
+        out << line;
+      }
+      out << "-> " << DetectionDebug::Describe(h) << "\n";
       continue;
     }
     std::snprintf(line,

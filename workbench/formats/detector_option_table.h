@@ -113,6 +113,17 @@ void ForEachDetectorOption(Options* options, Visit&& visit) {
                            "--torch-threads",
                            "Learned voting: the network's threads (0: the library's default)"},
         o.torch_threads);
+  visit(DetectorOptionInfo{"learned_fit",
+                           "--learned-fit",
+                           "Learned voting: rank and fit the CAD models in each detection's box; "
+                           "an agreeing fit gives the pose and names the model"},
+        o.learned_fit);
+  visit(
+      DetectorOptionInfo{
+          "learned_fit_agree_m",
+          "--fit-agree",
+          "Learned voting: a fit this near the network's centre replaces its box (m)"},
+      o.learned_fit_agree_m);
 }
 
 }  // namespace furn

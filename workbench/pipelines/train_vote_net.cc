@@ -149,6 +149,12 @@ GenerateOptions TrainingRooms(const VoteNetTrainingOptions& options,
   return generate;
 }
 
+// The database and the write-ahead log and shared-memory files SQLite keeps
+// beside it (a read-only connection leaves them behind).
+void RemoveDatabase(const std::string& path) {
+  for (const char* suffix : {"", "-wal", "-shm"}) std::filesystem::remove(path + suffix);
+}
+
 }  // namespace
 
 void VoteNetTrainingOptions::Check() const {
@@ -304,7 +310,7 @@ std::string TrainVoteNet(const Catalog& catalog,
   auto start = std::chrono::steady_clock::now();
   // A database kept from an earlier run resumes (rooms already in it are
   // skipped); one of other options is refused by GenerateDataset.
-  if (!options.keep_rooms) std::filesystem::remove(rooms_db);
+  if (!options.keep_rooms) RemoveDatabase(rooms_db);
   if (!options.quiet)
     std::fprintf(stderr,
                  "vote net: generating %d training rooms into %s\n",
@@ -318,7 +324,7 @@ std::string TrainVoteNet(const Catalog& catalog,
   ReadBevSamples(rooms_db, options, &training, &validation);
   summary->raster_s = Seconds(start);
   const VoteNet net = TrainVoteNetOnSamples(training, validation, options, summary);
-  if (!options.keep_rooms) std::filesystem::remove(rooms_db);
+  if (!options.keep_rooms) RemoveDatabase(rooms_db);
   if (!options.curve_png.empty()) {
     std::vector<TrainingCurvePoint> curve;
     for (const VoteNetEpoch& e : summary->epochs)
