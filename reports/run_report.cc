@@ -269,7 +269,8 @@ std::string FunnelHtml(const std::vector<FurnitureClass>& classes,
                        const std::function<double(const MetricId&)>& metric) {
   std::ostringstream html;
   html << "<h2>Where objects are lost (10 cm)</h2>\n<p>Each object to find is counted once: "
-          "found, or the furthest stage a Hough maximum of its class within 15 cm of it "
+          "found, or the furthest stage a maximum of its class (Hough or learned heat) within 15 "
+          "cm of it "
           "reached. Start tuning from the biggest loss.</p>\n<table><tr><th>class</th>";
   for (FunnelStage funnel_stage : EnumValues<FunnelStage>()) {  // spaces, so the header wraps
     std::string stage = EnumName(funnel_stage);
