@@ -8,6 +8,7 @@
 #include "core/progress.h"
 #include "scenes/room_composer.h"
 #include "workbench/cli/cli_common.h"
+#include "workbench/cli/cluster_flags.h"
 #include "workbench/cli/commands.h"
 #include "workbench/formats/depth_png.h"
 #include "workbench/formats/rosbag_io.h"
@@ -59,6 +60,39 @@ void PrintGenerateSummary(const std::string& out,
 
 }  // namespace
 
+namespace {
+
+// `generate` as an array job: task i makes shard i/N into the job folder, the
+// final job merges the N shards into --out.
+ArrayJob GenerateArrayJob(const ClusterFlags& cluster,
+                          const std::string& out,
+                          int argc,
+                          char** argv) {
+  Require(std::filesystem::path(out).extension() == ".db",
+          out + ": the dataset file must end in .db");
+  ArrayJob job;
+  job.dir = cluster.job_dir;
+  job.name = "generate";
+  job.tasks = cluster.shards;
+  job.resources = cluster.resources;
+  const std::string dir = std::filesystem::absolute(cluster.job_dir).string();
+  const std::string n = std::to_string(cluster.shards);
+  job.task_command = TaskCommandLine(argc,
+                                     argv,
+                                     {"--out", "--shard"},
+                                     "--quiet --shard \"$TASK\"/" + n + " --out " +
+                                         ShellQuote(dir + "/shard-") + "\"$TASK\"" + "'.db'");
+  job.task_output = dir + "/shard-$TASK.db";
+  job.final_output = std::filesystem::absolute(out).string();
+  std::string merge = WorkbenchCommand("dataset merge --quiet");
+  for (int k = 0; k < cluster.shards; ++k)
+    merge += " " + ShellQuote(dir + "/shard-" + std::to_string(k) + ".db");
+  job.final_command = merge + " --out " + ShellQuote(job.final_output);
+  return job;
+}
+
+}  // namespace
+
 int RunGenerate(int argc, char** argv) {
   CLI::App app{
       "Generate labelled synthetic Kinect frames of furnished rooms into a dataset database",
@@ -101,8 +135,15 @@ int RunGenerate(int argc, char** argv) {
                  options.clutter_catalog_specs,
                  "Add this catalog's unclassified entries as clutter (repeatable; a class map, "
                  "'default' or a .sh3f, whose every entry counts as unclassified)");
+  ClusterFlags cluster;
+  AddClusterFlags(&app, &cluster);
   if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
   ApplyGlobalFlags(catalog_flags);
+  cluster.Check();
+  if (cluster.Active()) {
+    Require(app.count("--shard") == 0, "--shard i/N and --shards N do not go together");
+    return RunArrayJob(cluster, GenerateArrayJob(cluster, out, argc, argv));
+  }
   std::tie(options.shard_index, options.shard_count) = ParseShard(shard);
   options.renderer = ParseRendererKind(renderer);
   options.catalog_spec = catalog_flags.spec;

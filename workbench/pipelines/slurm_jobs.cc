@@ -1,0 +1,316 @@
+#include "workbench/pipelines/slurm_jobs.h"
+
+#include <sys/wait.h>
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <set>
+#include <sstream>
+
+#include "core/error.h"
+#include "core/file_util.h"
+
+namespace furn {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string JobsJson(const std::string& dir) { return dir + "/jobs.json"; }
+std::string StatusFile(const std::string& dir, const std::string& who, const char* suffix) {
+  return dir + "/status/" + who + suffix;
+}
+std::string TaskName(int task) { return "task-" + std::to_string(task); }
+
+std::string ReplaceTask(const std::string& text, int task) {
+  std::string out = text;
+  for (size_t at = out.find("$TASK"); at != std::string::npos; at = out.find("$TASK", at))
+    out.replace(at, 5, std::to_string(task));
+  return out;
+}
+
+// Runs a shell command; its standard output, and its exit code.
+std::pair<std::string, int> Capture(const std::string& command) {
+  FILE* pipe = popen((command + " 2>&1").c_str(), "r");
+  Require(pipe != nullptr, "cannot run: " + command);
+  std::string out;
+  std::array<char, 4096> buffer;
+  size_t n = 0;
+  while ((n = fread(buffer.data(), 1, buffer.size(), pipe)) > 0) out.append(buffer.data(), n);
+  const int status = pclose(pipe);
+  return {out, WIFEXITED(status) ? WEXITSTATUS(status) : 128};
+}
+
+std::string Trim(std::string text) {
+  while (!text.empty() && std::isspace(static_cast<unsigned char>(text.back()))) text.pop_back();
+  return text;
+}
+
+// The script header: name, log, resources.
+std::string Header(const ArrayJob& job, const std::string& what, const std::string& log) {
+  std::ostringstream s;
+  s << "#!/bin/bash\n# Written by workbench (issue 31): " << what << " of '" << job.name
+    << "'; submit with sbatch, or rerun the workbench command.\n";
+  s << "#SBATCH --job-name=" << ShellQuote("furn-" + job.name) << "\n";
+  s << "#SBATCH --output=" << ShellQuote(log) << "\n";
+  s << "#SBATCH --cpus-per-task=" << job.resources.cpus << "\n";
+  if (!job.resources.partition.empty())
+    s << "#SBATCH --partition=" << ShellQuote(job.resources.partition) << "\n";
+  if (!job.resources.time.empty()) s << "#SBATCH --time=" << ShellQuote(job.resources.time) << "\n";
+  if (!job.resources.mem.empty()) s << "#SBATCH --mem=" << ShellQuote(job.resources.mem) << "\n";
+  return s.str();
+}
+
+// Runs `command` and records its exit status as STATUS.ok or STATUS.failed.
+std::string Body(const std::string& status, const std::string& command) {
+  std::ostringstream s;
+  s << "set -u\n"
+    << "status=" << status << "\n"
+    << "rm -f \"$status.ok\" \"$status.failed\"\n"
+    << command << "\n"
+    << "code=$?\n"
+    << "if [ \"$code\" -eq 0 ]; then touch \"$status.ok\"; else echo \"$code\" > "
+       "\"$status.failed\"; fi\n"
+    << "exit \"$code\"\n";
+  return s.str();
+}
+
+nlohmann::json ReadJobs(const std::string& dir) {
+  Require(fs::exists(JobsJson(dir)), dir + ": not a job folder (no jobs.json)");
+  try {
+    return nlohmann::json::parse(ReadFileBytes(JobsJson(dir)));
+  } catch (const nlohmann::json::exception& e) {
+    throw InputError(JobsJson(dir) + ": not valid JSON (" + e.what() + ")");
+  }
+}
+
+// Array task index -> squeue state letter code (PD, R, CG, ...) of the jobs
+// in `ids`; empty when squeue is missing.
+std::map<std::string, std::string> QueueStates(const std::vector<std::string>& ids) {
+  std::map<std::string, std::string> states;
+  if (ids.empty()) return states;
+  std::string list;
+  for (const std::string& id : ids) list += (list.empty() ? "" : ",") + id;
+  // %i: job id with the array task (123_4); -r: one line per array task.
+  const auto [out, code] = Capture("squeue -h -r -o '%i %t' -j " + list);
+  if (code != 0) return states;
+  std::istringstream lines(out);
+  std::string id, state;
+  while (lines >> id >> state) states[id] = state;
+  return states;
+}
+
+}  // namespace
+
+void SlurmResources::Check() const {
+  Require(cpus >= 1 && cpus <= 1024, "--cpus " + std::to_string(cpus) + " must be in 1..1024");
+  for (const std::string* value : {&partition, &time, &mem}) {
+    Require(value->find_first_of("\n\r'\"") == std::string::npos,
+            "slurm resource '" + *value + "' must not hold quotes or line breaks");
+  }
+}
+
+std::string ShellQuote(const std::string& argument) {
+  std::string quoted = "'";
+  for (char c : argument) quoted += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return quoted + "'";
+}
+
+void WriteJobScripts(const ArrayJob& job) {
+  Require(job.tasks >= 1 && job.tasks <= 100000, "an array job needs 1..100000 tasks");
+  job.resources.Check();
+  std::error_code ec;
+  fs::create_directories(job.dir + "/logs", ec);
+  fs::create_directories(job.dir + "/status", ec);
+  Require(!ec && fs::is_directory(job.dir + "/status"),
+          job.dir + ": cannot make the job folder (" + ec.message() + ")");
+  const std::string dir = fs::absolute(job.dir).string();
+  WriteFileAtomically(job.dir + "/task.sbatch",
+                      Header(job, "one task per shard", dir + "/logs/task-%a.log") +
+                          "TASK=\"$SLURM_ARRAY_TASK_ID\"\n" +
+                          Body(ShellQuote(dir + "/status/task-") + "\"$TASK\"", job.task_command));
+  if (!job.final_command.empty()) {
+    WriteFileAtomically(job.dir + "/final.sbatch",
+                        Header(job, "the final step", dir + "/logs/final.log") +
+                            Body(ShellQuote(dir + "/status/final"), job.final_command));
+  }
+  nlohmann::json jobs = fs::exists(JobsJson(job.dir)) ? ReadJobs(job.dir) : nlohmann::json{};
+  if (jobs.contains("task_command") && jobs["task_command"] != job.task_command) {
+    throw InputError(job.dir + ": holds the jobs of another command; use a new --job-dir");
+  }
+  jobs["name"] = job.name;
+  jobs["tasks"] = job.tasks;
+  jobs["task_command"] = job.task_command;
+  jobs["task_output"] = job.task_output;
+  jobs["final_command"] = job.final_command;
+  jobs["final_output"] = job.final_output;
+  if (!jobs.contains("submissions")) jobs["submissions"] = nlohmann::json::array();
+  WriteFileAtomically(JobsJson(job.dir), jobs.dump(2) + "\n");
+}
+
+std::vector<int> TasksToDo(const ArrayJob& job) {
+  std::vector<int> todo;
+  for (int task = 0; task < job.tasks; ++task) {
+    const bool ok = fs::exists(StatusFile(job.dir, TaskName(task), ".ok"));
+    const bool output = job.task_output.empty() || fs::exists(ReplaceTask(job.task_output, task));
+    if (!(ok && output)) todo.push_back(task);
+  }
+  return todo;
+}
+
+namespace {
+
+std::string ArrayList(const std::vector<int>& tasks) {
+  std::string list;
+  for (int task : tasks) list += (list.empty() ? "" : ",") + std::to_string(task);
+  return list;
+}
+
+std::string Sbatch(const std::string& arguments) {
+  const auto [out, code] = Capture("sbatch --parsable " + arguments);
+  if (code == 127)
+    throw InputError("sbatch not found: is this a Slurm login node? (or use --emit-only)");
+  Require(code == 0, "sbatch " + arguments + " failed: " + Trim(out));
+  const std::string id = Trim(out).substr(0, Trim(out).find(';'));  // "id;cluster"
+  Require(!id.empty() && id.find_first_not_of("0123456789") == std::string::npos,
+          "sbatch gave no job id: " + Trim(out));
+  return id;
+}
+
+// Refuses to submit a task that an earlier submission still has queued or running.
+void CheckNotQueued(const std::string& dir, const std::vector<int>& todo) {
+  const nlohmann::json jobs = ReadJobs(dir);
+  std::vector<std::string> ids;
+  for (const auto& s : jobs["submissions"]) ids.push_back(s.value("array", ""));
+  const auto states = QueueStates(ids);
+  const std::set<int> wanted(todo.begin(), todo.end());
+  for (const auto& [id, state] : states) {
+    const size_t underscore = id.find('_');
+    if (underscore == std::string::npos) continue;
+    const std::string index = id.substr(underscore + 1);
+    if (index.find_first_not_of("0123456789") != std::string::npos) continue;
+    if (wanted.count(std::stoi(index))) {
+      throw InputError(dir + ": task " + index + " is still " + state + " (job " + id +
+                       "); wait for it ('workbench jobs wait') or scancel it");
+    }
+  }
+}
+
+// An earlier submission's final job still waits for tasks that failed:
+// cancelled, a new one follows the new tasks.
+void CancelStaleFinal(const std::string& dir) {
+  const nlohmann::json jobs = ReadJobs(dir);
+  if (jobs["submissions"].empty()) return;
+  const std::string final_id = jobs["submissions"].back().value("final", "");
+  if (!final_id.empty()) Capture("scancel " + final_id);
+}
+
+}  // namespace
+
+Submission SubmitArrayJob(const ArrayJob& job) {
+  WriteJobScripts(job);
+  Submission submission;
+  submission.tasks = TasksToDo(job);
+  const bool final_done =
+      job.final_command.empty() || (fs::exists(StatusFile(job.dir, "final", ".ok")) &&
+                                    (job.final_output.empty() || fs::exists(job.final_output)));
+  if (submission.tasks.empty() && final_done) return submission;
+  CheckNotQueued(job.dir, submission.tasks);
+  CancelStaleFinal(job.dir);
+  if (!submission.tasks.empty()) {
+    submission.array_job_id = Sbatch("--array=" + ArrayList(submission.tasks) + " " +
+                                     ShellQuote(job.dir + "/task.sbatch"));
+  }
+  if (!job.final_command.empty()) {
+    const std::string after = submission.array_job_id.empty()
+                                  ? ""
+                                  : "--dependency=afterok:" + submission.array_job_id + " ";
+    submission.final_job_id = Sbatch(after + ShellQuote(job.dir + "/final.sbatch"));
+  }
+  nlohmann::json jobs = ReadJobs(job.dir);
+  jobs["submissions"].push_back({{"array", submission.array_job_id},
+                                 {"tasks", submission.tasks},
+                                 {"final", submission.final_job_id}});
+  WriteFileAtomically(JobsJson(job.dir), jobs.dump(2) + "\n");
+  return submission;
+}
+
+std::vector<std::string> EmitArrayJob(const ArrayJob& job) {
+  WriteJobScripts(job);
+  const std::vector<int> todo = TasksToDo(job);
+  std::vector<std::string> commands;
+  if (!todo.empty()) {
+    commands.push_back("array=$(sbatch --parsable --array=" + ArrayList(todo) + " " +
+                       ShellQuote(job.dir + "/task.sbatch") + ")");
+  }
+  if (!job.final_command.empty()) {
+    commands.push_back("sbatch " + std::string(todo.empty() ? "" : "--dependency=afterok:$array ") +
+                       ShellQuote(job.dir + "/final.sbatch"));
+  }
+  return commands;
+}
+
+JobFolderState ReadJobFolder(const std::string& dir) {
+  const nlohmann::json jobs = ReadJobs(dir);
+  JobFolderState result;
+  result.name = jobs.value("name", "");
+  const int tasks = jobs.value("tasks", 0);
+  std::vector<std::string> ids;
+  std::string last_final;
+  for (const auto& s : jobs["submissions"]) {
+    if (!s.value("array", "").empty()) ids.push_back(s.value("array", ""));
+    if (!s.value("final", "").empty()) last_final = s.value("final", "");
+  }
+  std::vector<std::string> queried = ids;
+  if (!last_final.empty()) queried.push_back(last_final);
+  const auto queue = QueueStates(queried);
+  // The newest submission's queue entry for a task, if any.
+  auto queued = [&](const std::string& suffix_or_id, bool is_task) -> std::string {
+    if (!is_task) {
+      const auto it = queue.find(suffix_or_id);
+      return it == queue.end() ? "" : it->second;
+    }
+    for (auto id = ids.rbegin(); id != ids.rend(); ++id) {
+      const auto it = queue.find(*id + "_" + suffix_or_id);
+      if (it != queue.end()) return it->second;
+    }
+    return "";
+  };
+  auto describe = [&](const std::string& who, const std::string& output, const std::string& q) {
+    if (!q.empty()) return std::string(q == "PD" ? "queued" : "running");
+    if (fs::exists(StatusFile(dir, who, ".ok")) && (output.empty() || fs::exists(output)))
+      return std::string("done");
+    const std::string failed = StatusFile(dir, who, ".failed");
+    if (fs::exists(failed)) return "failed (exit " + Trim(ReadFileBytes(failed)) + ")";
+    return std::string("missing");
+  };
+  bool all_done = true, anything_queued = false, anything_bad = false;
+  for (int task = 0; task < tasks; ++task) {
+    const std::string q = queued(std::to_string(task), true);
+    const std::string state =
+        describe(TaskName(task), ReplaceTask(jobs.value("task_output", ""), task), q);
+    result.tasks.push_back({task, state});
+    all_done = all_done && state == "done";
+    anything_queued = anything_queued || !q.empty();
+    anything_bad = anything_bad || state.rfind("failed", 0) == 0 || state == "missing";
+  }
+  if (!jobs.value("final_command", "").empty()) {
+    // A final job whose tasks failed waits forever (DependencyNeverSatisfied)
+    // unless the cluster cancels it: it does not count as queued then.
+    const std::string q =
+        last_final.empty() || (anything_bad && !anything_queued) ? "" : queued(last_final, false);
+    std::string state = describe("final", jobs.value("final_output", ""), q);
+    if (state == "missing" && !anything_bad && !all_done) state = "waiting for the tasks";
+    result.tasks.push_back({-1, state});
+    all_done = all_done && state == "done";
+    anything_queued = anything_queued || !q.empty();
+    anything_bad = anything_bad || state.rfind("failed", 0) == 0;
+  }
+  result.finished = all_done;
+  result.failed = !all_done && !anything_queued && anything_bad;
+  return result;
+}
+
+}  // namespace furn
