@@ -18,6 +18,7 @@
 #include "renderers/embree_caster.h"
 #include "scenes/procedural_catalog.h"
 #include "tests/test_util.h"
+#include "tests/workbench/dataset_dump.h"
 #include "workbench/formats/depth_png.h"
 #include "workbench/pipelines/dataset_tools.h"
 
@@ -34,20 +35,7 @@ GenerateOptions SmallRun(int rooms, uint64_t seed) {
   return options;
 }
 
-// Every row of every table, as text, in key order.
-std::string Dump(const std::string& path) {
-  Database db(path, Database::Mode::kReadOnly);
-  std::string dump;
-  for (const char* table :
-       {"generation", "models", "rooms", "objects", "frames", "frame_objects"}) {
-    Statement rows(&db, std::string("SELECT * FROM ") + table + " ORDER BY 1, 2");
-    while (rows.Step()) {
-      for (int c = 0; c < rows.ColumnCount(); ++c) dump += rows.ColumnText(c) + "|";
-      dump += "\n";
-    }
-  }
-  return dump;
-}
+std::string Dump(const std::string& path) { return testing::DumpDataset(path); }
 
 // One target in front of the camera, optionally half hidden by a wall panel.
 std::vector<FrameObjectRecord> ViewOfSideboard(bool half_hidden) {

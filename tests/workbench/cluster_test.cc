@@ -1,0 +1,134 @@
+// Issue 31 on a one-node Slurm cluster started by tools/slurm_local.sh (label
+// `cluster`; needs root and the slurm-wlm and munge packages, else skipped):
+// a 4-shard generate as an array job equals the one-process run row for row,
+// and a cancelled task is resubmitted alone by a rerun.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <string>
+
+#include "tests/test_util.h"
+#include "tests/workbench/dataset_dump.h"
+
+namespace furn {
+namespace {
+
+testing::CommandResult Shell(const std::string& command) { return testing::RunCommand(command); }
+
+class Cluster : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    if (geteuid() != 0 || Shell("command -v slurmctld").exit_code != 0) return;
+    dir_ = new std::string(testing::ScratchDir());
+    const testing::CommandResult start =
+        Shell("bash " FURN_SOURCE_DIR "/tools/slurm_local.sh start " + *dir_ + "/slurm");
+    if (start.exit_code != 0) {
+      std::fprintf(stderr, "cluster did not start: %s\n", start.output.c_str());
+      return;
+    }
+    setenv("SLURM_CONF", (*dir_ + "/slurm/slurm.conf").c_str(), 1);
+    started_ = true;
+  }
+  static void TearDownTestSuite() {
+    if (dir_ != nullptr)
+      Shell("bash " FURN_SOURCE_DIR "/tools/slurm_local.sh stop " + *dir_ + "/slurm");
+  }
+  void SetUp() override {
+    if (geteuid() != 0 || Shell("command -v slurmctld").exit_code != 0)
+      GTEST_SKIP() << "needs root and slurm-wlm (bash tools/install_deps.sh)";
+    ASSERT_TRUE(started_) << "tools/slurm_local.sh start failed";
+  }
+  static testing::CommandResult Workbench(const std::string& arguments) {
+    return Shell(std::string(FURN_WORKBENCH_BINARY) + " " + arguments);
+  }
+  static inline std::string* dir_ = nullptr;
+  static inline bool started_ = false;
+};
+
+constexpr const char* kGenerate =
+    "generate --catalog procedural:4 --rooms 8 --frames 2 --seed 5 --quiet";
+
+TEST_F(Cluster, FourShardGenerateEqualsOneProcess) {
+  const std::string dir = testing::ScratchDir();
+  ASSERT_EQ(Workbench(std::string(kGenerate) + " --out " + dir + "/one.db").exit_code, 0);
+  const testing::CommandResult submit = Workbench(std::string(kGenerate) + " --out " + dir +
+                                                  "/merged.db --shards 4 --cpus 1 --slurm "
+                                                  "--job-dir " +
+                                                  dir + "/job");
+  ASSERT_EQ(submit.exit_code, 0) << submit.output;
+  EXPECT_NE(submit.output.find("4 of 4 tasks"), std::string::npos) << submit.output;
+  const testing::CommandResult wait =
+      Workbench("jobs wait " + dir + "/job --poll 0.5 --timeout 300 --quiet");
+  ASSERT_EQ(wait.exit_code, 0) << wait.output;
+  EXPECT_EQ(testing::DumpDataset(dir + "/merged.db"), testing::DumpDataset(dir + "/one.db"));
+  for (int k = 0; k < 4; ++k) {
+    EXPECT_TRUE(std::filesystem::exists(dir + "/job/status/task-" + std::to_string(k) + ".ok"));
+    EXPECT_TRUE(std::filesystem::exists(dir + "/job/logs/task-" + std::to_string(k) + ".log"));
+  }
+  // Everything done: a rerun submits nothing.
+  const testing::CommandResult again = Workbench(std::string(kGenerate) + " --out " + dir +
+                                                 "/merged.db --shards 4 --cpus 1 --slurm "
+                                                 "--job-dir " +
+                                                 dir + "/job");
+  EXPECT_EQ(again.exit_code, 0) << again.output;
+  EXPECT_NE(again.output.find("nothing submitted"), std::string::npos) << again.output;
+}
+
+TEST_F(Cluster, ACancelledTaskIsResubmittedAloneByARerun) {
+  const std::string dir = testing::ScratchDir();
+  ASSERT_EQ(Workbench(std::string(kGenerate) + " --out " + dir + "/one.db").exit_code, 0);
+  const std::string command = std::string(kGenerate) + " --out " + dir +
+                              "/merged.db --shards 4 --cpus 1 --slurm --job-dir " + dir + "/job";
+  // Held, so that task 2 can be cancelled before it runs.
+  setenv("SBATCH_HOLD", "1", 1);
+  const testing::CommandResult submit = Workbench(command);
+  unsetenv("SBATCH_HOLD");
+  ASSERT_EQ(submit.exit_code, 0) << submit.output;
+  const std::string array = submit.output.substr(submit.output.find("array job ") + 10);
+  const std::string id = array.substr(0, array.find(':'));
+  ASSERT_EQ(Shell("scancel " + id + "_2").exit_code, 0);
+  ASSERT_EQ(Shell("scontrol release " + id).exit_code, 0);
+  const testing::CommandResult failed =
+      Workbench("jobs wait " + dir + "/job --poll 0.5 --timeout 300 --quiet");
+  EXPECT_EQ(failed.exit_code, 1) << failed.output;
+  EXPECT_NE(failed.output.find("task 2 missing"), std::string::npos) << failed.output;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/merged.db"));
+
+  const testing::CommandResult rerun = Workbench(command);
+  ASSERT_EQ(rerun.exit_code, 0) << rerun.output;
+  EXPECT_NE(rerun.output.find("1 of 4 tasks"), std::string::npos) << rerun.output;
+  const testing::CommandResult wait =
+      Workbench("jobs wait " + dir + "/job --poll 0.5 --timeout 300 --quiet");
+  ASSERT_EQ(wait.exit_code, 0) << wait.output;
+  EXPECT_EQ(testing::DumpDataset(dir + "/merged.db"), testing::DumpDataset(dir + "/one.db"));
+}
+
+TEST_F(Cluster, BadFlagsAreOneLine) {
+  const std::string dir = testing::ScratchDir();
+  for (const std::string& flags :
+       {std::string("--shards 4 --job-dir ") + dir + "/j",
+        std::string("--shards 4 --slurm"),
+        std::string("--slurm"),
+        std::string("--shards 4 --slurm --emit-only --job-dir ") + dir}) {
+    const testing::CommandResult bad =
+        Workbench(std::string(kGenerate) + " --out " + dir + "/x.db " + flags);
+    EXPECT_EQ(bad.exit_code, 1) << flags << ": " << bad.output;
+    EXPECT_EQ(bad.output.find('\n'), bad.output.size() - 1) << bad.output;
+  }
+  const testing::CommandResult emit =
+      Workbench(std::string(kGenerate) + " --out " + dir +
+                "/e.db --shards 3 --emit-only --job-dir " + dir + "/emit");
+  ASSERT_EQ(emit.exit_code, 0) << emit.output;
+  EXPECT_NE(emit.output.find("--array=0,1,2"), std::string::npos) << emit.output;
+  EXPECT_NE(emit.output.find("--dependency=afterok:$array"), std::string::npos) << emit.output;
+  EXPECT_TRUE(std::filesystem::exists(dir + "/emit/task.sbatch"));
+  EXPECT_FALSE(std::filesystem::exists(dir + "/e.db"));
+  const testing::CommandResult not_a_job = Workbench("jobs status " + dir);
+  EXPECT_EQ(not_a_job.exit_code, 1);
+  EXPECT_NE(not_a_job.output.find("not a job folder"), std::string::npos) << not_a_job.output;
+}
+
+}  // namespace
+}  // namespace furn
