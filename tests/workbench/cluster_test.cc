@@ -1,14 +1,17 @@
 // Issue 31 on a one-node Slurm cluster started by tools/slurm_local.sh (label
 // `cluster`; needs root and the slurm-wlm and munge packages, else skipped):
 // a 4-shard generate as an array job equals the one-process run row for row,
-// and a cancelled task is resubmitted alone by a rerun.
+// a cancelled task is resubmitted alone by a rerun, and protocol E's folds as
+// tasks give the one-process metrics.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
 #include <cstdlib>
 #include <filesystem>
+#include <map>
 #include <string>
 
+#include "db/dataset_db.h"
 #include "tests/test_util.h"
 #include "tests/workbench/dataset_dump.h"
 
@@ -103,6 +106,47 @@ TEST_F(Cluster, ACancelledTaskIsResubmittedAloneByARerun) {
       Workbench("jobs wait " + dir + "/job --poll 0.5 --timeout 300 --quiet");
   ASSERT_EQ(wait.exit_code, 0) << wait.output;
   EXPECT_EQ(testing::DumpDataset(dir + "/merged.db"), testing::DumpDataset(dir + "/one.db"));
+}
+
+// Protocol E with a task per fold (each trains its fold's model into the
+// shared work directory) and the final crossval: the same metrics as one
+// process (timings aside).
+TEST_F(Cluster, CrossvalFoldTasksGiveTheOneProcessMetrics) {
+  const std::string dir = testing::ScratchDir();
+  ASSERT_EQ(Workbench("generate --catalog procedural:4 --rooms 9 --frames 2 --seed 5 "
+                      "--model-folds 3 --quiet --out " +
+                      dir + "/one.db")
+                .exit_code,
+            0);
+  std::filesystem::copy_file(dir + "/one.db", dir + "/array.db");
+  ASSERT_EQ(
+      Workbench("crossval --no-vote-net --quiet --db " + dir + "/one.db --work-dir " + dir + "/m1")
+          .exit_code,
+      0);
+  const testing::CommandResult submit =
+      Workbench("crossval --no-vote-net --quiet --db " + dir + "/array.db --work-dir " + dir +
+                "/m2 --shards 3 --cpus 1 --slurm --job-dir " + dir + "/job");
+  ASSERT_EQ(submit.exit_code, 0) << submit.output;
+  const testing::CommandResult wait =
+      Workbench("jobs wait " + dir + "/job --poll 0.5 --timeout 500 --quiet");
+  ASSERT_EQ(wait.exit_code, 0) << wait.output;
+  auto metrics = [](const std::string& db) {
+    DatasetDb dataset(db, DatasetDb::Mode::kReadOnly);
+    std::map<std::string, double> kept;
+    for (const auto& [name, value] : dataset.RunMetrics(dataset.Runs().back().id)) {
+      if (name.find("latency") == std::string::npos && name.find("_ms") == std::string::npos)
+        kept[name] = value;
+    }
+    return kept;
+  };
+  const std::map<std::string, double> one = metrics(dir + "/one.db");
+  EXPECT_GT(one.size(), 20u);
+  EXPECT_EQ(metrics(dir + "/array.db"), one);
+  const testing::CommandResult bad =
+      Workbench("crossval --no-vote-net --quiet --db " + dir + "/array.db --work-dir " + dir +
+                "/m3 --shards 4 --slurm --job-dir " + dir + "/job4");
+  EXPECT_EQ(bad.exit_code, 1);
+  EXPECT_NE(bad.output.find("has 3 folds"), std::string::npos) << bad.output;
 }
 
 TEST_F(Cluster, BadFlagsAreOneLine) {

@@ -12,6 +12,7 @@
 #include "db/dataset_db.h"
 #include "reports/run_report.h"
 #include "workbench/cli/cli_common.h"
+#include "workbench/cli/cluster_flags.h"
 #include "workbench/cli/commands.h"
 #include "workbench/cli/detector_flags.h"
 #include "workbench/pipelines/compare_vocab.h"
@@ -232,6 +233,38 @@ int RunEvaluate(int argc, char** argv) {
   return 0;
 }
 
+namespace {
+
+// `crossval` as an array job: task k trains fold k's model into the work
+// directory (--train-fold k); the final job is the same crossval, which finds
+// every fold model there, evaluates the folds and stores the runs.
+ArrayJob CrossvalArrayJob(const ClusterFlags& cluster,
+                          const std::string& db_path,
+                          int argc,
+                          char** argv) {
+  const std::optional<std::string> generation =
+      DatasetDb(db_path, DatasetDb::Mode::kReadOnly).GenerationOptions();
+  const int folds = generation ? nlohmann::json::parse(*generation)
+                                     .value("model_folds", nlohmann::json::object())
+                                     .value("folds", 0)
+                               : 0;
+  Require(folds >= 2, db_path + ": not generated with --model-folds K (no folds to run)");
+  Require(cluster.shards == folds,
+          "--shards " + std::to_string(cluster.shards) + ": " + db_path + " has " +
+              std::to_string(folds) + " folds, one task each (--shards " + std::to_string(folds) +
+              ")");
+  ArrayJob job;
+  job.dir = cluster.job_dir;
+  job.name = "crossval";
+  job.tasks = folds;
+  job.resources = cluster.resources;
+  job.task_command = TaskCommandLine(argc, argv, {}, "--quiet --train-fold \"$TASK\"");
+  job.final_command = TaskCommandLine(argc, argv, {}, "");
+  return job;
+}
+
+}  // namespace
+
 int RunCrossval(int argc, char** argv) {
   CLI::App app{
       "Protocol E, leave-models-out: per fold, train without its models and evaluate on its "
@@ -259,8 +292,19 @@ int RunCrossval(int argc, char** argv) {
       ->capture_default_str();
   VoteNetFlags vote_net;
   AddVoteNetFlags(&app, &vote_net);
+  app.add_option("--train-fold",
+                 options.train_only_fold,
+                 "Only train (or find) fold K's model into --work-dir, evaluate nothing (what "
+                 "each task of 'crossval --shards' does)");
+  ClusterFlags cluster;
+  AddClusterFlags(&app, &cluster);
   if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
   ApplyGlobalFlags(catalog_flags);
+  cluster.Check();
+  if (cluster.Active()) {
+    Require(app.count("--train-fold") == 0, "--train-fold and --shards do not go together");
+    return RunArrayJob(cluster, CrossvalArrayJob(cluster, db_path, argc, argv));
+  }
   options.quiet = catalog_flags.quiet;
   if (const VoteNetTrainingOptions* v = vote_net.Resolve(catalog_flags.quiet))
     options.vote_net = *v;
@@ -282,7 +326,15 @@ int RunCrossval(int argc, char** argv) {
   }
   const Catalog catalog = OpenCatalog(catalog_flags.spec, MakeOpenOptions(catalog_flags));
   const CrossvalSummary summary = RunLeaveModelsOut(catalog, db_path, options);
-
+  if (options.train_only_fold >= 0) {
+    const CrossvalFold& fold = summary.per_fold.front();
+    std::printf("fold %d of %d: %s %s\n",
+                fold.fold,
+                summary.folds,
+                fold.model_reused ? "model present:" : "trained",
+                fold.model_path.c_str());
+    return 0;
+  }
   PrintCrossval(summary);
   return 0;
 }

@@ -111,12 +111,12 @@ namespace {
 // Fold k's model trained (or reused) without its models, then evaluated:
 // with the fixed gates collecting scorer samples when a scorer is to be
 // learnt, else as the fold's run.
-CrossvalFold TrainAndEvaluateFold(const Catalog& catalog,
-                                  const std::string& db_path,
-                                  const CrossvalOptions& options,
-                                  const ModelFolds& folds,
-                                  int k,
-                                  std::vector<ScorerSample>* samples) {
+// Fold k's model: trained without the fold's models, or reused when a model
+// of the same inputs exists.
+CrossvalFold TrainFold(const Catalog& catalog,
+                       const CrossvalOptions& options,
+                       const ModelFolds& folds,
+                       int k) {
   CrossvalFold fold;
   fold.fold = k;
   const std::set<std::string> held_out = folds.ModelsOf(k);
@@ -141,6 +141,16 @@ CrossvalFold TrainAndEvaluateFold(const Catalog& catalog,
                      "",
                      options.vote_net ? &*options.vote_net : nullptr);
   }
+  return fold;
+}
+
+CrossvalFold TrainAndEvaluateFold(const Catalog& catalog,
+                                  const std::string& db_path,
+                                  const CrossvalOptions& options,
+                                  const ModelFolds& folds,
+                                  int k,
+                                  std::vector<ScorerSample>* samples) {
+  CrossvalFold fold = TrainFold(catalog, options, folds, k);
   EvaluateCommandOptions evaluate = FoldEvaluation(options, k, folds.count);
   if (options.LearnsScorer()) {
     evaluate.kind = "crossval-gates";
@@ -277,6 +287,16 @@ CrossvalSummary RunLeaveModelsOut(const Catalog& catalog,
   const ModelFolds folds = DatasetFolds(catalog, db_path, &summary.fold_seed);
   summary.folds = folds.count;
   std::filesystem::create_directories(options.work_dir);
+  if (options.train_only_fold >= 0) {
+    Require(options.train_only_fold < folds.count,
+            "fold " + std::to_string(options.train_only_fold) + ": " + db_path + " has " +
+                std::to_string(folds.count) + " folds (0.." + std::to_string(folds.count - 1) +
+                ")");
+    summary.per_fold.push_back(TrainFold(catalog, options, folds, options.train_only_fold));
+    summary.seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    return summary;
+  }
   std::vector<std::vector<ScorerSample>> samples(folds.count);
   for (int k = 0; k < folds.count; ++k)
     summary.per_fold.push_back(

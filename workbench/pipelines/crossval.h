@@ -43,6 +43,9 @@ struct CrossvalOptions {
   std::optional<VoteNetTrainingOptions> vote_net;
   ScorerOptions scorer_options;
   bool quiet = false;
+  // >= 0: only train (or find) this fold's model and stop, no evaluation and
+  // no run (a Slurm array task; the final `crossval` reuses the models).
+  int train_only_fold = -1;
 
   CrossvalOptions() { evaluate.split = Split::kAll; }
   // Whether folds learn a scorer: asked for, and voting with the codebook.
