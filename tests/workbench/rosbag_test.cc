@@ -329,6 +329,7 @@ TEST_F(RosbagTest, HostileBagsAreOneLineWithinMemoryAndTime) {
       {"image_data_len_4G.bag", "/camera/depth/image_raw", "data claims"},
       {"tf_count_16M.bag", "/camera/depth/image_raw", "transforms claims"},
       {"bag_messy_seed3_run35.bag", "/camera/depth/points", "bag_messy_seed3_run35.bag"},
+      {"index_pos_mid_record.bag", "/camera/depth/image_raw", "is not the start of a record"},
   };
   for (const auto& c : cases) {
     const auto start = std::chrono::steady_clock::now();

@@ -80,6 +80,11 @@ class BagWalker {
     const std::string where = path_ + ": not a readable ROS 1 bag: record at byte " +
                               std::to_string(at) + (in_chunk ? " of a chunk" : "");
     Require(end - at >= 8, where + ": cut off (its lengths need 8 bytes)");
+    if (in_chunk) {
+      chunk_record_starts_.insert(at - chunk_data_at_);
+    } else {
+      record_starts_.insert(at);
+    }
     char length[4];
     Read(in, length, 4, where);
     const uint32_t header_bytes = U32(length);
@@ -106,8 +111,11 @@ class BagWalker {
               path_ + ": the chunk info at byte " + std::to_string(info_at) +
                   " names no chunk (byte " + std::to_string(chunk_at) + ")");
     }
-    Require(!index_pos_ || *index_pos_ <= file_size_,
-            path_ + ": the bag header's index position lies past the file");
+    // The bag library starts reading records there: anywhere but a record's
+    // start, it takes other bytes for lengths (a 6 KB bag asked for 2.3 GB).
+    Require(!index_pos_ || *index_pos_ == file_size_ || record_starts_.count(*index_pos_) > 0,
+            path_ + ": the bag header's index position (byte " +
+                std::to_string(index_pos_.value_or(0)) + ") is not the start of a record");
   }
 
  private:
@@ -172,7 +180,10 @@ class BagWalker {
                 " is not its data's " + std::to_string(data_bytes));
     chunks_[record_at] = size;
     last_chunk_size_ = size;
+    chunk_record_starts_.clear();
+    chunk_compressed_ = compression != "none";
     if (compression == "none") {  // its records, within it
+      chunk_data_at_ = data_at;
       const uint64_t end = data_at + data_bytes;
       for (uint64_t at = data_at; at < end;) at = Record(in, at, end, /*in_chunk=*/true);
     } else {
@@ -198,6 +209,11 @@ class BagWalker {
               where + ": index entry " + std::to_string(k) + " points at byte " +
                   std::to_string(offset) + ", past its chunk of " +
                   std::to_string(*last_chunk_size_) + " bytes");
+      // Within an uncompressed chunk, at one of its records (the records of
+      // a compressed chunk are not walked; their offsets only bounded).
+      Require(chunk_compressed_ || chunk_record_starts_.count(offset) > 0,
+              where + ": index entry " + std::to_string(k) + " points at byte " +
+                  std::to_string(offset) + " of its chunk, which starts no record");
     }
   }
 
@@ -215,6 +231,10 @@ class BagWalker {
   std::map<uint64_t, uint64_t> chunk_infos_;  // info's data offset -> chunk offset
   std::optional<uint64_t> last_chunk_size_;
   std::optional<uint64_t> index_pos_;
+  std::set<uint64_t> record_starts_;        // of the records outside chunks
+  std::set<uint64_t> chunk_record_starts_;  // of the last chunk's records, from its data
+  uint64_t chunk_data_at_ = 0;              // where the last chunk's data starts
+  bool chunk_compressed_ = false;
 };
 
 // A bounded reader of ROS 1 serialized fields (little endian; strings and
