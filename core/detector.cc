@@ -114,7 +114,9 @@ bool Detector::learned() const { return impl_->learned; }
 
 DetectionBox BoxOf(const Detection& d, const TrainedModel& model) {
   DetectionBox box;
-  if (d.model_index >= 0 && d.model_index < static_cast<int>(model.model_shapes.size())) {
+  const bool named =
+      d.model_index >= 0 && d.model_index < static_cast<int>(model.model_shapes.size());
+  if (named && !(d.width > 0 && d.depth > 0)) {
     box.low = model.model_shapes[d.model_index].low;
     box.high = model.model_shapes[d.model_index].high;
     return box;
@@ -123,7 +125,8 @@ DetectionBox BoxOf(const Detection& d, const TrainedModel& model) {
   static_assert(sizeof(kHeightM) / sizeof(float) == kAllClasses.size());
   const Eigen::Vector2f half(static_cast<float>(d.width / 2), static_cast<float>(d.depth / 2));
   box.low << -half, 0;
-  box.high << half, kHeightM[static_cast<int>(d.furniture_class)];
+  box.high << half, named ? model.model_shapes[d.model_index].high.z()
+                          : kHeightM[static_cast<int>(d.furniture_class)];
   return box;
 }
 

@@ -157,9 +157,11 @@ struct DetectorOptions {
   // The paper's stages after the learned vote: each detection's CAD models
   // ranked by the VFH part subsets of the segments inside its box (top_models
   // of them) and fitted by 3-DOF RANSAC; where the best fit's reference point
-  // lies within learned_fit_agree_m of the network's, the fit's pose and CAD
-  // model replace the network's box. Off: the network's boxes alone.
-  bool learned_fit = false;
+  // lies within learned_fit_agree_m of the network's, the detection takes
+  // the fit's yaw and names its CAD model (position and footprint stay the
+  // network's). Off: the network's boxes alone. On by default: on protocol E
+  // (2 fold seeds) the same mAP, yaw error median 6° instead of 42–49°.
+  bool learned_fit = true;
   double learned_fit_agree_m = 0.15;
 
   // Throws InputError naming the field and the rule.
@@ -187,8 +189,9 @@ struct Detection {
 };
 
 // A detection's box in its own frame (yaw about its reference point, base on
-// the floor): the fitted CAD model's bounds, else the learned footprint with
-// a class's typical height.
+// the floor): the learned footprint when there is one (with the named CAD
+// model's height, else the class's typical height), else the fitted CAD
+// model's bounds.
 struct DetectionBox {
   Eigen::Vector3f low = Eigen::Vector3f::Zero(), high = Eigen::Vector3f::Zero();
 };
@@ -318,7 +321,8 @@ struct DetectionDebug {
     bool learned = false;
     double yaw = 0, width = 0, depth = 0;
     // Learned voting with learned_fit: the best fit agreed with the network
-    // and replaced its box (fit_x, fit_y and the fits say where it was).
+    // and gave the detection its yaw and CAD model (fit_x, fit_y and the fits
+    // say where it was).
     bool refined = false;
   };
   // One line for people: "detected", "covers 0.62 of the points", ...

@@ -113,16 +113,14 @@ void Detector::FitLearned(const PreparedScan& scan,
     hypothesis.fit_y = pose.y;
     if (std::hypot(pose.x - hypothesis.x, pose.y - hypothesis.y) > impl.options.learned_fit_agree_m)
       return;
+    // The fit's yaw and CAD model; the network's position and footprint,
+    // which protocol E measured as at least as good as the fit's (a CAD
+    // model of another size, fitted to a partial view, shifts its centre).
     hypothesis.refined = true;
     Detection& d = (*detections)[k];
-    d.x = pose.x;
-    d.y = pose.y;
     d.yaw = pose.yaw;
     d.model_index = fit.best->model;
     d.model_name = impl.model.model_names[fit.best->model];
-    const ModelShape& shape = impl.model.model_shapes[fit.best->model];
-    d.width = shape.high.x() - shape.low.x();
-    d.depth = shape.high.y() - shape.low.y();
     d.verification = fit.best->verification;
     d.covered_fraction = fit.best->covered;
   });

@@ -217,8 +217,11 @@ TEST(Train, VoteNetIsStoredUsedAndItsRoomsHoldNoHeldOutModel) {
   ASSERT_FALSE(model.vote_net.empty());
   EXPECT_EQ(VoteNet::Deserialize(model.vote_net, "net").Serialize(), model.vote_net);
   EXPECT_NE(DescribeTrainedModel(model).find("vote net:    U-Net"), std::string::npos);
-  const Detector learned_detector(model, DetectorOptions{});
+  DetectorOptions network_only;
+  network_only.learned_fit = false;
+  const Detector learned_detector(model, network_only);
   EXPECT_TRUE(learned_detector.learned());
+  EXPECT_TRUE(Detector(model, DetectorOptions{}).learned());
   {  // The learned path on a frame of its own rooms: floor, bev, network, maxima.
     DatasetDb rooms(dir + "/net.fcm.rooms.db", DatasetDb::Mode::kReadOnly);
     const RoomRecord room = rooms.ReadRoom(rooms.RoomIds().front(), true);
@@ -239,7 +242,7 @@ TEST(Train, VoteNetIsStoredUsedAndItsRoomsHoldNoHeldOutModel) {
       EXPECT_GT(d.width, 0);
     }
     // With the paper's stages after the vote: a fit that agrees names its
-    // CAD model and gives the pose (here every fit agrees: 2 m).
+    // CAD model and gives the yaw (here every fit agrees: 2 m).
     DetectorOptions fitting;
     fitting.learned_fit = true;
     fitting.learned_fit_agree_m = 2.0;
@@ -261,8 +264,15 @@ TEST(Train, VoteNetIsStoredUsedAndItsRoomsHoldNoHeldOutModel) {
       ASSERT_GE(d.model_index, 0);
       EXPECT_EQ(model.model_classes[d.model_index], h.furniture_class);
       EXPECT_EQ(d.model_name, model.model_names[d.model_index]);
-      EXPECT_EQ(d.x, h.fit_x);
-      EXPECT_EQ(d.y, h.fit_y);
+      EXPECT_EQ(d.x, h.x);  // the network's position, the fit's yaw
+      EXPECT_EQ(d.y, h.y);
+      const auto best =
+          std::max_element(h.fits.begin(), h.fits.end(), [](const auto& a, const auto& b) {
+            return a.score < b.score;
+          });
+      ASSERT_NE(best, h.fits.end());
+      EXPECT_EQ(d.yaw, best->yaw);
+      EXPECT_EQ(d.model_index, best->model_index);
       EXPECT_FALSE(h.segments.empty());
     }
     EXPECT_EQ(k, static_cast<int>(fitted.detections.size()));

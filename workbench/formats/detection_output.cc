@@ -101,7 +101,7 @@ std::string ExplainDetection(const DetectionResult& result, const TrainedModel& 
                 ? model.model_names[best->model_index].c_str()
                 : "?",
             std::hypot(h.fit_x - h.x, h.fit_y - h.y),
-            h.refined ? "agrees: its pose" : "disagrees: the network's box");
+            h.refined ? "agrees: its yaw and model" : "disagrees: the network's yaw");
         out << line;
       }
       out << "-> " << DetectionDebug::Describe(h) << "\n";

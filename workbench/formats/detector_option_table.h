@@ -116,7 +116,7 @@ void ForEachDetectorOption(Options* options, Visit&& visit) {
   visit(DetectorOptionInfo{"learned_fit",
                            "--learned-fit",
                            "Learned voting: rank and fit the CAD models in each detection's box; "
-                           "an agreeing fit gives the pose and names the model"},
+                           "an agreeing fit gives the yaw and names the model"},
         o.learned_fit);
   visit(
       DetectorOptionInfo{
