@@ -113,11 +113,13 @@ void ForEachDetectorOption(Options* options, Visit&& visit) {
                            "--torch-threads",
                            "Learned voting: the network's threads (0: the library's default)"},
         o.torch_threads);
-  visit(DetectorOptionInfo{"learned_fit",
-                           "--learned-fit",
-                           "Learned voting: rank and fit the CAD models in each detection's box; "
-                           "an agreeing fit gives the yaw and names the model"},
-        o.learned_fit);
+  visit(
+      DetectorOptionInfo{
+          "learned_fit",
+          "--learned-fit",
+          "Learned voting (on by default): rank and fit the CAD models in each detection's box; "
+          "an agreeing fit gives the yaw and names the model"},
+      o.learned_fit);
   visit(
       DetectorOptionInfo{
           "learned_fit_agree_m",
