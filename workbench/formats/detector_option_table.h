@@ -124,7 +124,7 @@ void ForEachDetectorOption(Options* options, Visit&& visit) {
       DetectorOptionInfo{
           "learned_fit_agree_m",
           "--fit-agree",
-          "Learned voting: a fit this near the network's centre replaces its box (m)"},
+          "Learned voting: a fit this near the network's centre gives the yaw and model (m)"},
       o.learned_fit_agree_m);
 }
 
