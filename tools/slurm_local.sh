@@ -9,7 +9,8 @@
 #
 # DIR (default /tmp/furn-slurm) holds slurm.conf, the daemons' state, logs
 # and pid files. The node offers this machine's CPUs and memory; no cgroups,
-# no accounting database (job state comes from squeue and the job folder).
+# no accounting database (job state comes from squeue and the job folder);
+# controller and node at 127.0.0.1, so the host name need not resolve.
 set -euo pipefail
 
 mode="${1:-}"
@@ -27,7 +28,7 @@ write_conf() {
   cat > "$conf" <<EOF
 # Written by tools/slurm_local.sh: one node, this machine.
 ClusterName=furn-local
-SlurmctldHost=$host
+SlurmctldHost=$host(127.0.0.1)
 SlurmUser=root
 SlurmdUser=root
 AuthType=auth/munge
@@ -53,7 +54,7 @@ MinJobAge=3600
 SchedulerParameters=batch_sched_delay=0
 DefMemPerCPU=2048
 DependencyParameters=kill_invalid_depend
-NodeName=$host CPUs=$cpus RealMemory=$memory State=UNKNOWN
+NodeName=$host NodeAddr=127.0.0.1 CPUs=$cpus RealMemory=$memory State=UNKNOWN
 PartitionName=local Nodes=$host Default=YES MaxTime=INFINITE State=UP
 EOF
 }
