@@ -103,8 +103,7 @@ void Detector::FitLearned(const PreparedScan& scan,
   ParallelFor(0, static_cast<int>(fitted.size()), [&](int k) {
     DetectionDebug::Hypothesis& hypothesis = (*hypotheses)[fitted[k]];
     if (supports[k].empty()) return;
-    impl.Rank(supports[k], neighbours, &hypothesis);
-    hypothesis.outcome = HypothesisOutcome::kDetected;  // the network decided; Rank may not
+    impl.Rank(supports[k], neighbours, &hypothesis);  // with support: sets no outcome
     HypothesisFit fit = FitHypothesis(scan, hypothesis, fitted[k]);
     hypothesis.fits = std::move(fit.tried);
     if (!fit.best) return;

@@ -192,6 +192,52 @@ int PlaceDiningGroup(const ComposerCatalog& catalog,
   return placed;
 }
 
+// Cameras: in free space (0.35 m from every footprint and wall), looking at a
+// target piece from at least 1 m, or at the room centre; `camera_zone` is
+// the spot kept free where a camera surely fits.
+void PlaceCameras(const PlacedObject& camera_zone,
+                  const RoomOptions& options,
+                  RoomLayout* room,
+                  Rng* rng) {
+  for (int frame = 0; frame < options.frames_per_room; ++frame) {
+    for (int attempt = 0; attempt < 200; ++attempt) {
+      PlacedObject probe;
+      probe.size_m = Eigen::Vector3d(0.1, 0.1, 0);
+      if (attempt < 100) {
+        probe.x = rng->Uniform(-room->width_m / 2 + 0.35, room->width_m / 2 - 0.35);
+        probe.y = rng->Uniform(-room->depth_m / 2 + 0.35, room->depth_m / 2 - 0.35);
+      } else {  // inside the zone kept free for cameras
+        probe.x = camera_zone.x + rng->Uniform(-0.05, 0.05);
+        probe.y = camera_zone.y + rng->Uniform(-0.05, 0.05);
+      }
+      if (!Fits(probe, *room, 0.35)) continue;
+      Eigen::Vector2d target(0, 0);
+      std::vector<const PlacedObject*> targets;
+      for (const PlacedObject& object : room->objects) {
+        if (object.IsTarget() && std::hypot(object.x - probe.x, object.y - probe.y) > 1.0)
+          targets.push_back(&object);
+      }
+      if (!targets.empty()) {
+        const PlacedObject* chosen =
+            targets[rng->UniformInt(0, static_cast<int64_t>(targets.size()) - 1)];
+        target = Eigen::Vector2d(chosen->x, chosen->y);
+      }
+      Eigen::Vector2d direction = target - Eigen::Vector2d(probe.x, probe.y);
+      if (direction.norm() < 0.5) direction = Eigen::Vector2d(-probe.x, -probe.y);
+      if (direction.norm() < 1e-6) direction = Eigen::Vector2d(0, 1);
+      const double heading = std::atan2(direction.y(), direction.x()) + rng->Uniform(-0.3, 0.3);
+      const double pitch = rng->Uniform(options.min_pitch_deg, options.max_pitch_deg) * M_PI / 180;
+      const double height = rng->Uniform(options.min_camera_height_m, options.max_camera_height_m);
+      const Eigen::Vector3d forward(std::cos(heading) * std::cos(pitch),
+                                    std::sin(heading) * std::cos(pitch),
+                                    -std::sin(pitch));
+      room->world_from_cameras.push_back(
+          LookAlong(Eigen::Vector3d(probe.x, probe.y, height), forward));
+      break;
+    }
+  }
+}
+
 }  // namespace
 
 void RoomOptions::Check() const {
@@ -321,45 +367,7 @@ RoomLayout ComposeRoom(const ComposerCatalog& catalog,
   uint16_t next_id = kFirstObjectId;
   for (PlacedObject& object : room.objects) object.instance_id = next_id++;
 
-  // Cameras: in free space (0.35 m from every footprint and wall), looking at a
-  // target piece from at least 1 m, or at the room centre.
-  for (int frame = 0; frame < options.frames_per_room; ++frame) {
-    for (int attempt = 0; attempt < 200; ++attempt) {
-      PlacedObject probe;
-      probe.size_m = Eigen::Vector3d(0.1, 0.1, 0);
-      if (attempt < 100) {
-        probe.x = rng.Uniform(-room.width_m / 2 + 0.35, room.width_m / 2 - 0.35);
-        probe.y = rng.Uniform(-room.depth_m / 2 + 0.35, room.depth_m / 2 - 0.35);
-      } else {  // inside the zone kept free for cameras
-        probe.x = camera_zone.x + rng.Uniform(-0.05, 0.05);
-        probe.y = camera_zone.y + rng.Uniform(-0.05, 0.05);
-      }
-      if (!Fits(probe, room, 0.35)) continue;
-      Eigen::Vector2d target(0, 0);
-      std::vector<const PlacedObject*> targets;
-      for (const PlacedObject& object : room.objects) {
-        if (object.IsTarget() && std::hypot(object.x - probe.x, object.y - probe.y) > 1.0)
-          targets.push_back(&object);
-      }
-      if (!targets.empty()) {
-        const PlacedObject* chosen =
-            targets[rng.UniformInt(0, static_cast<int64_t>(targets.size()) - 1)];
-        target = Eigen::Vector2d(chosen->x, chosen->y);
-      }
-      Eigen::Vector2d direction = target - Eigen::Vector2d(probe.x, probe.y);
-      if (direction.norm() < 0.5) direction = Eigen::Vector2d(-probe.x, -probe.y);
-      if (direction.norm() < 1e-6) direction = Eigen::Vector2d(0, 1);
-      const double heading = std::atan2(direction.y(), direction.x()) + rng.Uniform(-0.3, 0.3);
-      const double pitch = rng.Uniform(options.min_pitch_deg, options.max_pitch_deg) * M_PI / 180;
-      const double height = rng.Uniform(options.min_camera_height_m, options.max_camera_height_m);
-      const Eigen::Vector3d forward(std::cos(heading) * std::cos(pitch),
-                                    std::sin(heading) * std::cos(pitch),
-                                    -std::sin(pitch));
-      room.world_from_cameras.push_back(
-          LookAlong(Eigen::Vector3d(probe.x, probe.y, height), forward));
-      break;
-    }
-  }
+  PlaceCameras(camera_zone, options, &room, &rng);
   Require(!room.world_from_cameras.empty(),
           "room " + std::to_string(room_seed) + ": no free space for a camera");
   return room;

@@ -53,17 +53,23 @@ class Cluster : public ::testing::Test {
 constexpr const char* kGenerate =
     "generate --catalog procedural:4 --rooms 8 --frames 2 --seed 5 --quiet";
 
+// kGenerate as a 4-task array job with its folder in `dir`, merged into dir/merged.db.
+std::string ShardedGenerate(const std::string& dir) {
+  return std::string(kGenerate) + " --out " + dir +
+         "/merged.db --shards 4 --cpus 1 --slurm --job-dir " + dir + "/job";
+}
+
+std::string WaitFor(const std::string& dir, int timeout_s) {
+  return "jobs wait " + dir + "/job --poll 0.5 --timeout " + std::to_string(timeout_s) + " --quiet";
+}
+
 TEST_F(Cluster, FourShardGenerateEqualsOneProcess) {
   const std::string dir = testing::ScratchDir();
   ASSERT_EQ(Workbench(std::string(kGenerate) + " --out " + dir + "/one.db").exit_code, 0);
-  const testing::CommandResult submit = Workbench(std::string(kGenerate) + " --out " + dir +
-                                                  "/merged.db --shards 4 --cpus 1 --slurm "
-                                                  "--job-dir " +
-                                                  dir + "/job");
+  const testing::CommandResult submit = Workbench(ShardedGenerate(dir));
   ASSERT_EQ(submit.exit_code, 0) << submit.output;
   EXPECT_NE(submit.output.find("4 of 4 tasks"), std::string::npos) << submit.output;
-  const testing::CommandResult wait =
-      Workbench("jobs wait " + dir + "/job --poll 0.5 --timeout 300 --quiet");
+  const testing::CommandResult wait = Workbench(WaitFor(dir, 300));
   ASSERT_EQ(wait.exit_code, 0) << wait.output;
   EXPECT_EQ(testing::DumpDataset(dir + "/merged.db"), testing::DumpDataset(dir + "/one.db"));
   for (int k = 0; k < 4; ++k) {
@@ -71,10 +77,7 @@ TEST_F(Cluster, FourShardGenerateEqualsOneProcess) {
     EXPECT_TRUE(std::filesystem::exists(dir + "/job/logs/task-" + std::to_string(k) + ".log"));
   }
   // Everything done: a rerun submits nothing.
-  const testing::CommandResult again = Workbench(std::string(kGenerate) + " --out " + dir +
-                                                 "/merged.db --shards 4 --cpus 1 --slurm "
-                                                 "--job-dir " +
-                                                 dir + "/job");
+  const testing::CommandResult again = Workbench(ShardedGenerate(dir));
   EXPECT_EQ(again.exit_code, 0) << again.output;
   EXPECT_NE(again.output.find("nothing submitted"), std::string::npos) << again.output;
 }
@@ -82,8 +85,7 @@ TEST_F(Cluster, FourShardGenerateEqualsOneProcess) {
 TEST_F(Cluster, ACancelledTaskIsResubmittedAloneByARerun) {
   const std::string dir = testing::ScratchDir();
   ASSERT_EQ(Workbench(std::string(kGenerate) + " --out " + dir + "/one.db").exit_code, 0);
-  const std::string command = std::string(kGenerate) + " --out " + dir +
-                              "/merged.db --shards 4 --cpus 1 --slurm --job-dir " + dir + "/job";
+  const std::string command = ShardedGenerate(dir);
   // Held, so that task 2 can be cancelled before it runs.
   setenv("SBATCH_HOLD", "1", 1);
   const testing::CommandResult submit = Workbench(command);
@@ -93,8 +95,7 @@ TEST_F(Cluster, ACancelledTaskIsResubmittedAloneByARerun) {
   const std::string id = array.substr(0, array.find(':'));
   ASSERT_EQ(Shell("scancel " + id + "_2").exit_code, 0);
   ASSERT_EQ(Shell("scontrol release " + id).exit_code, 0);
-  const testing::CommandResult failed =
-      Workbench("jobs wait " + dir + "/job --poll 0.5 --timeout 300 --quiet");
+  const testing::CommandResult failed = Workbench(WaitFor(dir, 300));
   EXPECT_EQ(failed.exit_code, 1) << failed.output;
   EXPECT_NE(failed.output.find("task 2 missing"), std::string::npos) << failed.output;
   EXPECT_FALSE(std::filesystem::exists(dir + "/merged.db"));
@@ -102,8 +103,7 @@ TEST_F(Cluster, ACancelledTaskIsResubmittedAloneByARerun) {
   const testing::CommandResult rerun = Workbench(command);
   ASSERT_EQ(rerun.exit_code, 0) << rerun.output;
   EXPECT_NE(rerun.output.find("1 of 4 tasks"), std::string::npos) << rerun.output;
-  const testing::CommandResult wait =
-      Workbench("jobs wait " + dir + "/job --poll 0.5 --timeout 300 --quiet");
+  const testing::CommandResult wait = Workbench(WaitFor(dir, 300));
   ASSERT_EQ(wait.exit_code, 0) << wait.output;
   EXPECT_EQ(testing::DumpDataset(dir + "/merged.db"), testing::DumpDataset(dir + "/one.db"));
 }
@@ -127,8 +127,7 @@ TEST_F(Cluster, CrossvalFoldTasksGiveTheOneProcessMetrics) {
       Workbench("crossval --no-vote-net --quiet --db " + dir + "/array.db --work-dir " + dir +
                 "/m2 --shards 3 --cpus 1 --slurm --job-dir " + dir + "/job");
   ASSERT_EQ(submit.exit_code, 0) << submit.output;
-  const testing::CommandResult wait =
-      Workbench("jobs wait " + dir + "/job --poll 0.5 --timeout 500 --quiet");
+  const testing::CommandResult wait = Workbench(WaitFor(dir, 500));
   ASSERT_EQ(wait.exit_code, 0) << wait.output;
   auto metrics = [](const std::string& db) {
     DatasetDb dataset(db, DatasetDb::Mode::kReadOnly);

@@ -1,6 +1,5 @@
 #include "workbench/formats/detection_output.h"
 
-#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <nlohmann/json.hpp>
@@ -69,6 +68,25 @@ std::string ScanErrorJson(const std::string& input, const std::string& error) {
   return nlohmann::ordered_json{{"input", input}, {"error", error}}.dump() + "\n";
 }
 
+namespace {
+
+// The highest-scoring fit of a hypothesis (the first of equals), or null.
+const DetectionDebug::Hypothesis::Fit* BestFit(const DetectionDebug::Hypothesis& h) {
+  const DetectionDebug::Hypothesis::Fit* best = nullptr;
+  for (const DetectionDebug::Hypothesis::Fit& f : h.fits) {
+    if (best == nullptr || f.score > best->score) best = &f;
+  }
+  return best;
+}
+
+const char* ModelNameOf(const TrainedModel& model, int index) {
+  return index >= 0 && index < static_cast<int>(model.model_names.size())
+             ? model.model_names[index].c_str()
+             : "?";
+}
+
+}  // namespace
+
 std::string ExplainDetection(const DetectionResult& result, const TrainedModel& model) {
   std::ostringstream out;
   const bool learned = !result.debug.hypotheses.empty() && result.debug.hypotheses.front().learned;
@@ -88,20 +106,13 @@ std::string ExplainDetection(const DetectionResult& result, const TrainedModel& 
                     h.depth,
                     h.vote_weight);
       out << line;
-      if (!h.fits.empty()) {  // learned_fit: the best fit, and whether it agreed
-        const auto best =
-            std::max_element(h.fits.begin(), h.fits.end(), [](const auto& a, const auto& b) {
-              return a.score < b.score;
-            });
-        std::snprintf(
-            line,
-            sizeof(line),
-            "fit %s %.2f m away (%s)  ",
-            best->model_index >= 0 && best->model_index < static_cast<int>(model.model_names.size())
-                ? model.model_names[best->model_index].c_str()
-                : "?",
-            std::hypot(h.fit_x - h.x, h.fit_y - h.y),
-            h.refined ? "agrees: its yaw and model" : "disagrees: the network's yaw");
+      if (const DetectionDebug::Hypothesis::Fit* best = BestFit(h)) {  // learned_fit
+        std::snprintf(line,
+                      sizeof(line),
+                      "fit %s %.2f m away (%s)  ",
+                      ModelNameOf(model, best->model_index),
+                      std::hypot(h.fit_x - h.x, h.fit_y - h.y),
+                      h.refined ? "agrees: its yaw and model" : "disagrees: the network's yaw");
         out << line;
       }
       out << "-> " << DetectionDebug::Describe(h) << "\n";
@@ -118,20 +129,13 @@ std::string ExplainDetection(const DetectionResult& result, const TrainedModel& 
                   h.segments.size());
     out << line;
     // The best fit, if any: the one the outcome is about.
-    const DetectionDebug::Hypothesis::Fit* best = nullptr;
-    for (const DetectionDebug::Hypothesis::Fit& f : h.fits) {
-      if (best == nullptr || f.score > best->score) best = &f;
-    }
-    if (best != nullptr) {
-      std::snprintf(
-          line,
-          sizeof(line),
-          "fit %s covered %.2f verification %.2f",
-          best->model_index >= 0 && best->model_index < static_cast<int>(model.model_names.size())
-              ? model.model_names[best->model_index].c_str()
-              : "?",
-          best->covered_fraction,
-          best->verification);
+    if (const DetectionDebug::Hypothesis::Fit* best = BestFit(h)) {
+      std::snprintf(line,
+                    sizeof(line),
+                    "fit %s covered %.2f verification %.2f",
+                    ModelNameOf(model, best->model_index),
+                    best->covered_fraction,
+                    best->verification);
       out << line;
       if (h.probability >= 0) {
         std::snprintf(line, sizeof(line), " p %.2f", h.probability);
