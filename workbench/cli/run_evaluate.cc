@@ -4,6 +4,8 @@
 #include <cstdio>
 #include <filesystem>
 #include <nlohmann/json.hpp>
+#include <set>
+#include <tuple>
 #include <vector>
 
 #include "core/error.h"
@@ -18,6 +20,7 @@
 #include "workbench/pipelines/compare_vocab.h"
 #include "workbench/pipelines/crossval.h"
 #include "workbench/pipelines/evaluate.h"
+#include "workbench/pipelines/generate.h"  // ParseShard
 #include "workbench/pipelines/train.h"
 
 namespace furn {
@@ -165,6 +168,57 @@ void PrintCrossval(const CrossvalSummary& summary) {
       summary.scorer_path.empty() ? "(none: too few hypotheses)" : summary.scorer_path.c_str());
 }
 
+// `evaluate` as an array job: task i evaluates shard i/N of the frames into
+// the job folder; the final job is the same evaluate, which merges the N
+// shard files into one run of the dataset.
+ArrayJob EvaluateArrayJob(const ClusterFlags& cluster, int argc, char** argv) {
+  ArrayJob job;
+  job.dir = cluster.job_dir;
+  job.name = "evaluate";
+  job.tasks = cluster.shards;
+  job.resources = cluster.resources;
+  const std::string dir = std::filesystem::absolute(cluster.job_dir).string();
+  const std::string n = std::to_string(cluster.shards);
+  const std::set<std::string> drop = {"--shard", "--shard-out", "--merge-shards"};
+  job.task_command = TaskCommandLine(argc,
+                                     argv,
+                                     drop,
+                                     "--quiet --shard \"$TASK\"/" + n + " --shard-out " +
+                                         ShellQuote(dir + "/shard-") + "\"$TASK\"" + "'.json'");
+  job.task_output = dir + "/shard-$TASK.json";
+  std::string shards;
+  for (int k = 0; k < cluster.shards; ++k)
+    shards += " " + ShellQuote(dir + "/shard-" + std::to_string(k) + ".json");
+  job.final_command = TaskCommandLine(argc, argv, drop, "--merge-shards" + shards);
+  return job;
+}
+
+// Evaluate in this process: a whole run, one shard of it, or the merge of
+// the shards.
+int EvaluateHere(const std::string& model_path,
+                 const std::string& db_path,
+                 const std::string& shard,
+                 const std::vector<std::string>& merge,
+                 EvaluateCommandOptions options) {
+  if (!merge.empty()) {
+    const EvaluateSummary summary = MergeEvaluation(model_path, db_path, options, merge);
+    std::printf("merged %zu shards:\n", merge.size());
+    PrintHeadline(summary);
+    return 0;
+  }
+  if (options.shard_count > 0) {
+    const EvaluateSummary summary = EvaluateModel(model_path, db_path, options);
+    std::printf("shard %s: %d frames in %.1f s, written to %s\n",
+                shard.c_str(),
+                summary.frames,
+                summary.seconds,
+                options.shard_out.c_str());
+    return 0;
+  }
+  PrintHeadline(EvaluateModel(model_path, db_path, options));
+  return 0;
+}
+
 }  // namespace
 
 int RunEvaluate(int argc, char** argv) {
@@ -191,8 +245,27 @@ int RunEvaluate(int argc, char** argv) {
   app.add_option("--seeds", seeds, "Seeds per vocabulary (with --compare-vocab)")
       ->capture_default_str();
   app.add_option("--work-dir", work_dir, "Where --compare-vocab writes its models");
+  std::string shard;
+  std::vector<std::string> merge;
+  app.add_option("--shard",
+                 shard,
+                 "i/N: evaluate only frames p of the split with p % N == i, into --shard-out "
+                 "(what each task of 'evaluate --shards' does)");
+  app.add_option("--shard-out", options.shard_out, "With --shard: the shard file to write");
+  app.add_option("--merge-shards",
+                 merge,
+                 "Shard files 0..N-1 of this evaluation: store them as one run (the final job "
+                 "of 'evaluate --shards')");
+  ClusterFlags cluster;
+  AddClusterFlags(&app, &cluster);
   if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
   ApplyGlobalFlags(catalog_flags);  // --quiet: no progress bar
+  cluster.Check();
+  Require(shard.empty() == options.shard_out.empty(), "--shard i/N and --shard-out go together");
+  Require(shard.empty() || merge.empty(), "--shard and --merge-shards do not go together");
+  Require(!(compare_vocab && (cluster.Active() || !shard.empty() || !merge.empty())),
+          "--compare-vocab runs in one process (no --shards, --shard or --merge-shards)");
+  if (!shard.empty()) std::tie(options.shard_index, options.shard_count) = ParseShard(shard);
   options.split = ParseSplit(split, "--split");
   options.detector = detector_flags.Resolve();
   if (compare_vocab) {
@@ -228,9 +301,15 @@ int RunEvaluate(int argc, char** argv) {
     return 0;
   }
   Require(!model_path.empty(), "--model is required (or --compare-vocab)");
-  const EvaluateSummary summary = EvaluateModel(model_path, db_path, options);
-  PrintHeadline(summary);
-  return 0;
+  if (cluster.Active()) {
+    Require(shard.empty() && merge.empty(),
+            "--shards N runs --shard and --merge-shards itself; give neither");
+    // Checked here, before a job is submitted: the files every task needs.
+    DatasetDb(db_path, DatasetDb::Mode::kReadOnly);
+    Require(std::filesystem::is_regular_file(model_path), model_path + ": no such model file");
+    return RunArrayJob(cluster, EvaluateArrayJob(cluster, argc, argv));
+  }
+  return EvaluateHere(model_path, db_path, shard, merge, options);
 }
 
 namespace {

@@ -1,14 +1,77 @@
 #include <CLI/CLI.hpp>
 #include <cstdio>
+#include <filesystem>
+#include <set>
+#include <tuple>
 
 #include "core/error.h"
 #include "reports/evaluation.h"
 #include "workbench/cli/cli_common.h"
+#include "workbench/cli/cluster_flags.h"
 #include "workbench/cli/commands.h"
 #include "workbench/cli/detector_flags.h"
+#include "workbench/pipelines/generate.h"  // ParseShard
 #include "workbench/pipelines/tune.h"
 
 namespace furn {
+
+namespace {
+
+// `tune` as an array job: task i evaluates trials t with t % N == i into the
+// job folder (training the models they need into the shared --work-dir); the
+// final job is the same tune, which stores those evaluations as the trials'
+// runs, ranks them, checks the best on the test split and writes the report.
+ArrayJob TuneArrayJob(const ClusterFlags& cluster,
+                      const TuneOptions& options,
+                      int argc,
+                      char** argv) {
+  Require(cluster.shards <= options.trials,
+          "--shards " + std::to_string(cluster.shards) + ": more tasks than --trials " +
+              std::to_string(options.trials) + " (one task runs one or more trials)");
+  ArrayJob job;
+  job.dir = cluster.job_dir;
+  job.name = "tune";
+  job.tasks = cluster.shards;
+  job.resources = cluster.resources;
+  const std::string results = std::filesystem::absolute(cluster.job_dir).string() + "/trials";
+  const std::set<std::string> drop = {"--trial-shard", "--results-dir"};
+  job.task_command =
+      TaskCommandLine(argc,
+                      argv,
+                      drop,
+                      "--quiet --trial-shard \"$TASK\"/" + std::to_string(cluster.shards) +
+                          " --results-dir " + ShellQuote(results));
+  job.final_command = TaskCommandLine(argc, argv, drop, "--results-dir " + ShellQuote(results));
+  job.final_output = std::filesystem::absolute(options.out_dir).string() + "/best_options.json";
+  return job;
+}
+
+void PrintTuneSummary(const TuneOptions& options, const TuneSummary& summary) {
+  const MetricId objective = MetricId::Parse(options.objective);
+  std::printf(
+      "tune %s: %d trials (%d done before), %d models trained; best is trial %d (run %lld)\n",
+      summary.tune_id.c_str(),
+      summary.trials,
+      summary.trials_resumed,
+      summary.models_trained,
+      summary.best_index,
+      static_cast<long long>(summary.best_run));
+  std::printf("  %s on %s: base %.3f, best %.3f\n",
+              options.objective.c_str(),
+              options.split.c_str(),
+              MetricOrNan(summary.base_validation, objective),
+              MetricOrNan(summary.best_validation, objective));
+  if (!summary.base_test.empty()) {
+    std::printf("  %s on %s: base %.3f, best %.3f\n",
+                options.objective.c_str(),
+                options.test_split.c_str(),
+                MetricOrNan(summary.base_test, objective),
+                MetricOrNan(summary.best_test, objective));
+  }
+  std::printf("wrote %s and %s\n", summary.best_options_path.c_str(), summary.report_path.c_str());
+}
+
+}  // namespace
 
 int RunTune(int argc, char** argv) {
   CLI::App app{"Search training and detection options on a validation split; every trial is a run",
@@ -47,8 +110,22 @@ int RunTune(int argc, char** argv) {
   app.add_option("--model",
                  options.base_model_path,
                  "A model trained with the base trainer options (saves training it again)");
+  std::string trial_shard;
+  app.add_option("--trial-shard",
+                 trial_shard,
+                 "i/N: evaluate only trials t with t % N == i into --results-dir (what each task "
+                 "of 'tune --shards' does)");
+  app.add_option("--results-dir",
+                 options.results_dir,
+                 "Where the tasks of 'tune --shards' put the trials' evaluations; without "
+                 "--trial-shard: store them as runs and rank (the final job)");
+  ClusterFlags cluster;
+  AddClusterFlags(&app, &cluster);
   if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
   ApplyGlobalFlags(catalog_flags);
+  cluster.Check();
+  if (!trial_shard.empty())
+    std::tie(options.trial_shard, options.trial_shards) = ParseShard(trial_shard);
   Require(strategy == "grid" || strategy == "random",
           "--strategy '" + strategy + "' must be grid or random");
   options.strategy = strategy == "grid" ? TuneStrategy::kGrid : TuneStrategy::kRandom;
@@ -57,29 +134,22 @@ int RunTune(int argc, char** argv) {
   options.base_detector = detector_flags.Resolve();
   options.Check();
   const Catalog catalog = OpenCatalog(catalog_flags.spec, MakeOpenOptions(catalog_flags));
-  const TuneSummary summary = RunTuning(catalog, options);
-  const MetricId objective = MetricId::Parse(options.objective);
-  std::printf(
-      "tune %s: %d trials (%d done before), %d models trained; best is trial %d (run %lld)\n",
-      summary.tune_id.c_str(),
-      summary.trials,
-      summary.trials_resumed,
-      summary.models_trained,
-      summary.best_index,
-      static_cast<long long>(summary.best_run));
-  std::printf("  %s on %s: base %.3f, best %.3f\n",
-              options.objective.c_str(),
-              options.split.c_str(),
-              MetricOrNan(summary.base_validation, objective),
-              MetricOrNan(summary.best_validation, objective));
-  if (!summary.base_test.empty()) {
-    std::printf("  %s on %s: base %.3f, best %.3f\n",
-                options.objective.c_str(),
-                options.test_split.c_str(),
-                MetricOrNan(summary.base_test, objective),
-                MetricOrNan(summary.best_test, objective));
+  if (cluster.Active()) {
+    Require(trial_shard.empty() && options.results_dir.empty(),
+            "--shards N runs --trial-shard and --results-dir itself; give neither");
+    CheckTuning(catalog, options);  // before anything is submitted
+    return RunArrayJob(cluster, TuneArrayJob(cluster, options, argc, argv));
   }
-  std::printf("wrote %s and %s\n", summary.best_options_path.c_str(), summary.report_path.c_str());
+  const TuneSummary summary = RunTuning(catalog, options);
+  if (options.trial_shards > 0) {
+    std::printf("tune %s: trial shard %s: %d trials evaluated into %s\n",
+                summary.tune_id.c_str(),
+                trial_shard.c_str(),
+                summary.trials,
+                options.results_dir.c_str());
+    return 0;
+  }
+  PrintTuneSummary(options, summary);
   return 0;
 }
 

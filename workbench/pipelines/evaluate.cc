@@ -22,6 +22,7 @@
 #include "workbench/formats/json_text.h"
 #include "workbench/formats/real_labels.h"
 #include "workbench/formats/scan_file.h"
+#include "workbench/pipelines/evaluated_frame.h"
 
 namespace furn {
 namespace {
@@ -102,10 +103,12 @@ int SymmetryOrder(const ModelShape& shape) {
 
 namespace {
 
-// The rooms of the split (and fold) to evaluate, and how many frames.
+// The rooms of the split (and fold) to evaluate (without their images), how
+// many of their frames, in order, and the hash of those frames' contents.
 struct FrameSelection {
-  std::vector<int64_t> rooms;
+  std::vector<RoomRecord> rooms;
   int frames = 0;
+  std::string dataset_hash;
 };
 
 FrameSelection SelectFrames(DatasetDb& dataset,
@@ -113,16 +116,25 @@ FrameSelection SelectFrames(DatasetDb& dataset,
                             const EvaluateCommandOptions& options) {
   FrameSelection selection;
   for (int64_t id : dataset.RoomIds()) {
-    const RoomRecord room = dataset.ReadRoom(id, /*with_images=*/false);
+    RoomRecord room = dataset.ReadRoom(id, /*with_images=*/false);
     if (!InSplit(room.split, options.split)) continue;
     if (options.fold_count > 0 && FoldOfRoom(id, options.fold_count) != options.fold) continue;
-    selection.rooms.push_back(id);
     selection.frames += static_cast<int>(room.frames.size());
+    selection.rooms.push_back(std::move(room));
   }
   if (options.max_frames > 0) selection.frames = std::min(selection.frames, options.max_frames);
   Require(selection.frames > 0,
           db_path + ": no frames in split '" + EnumName(options.split) + "'" +
               (options.fold_count > 0 ? " of fold " + std::to_string(options.fold) : ""));
+  ContentHasher hash;
+  int position = 0;
+  for (const RoomRecord& room : selection.rooms) {
+    for (const FrameRecord& frame : room.frames) {
+      if (position++ < selection.frames)
+        hash.Update(frame.content_hash.data(), frame.content_hash.size());
+    }
+  }
+  selection.dataset_hash = hash.HexDigest();
   return selection;
 }
 
@@ -166,15 +178,6 @@ std::vector<TruthObject> TruthOf(const RoomRecord& room,
   }
   return truth;
 }
-
-// What the evaluation of one frame adds to the run.
-struct EvaluatedFrame {
-  DetectionStatus status = DetectionStatus::kDetected;
-  FrameOutcome outcome;
-  std::vector<RunDetectionRecord> detections;
-  RunFrameRecord record;
-  std::vector<ScorerSample> scorer_samples;
-};
 
 // Hypotheses that passed the scorer's gates, labelled by the ground truth:
 // positive when the fit lies within 10 cm of a true object of its class.
@@ -288,60 +291,105 @@ std::string StoredOptionsJson(const EvaluateCommandOptions& options,
 
 }  // namespace
 
-EvaluateSummary EvaluateModel(const std::string& model_path,
-                              const std::string& db_path,
-                              const EvaluateCommandOptions& options) {
+namespace {
+
+void CheckEvaluateOptions(const EvaluateCommandOptions& options) {
   Require(options.max_frames >= 0, "max frames must be >= 0");
   Require(options.fold_count == 0 || (options.fold >= 0 && options.fold < options.fold_count),
           "fold " + std::to_string(options.fold) + " must be in 0.." +
               std::to_string(options.fold_count - 1));
-  const auto start = std::chrono::steady_clock::now();
-  // The dataset first: a mistyped path fails before the model loads, and creates nothing.
-  DatasetDb dataset(db_path, DatasetDb::Mode::kReadWriteExisting);
-  const std::string model_bytes = ReadFileBytes(model_path);
-  const Detector detector(LoadTrainedModel(model_path), options.detector);
+  Require(options.shard_count == 0 ||
+              (options.shard_index >= 0 && options.shard_index < options.shard_count),
+          "shard " + std::to_string(options.shard_index) + "/" +
+              std::to_string(options.shard_count) + ": i/N needs 0 <= i < N");
+  Require(options.shard_count == 0 || !options.shard_out.empty(),
+          "a shard of an evaluation needs the file to write it to");
+  Require(options.shard_count == 0 || !options.collect_scorer_samples,
+          "a shard of an evaluation does not collect scorer samples");
+}
+
+EvaluationOptions EvaluationOptionsOf(const EvaluateCommandOptions& options) {
+  EvaluationOptions evaluation = options.evaluation;
+  evaluation.max_distance_m = options.detector.max_range_m;
+  return evaluation;
+}
+
+std::string HashOf(const std::string& bytes) {
+  ContentHasher hash;
+  hash.Update(bytes.data(), bytes.size());
+  return hash.HexDigest();
+}
+
+// Detection in the selected frames at positions p with p % shard_count ==
+// shard_index (every frame when shard_count is 0), in order.
+std::vector<EvaluatedFrame> DetectFrames(DatasetDb& dataset,
+                                         const std::string& db_path,
+                                         const Detector& detector,
+                                         const FrameSelection& selection,
+                                         const EvaluateCommandOptions& options) {
   const ModelFacts facts = FactsOf(detector.model());
   const std::set<int64_t> estimated_pose =
       FramesWithEstimatedPose(dataset.GenerationOptions().value_or(""));
-  const FrameSelection selection = SelectFrames(dataset, db_path, options);
+  auto wanted = [&](int position) {
+    return position < selection.frames &&
+           (options.shard_count == 0 || position % options.shard_count == options.shard_index);
+  };
+  int total = 0;
+  for (int p = 0; p < selection.frames; ++p) total += wanted(p);
+  std::vector<EvaluatedFrame> frames;
+  Progress progress("evaluate", total, "frames");
+  int first = 0;  // position of the room's first frame
+  for (const RoomRecord& listed : selection.rooms) {
+    const int count = static_cast<int>(listed.frames.size());
+    bool any = false;
+    for (int k = 0; k < count; ++k) any = any || wanted(first + k);
+    if (any) {
+      const RoomRecord room = dataset.ReadRoom(listed.id, /*with_images=*/true);
+      for (int k = 0; k < count; ++k) {
+        if (!wanted(first + k)) continue;
+        // A frame with nothing in range (the camera against a wall, a dead
+        // sensor) has no detections; its objects count as missed or ignored.
+        frames.push_back(EvaluateFrame(detector,
+                                       room,
+                                       room.frames[k],
+                                       estimated_pose.count(room.frames[k].id) > 0,
+                                       facts,
+                                       db_path,
+                                       options.collect_scorer_samples));
+        frames.back().position = first + k;
+        progress.Advance();
+      }
+    }
+    first += count;
+  }
+  progress.Finish();
+  return frames;
+}
 
+// The run of the evaluated frames (every frame of the selection, in order):
+// metrics, curves, detections and timings, stored in the dataset.
+EvaluateSummary StoreRun(DatasetDb& dataset,
+                         const std::string& model_path,
+                         const std::string& model_hash,
+                         const FrameSelection& selection,
+                         const EvaluateCommandOptions& options,
+                         std::vector<EvaluatedFrame> frames) {
   EvaluateSummary summary;
   std::vector<FrameOutcome> outcomes;
   std::vector<RunDetectionRecord> detections;
   std::vector<RunFrameRecord> frame_records;
-  ContentHasher dataset_hash;
-  Progress progress("evaluate", selection.frames, "frames");
-  for (int64_t room_id : selection.rooms) {
-    if (static_cast<int>(outcomes.size()) >= selection.frames) break;
-    const RoomRecord room = dataset.ReadRoom(room_id, /*with_images=*/true);
-    for (const FrameRecord& frame : room.frames) {
-      if (static_cast<int>(outcomes.size()) >= selection.frames) break;
-      dataset_hash.Update(frame.content_hash.data(), frame.content_hash.size());
-      EvaluatedFrame evaluated = EvaluateFrame(detector,
-                                               room,
-                                               frame,
-                                               estimated_pose.count(frame.id) > 0,
-                                               facts,
-                                               db_path,
-                                               options.collect_scorer_samples);
-      // A frame with nothing in range (the camera against a wall, a dead
-      // sensor) has no detections; its objects count as missed or ignored.
-      summary.frames_without_points += evaluated.status == DetectionStatus::kNoPointsInRange;
-      summary.frames_without_floor += evaluated.status == DetectionStatus::kNoFloor;
-      detections.insert(detections.end(), evaluated.detections.begin(), evaluated.detections.end());
-      frame_records.push_back(evaluated.record);
-      summary.scorer_samples.insert(summary.scorer_samples.end(),
-                                    evaluated.scorer_samples.begin(),
-                                    evaluated.scorer_samples.end());
-      outcomes.push_back(std::move(evaluated.outcome));
-      progress.Advance();
-    }
+  for (EvaluatedFrame& evaluated : frames) {
+    summary.frames_without_points += evaluated.status == DetectionStatus::kNoPointsInRange;
+    summary.frames_without_floor += evaluated.status == DetectionStatus::kNoFloor;
+    detections.insert(detections.end(), evaluated.detections.begin(), evaluated.detections.end());
+    frame_records.push_back(evaluated.record);
+    summary.scorer_samples.insert(summary.scorer_samples.end(),
+                                  evaluated.scorer_samples.begin(),
+                                  evaluated.scorer_samples.end());
+    outcomes.push_back(std::move(evaluated.outcome));
   }
-  progress.Finish();
-
   summary.frames = static_cast<int>(outcomes.size());
-  EvaluationOptions evaluation = options.evaluation;
-  evaluation.max_distance_m = options.detector.max_range_m;
+  const EvaluationOptions evaluation = EvaluationOptionsOf(options);
   summary.result = EvaluateFrames(outcomes, evaluation);
   summary.result.metrics[MetricId::Plain(PlainMetric::kFramesWithoutPoints).Name()] =
       summary.frames_without_points;
@@ -350,15 +398,105 @@ EvaluateSummary EvaluateModel(const std::string& model_path,
 
   RunRecord run = NewRunRecord(options.kind, options.label);
   run.model_path = model_path;
-  ContentHasher model_hash;
-  model_hash.Update(model_bytes.data(), model_bytes.size());
-  run.model_hash = model_hash.HexDigest();
-  run.dataset_hash = dataset_hash.HexDigest();
+  run.model_hash = model_hash;
+  run.dataset_hash = selection.dataset_hash;
   run.split = options.split;
   run.options_json = StoredOptionsJson(options, evaluation);
   run.results_json = CurvesJson(summary.result).dump();
   summary.run_id = dataset.WriteRun(run, summary.result.metrics, detections, frame_records);
-  summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return summary;
+}
+
+ShardHeader HeaderOf(const FrameSelection& selection,
+                     const std::string& model_hash,
+                     const EvaluateCommandOptions& options,
+                     int shard,
+                     int shards) {
+  return {shard,
+          shards,
+          selection.dataset_hash,
+          model_hash,
+          StoredOptionsJson(options, EvaluationOptionsOf(options))};
+}
+
+double SecondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+}  // namespace
+
+EvaluateSummary EvaluateModel(const std::string& model_path,
+                              const std::string& db_path,
+                              const EvaluateCommandOptions& options) {
+  CheckEvaluateOptions(options);
+  const auto start = std::chrono::steady_clock::now();
+  // The dataset first: a mistyped path fails before the model loads, and
+  // creates nothing. A shard only reads it (its tasks run side by side).
+  const bool shard = options.shard_count > 0;
+  DatasetDb dataset(db_path,
+                    shard ? DatasetDb::Mode::kReadOnly : DatasetDb::Mode::kReadWriteExisting);
+  const std::string model_hash = HashOf(ReadFileBytes(model_path));
+  const Detector detector(LoadTrainedModel(model_path), options.detector);
+  const FrameSelection selection = SelectFrames(dataset, db_path, options);
+  std::vector<EvaluatedFrame> frames = DetectFrames(dataset, db_path, detector, selection, options);
+  EvaluateSummary summary;
+  if (shard) {
+    WriteShardFile(
+        options.shard_out,
+        HeaderOf(selection, model_hash, options, options.shard_index, options.shard_count),
+        frames);
+    summary.frames = static_cast<int>(frames.size());
+  } else {
+    summary = StoreRun(dataset, model_path, model_hash, selection, options, std::move(frames));
+  }
+  summary.seconds = SecondsSince(start);
+  return summary;
+}
+
+EvaluateSummary MergeEvaluation(const std::string& model_path,
+                                const std::string& db_path,
+                                const EvaluateCommandOptions& options,
+                                const std::vector<std::string>& shard_paths) {
+  CheckEvaluateOptions(options);
+  Require(options.shard_count == 0, "a merge of shards is not itself a shard");
+  Require(!options.collect_scorer_samples, "a merge of shards has no scorer samples");
+  Require(!shard_paths.empty(), "no shard files to merge");
+  const auto start = std::chrono::steady_clock::now();
+  DatasetDb dataset(db_path, DatasetDb::Mode::kReadWriteExisting);
+  const std::string model_hash = HashOf(ReadFileBytes(model_path));
+  const ModelFacts facts = FactsOf(LoadTrainedModel(model_path));
+  const FrameSelection selection = SelectFrames(dataset, db_path, options);
+  const int shards = static_cast<int>(shard_paths.size());
+  // Every position of the selection from exactly the shard it belongs to.
+  std::vector<std::optional<EvaluatedFrame>> slots(selection.frames);
+  for (int s = 0; s < shards; ++s) {
+    for (EvaluatedFrame& frame :
+         ReadShardFile(shard_paths[s], HeaderOf(selection, model_hash, options, s, shards))) {
+      const int p = frame.position;
+      Require(p >= 0 && p < selection.frames && p % shards == s && !slots[p],
+              shard_paths[s] + ": frame position " + std::to_string(p) +
+                  " does not belong to shard " + std::to_string(s) + "/" + std::to_string(shards) +
+                  " or comes twice");
+      slots[p] = std::move(frame);
+    }
+  }
+  std::vector<EvaluatedFrame> frames;
+  int position = 0;
+  for (const RoomRecord& room : selection.rooms) {
+    for (const FrameRecord& frame : room.frames) {
+      if (position >= selection.frames) break;
+      std::optional<EvaluatedFrame>& slot = slots[position];
+      Require(slot.has_value() && slot->outcome.frame_id == frame.id,
+              shard_paths[position % shards] + ": lacks frame " + std::to_string(frame.id) +
+                  " (position " + std::to_string(position) + "); rerun its task");
+      slot->outcome.truth = TruthOf(room, frame, facts);
+      frames.push_back(std::move(*slot));
+      ++position;
+    }
+  }
+  EvaluateSummary summary =
+      StoreRun(dataset, model_path, model_hash, selection, options, std::move(frames));
+  summary.seconds = SecondsSince(start);
   return summary;
 }
 

@@ -41,10 +41,16 @@ struct EvaluateCommandOptions {
   // Keep every fitted hypothesis that passed the scorer's gates, labelled by
   // the ground truth, for training a hypothesis scorer.
   bool collect_scorer_samples = false;
+  // A shard of the evaluation (issue 31): only the selected frames at
+  // positions p with p % shard_count == shard_index, written to shard_out
+  // (see evaluated_frame.h) instead of a run; off when shard_count is 0.
+  int shard_index = 0;
+  int shard_count = 0;
+  std::string shard_out;
 };
 
 struct EvaluateSummary {
-  int64_t run_id = 0;
+  int64_t run_id = 0;  // 0 for a shard: no run stored
   EvaluationResult result;
   int frames = 0;
   int frames_without_points = 0;  // no point in range: counted, with no detections
@@ -67,6 +73,16 @@ RunRecord NewRunRecord(const std::string& kind, const std::string& label);
 EvaluateSummary EvaluateModel(const std::string& model_path,
                               const std::string& db_path,
                               const EvaluateCommandOptions& options);
+
+// The run EvaluateModel would store, from the shard files of shards 0..N-1
+// (in that order) of the same evaluation: metrics, curves and detections
+// equal to one process's, only the timings are the tasks'. Throws InputError
+// naming the file for a missing shard, or one of another dataset, split,
+// model, option set or shard count.
+EvaluateSummary MergeEvaluation(const std::string& model_path,
+                                const std::string& db_path,
+                                const EvaluateCommandOptions& options,
+                                const std::vector<std::string>& shard_paths);
 
 // `workbench report`: the run's report folder, with a gallery of the frames
 // with the most errors (detection rerun with the run's options and model).

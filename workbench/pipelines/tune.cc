@@ -8,6 +8,10 @@
 #include <set>
 #include <tuple>
 
+#include <fcntl.h>
+#include <sys/file.h>
+#include <unistd.h>
+
 #include "core/error.h"
 #include "core/file_util.h"
 #include "core/mesh.h"
@@ -316,9 +320,33 @@ void TuneOptions::Check() const {
   Require(max_ms >= 0, "--max-ms must be >= 0");
   Require(seeds >= 1 && seeds <= 20, "seeds " + std::to_string(seeds) + " must be in 1..20");
   Require(!objective.empty(), "the objective must name a metric, e.g. mAP@10cm");
+  Require(trial_shards == 0 || (trial_shard >= 0 && trial_shard < trial_shards),
+          "trial shard " + std::to_string(trial_shard) + "/" + std::to_string(trial_shards) +
+              ": i/N needs 0 <= i < N");
+  Require(trial_shards == 0 || !results_dir.empty(),
+          "a shard of the trials needs a results folder (--results-dir)");
 }
 
 namespace {
+
+// An exclusive lock on a file (made if missing) for as long as it lives:
+// flock(2), which NFS v4 and cluster filesystems honour across nodes.
+class CacheLock {
+ public:
+  explicit CacheLock(const std::string& path) : fd_(open(path.c_str(), O_RDWR | O_CREAT, 0644)) {
+    Require(fd_ >= 0, path + ": cannot open the model cache's lock file");
+    if (flock(fd_, LOCK_EX) != 0) {
+      close(fd_);
+      throw InputError(path + ": cannot lock the model cache");
+    }
+  }
+  ~CacheLock() { close(fd_); }  // releases the lock
+  CacheLock(const CacheLock&) = delete;
+  CacheLock& operator=(const CacheLock&) = delete;
+
+ private:
+  int fd_;
+};
 
 // One search: its trials, the runs an earlier tune of the same search left
 // in the dataset, the model cache, and the evaluation of a trial on a split.
@@ -346,6 +374,7 @@ class Tuning {
   }
 
   TuneSummary Run() {
+    if (options_.trial_shards > 0) return RunTrialShard();
     std::vector<TuneReportTrial> scored;
     for (const TuneTrial& trial : trials_) scored.push_back(Score(trial));
     summary_.trials = static_cast<int>(trials_.size());
@@ -372,6 +401,35 @@ class Tuning {
   }
 
  private:
+  // A task of `tune --shards`: its trials on the validation split, each
+  // detector seed's frames into a shard file of the results folder.
+  TuneSummary RunTrialShard() {
+    for (const TuneTrial& trial : trials_) {
+      if (trial.index % options_.trial_shards != options_.trial_shard) continue;
+      for (int seed = 0; seed < options_.seeds; ++seed) {
+        const std::string path = ResultsFile(trial, seed);
+        // Done by an earlier tune, or by an earlier attempt of this task.
+        if (EarlierRun(trial, options_.split, seed) != 0 || std::filesystem::exists(path)) continue;
+        EvaluateCommandOptions evaluate = EvaluateOptionsFor(trial, options_.split, "tune", seed);
+        evaluate.shard_count = 1;
+        evaluate.shard_out = path;
+        EvaluateModel(ModelFor(trial.training), options_.db_path, evaluate);
+      }
+      ++summary_.trials;
+      std::printf("tune: trial %d of %d evaluated into %s\n",
+                  trial.index,
+                  static_cast<int>(trials_.size()),
+                  options_.results_dir.c_str());
+      std::fflush(stdout);
+    }
+    return summary_;
+  }
+
+  std::string ResultsFile(const TuneTrial& trial, int seed) const {
+    return options_.results_dir + "/trial-" + std::to_string(trial.index) + "-seed-" +
+           std::to_string(seed) + ".json";
+  }
+
   void LoadBase() {
     if (!options_.base_options_path.empty()) {
       const std::string text = ReadFileBytes(options_.base_options_path);
@@ -447,7 +505,8 @@ class Tuning {
   }
 
   // The model for the trial's trainer options: the base model, or one from
-  // the cache, trained when missing.
+  // the cache, trained when missing. The cache is locked while a model is
+  // made, so tasks of one array job (or two tunes) train each model once.
   std::string ModelFor(const TrainingOptions& training) {
     const std::string json = TrainingOptionsJson(training);
     if (json == base_trainer_json_ && !options_.base_model_path.empty())
@@ -455,6 +514,8 @@ class Tuning {
     std::filesystem::create_directories(options_.work_dir + "/models");
     const std::string path =
         options_.work_dir + "/models/" + ShortHash(json + "\n" + options_.catalog_spec) + ".fcm";
+    if (std::filesystem::exists(path)) return path;
+    const CacheLock lock(path + ".lock");
     if (!std::filesystem::exists(path)) {
       std::printf("tune: training a model for %s\n", path.c_str());
       std::fflush(stdout);
@@ -494,6 +555,26 @@ class Tuning {
       DatasetDb dataset(options_.db_path, DatasetDb::Mode::kReadOnly);
       return {run_id, dataset.RunMetrics(run_id)};
     }
+    const EvaluateCommandOptions evaluate = EvaluateOptionsFor(trial, split, kind, seed);
+    const std::string model = ModelFor(trial.training);
+    if (!options_.results_dir.empty() && split == options_.split) {  // a task evaluated it
+      const std::string path = ResultsFile(trial, seed);
+      Require(std::filesystem::exists(path),
+              path + ": missing: trial " + std::to_string(trial.index) + " (detector seed " +
+                  std::to_string(seed) + ") was not evaluated; rerun 'tune --shards' to " +
+                  "resubmit its task");
+      const EvaluateSummary result = MergeEvaluation(model, options_.db_path, evaluate, {path});
+      return {result.run_id, result.result.metrics};
+    }
+    const EvaluateSummary result = EvaluateModel(model, options_.db_path, evaluate);
+    return {result.run_id, result.result.metrics};
+  }
+
+  // How a trial is evaluated on a split with its seed-th detector seed.
+  EvaluateCommandOptions EvaluateOptionsFor(const TuneTrial& trial,
+                                            const std::string& split,
+                                            const char* kind,
+                                            int seed) const {
     EvaluateCommandOptions evaluate;
     evaluate.split = ParseSplit(split);
     evaluate.max_frames = options_.max_frames;
@@ -512,9 +593,7 @@ class Tuning {
                {"parameters", ParametersOf(trial)}}},
              {"trainer", Json::parse(TrainingOptionsJson(trial.training))}}
             .dump();
-    const EvaluateSummary result =
-        EvaluateModel(ModelFor(trial.training), options_.db_path, evaluate);
-    return {result.run_id, result.result.metrics};
+    return evaluate;
   }
 
   // Evaluates the trial on the validation split (or finds it done) and says
@@ -609,6 +688,11 @@ class Tuning {
 TuneSummary RunTuning(const Catalog& catalog, const TuneOptions& options) {
   options.Check();
   return Tuning(catalog, options).Run();
+}
+
+void CheckTuning(const Catalog& catalog, const TuneOptions& options) {
+  options.Check();
+  const Tuning checked(catalog, options);
 }
 
 }  // namespace furn

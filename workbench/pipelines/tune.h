@@ -96,6 +96,14 @@ struct TuneOptions {
   // Detector (RANSAC) seeds each trial is evaluated with; its metrics are the
   // mean over them (1..20). One run per seed.
   int seeds = 1;
+  // Tune as a Slurm array job (issue 31). A task (trial_shards > 0) runs only
+  // trials t with t % trial_shards == trial_shard on the validation split and
+  // writes each (trial, seed) as a shard file into results_dir, storing no run
+  // and writing no report. The final job (results_dir set, trial_shards 0)
+  // stores those files as the trials' runs instead of evaluating them, then
+  // ranks, checks the best on the test split and writes the report as usual.
+  int trial_shard = 0, trial_shards = 0;
+  std::string results_dir;
 
   // Throws InputError naming the field and the rule.
   void Check() const;
@@ -111,5 +119,10 @@ struct TuneSummary {
 };
 
 TuneSummary RunTuning(const Catalog& catalog, const TuneOptions& options);
+
+// Everything RunTuning checks before it trains or evaluates (the space, the
+// objective, the trials' options, the base model, the dataset), without
+// running anything: what `tune --shards` checks before it submits a job.
+void CheckTuning(const Catalog& catalog, const TuneOptions& options);
 
 }  // namespace furn
