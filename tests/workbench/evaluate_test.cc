@@ -14,6 +14,7 @@
 #include "db/dataset_db.h"
 #include "db/sqlite.h"
 #include "tests/test_util.h"
+#include "tests/workbench/dataset_dump.h"
 #include "workbench/formats/depth_png.h"
 
 namespace furn {
@@ -274,6 +275,69 @@ TEST(Evaluate, EmptyFramesMissingDatasetsAndSeenModels) {
     SCOPED_TRACE("seen models");
     SeenModelsAreThoseTheModelWasTrainedOn(data);
   }
+}
+
+// Issue 31 without a cluster: `evaluate --shards 3 --emit-only` writes the
+// array job's scripts; run by hand as Slurm would run them (each task with
+// its SLURM_ARRAY_TASK_ID, then the final script), they store the run one
+// process stores, timings aside. A missing or foreign shard is one line.
+TEST(Evaluate, ShardsRunFromTheJobScriptsMergeIntoTheOneProcessRun) {
+  const std::string dir = testing::ScratchDir();
+  const std::string one = dir + "/one.db", sharded = dir + "/sharded.db", model = dir + "/m.fcm";
+  ASSERT_EQ(
+      Workbench("generate --catalog procedural:4 --rooms 4 --frames 2 --seed 5 --quiet --out " +
+                one)
+          .exit_code,
+      0);
+  std::filesystem::copy_file(one, sharded);
+  ASSERT_EQ(Workbench("train --no-vote-net --catalog procedural:4 --vocab kmeans --words 20 "
+                      "--azimuths 8 --quiet --out " +
+                      model)
+                .exit_code,
+            0);
+  const std::string evaluate = "evaluate --quiet --split all --model " + model + " --db ";
+  ASSERT_EQ(Workbench(evaluate + one).exit_code, 0);
+  const std::string job = dir + "/job";
+  const testing::CommandResult emit =
+      Workbench(evaluate + sharded + " --shards 3 --emit-only --job-dir " + job);
+  ASSERT_EQ(emit.exit_code, 0) << emit.output;
+  EXPECT_NE(emit.output.find("--array=0,1,2"), std::string::npos) << emit.output;
+  for (int k = 0; k < 3; ++k) {
+    const testing::CommandResult task = testing::RunCommand(
+        "SLURM_ARRAY_TASK_ID=" + std::to_string(k) + " bash " + job + "/task.sbatch");
+    ASSERT_EQ(task.exit_code, 0) << task.output;
+    EXPECT_TRUE(std::filesystem::exists(job + "/status/task-" + std::to_string(k) + ".ok"));
+  }
+  const testing::CommandResult merged = testing::RunCommand("bash " + job + "/final.sbatch");
+  ASSERT_EQ(merged.exit_code, 0) << merged.output;
+  EXPECT_NE(merged.output.find("merged 3 shards"), std::string::npos) << merged.output;
+  const std::string runs = testing::DumpRuns(one);
+  EXPECT_GT(runs.size(), 1000u);
+  EXPECT_EQ(testing::DumpRuns(sharded), runs);
+  const testing::CommandResult done =
+      Workbench(evaluate + sharded + " --shards 3 --emit-only --job-dir " + job);
+  EXPECT_NE(done.output.find("nothing: every task and the final step are done"), std::string::npos)
+      << done.output;
+
+  // Shards that are not this evaluation's: one line, exit 1, no run stored.
+  auto shard = [&](int k) { return " " + job + "/shard-" + std::to_string(k) + ".json"; };
+  auto refused = [&](const std::string& arguments, const std::string& why) {
+    const testing::CommandResult bad = Workbench(evaluate + sharded + arguments);
+    EXPECT_EQ(bad.exit_code, 1) << arguments;
+    EXPECT_NE(bad.output.find(why), std::string::npos) << bad.output;
+    EXPECT_EQ(std::count(bad.output.begin(), bad.output.end(), '\n'), 1) << bad.output;
+  };
+  refused(" --merge-shards" + shard(0) + shard(1), "is shard 0/3, expected 0/2");
+  refused(" --merge-shards" + shard(0) + shard(2) + shard(1), "is shard 2/3, expected 1/3");
+  refused(" --min-score 0.5 --merge-shards" + shard(0) + shard(1) + shard(2),
+          "was evaluated with other options");
+  refused(" --max-frames 6 --merge-shards" + shard(0) + shard(1) + shard(2),
+          "was evaluated on other frames");
+  std::filesystem::rename(job + "/shard-1.json", dir + "/moved.json");
+  refused(" --merge-shards" + shard(0) + shard(1) + shard(2), "missing: shard 1 of 3");
+  refused(" --shard 1/3", "--shard i/N and --shard-out go together");
+  DatasetDb dataset(sharded, DatasetDb::Mode::kReadOnly);
+  EXPECT_EQ(dataset.Runs().size(), 1u);
 }
 
 }  // namespace

@@ -16,6 +16,7 @@
 #include "core/file_util.h"
 #include "db/dataset_db.h"
 #include "tests/test_util.h"
+#include "tests/workbench/dataset_dump.h"
 #include "workbench/pipelines/evaluate.h"
 
 namespace furn {
@@ -316,6 +317,76 @@ TEST(TuneCommand, TrialsAreRunsResumeAndTheReportAndBestOptionsWork) {
             std::string::npos)
       << objective.output;
   EXPECT_EQ(DatasetDb(db, DatasetDb::Mode::kReadOnly).Runs().size(), runs_before);
+}
+
+// Issue 31 without a cluster: `tune --shards 2 --emit-only` writes the array
+// job's scripts; its two tasks run side by side (as on two nodes), both
+// needing the base model, which the locked cache trains once; the final
+// script stores the trials as the one-process tune stores them.
+TEST(TuneCommand, TrialTasksFromTheJobScriptsGiveTheOneProcessSearch) {
+  const std::string dir = testing::ScratchDir();
+  ASSERT_EQ(
+      Workbench("generate --catalog procedural:4 --rooms 8 --frames 2 --seed 5 --quiet --out " +
+                dir + "/one.db")
+          .exit_code,
+      0);
+  std::filesystem::copy_file(dir + "/one.db", dir + "/array.db");
+  testing::WriteText(dir + "/space.json",
+                     R"({"detector.relative_threshold": [0.15, 0.6],
+                         "detector.min_score": [0.0, 0.3]})");
+  testing::WriteText(dir + "/base.json",
+                     R"({"trainer": {"scan": {"azimuths": 6},
+                                     "vocabulary": {"kind": "kmeans", "words": 20}}})");
+  auto tune = [&](const std::string& db, const std::string& name) {
+    return "tune --catalog procedural:4 --quiet --strategy grid --trials 3 --space " + dir +
+           "/space.json --options " + dir + "/base.json --db " + dir + "/" + db +
+           ".db --work-dir " + dir + "/work-" + name + " --out " + dir + "/report-" + name;
+  };
+  const testing::CommandResult one = Workbench(tune("one", "one"));
+  ASSERT_EQ(one.exit_code, 0) << one.output;
+  const std::string job = dir + "/job";
+  const testing::CommandResult emit =
+      Workbench(tune("array", "array") + " --shards 2 --emit-only --job-dir " + job);
+  ASSERT_EQ(emit.exit_code, 0) << emit.output;
+  EXPECT_NE(emit.output.find("--array=0,1"), std::string::npos) << emit.output;
+  const testing::CommandResult tasks = testing::RunCommand(
+      "(SLURM_ARRAY_TASK_ID=0 bash " + job + "/task.sbatch & SLURM_ARRAY_TASK_ID=1 bash " + job +
+      "/task.sbatch & wait)");
+  EXPECT_TRUE(std::filesystem::exists(job + "/status/task-0.ok")) << tasks.output;
+  EXPECT_TRUE(std::filesystem::exists(job + "/status/task-1.ok")) << tasks.output;
+  size_t trainings = 0;
+  for (size_t at = tasks.output.find("training a model"); at != std::string::npos;
+       at = tasks.output.find("training a model", at + 1))
+    ++trainings;
+  EXPECT_EQ(trainings, 1u) << tasks.output;
+  EXPECT_NE(tasks.output.find("trial shard 1/2: 1 trials evaluated"), std::string::npos)
+      << tasks.output;
+  std::filesystem::copy_file(dir + "/array.db", dir + "/lost.db");
+  const testing::CommandResult final_step = testing::RunCommand("bash " + job + "/final.sbatch");
+  ASSERT_EQ(final_step.exit_code, 0) << final_step.output;
+  EXPECT_NE(final_step.output.find("3 trials (0 done before), 0 models trained"), std::string::npos)
+      << final_step.output;
+  EXPECT_EQ(testing::DumpRuns(dir + "/array.db"), testing::DumpRuns(dir + "/one.db"));
+  EXPECT_EQ(ReadFileBytes(dir + "/report-array/best_options.json"),
+            ReadFileBytes(dir + "/report-one/best_options.json"));
+
+  // A trial's evaluation lost, or one of another search: the final step
+  // names the file.
+  const std::string results = " --results-dir " + job + "/trials";
+  std::filesystem::remove(job + "/trials/trial-2-seed-0.json");
+  const testing::CommandResult lost = Workbench(tune("lost", "array") + results);
+  EXPECT_EQ(lost.exit_code, 1) << lost.output;
+  EXPECT_NE(lost.output.find("trial-2-seed-0.json: missing: trial 2"), std::string::npos)
+      << lost.output;
+  const testing::CommandResult other = Workbench(tune("lost", "array") + results + " --seed 9");
+  EXPECT_EQ(other.exit_code, 1) << other.output;
+  EXPECT_NE(other.output.find("was evaluated with other options"), std::string::npos)
+      << other.output;
+  const testing::CommandResult too_many =
+      Workbench(tune("array", "array") + " --shards 5 --emit-only --job-dir " + dir + "/job5");
+  EXPECT_EQ(too_many.exit_code, 1);
+  EXPECT_NE(too_many.output.find("more tasks than --trials 3"), std::string::npos)
+      << too_many.output;
 }
 
 TEST(TuneOptions, TestSplitNoneIsAcceptedAndBadSplitsAreNamed) {

@@ -207,16 +207,19 @@ void CancelStaleFinal(const std::string& dir) {
   if (!final_id.empty()) Capture("scancel " + final_id);
 }
 
+// No final step, or it succeeded and its output is there.
+bool FinalDone(const ArrayJob& job) {
+  return job.final_command.empty() || (fs::exists(StatusFile(job.dir, "final", ".ok")) &&
+                                       (job.final_output.empty() || fs::exists(job.final_output)));
+}
+
 }  // namespace
 
 Submission SubmitArrayJob(const ArrayJob& job) {
   WriteJobScripts(job);
   Submission submission;
   submission.tasks = TasksToDo(job);
-  const bool final_done =
-      job.final_command.empty() || (fs::exists(StatusFile(job.dir, "final", ".ok")) &&
-                                    (job.final_output.empty() || fs::exists(job.final_output)));
-  if (submission.tasks.empty() && final_done) return submission;
+  if (submission.tasks.empty() && FinalDone(job)) return submission;
   CheckNotQueued(job.dir, submission.tasks);
   CancelStaleFinal(job.dir);
   if (!submission.tasks.empty()) {
@@ -245,7 +248,7 @@ std::vector<std::string> EmitArrayJob(const ArrayJob& job) {
     commands.push_back("array=$(sbatch --parsable --array=" + ArrayList(todo) + " " +
                        ShellQuote(job.dir + "/task.sbatch") + ")");
   }
-  if (!job.final_command.empty()) {
+  if (!job.final_command.empty() && (!todo.empty() || !FinalDone(job))) {
     commands.push_back("sbatch " + std::string(todo.empty() ? "" : "--dependency=afterok:$array ") +
                        ShellQuote(job.dir + "/final.sbatch"));
   }
