@@ -1,8 +1,9 @@
 // Issue 31 on a one-node Slurm cluster started by tools/slurm_local.sh (label
 // `cluster`; needs root and the slurm-wlm and munge packages, else skipped):
 // a 4-shard generate as an array job equals the one-process run row for row,
-// a cancelled task is resubmitted alone by a rerun, and protocol E's folds as
-// tasks give the one-process metrics.
+// a 4-shard evaluate stores the one-process run, a cancelled task is
+// resubmitted alone by a rerun, protocol E's folds and tune's trials as tasks
+// give the one-process metrics.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -11,6 +12,7 @@
 #include <map>
 #include <string>
 
+#include "core/file_util.h"
 #include "db/dataset_db.h"
 #include "tests/test_util.h"
 #include "tests/workbench/dataset_dump.h"
@@ -80,6 +82,58 @@ TEST_F(Cluster, FourShardGenerateEqualsOneProcess) {
   const testing::CommandResult again = Workbench(ShardedGenerate(dir));
   EXPECT_EQ(again.exit_code, 0) << again.output;
   EXPECT_NE(again.output.find("nothing submitted"), std::string::npos) << again.output;
+
+  // A 4-shard evaluate of the merged dataset stores the run one process
+  // stores on its twin (timings aside).
+  const std::string model = dir + "/m.fcm";
+  ASSERT_EQ(Workbench("train --no-vote-net --catalog procedural:4 --vocab kmeans --words 20 "
+                      "--azimuths 8 --quiet --out " +
+                      model)
+                .exit_code,
+            0);
+  const std::string evaluate = "evaluate --quiet --split all --model " + model + " --db ";
+  ASSERT_EQ(Workbench(evaluate + dir + "/one.db").exit_code, 0);
+  const testing::CommandResult sharded = Workbench(
+      evaluate + dir + "/merged.db --shards 4 --cpus 1 --slurm --job-dir " + dir + "/eval");
+  ASSERT_EQ(sharded.exit_code, 0) << sharded.output;
+  EXPECT_NE(sharded.output.find("4 of 4 tasks"), std::string::npos) << sharded.output;
+  const testing::CommandResult waited =
+      Workbench("jobs wait " + dir + "/eval --poll 0.5 --timeout 300 --quiet");
+  ASSERT_EQ(waited.exit_code, 0) << waited.output;
+  const std::string runs = testing::DumpRuns(dir + "/one.db");
+  EXPECT_GT(runs.size(), 1000u);
+  EXPECT_EQ(testing::DumpRuns(dir + "/merged.db"), runs);
+}
+
+// Tune with a task per trial (detector options only: no training), the
+// final job ranking them: the one-process search's runs and best options.
+TEST_F(Cluster, TuneTrialTasksGiveTheOneProcessSearch) {
+  const std::string dir = testing::ScratchDir();
+  ASSERT_EQ(Workbench(std::string(kGenerate) + " --out " + dir + "/one.db").exit_code, 0);
+  std::filesystem::copy_file(dir + "/one.db", dir + "/array.db");
+  testing::WriteText(dir + "/base.json",
+                     R"({"trainer": {"scan": {"azimuths": 8},
+                                     "vocabulary": {"kind": "kmeans", "words": 20}}})");
+  ASSERT_EQ(Workbench("train --no-vote-net --catalog procedural:4 --quiet --options " + dir +
+                      "/base.json --out " + dir + "/m.fcm")
+                .exit_code,
+            0);
+  testing::WriteText(dir + "/space.json", R"({"detector.relative_threshold": [0.15, 0.4, 0.6]})");
+  auto tune = [&](const std::string& name) {
+    return "tune --catalog procedural:4 --quiet --strategy grid --trials 3 --model " + dir +
+           "/m.fcm --options " + dir + "/base.json --space " + dir + "/space.json --db " + dir +
+           "/" + name + ".db --work-dir " + dir + "/work --out " + dir + "/report-" + name;
+  };
+  ASSERT_EQ(Workbench(tune("one")).exit_code, 0);
+  const testing::CommandResult submit =
+      Workbench(tune("array") + " --shards 3 --cpus 1 --slurm --job-dir " + dir + "/job");
+  ASSERT_EQ(submit.exit_code, 0) << submit.output;
+  EXPECT_NE(submit.output.find("3 of 3 tasks"), std::string::npos) << submit.output;
+  const testing::CommandResult wait = Workbench(WaitFor(dir, 300));
+  ASSERT_EQ(wait.exit_code, 0) << wait.output;
+  EXPECT_EQ(testing::DumpRuns(dir + "/array.db"), testing::DumpRuns(dir + "/one.db"));
+  EXPECT_EQ(ReadFileBytes(dir + "/report-array/best_options.json"),
+            ReadFileBytes(dir + "/report-one/best_options.json"));
 }
 
 TEST_F(Cluster, ACancelledTaskIsResubmittedAloneByARerun) {
