@@ -311,5 +311,43 @@ TEST(Cli, RenderRejectsBadRequests) {
   EXPECT_FALSE(std::filesystem::exists(dir + "/x/preview.png"));
 }
 
+// Issue 31 without a cluster: `train --shards 3 --emit-only` writes the array
+// job's scripts; each task generates a third of the vote network's training
+// rooms, and the final script (merge, then train) writes the same model file,
+// byte for byte, as one process. A missing task's rooms are refused before
+// anything trains.
+TEST(Cli, TrainWithItsTrainingRoomsAsTasksWritesTheOneProcessModel) {
+  const std::string dir = testing::ScratchDir();
+  const std::string train =
+      "train --catalog procedural:4 --vocab kmeans --words 20 --azimuths 6 --vote-rooms 8 "
+      "--vote-frames 2 --vote-epochs 1 --vote-threads 1 --quiet --out ";
+  ASSERT_EQ(RunWorkbench(train + dir + "/one.fcm").exit_code, 0);
+  const std::string job = dir + "/job";
+  const RunResult emit =
+      RunWorkbench(train + dir + "/array.fcm --shards 3 --emit-only --job-dir " + job);
+  ASSERT_EQ(emit.exit_code, 0) << emit.output;
+  for (int k = 0; k < 3; ++k) {
+    const RunResult task = testing::RunCommand("SLURM_ARRAY_TASK_ID=" + std::to_string(k) +
+                                               " bash " + job + "/task.sbatch");
+    ASSERT_EQ(task.exit_code, 0) << task.output;
+  }
+  EXPECT_FALSE(std::filesystem::exists(dir + "/array.fcm"));  // the tasks train nothing
+  const RunResult final_step = testing::RunCommand("bash " + job + "/final.sbatch");
+  ASSERT_EQ(final_step.exit_code, 0) << final_step.output;
+  EXPECT_EQ(ReadFileBytes(dir + "/array.fcm"), ReadFileBytes(dir + "/one.fcm"));
+
+  const RunResult missing = RunWorkbench(train + dir + "/missing.fcm --vote-rooms-from " + job +
+                                         "/rooms-0.db " + job + "/rooms-2.db");
+  EXPECT_EQ(missing.exit_code, 1);
+  EXPECT_NE(missing.output.find("the 2 training-room shards hold 5 of the 8 rooms"),
+            std::string::npos)
+      << missing.output;
+  const RunResult codebook = RunWorkbench(
+      train + dir + "/c.fcm --no-vote-net --shards 2 --emit-only --job-dir " + dir + "/job2");
+  EXPECT_EQ(codebook.exit_code, 1);
+  EXPECT_NE(codebook.output.find("with --no-vote-net there are none"), std::string::npos)
+      << codebook.output;
+}
+
 }  // namespace
 }  // namespace furn

@@ -15,6 +15,7 @@
 #include "reports/evaluation.h"
 #include "reports/training_curve.h"
 #include "workbench/formats/scan_file.h"
+#include "workbench/pipelines/dataset_tools.h"  // MergeDatasets
 #include "workbench/pipelines/generate.h"
 
 namespace furn {
@@ -310,10 +311,22 @@ std::string TrainVoteNet(const Catalog& catalog,
   auto start = std::chrono::steady_clock::now();
   // A database kept from an earlier run resumes (rooms already in it are
   // skipped); one of other options is refused by GenerateDataset.
-  if (!options.keep_rooms) RemoveDatabase(rooms_db);
+  if (!options.keep_rooms || !options.room_shards.empty()) RemoveDatabase(rooms_db);
+  if (!options.room_shards.empty()) {
+    MergeDatasets(options.room_shards, rooms_db);
+    const size_t merged = DatasetDb(rooms_db, DatasetDb::Mode::kReadOnly).RoomIds().size();
+    if (merged != static_cast<size_t>(options.rooms)) {
+      RemoveDatabase(rooms_db);
+      throw InputError("the " + std::to_string(options.room_shards.size()) +
+                       " training-room shards hold " + std::to_string(merged) + " of the " +
+                       std::to_string(options.rooms) +
+                       " rooms (a task's rooms are missing; rerun 'train --shards')");
+    }
+  }
   if (!options.quiet)
     std::fprintf(stderr,
-                 "vote net: generating %d training rooms into %s\n",
+                 "vote net: %s %d training rooms into %s\n",
+                 options.room_shards.empty() ? "generating" : "merged",
                  options.rooms,
                  rooms_db.c_str());
   const GenerateSummary generated = GenerateDataset(catalog, generate, rooms_db);
@@ -338,6 +351,19 @@ std::string TrainVoteNet(const Catalog& catalog,
                           options.curve_png);
   }
   return net.Serialize();
+}
+
+int GenerateTrainingRoomsShard(const Catalog& catalog,
+                               const std::set<std::string>& held_out,
+                               const VoteNetTrainingOptions& options,
+                               int shard,
+                               int shards,
+                               const std::string& out) {
+  options.Check();
+  GenerateOptions generate = TrainingRooms(options, catalog.description(), held_out);
+  generate.shard_index = shard;
+  generate.shard_count = shards;
+  return GenerateDataset(catalog, generate, out).rooms_in_shard;
 }
 
 }  // namespace furn

@@ -50,7 +50,11 @@ struct VoteNetTrainingOptions {
     return jittered;
   }();
   bool keep_rooms = false;  // keep the rooms' database after training (else deleted)
-  std::string curve_png;    // the training curve (loss, validation mAP); empty: none
+  // The training rooms made elsewhere (the tasks of `train --shards N`, each
+  // by GenerateTrainingRoomsShard): merged into the rooms' database instead
+  // of generating the rooms here; empty: generated here.
+  std::vector<std::string> room_shards;
+  std::string curve_png;  // the training curve (loss, validation mAP); empty: none
   bool quiet = false;
 
   void Check() const;
@@ -85,13 +89,23 @@ VoteNet TrainVoteNetOnSamples(const std::vector<BevSample>& training,
                               const VoteNetTrainingOptions& options,
                               VoteNetTrainingSummary* summary);
 
-// Generates the rooms into options.rooms_db (resuming one already there),
-// rasterises their frames and trains; returns VoteNet::Serialize's bytes.
+// Generates the rooms into rooms_db (resuming one already there; or merges
+// options.room_shards into it, which must hold every room), rasterises their
+// frames and trains; returns VoteNet::Serialize's bytes.
 std::string TrainVoteNet(const Catalog& catalog,
                          const std::set<std::string>& held_out,
                          const VoteNetTrainingOptions& options,
                          const std::string& rooms_db,
                          VoteNetTrainingSummary* summary);
+
+// Shard i/N of the training rooms TrainVoteNet generates, into `out`: what
+// each task of `train --shards N` does. Returns the rooms written.
+int GenerateTrainingRoomsShard(const Catalog& catalog,
+                               const std::set<std::string>& held_out,
+                               const VoteNetTrainingOptions& options,
+                               int shard,
+                               int shards,
+                               const std::string& out);
 
 // The frames of a dataset database as samples (noisy depth; objects seen at
 // least min_visibility), split by room into training and validation.
