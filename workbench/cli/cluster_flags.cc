@@ -75,6 +75,31 @@ std::string WorkbenchCommand(const std::string& arguments) {
   return ShellQuote(SelfPath()) + " " + arguments;
 }
 
+ArrayJob NewArrayJob(const ClusterFlags& flags, const std::string& name) {
+  ArrayJob job;
+  job.dir = flags.job_dir;
+  job.name = name;
+  job.tasks = flags.shards;
+  job.resources = flags.resources;
+  return job;
+}
+
+std::string TaskFileArgument(const std::string& dir,
+                             const std::string& stem,
+                             const std::string& extension) {
+  return ShellQuote(dir + "/" + stem) + "\"$TASK\"" + ShellQuote(extension);
+}
+
+std::string AllTaskFiles(const std::string& dir,
+                         const std::string& stem,
+                         const std::string& extension,
+                         int tasks) {
+  std::string files;
+  for (int k = 0; k < tasks; ++k)
+    files += " " + ShellQuote(dir + "/" + stem + std::to_string(k) + extension);
+  return files;
+}
+
 int RunArrayJob(const ClusterFlags& flags, const ArrayJob& job) {
   if (flags.emit_only) {
     const std::vector<std::string> commands = EmitArrayJob(job);

@@ -42,6 +42,21 @@ std::string TaskCommandLine(int argc,
 // This binary with `arguments` (already quoted), e.g. "dataset merge ...".
 std::string WorkbenchCommand(const std::string& arguments);
 
+// A job of flags.shards tasks named `name` in the job folder, with the
+// flags' resources; its commands and outputs still to fill in.
+ArrayJob NewArrayJob(const ClusterFlags& flags, const std::string& name);
+
+// A task's output file DIR/<stem><i><extension> as its script names it
+// (quoted, with "$TASK" for i), and the files of tasks 0..tasks-1, each
+// quoted after a space (the final job's arguments).
+std::string TaskFileArgument(const std::string& dir,
+                             const std::string& stem,
+                             const std::string& extension);
+std::string AllTaskFiles(const std::string& dir,
+                         const std::string& stem,
+                         const std::string& extension,
+                         int tasks);
+
 // Submits (--slurm) or writes (--emit-only) the job and prints what it did.
 int RunArrayJob(const ClusterFlags& flags, const ArrayJob& job);
 

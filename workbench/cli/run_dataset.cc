@@ -70,24 +70,19 @@ ArrayJob GenerateArrayJob(const ClusterFlags& cluster,
                           char** argv) {
   Require(std::filesystem::path(out).extension() == ".db",
           out + ": the dataset file must end in .db");
-  ArrayJob job;
-  job.dir = cluster.job_dir;
-  job.name = "generate";
-  job.tasks = cluster.shards;
-  job.resources = cluster.resources;
+  ArrayJob job = NewArrayJob(cluster, "generate");
   const std::string dir = std::filesystem::absolute(cluster.job_dir).string();
   const std::string n = std::to_string(cluster.shards);
-  job.task_command = TaskCommandLine(argc,
-                                     argv,
-                                     {"--out", "--shard"},
-                                     "--quiet --shard \"$TASK\"/" + n + " --out " +
-                                         ShellQuote(dir + "/shard-") + "\"$TASK\"" + "'.db'");
+  job.task_command = TaskCommandLine(
+      argc,
+      argv,
+      {"--out", "--shard"},
+      "--quiet --shard \"$TASK\"/" + n + " --out " + TaskFileArgument(dir, "shard-", ".db"));
   job.task_output = dir + "/shard-$TASK.db";
   job.final_output = std::filesystem::absolute(out).string();
-  std::string merge = WorkbenchCommand("dataset merge --quiet");
-  for (int k = 0; k < cluster.shards; ++k)
-    merge += " " + ShellQuote(dir + "/shard-" + std::to_string(k) + ".db");
-  job.final_command = merge + " --out " + ShellQuote(job.final_output);
+  job.final_command = WorkbenchCommand("dataset merge --quiet") +
+                      AllTaskFiles(dir, "shard-", ".db", cluster.shards) + " --out " +
+                      ShellQuote(job.final_output);
   return job;
 }
 

@@ -168,15 +168,48 @@ void PrintCrossval(const CrossvalSummary& summary) {
       summary.scorer_path.empty() ? "(none: too few hypotheses)" : summary.scorer_path.c_str());
 }
 
+// Protocol D (--compare-vocab): a row per vocabulary and seed, then the means.
+void CompareVocabulariesAndPrint(const Catalog& catalog,
+                                 const std::string& db_path,
+                                 const std::string& work_dir,
+                                 int seeds,
+                                 const EvaluateCommandOptions& options) {
+  std::printf("%-16s %5s %10s %10s %10s %12s\n",
+              "vocabulary",
+              "seed",
+              "mAP@10cm",
+              "mAP@5cm",
+              "chair F1",
+              "run");
+  CompareVocabularies(
+      catalog,
+      db_path,
+      work_dir,
+      seeds,
+      options,
+      [](const VocabularyRun& run) {
+        std::printf("%-16s %5d %10.3f %10.3f %10.3f %12lld\n",
+                    run.vocabulary.c_str(),
+                    run.seed,
+                    run.map10,
+                    run.map5,
+                    run.chair_best_f1,
+                    static_cast<long long>(run.run_id));
+      },
+      [](const VocabularyMean& mean) {
+        std::printf("%-16s  mean mAP@10cm %.3f +- %.3f over %d seeds\n",
+                    mean.vocabulary.c_str(),
+                    mean.map10_mean,
+                    mean.map10_spread,
+                    mean.seeds);
+      });
+}
+
 // `evaluate` as an array job: task i evaluates shard i/N of the frames into
 // the job folder; the final job is the same evaluate, which merges the N
 // shard files into one run of the dataset.
 ArrayJob EvaluateArrayJob(const ClusterFlags& cluster, int argc, char** argv) {
-  ArrayJob job;
-  job.dir = cluster.job_dir;
-  job.name = "evaluate";
-  job.tasks = cluster.shards;
-  job.resources = cluster.resources;
+  ArrayJob job = NewArrayJob(cluster, "evaluate");
   const std::string dir = std::filesystem::absolute(cluster.job_dir).string();
   const std::string n = std::to_string(cluster.shards);
   const std::set<std::string> drop = {"--shard", "--shard-out", "--merge-shards"};
@@ -184,12 +217,10 @@ ArrayJob EvaluateArrayJob(const ClusterFlags& cluster, int argc, char** argv) {
                                      argv,
                                      drop,
                                      "--quiet --shard \"$TASK\"/" + n + " --shard-out " +
-                                         ShellQuote(dir + "/shard-") + "\"$TASK\"" + "'.json'");
+                                         TaskFileArgument(dir, "shard-", ".json"));
   job.task_output = dir + "/shard-$TASK.json";
-  std::string shards;
-  for (int k = 0; k < cluster.shards; ++k)
-    shards += " " + ShellQuote(dir + "/shard-" + std::to_string(k) + ".json");
-  job.final_command = TaskCommandLine(argc, argv, drop, "--merge-shards" + shards);
+  job.final_command = TaskCommandLine(
+      argc, argv, drop, "--merge-shards" + AllTaskFiles(dir, "shard-", ".json", cluster.shards));
   return job;
 }
 
@@ -269,35 +300,11 @@ int RunEvaluate(int argc, char** argv) {
   options.split = ParseSplit(split, "--split");
   options.detector = detector_flags.Resolve();
   if (compare_vocab) {
-    std::printf("%-16s %5s %10s %10s %10s %12s\n",
-                "vocabulary",
-                "seed",
-                "mAP@10cm",
-                "mAP@5cm",
-                "chair F1",
-                "run");
-    CompareVocabularies(
-        OpenCatalog(catalog_flags.spec, MakeOpenOptions(catalog_flags)),
-        db_path,
-        work_dir,
-        seeds,
-        options,
-        [](const VocabularyRun& run) {
-          std::printf("%-16s %5d %10.3f %10.3f %10.3f %12lld\n",
-                      run.vocabulary.c_str(),
-                      run.seed,
-                      run.map10,
-                      run.map5,
-                      run.chair_best_f1,
-                      static_cast<long long>(run.run_id));
-        },
-        [](const VocabularyMean& mean) {
-          std::printf("%-16s  mean mAP@10cm %.3f +- %.3f over %d seeds\n",
-                      mean.vocabulary.c_str(),
-                      mean.map10_mean,
-                      mean.map10_spread,
-                      mean.seeds);
-        });
+    CompareVocabulariesAndPrint(OpenCatalog(catalog_flags.spec, MakeOpenOptions(catalog_flags)),
+                                db_path,
+                                work_dir,
+                                seeds,
+                                options);
     return 0;
   }
   Require(!model_path.empty(), "--model is required (or --compare-vocab)");
@@ -332,11 +339,7 @@ ArrayJob CrossvalArrayJob(const ClusterFlags& cluster,
           "--shards " + std::to_string(cluster.shards) + ": " + db_path + " has " +
               std::to_string(folds) + " folds, one task each (--shards " + std::to_string(folds) +
               ")");
-  ArrayJob job;
-  job.dir = cluster.job_dir;
-  job.name = "crossval";
-  job.tasks = folds;
-  job.resources = cluster.resources;
+  ArrayJob job = NewArrayJob(cluster, "crossval");
   job.task_command = TaskCommandLine(argc, argv, {}, "--quiet --train-fold \"$TASK\"");
   job.final_command = TaskCommandLine(argc, argv, {}, "");
   return job;

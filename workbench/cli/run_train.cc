@@ -59,29 +59,69 @@ void PrintTrainSummary(const std::string& out,
   }
 }
 
+// The vote network's training rooms made by the tasks of `train --shards`.
+struct RoomShardFlags {
+  std::string shard, out;         // a task: --vote-rooms-shard i/N --vote-rooms-out FILE
+  std::vector<std::string> from;  // the final job: --vote-rooms-from FILE...
+
+  void Add(CLI::App* app) {
+    app->add_option("--vote-rooms-shard",
+                    shard,
+                    "i/N: only generate shard i/N of the vote network's training rooms into "
+                    "--vote-rooms-out, train nothing (what each task of 'train --shards' does)");
+    app->add_option("--vote-rooms-out", out, "With --vote-rooms-shard: the shard database");
+    app->add_option("--vote-rooms-from",
+                    from,
+                    "The training-room shards 0..N-1: merge them instead of generating the rooms "
+                    "(the final job of 'train --shards')");
+  }
+
+  void Check(const ClusterFlags& cluster, const VoteNetFlags& vote_net) const {
+    cluster.Check();
+    Require(shard.empty() == out.empty(),
+            "--vote-rooms-shard i/N and --vote-rooms-out go together");
+    Require(shard.empty() || from.empty(),
+            "--vote-rooms-shard and --vote-rooms-from do not go together");
+    Require(!(cluster.Active() || !shard.empty() || !from.empty()) || vote_net.enabled,
+            "--shards, --vote-rooms-shard and --vote-rooms-from split the vote network's "
+            "training rooms; with --no-vote-net there are none");
+    if (!cluster.Active()) return;
+    Require(shard.empty() && from.empty(),
+            "--shards N runs --vote-rooms-shard and --vote-rooms-from itself; give neither");
+    Require(cluster.shards <= vote_net.options.rooms,
+            "--shards " + std::to_string(cluster.shards) + ": more tasks than --vote-rooms " +
+                std::to_string(vote_net.options.rooms));
+  }
+};
+
+// Checked before anything trains (TrainVoteNet checks the merge again).
+void CheckRoomShardsHoldEveryRoom(const std::vector<std::string>& shards, int rooms) {
+  size_t held = 0;
+  for (const std::string& shard : shards)
+    held += DatasetDb(shard, DatasetDb::Mode::kReadOnly).RoomIds().size();
+  Require(held == static_cast<size_t>(rooms),
+          "the " + std::to_string(shards.size()) + " training-room shards hold " +
+              std::to_string(held) + " of the " + std::to_string(rooms) +
+              " rooms (a task's rooms are missing; rerun 'train --shards')");
+}
+
 // `train` as an array job: task i generates shard i/N of the vote
 // network's training rooms into the job folder; the final job is the same
 // train, which merges them and trains (scans, vocabulary, network).
 ArrayJob TrainArrayJob(const ClusterFlags& cluster, const std::string& out, int argc, char** argv) {
-  ArrayJob job;
-  job.dir = cluster.job_dir;
-  job.name = "train";
-  job.tasks = cluster.shards;
-  job.resources = cluster.resources;
+  ArrayJob job = NewArrayJob(cluster, "train");
   const std::string dir = std::filesystem::absolute(cluster.job_dir).string();
   const std::set<std::string> drop = {
       "--vote-rooms-shard", "--vote-rooms-out", "--vote-rooms-from"};
-  job.task_command = TaskCommandLine(argc,
-                                     argv,
-                                     drop,
-                                     "--quiet --vote-rooms-shard \"$TASK\"/" +
-                                         std::to_string(cluster.shards) + " --vote-rooms-out " +
-                                         ShellQuote(dir + "/rooms-") + "\"$TASK\"" + "'.db'");
+  job.task_command =
+      TaskCommandLine(argc,
+                      argv,
+                      drop,
+                      "--quiet --vote-rooms-shard \"$TASK\"/" + std::to_string(cluster.shards) +
+                          " --vote-rooms-out " + TaskFileArgument(dir, "rooms-", ".db"));
   job.task_output = dir + "/rooms-$TASK.db";
-  std::string shards;
-  for (int k = 0; k < cluster.shards; ++k)
-    shards += " " + ShellQuote(dir + "/rooms-" + std::to_string(k) + ".db");
-  job.final_command = TaskCommandLine(argc, argv, drop, "--vote-rooms-from" + shards);
+  job.final_command = TaskCommandLine(
+      argc, argv, drop, "--vote-rooms-from" + AllTaskFiles(dir, "rooms-", ".db", cluster.shards));
   job.final_output = std::filesystem::absolute(out).string();
   return job;
 }
@@ -113,37 +153,14 @@ int RunTrain(int argc, char** argv) {
                  options_file,
                  "Trainer options as JSON (the \"trainer\" object of a tuned options file); the "
                  "flags above apply on top when given");
-  std::string rooms_shard, rooms_out;
-  std::vector<std::string> rooms_from;
-  app.add_option("--vote-rooms-shard",
-                 rooms_shard,
-                 "i/N: only generate shard i/N of the vote network's training rooms into "
-                 "--vote-rooms-out, train nothing (what each task of 'train --shards' does)");
-  app.add_option("--vote-rooms-out", rooms_out, "With --vote-rooms-shard: the shard database");
-  app.add_option("--vote-rooms-from",
-                 rooms_from,
-                 "The training-room shards 0..N-1: merge them instead of generating the rooms "
-                 "(the final job of 'train --shards')");
+  RoomShardFlags room_shards;
+  room_shards.Add(&app);
   ClusterFlags cluster;
   AddClusterFlags(&app, &cluster);
   if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
   ApplyGlobalFlags(catalog_flags);
-  cluster.Check();
-  Require(rooms_shard.empty() == rooms_out.empty(),
-          "--vote-rooms-shard i/N and --vote-rooms-out go together");
-  Require(rooms_shard.empty() || rooms_from.empty(),
-          "--vote-rooms-shard and --vote-rooms-from do not go together");
-  Require(!(cluster.Active() || !rooms_shard.empty() || !rooms_from.empty()) || vote_net.enabled,
-          "--shards, --vote-rooms-shard and --vote-rooms-from split the vote network's training "
-          "rooms; with --no-vote-net there are none");
-  if (cluster.Active()) {
-    Require(rooms_shard.empty() && rooms_from.empty(),
-            "--shards N runs --vote-rooms-shard and --vote-rooms-from itself; give neither");
-    Require(cluster.shards <= vote_net.options.rooms,
-            "--shards " + std::to_string(cluster.shards) + ": more tasks than --vote-rooms " +
-                std::to_string(vote_net.options.rooms));
-    return RunArrayJob(cluster, TrainArrayJob(cluster, out, argc, argv));
-  }
+  room_shards.Check(cluster, vote_net);
+  if (cluster.Active()) return RunArrayJob(cluster, TrainArrayJob(cluster, out, argc, argv));
   Require(vocab == "rim" || vocab == "kmeans", "--vocab '" + vocab + "' must be rim or kmeans");
   Require(init == "kmeans" || init == "pca", "--init '" + init + "' must be kmeans or pca");
   const VocabularyKind kind = vocab == "rim" ? VocabularyKind::kRim : VocabularyKind::kKMeans;
@@ -173,28 +190,21 @@ int RunTrain(int argc, char** argv) {
             scorer_file + ": holds no hypothesis scorer");
   }
   const VoteNetTrainingOptions* vote_net_options = vote_net.Resolve(catalog_flags.quiet);
-  if (!rooms_shard.empty()) {
-    const auto [shard, shards] = ParseShard(rooms_shard);
+  if (!room_shards.shard.empty()) {  // a task of `train --shards`
+    const auto [shard, shards] = ParseShard(room_shards.shard);
     const int rooms =
-        GenerateTrainingRoomsShard(catalog, {}, *vote_net_options, shard, shards, rooms_out);
+        GenerateTrainingRoomsShard(catalog, {}, *vote_net_options, shard, shards, room_shards.out);
     std::printf("vote net training rooms, shard %s: %d rooms in %s\n",
-                rooms_shard.c_str(),
+                room_shards.shard.c_str(),
                 rooms,
-                rooms_out.c_str());
+                room_shards.out.c_str());
     return 0;
   }
   VoteNetTrainingOptions with_shards;
-  if (!rooms_from.empty()) {
-    // Checked before anything trains; TrainVoteNet checks the merge again.
-    size_t rooms = 0;
-    for (const std::string& shard : rooms_from)
-      rooms += DatasetDb(shard, DatasetDb::Mode::kReadOnly).RoomIds().size();
-    Require(rooms == static_cast<size_t>(vote_net_options->rooms),
-            "the " + std::to_string(rooms_from.size()) + " training-room shards hold " +
-                std::to_string(rooms) + " of the " + std::to_string(vote_net_options->rooms) +
-                " rooms (a task's rooms are missing; rerun 'train --shards')");
+  if (!room_shards.from.empty()) {  // the final job of `train --shards`
+    CheckRoomShardsHoldEveryRoom(room_shards.from, vote_net_options->rooms);
     with_shards = *vote_net_options;
-    with_shards.room_shards = rooms_from;
+    with_shards.room_shards = room_shards.from;
     vote_net_options = &with_shards;
   }
   const TrainSummary summary =

@@ -28,11 +28,7 @@ ArrayJob TuneArrayJob(const ClusterFlags& cluster,
   Require(cluster.shards <= options.trials,
           "--shards " + std::to_string(cluster.shards) + ": more tasks than --trials " +
               std::to_string(options.trials) + " (one task runs one or more trials)");
-  ArrayJob job;
-  job.dir = cluster.job_dir;
-  job.name = "tune";
-  job.tasks = cluster.shards;
-  job.resources = cluster.resources;
+  ArrayJob job = NewArrayJob(cluster, "tune");
   const std::string results = std::filesystem::absolute(cluster.job_dir).string() + "/trials";
   const std::set<std::string> drop = {"--trial-shard", "--results-dir"};
   job.task_command =

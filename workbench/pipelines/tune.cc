@@ -1,5 +1,9 @@
 #include "workbench/pipelines/tune.h"
 
+#include <fcntl.h>
+#include <sys/file.h>
+#include <unistd.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -7,10 +11,6 @@
 #include <nlohmann/json.hpp>
 #include <set>
 #include <tuple>
-
-#include <fcntl.h>
-#include <sys/file.h>
-#include <unistd.h>
 
 #include "core/error.h"
 #include "core/file_util.h"
@@ -512,10 +512,11 @@ class Tuning {
     if (json == base_trainer_json_ && !options_.base_model_path.empty())
       return options_.base_model_path;
     std::filesystem::create_directories(options_.work_dir + "/models");
-    const std::string path =
-        options_.work_dir + "/models/" + ShortHash(json + "\n" + options_.catalog_spec) + ".fcm";
+    std::filesystem::create_directories(options_.work_dir + "/locks");
+    const std::string hash = ShortHash(json + "\n" + options_.catalog_spec);
+    const std::string path = options_.work_dir + "/models/" + hash + ".fcm";
     if (std::filesystem::exists(path)) return path;
-    const CacheLock lock(path + ".lock");
+    const CacheLock lock(options_.work_dir + "/locks/" + hash + ".lock");
     if (!std::filesystem::exists(path)) {
       std::printf("tune: training a model for %s\n", path.c_str());
       std::fflush(stdout);

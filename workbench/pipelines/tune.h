@@ -77,8 +77,8 @@ std::vector<TuneTrial> MakeTrials(const TuneSpace& space,
 struct TuneOptions {
   std::string db_path;
   std::string space_path;
-  std::string work_dir;           // trained models: <work_dir>/models/<hash>.fcm
-  std::string out_dir;            // index.html, plots, best_options.json
+  std::string work_dir;  // trained models: <work_dir>/models/<hash>.fcm (locks: <work_dir>/locks)
+  std::string out_dir;   // index.html, plots, best_options.json
   std::string base_options_path;  // options file the trials start from ("": defaults)
   // The trials' base detector options, when given (the CLI's detector flags
   // over the file); unset: the file's, or the defaults.
