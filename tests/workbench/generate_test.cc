@@ -139,6 +139,12 @@ TEST(Generate, TwoShardsMergedEqualOneRun) {
   EXPECT_EQ(Dump(dir + "/merged.db"), Dump(dir + "/all.db"));
   // Merging into an existing file, or datasets of other runs, is refused.
   EXPECT_THROW(MergeDatasets({dir + "/s0.db"}, dir + "/merged.db"), InputError);
+  // A shard left out: refused naming the missing rooms, unless partial is allowed.
+  EXPECT_EQ(testing::ErrorOf([&] { MergeDatasets({dir + "/s0.db"}, dir + "/half.db"); }),
+            "the inputs hold 3 of the 5 rooms of their generation (missing room 1, 3: a shard "
+            "left out, or one whose task did not finish); --allow-partial merges them anyway");
+  EXPECT_FALSE(std::filesystem::exists(dir + "/half.db"));
+  EXPECT_EQ(MergeDatasets({dir + "/s0.db"}, dir + "/half.db", /*allow_partial=*/true).rooms, 3);
   GenerateDataset(catalog, SmallRun(2, 99), dir + "/other.db");
   EXPECT_THROW(MergeDatasets({dir + "/s0.db", dir + "/other.db"}, dir + "/bad.db"), InputError);
   EXPECT_FALSE(std::filesystem::exists(dir + "/bad.db"));

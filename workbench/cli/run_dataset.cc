@@ -197,6 +197,10 @@ int RunDataset(int argc, char** argv) {
   std::vector<std::string> inputs;
   merge->add_option("inputs", inputs, "Input datasets")->required();
   merge->add_option("--out", out, "New dataset file")->required();
+  bool allow_partial = false;
+  merge->add_flag("--allow-partial",
+                  allow_partial,
+                  "Merge even when the inputs lack rooms their generation made (a shard left out)");
   CLI::App* export_command = app.add_subcommand("export", "Write frames as BOP, PNG or PCD files");
   std::string format = "bop";
   export_command->add_option("db", db, "Dataset database")->required();
@@ -239,7 +243,7 @@ int RunDataset(int argc, char** argv) {
     return 0;
   }
   if (merge->parsed()) {
-    const MergeSummary summary = MergeDatasets(inputs, out);
+    const MergeSummary summary = MergeDatasets(inputs, out, allow_partial);
     std::cout << "wrote " << out << ": " << summary.rooms << " rooms from " << inputs.size()
               << " datasets (" << summary.duplicate_rooms << " duplicate rooms were identical)\n";
     return 0;

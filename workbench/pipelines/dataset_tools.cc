@@ -2,6 +2,7 @@
 
 #include <filesystem>
 #include <nlohmann/json.hpp>
+#include <set>
 #include <sstream>
 
 #include "core/error.h"
@@ -168,11 +169,41 @@ std::string SqlQuote(const std::string& text) {
 
 }  // namespace
 
-MergeSummary MergeDatasets(const std::vector<std::string>& inputs, const std::string& out) {
+namespace {
+
+// Refuses inputs that lack rooms of the generation they come from (its
+// options say how many rooms it made in all shards): a shard left out, or
+// one whose task did not finish.
+void CheckEveryRoomPresent(const std::string& generation_options, const std::set<int64_t>& rooms) {
+  const nlohmann::json options = nlohmann::json::parse(generation_options, nullptr, false);
+  if (!options.is_object() || !options.contains("rooms") || !options["rooms"].is_number_integer())
+    return;  // not a generated dataset (an imported real set)
+  const int64_t made = options["rooms"].get<int64_t>();
+  std::string missing;
+  int listed = 0;
+  for (int64_t id = 0; id < made && listed < 5; ++id) {
+    if (rooms.count(id)) continue;
+    missing += (listed++ ? ", " : "") + std::to_string(id);
+  }
+  Require(
+      missing.empty(),
+      "the inputs hold " + std::to_string(rooms.size()) + " of the " + std::to_string(made) +
+          " rooms of their generation (missing room " + missing +
+          (listed < static_cast<int>(made - static_cast<int64_t>(rooms.size())) ? ", ..." : "") +
+          ": a shard left out, or one whose task did not finish); --allow-partial merges "
+          "them anyway");
+}
+
+}  // namespace
+
+MergeSummary MergeDatasets(const std::vector<std::string>& inputs,
+                           const std::string& out,
+                           bool allow_partial) {
   Require(inputs.size() >= 1, "merge needs at least one input dataset");
   std::error_code ec;
   Require(!std::filesystem::exists(out, ec), out + ": already exists (merge writes a new file)");
   std::string options;
+  std::set<int64_t> rooms;
   for (const std::string& input : inputs) {
     DatasetDb dataset = OpenExisting(input);
     const std::string these = dataset.GenerationOptions().value_or("");
@@ -180,7 +211,9 @@ MergeSummary MergeDatasets(const std::vector<std::string>& inputs, const std::st
     Require(these == options,
             input + ": generated with other options than " + inputs.front() +
                 " (only shards of one run can be merged)");
+    for (int64_t id : dataset.RoomIds()) rooms.insert(id);
   }
+  if (!allow_partial) CheckEveryRoomPresent(options, rooms);
   const std::string temp = out + ".partial";
   std::filesystem::remove(temp, ec);
   MergeSummary summary;

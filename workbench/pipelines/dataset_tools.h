@@ -38,12 +38,15 @@ namespace furn {
 
 // Joins datasets made with the same generation options (e.g. the shards of
 // one run) into a new file. Throws InputError when `out` exists, the options
-// differ, or two inputs hold the same room with different content.
+// differ, two inputs hold the same room with different content, or (unless
+// allow_partial) the inputs lack rooms their generation made.
 struct MergeSummary {
   int rooms = 0;
   int duplicate_rooms = 0;  // present in several inputs, identical
 };
-MergeSummary MergeDatasets(const std::vector<std::string>& inputs, const std::string& out);
+MergeSummary MergeDatasets(const std::vector<std::string>& inputs,
+                           const std::string& out,
+                           bool allow_partial = false);
 
 // Writes every frame to `out_dir` as
 //   bop: a BOP dataset, models included (workbench/bop_export.h); the meshes
