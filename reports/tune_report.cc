@@ -175,7 +175,8 @@ void WriteTuneReport(const TuneReportInput& input, const std::string& dir) {
        << HtmlEscape(input.title) << "</h1>\n";
   for (const std::string& note : input.notes) html << "<p>" << HtmlEscape(note) << "</p>\n";
   html << "<p>Objective: <b>" << HtmlEscape(input.objective)
-       << "</b> on the validation split (higher is better; ties go to the lower median latency)";
+       << "</b> on the validation split (higher is better; ties go to the earlier trial, the base "
+          "first)";
   if (input.max_ms > 0)
     html << "; trials with a median latency above " << Number(input.max_ms, 0)
          << " ms rank last (grey)";

@@ -624,7 +624,9 @@ class Tuning {
     return row;
   }
 
-  // Within the latency bound first, then the objective, then latency.
+  // Within the latency bound first, then the objective, then the earlier
+  // trial (the base first): timings are not a tie-break, so a rerun, or the
+  // same search as an array job whose tasks share nodes, picks the same best.
   void Rank(std::vector<TuneReportTrial>* scored) const {
     const MetricId& objective = objective_;
     std::stable_sort(
@@ -633,7 +635,7 @@ class Tuning {
           const double oa = MetricOrNan(a.metrics, objective),
                        ob = MetricOrNan(b.metrics, objective);
           if (oa != ob) return std::isnan(ob) || oa > ob;
-          return MetricOrNan(a.metrics, kLatency) < MetricOrNan(b.metrics, kLatency);
+          return a.index < b.index;
         });
   }
 
