@@ -171,8 +171,8 @@ void WriteTuneReport(const TuneReportInput& input, const std::string& dir) {
        << "td,th{border:1px solid #ccc;padding:3px 8px;text-align:right}th{background:#f0f0f0}"
        << "td:first-child,th:first-child{text-align:left}tr.best{background:#e6f4ea;font-weight:"
        << "bold}tr.base{background:#fdecee}tr.over{color:#999}img{border:1px solid #ddd;margin:4px}"
-       << "code{background:#f4f4f4;padding:1px 4px}</style></head><body>\n<h1>"
-       << HtmlEscape(input.title) << "</h1>\n";
+       << "code{background:#f4f4f4;padding:1px 4px}h1,p{overflow-wrap:anywhere}</style></head>"
+       << "<body>\n<h1>" << HtmlEscape(input.title) << "</h1>\n";
   for (const std::string& note : input.notes) html << "<p>" << HtmlEscape(note) << "</p>\n";
   html << "<p>Objective: <b>" << HtmlEscape(input.objective)
        << "</b> on the validation split (higher is better; ties go to the earlier trial, the base "
