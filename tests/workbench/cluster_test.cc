@@ -202,6 +202,28 @@ TEST_F(Cluster, CrossvalFoldTasksGiveTheOneProcessMetrics) {
   EXPECT_NE(bad.output.find("has 3 folds"), std::string::npos) << bad.output;
 }
 
+// `jobs cancel` ends every job of the folder; the job then reads as failed
+// (nothing queued, tasks missing), and a rerun would resubmit them all.
+TEST_F(Cluster, JobsCancelEndsTheTasksAndTheFinalJob) {
+  const std::string dir = testing::ScratchDir();
+  setenv("SBATCH_HOLD", "1", 1);
+  const testing::CommandResult submit = Workbench(ShardedGenerate(dir));
+  unsetenv("SBATCH_HOLD");
+  ASSERT_EQ(submit.exit_code, 0) << submit.output;
+  const testing::CommandResult cancel = Workbench("jobs cancel " + dir + "/job");
+  ASSERT_EQ(cancel.exit_code, 0) << cancel.output;
+  EXPECT_NE(cancel.output.find("cancelled jobs "), std::string::npos) << cancel.output;
+  std::string queued = "?";
+  for (int k = 0; k < 40 && !queued.empty(); ++k) {  // scancel returns before the queue empties
+    queued = Shell("squeue -h -o %i").output;
+    if (!queued.empty()) usleep(250000);
+  }
+  EXPECT_EQ(queued, "");
+  const testing::CommandResult status = Workbench("jobs status " + dir + "/job");
+  EXPECT_EQ(status.exit_code, 1) << status.output;
+  EXPECT_NE(status.output.find("task 3   missing"), std::string::npos) << status.output;
+}
+
 TEST_F(Cluster, BadFlagsAreOneLine) {
   const std::string dir = testing::ScratchDir();
   for (const std::string& flags :

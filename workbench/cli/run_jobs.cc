@@ -1,4 +1,4 @@
-// `workbench jobs status|wait DIR`: a Slurm array job's folder (issue 31).
+// `workbench jobs status|wait|cancel DIR`: a Slurm array job's folder (issue 31).
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
@@ -48,7 +48,8 @@ std::string Counts(const JobFolderState& state) {
 }  // namespace
 
 int RunJobs(int argc, char** argv) {
-  CLI::App app{"State of a Slurm array job's folder, or wait until it finishes", "workbench jobs"};
+  CLI::App app{"State of a Slurm array job's folder, wait until it finishes, or cancel it",
+               "workbench jobs"};
   app.require_subcommand(1);
   std::string dir;
   double timeout_s = 0, poll_s = 2;
@@ -63,7 +64,19 @@ int RunJobs(int argc, char** argv) {
       ->capture_default_str();
   wait->add_option("--poll", poll_s, "Seconds between looks")->capture_default_str();
   wait->add_flag("-q,--quiet", quiet, "Only the last line");
+  CLI::App* cancel = app.add_subcommand(
+      "cancel", "scancel every job of the folder (a rerun of the command resubmits what is left)");
+  cancel->add_option("dir", dir, "Job folder (--job-dir)")->required();
   if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
+  if (cancel->parsed()) {
+    const std::vector<std::string> ids = CancelJobs(dir);
+    std::string list;
+    for (const std::string& id : ids) list += (list.empty() ? "" : ", ") + id;
+    std::printf("%s: %s\n",
+                dir.c_str(),
+                ids.empty() ? "nothing was submitted" : ("cancelled jobs " + list).c_str());
+    return 0;
+  }
   if (status->parsed()) {
     const JobFolderState state = ReadJobFolder(dir);
     PrintState(dir, state);

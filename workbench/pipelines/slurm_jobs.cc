@@ -255,6 +255,22 @@ std::vector<std::string> EmitArrayJob(const ArrayJob& job) {
   return commands;
 }
 
+std::vector<std::string> CancelJobs(const std::string& dir) {
+  const nlohmann::json jobs = ReadJobs(dir);
+  std::vector<std::string> ids;
+  for (const auto& s : jobs["submissions"]) {
+    for (const char* key : {"array", "final"}) {
+      if (!s.value(key, "").empty()) ids.push_back(s.value(key, ""));
+    }
+  }
+  if (ids.empty()) return ids;
+  std::string list;
+  for (const std::string& id : ids) list += " " + id;
+  const auto [out, code] = Capture("scancel" + list);
+  if (code == 127) throw InputError("scancel not found: is this a Slurm login node?");
+  return ids;  // ended jobs make scancel complain; nothing to do about them
+}
+
 JobFolderState ReadJobFolder(const std::string& dir) {
   const nlohmann::json jobs = ReadJobs(dir);
   JobFolderState result;

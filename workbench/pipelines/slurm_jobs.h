@@ -66,6 +66,11 @@ Submission SubmitArrayJob(const ArrayJob& job);
 // the scripts.
 std::vector<std::string> EmitArrayJob(const ArrayJob& job);
 
+// scancel for every array and final job the folder's submissions made
+// (those already ended are left as they are); returns their ids. A rerun of
+// the command resubmits what was not done.
+std::vector<std::string> CancelJobs(const std::string& dir);
+
 // State of every task and of the final job, from the job folder and squeue.
 struct TaskState {
   int task = -1;      // -1: the final job
