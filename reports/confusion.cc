@@ -59,11 +59,15 @@ void WriteConfusionPng(const std::vector<std::string>& labels,
                 cv::Scalar(0, 0, 0),
                 1,
                 cv::LINE_AA);
+    // A column label wider than its cell ("background") is drawn smaller, not cut.
+    int baseline = 0;
+    const double label_width =
+        cv::getTextSize(column_labels[r], cv::FONT_HERSHEY_SIMPLEX, 0.4, 1, &baseline).width;
     cv::putText(image,
-                column_labels[r].substr(0, 9),
+                column_labels[r],
                 cv::Point(kLeft + r * kCell + 4, kTop - 8),
                 cv::FONT_HERSHEY_SIMPLEX,
-                0.4,
+                0.4 * std::min(1.0, (kCell - 8) / label_width),
                 cv::Scalar(0, 0, 0),
                 1,
                 cv::LINE_AA);
