@@ -103,37 +103,43 @@ int SymmetryOrder(const ModelShape& shape) {
 
 namespace {
 
-// The rooms of the split (and fold) to evaluate (without their images), how
-// many of their frames, in order, and the hash of those frames' contents.
+// The rooms of the split (and fold) to evaluate (without their images), the
+// frames selected from them in order (a frame's position is its index here),
+// and the hash of those frames' contents.
 struct FrameSelection {
+  struct Frame {
+    int room = 0, frame = 0;  // indices into rooms and that room's frames
+  };
   std::vector<RoomRecord> rooms;
-  int frames = 0;
+  std::vector<Frame> frames;
   std::string dataset_hash;
+
+  const RoomRecord& RoomAt(int position) const { return rooms[frames[position].room]; }
+  const FrameRecord& FrameAt(int position) const {
+    return RoomAt(position).frames[frames[position].frame];
+  }
 };
 
 FrameSelection SelectFrames(DatasetDb& dataset,
                             const std::string& db_path,
                             const EvaluateCommandOptions& options) {
   FrameSelection selection;
+  ContentHasher hash;
   for (int64_t id : dataset.RoomIds()) {
     RoomRecord room = dataset.ReadRoom(id, /*with_images=*/false);
     if (!InSplit(room.split, options.split)) continue;
     if (options.fold_count > 0 && FoldOfRoom(id, options.fold_count) != options.fold) continue;
-    selection.frames += static_cast<int>(room.frames.size());
+    for (size_t k = 0; k < room.frames.size(); ++k) {
+      if (options.max_frames > 0 && static_cast<int>(selection.frames.size()) >= options.max_frames)
+        break;
+      selection.frames.push_back({static_cast<int>(selection.rooms.size()), static_cast<int>(k)});
+      hash.Update(room.frames[k].content_hash.data(), room.frames[k].content_hash.size());
+    }
     selection.rooms.push_back(std::move(room));
   }
-  if (options.max_frames > 0) selection.frames = std::min(selection.frames, options.max_frames);
-  Require(selection.frames > 0,
+  Require(!selection.frames.empty(),
           db_path + ": no frames in split '" + EnumName(options.split) + "'" +
               (options.fold_count > 0 ? " of fold " + std::to_string(options.fold) : ""));
-  ContentHasher hash;
-  int position = 0;
-  for (const RoomRecord& room : selection.rooms) {
-    for (const FrameRecord& frame : room.frames) {
-      if (position++ < selection.frames)
-        hash.Update(frame.content_hash.data(), frame.content_hash.size());
-    }
-  }
   selection.dataset_hash = hash.HexDigest();
   return selection;
 }
@@ -146,10 +152,16 @@ struct ModelFacts {
   std::set<std::string> trained;
 };
 
-ModelFacts FactsOf(const TrainedModel& model) {
+// Without the symmetries (a merge of shards, whose detections carry them).
+ModelFacts TrainedFactsOf(const TrainedModel& model) {
   ModelFacts facts;
-  for (const ModelShape& shape : model.model_shapes) facts.symmetry.push_back(SymmetryOrder(shape));
   facts.trained.insert(model.model_names.begin(), model.model_names.end());
+  return facts;
+}
+
+ModelFacts FactsOf(const TrainedModel& model) {
+  ModelFacts facts = TrainedFactsOf(model);
+  for (const ModelShape& shape : model.model_shapes) facts.symmetry.push_back(SymmetryOrder(shape));
   return facts;
 }
 
@@ -330,37 +342,31 @@ std::vector<EvaluatedFrame> DetectFrames(DatasetDb& dataset,
   const ModelFacts facts = FactsOf(detector.model());
   const std::set<int64_t> estimated_pose =
       FramesWithEstimatedPose(dataset.GenerationOptions().value_or(""));
+  const int selected = static_cast<int>(selection.frames.size());
   auto wanted = [&](int position) {
-    return position < selection.frames &&
-           (options.shard_count == 0 || position % options.shard_count == options.shard_index);
+    return options.shard_count == 0 || position % options.shard_count == options.shard_index;
   };
   int total = 0;
-  for (int p = 0; p < selection.frames; ++p) total += wanted(p);
+  for (int p = 0; p < selected; ++p) total += wanted(p);
   std::vector<EvaluatedFrame> frames;
   Progress progress("evaluate", total, "frames");
-  int first = 0;  // position of the room's first frame
-  for (const RoomRecord& listed : selection.rooms) {
-    const int count = static_cast<int>(listed.frames.size());
-    bool any = false;
-    for (int k = 0; k < count; ++k) any = any || wanted(first + k);
-    if (any) {
-      const RoomRecord room = dataset.ReadRoom(listed.id, /*with_images=*/true);
-      for (int k = 0; k < count; ++k) {
-        if (!wanted(first + k)) continue;
-        // A frame with nothing in range (the camera against a wall, a dead
-        // sensor) has no detections; its objects count as missed or ignored.
-        frames.push_back(EvaluateFrame(detector,
-                                       room,
-                                       room.frames[k],
-                                       estimated_pose.count(room.frames[k].id) > 0,
-                                       facts,
-                                       db_path,
-                                       options.collect_scorer_samples));
-        frames.back().position = first + k;
-        progress.Advance();
-      }
-    }
-    first += count;
+  std::optional<RoomRecord> room;  // with images: the room of the frames being evaluated
+  for (int p = 0; p < selected; ++p) {
+    if (!wanted(p)) continue;
+    const RoomRecord& listed = selection.RoomAt(p);
+    if (!room || room->id != listed.id) room = dataset.ReadRoom(listed.id, /*with_images=*/true);
+    const FrameRecord& frame = room->frames[selection.frames[p].frame];
+    // A frame with nothing in range (the camera against a wall, a dead
+    // sensor) has no detections; its objects count as missed or ignored.
+    frames.push_back(EvaluateFrame(detector,
+                                   *room,
+                                   frame,
+                                   estimated_pose.count(frame.id) > 0,
+                                   facts,
+                                   db_path,
+                                   options.collect_scorer_samples));
+    frames.back().position = p;
+    progress.Advance();
   }
   progress.Finish();
   return frames;
@@ -464,16 +470,17 @@ EvaluateSummary MergeEvaluation(const std::string& model_path,
   const auto start = std::chrono::steady_clock::now();
   DatasetDb dataset(db_path, DatasetDb::Mode::kReadWriteExisting);
   const std::string model_hash = HashOf(ReadFileBytes(model_path));
-  const ModelFacts facts = FactsOf(LoadTrainedModel(model_path));
+  const ModelFacts facts = TrainedFactsOf(LoadTrainedModel(model_path));
   const FrameSelection selection = SelectFrames(dataset, db_path, options);
   const int shards = static_cast<int>(shard_paths.size());
+  const int selected = static_cast<int>(selection.frames.size());
   // Every position of the selection from exactly the shard it belongs to.
-  std::vector<std::optional<EvaluatedFrame>> slots(selection.frames);
+  std::vector<std::optional<EvaluatedFrame>> slots(selected);
   for (int s = 0; s < shards; ++s) {
     for (EvaluatedFrame& frame :
          ReadShardFile(shard_paths[s], HeaderOf(selection, model_hash, options, s, shards))) {
       const int p = frame.position;
-      Require(p >= 0 && p < selection.frames && p % shards == s && !slots[p],
+      Require(p >= 0 && p < selected && p % shards == s && !slots[p],
               shard_paths[s] + ": frame position " + std::to_string(p) +
                   " does not belong to shard " + std::to_string(s) + "/" + std::to_string(shards) +
                   " or comes twice");
@@ -481,18 +488,13 @@ EvaluateSummary MergeEvaluation(const std::string& model_path,
     }
   }
   std::vector<EvaluatedFrame> frames;
-  int position = 0;
-  for (const RoomRecord& room : selection.rooms) {
-    for (const FrameRecord& frame : room.frames) {
-      if (position >= selection.frames) break;
-      std::optional<EvaluatedFrame>& slot = slots[position];
-      Require(slot.has_value() && slot->outcome.frame_id == frame.id,
-              shard_paths[position % shards] + ": lacks frame " + std::to_string(frame.id) +
-                  " (position " + std::to_string(position) + "); rerun its task");
-      slot->outcome.truth = TruthOf(room, frame, facts);
-      frames.push_back(std::move(*slot));
-      ++position;
-    }
+  for (int p = 0; p < selected; ++p) {
+    const FrameRecord& frame = selection.FrameAt(p);
+    Require(slots[p].has_value() && slots[p]->outcome.frame_id == frame.id,
+            shard_paths[p % shards] + ": lacks frame " + std::to_string(frame.id) + " (position " +
+                std::to_string(p) + "); rerun its task");
+    slots[p]->outcome.truth = TruthOf(selection.RoomAt(p), frame, facts);
+    frames.push_back(std::move(*slots[p]));
   }
   EvaluateSummary summary =
       StoreRun(dataset, model_path, model_hash, selection, options, std::move(frames));
