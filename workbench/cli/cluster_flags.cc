@@ -84,19 +84,28 @@ ArrayJob NewArrayJob(const ClusterFlags& flags, const std::string& name) {
   return job;
 }
 
-std::string TaskFileArgument(const std::string& dir,
-                             const std::string& stem,
-                             const std::string& extension) {
-  return ShellQuote(dir + "/" + stem) + "\"$TASK\"" + ShellQuote(extension);
+std::string TaskShardArgument(const ArrayJob& job) {
+  return "\"$TASK\"/" + std::to_string(job.tasks);
 }
 
-std::string AllTaskFiles(const std::string& dir,
-                         const std::string& stem,
-                         const std::string& extension,
-                         int tasks) {
+void SetTaskOutput(ArrayJob* job, const std::string& stem, const std::string& extension) {
+  job->task_output =
+      std::filesystem::absolute(job->dir).string() + "/" + stem + "$TASK" + extension;
+}
+
+std::string TaskOutputArgument(const ArrayJob& job) {
+  const size_t at = job.task_output.find("$TASK");
+  return ShellQuote(job.task_output.substr(0, at)) + "\"$TASK\"" +
+         ShellQuote(job.task_output.substr(at + 5));
+}
+
+std::string AllTaskOutputs(const ArrayJob& job) {
+  const size_t at = job.task_output.find("$TASK");
   std::string files;
-  for (int k = 0; k < tasks; ++k)
-    files += " " + ShellQuote(dir + "/" + stem + std::to_string(k) + extension);
+  for (int k = 0; k < job.tasks; ++k) {
+    files += " " + ShellQuote(job.task_output.substr(0, at) + std::to_string(k) +
+                              job.task_output.substr(at + 5));
+  }
   return files;
 }
 

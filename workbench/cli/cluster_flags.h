@@ -46,16 +46,16 @@ std::string WorkbenchCommand(const std::string& arguments);
 // flags' resources; its commands and outputs still to fill in.
 ArrayJob NewArrayJob(const ClusterFlags& flags, const std::string& name);
 
-// A task's output file DIR/<stem><i><extension> as its script names it
-// (quoted, with "$TASK" for i), and the files of tasks 0..tasks-1, each
-// quoted after a space (the final job's arguments).
-std::string TaskFileArgument(const std::string& dir,
-                             const std::string& stem,
-                             const std::string& extension);
-std::string AllTaskFiles(const std::string& dir,
-                         const std::string& stem,
-                         const std::string& extension,
-                         int tasks);
+// "$TASK"/N: the shard a task makes, as its script passes it.
+std::string TaskShardArgument(const ArrayJob& job);
+
+// Sets the job's task output to DIR/<stem><i><extension> in the job folder
+// (what a rerun looks for); TaskOutputArgument is that file as a task's
+// script names it (quoted around "$TASK"), AllTaskOutputs the files of
+// tasks 0..N-1, each quoted after a space (the final job's arguments).
+void SetTaskOutput(ArrayJob* job, const std::string& stem, const std::string& extension);
+std::string TaskOutputArgument(const ArrayJob& job);
+std::string AllTaskOutputs(const ArrayJob& job);
 
 // Submits (--slurm) or writes (--emit-only) the job and prints what it did.
 int RunArrayJob(const ClusterFlags& flags, const ArrayJob& job);

@@ -71,17 +71,14 @@ ArrayJob GenerateArrayJob(const ClusterFlags& cluster,
   Require(std::filesystem::path(out).extension() == ".db",
           out + ": the dataset file must end in .db");
   ArrayJob job = NewArrayJob(cluster, "generate");
-  const std::string dir = std::filesystem::absolute(cluster.job_dir).string();
-  const std::string n = std::to_string(cluster.shards);
+  SetTaskOutput(&job, "shard-", ".db");
   job.task_command = TaskCommandLine(
       argc,
       argv,
       {"--out", "--shard"},
-      "--quiet --shard \"$TASK\"/" + n + " --out " + TaskFileArgument(dir, "shard-", ".db"));
-  job.task_output = dir + "/shard-$TASK.db";
+      "--quiet --shard " + TaskShardArgument(job) + " --out " + TaskOutputArgument(job));
   job.final_output = std::filesystem::absolute(out).string();
-  job.final_command = WorkbenchCommand("dataset merge --quiet") +
-                      AllTaskFiles(dir, "shard-", ".db", cluster.shards) + " --out " +
+  job.final_command = WorkbenchCommand("dataset merge --quiet") + AllTaskOutputs(job) + " --out " +
                       ShellQuote(job.final_output);
   return job;
 }

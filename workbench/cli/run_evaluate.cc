@@ -210,17 +210,14 @@ void CompareVocabulariesAndPrint(const Catalog& catalog,
 // shard files into one run of the dataset.
 ArrayJob EvaluateArrayJob(const ClusterFlags& cluster, int argc, char** argv) {
   ArrayJob job = NewArrayJob(cluster, "evaluate");
-  const std::string dir = std::filesystem::absolute(cluster.job_dir).string();
-  const std::string n = std::to_string(cluster.shards);
+  SetTaskOutput(&job, "shard-", ".json");
   const std::set<std::string> drop = {"--shard", "--shard-out", "--merge-shards"};
-  job.task_command = TaskCommandLine(argc,
-                                     argv,
-                                     drop,
-                                     "--quiet --shard \"$TASK\"/" + n + " --shard-out " +
-                                         TaskFileArgument(dir, "shard-", ".json"));
-  job.task_output = dir + "/shard-$TASK.json";
-  job.final_command = TaskCommandLine(
-      argc, argv, drop, "--merge-shards" + AllTaskFiles(dir, "shard-", ".json", cluster.shards));
+  job.task_command = TaskCommandLine(
+      argc,
+      argv,
+      drop,
+      "--quiet --shard " + TaskShardArgument(job) + " --shard-out " + TaskOutputArgument(job));
+  job.final_command = TaskCommandLine(argc, argv, drop, "--merge-shards" + AllTaskOutputs(job));
   return job;
 }
 

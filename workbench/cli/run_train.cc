@@ -110,18 +110,15 @@ void CheckRoomShardsHoldEveryRoom(const std::vector<std::string>& shards, int ro
 // train, which merges them and trains (scans, vocabulary, network).
 ArrayJob TrainArrayJob(const ClusterFlags& cluster, const std::string& out, int argc, char** argv) {
   ArrayJob job = NewArrayJob(cluster, "train");
-  const std::string dir = std::filesystem::absolute(cluster.job_dir).string();
+  SetTaskOutput(&job, "rooms-", ".db");
   const std::set<std::string> drop = {
       "--vote-rooms-shard", "--vote-rooms-out", "--vote-rooms-from"};
-  job.task_command =
-      TaskCommandLine(argc,
-                      argv,
-                      drop,
-                      "--quiet --vote-rooms-shard \"$TASK\"/" + std::to_string(cluster.shards) +
-                          " --vote-rooms-out " + TaskFileArgument(dir, "rooms-", ".db"));
-  job.task_output = dir + "/rooms-$TASK.db";
-  job.final_command = TaskCommandLine(
-      argc, argv, drop, "--vote-rooms-from" + AllTaskFiles(dir, "rooms-", ".db", cluster.shards));
+  job.task_command = TaskCommandLine(argc,
+                                     argv,
+                                     drop,
+                                     "--quiet --vote-rooms-shard " + TaskShardArgument(job) +
+                                         " --vote-rooms-out " + TaskOutputArgument(job));
+  job.final_command = TaskCommandLine(argc, argv, drop, "--vote-rooms-from" + AllTaskOutputs(job));
   job.final_output = std::filesystem::absolute(out).string();
   return job;
 }

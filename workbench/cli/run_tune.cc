@@ -31,12 +31,11 @@ ArrayJob TuneArrayJob(const ClusterFlags& cluster,
   ArrayJob job = NewArrayJob(cluster, "tune");
   const std::string results = std::filesystem::absolute(cluster.job_dir).string() + "/trials";
   const std::set<std::string> drop = {"--trial-shard", "--results-dir"};
-  job.task_command =
-      TaskCommandLine(argc,
-                      argv,
-                      drop,
-                      "--quiet --trial-shard \"$TASK\"/" + std::to_string(cluster.shards) +
-                          " --results-dir " + ShellQuote(results));
+  job.task_command = TaskCommandLine(
+      argc,
+      argv,
+      drop,
+      "--quiet --trial-shard " + TaskShardArgument(job) + " --results-dir " + ShellQuote(results));
   job.final_command = TaskCommandLine(argc, argv, drop, "--results-dir " + ShellQuote(results));
   job.final_output = std::filesystem::absolute(options.out_dir).string() + "/best_options.json";
   return job;
