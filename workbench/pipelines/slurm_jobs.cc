@@ -86,6 +86,17 @@ nlohmann::json ReadJobs(const std::string& dir) {
   }
 }
 
+// The job ids under `key` ("array" or "final") of the folder's submissions,
+// oldest first; a submission without one (no task, or no final job left to
+// run) adds nothing.
+std::vector<std::string> SubmittedIds(const nlohmann::json& jobs, const char* key) {
+  std::vector<std::string> ids;
+  for (const auto& s : jobs["submissions"]) {
+    if (!s.value(key, "").empty()) ids.push_back(s.value(key, ""));
+  }
+  return ids;
+}
+
 // Array task index -> squeue state letter code (PD, R, CG, ...) of the jobs
 // in `ids`; empty when squeue is missing.
 std::map<std::string, std::string> QueueStates(const std::vector<std::string>& ids) {
@@ -181,10 +192,7 @@ std::string Sbatch(const std::string& arguments) {
 
 // Refuses to submit a task that an earlier submission still has queued or running.
 void CheckNotQueued(const std::string& dir, const std::vector<int>& todo) {
-  const nlohmann::json jobs = ReadJobs(dir);
-  std::vector<std::string> ids;
-  for (const auto& s : jobs["submissions"]) ids.push_back(s.value("array", ""));
-  const auto states = QueueStates(ids);
+  const auto states = QueueStates(SubmittedIds(ReadJobs(dir), "array"));
   const std::set<int> wanted(todo.begin(), todo.end());
   for (const auto& [id, state] : states) {
     const size_t underscore = id.find('_');
@@ -257,12 +265,8 @@ std::vector<std::string> EmitArrayJob(const ArrayJob& job) {
 
 std::vector<std::string> CancelJobs(const std::string& dir) {
   const nlohmann::json jobs = ReadJobs(dir);
-  std::vector<std::string> ids;
-  for (const auto& s : jobs["submissions"]) {
-    for (const char* key : {"array", "final"}) {
-      if (!s.value(key, "").empty()) ids.push_back(s.value(key, ""));
-    }
-  }
+  std::vector<std::string> ids = SubmittedIds(jobs, "array");
+  for (const std::string& id : SubmittedIds(jobs, "final")) ids.push_back(id);
   if (ids.empty()) return ids;
   std::string list;
   for (const std::string& id : ids) list += " " + id;
@@ -276,12 +280,9 @@ JobFolderState ReadJobFolder(const std::string& dir) {
   JobFolderState result;
   result.name = jobs.value("name", "");
   const int tasks = jobs.value("tasks", 0);
-  std::vector<std::string> ids;
-  std::string last_final;
-  for (const auto& s : jobs["submissions"]) {
-    if (!s.value("array", "").empty()) ids.push_back(s.value("array", ""));
-    if (!s.value("final", "").empty()) last_final = s.value("final", "");
-  }
+  const std::vector<std::string> ids = SubmittedIds(jobs, "array");
+  const std::vector<std::string> finals = SubmittedIds(jobs, "final");
+  const std::string last_final = finals.empty() ? "" : finals.back();
   std::vector<std::string> queried = ids;
   if (!last_final.empty()) queried.push_back(last_final);
   const auto queue = QueueStates(queried);

@@ -312,17 +312,8 @@ std::string TrainVoteNet(const Catalog& catalog,
   // A database kept from an earlier run resumes (rooms already in it are
   // skipped); one of other options is refused by GenerateDataset.
   if (!options.keep_rooms || !options.room_shards.empty()) RemoveDatabase(rooms_db);
-  if (!options.room_shards.empty()) {
-    MergeDatasets(options.room_shards, rooms_db);
-    const size_t merged = DatasetDb(rooms_db, DatasetDb::Mode::kReadOnly).RoomIds().size();
-    if (merged != static_cast<size_t>(options.rooms)) {
-      RemoveDatabase(rooms_db);
-      throw InputError("the " + std::to_string(options.room_shards.size()) +
-                       " training-room shards hold " + std::to_string(merged) + " of the " +
-                       std::to_string(options.rooms) +
-                       " rooms (a task's rooms are missing; rerun 'train --shards')");
-    }
-  }
+  // MergeDatasets refuses shards that lack any of the generation's rooms.
+  if (!options.room_shards.empty()) MergeDatasets(options.room_shards, rooms_db);
   if (!options.quiet)
     std::fprintf(stderr,
                  "vote net: %s %d training rooms into %s\n",
