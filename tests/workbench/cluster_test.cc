@@ -16,6 +16,7 @@
 #include "db/dataset_db.h"
 #include "tests/test_util.h"
 #include "tests/workbench/dataset_dump.h"
+#include "tests/workbench/workbench_commands.h"
 
 namespace furn {
 namespace {
@@ -86,11 +87,7 @@ TEST_F(Cluster, FourShardGenerateEqualsOneProcess) {
   // A 4-shard evaluate of the merged dataset stores the run one process
   // stores on its twin (timings aside).
   const std::string model = dir + "/m.fcm";
-  ASSERT_EQ(Workbench("train --no-vote-net --catalog procedural:4 --vocab kmeans --words 20 "
-                      "--azimuths 8 --quiet --out " +
-                      model)
-                .exit_code,
-            0);
+  ASSERT_EQ(Workbench(std::string(testing::kTrainSmallCodebook) + model).exit_code, 0);
   const std::string evaluate = "evaluate --quiet --split all --model " + model + " --db ";
   ASSERT_EQ(Workbench(evaluate + dir + "/one.db").exit_code, 0);
   const testing::CommandResult sharded = Workbench(

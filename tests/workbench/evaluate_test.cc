@@ -15,6 +15,7 @@
 #include "db/sqlite.h"
 #include "tests/test_util.h"
 #include "tests/workbench/dataset_dump.h"
+#include "tests/workbench/workbench_commands.h"
 #include "workbench/formats/depth_png.h"
 
 namespace furn {
@@ -31,12 +32,7 @@ TEST(Evaluate, SmallRunIsStoredAndGatedByTheCommittedBaseline) {
       Workbench("generate --catalog procedural:4 --rooms 4 --frames 2 --seed 5 --quiet --out " + db)
           .exit_code,
       0);
-  ASSERT_EQ(Workbench("train --no-vote-net --catalog procedural:4 --vocab kmeans --words 20 "
-                      "--azimuths 8 --quiet "
-                      "--out " +
-                      model)
-                .exit_code,
-            0);
+  ASSERT_EQ(Workbench(std::string(testing::kTrainSmallCodebook) + model).exit_code, 0);
   const testing::CommandResult run =
       Workbench("evaluate --quiet --split all --model " + model + " --db " + db);
   ASSERT_EQ(run.exit_code, 0) << run.output;
@@ -257,12 +253,7 @@ TEST(Evaluate, EmptyFramesMissingDatasetsAndSeenModels) {
                       data.dir + "/base.db")
                 .exit_code,
             0);
-  ASSERT_EQ(
-      Workbench("train --no-vote-net --catalog procedural:4 --vocab kmeans --words 20 --azimuths 8 "
-                "--quiet --out " +
-                data.model)
-          .exit_code,
-      0);
+  ASSERT_EQ(Workbench(std::string(testing::kTrainSmallCodebook) + data.model).exit_code, 0);
   {
     SCOPED_TRACE("missing dataset");
     MissingDatasetIsOneLineAndCreatesNothing(data);
@@ -290,11 +281,7 @@ TEST(Evaluate, ShardsRunFromTheJobScriptsMergeIntoTheOneProcessRun) {
           .exit_code,
       0);
   std::filesystem::copy_file(one, sharded);
-  ASSERT_EQ(Workbench("train --no-vote-net --catalog procedural:4 --vocab kmeans --words 20 "
-                      "--azimuths 8 --quiet --out " +
-                      model)
-                .exit_code,
-            0);
+  ASSERT_EQ(Workbench(std::string(testing::kTrainSmallCodebook) + model).exit_code, 0);
   const std::string evaluate = "evaluate --quiet --split all --model " + model + " --db ";
   ASSERT_EQ(Workbench(evaluate + one).exit_code, 0);
   const std::string job = dir + "/job";

@@ -12,6 +12,7 @@
 #include "core/file_util.h"
 #include "db/dataset_db.h"
 #include "tests/test_util.h"
+#include "tests/workbench/workbench_commands.h"
 #include "workbench/pipelines/import_real.h"
 #include "workbench/pipelines/sensor_noise.h"
 
@@ -168,12 +169,7 @@ TEST(RealSet, EvaluationIsTheSameInAnyLabelFrame) {
                 synth)
           .exit_code,
       0);
-  ASSERT_EQ(Workbench("train --no-vote-net --catalog procedural:4 --vocab kmeans --words 20 "
-                      "--azimuths 8 --quiet "
-                      "--out " +
-                      model)
-                .exit_code,
-            0);
+  ASSERT_EQ(Workbench(std::string(testing::kTrainSmallCodebook) + model).exit_code, 0);
   ASSERT_EQ(Workbench("dataset export " + synth + " --format pcd --out " + dir + "/pcd").exit_code,
             0);
   // Two label frames: the dataset's world, and that world turned and moved.
