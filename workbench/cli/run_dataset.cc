@@ -173,99 +173,107 @@ void AddExportCatalogFlags(CLI::App* export_command, CatalogFlags* export_catalo
 
 }  // namespace
 
+namespace {
+
+// `workbench dataset`'s subcommands and their flags (bound in place: not
+// copied or moved once made).
+struct DatasetCommands {
+  CLI::App *info, *preview, *merge, *export_command, *import_real, *noise;
+  std::string db, out, format = "bop", export_split = "all", labels, sheets;
+  std::vector<std::string> inputs;
+  bool json = false, allow_partial = false, quiet = false;
+  int max_frames = 12, noise_frames = 0;
+  CatalogFlags export_catalog;  // where BOP export finds the dataset's catalog
+
+  explicit DatasetCommands(CLI::App* app) {
+    info = app->add_subcommand("info", "Counts per split and class, visibility histogram, size");
+    info->add_option("db", db, "Dataset database")->required();
+    info->add_flag("--json", json, "JSON instead of text");
+    preview = app->add_subcommand("preview", "Contact sheet: noisy depth with ground-truth boxes");
+    preview->add_option("db", db, "Dataset database")->required();
+    preview->add_option("--out", out, "Output .png")->required();
+    preview->add_option("--frames", max_frames, "How many frames (spread over the dataset)")
+        ->capture_default_str();
+    merge =
+        app->add_subcommand("merge", "Join datasets of one run (e.g. its shards) into a new file");
+    merge->add_option("inputs", inputs, "Input datasets")->required();
+    merge->add_option("--out", out, "New dataset file")->required();
+    merge->add_flag(
+        "--allow-partial",
+        allow_partial,
+        "Merge even when the inputs lack rooms their generation made (a shard left out)");
+    export_command = app->add_subcommand("export", "Write frames as BOP, PNG or PCD files");
+    export_command->add_option("db", db, "Dataset database")->required();
+    export_command->add_option("--format", format, "bop, png, pcd or rosbag")
+        ->capture_default_str();
+    export_command->add_option("--out", out, "Output directory (rosbag: the .bag file)")
+        ->required();
+    export_command->add_option("--split", export_split, "rosbag: frames of train, val, test or all")
+        ->capture_default_str();
+    AddExportCatalogFlags(export_command, &export_catalog);
+    import_real = app->add_subcommand(
+        "import-real", "Labelled real scans (a furnidet-real-set JSON) into a new dataset");
+    import_real->add_option("labels", labels, "Real-set JSON (data/real/labels.json)")->required();
+    import_real->add_option("--out", out, "New dataset file")->required();
+    import_real->add_option("--sheets", sheets, "Write a top-down label sheet per scan here");
+    noise = app->add_subcommand(
+        "noise",
+        "Sim-to-real: depth noise on a dataset's floors and walls against the sensor model");
+    noise->add_option("db", db, "Dataset database (an imported real set, or generated frames)")
+        ->required();
+    noise->add_flag("--json", json, "JSON instead of text");
+    noise->add_option("--frames", noise_frames, "At most N frames (0: all)")->capture_default_str();
+    for (CLI::App* command : {info, preview, merge, export_command, import_real, noise})
+      command->add_flag("--quiet,-q", quiet, "No progress output");
+  }
+  DatasetCommands(const DatasetCommands&) = delete;
+  DatasetCommands& operator=(const DatasetCommands&) = delete;
+};
+
+void RunExport(const DatasetCommands& c) {
+  if (c.format == "rosbag") {
+    const int frames = ExportRosbag(c.db, c.out, c.export_split);
+    std::cout << "wrote " << frames << " frames to " << c.out << " (rosbag)\n";
+    return;
+  }
+  Require(c.export_split == "all", "--split applies to --format rosbag");
+  int frames = 0;  // a failed export leaves no partial folder
+  WriteDirectoryAtomically(c.out, [&](const std::string& dir) {
+    frames = ExportDataset(c.db, c.format, dir, MakeOpenOptions(c.export_catalog));
+  });
+  std::cout << "wrote " << frames << " frames to " << c.out << " (" << c.format << ")\n";
+}
+
+}  // namespace
+
 int RunDataset(int argc, char** argv) {
   CLI::App app{"Inspect, preview, merge and export dataset databases", "workbench dataset"};
   app.require_subcommand(1);
-  std::string db, out;
-  bool json = false;
-  CLI::App* info =
-      app.add_subcommand("info", "Counts per split and class, visibility histogram, size");
-  info->add_option("db", db, "Dataset database")->required();
-  info->add_flag("--json", json, "JSON instead of text");
-  CLI::App* preview =
-      app.add_subcommand("preview", "Contact sheet: noisy depth with ground-truth boxes");
-  preview->add_option("db", db, "Dataset database")->required();
-  preview->add_option("--out", out, "Output .png")->required();
-  int max_frames = 12;
-  preview->add_option("--frames", max_frames, "How many frames (spread over the dataset)")
-      ->capture_default_str();
-  CLI::App* merge =
-      app.add_subcommand("merge", "Join datasets of one run (e.g. its shards) into a new file");
-  std::vector<std::string> inputs;
-  merge->add_option("inputs", inputs, "Input datasets")->required();
-  merge->add_option("--out", out, "New dataset file")->required();
-  bool allow_partial = false;
-  merge->add_flag("--allow-partial",
-                  allow_partial,
-                  "Merge even when the inputs lack rooms their generation made (a shard left out)");
-  CLI::App* export_command = app.add_subcommand("export", "Write frames as BOP, PNG or PCD files");
-  std::string format = "bop";
-  export_command->add_option("db", db, "Dataset database")->required();
-  export_command->add_option("--format", format, "bop, png, pcd or rosbag")->capture_default_str();
-  export_command->add_option("--out", out, "Output directory (rosbag: the .bag file)")->required();
-  std::string export_split = "all";
-  export_command->add_option("--split", export_split, "rosbag: frames of train, val, test or all")
-      ->capture_default_str();
-  CatalogFlags export_catalog;  // where BOP export finds the dataset's catalog
-  AddExportCatalogFlags(export_command, &export_catalog);
-  CLI::App* import_real = app.add_subcommand(
-      "import-real", "Labelled real scans (a furnidet-real-set JSON) into a new dataset");
-  std::string labels, sheets;
-  import_real->add_option("labels", labels, "Real-set JSON (data/real/labels.json)")->required();
-  import_real->add_option("--out", out, "New dataset file")->required();
-  import_real->add_option("--sheets", sheets, "Write a top-down label sheet per scan here");
-  CLI::App* noise = app.add_subcommand(
-      "noise", "Sim-to-real: depth noise on a dataset's floors and walls against the sensor model");
-  noise->add_option("db", db, "Dataset database (an imported real set, or generated frames)")
-      ->required();
-  noise->add_flag("--json", json, "JSON instead of text");
-  int noise_frames = 0;
-  noise->add_option("--frames", noise_frames, "At most N frames (0: all)")->capture_default_str();
-  bool quiet = false;
-  for (CLI::App* command : {info, preview, merge, export_command, import_real, noise})
-    command->add_flag("--quiet,-q", quiet, "No progress output");
+  const DatasetCommands c(&app);
   if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
-  Progress::SetQuiet(quiet);
-  if (noise->parsed()) {
-    Require(noise_frames >= 0, "--frames must be >= 0");
+  Progress::SetQuiet(c.quiet);
+  if (c.noise->parsed()) {
+    Require(c.noise_frames >= 0, "--frames must be >= 0");
     const SensorNoiseComparison comparison =
-        CompareSensorNoise(NoiseFramesOf(db, noise_frames), KinectNoiseOptions{}, 1);
-    std::cout << (json ? SensorNoiseJson(comparison) : SensorNoiseText(comparison));
-    return 0;
-  }
-  if (import_real->parsed()) {
-    const RealImportSummary summary = ImportRealSet(ReadRealSet(labels), out, sheets);
-    std::cout << "wrote " << out << ": " << summary.frames << " real scans, " << summary.objects
+        CompareSensorNoise(NoiseFramesOf(c.db, c.noise_frames), KinectNoiseOptions{}, 1);
+    std::cout << (c.json ? SensorNoiseJson(comparison) : SensorNoiseText(comparison));
+  } else if (c.import_real->parsed()) {
+    const RealImportSummary summary = ImportRealSet(ReadRealSet(c.labels), c.out, c.sheets);
+    std::cout << "wrote " << c.out << ": " << summary.frames << " real scans, " << summary.objects
               << " labelled objects\n";
-    return 0;
-  }
-  if (merge->parsed()) {
-    const MergeSummary summary = MergeDatasets(inputs, out, allow_partial);
-    std::cout << "wrote " << out << ": " << summary.rooms << " rooms from " << inputs.size()
+  } else if (c.merge->parsed()) {
+    const MergeSummary summary = MergeDatasets(c.inputs, c.out, c.allow_partial);
+    std::cout << "wrote " << c.out << ": " << summary.rooms << " rooms from " << c.inputs.size()
               << " datasets (" << summary.duplicate_rooms << " duplicate rooms were identical)\n";
-    return 0;
+  } else if (c.export_command->parsed()) {
+    RunExport(c);
+  } else if (c.info->parsed()) {
+    const DatasetInfo summary = ReadDatasetInfo(c.db);
+    std::cout << (c.json ? DatasetInfoJson(summary) : DatasetInfoText(summary));
+  } else {
+    WriteDatasetPreview(c.db, c.max_frames, c.out);
+    std::cout << "wrote " << c.out << "\n";
   }
-  if (export_command->parsed() && format == "rosbag") {
-    const int frames = ExportRosbag(db, out, export_split);
-    std::cout << "wrote " << frames << " frames to " << out << " (rosbag)\n";
-    return 0;
-  }
-  if (export_command->parsed()) {
-    Require(export_split == "all", "--split applies to --format rosbag");
-    int frames = 0;  // a failed export leaves no partial folder
-    WriteDirectoryAtomically(out, [&](const std::string& dir) {
-      frames = ExportDataset(db, format, dir, MakeOpenOptions(export_catalog));
-    });
-    std::cout << "wrote " << frames << " frames to " << out << " (" << format << ")\n";
-    return 0;
-  }
-  if (info->parsed()) {
-    const DatasetInfo summary = ReadDatasetInfo(db);
-    std::cout << (json ? DatasetInfoJson(summary) : DatasetInfoText(summary));
-    return 0;
-  }
-  WriteDatasetPreview(db, max_frames, out);
-  std::cout << "wrote " << out << "\n";
   return 0;
 }
 

@@ -105,6 +105,48 @@ void CheckRoomShardsHoldEveryRoom(const std::vector<std::string>& shards, int ro
               " rooms (a task's rooms are missing; rerun 'train --shards')");
 }
 
+// The trainer and scan options of the flags: --vocab and --init resolved;
+// with --options, the file's, the flags given explicitly on top.
+TrainingOptions ResolveTrainingFlags(const CLI::App& app,
+                                     const std::string& vocab,
+                                     const std::string& init,
+                                     const std::string& options_file,
+                                     const TrainingOptions& flags) {
+  Require(vocab == "rim" || vocab == "kmeans", "--vocab '" + vocab + "' must be rim or kmeans");
+  Require(init == "kmeans" || init == "pca", "--init '" + init + "' must be kmeans or pca");
+  const VocabularyKind kind = vocab == "rim" ? VocabularyKind::kRim : VocabularyKind::kKMeans;
+  const RimInit rim_init = init == "pca" ? RimInit::kPcaSplit : RimInit::kKMeans;
+  TrainingOptions training = flags;
+  if (options_file.empty()) {
+    training.trainer.vocabulary.kind = kind;
+    training.trainer.vocabulary.rim_init = rim_init;
+    training.scan.seed = training.trainer.vocabulary.seed;
+    return training;
+  }
+  training = TrainingOptionsFromJson(ReadFileBytes(options_file), options_file);
+  VocabularyOptions& vocabulary = training.trainer.vocabulary;
+  if (app.count("--vocab")) vocabulary.kind = kind;
+  if (app.count("--init")) vocabulary.rim_init = rim_init;
+  if (app.count("--words")) vocabulary.words = flags.trainer.vocabulary.words;
+  if (app.count("--seed")) vocabulary.seed = training.scan.seed = flags.trainer.vocabulary.seed;
+  if (app.count("--azimuths")) training.scan.azimuths = flags.scan.azimuths;
+  return training;
+}
+
+// A task of `train --shards`: its shard of the training rooms, no training.
+int GenerateRoomShard(const Catalog& catalog,
+                      const VoteNetTrainingOptions& options,
+                      const RoomShardFlags& room_shards) {
+  const auto [shard, shards] = ParseShard(room_shards.shard);
+  const int rooms =
+      GenerateTrainingRoomsShard(catalog, {}, options, shard, shards, room_shards.out);
+  std::printf("vote net training rooms, shard %s: %d rooms in %s\n",
+              room_shards.shard.c_str(),
+              rooms,
+              room_shards.out.c_str());
+  return 0;
+}
+
 // `train` as an array job: task i generates shard i/N of the vote
 // network's training rooms into the job folder; the final job is the same
 // train, which merges them and trains (scans, vocabulary, network).
@@ -158,25 +200,8 @@ int RunTrain(int argc, char** argv) {
   ApplyGlobalFlags(catalog_flags);
   room_shards.Check(cluster, vote_net);
   if (cluster.Active()) return RunArrayJob(cluster, TrainArrayJob(cluster, out, argc, argv));
-  Require(vocab == "rim" || vocab == "kmeans", "--vocab '" + vocab + "' must be rim or kmeans");
-  Require(init == "kmeans" || init == "pca", "--init '" + init + "' must be kmeans or pca");
-  const VocabularyKind kind = vocab == "rim" ? VocabularyKind::kRim : VocabularyKind::kKMeans;
-  const RimInit rim_init = init == "pca" ? RimInit::kPcaSplit : RimInit::kKMeans;
-  if (options_file.empty()) {
-    trainer.vocabulary.kind = kind;
-    trainer.vocabulary.rim_init = rim_init;
-    scan.seed = trainer.vocabulary.seed;
-  } else {
-    const TrainingOptions flags{trainer, scan};  // explicitly given flags win
-    const TrainingOptions file = TrainingOptionsFromJson(ReadFileBytes(options_file), options_file);
-    trainer = file.trainer;
-    scan = file.scan;
-    if (app.count("--vocab")) trainer.vocabulary.kind = kind;
-    if (app.count("--init")) trainer.vocabulary.rim_init = rim_init;
-    if (app.count("--words")) trainer.vocabulary.words = flags.trainer.vocabulary.words;
-    if (app.count("--seed")) trainer.vocabulary.seed = scan.seed = flags.trainer.vocabulary.seed;
-    if (app.count("--azimuths")) scan.azimuths = flags.scan.azimuths;
-  }
+  const TrainingOptions training =
+      ResolveTrainingFlags(app, vocab, init, options_file, {trainer, scan});
   const Catalog catalog = OpenCatalog(catalog_flags.spec, MakeOpenOptions(catalog_flags));
   for (const std::string& warning : catalog.warnings())
     std::fprintf(stderr, "warning: %s\n", warning.c_str());
@@ -187,16 +212,7 @@ int RunTrain(int argc, char** argv) {
             scorer_file + ": holds no hypothesis scorer");
   }
   const VoteNetTrainingOptions* vote_net_options = vote_net.Resolve(catalog_flags.quiet);
-  if (!room_shards.shard.empty()) {  // a task of `train --shards`
-    const auto [shard, shards] = ParseShard(room_shards.shard);
-    const int rooms =
-        GenerateTrainingRoomsShard(catalog, {}, *vote_net_options, shard, shards, room_shards.out);
-    std::printf("vote net training rooms, shard %s: %d rooms in %s\n",
-                room_shards.shard.c_str(),
-                rooms,
-                room_shards.out.c_str());
-    return 0;
-  }
+  if (!room_shards.shard.empty()) return GenerateRoomShard(catalog, *vote_net_options, room_shards);
   VoteNetTrainingOptions with_shards;
   if (!room_shards.from.empty()) {  // the final job of `train --shards`
     CheckRoomShardsHoldEveryRoom(room_shards.from, vote_net_options->rooms);
@@ -205,8 +221,8 @@ int RunTrain(int argc, char** argv) {
     vote_net_options = &with_shards;
   }
   const TrainSummary summary =
-      TrainFromCatalog(catalog, scan, trainer, out, {}, scorer, vote_net_options);
-  PrintTrainSummary(out, trainer, summary);
+      TrainFromCatalog(catalog, training.scan, training.trainer, out, {}, scorer, vote_net_options);
+  PrintTrainSummary(out, training.trainer, summary);
   return 0;
 }
 
