@@ -48,16 +48,21 @@ void DetectorOptions::Check() const {
   Require(min_probability >= 0 && min_probability <= 1, "min probability must be in 0..1");
   Require(scorer_max_seen_through >= 0 && scorer_max_seen_through <= 1,
           "scorer max seen through must be in 0..1");
-  Require(learned_min_heat >= 0 && learned_min_heat <= 1,
-          "learned min heat " + std::to_string(learned_min_heat) + " must be in 0..1");
-  Require(learned_max_per_class >= 1 && learned_max_per_class <= 1000,
-          "learned max per class must be in 1..1000");
-  Require(learned_suppress_m >= 0 && learned_suppress_m <= 5,
-          "learned suppress radius must be in 0..5 m");
+  LearnedDecode().Check();
   Require(torch_threads >= 0 && torch_threads <= 256, "torch threads must be in 0..256");
   Require(learned_fit_agree_m > 0 && learned_fit_agree_m <= 2,
           "learned fit agreement radius " + std::to_string(learned_fit_agree_m) +
               " must be in (0, 2] m");
+}
+
+BevDecodeOptions DetectorOptions::LearnedDecode() const {
+  BevDecodeOptions decode;
+  decode.min_heat = learned_min_heat;
+  decode.max_per_class = learned_max_per_class;
+  decode.suppress_m = learned_suppress_m;
+  decode.centre = learned_centre;
+  decode.vote_bandwidth_m = learned_vote_bandwidth_m;
+  return decode;
 }
 
 Detector::Detector(TrainedModel model, const DetectorOptions& options)

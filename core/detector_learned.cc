@@ -1,12 +1,12 @@
-// Learned voting (issue 30): the scan's bird's-eye-view image through the
-// model's vote network; the heat maps' maxima are hypotheses and, once no
-// stronger maximum of any class lies within learned_suppress_m, detections
-// with the network's position, yaw and footprint.
+// Learned voting (issues 30, 37): the scan's bird's-eye-view image through
+// the model's vote network; the heat maps' maxima, centred by the box coder
+// (core/learned/bev_box_coder.h), are hypotheses and, unless suppressed
+// (learned_suppress_m > 0), detections with the network's position, yaw and
+// footprint.
 #include <algorithm>
 #include <cmath>
 #include <map>
 
-#include "core/bev_decode.h"
 #include "core/detector.h"
 #include "core/detector_impl.h"
 #include "core/error.h"
@@ -47,7 +47,8 @@ DetectionDebug::VoteGrid WorldGridOf(const BevImage& image,
       const int row = static_cast<int>(std::floor(cell.x()));
       const int col = static_cast<int>(std::floor(cell.y()));
       if (row < 0 || row >= spec.rows || col < 0 || col >= spec.cols) continue;
-      grid.values[static_cast<size_t>(r) * grid.cols + c] = output.At(class_index, row, col);
+      grid.values[static_cast<size_t>(r) * grid.cols + c] =
+          output.At(bev_channels::kHeat[class_index], row, col);
     }
   }
   return grid;
@@ -129,10 +130,7 @@ std::vector<DetectionDebug::Hypothesis> Detector::LearnedMaxima(
     const BevImage& image, const BevOutput& output, std::vector<Detection>* detections) const {
   const DetectorOptions& options = impl_->options;
   std::vector<DetectionDebug::Hypothesis> hypotheses;
-  for (const BevPeak& peak : DecodeBevOutput(
-           image,
-           output,
-           {options.learned_min_heat, options.learned_max_per_class, options.learned_suppress_m})) {
+  for (const BevPeak& peak : DecodeBevOutput(image, output, options.LearnedDecode())) {
     DetectionDebug::Hypothesis h;
     h.learned = true;
     h.furniture_class = peak.furniture_class;

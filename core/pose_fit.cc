@@ -29,12 +29,6 @@ PlanarTransform::PlanarTransform(const PlanarPose& pose)
       x_(static_cast<float>(pose.x)),
       y_(static_cast<float>(pose.y)) {}
 
-double WrapAngle(double radians) {
-  double wrapped = std::fmod(radians, 2 * M_PI);
-  if (wrapped < 0) wrapped += 2 * M_PI;
-  return wrapped >= 2 * M_PI ? 0.0 : wrapped;
-}
-
 PlanarPose PoseFromPair(const Eigen::Vector3f& scene, const Eigen::Vector3f& model, double yaw) {
   PlanarPose pose;
   pose.yaw = WrapAngle(yaw);

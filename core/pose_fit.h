@@ -21,6 +21,7 @@
 #include <memory>
 #include <vector>
 
+#include "core/angles.h"
 #include "core/trainer.h"
 
 namespace furn {
@@ -50,9 +51,6 @@ class PlanarTransform {
 
 // The pose that rotates `model` by `yaw` and puts it on `scene` (t = s - R m).
 PlanarPose PoseFromPair(const Eigen::Vector3f& scene, const Eigen::Vector3f& model, double yaw);
-
-// Yaw in [0, 2 pi).
-double WrapAngle(double radians);
 
 struct FitOptions {
   int iterations = 600;              // RANSAC draws (>= 1)

@@ -10,7 +10,8 @@
 #include <random>
 
 #include "core/progress.h"
-#include "core/vote_net.h"
+#include "core/learned/vote_net.h"
+#include "core/learned/vote_net_training.h"
 #include "workbench/pipelines/train.h"
 
 namespace furn {
@@ -52,22 +53,15 @@ void BM_VoteNetTrainStep(benchmark::State& state) {
   options.width = static_cast<int>(state.range(1));
   SetTorchThreads(static_cast<int>(state.range(2)));
   VoteNet net = VoteNet::Create(options, 1);
+  VoteNetOptimizer optimizer(&net, VoteNetLossWeights{});
   std::mt19937_64 random(1);
-  std::vector<BevImage> images;
-  std::vector<BevTargets> targets;
+  TrainingBatch training;
   for (int i = 0; i < batch; ++i) {
-    images.push_back(RandomImage(&random));
-    targets.push_back(BevTargetsOf(
-        {{FurnitureClass::kChair, {1.5, 0.2}, 0.5, 0.5, 0.5}}, images.back().frame, options.grid));
+    training.images.push_back(RandomImage(&random));
+    training.targets.push_back(EncodeBevTargets(
+        {{FurnitureClass::kChair, {1.5, 0.2}, 0.5, 0.5, 0.5}}, training.images.back(), {}));
   }
-  std::vector<const BevImage*> image_pointers;
-  std::vector<const BevTargets*> target_pointers;
-  for (int i = 0; i < batch; ++i) {
-    image_pointers.push_back(&images[i]);
-    target_pointers.push_back(&targets[i]);
-  }
-  for (auto _ : state)
-    benchmark::DoNotOptimize(net.TrainStep(image_pointers, target_pointers, 1e-3));
+  for (auto _ : state) benchmark::DoNotOptimize(optimizer.Step(training, 1e-3));
   state.counters["frames_per_s"] = benchmark::Counter(
       static_cast<double>(batch) * state.iterations(), benchmark::Counter::kIsRate);
   state.counters["parameters"] = static_cast<double>(net.Parameters());

@@ -1,7 +1,8 @@
-// The bird's-eye-view rasteriser and targets of the learned vote stage: a
-// known box's points, floor, free space and unknown cells land where they
-// belong; mirroring and targets agree.
-#include "core/bev_grid.h"
+// The bird's-eye-view rasteriser of the learned vote stage: a known box's
+// points, floor, free space and unknown cells land where they belong;
+// mirrored images and objects agree. (Targets and decoding:
+// bev_box_coder_test.cc.)
+#include "core/learned/bev_grid.h"
 
 #include <gtest/gtest.h>
 
@@ -108,40 +109,6 @@ TEST(BevGrid, MirroredImageIsTheImageOfMirroredPoints) {
     differing += std::abs(a.values[i] - b.values[i]) > 1e-6;
   // Points exactly on a cell edge may fall on either side once mirrored.
   EXPECT_LT(differing, static_cast<int>(a.values.size() / 200));
-}
-
-TEST(BevGrid, TargetsPeakAtCentresWithOffsetSizeAndSymmetricYaw) {
-  const BevGridSpec spec;
-  const BevFrame frame = BevFrameOf(LevelCamera());
-  const BevObject table{FurnitureClass::kTable, {2.012, 0.537}, 0.3, 1.2, 0.8};
-  const BevObject chair{FurnitureClass::kChair, {1.013, -0.513}, 2.0, 0.5, 0.55};
-  const BevObject outside{FurnitureClass::kChair, {-1.0, 0.0}, 0.0, 0.5, 0.5};
-  const BevTargets t = BevTargetsOf({table, chair, outside}, frame, spec);
-  EXPECT_EQ(t.objects, 2);
-  const size_t plane = static_cast<size_t>(spec.rows) * spec.cols;
-  const Eigen::Vector2d cell = frame.CellOf(table.centre, spec);
-  const int row = static_cast<int>(cell.x()), col = static_cast<int>(cell.y());
-  const size_t at = static_cast<size_t>(row) * spec.cols + col;
-  const int k = static_cast<int>(FurnitureClass::kTable);
-  EXPECT_FLOAT_EQ(t.values[k * plane + at], 1.0f);
-  EXPECT_LT(t.values[k * plane + at + 3], 1.0f);  // falls off around it
-  EXPECT_GT(t.values[k * plane + at + 3], 0.1f);
-  EXPECT_EQ(t.values[static_cast<int>(FurnitureClass::kChair) * plane + at], 0.0f);
-  EXPECT_EQ(t.mask[at], 1.0f);
-  EXPECT_NEAR(t.values[(kBevClasses + 0) * plane + at], cell.x() - row, 1e-5);
-  EXPECT_NEAR(t.values[(kBevClasses + 1) * plane + at], cell.y() - col, 1e-5);
-  EXPECT_NEAR(std::exp(t.values[(kBevClasses + 2) * plane + at]), 1.2, 1e-5);
-  EXPECT_NEAR(std::exp(t.values[(kBevClasses + 3) * plane + at]), 0.8, 1e-5);
-  // A table turned half a turn is the same table: the same yaw target.
-  const BevTargets turned =
-      BevTargetsOf({{FurnitureClass::kTable, table.centre, 0.3 + M_PI, 1.2, 0.8}}, frame, spec);
-  EXPECT_NEAR(turned.values[(kBevClasses + 4) * plane + at],
-              t.values[(kBevClasses + 4) * plane + at],
-              1e-5);
-  EXPECT_NEAR(turned.values[(kBevClasses + 5) * plane + at],
-              t.values[(kBevClasses + 5) * plane + at],
-              1e-5);
-  EXPECT_NEAR(t.values[(kBevClasses + 4) * plane + at], std::cos(0.6), 1e-5);
 }
 
 // Mirroring (augmentation): a chair facing the camera's left, mirrored, faces

@@ -1,7 +1,7 @@
 // The learned vote network (libtorch): it can fit a handful of rooms almost
 // perfectly (a training sanity check), its bytes round-trip, damaged bytes are
 // one clear line, and the same seed and threads give the same weights.
-#include "core/vote_net.h"
+#include "core/learned/vote_net.h"
 
 #include <gtest/gtest.h>
 
@@ -106,7 +106,7 @@ TEST(VoteNet, FitsAHandfulOfRoomsAlmostPerfectly) {
         }
       }
       const bool near = std::abs(best_r - row) <= 1 && std::abs(best_c - col) <= 1 && best > 0.3f;
-      const double width = std::exp(out.At(kBevClasses + 2, row, col));
+      const double width = std::exp(out.At(bev_channels::kLogSize[0], row, col));
       const bool sized = std::abs(width / object.width - 1) < 0.25;
       found += near;
       sized_well += sized;

@@ -107,7 +107,7 @@ void ForEachDetectorOption(Options* options, Visit&& visit) {
   visit(DetectorOptionInfo{"learned_suppress_m",
                            "--suppress-radius",
                            "Learned voting: a weaker maximum of any class this near a stronger "
-                           "one is dropped (m)"},
+                           "one is dropped (m; 0, the default: off)"},
         o.learned_suppress_m);
   visit(DetectorOptionInfo{"torch_threads",
                            "--torch-threads",
@@ -126,6 +126,15 @@ void ForEachDetectorOption(Options* options, Visit&& visit) {
           "--fit-agree",
           "Learned voting: a fit this near the network's centre gives the yaw and model (m)"},
       o.learned_fit_agree_m);
+  visit(DetectorOptionInfo{"learned_centre",
+                           "--centre-from",
+                           "Learned voting: a maximum's centre from 'votes' (the mean shift of the "
+                           "dense votes around it) or 'peak' (its own cell's vote)"},
+        o.learned_centre);
+  visit(DetectorOptionInfo{"learned_vote_bandwidth_m",
+                           "--vote-bandwidth",
+                           "Learned voting: the mean shift's kernel width (m)"},
+        o.learned_vote_bandwidth_m);
 }
 
 }  // namespace furn

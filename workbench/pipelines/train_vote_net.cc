@@ -8,7 +8,6 @@
 #include <nlohmann/json.hpp>
 #include <random>
 
-#include "core/bev_decode.h"
 #include "core/error.h"
 #include "core/progress.h"
 #include "db/dataset_db.h"
@@ -25,9 +24,9 @@ double Seconds(std::chrono::steady_clock::time_point since) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
 }
 
-// The labelled objects of one frame that are targets: a class, seen at least
-// min_visibility.
-std::vector<BevObject> TargetsOfFrame(const RoomRecord& room,
+// The labelled objects of one frame in view: targets when seen at least
+// min_visibility, else objects the loss ignores around.
+std::vector<BevObject> ObjectsOfFrame(const RoomRecord& room,
                                       const FrameRecord& frame,
                                       double min_visibility) {
   std::vector<BevObject> objects;
@@ -37,61 +36,29 @@ std::vector<BevObject> TargetsOfFrame(const RoomRecord& room,
     for (const FrameObjectRecord& seen : frame.objects) {
       if (seen.instance_id == object.instance_id) visibility = seen.visibility;
     }
-    if (visibility < min_visibility) continue;
+    if (visibility <= 0) continue;
     objects.push_back({*object.furniture_class,
                        {object.reference_x, object.reference_y},
                        object.yaw,
                        object.width,
-                       object.depth});
+                       object.depth,
+                       visibility >= min_visibility});
   }
   return objects;
 }
 
-// A batch's images and targets, each mirrored when its coin says so.
-struct Batch {
-  std::vector<BevImage> images;
-  std::vector<BevTargets> targets;
-};
-
-Batch MakeBatch(const std::vector<BevSample>& samples,
-                const std::vector<size_t>& indices,
-                const std::vector<char>& mirror) {
-  Batch batch;
-  for (size_t i = 0; i < indices.size(); ++i) {
-    const BevSample& sample = samples[indices[i]];
-    const BevFrame& frame = sample.image.frame;
-    if (mirror.empty() || !mirror[i]) {
-      batch.images.push_back(sample.image);
-      batch.targets.push_back(BevTargetsOf(sample.objects, frame, sample.image.spec));
-    } else {
-      std::vector<BevObject> mirrored;
-      for (const BevObject& object : sample.objects)
-        mirrored.push_back(MirroredObject(object, frame));
-      batch.images.push_back(sample.image.Mirrored());
-      batch.targets.push_back(BevTargetsOf(mirrored, frame, sample.image.spec));
-    }
-  }
-  return batch;
-}
-
-template <typename T>
-std::vector<const T*> Pointers(const std::vector<T>& items) {
-  std::vector<const T*> out;
-  for (const T& item : items) out.push_back(&item);
-  return out;
-}
-
 VoteNetLoss ValidationLoss(const VoteNet& net,
                            const std::vector<BevSample>& validation,
-                           int batch_size) {
+                           const VoteNetTrainingOptions& options) {
+  const size_t batch_size = options.batch_size;
   VoteNetLoss sum;
   int batches = 0;
   for (size_t start = 0; start < validation.size(); start += batch_size) {
     std::vector<size_t> indices;
     for (size_t i = start; i < std::min(validation.size(), start + batch_size); ++i)
       indices.push_back(i);
-    const Batch batch = MakeBatch(validation, indices, {});
-    sum += net.Loss(Pointers(batch.images), Pointers(batch.targets));
+    sum += EvaluateVoteNetLoss(
+        net, MakeTrainingBatch(validation, indices, {}, options.coder), options.loss);
     ++batches;
   }
   return batches > 0 ? sum.Scaled(1.0 / batches) : sum;
@@ -108,6 +75,7 @@ double ValidationMeanAp(const VoteNet& net, const std::vector<BevSample>& valida
     FrameOutcome frame;
     frame.frame_id = static_cast<int64_t>(i);
     for (const BevObject& object : sample.objects) {
+      if (!object.target) continue;
       TruthObject truth;
       truth.furniture_class = object.furniture_class;
       truth.x = object.centre.x();
@@ -173,6 +141,8 @@ void VoteNetTrainingOptions::Check() const {
   Require(validation_share >= 0 && validation_share < 1,
           "vote-net validation share must be in [0, 1)");
   net.Check();
+  coder.Check();
+  loss.Check();
   room.Check();
 }
 
@@ -194,6 +164,16 @@ std::string VoteNetTrainingOptions::Json() const {
         {"cols", net.grid.cols},
         {"floor_band_m", net.grid.floor_band_m}}},
       {"width", net.width},
+      {"coder",
+       {{"heat_sigma_cells", coder.heat_sigma_cells},
+        {"vote_margin_m", coder.vote_margin_m},
+        {"ignore_radius_cells", coder.ignore_radius_cells}}},
+      {"loss",
+       {{"heat", loss.heat},
+        {"offset", loss.offset},
+        {"size", loss.size},
+        {"yaw", loss.yaw},
+        {"membership", loss.membership}}},
       // The rooms as `generate` records them (held-out models
       // are keyed by the caller).
       {"rooms_content", nlohmann::json::parse(TrainingRooms(*this, "", {}).ContentJson())}};
@@ -221,7 +201,7 @@ void ReadBevSamples(const std::string& db_path,
       BevSample sample;
       sample.image = RasteriseScan(
           input.points, frame.world_from_camera, options.max_range_m, options.net.grid);
-      sample.objects = TargetsOfFrame(room, frame, options.min_visibility);
+      sample.objects = ObjectsOfFrame(room, frame, options.min_visibility);
       out->push_back(std::move(sample));
     }
     progress.Advance();
@@ -238,11 +218,13 @@ VoteNet TrainVoteNetOnSamples(const std::vector<BevSample>& training,
   const int previous_threads = TorchThreads();
   SetTorchThreads(options.threads);
   VoteNet net = VoteNet::Create(options.net, options.seed);
+  VoteNetOptimizer optimizer(&net, options.loss);
   summary->parameters = net.Parameters();
   summary->frames = static_cast<int>(training.size());
   summary->validation_frames = static_cast<int>(validation.size());
-  for (const BevSample& sample : training)
-    summary->objects += static_cast<int>(sample.objects.size());
+  for (const BevSample& sample : training) {
+    for (const BevObject& object : sample.objects) summary->objects += object.target;
+  }
   std::mt19937_64 random(options.seed * 7919 + 17);
   const size_t steps_per_epoch = (training.size() + options.batch_size - 1) / options.batch_size;
   const size_t total_steps = steps_per_epoch * options.epochs;
@@ -261,11 +243,9 @@ VoteNet TrainVoteNetOnSamples(const std::vector<BevSample>& training,
           order.begin() + std::min(order.size(), first + options.batch_size));
       std::vector<char> mirror(indices.size());
       for (char& m : mirror) m = static_cast<char>(random() & 1);
-      const Batch batch = MakeBatch(training, indices, mirror);
-      const double progress_share = static_cast<double>(step) / total_steps;
-      const double rate =
-          options.learning_rate * (0.05 + 0.95 * 0.5 * (1 + std::cos(M_PI * progress_share)));
-      const VoteNetLoss loss = net.TrainStep(Pointers(batch.images), Pointers(batch.targets), rate);
+      const VoteNetLoss loss =
+          optimizer.Step(MakeTrainingBatch(training, indices, mirror, options.coder),
+                         CosineLearningRate(step, total_steps, options.learning_rate));
       loss_sum += loss.Total();
       ++step;
       char note[64];
@@ -277,7 +257,7 @@ VoteNet TrainVoteNetOnSamples(const std::vector<BevSample>& training,
     record.epoch = epoch + 1;
     record.train_loss = loss_sum / steps_per_epoch;
     if (!validation.empty()) {
-      record.validation_terms = ValidationLoss(net, validation, options.batch_size);
+      record.validation_terms = ValidationLoss(net, validation, options);
       record.validation_loss = record.validation_terms.Total();
       record.validation_map = ValidationMeanAp(net, validation);
     }

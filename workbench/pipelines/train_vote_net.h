@@ -17,8 +17,9 @@
 #include <string>
 #include <vector>
 
-#include "core/bev_grid.h"
-#include "core/vote_net.h"
+#include "core/learned/bev_box_coder.h"
+#include "core/learned/vote_net.h"
+#include "core/learned/vote_net_training.h"
 #include "scenes/catalog.h"
 #include "scenes/room_composer.h"
 
@@ -37,11 +38,14 @@ struct VoteNetTrainingOptions {
   int batch_size = 8;
   double learning_rate = 4e-3;  // peak; cosine decay to 5 % of it
   int threads = 2;              // torch's intra-op threads while training
-  // Objects seen less than this (visible / amodal pixels) are not targets.
+  // Objects seen less than this (visible / amodal pixels) are not targets;
+  // the loss ignores the heat around them (BevCoderOptions::ignore_radius_cells).
   double min_visibility = 0.15;
   double max_range_m = 3.0;       // rasterised like detection's (DetectorOptions::max_range_m)
   double validation_share = 0.1;  // of the rooms, for the per-epoch validation loss
   VoteNetOptions net;
+  BevCoderOptions coder;     // what the targets are (heat width, vote cells, ignore regions)
+  VoteNetLossWeights loss;   // the loss terms' weights
   // Of the training rooms (evaluation-only entries never placed); sizes
   // jittered by 20 % per side so that the network learns classes, not models.
   RoomOptions room = [] {
@@ -60,12 +64,6 @@ struct VoteNetTrainingOptions {
   void Check() const;
   // Everything that decides the weights, as JSON (for caches).
   std::string Json() const;
-};
-
-// One training frame: its BEV image and labelled objects.
-struct BevSample {
-  BevImage image;
-  std::vector<BevObject> objects;
 };
 
 struct VoteNetEpoch {

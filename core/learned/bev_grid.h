@@ -13,10 +13,9 @@
 //          of its bearing (free or occupied, not behind everything seen)
 //
 // The same function rasterises training frames and scans to detect, so the
-// network sees one representation. Targets (what the network should output)
-// for labelled objects are made here too: per class a Gaussian-splatted
-// centre heat map, and at each object's centre cell its sub-cell offset,
-// log footprint size and yaw (cos, sin of symmetry x yaw) in the grid frame.
+// network sees one representation. What the network should output for
+// labelled objects, and how its output becomes detections, is the box
+// coder's (bev_box_coder.h).
 //
 //   const BevFrame frame = BevFrameOf(world_from_camera, spec);
 //   const BevImage image = RasteriseBev(world_points, frame, spec);
@@ -29,16 +28,12 @@
 #include <vector>
 
 #include "core/furniture_class.h"
+#include "core/learned/bev_channels.h"
 
 namespace furn {
 
 inline constexpr int kBevChannels = 8;
 inline constexpr std::array<float, 5> kSliceTopsM = {0.25f, 0.5f, 0.8f, 1.1f, 1.8f};
-
-// Output channels per cell: a heat map per class, then offset (2), log size
-// (2: width, depth) and yaw (2: cos, sin of symmetry x yaw).
-inline constexpr int kBevClasses = static_cast<int>(kAllClasses.size());
-inline constexpr int kBevOutputs = kBevClasses + 6;
 
 struct BevGridSpec {
   double cell_m = 0.05;
@@ -83,6 +78,20 @@ struct BevImage {
   }
   // The image mirrored left-right (v -> -v), for augmentation.
   BevImage Mirrored() const;
+  // Whether anything above the floor band was seen in the cell (a point in a
+  // height slice): the cells whose votes count.
+  bool Occupied(int row, int col) const;
+};
+
+// The vote network's output for one image: bev_channels::kCount x rows x
+// cols, channel-major, the heat and membership channels through a sigmoid
+// (0..1), the rest as regressed.
+struct BevOutput {
+  BevGridSpec spec;
+  std::vector<float> values;
+  float At(int channel, int row, int col) const {
+    return values[(static_cast<size_t>(channel) * spec.rows + row) * spec.cols + col];
+  }
 };
 
 // Rasterises world points (non-finite ones skipped) seen from `sensor`.
@@ -99,17 +108,16 @@ BevImage RasteriseScan(const std::vector<Eigen::Vector3f>& camera_points,
                        double max_range_m,
                        const BevGridSpec& spec);
 
-// The rotational symmetry the yaw is learnt modulo: 2 for tables (a
-// rectangle's two ends look alike), 1 for the rest (a front).
-int BevYawSymmetry(FurnitureClass furniture_class);
-
-// One labelled object as a target: its footprint centre (world xy), yaw,
-// footprint width (along its x) and depth (m).
+// One labelled object: its footprint centre (world xy), yaw, footprint
+// width (along its x) and depth (m). An object seen too little to be a
+// target (target false) is neither rewarded nor punished: the loss ignores
+// the heat around it.
 struct BevObject {
   FurnitureClass furniture_class = FurnitureClass::kChair;
   Eigen::Vector2d centre = Eigen::Vector2d::Zero();
   double yaw = 0;
   double width = 0, depth = 0;
+  bool target = true;
 };
 
 // The object mirrored as BevImage::Mirrored mirrors the image (v -> -v in
@@ -117,21 +125,5 @@ struct BevObject {
 // furniture is mirror-symmetric about that axis, so the mirrored piece is the
 // piece turned to yaw' = heading + pi - (yaw - heading).
 BevObject MirroredObject(const BevObject& object, const BevFrame& frame);
-
-// kBevOutputs x rows x cols: heat (0..1, 1 at each centre cell), and at the
-// centre cells the regression targets; `mask` (rows x cols) is 1 where the
-// regressions count.
-struct BevTargets {
-  std::vector<float> values;
-  std::vector<float> mask;
-  int objects = 0;  // inside the grid
-};
-
-BevTargets BevTargetsOf(const std::vector<BevObject>& objects,
-                        const BevFrame& frame,
-                        const BevGridSpec& spec);
-
-// The Gaussian's sigma (cells) of an object's centre splat.
-double BevSplatSigma(double width_m, double depth_m, const BevGridSpec& spec);
 
 }  // namespace furn

@@ -1,10 +1,10 @@
-#include "core/bev_grid.h"
+#include "core/learned/bev_grid.h"
 
 #include <algorithm>
 #include <cmath>
 
 #include "core/error.h"
-#include "core/pose_fit.h"
+#include "core/angles.h"
 
 namespace furn {
 namespace {
@@ -70,6 +70,13 @@ BevImage BevImage::Mirrored() const {
   return out;
 }
 
+bool BevImage::Occupied(int row, int col) const {
+  for (int k = 1; k <= static_cast<int>(kSliceTopsM.size()); ++k) {
+    if (At(k, row, col) > 0) return true;
+  }
+  return false;
+}
+
 BevImage RasteriseBev(const std::vector<Eigen::Vector3f>& world_points,
                       const Eigen::Vector3f& sensor,
                       const BevFrame& frame,
@@ -130,54 +137,6 @@ BevImage RasteriseScan(const std::vector<Eigen::Vector3f>& camera_points,
       world.push_back(rotation * p + translation);
   }
   return RasteriseBev(world, translation, BevFrameOf(world_from_camera), spec);
-}
-
-int BevYawSymmetry(FurnitureClass furniture_class) {
-  return furniture_class == FurnitureClass::kTable ? 2 : 1;
-}
-
-double BevSplatSigma(double width_m, double depth_m, const BevGridSpec& spec) {
-  return std::clamp(std::min(width_m, depth_m) / (6 * spec.cell_m), 1.0, 3.0);
-}
-
-BevTargets BevTargetsOf(const std::vector<BevObject>& objects,
-                        const BevFrame& frame,
-                        const BevGridSpec& spec) {
-  BevTargets targets;
-  const size_t plane = static_cast<size_t>(spec.rows) * spec.cols;
-  targets.values.assign(kBevOutputs * plane, 0.0f);
-  targets.mask.assign(plane, 0.0f);
-  for (const BevObject& object : objects) {
-    const Eigen::Vector2d cell = frame.CellOf(object.centre, spec);
-    const int row = static_cast<int>(std::floor(cell.x()));
-    const int col = static_cast<int>(std::floor(cell.y()));
-    if (row < 0 || row >= spec.rows || col < 0 || col >= spec.cols) continue;
-    ++targets.objects;
-    const int k = static_cast<int>(object.furniture_class);
-    float* heat = &targets.values[k * plane];
-    const double sigma = BevSplatSigma(object.width, object.depth, spec);
-    const int reach = static_cast<int>(std::ceil(3 * sigma));
-    for (int r = std::max(0, row - reach); r <= std::min(spec.rows - 1, row + reach); ++r) {
-      for (int c = std::max(0, col - reach); c <= std::min(spec.cols - 1, col + reach); ++c) {
-        const double d2 = (r - row) * (r - row) + (c - col) * (c - col);
-        const float value = static_cast<float>(std::exp(-d2 / (2 * sigma * sigma)));
-        float& h = heat[static_cast<size_t>(r) * spec.cols + c];
-        h = std::max(h, value);
-      }
-    }
-    const size_t at = static_cast<size_t>(row) * spec.cols + col;
-    const int symmetry = BevYawSymmetry(object.furniture_class);
-    const double yaw = symmetry * (object.yaw - frame.heading);
-    const float regression[6] = {static_cast<float>(cell.x() - row),
-                                 static_cast<float>(cell.y() - col),
-                                 static_cast<float>(std::log(std::max(object.width, 0.05))),
-                                 static_cast<float>(std::log(std::max(object.depth, 0.05))),
-                                 static_cast<float>(std::cos(yaw)),
-                                 static_cast<float>(std::sin(yaw))};
-    for (int j = 0; j < 6; ++j) targets.values[(kBevClasses + j) * plane + at] = regression[j];
-    targets.mask[at] = 1.0f;
-  }
-  return targets;
 }
 
 BevObject MirroredObject(const BevObject& object, const BevFrame& frame) {

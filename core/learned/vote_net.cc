@@ -1,0 +1,247 @@
+#include "core/learned/vote_net.h"
+
+#include "core/learned/vote_net_module.h"
+
+#include <cstring>
+#include <sstream>
+
+#include "core/error.h"
+
+namespace furn {
+namespace {
+
+constexpr char kMagic[8] = {'F', 'U', 'R', 'N', 'V', 'N', 'E', 'T'};
+// 2: dense votes and membership (issue 37); 1 (centre-cell offsets only) is
+// not read: its channels mean something else.
+constexpr uint32_t kVersion = 2;
+
+template <typename T>
+void Put(std::string* out, const T& value) {
+  out->append(reinterpret_cast<const char*>(&value), sizeof(T));
+}
+
+template <typename T>
+T Take(const std::string& bytes, size_t* at, const std::string& what) {
+  Require(*at + sizeof(T) <= bytes.size(), what + ": vote network is truncated");
+  T value;
+  std::memcpy(&value, bytes.data() + *at, sizeof(T));
+  *at += sizeof(T);
+  return value;
+}
+
+}  // namespace
+
+ConvBlockImpl::ConvBlockImpl(int in, int out)
+    : conv1(torch::nn::Conv2dOptions(in, out, 3).padding(1).bias(false)),
+      bn1(out),
+      conv2(torch::nn::Conv2dOptions(out, out, 3).padding(1).bias(false)),
+      bn2(out) {
+  register_module("conv1", conv1);
+  register_module("bn1", bn1);
+  register_module("conv2", conv2);
+  register_module("bn2", bn2);
+}
+
+torch::Tensor ConvBlockImpl::forward(torch::Tensor x) {
+  x = torch::relu(bn1(conv1(x)));
+  return torch::relu(bn2(conv2(x)));
+}
+
+UNetImpl::UNetImpl(int in, int w, int out)
+    : e1(in, w),
+      e2(w, 2 * w),
+      e3(2 * w, 4 * w),
+      bottom(4 * w, 4 * w),
+      d3(8 * w, 4 * w),
+      d2(6 * w, 2 * w),
+      d1(3 * w, w),
+      head(torch::nn::Conv2dOptions(w, out, 1)) {
+  register_module("e1", e1);
+  register_module("e2", e2);
+  register_module("e3", e3);
+  register_module("bottom", bottom);
+  register_module("d3", d3);
+  register_module("d2", d2);
+  register_module("d1", d1);
+  register_module("head", head);
+  // CenterNet's heat bias: sigmoid(-2.19) = 0.1, so the first steps are not
+  // swamped by the background; the membership likewise.
+  torch::NoGradGuard no_grad;
+  head->bias.zero_();
+  namespace ch = bev_channels;
+  head->bias.slice(0, ch::kHeat.first, ch::kHeat.end()).fill_(-2.19);
+  head->bias.slice(0, ch::kMembership.first, ch::kMembership.end()).fill_(-2.19);
+}
+
+namespace {
+
+torch::Tensor Up(const torch::Tensor& x, const torch::Tensor& like) {
+  return torch::nn::functional::interpolate(
+      x,
+      torch::nn::functional::InterpolateFuncOptions()
+          .size(std::vector<int64_t>{like.size(2), like.size(3)})
+          .mode(torch::kNearest));
+}
+
+}  // namespace
+
+torch::Tensor UNetImpl::forward(const torch::Tensor& x) {
+  const torch::Tensor x1 = e1(x);
+  const torch::Tensor x2 = e2(torch::max_pool2d(x1, 2));
+  const torch::Tensor x3 = e3(torch::max_pool2d(x2, 2));
+  torch::Tensor y = bottom(torch::max_pool2d(x3, 2));
+  y = d3(torch::cat({Up(y, x3), x3}, 1));
+  y = d2(torch::cat({Up(y, x2), x2}, 1));
+  y = d1(torch::cat({Up(y, x1), x1}, 1));
+  return head(y);
+}
+
+torch::Tensor StackPlanes(const std::vector<const std::vector<float>*>& planes,
+                          int64_t channels,
+                          const BevGridSpec& spec) {
+  const int64_t n = static_cast<int64_t>(planes.size());
+  torch::Tensor batch = torch::empty({n, channels, spec.rows, spec.cols}, torch::kFloat32);
+  const size_t count = static_cast<size_t>(channels) * spec.rows * spec.cols;
+  for (int64_t i = 0; i < n; ++i) {
+    Require(planes[i]->size() == count, "a BEV batch item has the wrong size");
+    std::memcpy(batch[i].data_ptr<float>(), planes[i]->data(), count * sizeof(float));
+  }
+  return batch;
+}
+
+torch::Tensor ImageTensor(const std::vector<const BevImage*>& images, const BevGridSpec& spec) {
+  std::vector<const std::vector<float>*> planes;
+  for (const BevImage* image : images) {
+    Require(image->spec == spec,
+            "a BEV image's grid differs from the vote network's (rasterise with its spec)");
+    planes.push_back(&image->values);
+  }
+  return StackPlanes(planes, kBevChannels, spec);
+}
+
+TargetTensors TargetTensorsOf(const std::vector<const BevTargets*>& targets,
+                              const BevGridSpec& spec) {
+  std::vector<const std::vector<float>*> values, votes, weight;
+  for (const BevTargets* t : targets) {
+    values.push_back(&t->values);
+    votes.push_back(&t->votes);
+    weight.push_back(&t->weight);
+  }
+  return {StackPlanes(values, bev_channels::kCount, spec),
+          StackPlanes(votes, 1, spec).squeeze(1),
+          StackPlanes(weight, 1, spec).squeeze(1)};
+}
+
+void VoteNetOptions::Check() const {
+  grid.Check();
+  Require(width >= 4 && width <= 128,
+          "vote network width " + std::to_string(width) + " must be in 4..128");
+}
+
+VoteNet::VoteNet() = default;
+VoteNet::~VoteNet() = default;
+VoteNet::VoteNet(VoteNet&&) noexcept = default;
+VoteNet& VoteNet::operator=(VoteNet&&) noexcept = default;
+
+VoteNet VoteNet::Create(const VoteNetOptions& options, uint64_t seed) {
+  options.Check();
+  torch::manual_seed(seed);
+  VoteNet net;
+  net.impl_ = std::make_unique<Impl>();
+  net.impl_->options = options;
+  net.impl_->net = UNet(kBevChannels, options.width, bev_channels::kCount);
+  net.impl_->net->eval();
+  return net;
+}
+
+const VoteNetOptions& VoteNet::options() const {
+  Require(impl_ != nullptr, "an empty vote network has no options");
+  return impl_->options;
+}
+
+int64_t VoteNet::Parameters() const {
+  if (impl_ == nullptr) return 0;
+  int64_t count = 0;
+  for (const torch::Tensor& p : impl_->net->parameters()) count += p.numel();
+  return count;
+}
+
+std::string VoteNet::Serialize() const {
+  Require(impl_ != nullptr, "an empty vote network cannot be saved");
+  std::string out(kMagic, sizeof(kMagic));
+  Put(&out, kVersion);
+  const VoteNetOptions& o = impl_->options;
+  Put(&out, o.grid.cell_m);
+  Put(&out, static_cast<int32_t>(o.grid.rows));
+  Put(&out, static_cast<int32_t>(o.grid.cols));
+  Put(&out, o.grid.floor_band_m);
+  Put(&out, static_cast<int32_t>(o.width));
+  torch::serialize::OutputArchive archive;
+  impl_->net->save(archive);
+  std::ostringstream weights;
+  archive.save_to(weights);
+  const std::string blob = weights.str();
+  Put(&out, static_cast<uint64_t>(blob.size()));
+  out += blob;
+  return out;
+}
+
+VoteNet VoteNet::Deserialize(const std::string& bytes, const std::string& what) {
+  Require(bytes.size() >= sizeof(kMagic) && std::memcmp(bytes.data(), kMagic, sizeof(kMagic)) == 0,
+          what + ": not a vote network (no FURNVNET header)");
+  size_t at = sizeof(kMagic);
+  const uint32_t version = Take<uint32_t>(bytes, &at, what);
+  Require(version == kVersion,
+          what + ": vote network format " + std::to_string(version) + " is not this build's (" +
+              std::to_string(kVersion) + "): train the model again with this build");
+  VoteNetOptions options;
+  options.grid.cell_m = Take<double>(bytes, &at, what);
+  options.grid.rows = Take<int32_t>(bytes, &at, what);
+  options.grid.cols = Take<int32_t>(bytes, &at, what);
+  options.grid.floor_band_m = Take<double>(bytes, &at, what);
+  options.width = Take<int32_t>(bytes, &at, what);
+  try {
+    options.Check();
+  } catch (const InputError& error) {
+    throw InputError(what + ": vote network is corrupt (" + error.what() + ")");
+  }
+  const uint64_t blob_size = Take<uint64_t>(bytes, &at, what);
+  Require(blob_size == bytes.size() - at,
+          what + ": vote network is corrupt (its weights block has the wrong length)");
+  VoteNet net = Create(options, 0);
+  try {
+    torch::serialize::InputArchive archive;
+    std::istringstream in(bytes.substr(at));
+    archive.load_from(in);
+    net.impl_->net->load(archive);
+  } catch (const c10::Error& error) {
+    std::string reason = error.what_without_backtrace();
+    reason = reason.substr(0, reason.find('\n'));
+    throw InputError(what + ": vote network weights are unreadable (" + reason + ")");
+  }
+  net.impl_->net->eval();
+  return net;
+}
+
+BevOutput VoteNet::Predict(const BevImage& image) const {
+  Require(impl_ != nullptr, "an empty vote network cannot predict");
+  torch::NoGradGuard no_grad;
+  const torch::Tensor input = ImageTensor({&image}, impl_->options.grid);
+  torch::Tensor output = impl_->net.ptr()->forward(input)[0];
+  namespace ch = bev_channels;
+  output.slice(0, ch::kHeat.first, ch::kHeat.end()).sigmoid_();
+  output.slice(0, ch::kMembership.first, ch::kMembership.end()).sigmoid_();
+  output = output.contiguous();
+  BevOutput out;
+  out.spec = image.spec;
+  out.values.assign(output.data_ptr<float>(), output.data_ptr<float>() + output.numel());
+  return out;
+}
+
+void SetTorchThreads(int threads) {
+  if (threads > 0) at::set_num_threads(threads);
+}
+
+int TorchThreads() { return at::get_num_threads(); }
+
+}  // namespace furn

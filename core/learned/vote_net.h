@@ -1,0 +1,66 @@
+// The learned vote map (issues 30, 37): a small encoder-decoder CNN (U-Net,
+// three halvings) from a bird's-eye-view image (bev_grid.h) to, per cell, the
+// channels of bev_channels.h: a centre heat map per class and a dense vote
+// (offset to its object's centre, footprint, yaw, membership). What the
+// channels mean is the box coder's (bev_box_coder.h); the loss and the
+// optimiser are vote_net_loss.h and vote_net_training.h. Built on libtorch
+// (Debian's libtorch-dev, CPU); no torch header leaves the learned library's
+// .cc files.
+//
+//   VoteNet net = VoteNet::Create(VoteNetOptions{}, /*seed=*/1);
+//   VoteNetOptimizer optimizer(&net);        // training (vote_net_training.h)
+//   const std::string bytes = net.Serialize();
+//   VoteNet loaded = VoteNet::Deserialize(bytes, "model.fcm");
+//   const BevOutput out = loaded.Predict(image);
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/learned/bev_grid.h"
+
+namespace furn {
+
+struct VoteNetOptions {
+  BevGridSpec grid;
+  int width = 16;  // channels of the first level; doubled per halving, capped at 4x
+
+  void Check() const;
+};
+
+class VoteNet {
+ public:
+  VoteNet();
+  ~VoteNet();
+  VoteNet(VoteNet&&) noexcept;
+  VoteNet& operator=(VoteNet&&) noexcept;
+
+  // Fresh weights from `seed` (torch's generator, seeded here).
+  static VoteNet Create(const VoteNetOptions& options, uint64_t seed);
+  // The bytes of Serialize; throws InputError naming `what` for bytes that are
+  // not a vote network of this build's format (damaged, foreign, other sizes).
+  static VoteNet Deserialize(const std::string& bytes, const std::string& what);
+  std::string Serialize() const;
+
+  bool empty() const { return impl_ == nullptr; }
+  const VoteNetOptions& options() const;
+  int64_t Parameters() const;
+
+  // Inference (evaluation mode), on the calling thread's torch thread count.
+  BevOutput Predict(const BevImage& image) const;
+
+  struct Impl;  // vote_net_module.h: torch's module, for the learned library's own files
+
+ private:
+  friend struct VoteNetAccess;
+  std::unique_ptr<Impl> impl_;
+};
+
+// Torch's intra-op threads for this process (at::set_num_threads); 0 leaves
+// the library's default.
+void SetTorchThreads(int threads);
+int TorchThreads();
+
+}  // namespace furn

@@ -1,0 +1,62 @@
+// Private to the learned library's .cc files (it includes torch): the U-Net
+// module behind VoteNet, and tensors made from BEV images and targets.
+// Nothing outside core/learned/*.cc includes this header.
+#pragma once
+
+#include <torch/torch.h>
+
+#include <memory>
+#include <vector>
+
+#include "core/learned/bev_box_coder.h"
+#include "core/learned/vote_net.h"
+
+namespace furn {
+
+// Two 3x3 convolutions, each with batch normalisation and ReLU.
+struct ConvBlockImpl : torch::nn::Module {
+  ConvBlockImpl(int in, int out);
+  torch::Tensor forward(torch::Tensor x);
+  torch::nn::Conv2d conv1;
+  torch::nn::BatchNorm2d bn1;
+  torch::nn::Conv2d conv2;
+  torch::nn::BatchNorm2d bn2;
+};
+TORCH_MODULE(ConvBlock);
+
+// Encoder (3 halvings), bottleneck, decoder with skip connections, 1x1 head
+// with bev_channels::kCount outputs.
+struct UNetImpl : torch::nn::Module {
+  UNetImpl(int in, int w, int out);
+  torch::Tensor forward(const torch::Tensor& x);
+  ConvBlock e1, e2, e3, bottom, d3, d2, d1;
+  torch::nn::Conv2d head;
+};
+TORCH_MODULE(UNet);
+
+struct VoteNet::Impl {
+  VoteNetOptions options;
+  UNet net{nullptr};
+};
+
+// The learned library's access to a network's module.
+struct VoteNetAccess {
+  static VoteNet::Impl& Of(VoteNet& net) { return *net.impl_; }
+  static const VoteNet::Impl& Of(const VoteNet& net) { return *net.impl_; }
+};
+
+// N x channels x rows x cols from N planes of channels x rows x cols each.
+torch::Tensor StackPlanes(const std::vector<const std::vector<float>*>& planes,
+                          int64_t channels,
+                          const BevGridSpec& spec);
+torch::Tensor ImageTensor(const std::vector<const BevImage*>& images, const BevGridSpec& spec);
+
+// A batch's targets as tensors: values N x kCount x rows x cols, votes and
+// weight N x rows x cols.
+struct TargetTensors {
+  torch::Tensor values, votes, weight;
+};
+TargetTensors TargetTensorsOf(const std::vector<const BevTargets*>& targets,
+                              const BevGridSpec& spec);
+
+}  // namespace furn

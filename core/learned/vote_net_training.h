@@ -1,0 +1,68 @@
+// The pieces of the vote network's training (issue 37), each apart: a
+// sample (image and labelled objects), its augmentation (mirroring), a batch
+// of encoded targets, the learning-rate schedule, and the optimiser (Adam)
+// that steps the network on the loss of vote_net_loss.h. The loop that uses
+// them, with rooms, epochs and validation, is the workbench's
+// (workbench/pipelines/train_vote_net.h).
+//
+//   VoteNetOptimizer optimizer(&net, VoteNetLossWeights{});
+//   const TrainingBatch batch = MakeTrainingBatch(samples, indices, mirror, coder);
+//   const VoteNetLoss loss = optimizer.Step(batch, CosineLearningRate(step, steps, 4e-3));
+#pragma once
+
+#include <memory>
+#include <vector>
+
+#include "core/learned/bev_box_coder.h"
+#include "core/learned/vote_net.h"
+#include "core/learned/vote_net_loss.h"
+
+namespace furn {
+
+// One training frame: its BEV image and labelled objects (targets and the
+// objects seen too little to be targets).
+struct BevSample {
+  BevImage image;
+  std::vector<BevObject> objects;
+};
+
+// The sample mirrored left-right in its grid (image and objects).
+BevSample MirroredSample(const BevSample& sample);
+
+// Images and their encoded targets.
+struct TrainingBatch {
+  std::vector<BevImage> images;
+  std::vector<BevTargets> targets;
+};
+
+// samples[indices[i]], mirrored where mirror[i] (empty: none mirrored).
+TrainingBatch MakeTrainingBatch(const std::vector<BevSample>& samples,
+                                const std::vector<size_t>& indices,
+                                const std::vector<char>& mirror,
+                                const BevCoderOptions& coder);
+
+// Cosine decay from `peak` at step 0 to floor_share x peak at the last step.
+double CosineLearningRate(size_t step, size_t total_steps, double peak, double floor_share = 0.05);
+
+// Adam on a network; the network stays in evaluation mode between steps.
+class VoteNetOptimizer {
+ public:
+  VoteNetOptimizer(VoteNet* net, const VoteNetLossWeights& weights);
+  ~VoteNetOptimizer();
+  VoteNetOptimizer(const VoteNetOptimizer&) = delete;
+  VoteNetOptimizer& operator=(const VoteNetOptimizer&) = delete;
+
+  // One step on the batch at `learning_rate`; returns the loss before it.
+  VoteNetLoss Step(const TrainingBatch& batch, double learning_rate);
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+// The loss of a batch without a step (evaluation mode).
+VoteNetLoss EvaluateVoteNetLoss(const VoteNet& net,
+                                const TrainingBatch& batch,
+                                const VoteNetLossWeights& weights);
+
+}  // namespace furn

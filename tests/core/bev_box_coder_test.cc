@@ -1,0 +1,195 @@
+// The box coder of the learned vote map: what targets say (heat at centres,
+// dense votes on each target's occupied cells, ignore regions), and that
+// decoding the targets themselves gives back the objects, by the peak cell
+// and by the votes; the votes' mean shift outvotes one wrong peak cell;
+// cross-class suppression is an option.
+#include "core/learned/bev_box_coder.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "core/angles.h"
+
+namespace furn {
+namespace {
+
+namespace ch = bev_channels;
+
+// The grid of a sensor at the origin looking along +x; the cells of each
+// object's footprint occupied, as a scan seen from above would make them.
+BevImage ImageWith(const std::vector<BevObject>& objects) {
+  BevImage image;
+  image.values.assign(static_cast<size_t>(kBevChannels) * image.spec.rows * image.spec.cols, 0.0f);
+  for (int r = 0; r < image.spec.rows; ++r) {
+    for (int c = 0; c < image.spec.cols; ++c) {
+      const Eigen::Vector2d xy = image.frame.WorldOf({r + 0.5, c + 0.5}, image.spec);
+      for (const BevObject& object : objects) {
+        const Eigen::Vector2d local = Eigen::Rotation2Dd(-object.yaw) * (xy - object.centre);
+        if (std::abs(local.x()) < object.width / 2 && std::abs(local.y()) < object.depth / 2)
+          image.At(3, r, c) = 0.5f;  // points 0.5-0.8 m
+      }
+    }
+  }
+  return image;
+}
+
+// The targets as if the network had output them exactly.
+BevOutput PerfectOutput(const BevTargets& targets, const BevGridSpec& spec) {
+  return BevOutput{spec, targets.values};
+}
+
+size_t At(const BevGridSpec& spec, int channel, int row, int col) {
+  return (static_cast<size_t>(channel) * spec.rows + row) * spec.cols + col;
+}
+
+const BevObject kTable{FurnitureClass::kTable, {2.012, 0.537}, 0.3, 1.2, 0.8};
+const BevObject kChair{FurnitureClass::kChair, {1.013, -0.513}, 2.0, 0.5, 0.55};
+
+TEST(BevBoxCoder, HeatPeaksAtCentresAndOccupiedFootprintCellsVote) {
+  const BevObject outside{FurnitureClass::kChair, {-1.0, 0.0}, 0.0, 0.5, 0.5};
+  const BevImage image = ImageWith({kTable, kChair});
+  const BevGridSpec& spec = image.spec;
+  const BevTargets t = EncodeBevTargets({kTable, kChair, outside}, image, BevCoderOptions{});
+  EXPECT_EQ(t.objects, 2);
+  const Eigen::Vector2d cell = image.frame.CellOf(kTable.centre, spec);
+  const int row = static_cast<int>(cell.x()), col = static_cast<int>(cell.y());
+  const int table = ch::kHeat[static_cast<int>(FurnitureClass::kTable)];
+  EXPECT_FLOAT_EQ(t.values[At(spec, table, row, col)], 1.0f);
+  EXPECT_NEAR(t.values[At(spec, table, row, col + 2)], std::exp(-4 / (2 * 1.5 * 1.5)), 1e-6);
+  EXPECT_EQ(t.values[At(spec, ch::kHeat[static_cast<int>(FurnitureClass::kChair)], row, col)], 0);
+  // A cell near the table's corner votes for its centre, in tenths of a metre.
+  const Eigen::Vector2d corner_xy =
+      kTable.centre + Eigen::Rotation2Dd(kTable.yaw) * Eigen::Vector2d(0.5, 0.3);
+  const Eigen::Vector2d corner = image.frame.CellOf(corner_xy, spec);
+  const int cr = static_cast<int>(corner.x()), cc = static_cast<int>(corner.y());
+  EXPECT_EQ(t.votes[static_cast<size_t>(cr) * spec.cols + cc], 1.0f);
+  EXPECT_EQ(t.values[At(spec, ch::kMembership.first, cr, cc)], 1.0f);
+  const Eigen::Vector2d to_centre = (cell - Eigen::Vector2d(cr + 0.5, cc + 0.5)) * spec.cell_m;
+  EXPECT_NEAR(t.values[At(spec, ch::kOffset[0], cr, cc)], to_centre.x() / ch::kOffsetUnitM, 1e-5);
+  EXPECT_NEAR(t.values[At(spec, ch::kOffset[1], cr, cc)], to_centre.y() / ch::kOffsetUnitM, 1e-5);
+  EXPECT_NEAR(std::exp(t.values[At(spec, ch::kLogSize[0], cr, cc)]), 1.2, 1e-5);
+  EXPECT_NEAR(std::exp(t.values[At(spec, ch::kLogSize[1], cr, cc)]), 0.8, 1e-5);
+  EXPECT_NEAR(t.values[At(spec, ch::kYaw[0], cr, cc)], std::cos(0.6), 1e-5);  // 2 x yaw
+  // Free floor between the objects: no vote, membership 0, heat loss counts.
+  const Eigen::Vector2d free = image.frame.CellOf({1.5, 0.0}, spec);
+  const size_t free_at = static_cast<size_t>(free.x()) * spec.cols + static_cast<size_t>(free.y());
+  EXPECT_EQ(t.votes[free_at], 0.0f);
+  EXPECT_EQ(t.weight[free_at], 1.0f);
+  // A table turned half a turn is the same table: the same yaw target.
+  const BevObject turned{FurnitureClass::kTable, kTable.centre, 0.3 + M_PI, 1.2, 0.8};
+  const BevTargets u = EncodeBevTargets({turned}, image, BevCoderOptions{});
+  for (int k = 0; k < 2; ++k) {
+    EXPECT_NEAR(u.values[At(spec, ch::kYaw[k], row, col)],
+                t.values[At(spec, ch::kYaw[k], row, col)],
+                1e-5);
+  }
+}
+
+TEST(BevBoxCoder, ObjectsSeenTooLittleAreIgnoredNotPunished) {
+  BevObject glimpsed = kChair;
+  glimpsed.target = false;
+  const BevImage image = ImageWith({kTable, glimpsed});
+  const BevTargets t = EncodeBevTargets({kTable, glimpsed}, image, BevCoderOptions{});
+  EXPECT_EQ(t.objects, 1);
+  const Eigen::Vector2d cell = image.frame.CellOf(glimpsed.centre, image.spec);
+  const size_t at = static_cast<size_t>(cell.x()) * image.spec.cols + static_cast<size_t>(cell.y());
+  EXPECT_EQ(t.weight[at], 0.0f);
+  EXPECT_EQ(t.votes[at], 0.0f);
+  EXPECT_EQ(t.values[At(image.spec, ch::kHeat[0], static_cast<int>(cell.x()), static_cast<int>(cell.y()))],
+            0.0f);
+  // Four cells away the loss counts again (radius 3 cells).
+  EXPECT_EQ(t.weight[at + 4], 1.0f);
+}
+
+TEST(BevBoxCoder, DecodingTheTargetsGivesBackTheObjects) {
+  const BevImage image = ImageWith({kTable, kChair});
+  const BevTargets t = EncodeBevTargets({kTable, kChair}, image, BevCoderOptions{});
+  for (const BevCentre centre : {BevCentre::kPeak, BevCentre::kVotes}) {
+    BevDecodeOptions options;
+    options.centre = centre;
+    const std::vector<BevPeak> peaks =
+        DecodeBevOutput(image, PerfectOutput(t, image.spec), options);
+    ASSERT_EQ(peaks.size(), 2u) << EnumName(centre);
+    for (const BevObject& object : {kTable, kChair}) {
+      const BevPeak* found = nullptr;
+      for (const BevPeak& peak : peaks) {
+        if (peak.furniture_class == object.furniture_class) found = &peak;
+      }
+      ASSERT_NE(found, nullptr);
+      EXPECT_NEAR(found->x, object.centre.x(), 1e-4) << EnumName(centre);
+      EXPECT_NEAR(found->y, object.centre.y(), 1e-4) << EnumName(centre);
+      EXPECT_NEAR(found->width, object.width, 1e-4);
+      EXPECT_NEAR(found->depth, object.depth, 1e-4);
+      const double period = 2 * M_PI / BevYawSymmetry(object.furniture_class);
+      EXPECT_NEAR(std::remainder(found->yaw - object.yaw, period), 0, 1e-4) << EnumName(centre);
+      EXPECT_FLOAT_EQ(found->heat, 1.0f);
+      EXPECT_EQ(found->votes > 0, centre == BevCentre::kVotes);
+    }
+  }
+}
+
+// One wrong guess at the peak cell moves the peak decoding by 15 cm; the
+// table's hundreds of agreeing votes keep the vote decoding on its centre.
+TEST(BevBoxCoder, VotesOutvoteOneWrongPeakCell) {
+  const BevImage image = ImageWith({kTable});
+  const BevTargets t = EncodeBevTargets({kTable}, image, BevCoderOptions{});
+  BevOutput output = PerfectOutput(t, image.spec);
+  const Eigen::Vector2d cell = image.frame.CellOf(kTable.centre, image.spec);
+  const int row = static_cast<int>(cell.x()), col = static_cast<int>(cell.y());
+  output.values[At(image.spec, ch::kOffset[1], row, col)] += 1.5f;  // 15 cm to the left
+  BevDecodeOptions options;
+  options.centre = BevCentre::kPeak;
+  const BevPeak peak = DecodeBevOutput(image, output, options).front();
+  options.centre = BevCentre::kVotes;
+  const BevPeak voted = DecodeBevOutput(image, output, options).front();
+  EXPECT_NEAR(std::hypot(peak.x - kTable.centre.x(), peak.y - kTable.centre.y()), 0.15, 1e-4);
+  EXPECT_LT(std::hypot(voted.x - kTable.centre.x(), voted.y - kTable.centre.y()), 0.01);
+  EXPECT_NEAR(voted.peak_x, peak.x, 1e-9);  // the peak cell's own vote, reported
+  EXPECT_GT(voted.votes, 100);
+}
+
+TEST(BevBoxCoder, CrossClassSuppressionIsAnOption) {
+  // A chair and an armchair maximum at one place (the armchair weaker).
+  const BevImage image = ImageWith({kChair});
+  BevObject armchair = kChair;
+  armchair.furniture_class = FurnitureClass::kArmchair;
+  BevTargets t = EncodeBevTargets({kChair, armchair}, image, BevCoderOptions{});
+  const Eigen::Vector2d cell = image.frame.CellOf(kChair.centre, image.spec);
+  t.values[At(image.spec,
+              ch::kHeat[static_cast<int>(FurnitureClass::kArmchair)],
+              static_cast<int>(cell.x()),
+              static_cast<int>(cell.y()))] = 0.6f;
+  BevDecodeOptions options;  // suppression off by default
+  std::vector<BevPeak> peaks = DecodeBevOutput(image, PerfectOutput(t, image.spec), options);
+  ASSERT_EQ(peaks.size(), 2u);
+  EXPECT_FALSE(peaks[0].suppressed);
+  EXPECT_FALSE(peaks[1].suppressed);
+  options.suppress_m = 0.3;
+  peaks = DecodeBevOutput(image, PerfectOutput(t, image.spec), options);
+  ASSERT_EQ(peaks.size(), 2u);
+  EXPECT_EQ(peaks[0].furniture_class, FurnitureClass::kChair);
+  EXPECT_TRUE(peaks[1].suppressed);
+  EXPECT_LT(peaks[1].suppressed_by_m, 0.01);
+}
+
+TEST(BevBoxCoder, OptionChecksNameTheValue) {
+  BevDecodeOptions decode;
+  decode.vote_bandwidth_m = 0;
+  try {
+    decode.Check();
+    FAIL() << "bandwidth 0 accepted";
+  } catch (const InputError& error) {
+    EXPECT_NE(std::string(error.what()).find("vote bandwidth"), std::string::npos) << error.what();
+  }
+  BevCoderOptions coder;
+  coder.heat_sigma_cells = 0.1;
+  EXPECT_THROW(coder.Check(), InputError);
+  // A truncated output is refused, not read past its end.
+  const BevImage image = ImageWith({});
+  BevOutput output{image.spec, std::vector<float>(100, 0.0f)};
+  EXPECT_THROW(DecodeBevOutput(image, output, BevDecodeOptions{}), InputError);
+}
+
+}  // namespace
+}  // namespace furn
