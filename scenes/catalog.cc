@@ -92,10 +92,44 @@ int Catalog::AddClutter(Catalog other) {
     source_of_entry_.push_back(first_source + other.source_of_entry_[k]);
     ++added;
   }
-  for (std::unique_ptr<Source>& source : other.sources_) sources_.push_back(std::move(source));
+  for (std::shared_ptr<const Source>& source : other.sources_) sources_.push_back(std::move(source));
   for (std::string& warning : other.warnings_) warnings_.push_back(std::move(warning));
   description_ += " + clutter of " + other.description_;
   return added;
+}
+
+Catalog Catalog::Copy() const {
+  Catalog copy;
+  copy.description_ = description_;
+  copy.warnings_ = warnings_;
+  copy.entries_ = entries_;
+  copy.source_of_entry_ = source_of_entry_;
+  copy.sources_ = sources_;
+  return copy;
+}
+
+void Catalog::AddModels(std::vector<ProceduralModel> models,
+                        const std::string& category,
+                        const std::string& what) {
+  std::set<std::string> ids;
+  for (const CatalogEntry& entry : entries_) ids.insert(entry.id);
+  auto source = std::make_shared<Source>();
+  for (ProceduralModel& item : models) {
+    Require(ids.insert(item.model.id).second,
+            "catalog '" + description_ + "' already has an entry '" + item.model.id + "'");
+    CatalogEntry entry;
+    entry.id = item.model.id;
+    entry.name = item.model.name;
+    entry.category = category;
+    entry.source = item.model.source_path;
+    entry.furniture_class = item.furniture_class;
+    entry.size_m = BoundingBox(item.model.mesh).Size();
+    entries_.push_back(entry);
+    source_of_entry_.push_back(static_cast<int>(sources_.size()));
+    source->prebuilt.emplace(entry.id, std::move(item.model));
+  }
+  sources_.push_back(std::move(source));
+  description_ += " + " + what;
 }
 
 std::vector<const CatalogEntry*> Catalog::Classified() const {
@@ -168,7 +202,7 @@ Catalog OpenCatalog(const std::string& spec, const CatalogOpenOptions& options) 
         spec == kProceduralPrefix ? 1 : ParseSeed(spec.substr(sizeof(kProceduralPrefix)), spec);
     ProceduralCatalogOptions procedural;
     procedural.seed = seed;
-    auto source = std::make_unique<Catalog::Source>();
+    auto source = std::make_shared<Catalog::Source>();
     for (ProceduralModel& item : MakeProceduralCatalog(procedural)) {
       CatalogEntry entry;
       entry.id = item.model.id;
@@ -186,7 +220,7 @@ Catalog OpenCatalog(const std::string& spec, const CatalogOpenOptions& options) 
   }
 
   if (extension == ".sh3f") {
-    auto source = std::make_unique<Catalog::Source>();
+    auto source = std::make_shared<Catalog::Source>();
     source->archive = std::make_unique<Sh3fCatalog>(spec);
     for (const Sh3fEntry& sh3f : source->archive->entries()) {
       catalog.entries_.push_back(EntryFromSh3f(sh3f, spec));
@@ -221,7 +255,7 @@ Catalog OpenCatalog(const std::string& spec, const CatalogOpenOptions& options) 
   for (const ClassMapEntry& entry : map.entries) classified[entry.id] = &entry;
   for (const std::string& file_name : map.catalogs) {
     const std::string path = (std::filesystem::path(options.catalog_dir) / file_name).string();
-    auto source = std::make_unique<Catalog::Source>();
+    auto source = std::make_shared<Catalog::Source>();
     source->archive = std::make_unique<Sh3fCatalog>(path);
     for (const std::string& problem : source->archive->problems()) {
       catalog.warnings_.push_back(problem);
@@ -263,7 +297,7 @@ Catalog OpenCatalog(const std::string& spec, const CatalogOpenOptions& options) 
       errors[i] = error.what();
     }
   });
-  auto source = std::make_unique<Catalog::Source>();
+  auto source = std::make_shared<Catalog::Source>();
   for (size_t i = 0; i < meshes.size(); ++i) {
     const ClassMapEntry& mapped = *meshes[i];
     if (!models[i]) {

@@ -22,6 +22,7 @@
 
 #include "core/furniture_class.h"
 #include "core/mesh.h"
+#include "scenes/procedural_catalog.h"
 
 namespace furn {
 
@@ -84,6 +85,15 @@ class Catalog {
   // Returns how many were added.
   int AddClutter(Catalog other);
 
+  // A copy of the entries that shares this catalog's sources.
+  Catalog Copy() const;
+
+  // Adds models built in memory (procedural_shapes.h) as classified entries
+  // of category `category`; ids already here are refused (InputError).
+  // `what` is appended to the description ("default + <what>").
+  void AddModels(std::vector<ProceduralModel> models, const std::string& category,
+                 const std::string& what);
+
   // Throws InputError naming the entry when its model cannot be loaded.
   CadModel LoadModel(const std::string& id) const;
   // Loads several in parallel, skipping (and reporting) entries that fail.
@@ -97,7 +107,8 @@ class Catalog {
   std::vector<std::string> warnings_;
   std::vector<CatalogEntry> entries_;
   std::vector<int> source_of_entry_;  // index into sources_
-  std::vector<std::unique_ptr<Source>> sources_;
+  // Shared, never changed after opening: a Copy() loads from the same archives.
+  std::vector<std::shared_ptr<const Source>> sources_;
 };
 
 // Throws InputError for an unknown spec, a missing or corrupt file, a class map

@@ -91,6 +91,12 @@ void AddVoteNetFlags(CLI::App* app, VoteNetFlags* flags) {
                   o.room.size_jitter,
                   "Vote network: per-side size jitter of the training rooms' furniture (0..0.5)")
       ->capture_default_str();
+  app->add_option("--vote-shape-variety",
+                  o.shape_variety,
+                  "Vote network: procedural tables and sideboards per class (four-leg, pedestal, "
+                  "trestle; doors, drawers, shelves) mixed into the training rooms, sized within "
+                  "the catalog's range (0: none)")
+      ->capture_default_str();
   app->add_flag("--keep-rooms",
                 o.keep_rooms,
                 "Keep the vote network's training rooms (<model>.rooms.db) for reuse");

@@ -16,6 +16,7 @@
 #include "workbench/formats/scan_file.h"
 #include "workbench/pipelines/dataset_tools.h"  // MergeDatasets
 #include "workbench/pipelines/generate.h"
+#include "scenes/procedural_shapes.h"
 
 namespace furn {
 namespace {
@@ -118,6 +119,22 @@ GenerateOptions TrainingRooms(const VoteNetTrainingOptions& options,
   return generate;
 }
 
+// The catalog the training rooms are composed from: the training catalog,
+// plus options.shape_variety varied tables and sideboards per class.
+Catalog TrainingCatalog(const Catalog& catalog,
+                        const std::set<std::string>& held_out,
+                        const VoteNetTrainingOptions& options) {
+  Catalog training = catalog.Copy();
+  if (options.shape_variety > 0) {
+    training.AddModels(MakeShapeVariety(catalog, held_out, options.shape_variety, options.seed),
+                       "Shape variety",
+                       std::to_string(options.shape_variety) +
+                           " varied tables and sideboards per class (seed " +
+                           std::to_string(options.seed) + ")");
+  }
+  return training;
+}
+
 // The database and the write-ahead log and shared-memory files SQLite keeps
 // beside it (a read-only connection leaves them behind).
 void RemoveDatabase(const std::string& path) {
@@ -140,6 +157,8 @@ void VoteNetTrainingOptions::Check() const {
   Require(max_range_m > 0 && max_range_m <= 20, "vote-net max range must be in (0, 20] m");
   Require(validation_share >= 0 && validation_share < 1,
           "vote-net validation share must be in [0, 1)");
+  Require(shape_variety >= 0 && shape_variety <= 1000,
+          "vote-net shape variety " + std::to_string(shape_variety) + " must be in 0..1000");
   net.Check();
   coder.Check();
   loss.Check();
@@ -147,7 +166,7 @@ void VoteNetTrainingOptions::Check() const {
 }
 
 std::string VoteNetTrainingOptions::Json() const {
-  const nlohmann::json json = {
+  nlohmann::json json = {
       {"rooms", rooms},
       {"frames_per_room", frames_per_room},
       {"seed", seed},
@@ -177,6 +196,8 @@ std::string VoteNetTrainingOptions::Json() const {
       // The rooms as `generate` records them (held-out models
       // are keyed by the caller).
       {"rooms_content", nlohmann::json::parse(TrainingRooms(*this, "", {}).ContentJson())}};
+  // Only when used: keys of models trained before the option stay valid.
+  if (shape_variety > 0) json["shape_variety"] = shape_variety;
   return json.dump();
 }
 
@@ -287,7 +308,9 @@ std::string TrainVoteNet(const Catalog& catalog,
                          const std::string& rooms_db,
                          VoteNetTrainingSummary* summary) {
   options.Check();
-  const GenerateOptions generate = TrainingRooms(options, catalog.description(), held_out);
+  const Catalog training_catalog = TrainingCatalog(catalog, held_out, options);
+  const GenerateOptions generate =
+      TrainingRooms(options, training_catalog.description(), held_out);
   auto start = std::chrono::steady_clock::now();
   // A database kept from an earlier run resumes (rooms already in it are
   // skipped); one of other options is refused by GenerateDataset.
@@ -300,7 +323,7 @@ std::string TrainVoteNet(const Catalog& catalog,
                  options.room_shards.empty() ? "generating" : "merged",
                  options.rooms,
                  rooms_db.c_str());
-  const GenerateSummary generated = GenerateDataset(catalog, generate, rooms_db);
+  const GenerateSummary generated = GenerateDataset(training_catalog, generate, rooms_db);
   summary->rooms = generated.rooms_in_shard;
   summary->generate_s = Seconds(start);
   start = std::chrono::steady_clock::now();
@@ -331,10 +354,11 @@ int GenerateTrainingRoomsShard(const Catalog& catalog,
                                int shards,
                                const std::string& out) {
   options.Check();
-  GenerateOptions generate = TrainingRooms(options, catalog.description(), held_out);
+  const Catalog training_catalog = TrainingCatalog(catalog, held_out, options);
+  GenerateOptions generate = TrainingRooms(options, training_catalog.description(), held_out);
   generate.shard_index = shard;
   generate.shard_count = shards;
-  return GenerateDataset(catalog, generate, out).rooms_in_shard;
+  return GenerateDataset(training_catalog, generate, out).rooms_in_shard;
 }
 
 }  // namespace furn

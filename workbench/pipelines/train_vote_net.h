@@ -53,6 +53,9 @@ struct VoteNetTrainingOptions {
     jittered.size_jitter = 0.2;
     return jittered;
   }();
+  // Procedural tables and sideboards per class (scenes/procedural_shapes.h)
+  // added to the training rooms' catalog, never to evaluation; 0: none.
+  int shape_variety = 0;
   bool keep_rooms = false;  // keep the rooms' database after training (else deleted)
   // The training rooms made elsewhere (the tasks of `train --shards N`, each
   // by GenerateTrainingRoomsShard): merged into the rooms' database instead
