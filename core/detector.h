@@ -329,6 +329,9 @@ struct DetectionDebug {
     // kSuppressed, outcome_values[0] is the distance to the stronger maximum.
     bool learned = false;
     double yaw = 0, width = 0, depth = 0;
+    // Learned voting: where the peak cell's own vote put the centre, and the
+    // summed weight of the dense votes that placed it (0: the peak's own).
+    double peak_x = 0, peak_y = 0, votes = 0;
     // Learned voting with learned_fit: the best fit agreed with the network
     // and gave the detection its yaw and CAD model (fit_x, fit_y and the fits
     // say where it was).

@@ -140,6 +140,9 @@ std::vector<DetectionDebug::Hypothesis> Detector::LearnedMaxima(
     h.yaw = peak.yaw;
     h.width = peak.width;
     h.depth = peak.depth;
+    h.peak_x = peak.peak_x;
+    h.peak_y = peak.peak_y;
+    h.votes = peak.votes;
     h.outcome = peak.suppressed ? HypothesisOutcome::kSuppressed : HypothesisOutcome::kDetected;
     h.outcome_values[0] = peak.suppressed_by_m;
     if (!peak.suppressed) {

@@ -5,6 +5,7 @@
 #include "core/error.h"
 #include "core/progress.h"
 #include "reports/mesh_sheet.h"
+#include "scenes/procedural_shapes.h"
 #include "scenes/mesh_io.h"
 #include "workbench/cli/cli_common.h"
 #include "workbench/cli/commands.h"
@@ -106,6 +107,11 @@ int RunCatalog(int argc, char** argv) {
   sheet->add_option("--out", out_path, "Output .png")->required();
   sheet->add_option("--tile", sheet_options.tile_px, "Tile size in pixels")->capture_default_str();
   sheet->add_option("--columns", sheet_options.columns, "Tiles per row")->capture_default_str();
+  int shape_variety = 0;
+  sheet->add_option("--shape-variety",
+                    shape_variety,
+                    "Also draw this many varied tables and sideboards per class (what "
+                    "train --vote-shape-variety mixes into the training rooms, seed 1)");
 
   CLI::App* import = app.add_subcommand(
       "import", "Write a starter class map (version 2) for a folder of mesh files");
@@ -147,7 +153,11 @@ int RunCatalog(int argc, char** argv) {
     return 0;
   }
   // sheet
-  const int drawn = DrawCatalogSheet(catalog, list_options, sheet_options, out_path);
+  Catalog drawn_catalog = catalog.Copy();
+  if (shape_variety != 0)
+    drawn_catalog.AddModels(
+        MakeShapeVariety(catalog, {}, shape_variety, 1), "Shape variety", "shape variety");
+  const int drawn = DrawCatalogSheet(drawn_catalog, list_options, sheet_options, out_path);
   std::cout << "wrote " << out_path << " (" << drawn << " models)\n";
   return 0;
 }

@@ -106,6 +106,14 @@ std::string ExplainDetection(const DetectionResult& result, const TrainedModel& 
                     h.depth,
                     h.vote_weight);
       out << line;
+      if (h.votes > 0) {
+        std::snprintf(line,
+                      sizeof(line),
+                      "votes %.0f (%.2f m from the peak cell's)  ",
+                      h.votes,
+                      std::hypot(h.peak_x - h.x, h.peak_y - h.y));
+        out << line;
+      }
       if (const DetectionDebug::Hypothesis::Fit* best = BestFit(h)) {  // learned_fit
         std::snprintf(line,
                       sizeof(line),
