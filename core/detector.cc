@@ -62,6 +62,7 @@ BevDecodeOptions DetectorOptions::LearnedDecode() const {
   decode.suppress_m = learned_suppress_m;
   decode.centre = learned_centre;
   decode.vote_bandwidth_m = learned_vote_bandwidth_m;
+  decode.vote_heat_power = learned_vote_heat_power;
   return decode;
 }
 

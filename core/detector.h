@@ -169,6 +169,7 @@ struct DetectorOptions {
   double learned_fit_agree_m = 0.15;
   BevCentre learned_centre = BevCentre::kVotes;
   double learned_vote_bandwidth_m = 0.1;
+  double learned_vote_heat_power = 0;  // BevDecodeOptions::vote_heat_power
 
   // The learned maxima's decoding from the fields above.
   BevDecodeOptions LearnedDecode() const;

@@ -5,7 +5,7 @@ For every labelled object of a class seen at least --min-visibility within
 --max-range of the camera, the distance to the nearest detection of its
 class in the same frame (within --search m; farther: "none"). Prints per
 class the objects, the median distance and the share within 5, 10 and 20 cm.
-The run is the latest of --kind unless --run is given; with --kind
+The run is the latest of --kind unless --runs are given; with --kind
 crossval-fold every fold run of the latest crossval is taken.
 
   python3 tools/centre_error.py out/pe/pe-1.db --kind crossval-fold --min-visibility 0.5
@@ -22,9 +22,9 @@ def camera_position(text):
     return m[3], m[7]  # row-major 4x4: translation x, y
 
 
-def fold_runs(db, kind, run, folds):
-    if run:
-        return [run]
+def fold_runs(db, kind, runs, folds):
+    if runs:
+        return [int(r) for r in runs.split(",")]
     ids = [r[0] for r in db.execute("SELECT id FROM runs WHERE kind = ? ORDER BY id DESC", (kind,))]
     if not ids:
         sys.exit(f"no run of kind '{kind}'")
@@ -35,14 +35,14 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("db")
     parser.add_argument("--kind", default="crossval-fold")
-    parser.add_argument("--run", type=int, default=0)
+    parser.add_argument("--runs", default="", help="run ids, comma-separated (default: the latest)")
     parser.add_argument("--folds", type=int, default=3, help="fold runs of the latest crossval")
     parser.add_argument("--min-visibility", type=float, default=0.5)
     parser.add_argument("--max-range", type=float, default=3.0)
     parser.add_argument("--search", type=float, default=0.8)
     args = parser.parse_args()
     db = sqlite3.connect(f"file:{args.db}?mode=ro", uri=True)
-    runs = fold_runs(db, args.kind, args.run, args.folds)
+    runs = fold_runs(db, args.kind, args.runs, args.folds)
     distances = {}
     for run in runs:
         frames = [r[0] for r in db.execute(

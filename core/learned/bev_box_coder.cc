@@ -96,6 +96,7 @@ void SplatHeat(const Eigen::Vector2d& cell, double sigma, const BevGridSpec& spe
 }
 
 void ClearDisc(const Eigen::Vector2d& cell, double radius, const BevGridSpec& spec, float* weight) {
+  if (radius <= 0) return;
   const int reach = static_cast<int>(std::ceil(radius));
   const int row = static_cast<int>(std::floor(cell.x()));
   const int col = static_cast<int>(std::floor(cell.y()));
@@ -185,6 +186,7 @@ struct VotedBox {
 // vote_bandwidth_m on where each vote lands, times its membership.
 VotedBox MeanShiftVotes(const BevImage& image,
                         const BevOutput& output,
+                        int class_index,
                         const CellVote& start,
                         const BevDecodeOptions& options) {
   const BevGridSpec& spec = output.spec;
@@ -201,7 +203,10 @@ VotedBox MeanShiftVotes(const BevImage& image,
     for (int c = std::max(0, col0 - span); c <= std::min(spec.cols - 1, col0 + span); ++c) {
       if (!image.Occupied(r, c)) continue;
       CellVote vote = DecodeCell(output, r, c);
-      if (vote.membership >= options.min_membership) votes.push_back(vote);
+      if (vote.membership < options.min_membership) continue;
+      if (options.vote_heat_power > 0)  // membership becomes the vote's weight
+        vote.membership *= std::pow(output.At(ch::kHeat[class_index], r, c), options.vote_heat_power);
+      votes.push_back(vote);
     }
   }
   const double bandwidth = options.vote_bandwidth_m / spec.cell_m;
@@ -241,8 +246,8 @@ BevPeak PeakOf(const BevImage& image,
   peak.peak_x = own_xy.x();
   peak.peak_y = own_xy.y();
   VotedBox box{own.centre_cells, own.log_width, own.log_depth, own.yaw_cos, own.yaw_sin, 0};
-  if (options.centre == BevCentre::kVotes) {
-    const VotedBox voted = MeanShiftVotes(image, output, own, options);
+  if (options.centre == BevCentre::kVotes && output.dense_votes) {
+    const VotedBox voted = MeanShiftVotes(image, output, cell.class_index, own, options);
     if (voted.weight > 0) box = voted;
   }
   const Eigen::Vector2d xy = image.frame.WorldOf(box.centre_cells, output.spec);
@@ -262,9 +267,27 @@ int BevYawSymmetry(FurnitureClass furniture_class) {
   return furniture_class == FurnitureClass::kTable ? 2 : 1;
 }
 
+BevCoderOptions BevCoderOptions::Dense() {
+  BevCoderOptions dense;
+  dense.heat_sigma_cells = 1.5;
+  dense.dense_votes = true;
+  dense.ignore_radius_cells = 3;
+  return dense;
+}
+
+bool BevCoderOptions::operator==(const BevCoderOptions& other) const {
+  return heat_sigma_cells == other.heat_sigma_cells && dense_votes == other.dense_votes &&
+         vote_margin_m == other.vote_margin_m && ignore_radius_cells == other.ignore_radius_cells;
+}
+
+double BevSplatSigma(double width_m, double depth_m, const BevGridSpec& spec) {
+  return std::clamp(std::min(width_m, depth_m) / (6 * spec.cell_m), 1.0, 3.0);
+}
+
 void BevCoderOptions::Check() const {
-  Require(heat_sigma_cells >= 0.5 && heat_sigma_cells <= 10,
-          "BEV heat sigma " + std::to_string(heat_sigma_cells) + " cells must be in 0.5..10");
+  Require(heat_sigma_cells == 0 || (heat_sigma_cells >= 0.5 && heat_sigma_cells <= 10),
+          "BEV heat sigma " + std::to_string(heat_sigma_cells) +
+              " cells must be 0 (from the footprint) or in 0.5..10");
   Require(vote_margin_m >= 0 && vote_margin_m <= 1,
           "BEV vote margin " + std::to_string(vote_margin_m) + " m must be in 0..1");
   Require(ignore_radius_cells >= 0 && ignore_radius_cells <= 20,
@@ -282,6 +305,8 @@ void BevDecodeOptions::Check() const {
           "vote bandwidth " + std::to_string(vote_bandwidth_m) + " m must be in (0, 1]");
   Require(min_membership >= 0 && min_membership <= 1,
           "vote min membership " + std::to_string(min_membership) + " must be in 0..1");
+  Require(vote_heat_power >= 0 && vote_heat_power <= 8,
+          "vote heat power " + std::to_string(vote_heat_power) + " must be in 0..8");
   Require(mean_shift_iterations >= 1 && mean_shift_iterations <= 100,
           "mean shift iterations must be in 1..100");
 }
@@ -304,9 +329,12 @@ BevTargets EncodeBevTargets(const std::vector<BevObject>& objects,
     }
     ++targets.objects;
     const int k = static_cast<int>(object.furniture_class);
-    SplatHeat(cell, options.heat_sigma_cells, spec, &targets.values[ch::kHeat[k] * plane]);
+    const double sigma = options.heat_sigma_cells > 0
+                             ? options.heat_sigma_cells
+                             : BevSplatSigma(object.width, object.depth, spec);
+    SplatHeat(cell, sigma, spec, &targets.values[ch::kHeat[k] * plane]);
   }
-  EncodeVotes(objects, image, options, &targets);
+  if (options.dense_votes) EncodeVotes(objects, image, options, &targets);
   // A target's centre cell always regresses its box, seen or not (a table's
   // centre under its top may hold no point when the top was not seen).
   for (const BevObject& object : objects) {
@@ -316,6 +344,7 @@ BevTargets EncodeBevTargets(const std::vector<BevObject>& objects,
     const size_t at = PlaneIndex(spec, row, col);
     if (targets.votes[at] > 0) continue;
     WriteBox(EncodeBox(object, {row + 0.5, col + 0.5}, image.frame, spec), spec, at, &targets.values);
+    targets.values[ch::kMembership.first * plane + at] = 1.0f;
     targets.votes[at] = 1.0f;
   }
   return targets;

@@ -19,7 +19,8 @@
 //
 // Decoding: per class, 3 x 3 local maxima of the heat of at least min_heat,
 // the strongest max_per_class. A maximum's centre is either its own cell's
-// vote (kPeak) or the mean shift of the votes of the occupied cells around it,
+// vote (kPeak; always for a network trained without dense votes) or the mean
+// shift of the votes of the occupied cells around it,
 // weighted by membership (kVotes: a partly seen table top is hundreds of cells
 // agreeing on one centre); footprint and yaw likewise. Cross-class
 // suppression (a weaker maximum of any class within suppress_m of a stronger
@@ -40,14 +41,32 @@ namespace furn {
 // rectangle's two ends look alike), 1 for the rest (a front).
 int BevYawSymmetry(FurnitureClass furniture_class);
 
+// How targets are encoded. The defaults are issue 30's encoding (the
+// product's: on protocol E the dense one gained tables but lost chairs, and
+// lost on the real set; docs/learned-voting.md); Dense() is issue 37's.
 struct BevCoderOptions {
-  double heat_sigma_cells = 1.5;  // the centre heat's Gaussian (cells)
-  double vote_margin_m = 0.05;    // a target's cells: its footprint widened by this (m)
-  double ignore_radius_cells = 3;  // no heat loss this near an object that is no target
+  // The centre heat's Gaussian (cells); 0: from the footprint (1-3 cells,
+  // BevSplatSigma).
+  double heat_sigma_cells = 0;
+  // Dense votes: every occupied cell of a target votes (offset, size, yaw,
+  // membership 1); false: the centre cell alone regresses the box.
+  bool dense_votes = false;
+  double vote_margin_m = 0.05;  // a target's cells: its footprint widened by this (m)
+  // No heat or membership loss this near an object that is no target
+  // (cells); 0: such objects are left out.
+  double ignore_radius_cells = 0;
 
+  // Issue 37's encoding: fixed heat width 1.5 cells, dense votes, ignore
+  // regions of 3 cells.
+  static BevCoderOptions Dense();
   // Throws InputError naming the field and the rule.
   void Check() const;
+  bool operator==(const BevCoderOptions& other) const;
 };
+
+// The footprint-scaled heat sigma (cells) of issue 30: a sixth of the
+// footprint's smaller side, 1 to 3 cells.
+double BevSplatSigma(double width_m, double depth_m, const BevGridSpec& spec);
 
 // bev_channels::kCount x rows x cols of targets, and per cell (rows x cols)
 // where the regressions count (`votes`: 1 on a target's occupied cells) and
@@ -83,6 +102,10 @@ struct BevDecodeOptions {
   BevCentre centre = BevCentre::kVotes;
   double vote_bandwidth_m = 0.1;  // the mean shift's Gaussian kernel (m)
   double min_membership = 0.3;    // cells below this do not vote
+  // A vote's weight is membership x (the class's heat at the voting cell)^p:
+  // 0 trusts every member cell alike; 1 trusts cells the network thinks
+  // central more (a chair's peak is precise; its outer cells' votes less so).
+  double vote_heat_power = 0;
   int mean_shift_iterations = 5;
 
   // Throws InputError naming the field and the rule.

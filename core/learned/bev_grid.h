@@ -89,6 +89,7 @@ struct BevImage {
 struct BevOutput {
   BevGridSpec spec;
   std::vector<float> values;
+  bool dense_votes = false;  // every cell's vote was trained (BevCoderOptions)
   float At(int channel, int row, int col) const {
     return values[(static_cast<size_t>(channel) * spec.rows + row) * spec.cols + col];
   }

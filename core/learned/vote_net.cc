@@ -11,9 +11,11 @@ namespace furn {
 namespace {
 
 constexpr char kMagic[8] = {'F', 'U', 'R', 'N', 'V', 'N', 'E', 'T'};
-// 2: dense votes and membership (issue 37); 1 (centre-cell offsets only) is
+// 3: the coder's options in the header (issue 37); 2: dense votes and
+// membership, coder BevCoderOptions::Dense(); 1 (no membership channel) is
 // not read: its channels mean something else.
-constexpr uint32_t kVersion = 2;
+constexpr uint32_t kVersion = 3;
+constexpr uint32_t kDenseOnlyVersion = 2;
 
 template <typename T>
 void Put(std::string* out, const T& value) {
@@ -134,6 +136,7 @@ TargetTensors TargetTensorsOf(const std::vector<const BevTargets*>& targets,
 
 void VoteNetOptions::Check() const {
   grid.Check();
+  coder.Check();
   Require(width >= 4 && width <= 128,
           "vote network width " + std::to_string(width) + " must be in 4..128");
 }
@@ -176,6 +179,10 @@ std::string VoteNet::Serialize() const {
   Put(&out, static_cast<int32_t>(o.grid.cols));
   Put(&out, o.grid.floor_band_m);
   Put(&out, static_cast<int32_t>(o.width));
+  Put(&out, static_cast<int32_t>(o.coder.dense_votes ? 1 : 0));
+  Put(&out, o.coder.heat_sigma_cells);
+  Put(&out, o.coder.vote_margin_m);
+  Put(&out, o.coder.ignore_radius_cells);
   torch::serialize::OutputArchive archive;
   impl_->net->save(archive);
   std::ostringstream weights;
@@ -191,7 +198,7 @@ VoteNet VoteNet::Deserialize(const std::string& bytes, const std::string& what) 
           what + ": not a vote network (no FURNVNET header)");
   size_t at = sizeof(kMagic);
   const uint32_t version = Take<uint32_t>(bytes, &at, what);
-  Require(version == kVersion,
+  Require(version == kVersion || version == kDenseOnlyVersion,
           what + ": vote network format " + std::to_string(version) + " is not this build's (" +
               std::to_string(kVersion) + "): train the model again with this build");
   VoteNetOptions options;
@@ -200,6 +207,16 @@ VoteNet VoteNet::Deserialize(const std::string& bytes, const std::string& what) 
   options.grid.cols = Take<int32_t>(bytes, &at, what);
   options.grid.floor_band_m = Take<double>(bytes, &at, what);
   options.width = Take<int32_t>(bytes, &at, what);
+  if (version == kDenseOnlyVersion) {
+    options.coder = BevCoderOptions::Dense();
+  } else {
+    const int32_t dense = Take<int32_t>(bytes, &at, what);
+    Require(dense == 0 || dense == 1, what + ": vote network is corrupt (dense votes flag)");
+    options.coder.dense_votes = dense == 1;
+    options.coder.heat_sigma_cells = Take<double>(bytes, &at, what);
+    options.coder.vote_margin_m = Take<double>(bytes, &at, what);
+    options.coder.ignore_radius_cells = Take<double>(bytes, &at, what);
+  }
   try {
     options.Check();
   } catch (const InputError& error) {
@@ -234,6 +251,7 @@ BevOutput VoteNet::Predict(const BevImage& image) const {
   output = output.contiguous();
   BevOutput out;
   out.spec = image.spec;
+  out.dense_votes = impl_->options.coder.dense_votes;
   out.values.assign(output.data_ptr<float>(), output.data_ptr<float>() + output.numel());
   return out;
 }

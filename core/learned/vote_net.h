@@ -19,6 +19,7 @@
 #include <string>
 #include <vector>
 
+#include "core/learned/bev_box_coder.h"
 #include "core/learned/bev_grid.h"
 
 namespace furn {
@@ -26,6 +27,9 @@ namespace furn {
 struct VoteNetOptions {
   BevGridSpec grid;
   int width = 16;  // channels of the first level; doubled per halving, capped at 4x
+  // How its targets were encoded (stored with the weights: decoding follows
+  // it, e.g. the votes' mean shift only where every cell's vote was trained).
+  BevCoderOptions coder;
 
   void Check() const;
 };

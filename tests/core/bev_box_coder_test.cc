@@ -35,8 +35,10 @@ BevImage ImageWith(const std::vector<BevObject>& objects) {
 }
 
 // The targets as if the network had output them exactly.
-BevOutput PerfectOutput(const BevTargets& targets, const BevGridSpec& spec) {
-  return BevOutput{spec, targets.values};
+BevOutput PerfectOutput(const BevTargets& targets,
+                        const BevGridSpec& spec,
+                        bool dense_votes = true) {
+  return BevOutput{spec, targets.values, dense_votes};
 }
 
 size_t At(const BevGridSpec& spec, int channel, int row, int col) {
@@ -50,7 +52,7 @@ TEST(BevBoxCoder, HeatPeaksAtCentresAndOccupiedFootprintCellsVote) {
   const BevObject outside{FurnitureClass::kChair, {-1.0, 0.0}, 0.0, 0.5, 0.5};
   const BevImage image = ImageWith({kTable, kChair});
   const BevGridSpec& spec = image.spec;
-  const BevTargets t = EncodeBevTargets({kTable, kChair, outside}, image, BevCoderOptions{});
+  const BevTargets t = EncodeBevTargets({kTable, kChair, outside}, image, BevCoderOptions::Dense());
   EXPECT_EQ(t.objects, 2);
   const Eigen::Vector2d cell = image.frame.CellOf(kTable.centre, spec);
   const int row = static_cast<int>(cell.x()), col = static_cast<int>(cell.y());
@@ -78,7 +80,7 @@ TEST(BevBoxCoder, HeatPeaksAtCentresAndOccupiedFootprintCellsVote) {
   EXPECT_EQ(t.weight[free_at], 1.0f);
   // A table turned half a turn is the same table: the same yaw target.
   const BevObject turned{FurnitureClass::kTable, kTable.centre, 0.3 + M_PI, 1.2, 0.8};
-  const BevTargets u = EncodeBevTargets({turned}, image, BevCoderOptions{});
+  const BevTargets u = EncodeBevTargets({turned}, image, BevCoderOptions::Dense());
   for (int k = 0; k < 2; ++k) {
     EXPECT_NEAR(u.values[At(spec, ch::kYaw[k], row, col)],
                 t.values[At(spec, ch::kYaw[k], row, col)],
@@ -90,7 +92,7 @@ TEST(BevBoxCoder, ObjectsSeenTooLittleAreIgnoredNotPunished) {
   BevObject glimpsed = kChair;
   glimpsed.target = false;
   const BevImage image = ImageWith({kTable, glimpsed});
-  const BevTargets t = EncodeBevTargets({kTable, glimpsed}, image, BevCoderOptions{});
+  const BevTargets t = EncodeBevTargets({kTable, glimpsed}, image, BevCoderOptions::Dense());
   EXPECT_EQ(t.objects, 1);
   const Eigen::Vector2d cell = image.frame.CellOf(glimpsed.centre, image.spec);
   const size_t at = static_cast<size_t>(cell.x()) * image.spec.cols + static_cast<size_t>(cell.y());
@@ -104,7 +106,7 @@ TEST(BevBoxCoder, ObjectsSeenTooLittleAreIgnoredNotPunished) {
 
 TEST(BevBoxCoder, DecodingTheTargetsGivesBackTheObjects) {
   const BevImage image = ImageWith({kTable, kChair});
-  const BevTargets t = EncodeBevTargets({kTable, kChair}, image, BevCoderOptions{});
+  const BevTargets t = EncodeBevTargets({kTable, kChair}, image, BevCoderOptions::Dense());
   for (const BevCentre centre : {BevCentre::kPeak, BevCentre::kVotes}) {
     BevDecodeOptions options;
     options.centre = centre;
@@ -133,7 +135,7 @@ TEST(BevBoxCoder, DecodingTheTargetsGivesBackTheObjects) {
 // table's hundreds of agreeing votes keep the vote decoding on its centre.
 TEST(BevBoxCoder, VotesOutvoteOneWrongPeakCell) {
   const BevImage image = ImageWith({kTable});
-  const BevTargets t = EncodeBevTargets({kTable}, image, BevCoderOptions{});
+  const BevTargets t = EncodeBevTargets({kTable}, image, BevCoderOptions::Dense());
   BevOutput output = PerfectOutput(t, image.spec);
   const Eigen::Vector2d cell = image.frame.CellOf(kTable.centre, image.spec);
   const int row = static_cast<int>(cell.x()), col = static_cast<int>(cell.y());
@@ -147,6 +149,40 @@ TEST(BevBoxCoder, VotesOutvoteOneWrongPeakCell) {
   EXPECT_LT(std::hypot(voted.x - kTable.centre.x(), voted.y - kTable.centre.y()), 0.01);
   EXPECT_NEAR(voted.peak_x, peak.x, 1e-9);  // the peak cell's own vote, reported
   EXPECT_GT(voted.votes, 100);
+  // A network trained without dense votes: its other cells' offsets mean
+  // nothing, so the peak decides whatever the option says.
+  output.dense_votes = false;
+  const BevPeak undense = DecodeBevOutput(image, output, options).front();
+  EXPECT_NEAR(undense.x, peak.x, 1e-9);
+  EXPECT_EQ(undense.votes, 0);
+}
+
+// Issue 30's encoding (the default): the heat's width from the footprint,
+// the centre cell alone regresses, objects seen too little left out.
+TEST(BevBoxCoder, CentreCellEncodingRegressesAtTheCentreOnly) {
+  BevObject glimpsed = kChair;
+  glimpsed.target = false;
+  const BevImage image = ImageWith({kTable, glimpsed});
+  const BevGridSpec& spec = image.spec;
+  const BevTargets t = EncodeBevTargets({kTable, glimpsed}, image, BevCoderOptions{});
+  EXPECT_EQ(t.objects, 1);
+  const Eigen::Vector2d cell = image.frame.CellOf(kTable.centre, spec);
+  const int row = static_cast<int>(cell.x()), col = static_cast<int>(cell.y());
+  const int table = ch::kHeat[static_cast<int>(FurnitureClass::kTable)];
+  const double sigma = BevSplatSigma(kTable.width, kTable.depth, spec);
+  EXPECT_NEAR(sigma, 2.67, 0.01);
+  EXPECT_NEAR(t.values[At(spec, table, row, col + 2)], std::exp(-4 / (2 * sigma * sigma)), 1e-6);
+  double voting = 0, weight = 0;
+  for (size_t i = 0; i < t.votes.size(); ++i) voting += t.votes[i], weight += t.weight[i];
+  EXPECT_EQ(voting, 1);                         // the table's centre cell
+  EXPECT_EQ(weight, static_cast<double>(t.weight.size()));  // no ignore region
+  EXPECT_EQ(t.votes[static_cast<size_t>(row) * spec.cols + col], 1.0f);
+  const std::vector<BevPeak> peaks =
+      DecodeBevOutput(image, PerfectOutput(t, spec, /*dense_votes=*/false), BevDecodeOptions{});
+  ASSERT_EQ(peaks.size(), 1u);
+  EXPECT_NEAR(peaks[0].x, kTable.centre.x(), 1e-4);
+  EXPECT_NEAR(peaks[0].y, kTable.centre.y(), 1e-4);
+  EXPECT_NEAR(peaks[0].width, kTable.width, 1e-4);
 }
 
 TEST(BevBoxCoder, CrossClassSuppressionIsAnOption) {
@@ -154,7 +190,7 @@ TEST(BevBoxCoder, CrossClassSuppressionIsAnOption) {
   const BevImage image = ImageWith({kChair});
   BevObject armchair = kChair;
   armchair.furniture_class = FurnitureClass::kArmchair;
-  BevTargets t = EncodeBevTargets({kChair, armchair}, image, BevCoderOptions{});
+  BevTargets t = EncodeBevTargets({kChair, armchair}, image, BevCoderOptions::Dense());
   const Eigen::Vector2d cell = image.frame.CellOf(kChair.centre, image.spec);
   t.values[At(image.spec,
               ch::kHeat[static_cast<int>(FurnitureClass::kArmchair)],

@@ -97,6 +97,11 @@ void AddVoteNetFlags(CLI::App* app, VoteNetFlags* flags) {
                   "trestle; doors, drawers, shelves) mixed into the training rooms, sized within "
                   "the catalog's range (0: none)")
       ->capture_default_str();
+  app->add_flag_callback(
+      "--vote-dense",
+      [&o] { o.net.coder = BevCoderOptions::Dense(); },
+      "Vote network: dense votes (every cell of a piece votes for its centre, decoded by the "
+      "votes' mean shift; fixed heat width, ignore regions) instead of the centre cell alone");
   app->add_flag("--keep-rooms",
                 o.keep_rooms,
                 "Keep the vote network's training rooms (<model>.rooms.db) for reuse");

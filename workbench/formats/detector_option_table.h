@@ -135,6 +135,11 @@ void ForEachDetectorOption(Options* options, Visit&& visit) {
                            "--vote-bandwidth",
                            "Learned voting: the mean shift's kernel width (m)"},
         o.learned_vote_bandwidth_m);
+  visit(DetectorOptionInfo{"learned_vote_heat_power",
+                           "--vote-heat-power",
+                           "Learned voting: a vote's weight is its membership times the class's "
+                           "heat at its cell to this power (0: membership alone)"},
+        o.learned_vote_heat_power);
 }
 
 }  // namespace furn

@@ -59,7 +59,7 @@ VoteNetLoss ValidationLoss(const VoteNet& net,
     for (size_t i = start; i < std::min(validation.size(), start + batch_size); ++i)
       indices.push_back(i);
     sum += EvaluateVoteNetLoss(
-        net, MakeTrainingBatch(validation, indices, {}, options.coder), options.loss);
+        net, MakeTrainingBatch(validation, indices, {}, options.net.coder), options.loss);
     ++batches;
   }
   return batches > 0 ? sum.Scaled(1.0 / batches) : sum;
@@ -160,7 +160,6 @@ void VoteNetTrainingOptions::Check() const {
   Require(shape_variety >= 0 && shape_variety <= 1000,
           "vote-net shape variety " + std::to_string(shape_variety) + " must be in 0..1000");
   net.Check();
-  coder.Check();
   loss.Check();
   room.Check();
 }
@@ -184,9 +183,9 @@ std::string VoteNetTrainingOptions::Json() const {
         {"floor_band_m", net.grid.floor_band_m}}},
       {"width", net.width},
       {"coder",
-       {{"heat_sigma_cells", coder.heat_sigma_cells},
-        {"vote_margin_m", coder.vote_margin_m},
-        {"ignore_radius_cells", coder.ignore_radius_cells}}},
+       {{"heat_sigma_cells", net.coder.heat_sigma_cells},
+        {"vote_margin_m", net.coder.vote_margin_m},
+        {"ignore_radius_cells", net.coder.ignore_radius_cells}}},
       {"loss",
        {{"heat", loss.heat},
         {"offset", loss.offset},
@@ -198,6 +197,7 @@ std::string VoteNetTrainingOptions::Json() const {
       {"rooms_content", nlohmann::json::parse(TrainingRooms(*this, "", {}).ContentJson())}};
   // Only when used: keys of models trained before the option stay valid.
   if (shape_variety > 0) json["shape_variety"] = shape_variety;
+  if (!net.coder.dense_votes) json["coder"]["dense_votes"] = false;
   return json.dump();
 }
 
@@ -265,7 +265,7 @@ VoteNet TrainVoteNetOnSamples(const std::vector<BevSample>& training,
       std::vector<char> mirror(indices.size());
       for (char& m : mirror) m = static_cast<char>(random() & 1);
       const VoteNetLoss loss =
-          optimizer.Step(MakeTrainingBatch(training, indices, mirror, options.coder),
+          optimizer.Step(MakeTrainingBatch(training, indices, mirror, options.net.coder),
                          CosineLearningRate(step, total_steps, options.learning_rate));
       loss_sum += loss.Total();
       ++step;
