@@ -5,17 +5,17 @@
 // share the helpers below, so a change of encoding cannot leave the decoding
 // behind.
 //
-// Encoding (CenterNet's heat map with VoteNet's dense votes on the grid):
-//   heat        per class, a Gaussian of fixed width (heat_sigma_cells) on each
-//               target's centre cell, 1 at the cell: the metric is a fixed
-//               distance, so the heat's width is too;
-//   votes       every occupied cell inside a target's footprint (widened by
-//               vote_margin_m; the nearest centre wins where two overlap)
-//               regresses the offset from its own centre to the object's
-//               centre, the object's log footprint and its yaw, and has
-//               membership 1; elsewhere membership 0 and no regression;
-//   ignore      around an object seen too little to be a target, no heat or
-//               membership loss within ignore_radius_cells.
+// Encoding (CenterNet's heat map; with dense_votes, VoteNet's dense votes
+// on the grid):
+//   heat        per class, a Gaussian on each target's centre cell, 1 at the
+//               cell: its width from the footprint (issue 30, the default) or
+//               fixed (heat_sigma_cells);
+//   votes       the centre cell regresses the box (offset to the centre, log
+//               footprint, yaw); with dense_votes every occupied cell inside a
+//               target's footprint (widened by vote_margin_m; the nearest
+//               centre wins where two overlap) does, with membership 1;
+//   ignore      with ignore_radius_cells > 0, around an object seen too little
+//               to be a target, no heat or membership loss within that radius.
 //
 // Decoding: per class, 3 x 3 local maxima of the heat of at least min_heat,
 // the strongest max_per_class. A maximum's centre is either its own cell's
