@@ -92,7 +92,8 @@ int Catalog::AddClutter(Catalog other) {
     source_of_entry_.push_back(first_source + other.source_of_entry_[k]);
     ++added;
   }
-  for (std::shared_ptr<const Source>& source : other.sources_) sources_.push_back(std::move(source));
+  for (std::shared_ptr<const Source>& source : other.sources_)
+    sources_.push_back(std::move(source));
   for (std::string& warning : other.warnings_) warnings_.push_back(std::move(warning));
   description_ += " + clutter of " + other.description_;
   return added;
@@ -111,6 +112,11 @@ Catalog Catalog::Copy() const {
 void Catalog::AddModels(std::vector<ProceduralModel> models,
                         const std::string& category,
                         const std::string& what) {
+  AppendPrebuilt(std::move(models), category);
+  description_ += " + " + what;
+}
+
+void Catalog::AppendPrebuilt(std::vector<ProceduralModel> models, const std::string& category) {
   std::set<std::string> ids;
   for (const CatalogEntry& entry : entries_) ids.insert(entry.id);
   auto source = std::make_shared<Source>();
@@ -129,7 +135,6 @@ void Catalog::AddModels(std::vector<ProceduralModel> models,
     source->prebuilt.emplace(entry.id, std::move(item.model));
   }
   sources_.push_back(std::move(source));
-  description_ += " + " + what;
 }
 
 std::vector<const CatalogEntry*> Catalog::Classified() const {
@@ -202,20 +207,7 @@ Catalog OpenCatalog(const std::string& spec, const CatalogOpenOptions& options) 
         spec == kProceduralPrefix ? 1 : ParseSeed(spec.substr(sizeof(kProceduralPrefix)), spec);
     ProceduralCatalogOptions procedural;
     procedural.seed = seed;
-    auto source = std::make_shared<Catalog::Source>();
-    for (ProceduralModel& item : MakeProceduralCatalog(procedural)) {
-      CatalogEntry entry;
-      entry.id = item.model.id;
-      entry.name = item.model.name;
-      entry.category = "Procedural";
-      entry.source = item.model.source_path;
-      entry.furniture_class = item.furniture_class;
-      entry.size_m = BoundingBox(item.model.mesh).Size();
-      catalog.entries_.push_back(entry);
-      catalog.source_of_entry_.push_back(0);
-      source->prebuilt.emplace(entry.id, std::move(item.model));
-    }
-    catalog.sources_.push_back(std::move(source));
+    catalog.AppendPrebuilt(MakeProceduralCatalog(procedural), "Procedural");
     return catalog;
   }
 

@@ -91,7 +91,8 @@ class Catalog {
   // Adds models built in memory (procedural_shapes.h) as classified entries
   // of category `category`; ids already here are refused (InputError).
   // `what` is appended to the description ("default + <what>").
-  void AddModels(std::vector<ProceduralModel> models, const std::string& category,
+  void AddModels(std::vector<ProceduralModel> models,
+                 const std::string& category,
                  const std::string& what);
 
   // Throws InputError naming the entry when its model cannot be loaded.
@@ -102,6 +103,9 @@ class Catalog {
  private:
   friend Catalog OpenCatalog(const std::string&, const CatalogOpenOptions&);
   struct Source;
+
+  // Models built in memory as classified entries of a new source.
+  void AppendPrebuilt(std::vector<ProceduralModel> models, const std::string& category);
 
   std::string description_;
   std::vector<std::string> warnings_;

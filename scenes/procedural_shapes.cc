@@ -12,11 +12,13 @@ using Eigen::Vector3f;
 
 constexpr int kSegments = 16;
 
-void AddBox(TriangleMesh* mesh, Vector3f low, Vector3f high) { AppendMesh(MakeBox(low, high), mesh); }
+void AddBox(TriangleMesh* mesh, Vector3f low, Vector3f high) {
+  AppendMesh(MakeBox(low, high), mesh);
+}
 
 float Draw(Rng* rng, const SizeRange& range, int axis) {
-  return static_cast<float>(rng->Uniform(range.min_m[axis], std::max(range.min_m[axis] + 1e-3f,
-                                                                     range.max_m[axis])));
+  return static_cast<float>(
+      rng->Uniform(range.min_m[axis], std::max(range.min_m[axis] + 1e-3f, range.max_m[axis])));
 }
 
 // Legs (square or round) at the corners of a rectangle of half-size (hx, hy).
@@ -27,7 +29,9 @@ void AddCornerLegs(TriangleMesh* mesh, float hx, float hy, float leg, float heig
       if (round) {
         AppendMesh(MakeCylinder(Vector3f(x, y, 0), leg / 2, height, kSegments), mesh);
       } else {
-        AddBox(mesh, Vector3f(x - leg / 2, y - leg / 2, 0), Vector3f(x + leg / 2, y + leg / 2, height));
+        AddBox(mesh,
+               Vector3f(x - leg / 2, y - leg / 2, 0),
+               Vector3f(x + leg / 2, y + leg / 2, height));
       }
     }
   }
@@ -45,8 +49,12 @@ void FourLegTable(Rng* rng, const TableSize& s, TriangleMesh* mesh) {
     const float apron = rng->Uniform(0.06, 0.12), t = 0.02f;
     const float ax = s.hx - inset - leg / 2, ay = s.hy - inset - leg / 2;
     for (int side : {-1, 1}) {
-      AddBox(mesh, Vector3f(-ax, side * ay - t / 2, under - apron), Vector3f(ax, side * ay + t / 2, under));
-      AddBox(mesh, Vector3f(side * ax - t / 2, -ay, under - apron), Vector3f(side * ax + t / 2, ay, under));
+      AddBox(mesh,
+             Vector3f(-ax, side * ay - t / 2, under - apron),
+             Vector3f(ax, side * ay + t / 2, under));
+      AddBox(mesh,
+             Vector3f(side * ax - t / 2, -ay, under - apron),
+             Vector3f(side * ax + t / 2, ay, under));
     }
   }
 }
@@ -70,9 +78,14 @@ void TrestleTable(Rng* rng, const TableSize& s, TriangleMesh* mesh) {
   const float post = rng->Uniform(0.05, 0.1), foot_h = 0.05f;
   for (int side : {-1, 1}) {
     const float x = side * (s.hx - inset);
-    AddBox(mesh, Vector3f(x - post, -s.hy * 0.85f, 0), Vector3f(x + post, s.hy * 0.85f, foot_h));  // foot
-    AddBox(mesh, Vector3f(x - post / 2, -post, foot_h), Vector3f(x + post / 2, post, under));    // post
-    AddBox(mesh, Vector3f(x - post, -s.hy * 0.8f, under - 0.05f), Vector3f(x + post, s.hy * 0.8f, under));
+    AddBox(mesh,
+           Vector3f(x - post, -s.hy * 0.85f, 0),
+           Vector3f(x + post, s.hy * 0.85f, foot_h));  // foot
+    AddBox(
+        mesh, Vector3f(x - post / 2, -post, foot_h), Vector3f(x + post / 2, post, under));  // post
+    AddBox(mesh,
+           Vector3f(x - post, -s.hy * 0.8f, under - 0.05f),
+           Vector3f(x + post, s.hy * 0.8f, under));
   }
   const float stretcher = rng->Uniform(0.15, 0.4);
   AddBox(mesh,
@@ -117,7 +130,9 @@ void SideboardFront(Rng* rng, float hx, float hy, float low, float high, Triangl
       const float x0 = -hx + c * column_w + 0.01f, x1 = x0 + column_w - 0.02f;
       AddBox(mesh, Vector3f(x0, -hy - 0.015f, low + 0.01f), Vector3f(x1, -hy, high - 0.01f));
       const float hxh = c % 2 == 0 ? x1 - 0.04f : x0 + 0.02f;
-      AddBox(mesh, Vector3f(hxh, -hy - 0.04f, (low + high) / 2 - 0.06f), Vector3f(hxh + 0.02f, -hy - 0.015f, (low + high) / 2 + 0.06f));
+      AddBox(mesh,
+             Vector3f(hxh, -hy - 0.04f, (low + high) / 2 - 0.06f),
+             Vector3f(hxh + 0.02f, -hy - 0.015f, (low + high) / 2 + 0.06f));
     }
   } else if (style < 0.75) {  // rows of drawers
     const int rows = static_cast<int>(rng->UniformInt(2, 4));
@@ -125,9 +140,13 @@ void SideboardFront(Rng* rng, float hx, float hy, float low, float high, Triangl
     for (int c = 0; c < columns; ++c) {
       for (int r = 0; r < rows; ++r) {
         const float x0 = -hx + c * column_w + 0.01f, z0 = low + r * row_h + 0.01f;
-        AddBox(mesh, Vector3f(x0, -hy - 0.02f, z0), Vector3f(x0 + column_w - 0.02f, -hy, z0 + row_h - 0.02f));
+        AddBox(mesh,
+               Vector3f(x0, -hy - 0.02f, z0),
+               Vector3f(x0 + column_w - 0.02f, -hy, z0 + row_h - 0.02f));
         const float xm = x0 + column_w / 2 - 0.05f, zm = z0 + row_h / 2;
-        AddBox(mesh, Vector3f(xm, -hy - 0.04f, zm - 0.01f), Vector3f(xm + 0.1f, -hy - 0.02f, zm + 0.01f));
+        AddBox(mesh,
+               Vector3f(xm, -hy - 0.04f, zm - 0.01f),
+               Vector3f(xm + 0.1f, -hy - 0.02f, zm + 0.01f));
       }
     }
   }
@@ -135,15 +154,18 @@ void SideboardFront(Rng* rng, float hx, float hy, float low, float high, Triangl
 }
 
 TriangleMesh MakeSideboard(Rng* rng, const SizeRange& range) {
-  const float width = Draw(rng, range, 0), depth = Draw(rng, range, 1), height = Draw(rng, range, 2);
+  const float width = Draw(rng, range, 0), depth = Draw(rng, range, 1),
+              height = Draw(rng, range, 2);
   const float hx = width / 2, hy = depth / 2;
   const float top = rng->Uniform(0.02, 0.04);
   const float clearance = rng->Uniform(0.0, std::min(0.3f, height * 0.35f));
   TriangleMesh mesh;
   if (clearance > 0.04f && rng->Bernoulli(0.7)) {
-    AddCornerLegs(&mesh, hx - 0.02f, hy - 0.02f, rng->Uniform(0.03, 0.05), clearance, rng->Bernoulli(0.5));
+    AddCornerLegs(
+        &mesh, hx - 0.02f, hy - 0.02f, rng->Uniform(0.03, 0.05), clearance, rng->Bernoulli(0.5));
   } else if (clearance > 0.02f) {
-    AddBox(&mesh, Vector3f(-hx + 0.04f, -hy + 0.04f, 0), Vector3f(hx - 0.04f, hy - 0.01f, clearance));
+    AddBox(
+        &mesh, Vector3f(-hx + 0.04f, -hy + 0.04f, 0), Vector3f(hx - 0.04f, hy - 0.01f, clearance));
   }
   const bool open = rng->Bernoulli(0.25);
   const float body_top = height - top;
@@ -162,7 +184,9 @@ TriangleMesh MakeSideboard(Rng* rng, const SizeRange& range) {
     SideboardFront(rng, hx, hy - 0.02f, clearance, body_top, &mesh);
   }
   const float overhang = rng->Uniform(0.0, 0.03);
-  AddBox(&mesh, Vector3f(-hx - overhang, -hy - overhang, body_top), Vector3f(hx + overhang, hy, height));
+  AddBox(&mesh,
+         Vector3f(-hx - overhang, -hy - overhang, body_top),
+         Vector3f(hx + overhang, hy, height));
   return mesh;
 }
 
@@ -202,7 +226,7 @@ ProceduralModel MakeVariedModel(FurnitureClass furniture_class,
   ProceduralModel item;
   item.furniture_class = furniture_class;
   TriangleMesh mesh = furniture_class == FurnitureClass::kTable ? MakeTable(&rng, range)
-                                                                 : MakeSideboard(&rng, range);
+                                                                : MakeSideboard(&rng, range);
   PlaceOnFloorCentred(&mesh);
   item.model.mesh = std::move(mesh);
   item.model.content_hash = HashMesh(item.model.mesh);

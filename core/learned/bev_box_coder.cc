@@ -192,9 +192,8 @@ VotedBox MeanShiftVotes(const BevImage& image,
   const BevGridSpec& spec = output.spec;
   // The cells that may belong to the object: within its regressed
   // footprint's half-diagonal (and a margin) of the start.
-  const double reach = std::hypot(std::exp(start.log_width), std::exp(start.log_depth)) / 2 /
-                           spec.cell_m +
-                       2;
+  const double reach =
+      std::hypot(std::exp(start.log_width), std::exp(start.log_depth)) / 2 / spec.cell_m + 2;
   std::vector<CellVote> votes;
   const int row0 = static_cast<int>(std::floor(start.centre_cells.x()));
   const int col0 = static_cast<int>(std::floor(start.centre_cells.y()));
@@ -205,7 +204,8 @@ VotedBox MeanShiftVotes(const BevImage& image,
       CellVote vote = DecodeCell(output, r, c);
       if (vote.membership < options.min_membership) continue;
       if (options.vote_heat_power > 0)  // membership becomes the vote's weight
-        vote.membership *= std::pow(output.At(ch::kHeat[class_index], r, c), options.vote_heat_power);
+        vote.membership *=
+            std::pow(output.At(ch::kHeat[class_index], r, c), options.vote_heat_power);
       votes.push_back(vote);
     }
   }
@@ -340,10 +340,12 @@ BevTargets EncodeBevTargets(const std::vector<BevObject>& objects,
   for (const BevObject& object : objects) {
     const Eigen::Vector2d cell = image.frame.CellOf(object.centre, spec);
     if (!object.target || !InGrid(cell, spec)) continue;
-    const int row = static_cast<int>(std::floor(cell.x())), col = static_cast<int>(std::floor(cell.y()));
+    const int row = static_cast<int>(std::floor(cell.x())),
+              col = static_cast<int>(std::floor(cell.y()));
     const size_t at = PlaneIndex(spec, row, col);
     if (targets.votes[at] > 0) continue;
-    WriteBox(EncodeBox(object, {row + 0.5, col + 0.5}, image.frame, spec), spec, at, &targets.values);
+    WriteBox(
+        EncodeBox(object, {row + 0.5, col + 0.5}, image.frame, spec), spec, at, &targets.values);
     targets.values[ch::kMembership.first * plane + at] = 1.0f;
     targets.votes[at] = 1.0f;
   }
@@ -354,8 +356,9 @@ std::vector<BevPeak> DecodeBevOutput(const BevImage& image,
                                      const BevOutput& output,
                                      const BevDecodeOptions& options) {
   options.Check();
-  Require(output.values.size() == static_cast<size_t>(ch::kCount) * output.spec.rows * output.spec.cols,
-          "a vote network output has the wrong number of channels");
+  Require(
+      output.values.size() == static_cast<size_t>(ch::kCount) * output.spec.rows * output.spec.cols,
+      "a vote network output has the wrong number of channels");
   std::vector<Cell> cells;
   for (int k = 0; k < kBevClasses; ++k) {
     std::vector<Cell> of_class = MaximaOf(output, k, options.min_heat);

@@ -3,8 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
-#include "core/error.h"
 #include "core/angles.h"
+#include "core/error.h"
 
 namespace furn {
 namespace {

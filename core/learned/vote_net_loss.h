@@ -35,11 +35,7 @@ struct VoteNetLoss {
     return *this;
   }
   VoteNetLoss Scaled(double factor) const {
-    return {heat * factor,
-            offset * factor,
-            size * factor,
-            yaw * factor,
-            membership * factor};
+    return {heat * factor, offset * factor, size * factor, yaw * factor, membership * factor};
   }
 };
 

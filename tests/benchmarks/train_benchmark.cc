@@ -9,9 +9,9 @@
 #include <filesystem>
 #include <random>
 
-#include "core/progress.h"
 #include "core/learned/vote_net.h"
 #include "core/learned/vote_net_training.h"
+#include "core/progress.h"
 #include "workbench/pipelines/train.h"
 
 namespace furn {

@@ -82,9 +82,8 @@ TEST(BevBoxCoder, HeatPeaksAtCentresAndOccupiedFootprintCellsVote) {
   const BevObject turned{FurnitureClass::kTable, kTable.centre, 0.3 + M_PI, 1.2, 0.8};
   const BevTargets u = EncodeBevTargets({turned}, image, BevCoderOptions::Dense());
   for (int k = 0; k < 2; ++k) {
-    EXPECT_NEAR(u.values[At(spec, ch::kYaw[k], row, col)],
-                t.values[At(spec, ch::kYaw[k], row, col)],
-                1e-5);
+    EXPECT_NEAR(
+        u.values[At(spec, ch::kYaw[k], row, col)], t.values[At(spec, ch::kYaw[k], row, col)], 1e-5);
   }
 }
 
@@ -98,7 +97,8 @@ TEST(BevBoxCoder, ObjectsSeenTooLittleAreIgnoredNotPunished) {
   const size_t at = static_cast<size_t>(cell.x()) * image.spec.cols + static_cast<size_t>(cell.y());
   EXPECT_EQ(t.weight[at], 0.0f);
   EXPECT_EQ(t.votes[at], 0.0f);
-  EXPECT_EQ(t.values[At(image.spec, ch::kHeat[0], static_cast<int>(cell.x()), static_cast<int>(cell.y()))],
+  EXPECT_EQ(t.values[At(
+                image.spec, ch::kHeat[0], static_cast<int>(cell.x()), static_cast<int>(cell.y()))],
             0.0f);
   // Four cells away the loss counts again (radius 3 cells).
   EXPECT_EQ(t.weight[at + 4], 1.0f);
@@ -174,7 +174,7 @@ TEST(BevBoxCoder, CentreCellEncodingRegressesAtTheCentreOnly) {
   EXPECT_NEAR(t.values[At(spec, table, row, col + 2)], std::exp(-4 / (2 * sigma * sigma)), 1e-6);
   double voting = 0, weight = 0;
   for (size_t i = 0; i < t.votes.size(); ++i) voting += t.votes[i], weight += t.weight[i];
-  EXPECT_EQ(voting, 1);                         // the table's centre cell
+  EXPECT_EQ(voting, 1);                                     // the table's centre cell
   EXPECT_EQ(weight, static_cast<double>(t.weight.size()));  // no ignore region
   EXPECT_EQ(t.votes[static_cast<size_t>(row) * spec.cols + col], 1.0f);
   const std::vector<BevPeak> peaks =

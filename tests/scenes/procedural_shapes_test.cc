@@ -25,8 +25,8 @@ void ExpectWithin(const Eigen::Vector3f& size, const SizeRange& range, float sla
 TEST(ProceduralShapes, TablesAndSideboardsVaryInStyleWithinTheRange) {
   const SizeRange tables = Range({0.8f, 0.7f, 0.70f}, {1.8f, 1.0f, 0.78f});
   const SizeRange sideboards = Range({1.0f, 0.4f, 0.7f}, {2.0f, 0.55f, 0.95f});
-  for (const auto& [furniture_class, range] :
-       {std::pair{FurnitureClass::kTable, tables}, std::pair{FurnitureClass::kSideboard, sideboards}}) {
+  for (const auto& [furniture_class, range] : {std::pair{FurnitureClass::kTable, tables},
+                                               std::pair{FurnitureClass::kSideboard, sideboards}}) {
     std::set<size_t> triangle_counts;
     for (uint64_t seed = 1; seed <= 40; ++seed) {
       const ProceduralModel item = MakeVariedModel(furniture_class, range, seed);

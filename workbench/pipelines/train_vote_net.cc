@@ -13,10 +13,10 @@
 #include "db/dataset_db.h"
 #include "reports/evaluation.h"
 #include "reports/training_curve.h"
+#include "scenes/procedural_shapes.h"
 #include "workbench/formats/scan_file.h"
 #include "workbench/pipelines/dataset_tools.h"  // MergeDatasets
 #include "workbench/pipelines/generate.h"
-#include "scenes/procedural_shapes.h"
 
 namespace furn {
 namespace {
@@ -309,8 +309,7 @@ std::string TrainVoteNet(const Catalog& catalog,
                          VoteNetTrainingSummary* summary) {
   options.Check();
   const Catalog training_catalog = TrainingCatalog(catalog, held_out, options);
-  const GenerateOptions generate =
-      TrainingRooms(options, training_catalog.description(), held_out);
+  const GenerateOptions generate = TrainingRooms(options, training_catalog.description(), held_out);
   auto start = std::chrono::steady_clock::now();
   // A database kept from an earlier run resumes (rooms already in it are
   // skipped); one of other options is refused by GenerateDataset.
