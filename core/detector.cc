@@ -53,6 +53,26 @@ void DetectorOptions::Check() const {
   Require(learned_fit_agree_m > 0 && learned_fit_agree_m <= 2,
           "learned fit agreement radius " + std::to_string(learned_fit_agree_m) +
               " must be in (0, 2] m");
+  for (FurnitureClass c : kAllClasses) {
+    const double value = class_min_score[static_cast<size_t>(c)];
+    Require(value == -1 || (value >= 0 && value <= 1),
+            std::string("the operating point of ") + ClassName(c) + " (" + std::to_string(value) +
+                ") must be in 0..1, or -1 for the model's");
+  }
+}
+
+OperatingPoint DetectorOptions::EffectiveOperatingPoint(const OperatingPoint& model_point) const {
+  OperatingPoint point = model_point;
+  for (size_t c = 0; c < kAllClasses.size(); ++c) {
+    ClassOperatingPoint& entry = point.classes[c];
+    if (all_candidates) {
+      entry = ClassOperatingPoint{};
+    } else if (class_min_score[c] >= 0 && class_min_score[c] != entry.min_score) {
+      entry = ClassOperatingPoint{};  // its measured figures were of another threshold
+      entry.min_score = class_min_score[c];
+    }
+  }
+  return point;
 }
 
 BevDecodeOptions DetectorOptions::LearnedDecode() const {
@@ -109,12 +129,14 @@ Detector::Detector(TrainedModel model, const DetectorOptions& options)
           "--vote-net, or use --voting codebook)");
   impl.learned = options.voting == VotingMode::kLearned ||
                  (options.voting == VotingMode::kAuto && !impl.vote_net.empty());
+  impl.operating_point = options.EffectiveOperatingPoint(m.operating_point);
 }
 
 Detector::~Detector() = default;
 
 const TrainedModel& Detector::model() const { return impl_->model; }
 const DetectorOptions& Detector::options() const { return impl_->options; }
+const OperatingPoint& Detector::operating_point() const { return impl_->operating_point; }
 bool Detector::scored() const { return impl_->scored; }
 bool Detector::learned() const { return impl_->learned; }
 
@@ -172,6 +194,10 @@ std::string DetectionDebug::Describe(const Hypothesis& h) {
                     h.outcome_values[0],
                     h.outcome_values[1]);
       return text;
+    case HypothesisOutcome::kBelowOperatingPoint:
+      std::snprintf(text, sizeof(text), "score %.2f below the operating point %.2f",
+                    h.outcome_values[0], h.outcome_values[1]);
+      return text;
     case HypothesisOutcome::kDetected:
       return "detected";
   }
@@ -209,8 +235,19 @@ DetectionResult Detector::Detect(const DetectionInput& input, bool keep_debug) c
   timer.Lap(DetectionStage::kRank);
   std::vector<FittedHypothesis> fits = FitAndVerify(scan, &hypotheses);
   timer.Lap(DetectionStage::kFitAndVerify);
-  const std::vector<int> kept = Suppress(scan, fits, &hypotheses);
-  for (int h : kept) result.detections.push_back(*fits[h].detection);
+  std::vector<int> kept;
+  for (int h : Suppress(scan, fits, &hypotheses)) {
+    const Detection& detection = *fits[h].detection;
+    const OperatingPoint& point = impl_->operating_point;
+    if (!point.Keeps(detection.furniture_class, detection.score)) {
+      hypotheses[h].outcome = HypothesisOutcome::kBelowOperatingPoint;
+      hypotheses[h].outcome_values[0] = detection.score;
+      hypotheses[h].outcome_values[1] = point.MinScore(detection.furniture_class);
+      continue;
+    }
+    kept.push_back(h);
+    result.detections.push_back(detection);
+  }
   timer.Lap(DetectionStage::kSuppress);
   timer.Total();
   result.debug.hypotheses = std::move(hypotheses);  // small: kept for evaluation (protocol A) too

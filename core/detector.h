@@ -45,6 +45,7 @@
 
 #include "core/floor.h"
 #include "core/hypothesis_scorer.h"
+#include "core/operating_point.h"
 #include "core/learned/bev_box_coder.h"
 #include "core/learned/vote_net.h"
 #include "core/occupancy.h"
@@ -171,6 +172,19 @@ struct DetectorOptions {
   double learned_vote_bandwidth_m = 0.1;
   double learned_vote_heat_power = 0;  // BevDecodeOptions::vote_heat_power
 
+  // The operating point (core/operating_point.h): a candidate whose score is
+  // below its class's threshold is no detection (HypothesisOutcome
+  // kBelowOperatingPoint). The threshold is class_min_score's where that is
+  // >= 0, else the model's operating point's (none: every candidate).
+  // all_candidates: every candidate is a detection (what AP sweeps; evaluate
+  // sets it).
+  bool all_candidates = false;
+  std::array<double, kAllClasses.size()> class_min_score = {-1, -1, -1, -1, -1};
+
+  // The score a detection of each class needs under these options and the
+  // model's operating point (< 0: none).
+  OperatingPoint EffectiveOperatingPoint(const OperatingPoint& model_point) const;
+
   // The learned maxima's decoding from the fields above.
   BevDecodeOptions LearnedDecode() const;
 
@@ -219,6 +233,7 @@ enum class HypothesisOutcome {
   kSeenThrough,      // render-and-compare: the sensor saw through too much of the fit
   kLowScore,         // ranking score below min_score (probability below min_probability)
   kSuppressed,       // a better detection explains its points or overlaps it
+  kBelowOperatingPoint,  // a candidate whose score is below its class's operating point
   kDetected,
 };
 template <>
@@ -234,6 +249,7 @@ struct EnumText<HypothesisOutcome> {
       {HypothesisOutcome::kSeenThrough, "seen_through"},
       {HypothesisOutcome::kLowScore, "low_score"},
       {HypothesisOutcome::kSuppressed, "suppressed"},
+      {HypothesisOutcome::kBelowOperatingPoint, "below_operating_point"},
       {HypothesisOutcome::kDetected, "detected"},
   };
 };
@@ -537,6 +553,9 @@ class Detector {
 
   const TrainedModel& model() const;
   const DetectorOptions& options() const;
+  // The thresholds detections are kept at (DetectorOptions::all_candidates:
+  // none).
+  const OperatingPoint& operating_point() const;
 
  private:
   // Learned voting's fit stage (DetectorOptions::learned_fit): `detections`

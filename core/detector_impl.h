@@ -52,6 +52,7 @@ struct Detector::Impl {
   bool scored = false;      // the scorer decides (the model has one and use_scorer)
   VoteNet vote_net;         // empty: the model has none
   bool learned = false;     // hypotheses from vote_net
+  OperatingPoint operating_point;  // the model's, under the options' overrides
   // Ray casts the models' meshes for render-and-compare; null for a model
   // file without meshes (its shape samples are splatted instead).
   std::unique_ptr<ModelMeshCaster> mesh_caster;

@@ -145,7 +145,13 @@ std::vector<DetectionDebug::Hypothesis> Detector::LearnedMaxima(
     h.votes = peak.votes;
     h.outcome = peak.suppressed ? HypothesisOutcome::kSuppressed : HypothesisOutcome::kDetected;
     h.outcome_values[0] = peak.suppressed_by_m;
-    if (!peak.suppressed) {
+    const OperatingPoint& point = impl_->operating_point;
+    if (!peak.suppressed && !point.Keeps(peak.furniture_class, peak.heat)) {
+      h.outcome = HypothesisOutcome::kBelowOperatingPoint;
+      h.outcome_values[0] = peak.heat;
+      h.outcome_values[1] = point.MinScore(peak.furniture_class);
+    }
+    if (h.outcome == HypothesisOutcome::kDetected) {
       Detection d;
       d.furniture_class = peak.furniture_class;
       d.x = peak.x;

@@ -17,10 +17,11 @@ namespace furn {
 namespace {
 
 constexpr char kMagic[8] = {'F', 'U', 'R', 'N', 'M', 'D', 'L', '\0'};
-constexpr uint32_t kFormatVersion = 8;  // 2: part-subset library and model shapes; 3: scorer;
+constexpr uint32_t kFormatVersion = 9;  // 2: part-subset library and model shapes; 3: scorer;
                                         // 4: render meshes; 5: the part index stored;
                                         // 6: an XXH3-64 checksum of the payload at the end;
-                                        // 7: the VFH size component flag; 8: vote network
+                                        // 7: the VFH size component flag; 8: vote network;
+                                        // 9: the operating point
 constexpr uint32_t kOldestReadable = 2;
 constexpr size_t kHeaderBytes = 12;  // magic and version, outside the checksum
 
@@ -398,6 +399,22 @@ TrainedModel TrainModel(const std::vector<TrainingView>& views,
   return model;
 }
 
+namespace {
+
+void WriteOperatingPoint(const OperatingPoint& point, Writer* w) {
+  w->F64(point.match_m);
+  w->String(point.chosen_on);
+  for (const ClassOperatingPoint& c : point.classes) {
+    w->F64(c.min_score);
+    w->F64(c.precision);
+    w->F64(c.recall);
+    w->F64(c.f1);
+    w->I32(c.targets);
+  }
+}
+
+}  // namespace
+
 void SaveTrainedModel(const TrainedModel& model, const std::string& path) {
   Writer w;
   w.Bytes(kMagic, sizeof(kMagic));
@@ -462,6 +479,7 @@ void SaveTrainedModel(const TrainedModel& model, const std::string& path) {
   }
   w.I32(model.options.part_subsets.vfh_size_component ? 1 : 0);
   w.String(model.vote_net);
+  WriteOperatingPoint(model.operating_point, &w);
   const std::string& bytes = w.bytes();
   const uint64_t checksum = XXH3_64bits(bytes.data() + kHeaderBytes, bytes.size() - kHeaderBytes);
   w.Bytes(&checksum, sizeof(checksum));
@@ -588,6 +606,28 @@ void CheckIndices(const TrainedModel& model, const std::string& path) {
   }
 }
 
+OperatingPoint ReadOperatingPoint(Reader* r, const std::string& path) {
+  const std::string corrupt = path + ": model file is corrupt (the operating point's ";
+  OperatingPoint point;
+  point.match_m = r->F64();
+  Require(point.match_m > 0 && point.match_m <= 2, corrupt + "match distance is not in (0, 2] m)");
+  point.chosen_on = r->String(4096);
+  for (ClassOperatingPoint& c : point.classes) {
+    c.min_score = r->F64();
+    c.precision = r->F64();
+    c.recall = r->F64();
+    c.f1 = r->F64();
+    c.targets = r->I32();
+    Require(c.min_score == -1 || (c.min_score >= 0 && c.min_score <= 1),
+            corrupt + "threshold is neither -1 nor in 0..1)");
+    for (double share : {c.precision, c.recall, c.f1})
+      Require(std::isnan(share) || (share >= 0 && share <= 1),
+              corrupt + "precision, recall or F1 is not in 0..1)");
+    Require(c.targets >= 0, corrupt + "object count is negative)");
+  }
+  return point;
+}
+
 // The magic, the format version, and (version 6 on) the checksum over the
 // payload, checked before anything is parsed; returns the version.
 uint32_t ReadHeader(const MappedFile& file, const std::string& path, Reader* r) {
@@ -643,6 +683,7 @@ TrainedModel LoadTrainedModel(const std::string& path) {
     model.options.part_subsets.vfh_size_component = size_component == 1;
   }
   if (version >= 8) model.vote_net = r.String(1u << 28);
+  if (version >= 9) model.operating_point = ReadOperatingPoint(&r, path);
   Require(r.AtEnd(), path + ": model file has trailing bytes (corrupt)");
   model.options.Check();
   CheckIndices(model, path);

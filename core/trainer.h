@@ -24,6 +24,7 @@
 
 #include "core/furniture_class.h"
 #include "core/mesh.h"
+#include "core/operating_point.h"
 #include "core/part_subsets.h"
 #include "core/preprocess.h"
 #include "core/region_growing.h"
@@ -131,6 +132,10 @@ struct TrainedModel {
   // The learned vote map (VoteNet::Serialize, issue 30), or empty: then
   // detection votes with the codebook (the paper's path).
   std::string vote_net;
+  // Per class, the least score of a detection (issue 38): chosen for the best
+  // F1 on validation frames when the model was trained, or by `model
+  // operating-point`; empty in a model file older than format 9.
+  OperatingPoint operating_point;
 };
 
 // The vertex-clustering cell of TrainedModel::render_meshes (m).

@@ -38,6 +38,7 @@ enum class Role { kTarget, kIgnore, kAbsent };
 
 struct Matching {
   std::vector<PrPoint> curve;
+  std::vector<std::pair<int, int>> counts;  // per curve point: true and false positives so far
   int targets = 0;
   std::vector<int> targets_in_frame, true_positives_in_frame, false_positives_in_frame;
   std::vector<std::pair<const ScoredDetection*, const TruthObject*>> true_positives;
@@ -101,6 +102,7 @@ Matching MatchClass(const std::vector<FrameOutcome>& frames,
     result.curve.push_back({result.targets > 0 ? static_cast<double>(tp) / result.targets : 0,
                             static_cast<double>(tp) / (tp + fp),
                             c.score});
+    result.counts.emplace_back(tp, fp);
   }
   return result;
 }
@@ -198,6 +200,16 @@ double CalibrationError(const std::vector<CalibrationBin>& bins) {
     sum += std::abs(static_cast<double>(bin.true_positives) - bin.score_sum);
   }
   return total > 0 ? sum / total : std::nan("");
+}
+
+double ClassObjectCount(const std::map<std::string, double>& metrics,
+                        FurnitureClass furniture_class) {
+  double objects = 0;
+  for (FunnelStage stage : EnumValues<FunnelStage>()) {
+    const double n = MetricOrNan(metrics, MetricId::Funnel(furniture_class, stage));
+    if (!std::isnan(n)) objects += n;
+  }
+  return objects;
 }
 
 bool HigherIsBetter(const std::string& metric) { return MetricId::Parse(metric).HigherIsBetter(); }
@@ -486,19 +498,108 @@ void AddLatency(const std::vector<FrameOutcome>& frames, Metrics* m) {
     (*m)[MetricId::StageLatency(stage).Name()] = Percentile(values, 0.5);
 }
 
+
+RoleOf RoleFor(const EvaluationOptions& options) {
+  return [&options](const TruthObject& t) {
+    if (t.visibility <= 0) return Role::kAbsent;
+    return t.visibility >= options.min_visibility && t.distance_m <= options.max_distance_m
+               ? Role::kTarget
+               : Role::kIgnore;
+  };
+}
+
+// True and false positives among a class's detections scoring at least
+// min_score (every detection for a negative one), from its matching: greedy
+// matching in score order makes a detection's fate independent of weaker ones.
+std::pair<int, int> CountsAtScore(const Matching& matching, double min_score) {
+  std::pair<int, int> counts{0, 0};
+  for (size_t i = 0; i < matching.curve.size(); ++i) {
+    if (min_score >= 0 && matching.curve[i].threshold < min_score) break;
+    counts = matching.counts[i];
+  }
+  return counts;
+}
+
+double F1(int tp, int fp, int targets) {
+  const double precision = tp + fp > 0 ? static_cast<double>(tp) / (tp + fp) : 0;
+  const double recall = targets > 0 ? static_cast<double>(tp) / targets : 0;
+  return precision + recall > 0 ? 2 * precision * recall / (precision + recall) : 0;
+}
+
+// Precision, recall and F1 of the detections at the operating point, per
+// class and over every class (counts summed), and false detections per frame.
+void AddOperatingPoint(const std::vector<FrameOutcome>& frames,
+                       const EvaluationOptions& options,
+                       const RoleOf& role,
+                       Metrics* m) {
+  const OperatingPoint& point = options.operating_point;
+  const double distance = point.match_m;
+  int all_tp = 0, all_fp = 0, all_targets = 0;
+  auto add = [&](std::optional<FurnitureClass> c, int tp, int fp, int targets) {
+    if (tp + fp > 0)
+      (*m)[MetricId::Operating(c, OperatingMeasure::kPrecision, distance).Name()] =
+          static_cast<double>(tp) / (tp + fp);
+    if (targets > 0) {
+      (*m)[MetricId::Operating(c, OperatingMeasure::kRecall, distance).Name()] =
+          static_cast<double>(tp) / targets;
+      (*m)[MetricId::Operating(c, OperatingMeasure::kF1, distance).Name()] = F1(tp, fp, targets);
+    }
+  };
+  for (FurnitureClass c : options.classes) {
+    const Matching matching = MatchClass(frames, c, distance, role);
+    const auto [tp, fp] = CountsAtScore(matching, point.MinScore(c));
+    add(c, tp, fp, matching.targets);
+    all_tp += tp;
+    all_fp += fp;
+    all_targets += matching.targets;
+  }
+  add(std::nullopt, all_tp, all_fp, all_targets);
+  (*m)[MetricId::Operating(std::nullopt, OperatingMeasure::kFalsePerFrame, distance).Name()] =
+      static_cast<double>(all_fp) / frames.size();
+}
+
 }  // namespace
+
+OperatingPoint ChooseOperatingPoint(const std::vector<FrameOutcome>& frames,
+                                    const EvaluationOptions& options,
+                                    double match_m,
+                                    const std::string& chosen_on) {
+  OperatingPoint point;
+  point.match_m = match_m;
+  point.chosen_on = chosen_on;
+  const RoleOf role = RoleFor(options);
+  for (FurnitureClass c : options.classes) {
+    const Matching matching = MatchClass(frames, c, match_m, role);
+    ClassOperatingPoint& entry = point.classes[static_cast<size_t>(c)];
+    entry.targets = matching.targets;
+    if (matching.targets == 0) continue;
+    double best_f1 = 0;
+    for (size_t i = 0; i < matching.curve.size(); ++i) {
+      const auto [tp, fp] = matching.counts[i];
+      const double f1 = F1(tp, fp, matching.targets);
+      // Strictly better only: among equal F1 the higher threshold (fewer
+      // detections); a detection scoring as the next one must go with it.
+      const bool tie_next =
+          i + 1 < matching.curve.size() && matching.curve[i + 1].threshold == matching.curve[i].threshold;
+      if (f1 > best_f1 && !tie_next) {
+        best_f1 = f1;
+        entry.min_score = matching.curve[i].threshold;
+        entry.precision = static_cast<double>(tp) / (tp + fp);
+        entry.recall = static_cast<double>(tp) / matching.targets;
+        entry.f1 = f1;
+      }
+    }
+    if (best_f1 == 0) entry.f1 = entry.precision = entry.recall = 0;  // never found: no threshold
+  }
+  return point;
+}
 
 EvaluationResult EvaluateFrames(const std::vector<FrameOutcome>& frames,
                                 const EvaluationOptions& options) {
   Require(!frames.empty(), "evaluation needs at least one frame");
   EvaluationResult result;
   Metrics& m = result.metrics;
-  const RoleOf role = [&](const TruthObject& t) {
-    if (t.visibility <= 0) return Role::kAbsent;
-    return t.visibility >= options.min_visibility && t.distance_m <= options.max_distance_m
-               ? Role::kTarget
-               : Role::kIgnore;
-  };
+  const RoleOf role = RoleFor(options);
   int objects = 0;
   for (const FrameOutcome& f : frames) {
     for (const TruthObject& t : f.truth) objects += t.furniture_class && role(t) == Role::kTarget;
@@ -512,6 +613,7 @@ EvaluationResult EvaluateFrames(const std::vector<FrameOutcome>& frames,
   AddConfusion(frames, role, &result);
   AddPaperProtocol(frames, options, role, &result);
   AddLatency(frames, &m);
+  AddOperatingPoint(frames, options, role, &m);
   return result;
 }
 

@@ -75,6 +75,10 @@ struct EvaluationOptions {
   double paper_window_m = 0.05;          // protocol A: half the window's side
   double funnel_window_m = 0.15;         // a maximum this near an object is about it
   std::vector<double> paper_thresholds;  // protocol A sweep; empty: 0, 0.05, .., 1
+  // The detections at this operating point (a detector's
+  // EffectiveOperatingPoint; empty: every detection) give the op/ metrics,
+  // matched at its match_m. AP sweeps every detection regardless.
+  OperatingPoint operating_point;
 };
 
 struct PrPoint {
@@ -118,7 +122,10 @@ double CalibrationError(const std::vector<CalibrationBin>& bins);
 // of its class within 10 cm, already matched), mislocated (one within 0.5 m),
 // wrong class (an object of another class within 0.3 m), background (none).
 
-// Metrics (metric_id.h): ClassAp and MeanAp per distance, mAP_seen@10cm and
+// Metrics (metric_id.h): at the operating point (options.operating_point,
+// its match distance) precision, recall and F1 per class and over every class
+// (counts summed), and false detections per frame (MetricId::Operating);
+// ClassAp and MeanAp per distance, mAP_seen@10cm and
 // mAP_unseen@10cm (when such objects exist), pose errors, cad_identified (TPs
 // at 10 cm whose model is the true one, seen models only), latency
 // percentiles and per stage, PaperBestF1 per class, calibration_error (when
@@ -127,8 +134,22 @@ double CalibrationError(const std::vector<CalibrationBin>& bins);
 EvaluationResult EvaluateFrames(const std::vector<FrameOutcome>& frames,
                                 const EvaluationOptions& options);
 
+// Per class, the threshold on the detection score with the best F1 over
+// `frames` (matched at match_m, protocol B's roles), with its precision,
+// recall and F1 there; a class without objects, or never found, gets none.
+// Among thresholds of equal F1 the highest.
+OperatingPoint ChooseOperatingPoint(const std::vector<FrameOutcome>& frames,
+                                    const EvaluationOptions& options,
+                                    double match_m,
+                                    const std::string& chosen_on);
+
 // All-point interpolated average precision of a PR curve sorted by recall.
 double AveragePrecision(const std::vector<PrPoint>& curve);
+
+// Objects of a class to find in an evaluation's metrics (its funnel's stages
+// summed); 0 when it has none.
+double ClassObjectCount(const std::map<std::string, double>& metrics,
+                        FurnitureClass furniture_class);
 
 // Whether a higher value of the named metric is better (false for errors
 // and latency); InputError for a name that is no metric.

@@ -81,6 +81,8 @@ FunnelStage FunnelStageOf(HypothesisOutcome outcome) {
       return FunnelStage::kSeenThrough;
     case HypothesisOutcome::kLowScore:
       return FunnelStage::kLowScore;
+    case HypothesisOutcome::kBelowOperatingPoint:
+      return FunnelStage::kBelowOperatingPoint;
     case HypothesisOutcome::kSuppressed:
       return FunnelStage::kSuppressed;
     case HypothesisOutcome::kDetected:
@@ -139,6 +141,16 @@ MetricId MetricId::FalsePositives(FalsePositiveKind kind) {
   return id;
 }
 
+MetricId MetricId::Operating(std::optional<FurnitureClass> furniture_class,
+                             OperatingMeasure measure,
+                             double distance_m) {
+  MetricId id = MeanAp(distance_m);
+  id.kind_ = Kind::kOperating;
+  id.class_ = furniture_class;
+  id.measure_ = measure;
+  return id;
+}
+
 MetricId MetricId::InGroup(Group group) const {
   MetricId id = *this;
   id.group_ = group;
@@ -163,6 +175,9 @@ std::string MetricId::Name() const {
       return name + "funnel/" + (class_ ? ClassName(*class_) : "all") + "/" + EnumName(funnel_);
     case Kind::kFalsePositives:
       return name + "false_positives/" + EnumName(false_positive_);
+    case Kind::kOperating:
+      return name + "op/" + (class_ ? std::string(ClassName(*class_)) + "/" : "") +
+             EnumName(measure_) + "@" + cm;
   }
   throw std::logic_error("metric without a name");
 }
@@ -202,6 +217,16 @@ std::optional<MetricId> MetricId::TryParse(const std::string& full) {
     if (stage && (c || who == "all")) id = Funnel(c, *stage);
   } else if (!id && StartsWith(name, "false_positives/", &rest)) {
     if (const auto kind = TryParseEnum<FalsePositiveKind>(rest)) id = FalsePositives(*kind);
+  } else if (!id && StartsWith(name, "op/", &rest) && rest.find('@') != std::string::npos) {
+    const auto cm = ParseCentimetres(rest.substr(rest.find('@') + 1));
+    std::string what = rest.substr(0, rest.find('@'));
+    std::optional<FurnitureClass> c;
+    if (const size_t slash = what.find('/'); slash != std::string::npos) {
+      c = FurnitureClassNamed(what.substr(0, slash));
+      what = c ? what.substr(slash + 1) : "";
+    }
+    const auto measure = TryParseEnum<OperatingMeasure>(what);
+    if (cm && measure) id = Operating(c, *measure, *cm / 100.0);
   }
   if (id) id->group_ = group;
   return id;
@@ -211,7 +236,7 @@ MetricId MetricId::Parse(const std::string& name) {
   if (const std::optional<MetricId> id = TryParse(name)) return *id;
   throw InputError("unknown metric '" + name +
                    "' (e.g. mAP@10cm, AP/chair@20cm, xy_error_mean_m, latency_p50_ms, "
-                   "paper/table/best_f1, funnel/all/no_maximum)");
+                   "paper/table/best_f1, funnel/all/no_maximum, op/precision@20cm)");
 }
 
 bool MetricId::HigherIsBetter() const {
@@ -227,6 +252,8 @@ bool MetricId::HigherIsBetter() const {
       return false;
     case Kind::kFunnel:
       return funnel_ == FunnelStage::kDetected;
+    case Kind::kOperating:
+      return measure_ != OperatingMeasure::kFalsePerFrame;
   }
   return true;
 }

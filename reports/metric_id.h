@@ -24,6 +24,7 @@ namespace furn {
 enum class FunnelStage {
   kDetected,
   kDetectedOffTarget,  // its maximum's detection lies farther than 10 cm or matched another
+  kBelowOperatingPoint,  // a candidate below its class's operating point (not in evaluate's runs)
   kSuppressed,
   kLowScore,
   kSeenThrough,
@@ -42,6 +43,7 @@ struct EnumText<FunnelStage> {
   static constexpr EnumEntry<FunnelStage> kEntries[] = {
       {FunnelStage::kDetected, "detected"},
       {FunnelStage::kDetectedOffTarget, "detected_off_target"},
+      {FunnelStage::kBelowOperatingPoint, "below_operating_point"},
       {FunnelStage::kSuppressed, "suppressed"},
       {FunnelStage::kLowScore, "low_score"},
       {FunnelStage::kSeenThrough, "seen_through"},
@@ -69,6 +71,19 @@ struct EnumText<FalsePositiveKind> {
       {FalsePositiveKind::kMislocated, "mislocated"},
       {FalsePositiveKind::kWrongClass, "wrong_class"},
       {FalsePositiveKind::kBackground, "background"},
+  };
+};
+
+// What the operating point's detections measure (MetricId::Operating).
+enum class OperatingMeasure { kPrecision, kRecall, kF1, kFalsePerFrame };
+template <>
+struct EnumText<OperatingMeasure> {
+  static constexpr const char* kKind = "operating-point measure";
+  static constexpr EnumEntry<OperatingMeasure> kEntries[] = {
+      {OperatingMeasure::kPrecision, "precision"},
+      {OperatingMeasure::kRecall, "recall"},
+      {OperatingMeasure::kF1, "f1"},
+      {OperatingMeasure::kFalsePerFrame, "false_per_frame"},
   };
 };
 
@@ -102,7 +117,8 @@ class MetricId {
     kPaperBestF1,
     kStageLatency,
     kFunnel,
-    kFalsePositives
+    kFalsePositives,
+    kOperating
   };
   // Crossval runs store each metric's mean plainly, and its spread over the
   // folds and its value with the fixed gates under a prefix.
@@ -116,6 +132,11 @@ class MetricId {
   // funnel/<class>/<stage>, or funnel/all/<stage> without a class.
   static MetricId Funnel(std::optional<FurnitureClass> furniture_class, FunnelStage stage);
   static MetricId FalsePositives(FalsePositiveKind kind);  // false_positives/<kind>
+  // The detections at the operating point, matched at distance_m:
+  // op/precision@20cm over every class, op/chair/recall@20cm for one.
+  static MetricId Operating(std::optional<FurnitureClass> furniture_class,
+                            OperatingMeasure measure,
+                            double distance_m);
 
   // The metric of this name; InputError naming it and what names look like.
   static MetricId Parse(const std::string& name);
@@ -141,6 +162,7 @@ class MetricId {
   DetectionStage stage_ = DetectionStage::kTotal;
   FunnelStage funnel_ = FunnelStage::kDetected;
   FalsePositiveKind false_positive_ = FalsePositiveKind::kBackground;
+  OperatingMeasure measure_ = OperatingMeasure::kPrecision;
 };
 
 // The metric's value, or NaN when a run lacks it (e.g. AP of a class that

@@ -575,12 +575,26 @@ std::string SummaryHtml(const std::map<std::string, double>& m,
     html << "<tr><td>" << id.Name() << "</td><td>" << Number(MetricOrNan(m, id), count ? 0 : 3)
          << "</td></tr>";
   }
-  html << "</table>\n<h2>Per class</h2>\n<table><tr><th>class</th><th>AP@5cm</th><th>AP@10cm</th>"
-       << "<th>AP@20cm</th><th>paper best F1</th></tr>";
+  const double op = kOperatingMatchM;
+  for (OperatingMeasure measure : EnumValues<OperatingMeasure>()) {
+    const MetricId id = MetricId::Operating(std::nullopt, measure, op);
+    html << "<tr><td>" << id.Name() << " (at the operating point)</td><td>"
+         << Number(MetricOrNan(m, id), measure == OperatingMeasure::kFalsePerFrame ? 2 : 3)
+         << "</td></tr>";
+  }
+  html << "</table>\n<p>AP sweeps every candidate; the operating point is the model's per-class "
+          "least score (<code>workbench model info</code>), what <code>detect</code> outputs; "
+          "its detections are matched at "
+       << Number(op * 100, 0) << " cm.</p>\n<h2>Per class</h2>\n<table><tr><th>class</th>"
+       << "<th>objects</th><th>AP@5cm</th><th>AP@10cm</th><th>AP@20cm</th><th>precision at the "
+          "operating point</th><th>recall at the operating point</th><th>paper best F1</th></tr>";
   for (FurnitureClass c : classes) {
-    html << "<tr><td>" << ClassName(c) << "</td>";
+    html << "<tr><td>" << ClassName(c) << "</td><td>" << Number(ClassObjectCount(m, c), 0)
+         << "</td>";
     for (double d : kDistances)
       html << "<td>" << Number(MetricOrNan(m, MetricId::ClassAp(c, d))) << "</td>";
+    for (OperatingMeasure measure : {OperatingMeasure::kPrecision, OperatingMeasure::kRecall})
+      html << "<td>" << Number(MetricOrNan(m, MetricId::Operating(c, measure, op))) << "</td>";
     html << "<td>" << Number(MetricOrNan(m, MetricId::PaperBestF1(c))) << "</td></tr>";
   }
   html << "</table>\n";

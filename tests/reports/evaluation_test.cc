@@ -217,6 +217,8 @@ TEST(MetricId, NamesParseBackWithTheirDirectionAndUnit) {
       MetricId::FalsePositives(FalsePositiveKind::kWrongClass),
       MetricId::Plain(PlainMetric::kFalseAboveTrue),
       MetricId::MeanAp(0.20).InGroup(MetricId::Group::kSpread),
+      MetricId::Operating(std::nullopt, OperatingMeasure::kPrecision, 0.20),
+      MetricId::Operating(FurnitureClass::kTable, OperatingMeasure::kFalsePerFrame, 0.10),
       MetricId::ClassAp(FurnitureClass::kChair, 0.10).InGroup(MetricId::Group::kGates)};
   const std::vector<std::string> names = {"mAP@10cm",
                                           "AP/sofa@5cm",
@@ -227,6 +229,8 @@ TEST(MetricId, NamesParseBackWithTheirDirectionAndUnit) {
                                           "false_positives/wrong_class",
                                           "false_above_true_error@20cm",
                                           "spread/mAP@20cm",
+                                          "op/precision@20cm",
+                                          "op/table/false_per_frame@10cm",
                                           "gates/AP/chair@10cm"};
   for (size_t k = 0; k < ids.size(); ++k) {
     EXPECT_EQ(ids[k].Name(), names[k]);
@@ -239,10 +243,87 @@ TEST(MetricId, NamesParseBackWithTheirDirectionAndUnit) {
   EXPECT_STREQ(MetricId::Parse("xy_error_mean_m").Unit(), "m");
   EXPECT_STREQ(MetricId::Parse("objects").Unit(), "count");
   // A misspelt name is an error, not a silent NaN.
-  for (const char* bad : {"mAP@10", "map@10cm", "AP/stool@10cm", "latency_nap_p50_ms", ""})
+  EXPECT_TRUE(MetricId::Parse("op/chair/recall@20cm").HigherIsBetter());
+  EXPECT_FALSE(MetricId::Parse("op/false_per_frame@20cm").HigherIsBetter());
+  for (const char* bad : {"mAP@10",
+                          "map@10cm",
+                          "AP/stool@10cm",
+                          "latency_nap_p50_ms",
+                          "",
+                          "op/stool/recall@20cm",
+                          "op/chair/recal@20cm",
+                          "op/precision"})
     EXPECT_NE(testing::ErrorOf([&] { MetricId::Parse(bad); }).find("unknown metric"),
               std::string::npos)
         << bad;
+}
+
+// Ten chairs; detections scored 0.9 .. 0.1, the true ones the strongest
+// but one: the best F1 keeps the detections down to the last true one, and
+// the op/ metrics count what that threshold keeps.
+TEST(OperatingPoint, BestF1ThresholdPerClassAndItsMetrics) {
+  FrameOutcome frame;
+  for (int k = 0; k < 10; ++k) frame.truth.push_back(Chair(k, 0));
+  // True: 0.9, 0.8, 0.6, 0.5, 0.4; false: 0.7 (background), 0.3, 0.2, 0.1.
+  frame.detections = {Found(0, 0, 0.9),
+                      Found(1, 0, 0.8),
+                      Found(50, 0, 0.7),
+                      Found(2, 0.05, 0.6),
+                      Found(3, 0, 0.5),
+                      Found(4, 0, 0.4),
+                      Found(60, 0, 0.3),
+                      Found(70, 0, 0.2),
+                      Found(80, 0, 0.1)};
+  const OperatingPoint point = ChooseOperatingPoint({frame}, ChairsOnly(), 0.2, "ten chairs");
+  const ClassOperatingPoint& chair = point.classes[0];
+  EXPECT_EQ(point.chosen_on, "ten chairs");
+  EXPECT_EQ(chair.targets, 10);
+  EXPECT_DOUBLE_EQ(chair.min_score, 0.4);  // 5 of 6 kept are true: F1 2*(5/6)(1/2)/(5/6+1/2)
+  EXPECT_NEAR(chair.precision, 5.0 / 6, 1e-12);
+  EXPECT_NEAR(chair.recall, 0.5, 1e-12);
+  EXPECT_NEAR(chair.f1, 0.625, 1e-12);
+  EXPECT_LT(point.classes[2].min_score, 0);  // no table to choose one on
+  EXPECT_FALSE(point.Empty());
+  EXPECT_TRUE(point.Keeps(FurnitureClass::kChair, 0.4));
+  EXPECT_FALSE(point.Keeps(FurnitureClass::kChair, 0.39));
+  EXPECT_TRUE(point.Keeps(FurnitureClass::kTable, 0.01));
+
+  EvaluationOptions options = ChairsOnly();
+  options.operating_point = point;
+  const auto m = EvaluateFrames({frame}, options).metrics;
+  const auto op = [&](std::optional<FurnitureClass> c, OperatingMeasure measure) {
+    return MetricOrNan(m, MetricId::Operating(c, measure, 0.2));
+  };
+  EXPECT_NEAR(op(FurnitureClass::kChair, OperatingMeasure::kPrecision), 5.0 / 6, 1e-12);
+  EXPECT_NEAR(op(std::nullopt, OperatingMeasure::kRecall), 0.5, 1e-12);
+  EXPECT_NEAR(op(std::nullopt, OperatingMeasure::kF1), 0.625, 1e-12);
+  EXPECT_NEAR(op(std::nullopt, OperatingMeasure::kFalsePerFrame), 1.0, 1e-12);
+  // Without an operating point the metrics describe every detection.
+  const auto every = EvaluateFrames({frame}, ChairsOnly()).metrics;
+  EXPECT_NEAR(MetricOrNan(every, MetricId::Operating(std::nullopt, OperatingMeasure::kPrecision, 0.2)),
+              5.0 / 9,
+              1e-12);
+  EXPECT_NEAR(
+      MetricOrNan(every, MetricId::Operating(std::nullopt, OperatingMeasure::kFalsePerFrame, 0.2)),
+      4.0,
+      1e-12);
+  // AP does not depend on the operating point: it sweeps every detection.
+  EXPECT_EQ(m.at("AP/chair@10cm"), every.at("AP/chair@10cm"));
+}
+
+// Equal scores go together: a threshold never splits detections of one score.
+TEST(OperatingPoint, EqualScoresAreKeptOrDroppedTogether) {
+  FrameOutcome frame;
+  frame.truth = {Chair(0, 0), Chair(1, 0)};
+  frame.detections = {Found(0, 0, 0.9), Found(1, 0, 0.5), Found(40, 0, 0.5), Found(41, 0, 0.5)};
+  const OperatingPoint point = ChooseOperatingPoint({frame}, ChairsOnly(), 0.2, "");
+  // 0.9 alone: F1 2/3; with the three at 0.5: P 2/4, R 1, F1 2/3: the higher.
+  EXPECT_DOUBLE_EQ(point.classes[0].min_score, 0.9);
+  // A class whose objects were never found gets no threshold.
+  frame.detections = {Found(40, 0, 0.5)};
+  const OperatingPoint never = ChooseOperatingPoint({frame}, ChairsOnly(), 0.2, "");
+  EXPECT_LT(never.classes[0].min_score, 0);
+  EXPECT_EQ(never.classes[0].f1, 0);
 }
 
 TEST(MetricId, EveryOutcomeHasItsFunnelStage) {

@@ -278,6 +278,52 @@ TEST(Train, VoteNetIsStoredUsedAndItsRoomsHoldNoHeldOutModel) {
     EXPECT_EQ(k, static_cast<int>(fitted.detections.size()));
     EXPECT_GT(refined, 0) << "no hypothesis was fitted";
   }
+  {  // The operating point: a candidate below its class's threshold is no
+     // detection; it is stored in the model file; all_candidates and a
+     // per-class override bring the candidates back.
+    DatasetDb rooms(dir + "/net.fcm.rooms.db", DatasetDb::Mode::kReadOnly);
+    const RoomRecord room = rooms.ReadRoom(rooms.RoomIds().front(), true);
+    const DetectionInput input = DetectionInputOf(room.frames.front(), "frame");
+    DetectorOptions options = network_only;
+    options.learned_min_heat = 0.0;
+    const DetectionResult every = Detector(model, options).Detect(input, false);
+    ASSERT_GE(every.detections.size(), 2u);
+    std::vector<double> scores;
+    for (const Detection& d : every.detections) scores.push_back(d.score);
+    std::sort(scores.begin(), scores.end());
+    const double cut = scores[scores.size() / 2];
+    const size_t above = scores.end() - std::lower_bound(scores.begin(), scores.end(), cut);
+    TrainedModel with_point = model;
+    for (ClassOperatingPoint& c : with_point.operating_point.classes) c.min_score = cut;
+    with_point.operating_point.chosen_on = "a test";
+    SaveTrainedModel(with_point, dir + "/point.fcm");
+    const TrainedModel loaded = LoadTrainedModel(dir + "/point.fcm");
+    EXPECT_EQ(loaded.operating_point.MinScore(FurnitureClass::kTable), cut);
+    EXPECT_EQ(loaded.operating_point.chosen_on, "a test");
+    EXPECT_NE(DescribeTrainedModel(loaded).find("operating point: least score per class"),
+              std::string::npos);
+    const DetectionResult kept = Detector(loaded, options).Detect(input, true);
+    EXPECT_EQ(kept.detections.size(), above);
+    for (const Detection& d : kept.detections) EXPECT_GE(d.score, cut);
+    int below = 0;
+    for (const DetectionDebug::Hypothesis& h : kept.debug.hypotheses) {
+      if (h.outcome != HypothesisOutcome::kBelowOperatingPoint) continue;
+      ++below;
+      EXPECT_LT(h.outcome_values[0], cut);
+      EXPECT_NE(DetectionDebug::Describe(h).find("below the operating point"), std::string::npos);
+    }
+    EXPECT_EQ(below, static_cast<int>(every.detections.size() - above));
+    options.all_candidates = true;
+    EXPECT_EQ(Detector(loaded, options).Detect(input, false).detections.size(),
+              every.detections.size());
+    options.all_candidates = false;
+    options.class_min_score.fill(0.0);
+    EXPECT_EQ(Detector(loaded, options).Detect(input, false).detections.size(),
+              every.detections.size());
+    options.class_min_score[0] = 1.5;
+    EXPECT_NE(testing::ErrorOf([&] { options.Check(); }).find("operating point of chair"),
+              std::string::npos);
+  }
   DetectorOptions codebook;
   codebook.voting = VotingMode::kCodebook;
   EXPECT_FALSE(Detector(model, codebook).learned());

@@ -128,6 +128,15 @@ TEST(VoteNet, FitsAHandfulOfRoomsAlmostPerfectly) {
   }
   EXPECT_EQ(found, objects);
   EXPECT_GE(sized_well, objects - 1) << sized_well << " of " << objects;
+  // On rooms it fits, the operating point keeps every object and little else.
+  const OperatingPoint point = VoteNetOperatingPoint(net, rooms);
+  for (FurnitureClass c : {FurnitureClass::kChair, FurnitureClass::kTable}) {
+    const ClassOperatingPoint& entry = point.classes[static_cast<size_t>(c)];
+    EXPECT_GT(entry.targets, 0) << ClassName(c);
+    EXPECT_GE(entry.min_score, 0.1) << ClassName(c);
+    EXPECT_GE(entry.f1, 0.9) << ClassName(c);
+  }
+  EXPECT_NE(point.chosen_on.find("8 validation frames"), std::string::npos) << point.chosen_on;
 }
 
 TEST(VoteNet, BytesRoundTripAndDamageIsOneLine) {

@@ -38,6 +38,20 @@ std::vector<FurnitureClass> PrintedClasses(const std::map<std::string, double>& 
   return classes;
 }
 
+// The detections at the operating point, over every class.
+void PrintOperatingPoint(const std::map<std::string, double>& m, const char* indent) {
+  const double op = kOperatingMatchM;
+  std::printf(
+      "%sat the operating point (matched at %.0f cm): precision %.3f, recall %.3f, F1 %.3f, "
+      "%.2f false detections per frame\n",
+      indent,
+      op * 100,
+      MetricOrNan(m, MetricId::Operating(std::nullopt, OperatingMeasure::kPrecision, op)),
+      MetricOrNan(m, MetricId::Operating(std::nullopt, OperatingMeasure::kRecall, op)),
+      MetricOrNan(m, MetricId::Operating(std::nullopt, OperatingMeasure::kF1, op)),
+      MetricOrNan(m, MetricId::Operating(std::nullopt, OperatingMeasure::kFalsePerFrame, op)));
+}
+
 // Where the objects were lost, biggest first (the report has it per class).
 void PrintLosses(const std::map<std::string, double>& m) {
   std::vector<std::pair<double, std::string>> losses;
@@ -79,12 +93,19 @@ void PrintHeadline(const EvaluateSummary& summary) {
               MetricOrNan(m, MetricId::MeanAp(0.20)),
               get(PlainMetric::kMeanApSeen),
               get(PlainMetric::kMeanApUnseen));
+  const double op = kOperatingMatchM;
   for (FurnitureClass c : PrintedClasses(m)) {
-    std::printf("  %-9s AP@10cm %.3f   paper protocol best F1 %.3f\n",
-                ClassName(c),
-                MetricOrNan(m, MetricId::ClassAp(c, 0.10)),
-                MetricOrNan(m, MetricId::PaperBestF1(c)));
+    std::printf(
+        "  %-9s %3.0f objects  AP@10cm %.3f  at the operating point precision %.2f recall %.2f"
+        "   paper protocol best F1 %.3f\n",
+        ClassName(c),
+        ClassObjectCount(m, c),
+        MetricOrNan(m, MetricId::ClassAp(c, 0.10)),
+        MetricOrNan(m, MetricId::Operating(c, OperatingMeasure::kPrecision, op)),
+        MetricOrNan(m, MetricId::Operating(c, OperatingMeasure::kRecall, op)),
+        MetricOrNan(m, MetricId::PaperBestF1(c)));
   }
+  PrintOperatingPoint(m, "  ");
   std::printf(
       "  pose error: xy %.3f m, yaw %.1f deg (median %.1f); footprint size error median %.3f; "
       "CAD model identified %.3f\n",
@@ -155,6 +176,7 @@ void PrintCrossval(const CrossvalSummary& summary) {
               MetricOrNan(summary.mean, MetricId::MeanAp(0.20)),
               MetricOrNan(summary.mean, MetricId::Plain(PlainMetric::kXyErrorMean)),
               MetricOrNan(summary.mean, MetricId::Plain(PlainMetric::kLatencyP50)));
+  PrintOperatingPoint(summary.mean, "  ");
   if (summary.gates.empty()) return;
   std::printf("  without the scorer (fixed gates): mAP@10cm %.3f;",
               MetricOrNan(summary.gates, MetricId::MeanAp(0.10)));

@@ -12,8 +12,10 @@
 #include "workbench/cli/cli_common.h"
 #include "workbench/cli/cluster_flags.h"
 #include "workbench/cli/commands.h"
+#include "workbench/cli/detector_flags.h"
 #include "workbench/formats/options_file.h"
 #include "workbench/pipelines/eval_parts.h"
+#include "workbench/pipelines/evaluate.h"
 #include "workbench/pipelines/generate.h"  // ParseShard
 #include "workbench/pipelines/train.h"
 
@@ -56,6 +58,7 @@ void PrintTrainSummary(const std::string& out,
         v.raster_s,
         v.train_s,
         v.epochs.empty() ? 0.0 : v.epochs.back().validation_loss);
+    std::printf("  %s", DescribeOperatingPoint(v.operating_point).c_str());
   }
 }
 
@@ -299,7 +302,31 @@ int RunModel(int argc, char** argv) {
       "upgrade", "Rewrite a model file of an older format in the current one (loads faster)");
   upgrade->add_option("model", path, "Model file (.fcm) of any readable format")->required();
   upgrade->add_option("--out", out, "Where to write it (may be the same file)")->required();
+  CLI::App* operating = app.add_subcommand(
+      "operating-point",
+      "Choose the model's operating point (per class, the score of best F1 at 20 cm) on a "
+      "dataset's frames, and write the model with it");
+  operating->add_option("model", path, "Model file (.fcm)")->required();
+  std::string db_path, split = "val";
+  EvaluateCommandOptions evaluate;
+  operating->add_option("--db", db_path, "Dataset database (generated or imported real frames)")
+      ->required();
+  operating->add_option("--split", split, "train, val, test or all")->capture_default_str();
+  operating->add_option("--max-frames", evaluate.max_frames, "Frames (0: the whole split)")
+      ->capture_default_str();
+  operating->add_option("--out", out, "Where to write the model (may be the same file)")
+      ->required();
+  DetectorFlags detector_flags(operating);
   if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
+  if (operating->parsed()) {
+    evaluate.split = ParseSplit(split, "--split");
+    evaluate.detector = detector_flags.Resolve();
+    TrainedModel model = LoadTrainedModel(path);  // a bad model fails before detection runs
+    model.operating_point = ChooseOperatingPointOn(path, db_path, evaluate);
+    SaveTrainedModel(model, out);
+    std::cout << out << ": " << DescribeOperatingPoint(model.operating_point);
+    return 0;
+  }
   if (upgrade->parsed()) {
     SaveTrainedModel(LoadTrainedModel(path), out);
     std::cout << out << ": written in the current model file format\n";

@@ -5,6 +5,7 @@
 #include <tuple>
 
 #include "core/error.h"
+#include "core/trainer.h"
 #include "reports/evaluation.h"
 #include "workbench/cli/cli_common.h"
 #include "workbench/cli/cluster_flags.h"
@@ -66,6 +67,15 @@ void PrintTuneSummary(const TuneOptions& options, const TuneSummary& summary) {
   std::printf("wrote %s and %s\n", summary.best_options_path.c_str(), summary.report_path.c_str());
 }
 
+// The learned detector's space when the base model has a vote network (its
+// thresholds, suppression and fit), else the codebook's thresholds.
+std::string DefaultTuneSpace(const std::string& data_dir, const std::string& model_path) {
+  const bool learned = !model_path.empty() && !LoadTrainedModel(model_path).vote_net.empty();
+  return (std::filesystem::path(data_dir) /
+          (learned ? "tune_learned_space.json" : "tune_detector_space.json"))
+      .string();
+}
+
 }  // namespace
 
 int RunTune(int argc, char** argv) {
@@ -77,8 +87,11 @@ int RunTune(int argc, char** argv) {
   AddCatalogFlags(&app, &catalog_flags);
   app.add_option("--db", options.db_path, "Dataset database (trials are stored as runs)")
       ->required();
-  app.add_option("--space", options.space_path, "Search space: JSON of option path -> values")
-      ->required();
+  app.add_option("--space",
+                 options.space_path,
+                 "Search space: JSON of option path -> values (default: the data folder's "
+                 "tune_learned_space.json when --model has a vote network, else "
+                 "tune_detector_space.json)");
   app.add_option("--out", options.out_dir, "Report folder (index.html, best_options.json)")
       ->required();
   app.add_option("--work-dir", options.work_dir, "Cache of trained models (models/<hash>.fcm)")
@@ -125,6 +138,10 @@ int RunTune(int argc, char** argv) {
           "--strategy '" + strategy + "' must be grid or random");
   options.strategy = strategy == "grid" ? TuneStrategy::kGrid : TuneStrategy::kRandom;
   options.catalog_spec = catalog_flags.spec;
+  if (options.space_path.empty()) {
+    options.space_path = DefaultTuneSpace(catalog_flags.data_dir, options.base_model_path);
+    if (!catalog_flags.quiet) std::printf("tune: search space %s\n", options.space_path.c_str());
+  }
   options.base_options_path = detector_flags.options_file();
   options.base_detector = detector_flags.Resolve();
   options.Check();

@@ -140,6 +140,34 @@ void ForEachDetectorOption(Options* options, Visit&& visit) {
                            "Learned voting: a vote's weight is its membership times the class's "
                            "heat at its cell to this power (0: membership alone)"},
         o.learned_vote_heat_power);
+  visit(DetectorOptionInfo{"all_candidates",
+                           "--all-candidates",
+                           "Output every candidate (each maximum that passed its stages), not only "
+                           "those at the model's operating point (evaluate always sweeps them all)"},
+        o.all_candidates);
+  static_assert(kAllClasses.size() == 5, "one operating-point option per class");
+  visit(DetectorOptionInfo{"class_min_score.chair",
+                           "--op-chair",
+                           "Operating point: least score of a chair detection (-1: the model's)"},
+        o.class_min_score[0]);
+  visit(DetectorOptionInfo{"class_min_score.armchair",
+                           "--op-armchair",
+                           "Operating point: least score of an armchair detection (-1: the "
+                           "model's)"},
+        o.class_min_score[1]);
+  visit(DetectorOptionInfo{"class_min_score.table",
+                           "--op-table",
+                           "Operating point: least score of a table detection (-1: the model's)"},
+        o.class_min_score[2]);
+  visit(DetectorOptionInfo{"class_min_score.sideboard",
+                           "--op-sideboard",
+                           "Operating point: least score of a sideboard detection (-1: the "
+                           "model's)"},
+        o.class_min_score[3]);
+  visit(DetectorOptionInfo{"class_min_score.sofa",
+                           "--op-sofa",
+                           "Operating point: least score of a sofa detection (-1: the model's)"},
+        o.class_min_score[4]);
 }
 
 }  // namespace furn

@@ -294,6 +294,10 @@ std::string StoredOptionsJson(const EvaluateCommandOptions& options,
                               : nlohmann::json()},
       {"min_visibility", evaluation.min_visibility},
       {"paper_window_m", evaluation.paper_window_m}};
+  nlohmann::ordered_json point{{"match_m", evaluation.operating_point.match_m}};
+  for (FurnitureClass c : kAllClasses)
+    point[ClassName(c)] = evaluation.operating_point.MinScore(c);
+  stored["operating_point"] = point;
   if (!options.extra_options_json.empty()) {
     const nlohmann::ordered_json extra = nlohmann::ordered_json::parse(options.extra_options_json);
     for (const auto& [key, value] : extra.items()) stored[key] = value;
@@ -318,6 +322,16 @@ void CheckEvaluateOptions(const EvaluateCommandOptions& options) {
           "a shard of an evaluation needs the file to write it to");
   Require(options.shard_count == 0 || !options.collect_scorer_samples,
           "a shard of an evaluation does not collect scorer samples");
+}
+
+// What evaluate detects with: every candidate (AP sweeps them all), and the
+// operating point the options make of the model's, for the op/ metrics.
+EvaluateCommandOptions WithOperatingPoint(EvaluateCommandOptions options,
+                                          const TrainedModel& model) {
+  options.evaluation.operating_point =
+      options.detector.EffectiveOperatingPoint(model.operating_point);
+  options.detector.all_candidates = true;
+  return options;
 }
 
 EvaluationOptions EvaluationOptionsOf(const EvaluateCommandOptions& options) {
@@ -433,16 +447,18 @@ double SecondsSince(std::chrono::steady_clock::time_point start) {
 
 EvaluateSummary EvaluateModel(const std::string& model_path,
                               const std::string& db_path,
-                              const EvaluateCommandOptions& options) {
-  CheckEvaluateOptions(options);
+                              const EvaluateCommandOptions& command_options) {
+  CheckEvaluateOptions(command_options);
   const auto start = std::chrono::steady_clock::now();
   // The dataset first: a mistyped path fails before the model loads, and
   // creates nothing. A shard only reads it (its tasks run side by side).
-  const bool shard = options.shard_count > 0;
+  const bool shard = command_options.shard_count > 0;
   DatasetDb dataset(db_path,
                     shard ? DatasetDb::Mode::kReadOnly : DatasetDb::Mode::kReadWriteExisting);
   const std::string model_hash = HashOf(ReadFileBytes(model_path));
-  const Detector detector(LoadTrainedModel(model_path), options.detector);
+  TrainedModel model = LoadTrainedModel(model_path);
+  const EvaluateCommandOptions options = WithOperatingPoint(command_options, model);
+  const Detector detector(std::move(model), options.detector);
   const FrameSelection selection = SelectFrames(dataset, db_path, options);
   std::vector<EvaluatedFrame> frames = DetectFrames(dataset, db_path, detector, selection, options);
   EvaluateSummary summary;
@@ -461,16 +477,18 @@ EvaluateSummary EvaluateModel(const std::string& model_path,
 
 EvaluateSummary MergeEvaluation(const std::string& model_path,
                                 const std::string& db_path,
-                                const EvaluateCommandOptions& options,
+                                const EvaluateCommandOptions& command_options,
                                 const std::vector<std::string>& shard_paths) {
-  CheckEvaluateOptions(options);
-  Require(options.shard_count == 0, "a merge of shards is not itself a shard");
-  Require(!options.collect_scorer_samples, "a merge of shards has no scorer samples");
+  CheckEvaluateOptions(command_options);
+  Require(command_options.shard_count == 0, "a merge of shards is not itself a shard");
+  Require(!command_options.collect_scorer_samples, "a merge of shards has no scorer samples");
   Require(!shard_paths.empty(), "no shard files to merge");
   const auto start = std::chrono::steady_clock::now();
   DatasetDb dataset(db_path, DatasetDb::Mode::kReadWriteExisting);
   const std::string model_hash = HashOf(ReadFileBytes(model_path));
-  const ModelFacts facts = TrainedFactsOf(LoadTrainedModel(model_path));
+  const TrainedModel model = LoadTrainedModel(model_path);
+  const EvaluateCommandOptions options = WithOperatingPoint(command_options, model);
+  const ModelFacts facts = TrainedFactsOf(model);
   const FrameSelection selection = SelectFrames(dataset, db_path, options);
   const int shards = static_cast<int>(shard_paths.size());
   const int selected = static_cast<int>(selection.frames.size());
@@ -500,6 +518,27 @@ EvaluateSummary MergeEvaluation(const std::string& model_path,
       StoreRun(dataset, model_path, model_hash, selection, options, std::move(frames));
   summary.seconds = SecondsSince(start);
   return summary;
+}
+
+OperatingPoint ChooseOperatingPointOn(const std::string& model_path,
+                                      const std::string& db_path,
+                                      const EvaluateCommandOptions& command_options) {
+  CheckEvaluateOptions(command_options);
+  Require(command_options.shard_count == 0, "an operating point is chosen on every frame at once");
+  DatasetDb dataset(db_path, DatasetDb::Mode::kReadOnly);
+  TrainedModel model = LoadTrainedModel(model_path);
+  const EvaluateCommandOptions options = WithOperatingPoint(command_options, model);
+  const Detector detector(std::move(model), options.detector);
+  const FrameSelection selection = SelectFrames(dataset, db_path, options);
+  std::vector<FrameOutcome> outcomes;
+  for (EvaluatedFrame& frame : DetectFrames(dataset, db_path, detector, selection, options))
+    outcomes.push_back(std::move(frame.outcome));
+  return ChooseOperatingPoint(outcomes,
+                              EvaluationOptionsOf(options),
+                              kOperatingMatchM,
+                              std::to_string(outcomes.size()) + " frames of " +
+                                  std::filesystem::path(db_path).filename().string() +
+                                  " (split " + EnumName(options.split) + ")");
 }
 
 void WriteReportForRun(const std::string& db_path, int64_t run_id, const std::string& out_dir) {

@@ -86,6 +86,13 @@ EvaluateSummary MergeEvaluation(const std::string& model_path,
 
 // `workbench report`: the run's report folder, with a gallery of the frames
 // with the most errors (detection rerun with the run's options and model).
+// Detection with every candidate over the selected frames (options' split,
+// max_frames), and the operating point of best F1 per class there
+// (ChooseOperatingPoint at kOperatingMatchM). Stores no run.
+OperatingPoint ChooseOperatingPointOn(const std::string& model_path,
+                                      const std::string& db_path,
+                                      const EvaluateCommandOptions& options);
+
 void WriteReportForRun(const std::string& db_path, int64_t run_id, const std::string& out_dir);
 
 // Rotational symmetry order (4, 2 or 1) of a model shape about its origin:

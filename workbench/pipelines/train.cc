@@ -130,6 +130,7 @@ TrainSummary TrainFromCatalog(const Catalog& catalog,
     model.vote_net = TrainVoteNet(
         catalog, held_out, options, out_path + ".rooms.db", &summary.vote_net_training);
     summary.vote_net = true;
+    model.operating_point = summary.vote_net_training.operating_point;
   }
   SaveTrainedModel(model, out_path);
   summary.train_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -185,6 +186,33 @@ std::string DescribeTrainedModel(const TrainedModel& model) {
         << grid.cell_m << " m (" << model.vote_net.size() / 1024
         << " KiB); targets: " << (net.options().coder.dense_votes ? "dense votes" : "centre cell")
         << "\n";
+  }
+  out << DescribeOperatingPoint(model.operating_point);
+  return out.str();
+}
+
+std::string DescribeOperatingPoint(const OperatingPoint& point) {
+  if (point.Empty()) return "operating point: none (every candidate is a detection)\n";
+  std::ostringstream out;
+  out << "operating point: least score per class, chosen for the best F1 at "
+      << point.match_m * 100 << " cm on " << point.chosen_on << "\n";
+  for (FurnitureClass c : kAllClasses) {
+    const ClassOperatingPoint& entry = point.classes[static_cast<size_t>(c)];
+    if (entry.min_score < 0 && entry.targets == 0) continue;
+    char line[160];
+    if (entry.min_score < 0) {
+      std::snprintf(line, sizeof(line), "  %-10s none (%d objects, never found)\n",
+                    ClassName(c), entry.targets);
+    } else if (std::isnan(entry.f1)) {
+      std::snprintf(line, sizeof(line), "  %-10s %.3f (set by hand)\n", ClassName(c),
+                    entry.min_score);
+    } else {
+      std::snprintf(line, sizeof(line),
+                    "  %-10s %.3f  precision %.2f recall %.2f F1 %.2f (%d objects)\n",
+                    ClassName(c), entry.min_score, entry.precision, entry.recall, entry.f1,
+                    entry.targets);
+    }
+    out << line;
   }
   return out.str();
 }

@@ -52,5 +52,8 @@ TrainSummary TrainFromCatalog(const Catalog& catalog,
 
 // `model info`: what a model file holds, as text.
 std::string DescribeTrainedModel(const TrainedModel& model);
+// The operating point's lines of `model info`: each class's threshold and
+// what it measured where it was chosen.
+std::string DescribeOperatingPoint(const OperatingPoint& point);
 
 }  // namespace furn

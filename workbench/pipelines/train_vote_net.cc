@@ -65,24 +65,26 @@ VoteNetLoss ValidationLoss(const VoteNet& net,
   return batches > 0 ? sum.Scaled(1.0 / batches) : sum;
 }
 
-// mAP@10cm of the network's decoded maxima on the validation frames (every
-// labelled object a target; protocol B's matching).
-double ValidationMeanAp(const VoteNet& net, const std::vector<BevSample>& validation) {
+// The network's decoded maxima on the validation frames as evaluation
+// frames. Objects seen too little to be targets count as "ignore" when
+// `ignore_non_targets`, else are left out.
+std::vector<FrameOutcome> DecodedFrames(const VoteNet& net,
+                                        const std::vector<BevSample>& validation,
+                                        const BevDecodeOptions& decode,
+                                        bool ignore_non_targets) {
   std::vector<FrameOutcome> frames;
-  BevDecodeOptions decode;
-  decode.min_heat = 0.02;  // low: AP sweeps the score
   for (size_t i = 0; i < validation.size(); ++i) {
     const BevSample& sample = validation[i];
     FrameOutcome frame;
     frame.frame_id = static_cast<int64_t>(i);
     for (const BevObject& object : sample.objects) {
-      if (!object.target) continue;
+      if (!object.target && !ignore_non_targets) continue;
       TruthObject truth;
       truth.furniture_class = object.furniture_class;
       truth.x = object.centre.x();
       truth.y = object.centre.y();
       truth.yaw = object.yaw;
-      truth.visibility = 1;
+      truth.visibility = object.target ? 1 : 0.01;  // below any min_visibility: ignore
       frame.truth.push_back(truth);
     }
     for (const BevPeak& peak : DecodeBevOutput(sample.image, net.Predict(sample.image), decode)) {
@@ -97,9 +99,23 @@ double ValidationMeanAp(const VoteNet& net, const std::vector<BevSample>& valida
     }
     frames.push_back(std::move(frame));
   }
+  return frames;
+}
+
+// The samples' objects are all in the network's view.
+EvaluationOptions ValidationEvaluation() {
   EvaluationOptions options;
-  options.max_distance_m = 1e9;  // the samples' objects are all targets
-  const EvaluationResult result = EvaluateFrames(frames, options);
+  options.max_distance_m = 1e9;
+  return options;
+}
+
+// mAP@10cm of the network's decoded maxima on the validation frames (every
+// target a labelled object; protocol B's matching).
+double ValidationMeanAp(const VoteNet& net, const std::vector<BevSample>& validation) {
+  BevDecodeOptions decode;
+  decode.min_heat = 0.02;  // low: AP sweeps the score
+  const EvaluationResult result =
+      EvaluateFrames(DecodedFrames(net, validation, decode, false), ValidationEvaluation());
   return MetricOrNan(result.metrics, MetricId::MeanAp(0.10));
 }
 
@@ -302,6 +318,18 @@ VoteNet TrainVoteNetOnSamples(const std::vector<BevSample>& training,
   return net;
 }
 
+OperatingPoint VoteNetOperatingPoint(const VoteNet& net, const std::vector<BevSample>& validation) {
+  Require(!validation.empty(), "an operating point needs validation frames");
+  const std::vector<FrameOutcome> frames =
+      DecodedFrames(net, validation, DetectorOptions{}.LearnedDecode(), true);
+  return ChooseOperatingPoint(frames,
+                              ValidationEvaluation(),
+                              kOperatingMatchM,
+                              std::to_string(validation.size()) +
+                                  " validation frames of the training rooms (the network's "
+                                  "maxima at the default decoding)");
+}
+
 std::string TrainVoteNet(const Catalog& catalog,
                          const std::set<std::string>& held_out,
                          const VoteNetTrainingOptions& options,
@@ -330,6 +358,7 @@ std::string TrainVoteNet(const Catalog& catalog,
   ReadBevSamples(rooms_db, options, &training, &validation);
   summary->raster_s = Seconds(start);
   const VoteNet net = TrainVoteNetOnSamples(training, validation, options, summary);
+  if (!validation.empty()) summary->operating_point = VoteNetOperatingPoint(net, validation);
   if (!options.keep_rooms) RemoveDatabase(rooms_db);
   if (!options.curve_png.empty()) {
     std::vector<TrainingCurvePoint> curve;

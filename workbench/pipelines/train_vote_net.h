@@ -20,6 +20,7 @@
 #include "core/learned/bev_box_coder.h"
 #include "core/learned/vote_net.h"
 #include "core/learned/vote_net_training.h"
+#include "core/operating_point.h"
 #include "scenes/catalog.h"
 #include "scenes/room_composer.h"
 
@@ -81,6 +82,8 @@ struct VoteNetTrainingSummary {
   int64_t parameters = 0;
   std::vector<VoteNetEpoch> epochs;
   double generate_s = 0, raster_s = 0, train_s = 0;
+  // Chosen on the validation frames (VoteNetOperatingPoint); empty without.
+  OperatingPoint operating_point;
 };
 
 // Trains on samples already made (tests, tools); `validation` may be empty.
@@ -88,6 +91,11 @@ VoteNet TrainVoteNetOnSamples(const std::vector<BevSample>& training,
                               const std::vector<BevSample>& validation,
                               const VoteNetTrainingOptions& options,
                               VoteNetTrainingSummary* summary);
+
+// Per class, the heat of best F1 (matched at kOperatingMatchM) of the
+// network's maxima, decoded as the detector does by default, on
+// `validation` (not empty).
+OperatingPoint VoteNetOperatingPoint(const VoteNet& net, const std::vector<BevSample>& validation);
 
 // Generates the rooms into rooms_db (resuming one already there; or merges
 // options.room_shards into it, which must hold every room), rasterises their
