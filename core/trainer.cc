@@ -1,5 +1,8 @@
 #include "core/trainer.h"
 
+#include "core/learned/vote_net.h"
+#include "core/model_upgrade.h"
+
 #include <chrono>
 #include <cmath>
 #include <cstring>
@@ -655,6 +658,14 @@ uint32_t ReadHeader(const MappedFile& file, const std::string& path, Reader* r) 
 }  // namespace
 
 TrainedModel LoadTrainedModel(const std::string& path) {
+  TrainedModel model = LoadTrainedModelUnchecked(path);
+  // The vote network's block checked here, so that its refusal names the
+  // file (a TorchScript block of formats 2 and 3 is refused unread).
+  if (!model.vote_net.empty()) VoteNet::Deserialize(model.vote_net, path + " (its vote network)");
+  return model;
+}
+
+TrainedModel LoadTrainedModelUnchecked(const std::string& path) {
   Require(!std::filesystem::is_directory(path), path + ": cannot read (is a directory)");
   const MappedFile file(path);
   Reader r(file.data(), file.size(), path);

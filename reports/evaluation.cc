@@ -498,7 +498,6 @@ void AddLatency(const std::vector<FrameOutcome>& frames, Metrics* m) {
     (*m)[MetricId::StageLatency(stage).Name()] = Percentile(values, 0.5);
 }
 
-
 RoleOf RoleFor(const EvaluationOptions& options) {
   return [&options](const TruthObject& t) {
     if (t.visibility <= 0) return Role::kAbsent;
@@ -560,6 +559,69 @@ void AddOperatingPoint(const std::vector<FrameOutcome>& frames,
 
 }  // namespace
 
+namespace {
+
+struct BestF1 {
+  double min_score = -1, precision = 0, recall = 0, f1 = 0;
+};
+
+// The threshold of best F1 along score-sorted cumulative counts. Strictly
+// better only: among equal F1 the higher threshold (fewer detections); a
+// detection scoring as the next one must go with it.
+BestF1 BestF1Along(const std::vector<PrPoint>& curve,
+                   const std::vector<std::pair<int, int>>& counts,
+                   int targets) {
+  BestF1 best;
+  for (size_t i = 0; i < curve.size(); ++i) {
+    const auto [tp, fp] = counts[i];
+    const double f1 = F1(tp, fp, targets);
+    const bool tie_next = i + 1 < curve.size() && curve[i + 1].threshold == curve[i].threshold;
+    if (f1 > best.f1 && !tie_next) {
+      best = {curve[i].threshold,
+              static_cast<double>(tp) / (tp + fp),
+              static_cast<double>(tp) / targets,
+              f1};
+    }
+  }
+  return best;
+}
+
+// Every class's detections in one list: the threshold a class with too few
+// objects of its own takes.
+BestF1 PooledBestF1(const std::vector<Matching>& matchings) {
+  struct Event {
+    double score;
+    int tp, fp;
+  };
+  std::vector<Event> events;
+  int targets = 0;
+  for (const Matching& m : matchings) {
+    targets += m.targets;
+    std::pair<int, int> previous{0, 0};
+    for (size_t i = 0; i < m.curve.size(); ++i) {
+      events.push_back({m.curve[i].threshold,
+                        m.counts[i].first - previous.first,
+                        m.counts[i].second - previous.second});
+      previous = m.counts[i];
+    }
+  }
+  std::stable_sort(events.begin(), events.end(), [](const Event& a, const Event& b) {
+    return a.score > b.score;
+  });
+  std::vector<PrPoint> curve;
+  std::vector<std::pair<int, int>> counts;
+  int tp = 0, fp = 0;
+  for (const Event& e : events) {
+    tp += e.tp;
+    fp += e.fp;
+    curve.push_back({0, 0, e.score});
+    counts.emplace_back(tp, fp);
+  }
+  return targets > 0 ? BestF1Along(curve, counts, targets) : BestF1{};
+}
+
+}  // namespace
+
 OperatingPoint ChooseOperatingPoint(const std::vector<FrameOutcome>& frames,
                                     const EvaluationOptions& options,
                                     double match_m,
@@ -568,28 +630,32 @@ OperatingPoint ChooseOperatingPoint(const std::vector<FrameOutcome>& frames,
   point.match_m = match_m;
   point.chosen_on = chosen_on;
   const RoleOf role = RoleFor(options);
-  for (FurnitureClass c : options.classes) {
-    const Matching matching = MatchClass(frames, c, match_m, role);
-    ClassOperatingPoint& entry = point.classes[static_cast<size_t>(c)];
+  std::vector<Matching> matchings;
+  for (FurnitureClass c : options.classes)
+    matchings.push_back(MatchClass(frames, c, match_m, role));
+  const BestF1 pooled = PooledBestF1(matchings);
+  for (size_t k = 0; k < options.classes.size(); ++k) {
+    const Matching& matching = matchings[k];
+    ClassOperatingPoint& entry = point.classes[static_cast<size_t>(options.classes[k])];
     entry.targets = matching.targets;
-    if (matching.targets == 0) continue;
-    double best_f1 = 0;
-    for (size_t i = 0; i < matching.curve.size(); ++i) {
-      const auto [tp, fp] = matching.counts[i];
-      const double f1 = F1(tp, fp, matching.targets);
-      // Strictly better only: among equal F1 the higher threshold (fewer
-      // detections); a detection scoring as the next one must go with it.
-      const bool tie_next =
-          i + 1 < matching.curve.size() && matching.curve[i + 1].threshold == matching.curve[i].threshold;
-      if (f1 > best_f1 && !tie_next) {
-        best_f1 = f1;
-        entry.min_score = matching.curve[i].threshold;
-        entry.precision = static_cast<double>(tp) / (tp + fp);
-        entry.recall = static_cast<double>(tp) / matching.targets;
-        entry.f1 = f1;
+    BestF1 chosen = matching.targets >= kOwnOperatingPointObjects
+                        ? BestF1Along(matching.curve, matching.counts, matching.targets)
+                        : BestF1{};
+    if (chosen.f1 == 0) {  // too few objects, or never found: the pooled threshold
+      chosen.min_score = pooled.min_score;
+      if (matching.targets > 0) {
+        const auto [tp, fp] = CountsAtScore(matching, pooled.min_score);
+        chosen.precision = tp + fp > 0 ? static_cast<double>(tp) / (tp + fp) : 0;
+        chosen.recall = static_cast<double>(tp) / matching.targets;
+        chosen.f1 = F1(tp, fp, matching.targets);
       }
     }
-    if (best_f1 == 0) entry.f1 = entry.precision = entry.recall = 0;  // never found: no threshold
+    entry.min_score = chosen.min_score;
+    if (matching.targets > 0) {
+      entry.precision = chosen.precision;
+      entry.recall = chosen.recall;
+      entry.f1 = chosen.f1;
+    }
   }
   return point;
 }

@@ -136,8 +136,11 @@ EvaluationResult EvaluateFrames(const std::vector<FrameOutcome>& frames,
 
 // Per class, the threshold on the detection score with the best F1 over
 // `frames` (matched at match_m, protocol B's roles), with its precision,
-// recall and F1 there; a class without objects, or never found, gets none.
-// Among thresholds of equal F1 the highest.
+// recall and F1 there (among thresholds of equal F1 the highest). A class
+// with fewer than kOwnOperatingPointObjects objects, or never found, takes
+// the threshold of best F1 over every class's detections pooled (none when
+// nothing was found at all), measured on its own objects.
+inline constexpr int kOwnOperatingPointObjects = 10;
 OperatingPoint ChooseOperatingPoint(const std::vector<FrameOutcome>& frames,
                                     const EvaluationOptions& options,
                                     double match_m,

@@ -1,9 +1,13 @@
 #include "core/learned/vote_net.h"
 
 #include "core/learned/vote_net_module.h"
+#include "core/learned/vote_net_upgrade.h"
 
 #include <cstring>
 #include <sstream>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include "core/error.h"
 
@@ -11,11 +15,17 @@ namespace furn {
 namespace {
 
 constexpr char kMagic[8] = {'F', 'U', 'R', 'N', 'V', 'N', 'E', 'T'};
-// 3: the coder's options in the header (issue 37); 2: dense votes and
-// membership, coder BevCoderOptions::Dense(); 1 (no membership channel) is
-// not read: its channels mean something else.
-constexpr uint32_t kVersion = 3;
-constexpr uint32_t kDenseOnlyVersion = 2;
+// 4: the weights as plain tensor records (issue 39); 3: the coder's options
+// in the header (issue 37); 2: dense votes and membership. Versions 2 and 3
+// hold the weights as a TorchScript archive, whose loading can run code: not
+// read (nor is 1, whose channels mean something else).
+constexpr uint32_t kVersion = 4;
+constexpr uint32_t kFirstArchiveVersion = 2;
+
+// A tensor record's element type.
+enum class RecordType : uint8_t { kFloat32 = 0, kInt64 = 1 };
+constexpr uint32_t kMaxNameBytes = 256;
+constexpr uint32_t kMaxDims = 4;
 
 template <typename T>
 void Put(std::string* out, const T& value) {
@@ -31,7 +41,131 @@ T Take(const std::string& bytes, size_t* at, const std::string& what) {
   return value;
 }
 
+// A name read from a file, fit for a one-line message: printable ASCII only.
+std::string Printable(const std::string& text) {
+  std::string out;
+  for (char c : text.substr(0, 64)) out += c >= 0x20 && c < 0x7f ? c : '?';
+  return out;
+}
+
+// Every parameter and buffer of the network, named, in the module's order:
+// what the weight records hold, one each, in that order.
+std::vector<std::pair<std::string, torch::Tensor>> NamedTensors(const UNet& net) {
+  std::vector<std::pair<std::string, torch::Tensor>> tensors;
+  for (const auto& item : net->named_parameters()) tensors.emplace_back(item.key(), item.value());
+  for (const auto& item : net->named_buffers()) tensors.emplace_back(item.key(), item.value());
+  return tensors;
+}
+
+RecordType TypeOf(const torch::Tensor& tensor) {
+  if (tensor.scalar_type() == torch::kFloat32) return RecordType::kFloat32;
+  Require(tensor.scalar_type() == torch::kInt64, "a vote network tensor of an unexpected type");
+  return RecordType::kInt64;
+}
+
+void PutTensor(std::string* out, const std::string& name, const torch::Tensor& tensor) {
+  Put(out, static_cast<uint32_t>(name.size()));
+  out->append(name);
+  Put(out, static_cast<uint8_t>(TypeOf(tensor)));
+  Put(out, static_cast<uint32_t>(tensor.dim()));
+  for (int64_t d = 0; d < tensor.dim(); ++d) Put(out, static_cast<int64_t>(tensor.size(d)));
+  const torch::Tensor data = tensor.detach().contiguous();
+  out->append(static_cast<const char*>(data.data_ptr()), data.numel() * data.element_size());
+}
+
+// One record into `tensor` (the network built from the header): its name,
+// type and shape must be the expected ones, checked before any data is read.
+void TakeTensor(const std::string& bytes,
+                size_t* at,
+                const std::string& what,
+                const std::string& name,
+                torch::Tensor tensor) {
+  const std::string corrupt = what + ": vote network is corrupt (";
+  const uint32_t name_size = Take<uint32_t>(bytes, at, what);
+  Require(name_size <= kMaxNameBytes, corrupt + "a weight record's name is too long)");
+  Require(*at + name_size <= bytes.size(), what + ": vote network is truncated");
+  const std::string stored = bytes.substr(*at, name_size);
+  *at += name_size;
+  Require(stored == name,
+          corrupt + "weight record '" + Printable(stored) + "' where '" + name + "' belongs)");
+  const uint8_t type = Take<uint8_t>(bytes, at, what);
+  Require(type == static_cast<uint8_t>(TypeOf(tensor)),
+          corrupt + "weight " + name + " has the wrong element type)");
+  const uint32_t dims = Take<uint32_t>(bytes, at, what);
+  Require(dims <= kMaxDims && dims == static_cast<uint32_t>(tensor.dim()),
+          corrupt + "weight " + name + " has " + std::to_string(dims) + " dimensions, not " +
+              std::to_string(tensor.dim()) + ")");
+  for (uint32_t d = 0; d < dims; ++d) {
+    const int64_t size = Take<int64_t>(bytes, at, what);
+    Require(size == tensor.size(d),
+            corrupt + "weight " + name + " is declared " + std::to_string(size) +
+                " along dimension " + std::to_string(d) + ", the network's header makes it " +
+                std::to_string(tensor.size(d)) + ")");
+  }
+  const size_t data_bytes = static_cast<size_t>(tensor.numel()) * tensor.element_size();
+  Require(data_bytes <= bytes.size() - *at,
+          what + ": vote network is truncated (weight " + name + ")");
+  torch::NoGradGuard no_grad;
+  Require(tensor.is_contiguous(), "a vote network tensor is not contiguous");
+  std::memcpy(tensor.data_ptr(), bytes.data() + *at, data_bytes);
+  *at += data_bytes;
+}
+
 }  // namespace
+
+VoteNetOptions ReadVoteNetHeader(const std::string& bytes,
+                                 size_t* at,
+                                 const std::string& what,
+                                 uint32_t version) {
+  VoteNetOptions options;
+  options.grid.cell_m = Take<double>(bytes, at, what);
+  options.grid.rows = Take<int32_t>(bytes, at, what);
+  options.grid.cols = Take<int32_t>(bytes, at, what);
+  options.grid.floor_band_m = Take<double>(bytes, at, what);
+  options.width = Take<int32_t>(bytes, at, what);
+  if (version == kFirstArchiveVersion) {  // dense votes only, the coder implied
+    options.coder = BevCoderOptions::Dense();
+  } else {
+    const int32_t dense = Take<int32_t>(bytes, at, what);
+    Require(dense == 0 || dense == 1, what + ": vote network is corrupt (dense votes flag)");
+    options.coder.dense_votes = dense == 1;
+    options.coder.heat_sigma_cells = Take<double>(bytes, at, what);
+    options.coder.vote_margin_m = Take<double>(bytes, at, what);
+    options.coder.ignore_radius_cells = Take<double>(bytes, at, what);
+  }
+  try {
+    options.Check();  // bounds the network the header builds (width, grid)
+  } catch (const InputError& error) {
+    throw InputError(what + ": vote network is corrupt (" + error.what() + ")");
+  }
+  return options;
+}
+
+std::string UpgradeTorchScriptVoteNet(const std::string& bytes, const std::string& what) {
+  Require(bytes.size() >= sizeof(kMagic) && std::memcmp(bytes.data(), kMagic, sizeof(kMagic)) == 0,
+          what + ": not a vote network (no FURNVNET header)");
+  size_t at = sizeof(kMagic);
+  const uint32_t version = Take<uint32_t>(bytes, &at, what);
+  if (version == kVersion) return bytes;
+  Require(version == kFirstArchiveVersion || version == kFirstArchiveVersion + 1,
+          what + ": vote network format " + std::to_string(version) + " cannot be upgraded");
+  const VoteNetOptions options = ReadVoteNetHeader(bytes, &at, what, version);
+  const uint64_t blob_size = Take<uint64_t>(bytes, &at, what);
+  Require(blob_size == bytes.size() - at,
+          what + ": vote network is corrupt (its weights block has the wrong length)");
+  VoteNet net = VoteNet::Create(options, 0);
+  try {
+    torch::serialize::InputArchive archive;
+    std::istringstream in(bytes.substr(at));
+    archive.load_from(in);
+    VoteNetAccess::Of(net).net->load(archive);
+  } catch (const c10::Error& error) {
+    std::string reason = error.what_without_backtrace();
+    reason = reason.substr(0, reason.find('\n'));
+    throw InputError(what + ": vote network weights are unreadable (" + reason + ")");
+  }
+  return net.Serialize();
+}
 
 ConvBlockImpl::ConvBlockImpl(int in, int out)
     : conv1(torch::nn::Conv2dOptions(in, out, 3).padding(1).bias(false)),
@@ -183,13 +317,9 @@ std::string VoteNet::Serialize() const {
   Put(&out, o.coder.heat_sigma_cells);
   Put(&out, o.coder.vote_margin_m);
   Put(&out, o.coder.ignore_radius_cells);
-  torch::serialize::OutputArchive archive;
-  impl_->net->save(archive);
-  std::ostringstream weights;
-  archive.save_to(weights);
-  const std::string blob = weights.str();
-  Put(&out, static_cast<uint64_t>(blob.size()));
-  out += blob;
+  const auto tensors = NamedTensors(impl_->net);
+  Put(&out, static_cast<uint32_t>(tensors.size()));
+  for (const auto& [name, tensor] : tensors) PutTensor(&out, name, tensor);
   return out;
 }
 
@@ -198,43 +328,27 @@ VoteNet VoteNet::Deserialize(const std::string& bytes, const std::string& what) 
           what + ": not a vote network (no FURNVNET header)");
   size_t at = sizeof(kMagic);
   const uint32_t version = Take<uint32_t>(bytes, &at, what);
-  Require(version == kVersion || version == kDenseOnlyVersion,
+  Require(version != kFirstArchiveVersion && version != kFirstArchiveVersion + 1,
+          what + ": vote network format " + std::to_string(version) +
+              " keeps its weights as a TorchScript archive, which this build does not load "
+              "(loading one can run code): train the model again with this build");
+  Require(version == kVersion,
           what + ": vote network format " + std::to_string(version) + " is not this build's (" +
               std::to_string(kVersion) + "): train the model again with this build");
-  VoteNetOptions options;
-  options.grid.cell_m = Take<double>(bytes, &at, what);
-  options.grid.rows = Take<int32_t>(bytes, &at, what);
-  options.grid.cols = Take<int32_t>(bytes, &at, what);
-  options.grid.floor_band_m = Take<double>(bytes, &at, what);
-  options.width = Take<int32_t>(bytes, &at, what);
-  if (version == kDenseOnlyVersion) {
-    options.coder = BevCoderOptions::Dense();
-  } else {
-    const int32_t dense = Take<int32_t>(bytes, &at, what);
-    Require(dense == 0 || dense == 1, what + ": vote network is corrupt (dense votes flag)");
-    options.coder.dense_votes = dense == 1;
-    options.coder.heat_sigma_cells = Take<double>(bytes, &at, what);
-    options.coder.vote_margin_m = Take<double>(bytes, &at, what);
-    options.coder.ignore_radius_cells = Take<double>(bytes, &at, what);
-  }
-  try {
-    options.Check();
-  } catch (const InputError& error) {
-    throw InputError(what + ": vote network is corrupt (" + error.what() + ")");
-  }
-  const uint64_t blob_size = Take<uint64_t>(bytes, &at, what);
-  Require(blob_size == bytes.size() - at,
-          what + ": vote network is corrupt (its weights block has the wrong length)");
+  const VoteNetOptions options = ReadVoteNetHeader(bytes, &at, what, version);
   VoteNet net = Create(options, 0);
-  try {
-    torch::serialize::InputArchive archive;
-    std::istringstream in(bytes.substr(at));
-    archive.load_from(in);
-    net.impl_->net->load(archive);
-  } catch (const c10::Error& error) {
-    std::string reason = error.what_without_backtrace();
-    reason = reason.substr(0, reason.find('\n'));
-    throw InputError(what + ": vote network weights are unreadable (" + reason + ")");
+  const auto tensors = NamedTensors(net.impl_->net);
+  const uint32_t count = Take<uint32_t>(bytes, &at, what);
+  Require(count == tensors.size(),
+          what + ": vote network is corrupt (" + std::to_string(count) +
+              " weight records; the network its header describes has " +
+              std::to_string(tensors.size()) + ")");
+  for (const auto& [name, tensor] : tensors) TakeTensor(bytes, &at, what, name, tensor);
+  Require(at == bytes.size(), what + ": vote network is corrupt (bytes after its last weight)");
+  for (const auto& [name, tensor] : tensors) {
+    if (tensor.is_floating_point())
+      Require(torch::isfinite(tensor).all().item<bool>(),
+              what + ": vote network is corrupt (weight " + name + " is not finite)");
   }
   net.impl_->net->eval();
   return net;

@@ -45,6 +45,13 @@ struct VoteNetAccess {
   static const VoteNet::Impl& Of(const VoteNet& net) { return *net.impl_; }
 };
 
+// The options a vote-network block's header declares (after its magic and
+// `version`), checked; `at` moves past them.
+VoteNetOptions ReadVoteNetHeader(const std::string& bytes,
+                                 size_t* at,
+                                 const std::string& what,
+                                 uint32_t version);
+
 // N x channels x rows x cols from N planes of channels x rows x cols each.
 torch::Tensor StackPlanes(const std::vector<const std::vector<float>*>& planes,
                           int64_t channels,

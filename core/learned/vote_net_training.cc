@@ -22,6 +22,7 @@ BevSample MirroredSample(const BevSample& sample) {
   mirrored.image = sample.image.Mirrored();
   for (const BevObject& object : sample.objects)
     mirrored.objects.push_back(MirroredObject(object, sample.image.frame));
+  mirrored.visibility = sample.visibility;
   return mirrored;
 }
 

@@ -24,6 +24,9 @@ namespace furn {
 struct BevSample {
   BevImage image;
   std::vector<BevObject> objects;
+  // Per object, the share of it in view (as evaluation counts visibility);
+  // empty: unknown (every target counts as fully seen).
+  std::vector<double> visibility;
 };
 
 // The sample mirrored left-right in its grid (image and objects).

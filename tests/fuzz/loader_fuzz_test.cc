@@ -13,6 +13,9 @@
 // hostile bags of tests/data/crashers/bags_meshes, read as `detect --bag`
 // reads them (TF included).
 //
+// Shared files of cluster runs and models (issue 39): jobs.json, evaluation
+// shards, tune trial files and the model file's vote-network block.
+//
 // FURN_FUZZ_RUNS sets the mutations per target (default 300: the fast
 // suite); FURN_FUZZ_SEED the seed (default 1). The slow suite runs 10^4.
 #include <gtest/gtest.h>
@@ -29,6 +32,7 @@
 
 #include "core/error.h"
 #include "core/file_util.h"
+#include "core/learned/vote_net.h"
 #include "core/progress.h"
 #include "db/dataset_db.h"
 #include "db/sqlite.h"
@@ -41,6 +45,8 @@
 #include "workbench/formats/point_cloud_file.h"
 #include "workbench/formats/rosbag_io.h"
 #include "workbench/formats/scan_file.h"
+#include "workbench/pipelines/evaluated_frame.h"
+#include "workbench/pipelines/slurm_jobs.h"
 #include "workbench/pipelines/train.h"
 
 #if defined(__SANITIZE_ADDRESS__)
@@ -444,6 +450,125 @@ TEST_F(LoaderFuzz, ClassMapsVersion2) {
               "size": [1.2, 0.8, 0.75]},
              {"id": "k", "class": "clutter", "mesh": "chair.obj", "units": 0.5}]})"},
         [&](const std::string& path) { LoadAllModels(OpenCatalog(path)); }},
+       dir_);
+}
+
+}  // namespace
+}  // namespace furn
+
+namespace furn {
+namespace {
+
+// Issue 39: the files a cluster run shares — a job folder's jobs.json, an
+// evaluation shard and a tune trial file (the same format) — and the model
+// file's vote-network block. squeue is kept out of reach (an empty PATH): a
+// job id reaching it would be a process per input, and none may run.
+class SharedFileFuzz : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    Progress::SetQuiet(true);
+    dir_ = testing::ScratchDir();
+    const char* path = std::getenv("PATH");
+    saved_path_ = path ? path : "";
+    std::filesystem::create_directories(dir_ + "/empty_path");
+    setenv("PATH", (dir_ + "/empty_path").c_str(), 1);
+  }
+  void TearDown() override { setenv("PATH", saved_path_.c_str(), 1); }
+  std::string dir_, saved_path_;
+};
+
+EvaluatedFrame SmallEvaluatedFrame(int position) {
+  EvaluatedFrame frame;
+  frame.position = position;
+  frame.outcome.frame_id = 40 + position;
+  frame.outcome.total_ms = 12.5;
+  frame.outcome.stage_ms[DetectionStage::kNetwork] = 3.5;
+  ScoredDetection d;
+  d.furniture_class = FurnitureClass::kTable;
+  d.model_id = "Scopia/table";
+  d.x = 1.5;
+  d.y = -0.25;
+  d.yaw = 0.5;
+  d.score = 0.7;
+  d.width = 1.2;
+  d.depth = 0.8;
+  frame.outcome.detections.push_back(d);
+  frame.detections.push_back({frame.outcome.frame_id,
+                              d.furniture_class,
+                              d.model_id,
+                              d.x,
+                              d.y,
+                              0,
+                              d.yaw,
+                              d.score,
+                              0.7,
+                              0.8,
+                              0.9});
+  frame.outcome.maxima.push_back(
+      {FurnitureClass::kChair, 2.0, 1.0, 0.4, HypothesisOutcome::kBelowOperatingPoint});
+  frame.record = {frame.outcome.frame_id, 12.5, "{\"network\": 3.5}"};
+  return frame;
+}
+
+TEST_F(SharedFileFuzz, JobFolders) {
+  ArrayJob job;
+  job.dir = dir_ + "/seed_job";
+  job.name = "evaluate";
+  job.tasks = 3;
+  job.task_command = "workbench evaluate --shard \"$TASK\"/3";
+  job.task_output = dir_ + "/seed_job/shard-$TASK.json";
+  job.final_command = "workbench evaluate --merge-shards a b c";
+  EmitArrayJob(job);
+  std::string seed = ReadFileBytes(job.dir + "/jobs.json");
+  // One with submissions, as `--slurm` leaves it.
+  std::string submitted = seed;
+  submitted.replace(submitted.find("\"submissions\": []"),
+                    17,
+                    "\"submissions\": [{\"array\": \"123\", \"tasks\": [0, 1, 2], \"final\": "
+                    "\"124\"}, {\"array\": \"130_2\", \"tasks\": [2], \"final\": \"\"}]");
+  const std::string folder = dir_ + "/fuzzed_job";
+  std::filesystem::create_directories(folder + "/status");
+  WriteFileAtomically(folder + "/status/task-1.failed", "3\n");
+  Fuzz({"jobs_json",
+        "json",
+        {seed, submitted},
+        [&](const std::string& path) {
+          std::filesystem::copy_file(
+              path, folder + "/jobs.json", std::filesystem::copy_options::overwrite_existing);
+          ReadJobFolder(folder);
+        }},
+       dir_);
+}
+
+TEST_F(SharedFileFuzz, EvaluationShardsAndTuneTrials) {
+  const std::vector<EvaluatedFrame> frames = {SmallEvaluatedFrame(0), SmallEvaluatedFrame(2)};
+  WriteShardFile(dir_ + "/shard.json", {0, 2, "abc", "def", "{\"detector\": {}}"}, frames);
+  WriteShardFile(dir_ + "/trial.json",
+                 {0, 1, "abc", "def", "{\"tune\": {\"id\": \"0123\", \"trial\": 3, \"seed\": 0}}"},
+                 frames);
+  Fuzz({"eval_shard",
+        "json",
+        {ReadFileBytes(dir_ + "/shard.json")},
+        [](const std::string& path) { ParseShardFile(path); }},
+       dir_);
+  Fuzz({"tune_trial",
+        "json",
+        {ReadFileBytes(dir_ + "/trial.json")},
+        [](const std::string& path) { ParseShardFile(path); }},
+       dir_);
+}
+
+TEST_F(SharedFileFuzz, VoteNetworkBlocks) {
+  VoteNetOptions options;
+  options.grid.cell_m = 0.1;
+  options.grid.rows = 16;
+  options.grid.cols = 16;
+  options.width = 4;
+  const std::string seed = VoteNet::Create(options, 1).Serialize();
+  Fuzz({"vote_net",
+        "bin",
+        {seed},
+        [](const std::string& path) { VoteNet::Deserialize(ReadFileBytes(path), path); }},
        dir_);
 }
 

@@ -300,15 +300,51 @@ TEST(OperatingPoint, BestF1ThresholdPerClassAndItsMetrics) {
   EXPECT_NEAR(op(std::nullopt, OperatingMeasure::kFalsePerFrame), 1.0, 1e-12);
   // Without an operating point the metrics describe every detection.
   const auto every = EvaluateFrames({frame}, ChairsOnly()).metrics;
-  EXPECT_NEAR(MetricOrNan(every, MetricId::Operating(std::nullopt, OperatingMeasure::kPrecision, 0.2)),
-              5.0 / 9,
-              1e-12);
+  EXPECT_NEAR(
+      MetricOrNan(every, MetricId::Operating(std::nullopt, OperatingMeasure::kPrecision, 0.2)),
+      5.0 / 9,
+      1e-12);
   EXPECT_NEAR(
       MetricOrNan(every, MetricId::Operating(std::nullopt, OperatingMeasure::kFalsePerFrame, 0.2)),
       4.0,
       1e-12);
   // AP does not depend on the operating point: it sweeps every detection.
   EXPECT_EQ(m.at("AP/chair@10cm"), every.at("AP/chair@10cm"));
+}
+
+// A class with too few objects of its own takes the threshold of every
+// class's detections pooled, measured on its own objects.
+TEST(OperatingPoint, AClassWithFewObjectsTakesThePooledThreshold) {
+  FrameOutcome frame;
+  for (int k = 0; k < 10; ++k) frame.truth.push_back(Chair(k, 0));
+  frame.detections = {Found(0, 0, 0.9),
+                      Found(1, 0, 0.8),
+                      Found(50, 0, 0.7),
+                      Found(2, 0, 0.6),
+                      Found(3, 0, 0.5),
+                      Found(4, 0, 0.4),
+                      Found(60, 0, 0.3)};
+  TruthObject table = Chair(100, 0);
+  table.furniture_class = FurnitureClass::kTable;
+  frame.truth.push_back(table);
+  for (const auto& [x, score] : {std::pair{100.0, 0.45}, std::pair{200.0, 0.42}}) {
+    frame.detections.push_back(Found(x, 0, score));
+    frame.detections.back().furniture_class = FurnitureClass::kTable;
+  }
+  EvaluationOptions options;
+  options.classes = {FurnitureClass::kChair, FurnitureClass::kTable};
+  const OperatingPoint point = ChooseOperatingPoint({frame}, options, 0.2, "");
+  // Pooled: 0.9 .. 0.4 keeps 6 true and 2 false of 11 objects (F1 0.63),
+  // the best; the chairs (10 objects) choose 0.4 on their own as well.
+  EXPECT_DOUBLE_EQ(point.classes[0].min_score, 0.4);
+  const ClassOperatingPoint& t = point.classes[2];
+  EXPECT_DOUBLE_EQ(t.min_score, 0.4);
+  EXPECT_EQ(t.targets, 1);
+  EXPECT_DOUBLE_EQ(t.precision, 0.5);  // the true table and the false one at 0.42
+  EXPECT_DOUBLE_EQ(t.recall, 1.0);
+  // Alone, the table's best F1 would keep only its 0.45 detection.
+  options.classes = {FurnitureClass::kTable};
+  EXPECT_DOUBLE_EQ(ChooseOperatingPoint({frame}, options, 0.2, "").classes[2].min_score, 0.45);
 }
 
 // Equal scores go together: a threshold never splits detections of one score.

@@ -170,10 +170,10 @@ TEST(Train, BadModelFilesAreRejected) {
         << "byte " << at;
   }
   std::string newer = bytes;
-  newer[8] = 9;  // format version
+  newer[8] = 10;  // format version
   testing::WriteText(dir + "/newer.fcm", newer);
   EXPECT_NE(
-      testing::ErrorOf([&] { LoadTrainedModel(dir + "/newer.fcm"); }).find("format version 9"),
+      testing::ErrorOf([&] { LoadTrainedModel(dir + "/newer.fcm"); }).find("format version 10"),
       std::string::npos);
 }
 

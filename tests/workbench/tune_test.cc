@@ -370,18 +370,21 @@ TEST(TuneCommand, TrialTasksFromTheJobScriptsGiveTheOneProcessSearch) {
   EXPECT_EQ(ReadFileBytes(dir + "/report-array/best_options.json"),
             ReadFileBytes(dir + "/report-one/best_options.json"));
 
-  // A trial's evaluation lost, or one of another search: the final step
-  // names the file.
+  // Trial files of another search, or one lost: the final step names the
+  // file before it stores any trial (issue 39).
   const std::string results = " --results-dir " + job + "/trials";
+  const size_t runs_before = DatasetDb(dir + "/lost.db", DatasetDb::Mode::kReadOnly).Runs().size();
+  const testing::CommandResult other = Workbench(tune("lost", "array") + results + " --seed 9");
+  EXPECT_EQ(other.exit_code, 1) << other.output;
+  EXPECT_NE(other.output.find("was evaluated with other options"), std::string::npos)
+      << other.output;
+  EXPECT_EQ(DatasetDb(dir + "/lost.db", DatasetDb::Mode::kReadOnly).Runs().size(), runs_before)
+      << "a refusing final step stored a trial";
   std::filesystem::remove(job + "/trials/trial-2-seed-0.json");
   const testing::CommandResult lost = Workbench(tune("lost", "array") + results);
   EXPECT_EQ(lost.exit_code, 1) << lost.output;
   EXPECT_NE(lost.output.find("trial-2-seed-0.json: missing: trial 2"), std::string::npos)
       << lost.output;
-  const testing::CommandResult other = Workbench(tune("lost", "array") + results + " --seed 9");
-  EXPECT_EQ(other.exit_code, 1) << other.output;
-  EXPECT_NE(other.output.find("was evaluated with other options"), std::string::npos)
-      << other.output;
   const testing::CommandResult too_many =
       Workbench(tune("array", "array") + " --shards 5 --emit-only --job-dir " + dir + "/job5");
   EXPECT_EQ(too_many.exit_code, 1);

@@ -5,9 +5,12 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <cstring>
 #include <random>
 
 #include "core/error.h"
+#include "tests/test_util.h"
 #include "workbench/pipelines/train_vote_net.h"
 
 namespace furn {
@@ -184,7 +187,55 @@ TEST(VoteNet, BytesRoundTripAndDamageIsOneLine) {
   }
   std::string garbled_weights = bytes;
   for (size_t i = 100; i < garbled_weights.size(); ++i) garbled_weights[i] = 'z';
-  EXPECT_NE(error_of(garbled_weights).find("weights are unreadable"), std::string::npos);
+  EXPECT_NE(error_of(garbled_weights).find("vote network is corrupt"), std::string::npos);
+}
+
+// The weights are plain tensor records (issue 39): a record is checked
+// against the network the header describes before anything is read or
+// allocated; a TorchScript archive (formats 2 and 3) is never loaded.
+TEST(VoteNet, WeightRecordsAreCheckedBeforeTheyAreRead) {
+  VoteNetOptions options;
+  options.grid = SmallGrid();
+  options.width = 4;
+  const std::string bytes = VoteNet::Create(options, 1).Serialize();
+  auto error_of = [](const std::string& damaged) {
+    return testing::ErrorOf([&] { VoteNet::Deserialize(damaged, "shared.fcm"); });
+  };
+  // Header: magic 8, version 4, cell 8, rows 4, cols 4, band 8, width 4,
+  // dense 4, three doubles 24: the record count at 68, the first record at 72
+  // (name size 4, "e1.conv1.weight" 15, type 1, dims 4, then the sizes).
+  constexpr size_t kCount = 68, kFirst = 72;
+  const std::string first_name = "e1.conv1.weight";
+  ASSERT_EQ(bytes.substr(kFirst + 4, first_name.size()), first_name);
+  const size_t dims_at = kFirst + 4 + first_name.size() + 1 + 4;
+  auto with = [&](size_t at, const auto& value) {
+    std::string damaged = bytes;
+    std::memcpy(&damaged[at], &value, sizeof(value));
+    return damaged;
+  };
+  // A size declared far beyond the network (16777216 x 8 x 3 x 3).
+  EXPECT_NE(
+      error_of(with(dims_at, int64_t{16777216})).find("is declared 16777216 along dimension 0"),
+      std::string::npos);
+  EXPECT_NE(error_of(with(kCount, uint32_t{7})).find("7 weight records"), std::string::npos);
+  EXPECT_NE(error_of(with(kFirst, uint32_t{1u << 30})).find("name is too long"), std::string::npos);
+  std::string renamed = bytes;
+  renamed[kFirst + 4] = '\n';
+  const std::string message = error_of(renamed);
+  EXPECT_NE(message.find("weight record '?1.conv1.weight'"), std::string::npos) << message;
+  EXPECT_EQ(message.find('\n'), std::string::npos);
+  // Every record cut to its first 4 bytes: truncated, never zeros read.
+  EXPECT_NE(error_of(bytes.substr(0, kFirst + 4)).find("truncated"), std::string::npos);
+  // A weight that is not a number.
+  std::string nan = bytes;
+  const float not_a_number = std::nanf("");
+  std::memcpy(&nan[dims_at + 4 * 8], &not_a_number, sizeof(float));
+  EXPECT_NE(error_of(nan).find("is not finite"), std::string::npos);
+  // Formats 2 and 3 (TorchScript archives): refused, unread.
+  for (uint32_t old : {2u, 3u}) {
+    EXPECT_NE(error_of(with(8, old)).find("TorchScript archive, which this build does not load"),
+              std::string::npos);
+  }
 }
 
 TEST(VoteNet, SameSeedAndThreadsSameWeights) {

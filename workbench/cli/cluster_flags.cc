@@ -30,7 +30,9 @@ void ClusterFlags::Check() const {
     Require(!slurm && !emit_only, "--slurm and --emit-only need --shards N");
     return;
   }
-  Require(shards <= 100000, "--shards " + std::to_string(shards) + " must be in 1..100000");
+  // The final step names every shard's file on one command line: 10^4 stay
+  // well inside the kernel's limit on a command's arguments.
+  Require(shards <= 10000, "--shards " + std::to_string(shards) + " must be in 1..10000");
   Require(slurm != emit_only, "--shards needs exactly one of --slurm (submit) and --emit-only");
   Require(!job_dir.empty(), "--shards needs --job-dir (a folder every node sees)");
   resources.Check();

@@ -17,6 +17,7 @@
 #include "workbench/cli/cluster_flags.h"
 #include "workbench/cli/commands.h"
 #include "workbench/cli/detector_flags.h"
+#include "workbench/formats/json_text.h"
 #include "workbench/pipelines/compare_vocab.h"
 #include "workbench/pipelines/crossval.h"
 #include "workbench/pipelines/evaluate.h"
@@ -252,7 +253,9 @@ int EvaluateHere(const std::string& model_path,
                  EvaluateCommandOptions options) {
   if (!merge.empty()) {
     const EvaluateSummary summary = MergeEvaluation(model_path, db_path, options, merge);
-    std::printf("merged %zu shards:\n", merge.size());
+    std::printf("merged %zu shards%s:\n",
+                merge.size(),
+                summary.already_stored ? " (stored before by an earlier attempt; not again)" : "");
     PrintHeadline(summary);
     return 0;
   }
@@ -349,10 +352,15 @@ ArrayJob CrossvalArrayJob(const ClusterFlags& cluster,
                           char** argv) {
   const std::optional<std::string> generation =
       DatasetDb(db_path, DatasetDb::Mode::kReadOnly).GenerationOptions();
-  const int folds = generation ? nlohmann::json::parse(*generation)
-                                     .value("model_folds", nlohmann::json::object())
-                                     .value("folds", 0)
-                               : 0;
+  int folds = 0;
+  if (generation) {
+    const nlohmann::json options =
+        ParseUserJson<nlohmann::json>(*generation, db_path + " (its generation options)");
+    if (options.is_object() && options.contains("model_folds") &&
+        options["model_folds"].is_object() && options["model_folds"].contains("folds") &&
+        options["model_folds"]["folds"].is_number_integer())
+      folds = options["model_folds"]["folds"].get<int>();
+  }
   Require(folds >= 2, db_path + ": not generated with --model-folds K (no folds to run)");
   Require(cluster.shards == folds,
           "--shards " + std::to_string(cluster.shards) + ": " + db_path + " has " +

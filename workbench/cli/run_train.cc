@@ -8,6 +8,8 @@
 #include "core/error.h"
 #include "core/file_util.h"
 #include "core/hypothesis_scorer.h"
+#include "core/learned/vote_net_upgrade.h"
+#include "core/model_upgrade.h"
 #include "db/dataset_db.h"
 #include "workbench/cli/cli_common.h"
 #include "workbench/cli/cluster_flags.h"
@@ -302,6 +304,12 @@ int RunModel(int argc, char** argv) {
       "upgrade", "Rewrite a model file of an older format in the current one (loads faster)");
   upgrade->add_option("model", path, "Model file (.fcm) of any readable format")->required();
   upgrade->add_option("--out", out, "Where to write it (may be the same file)")->required();
+  bool trust_torchscript = false;
+  upgrade->add_flag("--trust-torchscript",
+                    trust_torchscript,
+                    "Convert a vote network stored as a TorchScript archive (model files before "
+                    "issue 39) to plain tensors. Opening such an archive runs any code it holds: "
+                    "only for model files you made yourself");
   CLI::App* operating = app.add_subcommand(
       "operating-point",
       "Choose the model's operating point (per class, the score of best F1 at 20 cm) on a "
@@ -309,8 +317,16 @@ int RunModel(int argc, char** argv) {
   operating->add_option("model", path, "Model file (.fcm)")->required();
   std::string db_path, split = "val";
   EvaluateCommandOptions evaluate;
-  operating->add_option("--db", db_path, "Dataset database (generated or imported real frames)")
-      ->required();
+  std::string rooms_path;
+  auto* db_flag = operating->add_option(
+      "--db", db_path, "Dataset database (generated or imported real frames): the full detector");
+  auto* rooms_flag = operating->add_option(
+      "--training-rooms",
+      rooms_path,
+      "The model's own training rooms (<model>.rooms.db of 'train --keep-rooms'): the network's "
+      "maxima on their validation frames, as train chooses it");
+  db_flag->excludes(rooms_flag);
+  rooms_flag->excludes(db_flag);
   operating->add_option("--split", split, "train, val, test or all")->capture_default_str();
   operating->add_option("--max-frames", evaluate.max_frames, "Frames (0: the whole split)")
       ->capture_default_str();
@@ -319,20 +335,38 @@ int RunModel(int argc, char** argv) {
   DetectorFlags detector_flags(operating);
   if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
   if (operating->parsed()) {
+    Require(!db_path.empty() || !rooms_path.empty(),
+            "model operating-point needs --db or --training-rooms");
     evaluate.split = ParseSplit(split, "--split");
     evaluate.detector = detector_flags.Resolve();
     TrainedModel model = LoadTrainedModel(path);  // a bad model fails before detection runs
-    model.operating_point = ChooseOperatingPointOn(path, db_path, evaluate);
+    if (!rooms_path.empty()) {
+      Require(!model.vote_net.empty(), path + ": has no vote network (--training-rooms needs one)");
+      const VoteNet net = VoteNet::Deserialize(model.vote_net, path);
+      VoteNetTrainingOptions rooms;
+      rooms.net = net.options();
+      std::vector<BevSample> training, validation;
+      ReadBevSamples(rooms_path, rooms, &training, &validation);
+      Require(!validation.empty(), rooms_path + ": has no validation room (every 10th room)");
+      model.operating_point = VoteNetOperatingPoint(net, validation);
+    } else {
+      model.operating_point = ChooseOperatingPointOn(path, db_path, evaluate);
+    }
     SaveTrainedModel(model, out);
     std::cout << out << ": " << DescribeOperatingPoint(model.operating_point);
     return 0;
   }
   if (upgrade->parsed()) {
-    SaveTrainedModel(LoadTrainedModel(path), out);
+    TrainedModel model =
+        trust_torchscript ? LoadTrainedModelUnchecked(path) : LoadTrainedModel(path);
+    if (trust_torchscript && !model.vote_net.empty())
+      model.vote_net = UpgradeTorchScriptVoteNet(model.vote_net, path);
+    SaveTrainedModel(model, out);
     std::cout << out << ": written in the current model file format\n";
     return 0;
   }
-  std::cout << path << ":\n" << DescribeTrainedModel(LoadTrainedModel(path));
+  const std::string description = DescribeTrainedModel(LoadTrainedModel(path));  // may refuse
+  std::cout << path << ":\n" << description;
   return 0;
 }
 

@@ -12,6 +12,7 @@
 #include "core/mesh.h"
 #include "db/dataset_db.h"
 #include "scenes/model_folds.h"
+#include "workbench/formats/json_text.h"
 #include "workbench/pipelines/train.h"
 
 namespace furn {
@@ -21,14 +22,22 @@ namespace {
 ModelFolds DatasetFolds(const Catalog& catalog, const std::string& db_path, uint64_t* seed) {
   DatasetDb dataset(db_path, DatasetDb::Mode::kReadOnly);
   const std::optional<std::string> generation = dataset.GenerationOptions();
+  const std::string what = db_path + " (its generation options)";
   const nlohmann::json options =
-      generation ? nlohmann::json::parse(*generation) : nlohmann::json::object();
-  Require(options.contains("model_folds"),
+      generation ? ParseUserJson<nlohmann::json>(*generation, what) : nlohmann::json::object();
+  Require(options.is_object() && options.contains("model_folds"),
           db_path +
               ": was not generated with leave-models-out folds (make one with "
               "'workbench generate --model-folds 5 ...')");
-  const int count = options["model_folds"]["folds"].get<int>();
-  *seed = options["model_folds"]["seed"].get<uint64_t>();
+  const nlohmann::json& folds_json = options["model_folds"];
+  Require(folds_json.is_object() && folds_json.contains("folds") &&
+              folds_json["folds"].is_number_integer() && folds_json["folds"] >= 2 &&
+              folds_json["folds"] <= 100,
+          what + ": 'model_folds.folds' must be an integer in 2..100");
+  Require(folds_json.contains("seed") && folds_json["seed"].is_number_unsigned(),
+          what + ": 'model_folds.seed' must be a non-negative integer");
+  const int count = folds_json["folds"].get<int>();
+  *seed = folds_json["seed"].get<uint64_t>();
   ModelFolds folds = AssignModelFolds(catalog, count, *seed);
   // The same catalog must give the same split: every target of room k is a
   // model of fold k % K.

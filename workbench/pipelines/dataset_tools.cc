@@ -174,7 +174,9 @@ namespace {
 // Refuses inputs that lack rooms of the generation they come from (its
 // options say how many rooms it made in all shards): a shard left out, or
 // one whose task did not finish.
-void CheckEveryRoomPresent(const std::string& generation_options, const std::set<int64_t>& rooms) {
+void CheckEveryRoomPresent(const std::string& generation_options,
+                           const std::set<int64_t>& rooms,
+                           const std::string& remedy) {
   const nlohmann::json options = nlohmann::json::parse(generation_options, nullptr, false);
   if (!options.is_object() || !options.contains("rooms") || !options["rooms"].is_number_integer())
     return;  // not a generated dataset (an imported real set)
@@ -190,18 +192,15 @@ void CheckEveryRoomPresent(const std::string& generation_options, const std::set
       "the inputs hold " + std::to_string(rooms.size()) + " of the " + std::to_string(made) +
           " rooms of their generation (missing room " + missing +
           (listed < static_cast<int>(made - static_cast<int64_t>(rooms.size())) ? ", ..." : "") +
-          ": a shard left out, or one whose task did not finish); --allow-partial merges "
-          "them anyway");
+          ": a shard left out, or one whose task did not finish)" + remedy);
 }
 
 }  // namespace
 
-MergeSummary MergeDatasets(const std::vector<std::string>& inputs,
-                           const std::string& out,
+std::string CheckMergeable(const std::vector<std::string>& inputs,
+                           const std::string& remedy,
                            bool allow_partial) {
   Require(inputs.size() >= 1, "merge needs at least one input dataset");
-  std::error_code ec;
-  Require(!std::filesystem::exists(out, ec), out + ": already exists (merge writes a new file)");
   std::string options;
   std::set<int64_t> rooms;
   for (const std::string& input : inputs) {
@@ -213,8 +212,30 @@ MergeSummary MergeDatasets(const std::vector<std::string>& inputs,
                 " (only shards of one run can be merged)");
     for (int64_t id : dataset.RoomIds()) rooms.insert(id);
   }
-  if (!allow_partial) CheckEveryRoomPresent(options, rooms);
+  if (!allow_partial) CheckEveryRoomPresent(options, rooms, remedy);
+  return options;
+}
+
+MergeSummary MergeDatasets(const std::vector<std::string>& inputs,
+                           const std::string& out,
+                           bool allow_partial) {
+  std::error_code ec;
+  Require(!std::filesystem::exists(out, ec), out + ": already exists (merge writes a new file)");
+  const std::string options = CheckMergeable(
+      inputs, allow_partial ? "" : "; --allow-partial merges them anyway", allow_partial);
   const std::string temp = out + ".partial";
+  // The temporary file is removed before writing: never one of the inputs.
+  auto same_file = [](const std::string& a, const std::string& b) {
+    std::error_code ea, eb;
+    const auto x = std::filesystem::weakly_canonical(a, ea),
+               y = std::filesystem::weakly_canonical(b, eb);
+    return ea || eb ? std::filesystem::absolute(a) == std::filesystem::absolute(b) : x == y;
+  };
+  for (const std::string& input : inputs) {
+    Require(!same_file(input, temp),
+            input + ": is the file merge writes its work in (" + temp +
+                "); give --out another name, or rename the input first");
+  }
   std::filesystem::remove(temp, ec);
   MergeSummary summary;
   try {

@@ -44,6 +44,13 @@ struct MergeSummary {
   int rooms = 0;
   int duplicate_rooms = 0;  // present in several inputs, identical
 };
+// The inputs of a merge, checked: each a dataset, all of one generation,
+// and (unless allow_partial) together every room of it (else an InputError
+// ending in `remedy`). Returns their generation options.
+std::string CheckMergeable(const std::vector<std::string>& inputs,
+                           const std::string& remedy,
+                           bool allow_partial = false);
+
 MergeSummary MergeDatasets(const std::vector<std::string>& inputs,
                            const std::string& out,
                            bool allow_partial = false);

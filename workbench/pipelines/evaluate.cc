@@ -295,8 +295,7 @@ std::string StoredOptionsJson(const EvaluateCommandOptions& options,
       {"min_visibility", evaluation.min_visibility},
       {"paper_window_m", evaluation.paper_window_m}};
   nlohmann::ordered_json point{{"match_m", evaluation.operating_point.match_m}};
-  for (FurnitureClass c : kAllClasses)
-    point[ClassName(c)] = evaluation.operating_point.MinScore(c);
+  for (FurnitureClass c : kAllClasses) point[ClassName(c)] = evaluation.operating_point.MinScore(c);
   stored["operating_point"] = point;
   if (!options.extra_options_json.empty()) {
     const nlohmann::ordered_json extra = nlohmann::ordered_json::parse(options.extra_options_json);
@@ -514,6 +513,29 @@ EvaluateSummary MergeEvaluation(const std::string& model_path,
     slots[p]->outcome.truth = TruthOf(selection.RoomAt(p), frame, facts);
     frames.push_back(std::move(*slots[p]));
   }
+  if (options.check_only) {
+    EvaluateSummary summary;
+    summary.frames = selected;
+    summary.seconds = SecondsSince(start);
+    return summary;
+  }
+  // The final step of a sharded evaluation may run again after it stored its
+  // run (killed before its status was written): the same merge is not stored
+  // twice.
+  const std::string stored_options = StoredOptionsJson(options, EvaluationOptionsOf(options));
+  for (const RunRecord& run : dataset.Runs()) {
+    if (run.kind != options.kind || run.label != options.label || run.model_hash != model_hash ||
+        run.dataset_hash != selection.dataset_hash || run.split != options.split ||
+        run.options_json != stored_options)
+      continue;
+    EvaluateSummary summary;
+    summary.run_id = run.id;
+    summary.frames = selected;
+    summary.already_stored = true;
+    summary.result.metrics = dataset.RunMetrics(run.id);
+    summary.seconds = SecondsSince(start);
+    return summary;
+  }
   EvaluateSummary summary =
       StoreRun(dataset, model_path, model_hash, selection, options, std::move(frames));
   summary.seconds = SecondsSince(start);
@@ -537,8 +559,8 @@ OperatingPoint ChooseOperatingPointOn(const std::string& model_path,
                               EvaluationOptionsOf(options),
                               kOperatingMatchM,
                               std::to_string(outcomes.size()) + " frames of " +
-                                  std::filesystem::path(db_path).filename().string() +
-                                  " (split " + EnumName(options.split) + ")");
+                                  std::filesystem::path(db_path).filename().string() + " (split " +
+                                  EnumName(options.split) + ")");
 }
 
 void WriteReportForRun(const std::string& db_path, int64_t run_id, const std::string& out_dir) {

@@ -47,6 +47,9 @@ struct EvaluateCommandOptions {
   int shard_index = 0;
   int shard_count = 0;
   std::string shard_out;
+  // MergeEvaluation only reads and checks the shards (every header against
+  // this evaluation), storing nothing.
+  bool check_only = false;
 };
 
 struct EvaluateSummary {
@@ -56,6 +59,7 @@ struct EvaluateSummary {
   int frames_without_points = 0;  // no point in range: counted, with no detections
   int frames_without_floor = 0;   // no pose and no floor found: likewise
   double seconds = 0;
+  bool already_stored = false;  // a merge found its run stored by an earlier attempt
   // With collect_scorer_samples: positive when the fit lies within 10 cm of
   // a true object of its class.
   std::vector<ScorerSample> scorer_samples;

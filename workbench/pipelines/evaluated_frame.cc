@@ -1,12 +1,14 @@
 #include "workbench/pipelines/evaluated_frame.h"
 
 #include <cmath>
+#include <cstdint>
 #include <filesystem>
 #include <limits>
 #include <nlohmann/json.hpp>
 
 #include "core/error.h"
 #include "core/file_util.h"
+#include "workbench/formats/json_text.h"
 
 namespace furn {
 namespace {
@@ -63,46 +65,96 @@ Json FrameJson(const EvaluatedFrame& frame) {
           {"maxima", maxima}};
 }
 
+// Typed, range-checked fields of a shard file (data another machine
+// wrote): a wrong type, a fraction where an integer belongs or a value out of
+// range is an InputError naming the field and the rule.
+int64_t IntegerOf(const Json& value, const char* field, int64_t low, int64_t high) {
+  Require(value.is_number_integer(), std::string("'") + field + "' must be an integer");
+  const int64_t n = value.is_number_unsigned() && value.get<uint64_t>() > INT64_MAX
+                        ? high + 1
+                        : value.get<int64_t>();
+  Require(n >= low && n <= high,
+          std::string("'") + field + "' must be in " + std::to_string(low) + ".." +
+              std::to_string(high));
+  return n;
+}
+
+std::string StringOf(const Json& value, const char* field) {
+  Require(value.is_string(), std::string("'") + field + "' must be a string");
+  return value.get<std::string>();
+}
+
+// A number that may be absent (null: NaN).
+double NumberOrNan(const Json& value, const char* field) {
+  Require(value.is_null() || value.is_number(),
+          std::string("'") + field + "' must be a number or null");
+  return NumberOf(value);
+}
+
+// A number the run stores (a NOT NULL column): finite.
+double FiniteOf(const Json& value, const char* field) {
+  Require(value.is_number(), std::string("'") + field + "' must be a finite number");
+  return value.get<double>();
+}
+
+const Json& Item(const Json& array, size_t index, const char* what) {
+  Require(array.is_array() && index < array.size(),
+          std::string("a ") + what + " entry must be an array of at least " +
+              std::to_string(index + 1) + " values");
+  return array[index];
+}
+
+constexpr int64_t kMaxPositions = 1000000000;
+
 EvaluatedFrame FrameOf(const Json& json) {
+  Require(json.is_object(), "a frame must be an object");
   EvaluatedFrame frame;
-  frame.position = json.at("position").get<int>();
-  frame.status = ParseEnum<DetectionStatus>(json.at("status").get<std::string>());
-  frame.outcome.frame_id = json.at("frame").get<int64_t>();
-  frame.outcome.total_ms = NumberOf(json.at("total_ms"));
+  frame.position = static_cast<int>(IntegerOf(json.at("position"), "position", 0, kMaxPositions));
+  frame.status = ParseEnum<DetectionStatus>(StringOf(json.at("status"), "status"));
+  frame.outcome.frame_id = IntegerOf(json.at("frame"), "frame", 0, INT64_MAX);
+  frame.outcome.total_ms = FiniteOf(json.at("total_ms"), "total_ms");
+  Require(json.at("stage_ms").is_object(), "'stage_ms' must be an object");
   for (const auto& [stage, ms] : json.at("stage_ms").items())
-    frame.outcome.stage_ms[ParseEnum<DetectionStage>(stage)] = NumberOf(ms);
-  frame.record = {frame.outcome.frame_id, frame.outcome.total_ms, json.at("timings")};
+    frame.outcome.stage_ms[ParseEnum<DetectionStage>(stage)] = NumberOrNan(ms, "stage_ms");
+  frame.record = {
+      frame.outcome.frame_id, frame.outcome.total_ms, StringOf(json.at("timings"), "timings")};
+  Require(json.at("detections").is_array(), "'detections' must be an array");
   for (const Json& d : json.at("detections")) {
-    const FurnitureClass c = ParseEnum<FurnitureClass>(d.at(0).get<std::string>());
-    const std::string model = d.at(1).get<std::string>();
-    frame.outcome.detections.push_back({c,
-                                        model,
-                                        NumberOf(d.at(2)),
-                                        NumberOf(d.at(3)),
-                                        NumberOf(d.at(4)),
-                                        NumberOf(d.at(5)),
-                                        d.at(6).get<int>(),
-                                        NumberOf(d.at(7)),
-                                        NumberOf(d.at(8))});
+    const char* what = "detection";
+    const FurnitureClass c = ParseEnum<FurnitureClass>(StringOf(Item(d, 0, what), "class"));
+    const std::string model = StringOf(Item(d, 1, what), "model");
+    frame.outcome.detections.push_back(
+        {c,
+         model,
+         FiniteOf(Item(d, 2, what), "x"),
+         FiniteOf(Item(d, 3, what), "y"),
+         FiniteOf(Item(d, 4, what), "yaw"),
+         FiniteOf(Item(d, 5, what), "score"),
+         static_cast<int>(IntegerOf(Item(d, 6, what), "symmetry", 1, 4)),
+         NumberOrNan(Item(d, 7, what), "width"),
+         NumberOrNan(Item(d, 8, what), "depth")});
     const ScoredDetection& s = frame.outcome.detections.back();
     frame.detections.push_back({frame.outcome.frame_id,
                                 c,
                                 model,
                                 s.x,
                                 s.y,
-                                NumberOf(d.at(9)),
+                                FiniteOf(Item(d, 9, what), "z"),
                                 s.yaw,
                                 s.score,
-                                NumberOf(d.at(10)),
-                                NumberOf(d.at(11)),
-                                NumberOf(d.at(12))});
+                                FiniteOf(Item(d, 10, what), "vote_weight"),
+                                FiniteOf(Item(d, 11, what), "verification"),
+                                FiniteOf(Item(d, 12, what), "covered_fraction")});
   }
+  Require(json.at("maxima").is_array(), "'maxima' must be an array");
   for (const Json& m : json.at("maxima")) {
-    frame.outcome.maxima.push_back({ParseEnum<FurnitureClass>(m.at(0).get<std::string>()),
-                                    NumberOf(m.at(1)),
-                                    NumberOf(m.at(2)),
-                                    NumberOf(m.at(3)),
-                                    ParseEnum<HypothesisOutcome>(m.at(4).get<std::string>())});
+    const char* what = "maximum";
+    frame.outcome.maxima.push_back(
+        {ParseEnum<FurnitureClass>(StringOf(Item(m, 0, what), "class")),
+         FiniteOf(Item(m, 1, what), "x"),
+         FiniteOf(Item(m, 2, what), "y"),
+         NumberOrNan(Item(m, 3, what), "relative"),
+         ParseEnum<HypothesisOutcome>(StringOf(Item(m, 4, what), "outcome"))});
   }
   return frame;
 }
@@ -142,42 +194,40 @@ void WriteShardFile(const std::string& path,
   WriteFileAtomically(path, json.dump() + "\n");
 }
 
-std::vector<EvaluatedFrame> ReadShardFile(const std::string& path, const ShardHeader& expected) {
-  Require(std::filesystem::is_regular_file(path),
-          path + ": missing: shard " + std::to_string(expected.shard) + " of " +
-              std::to_string(expected.shards) + " was not evaluated (rerun its task)");
-  Json json;
-  try {
-    json = Json::parse(ReadFileBytes(path));
-  } catch (const Json::exception& e) {
-    throw InputError(path + ": not a shard file of 'evaluate --shard' (" + e.what() + ")");
-  }
-  Require(json.is_object() && json.value("format", "") == kFormat,
+ShardFile ParseShardFile(const std::string& path) {
+  RequireRegularFile(path);
+  const Json json = ParseUserJson<Json>(ReadFileBytes(path), path);
+  Require(json.is_object() && json.contains("format") && json["format"] == kFormat,
           path + ": not a shard file of 'evaluate --shard' (no \"format\": \"" + kFormat + "\")");
-  Require(json.value("version", 0) == kVersion,
-          path + ": shard file version " + json.value("version", Json()).dump() +
-              ", this build reads version " + std::to_string(kVersion));
-  ShardHeader header;
+  Require(json.contains("version") && json["version"].is_number_integer() &&
+              json["version"] == kVersion,
+          path + ": shard file version is not " + std::to_string(kVersion) +
+              " (this build reads version " + std::to_string(kVersion) + ")");
+  ShardFile file;
   try {
-    header = {json.at("shard").get<int>(),
-              json.at("shards").get<int>(),
-              json.at("dataset_hash").get<std::string>(),
-              json.at("model_hash").get<std::string>(),
-              json.at("options").get<std::string>()};
-  } catch (const Json::exception& e) {
-    throw InputError(path + ": a broken shard file header (" + e.what() + ")");
-  }
-  if (const std::string why = Mismatch(header, expected); !why.empty())
-    throw InputError(path + ": " + why + "; not a shard of this evaluation");
-  std::vector<EvaluatedFrame> frames;
-  try {
-    for (const Json& frame : json.at("frames")) frames.push_back(FrameOf(frame));
+    file.header = {static_cast<int>(IntegerOf(json.at("shard"), "shard", 0, 100000)),
+                   static_cast<int>(IntegerOf(json.at("shards"), "shards", 1, 100000)),
+                   StringOf(json.at("dataset_hash"), "dataset_hash"),
+                   StringOf(json.at("model_hash"), "model_hash"),
+                   StringOf(json.at("options"), "options")};
+    Require(json.at("frames").is_array(), "'frames' must be an array");
+    for (const Json& frame : json.at("frames")) file.frames.push_back(FrameOf(frame));
   } catch (const Json::exception& e) {
     throw InputError(path + ": a broken shard file (" + e.what() + ")");
   } catch (const InputError& e) {
     throw InputError(path + ": a broken shard file (" + e.what() + ")");
   }
-  return frames;
+  return file;
+}
+
+std::vector<EvaluatedFrame> ReadShardFile(const std::string& path, const ShardHeader& expected) {
+  Require(std::filesystem::is_regular_file(path),
+          path + ": missing: shard " + std::to_string(expected.shard) + " of " +
+              std::to_string(expected.shards) + " was not evaluated (rerun its task)");
+  ShardFile file = ParseShardFile(path);
+  if (const std::string why = Mismatch(file.header, expected); !why.empty())
+    throw InputError(path + ": " + why + "; not a shard of this evaluation");
+  return std::move(file.frames);
 }
 
 }  // namespace furn

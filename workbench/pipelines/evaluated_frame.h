@@ -50,4 +50,13 @@ void WriteShardFile(const std::string& path,
 // file, or a foreign shard (the field that differs and what to do).
 std::vector<EvaluatedFrame> ReadShardFile(const std::string& path, const ShardHeader& expected);
 
+// A shard file read as data anyone may have written: nesting, types and
+// ranges of every field checked (one line naming the file, the field and the
+// rule), whoever's evaluation it belongs to.
+struct ShardFile {
+  ShardHeader header;
+  std::vector<EvaluatedFrame> frames;
+};
+ShardFile ParseShardFile(const std::string& path);
+
 }  // namespace furn

@@ -1,10 +1,15 @@
 #include "workbench/pipelines/slurm_jobs.h"
 
+#include <fcntl.h>
+#include <spawn.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <array>
+#include <cerrno>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <set>
@@ -12,6 +17,9 @@
 
 #include "core/error.h"
 #include "core/file_util.h"
+#include "workbench/formats/json_text.h"
+
+extern char** environ;
 
 namespace furn {
 namespace {
@@ -31,16 +39,76 @@ std::string ReplaceTask(const std::string& text, int task) {
   return out;
 }
 
-// Runs a shell command; its standard output, and its exit code.
-std::pair<std::string, int> Capture(const std::string& command) {
-  FILE* pipe = popen((command + " 2>&1").c_str(), "r");
-  Require(pipe != nullptr, "cannot run: " + command);
+// Runs a program with these arguments — no shell: nothing in them is ever
+// interpreted — and returns its standard output and error (at most
+// kMaxCapture bytes kept) and its exit code (127: not found).
+constexpr size_t kMaxCapture = 16u << 20;
+
+std::pair<std::string, int> Capture(const std::vector<std::string>& argv) {
+  int fds[2];
+  Require(pipe2(fds, O_CLOEXEC) == 0, "cannot run " + argv.front() + ": no pipe");
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_adddup2(&actions, fds[1], 1);
+  posix_spawn_file_actions_adddup2(&actions, fds[1], 2);
+  posix_spawn_file_actions_addclose(&actions, fds[0]);
+  posix_spawn_file_actions_addclose(&actions, fds[1]);
+  std::vector<char*> args;
+  for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+  args.push_back(nullptr);
+  pid_t pid = 0;
+  const int spawned = posix_spawnp(&pid, args[0], &actions, nullptr, args.data(), environ);
+  posix_spawn_file_actions_destroy(&actions);
+  close(fds[1]);
   std::string out;
   std::array<char, 4096> buffer;
-  size_t n = 0;
-  while ((n = fread(buffer.data(), 1, buffer.size(), pipe)) > 0) out.append(buffer.data(), n);
-  const int status = pclose(pipe);
+  ssize_t n = 0;
+  while ((n = read(fds[0], buffer.data(), buffer.size())) != 0) {
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0) break;
+    if (out.size() < kMaxCapture) out.append(buffer.data(), static_cast<size_t>(n));
+  }
+  close(fds[0]);
+  if (spawned != 0) return {"", 127};
+  int status = 0;
+  while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+  }
   return {out, WIFEXITED(status) ? WEXITSTATUS(status) : 128};
+}
+
+// A Slurm job id as jobs.json may hold it: digits, or digits_digits (an
+// array task).
+bool IsJobId(const std::string& id) {
+  if (id.empty() || id.size() > 24) return false;
+  const size_t underscore = id.find('_');
+  const std::string head = id.substr(0, underscore);
+  const std::string tail = underscore == std::string::npos ? "0" : id.substr(underscore + 1);
+  auto digits = [](const std::string& text) {
+    return !text.empty() && text.find_first_not_of("0123456789") == std::string::npos;
+  };
+  return digits(head) && digits(tail);
+}
+
+// Refuses control characters (a newline ends an #SBATCH comment and starts
+// a command) in a text that lands in a script.
+void RequirePrintable(const std::string& text, const std::string& what) {
+  for (char c : text) {
+    Require(static_cast<unsigned char>(c) >= 0x20 && c != 0x7f,
+            what +
+                " must not hold control characters (line breaks, tabs, escapes): it is "
+                "written into a job script");
+  }
+}
+
+// The first bytes of a small status file (a task's exit code): a file grown
+// huge is never read whole.
+std::string ReadStatusFile(const std::string& path) {
+  RequireRegularFile(path);
+  std::ifstream in(path, std::ios::binary);
+  std::string head(64, '\0');
+  in.read(head.data(), static_cast<std::streamsize>(head.size()));
+  head.resize(static_cast<size_t>(in.gcount()));
+  return head;
 }
 
 std::string Trim(std::string text) {
@@ -63,10 +131,13 @@ std::string Header(const ArrayJob& job, const std::string& what, const std::stri
   return s.str();
 }
 
-// Runs `command` and records its exit status as STATUS.ok or STATUS.failed.
+// Runs `command` in the folder the workbench command was given in (its
+// relative paths mean what they meant there) and records its exit status as
+// STATUS.ok or STATUS.failed.
 std::string Body(const std::string& status, const std::string& command) {
   std::ostringstream s;
   s << "set -u\n"
+    << "cd " << ShellQuote(fs::current_path().string()) << " || exit 1\n"
     << "status=" << status << "\n"
     << "rm -f \"$status.ok\" \"$status.failed\"\n"
     << command << "\n"
@@ -77,13 +148,48 @@ std::string Body(const std::string& status, const std::string& command) {
   return s.str();
 }
 
+constexpr uintmax_t kMaxJobsJsonBytes = 16u << 20;
+constexpr int kMaxTasks = 100000;
+
+// jobs.json, read as data written by anyone: size, nesting, every field's
+// type and range, and every job id checked before anything uses them.
 nlohmann::json ReadJobs(const std::string& dir) {
-  Require(fs::exists(JobsJson(dir)), dir + ": not a job folder (no jobs.json)");
-  try {
-    return nlohmann::json::parse(ReadFileBytes(JobsJson(dir)));
-  } catch (const nlohmann::json::exception& e) {
-    throw InputError(JobsJson(dir) + ": not valid JSON (" + e.what() + ")");
+  const std::string path = JobsJson(dir);
+  Require(fs::exists(path), dir + ": not a job folder (no jobs.json)");
+  RequireRegularFile(path);
+  Require(fs::file_size(path) <= kMaxJobsJsonBytes,
+          path + ": larger than 16 MiB; not a jobs.json this workbench wrote");
+  const nlohmann::json jobs = ParseUserJson<nlohmann::json>(ReadFileBytes(path), path);
+  auto bad = [&](const std::string& field, const std::string& rule) {
+    return InputError(path + ": '" + field + "' " + rule);
+  };
+  if (!jobs.is_object()) throw bad("(the whole file)", "must be a JSON object");
+  for (const char* key : {"name", "task_command", "task_output", "final_command", "final_output"}) {
+    if (jobs.contains(key) && !jobs[key].is_string()) throw bad(key, "must be a string");
   }
+  if (!jobs.contains("tasks") || !jobs["tasks"].is_number_integer() || jobs["tasks"] < 1 ||
+      jobs["tasks"] > kMaxTasks)
+    throw bad("tasks", "must be an integer in 1.." + std::to_string(kMaxTasks));
+  if (!jobs.contains("submissions") || !jobs["submissions"].is_array())
+    throw bad("submissions", "must be an array");
+  for (const nlohmann::json& submission : jobs["submissions"]) {
+    if (!submission.is_object()) throw bad("submissions", "must hold objects");
+    for (const char* key : {"array", "final"}) {
+      if (!submission.contains(key)) continue;
+      const nlohmann::json& id = submission[key];
+      if (!id.is_string() || (!id.get<std::string>().empty() && !IsJobId(id.get<std::string>())))
+        throw bad(std::string("submissions.") + key,
+                  "must be a Slurm job id (digits, or digits_digits) or empty");
+    }
+    if (submission.contains("tasks")) {
+      if (!submission["tasks"].is_array()) throw bad("submissions.tasks", "must be an array");
+      for (const nlohmann::json& task : submission["tasks"]) {
+        if (!task.is_number_integer() || task < 0 || task >= jobs["tasks"])
+          throw bad("submissions.tasks", "must hold task indices below 'tasks'");
+      }
+    }
+  }
+  return jobs;
 }
 
 // The job ids under `key` ("array" or "final") of the folder's submissions,
@@ -105,7 +211,7 @@ std::map<std::string, std::string> QueueStates(const std::vector<std::string>& i
   std::string list;
   for (const std::string& id : ids) list += (list.empty() ? "" : ",") + id;
   // %i: job id with the array task (123_4); -r: one line per array task.
-  const auto [out, code] = Capture("squeue -h -r -o '%i %t' -j " + list);
+  const auto [out, code] = Capture({"squeue", "-h", "-r", "-o", "%i %t", "-j", list});
   if (code != 0) return states;
   std::istringstream lines(out);
   std::string id, state;
@@ -130,8 +236,27 @@ std::string ShellQuote(const std::string& argument) {
 }
 
 void WriteJobScripts(const ArrayJob& job) {
-  Require(job.tasks >= 1 && job.tasks <= 100000, "an array job needs 1..100000 tasks");
+  Require(job.tasks >= 1 && job.tasks <= kMaxTasks, "an array job needs 1..100000 tasks");
   job.resources.Check();
+  RequirePrintable(job.dir, "the job folder (--job-dir)");
+  Require(job.dir.find('$') == std::string::npos,
+          "the job folder '" + job.dir + "' must not hold '$' (task outputs name $TASK)");
+  RequirePrintable(job.name, "the job name");
+  RequirePrintable(fs::current_path().string(), "the current folder");
+  constexpr size_t kMaxCommandBytes = 1u << 20;
+  Require(
+      job.task_command.size() <= kMaxCommandBytes && job.final_command.size() <= kMaxCommandBytes,
+      "a job's command line would be longer than 1 MiB; use fewer --shards");
+  for (const std::string* text :
+       {&job.task_command, &job.final_command, &job.task_output, &job.final_output})
+    RequirePrintable(*text, "a job's command or output path");
+  // A folder holding another command's jobs is refused before anything in
+  // it is written.
+  if (fs::exists(JobsJson(job.dir))) {
+    const nlohmann::json earlier = ReadJobs(job.dir);
+    Require(!earlier.contains("task_command") || earlier["task_command"] == job.task_command,
+            job.dir + ": holds the jobs of another command; use a new --job-dir");
+  }
   std::error_code ec;
   fs::create_directories(job.dir + "/logs", ec);
   fs::create_directories(job.dir + "/status", ec);
@@ -148,9 +273,6 @@ void WriteJobScripts(const ArrayJob& job) {
                             Body(ShellQuote(dir + "/status/final"), job.final_command));
   }
   nlohmann::json jobs = fs::exists(JobsJson(job.dir)) ? ReadJobs(job.dir) : nlohmann::json{};
-  if (jobs.contains("task_command") && jobs["task_command"] != job.task_command) {
-    throw InputError(job.dir + ": holds the jobs of another command; use a new --job-dir");
-  }
   jobs["name"] = job.name;
   jobs["tasks"] = job.tasks;
   jobs["task_command"] = job.task_command;
@@ -179,14 +301,15 @@ std::string ArrayList(const std::vector<int>& tasks) {
   return list;
 }
 
-std::string Sbatch(const std::string& arguments) {
-  const auto [out, code] = Capture("sbatch --parsable " + arguments);
+std::string Sbatch(const std::vector<std::string>& arguments) {
+  std::vector<std::string> argv = {"sbatch", "--parsable"};
+  argv.insert(argv.end(), arguments.begin(), arguments.end());
+  const auto [out, code] = Capture(argv);
   if (code == 127)
     throw InputError("sbatch not found: is this a Slurm login node? (or use --emit-only)");
-  Require(code == 0, "sbatch " + arguments + " failed: " + Trim(out));
+  Require(code == 0, "sbatch " + arguments.back() + " failed: " + Trim(out));
   const std::string id = Trim(out).substr(0, Trim(out).find(';'));  // "id;cluster"
-  Require(!id.empty() && id.find_first_not_of("0123456789") == std::string::npos,
-          "sbatch gave no job id: " + Trim(out));
+  Require(IsJobId(id), "sbatch gave no job id: " + Trim(out).substr(0, 200));
   return id;
 }
 
@@ -212,7 +335,7 @@ void CancelStaleFinal(const std::string& dir) {
   const nlohmann::json jobs = ReadJobs(dir);
   if (jobs["submissions"].empty()) return;
   const std::string final_id = jobs["submissions"].back().value("final", "");
-  if (!final_id.empty()) Capture("scancel " + final_id);
+  if (!final_id.empty()) Capture({"scancel", final_id});
 }
 
 // No final step, or it succeeded and its output is there.
@@ -231,14 +354,15 @@ Submission SubmitArrayJob(const ArrayJob& job) {
   CheckNotQueued(job.dir, submission.tasks);
   CancelStaleFinal(job.dir);
   if (!submission.tasks.empty()) {
-    submission.array_job_id = Sbatch("--array=" + ArrayList(submission.tasks) + " " +
-                                     ShellQuote(job.dir + "/task.sbatch"));
+    submission.array_job_id =
+        Sbatch({"--array=" + ArrayList(submission.tasks), job.dir + "/task.sbatch"});
   }
   if (!job.final_command.empty()) {
-    const std::string after = submission.array_job_id.empty()
-                                  ? ""
-                                  : "--dependency=afterok:" + submission.array_job_id + " ";
-    submission.final_job_id = Sbatch(after + ShellQuote(job.dir + "/final.sbatch"));
+    std::vector<std::string> arguments;
+    if (!submission.array_job_id.empty())
+      arguments.push_back("--dependency=afterok:" + submission.array_job_id);
+    arguments.push_back(job.dir + "/final.sbatch");
+    submission.final_job_id = Sbatch(arguments);
   }
   nlohmann::json jobs = ReadJobs(job.dir);
   jobs["submissions"].push_back({{"array", submission.array_job_id},
@@ -268,11 +392,19 @@ std::vector<std::string> CancelJobs(const std::string& dir) {
   std::vector<std::string> ids = SubmittedIds(jobs, "array");
   for (const std::string& id : SubmittedIds(jobs, "final")) ids.push_back(id);
   if (ids.empty()) return ids;
-  std::string list;
-  for (const std::string& id : ids) list += " " + id;
-  const auto [out, code] = Capture("scancel" + list);
+  std::vector<std::string> argv = {"scancel"};
+  argv.insert(argv.end(), ids.begin(), ids.end());
+  const auto [out, code] = Capture(argv);
   if (code == 127) throw InputError("scancel not found: is this a Slurm login node?");
-  return ids;  // ended jobs make scancel complain; nothing to do about them
+  if (code != 0) {
+    // Ended jobs make scancel complain; a job still queued after it did not go.
+    const auto still = QueueStates(ids);
+    Require(still.empty(),
+            "scancel failed (exit " + std::to_string(code) + "): " +
+                Trim(out).substr(0, Trim(out).find('\n')) + "; " + std::to_string(still.size()) +
+                " job(s) of " + dir + " are still queued or running");
+  }
+  return ids;
 }
 
 JobFolderState ReadJobFolder(const std::string& dir) {
@@ -303,7 +435,12 @@ JobFolderState ReadJobFolder(const std::string& dir) {
     if (fs::exists(StatusFile(dir, who, ".ok")) && (output.empty() || fs::exists(output)))
       return std::string("done");
     const std::string failed = StatusFile(dir, who, ".failed");
-    if (fs::exists(failed)) return "failed (exit " + Trim(ReadFileBytes(failed)) + ")";
+    if (fs::exists(failed)) {
+      const std::string code = Trim(ReadStatusFile(failed));
+      const bool number = !code.empty() && code.size() <= 3 &&
+                          code.find_first_not_of("0123456789") == std::string::npos;
+      return "failed (exit " + (number ? code : std::string("?")) + ")";
+    }
     return std::string("missing");
   };
   bool all_done = true, anything_queued = false, anything_bad = false;
@@ -326,7 +463,9 @@ JobFolderState ReadJobFolder(const std::string& dir) {
     result.tasks.push_back({-1, state});
     all_done = all_done && state == "done";
     anything_queued = anything_queued || !q.empty();
-    anything_bad = anything_bad || state.rfind("failed", 0) == 0;
+    // Missing with its tasks done and nothing queued: it died without a
+    // status (or was never submitted); waiting longer would wait forever.
+    anything_bad = anything_bad || state.rfind("failed", 0) == 0 || state == "missing";
   }
   result.finished = all_done;
   result.failed = !all_done && !anything_queued && anything_bad;

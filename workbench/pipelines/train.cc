@@ -11,6 +11,8 @@
 #include "core/random.h"
 #include "renderers/embree_caster.h"
 #include "renderers/kinect_noise.h"
+#include "reports/evaluation.h"                 // kOwnOperatingPointObjects
+#include "workbench/pipelines/dataset_tools.h"  // CheckMergeable
 
 namespace furn {
 
@@ -94,6 +96,10 @@ TrainSummary TrainFromCatalog(const Catalog& catalog,
   scan.Check();
   trainer.Check();
   if (vote_net != nullptr) vote_net->Check();
+  // The training rooms' shards, checked before anything is trained.
+  if (vote_net != nullptr && !vote_net->room_shards.empty())
+    CheckMergeable(vote_net->room_shards,
+                   "; rerun the tasks of 'train --shards' that did not finish");
   std::vector<std::string> ids;
   std::vector<FurnitureClass> classes;
   for (const CatalogEntry* entry : catalog.Classified()) {
@@ -194,23 +200,37 @@ std::string DescribeTrainedModel(const TrainedModel& model) {
 std::string DescribeOperatingPoint(const OperatingPoint& point) {
   if (point.Empty()) return "operating point: none (every candidate is a detection)\n";
   std::ostringstream out;
-  out << "operating point: least score per class, chosen for the best F1 at "
-      << point.match_m * 100 << " cm on " << point.chosen_on << "\n";
+  out << "operating point: least score per class, chosen for the best F1 at " << point.match_m * 100
+      << " cm on " << point.chosen_on << "\n";
   for (FurnitureClass c : kAllClasses) {
     const ClassOperatingPoint& entry = point.classes[static_cast<size_t>(c)];
     if (entry.min_score < 0 && entry.targets == 0) continue;
     char line[160];
     if (entry.min_score < 0) {
-      std::snprintf(line, sizeof(line), "  %-10s none (%d objects, never found)\n",
-                    ClassName(c), entry.targets);
-    } else if (std::isnan(entry.f1)) {
-      std::snprintf(line, sizeof(line), "  %-10s %.3f (set by hand)\n", ClassName(c),
+      std::snprintf(line,
+                    sizeof(line),
+                    "  %-10s none (%d objects; nothing found to choose on)\n",
+                    ClassName(c),
+                    entry.targets);
+    } else if (entry.targets == 0) {
+      std::snprintf(line,
+                    sizeof(line),
+                    "  %-10s %.3f (no objects to choose on: every class's detections pooled)\n",
+                    ClassName(c),
                     entry.min_score);
     } else {
-      std::snprintf(line, sizeof(line),
-                    "  %-10s %.3f  precision %.2f recall %.2f F1 %.2f (%d objects)\n",
-                    ClassName(c), entry.min_score, entry.precision, entry.recall, entry.f1,
-                    entry.targets);
+      std::snprintf(line,
+                    sizeof(line),
+                    "  %-10s %.3f  precision %.2f recall %.2f F1 %.2f (%d objects%s)\n",
+                    ClassName(c),
+                    entry.min_score,
+                    entry.precision,
+                    entry.recall,
+                    entry.f1,
+                    entry.targets,
+                    entry.targets < kOwnOperatingPointObjects
+                        ? "; too few for its own: every class's detections pooled"
+                        : "");
     }
     out << line;
   }

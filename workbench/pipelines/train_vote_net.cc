@@ -25,12 +25,13 @@ double Seconds(std::chrono::steady_clock::time_point since) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
 }
 
-// The labelled objects of one frame in view: targets when seen at least
-// min_visibility, else objects the loss ignores around.
-std::vector<BevObject> ObjectsOfFrame(const RoomRecord& room,
-                                      const FrameRecord& frame,
-                                      double min_visibility) {
-  std::vector<BevObject> objects;
+// The labelled objects of one frame in view, with their visibility:
+// targets when seen at least min_visibility, else objects the loss ignores
+// around.
+void AddObjectsOfFrame(const RoomRecord& room,
+                       const FrameRecord& frame,
+                       double min_visibility,
+                       BevSample* sample) {
   for (const ObjectRecord& object : room.objects) {
     if (!object.furniture_class) continue;
     double visibility = 0;
@@ -38,14 +39,14 @@ std::vector<BevObject> ObjectsOfFrame(const RoomRecord& room,
       if (seen.instance_id == object.instance_id) visibility = seen.visibility;
     }
     if (visibility <= 0) continue;
-    objects.push_back({*object.furniture_class,
-                       {object.reference_x, object.reference_y},
-                       object.yaw,
-                       object.width,
-                       object.depth,
-                       visibility >= min_visibility});
+    sample->objects.push_back({*object.furniture_class,
+                               {object.reference_x, object.reference_y},
+                               object.yaw,
+                               object.width,
+                               object.depth,
+                               visibility >= min_visibility});
+    sample->visibility.push_back(visibility);
   }
-  return objects;
 }
 
 VoteNetLoss ValidationLoss(const VoteNet& net,
@@ -77,14 +78,19 @@ std::vector<FrameOutcome> DecodedFrames(const VoteNet& net,
     const BevSample& sample = validation[i];
     FrameOutcome frame;
     frame.frame_id = static_cast<int64_t>(i);
-    for (const BevObject& object : sample.objects) {
+    for (size_t k = 0; k < sample.objects.size(); ++k) {
+      const BevObject& object = sample.objects[k];
       if (!object.target && !ignore_non_targets) continue;
       TruthObject truth;
       truth.furniture_class = object.furniture_class;
       truth.x = object.centre.x();
       truth.y = object.centre.y();
       truth.yaw = object.yaw;
-      truth.visibility = object.target ? 1 : 0.01;  // below any min_visibility: ignore
+      // As evaluation counts them: the object's visibility (a non-target
+      // one below any min_visibility: ignore), its distance from the camera.
+      truth.visibility = k < sample.visibility.size() ? sample.visibility[k] : 1;
+      if (!object.target) truth.visibility = std::min(truth.visibility, 0.01);
+      truth.distance_m = (object.centre - sample.image.frame.origin).norm();
       frame.truth.push_back(truth);
     }
     for (const BevPeak& peak : DecodeBevOutput(sample.image, net.Predict(sample.image), decode)) {
@@ -238,7 +244,7 @@ void ReadBevSamples(const std::string& db_path,
       BevSample sample;
       sample.image = RasteriseScan(
           input.points, frame.world_from_camera, options.max_range_m, options.net.grid);
-      sample.objects = ObjectsOfFrame(room, frame, options.min_visibility);
+      AddObjectsOfFrame(room, frame, options.min_visibility, &sample);
       out->push_back(std::move(sample));
     }
     progress.Advance();
@@ -322,8 +328,10 @@ OperatingPoint VoteNetOperatingPoint(const VoteNet& net, const std::vector<BevSa
   Require(!validation.empty(), "an operating point needs validation frames");
   const std::vector<FrameOutcome> frames =
       DecodedFrames(net, validation, DetectorOptions{}.LearnedDecode(), true);
+  EvaluationOptions roles;  // as evaluate counts objects: 25 % visible, within 3 m
+  roles.max_distance_m = DetectorOptions{}.max_range_m;
   return ChooseOperatingPoint(frames,
-                              ValidationEvaluation(),
+                              roles,
                               kOperatingMatchM,
                               std::to_string(validation.size()) +
                                   " validation frames of the training rooms (the network's "

@@ -20,6 +20,7 @@
 #include "reports/tune_report.h"
 #include "workbench/formats/json_text.h"
 #include "workbench/pipelines/evaluate.h"
+#include "workbench/pipelines/evaluated_frame.h"
 #include "workbench/pipelines/train.h"
 
 namespace furn {
@@ -375,6 +376,7 @@ class Tuning {
 
   TuneSummary Run() {
     if (options_.trial_shards > 0) return RunTrialShard();
+    if (!options_.results_dir.empty()) CheckResultsFiles();
     std::vector<TuneReportTrial> scored;
     for (const TuneTrial& trial : trials_) scored.push_back(Score(trial));
     summary_.trials = static_cast<int>(trials_.size());
@@ -408,8 +410,9 @@ class Tuning {
       if (trial.index % options_.trial_shards != options_.trial_shard) continue;
       for (int seed = 0; seed < options_.seeds; ++seed) {
         const std::string path = ResultsFile(trial, seed);
-        // Done by an earlier tune, or by an earlier attempt of this task.
-        if (EarlierRun(trial, options_.split, seed) != 0 || std::filesystem::exists(path)) continue;
+        // Done by an earlier tune, or by an earlier attempt of this task
+        // (a file that does not read as a shard file is evaluated again).
+        if (EarlierRun(trial, options_.split, seed) != 0 || ReadableShard(path)) continue;
         EvaluateCommandOptions evaluate = EvaluateOptionsFor(trial, options_.split, "tune", seed);
         evaluate.shard_count = 1;
         evaluate.shard_out = path;
@@ -423,6 +426,36 @@ class Tuning {
       std::fflush(stdout);
     }
     return summary_;
+  }
+
+  static bool ReadableShard(const std::string& path) {
+    if (!std::filesystem::exists(path)) return false;
+    try {
+      ParseShardFile(path);
+      return true;
+    } catch (const InputError& error) {
+      std::fprintf(stderr, "tune: %s: evaluated again\n", error.what());
+      return false;
+    }
+  }
+
+  // The final job of `tune --shards`: every task's file is there, reads and
+  // belongs to its trial before any trial is stored (one bad file would
+  // otherwise leave the first trials stored and the rest refused).
+  void CheckResultsFiles() {
+    for (const TuneTrial& trial : trials_) {
+      for (int seed = 0; seed < options_.seeds; ++seed) {
+        if (EarlierRun(trial, options_.split, seed) != 0) continue;
+        const std::string path = ResultsFile(trial, seed);
+        Require(std::filesystem::exists(path),
+                path + ": missing: trial " + std::to_string(trial.index) + " (detector seed " +
+                    std::to_string(seed) + ") was not evaluated; rerun 'tune --shards' to " +
+                    "resubmit its task");
+        EvaluateCommandOptions evaluate = EvaluateOptionsFor(trial, options_.split, "tune", seed);
+        evaluate.check_only = true;
+        MergeEvaluation(ModelFor(trial.training), options_.db_path, evaluate, {path});
+      }
+    }
   }
 
   std::string ResultsFile(const TuneTrial& trial, int seed) const {
