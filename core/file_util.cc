@@ -107,12 +107,33 @@ MappedFile::~MappedFile() {
 
 AtomicFile::AtomicFile(std::string path)
     : path_(std::move(path)), temp_path_(path_ + ".tmp-" + std::to_string(::getpid())) {
+  Require(path_ != "-", "-: this output cannot go to standard output; name a file");
   const std::filesystem::path parent = std::filesystem::path(path_).parent_path();
   std::error_code ec;
   if (!parent.empty() && !std::filesystem::is_directory(parent, ec)) {
     throw InputError(path_ + ": cannot write (directory " + parent.string() + " does not exist)");
   }
+  // A device, FIFO or socket is never replaced by a regular file (as root,
+  // a rename over /dev/stdout would replace the device node).
+  const std::filesystem::file_status status = std::filesystem::status(path_, ec);
+  if (!ec && std::filesystem::exists(status) && !std::filesystem::is_regular_file(status)) {
+    throw InputError(path_ + ": cannot write (not a regular file; outputs are regular files, " +
+                     "or '-' for standard output where a command offers it)");
+  }
 }
+
+namespace {
+
+// Flushes a file's or a folder's data to the disk (a power cut after the
+// rename then leaves the new content, never an empty file).
+void SyncPath(const std::string& path, int flags) {
+  const int fd = ::open(path.c_str(), flags | O_CLOEXEC);
+  if (fd < 0) return;  // e.g. a folder that cannot be opened: the rename still happened
+  ::fsync(fd);
+  ::close(fd);
+}
+
+}  // namespace
 
 AtomicFile::~AtomicFile() {
   if (!committed_) std::remove(temp_path_.c_str());
@@ -123,12 +144,22 @@ void AtomicFile::Commit() {
   if (!std::filesystem::exists(temp_path_, ec)) {
     throw InputError(path_ + ": cannot write (nothing was written)");
   }
+  SyncPath(temp_path_, O_RDONLY);
   std::filesystem::rename(temp_path_, path_, ec);
   if (ec) throw InputError(path_ + ": cannot write (" + ec.message() + ")");
   committed_ = true;
+  const std::filesystem::path parent = std::filesystem::path(path_).parent_path();
+  SyncPath(parent.empty() ? "." : parent.string(), O_RDONLY | O_DIRECTORY);
 }
 
 void WriteFileAtomically(const std::string& path, const std::string& bytes) {
+  if (path == "-") {  // standard output: written in place, a pipe or a terminal
+    if (std::fwrite(bytes.data(), 1, bytes.size(), stdout) != bytes.size() ||
+        std::fflush(stdout) != 0)
+      throw InputError("-: cannot write to standard output (" + std::string(std::strerror(errno)) +
+                       ")");
+    return;
+  }
   AtomicFile file(path);
   {
     std::ofstream out(file.TempPath(), std::ios::binary | std::ios::trunc);

@@ -48,13 +48,18 @@ class MappedFile {
   size_t size_ = 0;
 };
 
-// Writes to "<path>.tmp-<pid>" then renames over `path`; throws InputError
-// naming `path` on failure and removes the temporary file.
+// Writes to "<path>.tmp-<pid>", syncs it to the disk, renames it over
+// `path` and syncs the folder (a power cut leaves the old file or the new
+// one, never an empty one); throws InputError naming `path` on failure and
+// removes the temporary file. "-" writes to standard output instead. An
+// existing `path` that is not a regular file (a device, a FIFO) is refused,
+// never replaced.
 void WriteFileAtomically(const std::string& path, const std::string& bytes);
 
 // For writers that need a path rather than bytes (assimp, OpenCV, PCL):
-// write to TempPath(), then Commit(). Destroyed without Commit(), the
-// temporary file is removed and `path` is untouched.
+// write to TempPath(), then Commit() (synced as above). Destroyed without
+// Commit(), the temporary file is removed and `path` is untouched. Refuses
+// "-" and a `path` that exists and is not a regular file.
 class AtomicFile {
  public:
   explicit AtomicFile(std::string path);

@@ -1,4 +1,5 @@
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 
 #include <unistd.h>
 
@@ -80,6 +81,27 @@ TEST(FileUtil, ErrorsNameThePath) {
   EXPECT_THROW(WriteFileAtomically("/nonexistent/dir/out.txt", "x"), InputError);
   EXPECT_EQ(FileExtension("a/b/Model.PLY"), "ply");
   EXPECT_EQ(FileExtension("noext"), "");
+}
+
+// Issue 40: a FIFO or device is never replaced by a regular file; "-" is
+// standard output for bytes, refused for writers that need a path.
+TEST(FileUtil, NonRegularTargetsAreRefusedAndDashIsStandardOutput) {
+  const std::string dir = testing::ScratchDir();
+  const std::string fifo = dir + "/pipe";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  EXPECT_NE(testing::ErrorOf([&] { WriteFileAtomically(fifo, "x"); }).find("not a regular file"),
+            std::string::npos);
+  struct stat info {};
+  ASSERT_EQ(::stat(fifo.c_str(), &info), 0);
+  EXPECT_TRUE(S_ISFIFO(info.st_mode)) << "the FIFO was replaced";
+  EXPECT_NE(testing::ErrorOf([&] { WriteFileAtomically(dir, "x"); }).find("not a regular file"),
+            std::string::npos);
+  EXPECT_NE(testing::ErrorOf([&] { AtomicFile file("-"); }).find("standard output"),
+            std::string::npos);
+  ::testing::internal::CaptureStdout();
+  WriteFileAtomically("-", "{\"detections\": []}\n");
+  EXPECT_EQ(::testing::internal::GetCapturedStdout(), "{\"detections\": []}\n");
+  EXPECT_FALSE(std::filesystem::exists("-"));
 }
 
 TEST(FileUtil, UncommittedAtomicFileLeavesTargetUntouched) {

@@ -243,6 +243,9 @@ TEST(Cli, UsageMistakesExitWithTwo) {
                 .exit_code,
             2);
   EXPECT_EQ(RunWorkbench("--help").exit_code, 0);
+  const testing::CommandResult version = RunWorkbench("--version");
+  EXPECT_EQ(version.exit_code, 0);
+  EXPECT_EQ(version.output.rfind("workbench (furnidet) ", 0), 0u) << version.output;
 }
 
 TEST(CatalogCommands, ListingCountsClassesAndLoadsModels) {

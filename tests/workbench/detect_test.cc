@@ -505,6 +505,13 @@ TEST_F(DetectTest, CommandLineOnAPcdWritesJsonAndDebugPngs) {
     const cv::Mat image = cv::imread(dir + "/debug/" + png);
     EXPECT_FALSE(image.empty()) << png;
   }
+  // --out - pipes the JSON (the summary goes to standard error).
+  const testing::CommandResult piped =
+      testing::RunCommand("cd " + dir + " && " + FURN_WORKBENCH_BINARY + " detect --model " +
+                          *model_path_ + " --cloud scan.pcd --out - 2>/dev/null");
+  ASSERT_EQ(piped.exit_code, 0) << piped.output;
+  EXPECT_EQ(nlohmann::json::parse(piped.output)["detections"].size(), 1u) << piped.output;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/-"));
   // A mistake in the command: one line, exit code 1.
   const testing::CommandResult bad =
       testing::RunCommand(std::string(FURN_WORKBENCH_BINARY) + " detect --model " + dir +

@@ -43,7 +43,7 @@ constexpr Command kCommands[] = {
 void PrintUsage() {
   std::printf(
       "usage: workbench <command> [options]   (workbench <command> "
-      "--help)\n\ncommands:\n");
+      "--help; workbench --version)\n\ncommands:\n");
   for (const Command& command : kCommands) std::printf("  %-10s %s\n", command.name, command.help);
 }
 
@@ -53,6 +53,10 @@ int main(int argc, char** argv) {
   if (argc < 2 || std::strcmp(argv[1], "--help") == 0 || std::strcmp(argv[1], "-h") == 0) {
     PrintUsage();
     return argc < 2 ? 2 : 0;
+  }
+  if (std::strcmp(argv[1], "--version") == 0) {
+    std::printf("workbench (furnidet) %s\n", FURN_VERSION);
+    return 0;
   }
   for (const Command& command : kCommands) {
     if (std::strcmp(command.name, argv[1]) != 0) continue;
