@@ -506,10 +506,9 @@ TEST_F(DetectTest, CommandLineOnAPcdWritesJsonAndDebugPngs) {
     EXPECT_FALSE(image.empty()) << png;
   }
   // --out - pipes the JSON (the summary goes to standard error).
-  const testing::CommandResult piped =
-      testing::RunCommand("bash -c 'cd " + dir + " && " + FURN_WORKBENCH_BINARY +
-                          " detect --model " + *model_path_ +
-                          " --cloud scan.pcd --out - 2>/dev/null'");
+  const testing::CommandResult piped = testing::RunCommand(
+      "bash -c 'cd " + dir + " && " + FURN_WORKBENCH_BINARY + " detect --model " + *model_path_ +
+      " --cloud scan.pcd --out - 2>/dev/null'");
   ASSERT_EQ(piped.exit_code, 0) << piped.output;
   EXPECT_EQ(nlohmann::json::parse(piped.output)["detections"].size(), 1u) << piped.output;
   EXPECT_FALSE(std::filesystem::exists(dir + "/-"));
