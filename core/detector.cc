@@ -195,8 +195,11 @@ std::string DetectionDebug::Describe(const Hypothesis& h) {
                     h.outcome_values[1]);
       return text;
     case HypothesisOutcome::kBelowOperatingPoint:
-      std::snprintf(text, sizeof(text), "score %.2f below the operating point %.2f",
-                    h.outcome_values[0], h.outcome_values[1]);
+      std::snprintf(text,
+                    sizeof(text),
+                    "score %.2f below the operating point %.2f",
+                    h.outcome_values[0],
+                    h.outcome_values[1]);
       return text;
     case HypothesisOutcome::kDetected:
       return "detected";

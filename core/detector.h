@@ -45,10 +45,10 @@
 
 #include "core/floor.h"
 #include "core/hypothesis_scorer.h"
-#include "core/operating_point.h"
 #include "core/learned/bev_box_coder.h"
 #include "core/learned/vote_net.h"
 #include "core/occupancy.h"
+#include "core/operating_point.h"
 #include "core/pose_fit.h"
 #include "core/render_compare.h"
 #include "core/trainer.h"
@@ -224,15 +224,15 @@ DetectionBox BoxOf(const Detection& detection, const TrainedModel& model);
 // What became of a Hough maximum, in pipeline order (a later value is a
 // further stage): each stage a hypothesis can stop at (SPEC §8 steps 4 to 7).
 enum class HypothesisOutcome {
-  kNoSupport,        // no segment voted into it
-  kSameSupport,      // backed by the same segments as a stronger maximum of its class
-  kNoFit,            // no candidate model gave a pose
-  kLowCoverage,      // the best fit explains too few scene points in its box
-  kLowVerification,  // visibility score below min_verification
-  kLowSeenOccupied,  // too little of the fit's observable surface was seen
-  kSeenThrough,      // render-and-compare: the sensor saw through too much of the fit
-  kLowScore,         // ranking score below min_score (probability below min_probability)
-  kSuppressed,       // a better detection explains its points or overlaps it
+  kNoSupport,            // no segment voted into it
+  kSameSupport,          // backed by the same segments as a stronger maximum of its class
+  kNoFit,                // no candidate model gave a pose
+  kLowCoverage,          // the best fit explains too few scene points in its box
+  kLowVerification,      // visibility score below min_verification
+  kLowSeenOccupied,      // too little of the fit's observable surface was seen
+  kSeenThrough,          // render-and-compare: the sensor saw through too much of the fit
+  kLowScore,             // ranking score below min_score (probability below min_probability)
+  kSuppressed,           // a better detection explains its points or overlaps it
   kBelowOperatingPoint,  // a candidate whose score is below its class's operating point
   kDetected,
 };

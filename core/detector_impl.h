@@ -48,10 +48,10 @@ struct Detector::Impl {
   // above_m) are structure, like walls: no model can explain them.
   float structure_height_m = 0;
   std::unique_ptr<PartSubsetIndex> parts;
-  HypothesisScorer scorer;  // empty: the fixed gates decide
-  bool scored = false;      // the scorer decides (the model has one and use_scorer)
-  VoteNet vote_net;         // empty: the model has none
-  bool learned = false;     // hypotheses from vote_net
+  HypothesisScorer scorer;         // empty: the fixed gates decide
+  bool scored = false;             // the scorer decides (the model has one and use_scorer)
+  VoteNet vote_net;                // empty: the model has none
+  bool learned = false;            // hypotheses from vote_net
   OperatingPoint operating_point;  // the model's, under the options' overrides
   // Ray casts the models' meshes for render-and-compare; null for a model
   // file without meshes (its shape samples are splatted instead).

@@ -23,7 +23,7 @@ namespace furn {
 // the stages around them. In the order reports list them.
 enum class FunnelStage {
   kDetected,
-  kDetectedOffTarget,  // its maximum's detection lies farther than 10 cm or matched another
+  kDetectedOffTarget,    // its maximum's detection lies farther than 10 cm or matched another
   kBelowOperatingPoint,  // a candidate below its class's operating point (not in evaluate's runs)
   kSuppressed,
   kLowScore,

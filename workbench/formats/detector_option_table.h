@@ -140,11 +140,12 @@ void ForEachDetectorOption(Options* options, Visit&& visit) {
                            "Learned voting: a vote's weight is its membership times the class's "
                            "heat at its cell to this power (0: membership alone)"},
         o.learned_vote_heat_power);
-  visit(DetectorOptionInfo{"all_candidates",
-                           "--all-candidates",
-                           "Output every candidate (each maximum that passed its stages), not only "
-                           "those at the model's operating point (evaluate always sweeps them all)"},
-        o.all_candidates);
+  visit(
+      DetectorOptionInfo{"all_candidates",
+                         "--all-candidates",
+                         "Output every candidate (each maximum that passed its stages), not only "
+                         "those at the model's operating point (evaluate always sweeps them all)"},
+      o.all_candidates);
   static_assert(kAllClasses.size() == 5, "one operating-point option per class");
   visit(DetectorOptionInfo{"class_min_score.chair",
                            "--op-chair",
