@@ -35,9 +35,11 @@ def project(frame, points_world):
     return out
 
 
-def footprint(x, y, yaw, width, depth):
-    corners = np.array([[-width, -depth], [width, -depth], [width, depth], [-width, depth],
-                        [-width, -depth]]) / 2
+def footprint(box):
+    """The outline of a REP 103 box from above: its size along its own x (the
+    object's front) and y, turned by its yaw about its centre."""
+    (x, y, _), (sx, sy, _), yaw = box["centre"], box["size"], box["yaw"]
+    corners = np.array([[-sx, -sy], [sx, -sy], [sx, sy], [-sx, sy], [-sx, -sy]]) / 2
     rot = np.array([[math.cos(yaw), -math.sin(yaw)], [math.sin(yaw), math.cos(yaw)]])
     return corners @ rot.T + [x, y]
 
@@ -66,13 +68,18 @@ def main():
     depth = np.where(frame.depth > 0, frame.depth, np.nan)
     image = left.imshow(depth, cmap="viridis")
     fig.colorbar(image, ax=left, label="depth (m)")
+    # Markers above the image (zorder), truth as black-ringed white circles
+    # so that they show on bright and dark depth alike.
     for obj, uv in zip(targets, project(frame, [(o["x"], o["y"], 0.0) for o in targets])):
         if uv:
-            left.plot(*uv, "o", mfc="none", mec="white", ms=12)
+            left.plot(*uv, "o", mfc="none", mec="black", ms=14, mew=3, zorder=3)
+            left.plot(*uv, "o", mfc="none", mec="white", ms=14, mew=1.5, zorder=4)
     for d, uv in zip(detections, project(frame, [(d.x, d.y, 0.0) for d in detections])):
         if uv:
-            left.plot(*uv, "x", color=COLOURS.get(d.cls, "k"), ms=12, mew=3)
-            left.annotate(d.cls, uv, color="white", xytext=(6, -6), textcoords="offset points")
+            left.plot(*uv, "x", color="black", ms=13, mew=5, zorder=5)
+            left.plot(*uv, "x", color=COLOURS.get(d.cls, "k"), ms=12, mew=3, zorder=6)
+            left.annotate(d.cls, uv, color="white", xytext=(6, -6), textcoords="offset points",
+                          zorder=7, bbox=dict(boxstyle="round,pad=0.15", fc="black", alpha=0.6))
     left.set_title(f"frame {frame.id}: depth, truth (o) and detections (x) at floor level")
     left.axis("off")
 
@@ -86,16 +93,17 @@ def main():
     above = world[2] > 0.05  # the floor left out
     right.scatter(world[0, above], world[1, above], s=0.5, color="0.45", linewidths=0)
     for obj in targets:
-        w, d, _ = obj["size"]
-        xy = footprint(obj["x"], obj["y"], obj["yaw"], w, d)
+        xy = footprint(obj["box"])
         right.plot(xy[:, 0], xy[:, 1], color=COLOURS[obj["class"]], lw=1, ls="--")
-    for det in detections:
-        right.plot(det.x, det.y, "x", color=COLOURS.get(det.cls, "k"), ms=10, mew=3)
-        right.arrow(det.x, det.y, 0.25 * math.cos(det.yaw - math.pi / 2),
-                    0.25 * math.sin(det.yaw - math.pi / 2), color=COLOURS.get(det.cls, "k"),
-                    head_width=0.05)
+    for det in result.detections:  # REP 103: the arrow along the box's x, the front
+        colour = COLOURS.get(det.cls, "k")
+        xy = footprint(det.box)
+        right.plot(xy[:, 0], xy[:, 1], color=colour, lw=2)
+        right.plot(det.x, det.y, "x", color=colour, ms=10, mew=3)
+        right.arrow(det.x, det.y, 0.25 * math.cos(det.yaw), 0.25 * math.sin(det.yaw),
+                    color=colour, head_width=0.05)
     sensor = frame.world_from_camera[:3, 3]
-    right.set_title("from above: points (grey), truth (dashed), detections (x, front arrow)")
+    right.set_title("from above: points (grey), truth (dashed), detections (box, x, front arrow)")
     right.plot(sensor[0], sensor[1], "k^", ms=10, label="sensor")
     right.set_aspect("equal")
     right.grid(True, alpha=0.3)

@@ -97,8 +97,14 @@ class FurnidetTest(unittest.TestCase):
             self.assertEqual(len(result.detections), len(cli))
             for ours, theirs in zip(result.detections, cli):
                 self.assertEqual(ours.cls, theirs["class"])
-                self.assertAlmostEqual(ours.x, theirs["x"], places=3)
-                self.assertAlmostEqual(ours.y, theirs["y"], places=3)
+                self.assertAlmostEqual(ours.x, theirs["floor_point"][0], places=3)
+                self.assertAlmostEqual(ours.y, theirs["floor_point"][1], places=3)
+                self.assertAlmostEqual(ours.yaw, theirs["yaw"], places=3)
+                for a, b in zip(ours.box["centre"], theirs["centre"]):
+                    self.assertAlmostEqual(a, b, places=3)
+                for a, b in zip(ours.box["size"], theirs["size"]):
+                    self.assertAlmostEqual(a, b, places=3)
+                self.assertEqual(ours.model, theirs["model"])
                 self.assertAlmostEqual(ours.score, theirs["score"], places=3)
 
     def test_points_and_depth_give_the_same_detections(self):

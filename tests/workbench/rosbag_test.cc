@@ -20,6 +20,8 @@
 #include <map>
 #include <nlohmann/json.hpp>
 #include <sstream>
+#include <tuple>
+#include <unistd.h>
 
 #include "core/file_util.h"
 #include "db/dataset_db.h"
@@ -27,6 +29,8 @@
 #include "renderers/camera.h"
 #include "tests/test_util.h"
 #include "workbench/formats/bag_check.h"
+#include "workbench/formats/cdr.h"
+#include "workbench/formats/ros2_bag.h"
 #include "workbench/formats/rosbag_io.h"
 #include "workbench/formats/scan_file.h"
 
@@ -78,12 +82,17 @@ class RosbagTest : public ::testing::Test {
     EXPECT_EQ(r.exit_code, 0) << r.output;
     return nlohmann::json::parse(ReadFileBytes(out))["detections"];
   }
+  // A detection's floor point: detect's JSON (format 2) or a stored row's x, y.
+  static std::array<double, 2> FloorPoint(const nlohmann::json& d) {
+    if (d.contains("floor_point")) return {d["floor_point"][0], d["floor_point"][1]};
+    return {d["x"].get<double>(), d["y"].get<double>()};
+  }
   static void ExpectSameDetections(const nlohmann::json& a, const nlohmann::json& b) {
     ASSERT_EQ(a.size(), b.size());
     for (size_t i = 0; i < a.size(); ++i) {
       EXPECT_EQ(a[i]["class"], b[i]["class"]);
-      EXPECT_NEAR(a[i]["x"].get<double>(), b[i]["x"].get<double>(), 1e-6);
-      EXPECT_NEAR(a[i]["y"].get<double>(), b[i]["y"].get<double>(), 1e-6);
+      EXPECT_NEAR(FloorPoint(a[i])[0], FloorPoint(b[i])[0], 1e-6);
+      EXPECT_NEAR(FloorPoint(a[i])[1], FloorPoint(b[i])[1], 1e-6);
       EXPECT_NEAR(a[i]["score"].get<double>(), b[i]["score"].get<double>(), 1e-6);
     }
   }
@@ -146,9 +155,11 @@ TEST_F(RosbagTest, ExportedFramesReadBackAsTheDatasetHasThem) {
     EXPECT_NEAR(box.pose.position.x, object.reference_x, 1e-9);
     EXPECT_NEAR(box.pose.position.y, object.reference_y, 1e-9);
     EXPECT_NEAR(box.pose.position.z, object.height / 2, 1e-9);
+    // REP 103: the box's x is the object's front, the model's -y.
     const double yaw = 2 * std::atan2(box.pose.orientation.z, box.pose.orientation.w);
-    EXPECT_NEAR(std::remainder(yaw - object.yaw, 2 * M_PI), 0, 1e-9);
-    EXPECT_NEAR(box.scale.x, object.width, 1e-9);
+    EXPECT_NEAR(std::remainder(yaw - (object.yaw - M_PI / 2), 2 * M_PI), 0, 1e-6);
+    EXPECT_NEAR(box.scale.x, object.depth, 1e-6);
+    EXPECT_NEAR(box.scale.y, object.width, 1e-6);
     EXPECT_EQ(box.text, object.model_id);
   }
 }
@@ -184,7 +195,8 @@ TEST_F(RosbagTest, DetectionOverTheBagEqualsDetectionOverTheDatasetAndWritesMark
       EXPECT_EQ(array->markers[i].type, visualization_msgs::Marker::CUBE);
       EXPECT_EQ(array->markers[i + 1].type, visualization_msgs::Marker::TEXT_VIEW_FACING);
       const nlohmann::json& d = lines[k]["detections"][(i - 1) / 2];
-      EXPECT_NEAR(array->markers[i].pose.position.x, d["x"].get<double>(), 1e-6);
+      EXPECT_NEAR(array->markers[i].pose.position.x, d["centre"][0].get<double>(), 1e-6);
+      EXPECT_NEAR(array->markers[i].pose.position.z, d["centre"][2].get<double>(), 1e-6);
       ++boxes;
     }
     ++k;
@@ -212,6 +224,109 @@ TEST_F(RosbagTest, DetectionOverTheBagEqualsDetectionOverTheDatasetAndWritesMark
     ExpectSameDetections(line["detections"], stored);
   }
   EXPECT_FALSE(std::filesystem::exists(marked + ".partial"));
+}
+
+// ROS 2: the same dataset exported as a ROS 2 bag folder reads back as the
+// ROS 1 bag does, frame for frame; detection over it gives the same lines
+// and writes markers and vision_msgs/Detection3DArray beside a copy of it.
+TEST_F(RosbagTest, Ros2BagsMatchTheRos1PathFrameForFrame) {
+  const std::string ros2 = *dir_ + "/s_ros2";
+  const testing::CommandResult exported =
+      Workbench("dataset export " + Db() + " --format rosbag --out " + ros2);
+  ASSERT_EQ(exported.exit_code, 0) << exported.output;
+  ASSERT_TRUE(std::filesystem::exists(ros2 + "/metadata.yaml"));
+  ASSERT_TRUE(std::filesystem::exists(ros2 + "/s_ros2_0.db3"));
+  BagScanOptions options;
+  options.topic = "/camera/depth/image_raw";
+  std::vector<BagScan> one, two;
+  options.bag_path = Bag();
+  ForEachScanInBag(options, [&](const BagScan& scan) { one.push_back(scan); });
+  options.bag_path = ros2;
+  ForEachScanInBag(options, [&](const BagScan& scan) { two.push_back(scan); });
+  ASSERT_EQ(one.size(), 8u);
+  ASSERT_EQ(two.size(), one.size());
+  for (size_t k = 0; k < one.size(); ++k) {
+    EXPECT_EQ(two[k].frame_id, one[k].frame_id);
+    EXPECT_NEAR(two[k].stamp, one[k].stamp, 1e-9);
+    EXPECT_EQ(two[k].total, one[k].total);
+    EXPECT_TRUE(two[k].pose_from_tf);
+    ASSERT_EQ(two[k].loaded.input.points.size(), one[k].loaded.input.points.size());
+    EXPECT_TRUE(two[k].loaded.input.points == one[k].loaded.input.points);
+    EXPECT_TRUE(two[k].loaded.input.world_from_camera->isApprox(
+        *one[k].loaded.input.world_from_camera, 1e-12));
+    EXPECT_EQ(two[k].loaded.camera.fx, one[k].loaded.camera.fx);
+  }
+  // Ground truth: the marker arrays carry the same bytes a ROS 2 reader decodes.
+  std::map<std::string, int> per_topic;
+  ForEachRos2Message(ros2, [&](const Ros2Message& m) { ++per_topic[m.topic]; });
+  for (const char* topic : {"/tf", "/camera/depth/camera_info", "/camera/depth/image_raw",
+                            "/camera/depth/ids", "/furnidet/ground_truth"})
+    EXPECT_EQ(per_topic[topic], 8) << topic;
+
+  // Detection: the same JSON lines from either bag; the output bag holds the
+  // input's messages, one MarkerArray and one Detection3DArray per scan.
+  const std::string lines1 = *dir_ + "/r1.jsonl", lines2 = *dir_ + "/r2.jsonl";
+  const std::string marked = *dir_ + "/marked_ros2";
+  for (const auto& [bag, out, extra] :
+       {std::tuple{Bag(), lines1, std::string()}, std::tuple{ros2, lines2, " --out-bag " + marked}}) {
+    const testing::CommandResult r =
+        Workbench("detect --quiet --model " + Model() + " --bag " + bag +
+                  " --topic /camera/depth/image_raw --out " + out + extra);
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+  }
+  const std::vector<nlohmann::json> a = JsonLines(lines1), b = JsonLines(lines2);
+  ASSERT_EQ(a.size(), b.size());
+  for (size_t k = 0; k < a.size(); ++k) ExpectSameDetections(a[k]["detections"], b[k]["detections"]);
+  std::map<std::string, int> out_topics;
+  size_t scan = 0, boxes = 0;
+  ForEachRos2Message(marked, [&](const Ros2Message& m) {
+    ++out_topics[m.topic];
+    if (m.topic != "/furnidet/detections_3d") return;
+    EXPECT_EQ(m.type, "vision_msgs/msg/Detection3DArray");
+    // Detection3DArray: header, then per detection header, one hypothesis
+    // (class, score, pose with covariance), the box (pose, size), id.
+    CdrReader in(m.data.data(), m.data.size(), "detections_3d");
+    auto header = [&] {
+      in.Read<int32_t>();
+      in.Read<uint32_t>();
+      return in.String("frame_id");
+    };
+    EXPECT_EQ(header(), "world");
+    const nlohmann::json& detections = b.at(scan)["detections"];
+    ASSERT_EQ(in.SequenceLength("detections", 1), detections.size());
+    for (const nlohmann::json& d : detections) {
+      header();
+      ASSERT_EQ(in.SequenceLength("results", 1), 1u);
+      EXPECT_EQ(in.String("class_id"), d["class"].get<std::string>());
+      EXPECT_NEAR(in.Read<double>(), d["score"].get<double>(), 1e-9);
+      for (int i = 0; i < 7 + 36; ++i) in.Read<double>();
+      for (int i = 0; i < 3; ++i) EXPECT_NEAR(in.Read<double>(), d["centre"][i].get<double>(), 1e-9);
+      const double qx = in.Read<double>(), qy = in.Read<double>(), qz = in.Read<double>(),
+                   qw = in.Read<double>();
+      EXPECT_NEAR(qx, d["quaternion"][0].get<double>(), 1e-9);
+      EXPECT_NEAR(qy, d["quaternion"][1].get<double>(), 1e-9);
+      EXPECT_NEAR(std::abs(qz * d["quaternion"][2].get<double>() + qw * d["quaternion"][3].get<double>()),
+                  1, 1e-9);
+      for (int i = 0; i < 3; ++i) EXPECT_NEAR(in.Read<double>(), d["size"][i].get<double>(), 1e-9);
+      in.String("id");
+      ++boxes;
+    }
+    EXPECT_LT(in.remaining(), 4u);
+    ++scan;
+  });
+  EXPECT_EQ(scan, 8u);
+  EXPECT_GT(boxes, 0u);
+  EXPECT_EQ(out_topics["/furnidet/detections"], 8);
+  for (const auto& [topic, count] : per_topic) EXPECT_EQ(out_topics[topic], count) << topic;
+  // A rerun replaces the bag folder and keeps one set of detections.
+  ASSERT_EQ(Workbench("detect --quiet --model " + Model() + " --bag " + ros2 +
+                      " --topic /camera/depth/image_raw --out " + lines2 + " --out-bag " + marked)
+                .exit_code,
+            0);
+  int again = 0;
+  ForEachRos2Message(marked, [&](const Ros2Message& m) { again += m.topic == "/furnidet/detections"; });
+  EXPECT_EQ(again, 8);
+  EXPECT_FALSE(std::filesystem::exists(marked + ".partial-" + std::to_string(getpid())));
 }
 
 TEST_F(RosbagTest, PointCloud2WithPaddingAndNoTfFindsTheFloor) {
@@ -275,8 +390,8 @@ TEST_F(RosbagTest, PointCloud2WithPaddingAndNoTfFindsTheFloor) {
   EXPECT_EQ(lines[1]["pose_source"], "tf: world <- kinect_posed");
   ExpectSameDetections(lines[1]["detections"], DetectFrame(frame.id));
   // The floor found in the first: the camera at the frame's height.
-  const std::vector<double> pose = lines[0]["world_from_camera"];  // column-major
-  EXPECT_NEAR(pose[14], frame.world_from_camera.translation().z(), 0.03);
+  const std::vector<std::vector<double>> pose = lines[0]["world_from_camera"];  // rows
+  EXPECT_NEAR(pose[2][3], frame.world_from_camera.translation().z(), 0.03);
 }
 
 TEST_F(RosbagTest, BadBagsAndTopicsGetOneClearLine) {

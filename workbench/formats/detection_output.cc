@@ -5,6 +5,8 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "core/conventions.h"
+
 namespace furn {
 
 std::string DetectionLine(const Detection& d) {
@@ -26,32 +28,50 @@ std::string DetectionLine(const Detection& d) {
   return text;
 }
 
-std::string DetectionJson(const DetectionResult& result, const LoadedScan& scan, bool one_line) {
+namespace {
+
+// A number, or null where the value does not exist (an unfitted detection
+// has no verification).
+nlohmann::ordered_json NumberOrNull(bool exists, double value) {
+  return exists ? nlohmann::ordered_json(value) : nlohmann::ordered_json(nullptr);
+}
+
+nlohmann::ordered_json Vector3Json(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
+
+}  // namespace
+
+nlohmann::ordered_json DetectionBoxJson(const Detection& d, const TrainedModel& model) {
+  const DetectionBox local = BoxOf(d, model);
+  const OrientedBox box = BoxInWorld(
+      Eigen::Vector3d(d.x, d.y, d.z), d.yaw, local.low.cast<double>(), local.high.cast<double>());
+  const bool fitted = d.model_index >= 0;
+  return {{"class", ClassName(d.furniture_class)},
+          {"score", d.score},
+          {"centre", Vector3Json(box.centre)},
+          {"size", Vector3Json(box.size)},
+          {"yaw", box.yaw},
+          {"quaternion", QuaternionXyzw(box.yaw)},
+          {"floor_point", {d.x, d.y}},
+          {"model", fitted ? nlohmann::ordered_json(d.model_name) : nlohmann::ordered_json(nullptr)},
+          {"size_source", d.width > 0 ? "network" : (fitted ? "model" : "class")},
+          {"vote_weight", d.vote_weight},
+          {"verification", NumberOrNull(fitted, d.verification)},
+          {"covered_fraction", NumberOrNull(fitted, d.covered_fraction)}};
+}
+
+std::string DetectionJson(const DetectionResult& result,
+                          const LoadedScan& scan,
+                          const TrainedModel& model,
+                          bool one_line) {
   nlohmann::ordered_json detections = nlohmann::ordered_json::array();
-  for (const Detection& d : result.detections) {
-    detections.push_back({{"class", ClassName(d.furniture_class)},
-                          {"x", d.x},
-                          {"y", d.y},
-                          {"z", d.z},
-                          {"yaw", d.yaw},
-                          {"model", d.model_name},
-                          {"score", d.score},
-                          {"vote_weight", d.vote_weight},
-                          {"verification", d.verification},
-                          {"covered_fraction", d.covered_fraction}});
-    if (d.width > 0) {  // learned voting: the network's footprint
-      detections.back()["width"] = d.width;
-      detections.back()["depth"] = d.depth;
-    }
-  }
+  for (const Detection& d : result.detections) detections.push_back(DetectionBoxJson(d, model));
   nlohmann::ordered_json timings = nlohmann::ordered_json::object();
   for (const StageTime& t : result.timings_ms.stages) timings[EnumName(t.stage)] = t.ms;
-  const Eigen::Matrix4d pose = result.world_from_camera.matrix();
   nlohmann::ordered_json json{
+      {"format", kDetectionJsonFormat},
+      {"conventions", kConventionsText},
       {"input", scan.description},
-      {"frame", "world: floor at z = 0, z up; x, y, z of the footprint centre; yaw about z"},
-      {"world_from_camera", std::vector<double>(pose.data(), pose.data() + 16)},
-      {"world_from_camera_layout", "4x4 column-major"},
+      {"world_from_camera", PoseRows(result.world_from_camera)},
       {"floor_estimated", result.floor_estimated},
       {"pose_source",
        scan.pose_source.empty() ? std::string(result.floor_estimated ? "floor estimated" : "given")

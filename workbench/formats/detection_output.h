@@ -5,6 +5,7 @@
 //   std::printf("%s", DetectionJson(result, scan).c_str());
 #pragma once
 
+#include <nlohmann/json.hpp>
 #include <string>
 
 #include "core/detector.h"
@@ -12,10 +13,24 @@
 
 namespace furn {
 
+// The detection JSON's format. 2 (this one): poses as four rows, each
+// detection a REP 103 box (centre, size, yaw, quaternion), model and
+// verification null when there was no fit. 1 had a column-major pose and
+// the CAD model's x, y, z, yaw (front -y). docs/conventions.md.
+inline constexpr int kDetectionJsonFormat = 2;
+inline constexpr const char* kConventionsText =
+    "SI units, radians; world: floor at z = 0, z up; boxes REP 103 (x = the object's front, "
+    "yaw of x about z in (-pi, pi], quaternion x, y, z, w); poses as 4 rows "
+    "(docs/conventions.md)";
+
+// One detection as its JSON object (REP 103 box, docs/conventions.md).
+nlohmann::ordered_json DetectionBoxJson(const Detection& detection, const TrainedModel& model);
+
 // Detections, pose used, timings, as JSON text: indented, or on one line
 // (JSON lines of a batch).
 std::string DetectionJson(const DetectionResult& result,
                           const LoadedScan& scan,
+                          const TrainedModel& model,
                           bool one_line = false);
 
 // A JSON line for a scan of a batch that could not be detected in.

@@ -59,11 +59,10 @@ int FrameBagWriter::Finish() { NoRos(); }
 #include "workbench/formats/camera_file.h"
 #include "workbench/formats/depth_png.h"
 #include "workbench/formats/point_fields.h"
+#include "workbench/formats/ros_common.h"
 
 namespace furn {
 namespace {
-
-constexpr char kCameraFrame[] = "camera_depth_optical_frame";
 
 std::string TimeText(const ros::Time& time) {
   char text[32];
@@ -107,103 +106,49 @@ void OpenBag(const std::string& path, rosbag::Bag* bag) {
   }
 }
 
-// /tf and /tf_static: every edge's transforms over time (parent_from_child).
-class TfBuffer {
- public:
-  // Throws InputError naming `where` and the transform for non-finite
-  // values or a rotation that is not a unit quaternion (tf2 refuses them too).
-  void Add(const tf2_msgs::TFMessage& message, bool is_static, const std::string& where) {
-    for (const geometry_msgs::TransformStamped& t : message.transforms) {
-      const auto& q = t.transform.rotation;
-      const auto& p = t.transform.translation;
-      Eigen::Quaterniond rotation(q.w, q.x, q.y, q.z);
-      const double norm = rotation.norm();
-      char text[160];
-      std::snprintf(text,
-                    sizeof(text),
-                    " at %.3f: translation (%g, %g, %g), rotation of norm %g; it must be finite "
-                    "with a unit quaternion",
-                    t.header.stamp.toSec(),
-                    p.x,
-                    p.y,
-                    p.z,
-                    norm);
-      Require(std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z) &&
-                  std::isfinite(norm) && std::abs(norm - 1) < 0.01,
-              where + ": transform " + Strip(t.header.frame_id).substr(0, 64) + " -> " +
-                  Strip(t.child_frame_id).substr(0, 64) + text);
-      Edge& edge = edges_[Strip(t.child_frame_id)];
-      edge.parent = Strip(t.header.frame_id);
-      edge.samples.push_back(
-          {is_static ? -std::numeric_limits<double>::infinity() : t.header.stamp.toSec(),
-           rotation.normalized(),
-           Eigen::Vector3d(p.x, p.y, p.z)});
-    }
-  }
-  void Sort() {
-    for (auto& [child, edge] : edges_) {
-      std::stable_sort(edge.samples.begin(), edge.samples.end(), [](const auto& a, const auto& b) {
-        return a.time < b.time;
-      });
-    }
-  }
-  bool empty() const { return edges_.empty(); }
+RosHeader HeaderOf(const std_msgs::Header& header) {
+  return {header.stamp.toSec(), header.frame_id, header.seq};
+}
 
-  // target_from_source at `time`, walking up from source; none when the
-  // chain does not reach target.
-  std::optional<Eigen::Isometry3d> Lookup(const std::string& target,
-                                          const std::string& source,
-                                          double time) const {
-    Eigen::Isometry3d target_from_frame = Eigen::Isometry3d::Identity();
-    std::string frame = Strip(source);
-    for (int depth = 0; depth < 64; ++depth) {
-      if (frame == Strip(target)) return target_from_frame;
-      const auto it = edges_.find(frame);
-      if (it == edges_.end() || it->second.samples.empty()) return std::nullopt;
-      target_from_frame = At(it->second, time) * target_from_frame;
-      frame = it->second.parent;
-    }
-    return std::nullopt;
-  }
+std_msgs::Header Ros1Header(const RosHeader& header) {
+  std_msgs::Header out;
+  out.stamp.fromSec(header.stamp);
+  out.frame_id = header.frame_id;
+  out.seq = header.seq;
+  return out;
+}
 
- private:
-  struct Sample {
-    double time;
-    Eigen::Quaterniond rotation;
-    Eigen::Vector3d translation;
-  };
-  struct Edge {
-    std::string parent;
-    std::vector<Sample> samples;
-  };
-  static std::string Strip(const std::string& frame) {
-    return !frame.empty() && frame[0] == '/' ? frame.substr(1) : frame;
-  }
-  // Interpolated between the samples around `time`, held at the ends.
-  static Eigen::Isometry3d At(const Edge& edge, double time) {
-    const auto& s = edge.samples;
-    auto after = std::lower_bound(
-        s.begin(), s.end(), time, [](const Sample& a, double t) { return a.time < t; });
-    const Sample* a = &s.front();
-    const Sample* b = &s.front();
-    double share = 0;
-    if (after == s.end()) {
-      a = b = &s.back();
-    } else if (after != s.begin()) {
-      a = &*(after - 1);
-      b = &*after;
-      share = std::isfinite(a->time) && b->time > a->time ? (time - a->time) / (b->time - a->time)
-                                                          : 1.0;
-    } else {
-      a = b = &*after;
-    }
-    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-    pose.linear() = a->rotation.slerp(share, b->rotation).toRotationMatrix();
-    pose.translation() = (1 - share) * a->translation + share * b->translation;
-    return pose;
-  }
-  std::map<std::string, Edge> edges_;
-};
+RosImage ImageOf(const sensor_msgs::Image& image) {
+  return {HeaderOf(image.header),
+          image.height,
+          image.width,
+          image.encoding,
+          image.is_bigendian != 0,
+          image.step,
+          image.data};
+}
+
+RosCameraInfo InfoOf(const sensor_msgs::CameraInfo& info) {
+  RosCameraInfo out;
+  out.header = HeaderOf(info.header);
+  out.width = info.width;
+  out.height = info.height;
+  std::copy(info.K.begin(), info.K.end(), out.k.begin());
+  return out;
+}
+
+RosPointCloud2 CloudOf(const sensor_msgs::PointCloud2& cloud) {
+  RosPointCloud2 out;
+  out.header = HeaderOf(cloud.header);
+  out.height = cloud.height;
+  out.width = cloud.width;
+  for (const auto& f : cloud.fields) out.fields.push_back({f.name, f.offset, f.datatype, f.count});
+  out.is_bigendian = cloud.is_bigendian != 0;
+  out.point_step = cloud.point_step;
+  out.row_step = cloud.row_step;
+  out.data = cloud.data;
+  return out;
+}
 
 TfBuffer ReadTf(rosbag::Bag& bag, const std::string& path) {
   TfBuffer tf;
@@ -214,79 +159,24 @@ TfBuffer ReadTf(rosbag::Bag& bag, const std::string& path) {
       if (m.getDataType() != "tf2_msgs/TFMessage") continue;
       const bool is_static = m.getTopic().find("tf_static") != std::string::npos;
       const std::string where = path + " " + m.getTopic();
-      if (const auto message = CheckedInstantiate<tf2_msgs::TFMessage>(m, where))
-        tf.Add(*message, is_static, where);
+      const auto message = CheckedInstantiate<tf2_msgs::TFMessage>(m, where);
+      if (message == nullptr) continue;
+      for (const geometry_msgs::TransformStamped& t : message->transforms) {
+        RosTransform plain;
+        plain.header = HeaderOf(t.header);
+        plain.child_frame_id = t.child_frame_id;
+        plain.translation << t.transform.translation.x, t.transform.translation.y,
+            t.transform.translation.z;
+        const auto& q = t.transform.rotation;
+        plain.rotation = Eigen::Quaterniond(q.w, q.x, q.y, q.z);
+        tf.Add(plain, is_static, where);
+      }
     }
   } catch (...) {
     RethrowAsInputError(path + " /tf");
   }
   tf.Sort();
   return tf;
-}
-
-// Camera-frame points of a PointCloud2: its x, y, z fields (FLOAT32 or FLOAT64).
-DetectionInput PointsOf(const sensor_msgs::PointCloud2& cloud, const std::string& where) {
-  DetectionInput input;
-  input.points = DecodeXyz(PackedPointsOf(cloud), where);
-  if (cloud.height > 1) {
-    input.width = static_cast<int>(cloud.width);
-    input.height = static_cast<int>(cloud.height);
-  }
-  return input;
-}
-
-CameraIntrinsics IntrinsicsOf(const sensor_msgs::CameraInfo& info, const std::string& where) {
-  Require(info.width >= 1 && info.width <= 16384 && info.height >= 1 && info.height <= 16384,
-          where + ": CameraInfo size " + std::to_string(info.width) + "x" +
-              std::to_string(info.height) + " must be in 1..16384 each");
-  return CameraFromMatrix(std::vector<double>(info.K.begin(), info.K.end()),
-                          static_cast<int>(info.width),
-                          static_cast<int>(info.height),
-                          where + ": CameraInfo K");
-}
-
-DepthFrame DepthOf(const sensor_msgs::Image& image, double depth_scale, const std::string& where) {
-  const uint64_t width = image.width, height = image.height;
-  Require(width > 0 && height > 0 && width <= 16384 && height <= 16384,
-          where + ": image size " + std::to_string(width) + "x" + std::to_string(height) +
-              " must be 1..16384 a side");
-  const bool is16 = image.encoding == "16UC1" || image.encoding == "mono16";
-  const bool is32f = image.encoding == "32FC1";
-  Require(is16 || is32f,
-          where + ": depth encoding '" + image.encoding + "' must be 16UC1, mono16 or 32FC1");
-  const uint64_t bytes = is16 ? 2 : 4;
-  Require(image.step >= width * bytes,
-          where + ": step " + std::to_string(image.step) + " is less than width x " +
-              std::to_string(bytes));
-  Require(image.data.size() >= height * image.step,
-          where + ": data holds " + std::to_string(image.data.size()) +
-              " bytes, less than height x step");
-  Require(!image.is_bigendian, where + ": big-endian depth images are not supported");
-  DepthFrame frame;
-  frame.Resize(static_cast<int>(width), static_cast<int>(height));
-  const double scale = is16 ? (depth_scale > 0 ? depth_scale : 1000.0) : 1.0;
-  for (uint64_t v = 0; v < height; ++v) {
-    const uint8_t* row = image.data.data() + v * image.step;
-    for (uint64_t u = 0; u < width; ++u) {
-      double z;
-      if (is16) {
-        uint16_t raw;
-        std::memcpy(&raw, row + 2 * u, 2);
-        z = raw / scale;
-      } else {
-        float raw;
-        std::memcpy(&raw, row + 4 * u, 4);
-        z = raw;
-      }
-      frame.depth[v * width + u] = std::isfinite(z) && z > 0 ? static_cast<float>(z) : 0.0f;
-    }
-  }
-  return frame;
-}
-
-std::string Namespace(const std::string& topic) {
-  const size_t slash = topic.rfind('/');
-  return slash == std::string::npos ? std::string() : topic.substr(0, slash);
 }
 
 void SetPose(const Eigen::Isometry3d& pose, geometry_msgs::Pose* out) {
@@ -311,39 +201,22 @@ void SetTransform(const Eigen::Isometry3d& pose, geometry_msgs::Transform* out) 
   out->rotation.z = q.z();
 }
 
-// A cube for a box of `size` standing on the floor at (x, y) turned by yaw,
-// in `frame_from_world` (identity: the world frame).
-visualization_msgs::Marker BoxMarker(const std::string& ns,
-                                     int id,
-                                     std::optional<FurnitureClass> furniture_class,
-                                     double x,
-                                     double y,
-                                     double yaw,
-                                     const Eigen::Vector3d& size,
-                                     const Eigen::Isometry3d& frame_from_world) {
+visualization_msgs::Marker Ros1Marker(const RosMarker& m) {
   visualization_msgs::Marker marker;
-  marker.ns = ns;
-  marker.id = id;
-  marker.type = visualization_msgs::Marker::CUBE;
-  marker.action = visualization_msgs::Marker::ADD;
-  Eigen::Isometry3d world_from_box = Eigen::Isometry3d::Identity();
-  world_from_box.translation() = Eigen::Vector3d(x, y, size.z() / 2);
-  world_from_box.linear() = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
-  SetPose(frame_from_world * world_from_box, &marker.pose);
-  marker.scale.x = std::max(size.x(), 0.01);
-  marker.scale.y = std::max(size.y(), 0.01);
-  marker.scale.z = std::max(size.z(), 0.01);
-  const std::array<uint8_t, 3> rgb = ClassColourRgb(furniture_class);
-  marker.color.r = rgb[0] / 255.0f;
-  marker.color.g = rgb[1] / 255.0f;
-  marker.color.b = rgb[2] / 255.0f;
-  marker.color.a = 0.5f;
-  return marker;
-}
-
-visualization_msgs::Marker ClearMarkers() {
-  visualization_msgs::Marker marker;
-  marker.action = 3;  // DELETEALL (ROS Kinetic and later)
+  marker.header = Ros1Header(m.header);
+  marker.ns = m.ns;
+  marker.id = m.id;
+  marker.type = m.type;
+  marker.action = m.action;
+  SetPose(m.pose, &marker.pose);
+  marker.scale.x = m.scale.x();
+  marker.scale.y = m.scale.y();
+  marker.scale.z = m.scale.z();
+  marker.color.r = m.rgba[0];
+  marker.color.g = m.rgba[1];
+  marker.color.b = m.rgba[2];
+  marker.color.a = m.rgba[3];
+  marker.text = m.text;
   return marker;
 }
 
@@ -366,77 +239,48 @@ std::string TopicType(rosbag::Bag& bag, const BagScanOptions& options) {
 
 // The first CameraInfo of the topic, so an image recorded before its first
 // CameraInfo still has intrinsics.
-CameraIntrinsics FirstCameraInfo(rosbag::Bag& bag,
-                                 const BagScanOptions& options,
-                                 const std::string& info_topic) {
+void FirstCameraInfo(rosbag::Bag& bag,
+                     const std::string& info_topic,
+                     const std::string& where,
+                     BagScanAssembler* scans) {
   rosbag::View info_view(bag, rosbag::TopicQuery(info_topic));
   for (const rosbag::MessageInstance& m : info_view) {
-    if (const auto info =
-            CheckedInstantiate<sensor_msgs::CameraInfo>(m, options.bag_path + " " + info_topic))
-      return IntrinsicsOf(*info, options.bag_path + " " + info_topic);
+    if (const auto info = CheckedInstantiate<sensor_msgs::CameraInfo>(m, where)) {
+      scans->OnCameraInfo(InfoOf(*info), where);
+      return;
+    }
   }
-  throw InputError(options.bag_path + ": no sensor_msgs/CameraInfo on " + info_topic +
-                   " for the images of " + options.topic + " (name it with --camera-info)");
 }
 
-// A message of the topic as a scan: a cloud's points, or an image's
-// back-projected through the latest CameraInfo; its header's frame, stamp
-// and sequence.
+// A message of the scan topic as a scan.
 BagScan ScanOfMessage(const rosbag::MessageInstance& m,
                       const std::string& type,
-                      const std::optional<CameraIntrinsics>& camera,
-                      const BagScanOptions& options,
-                      const std::string& info_topic,
+                      const BagScanAssembler& scans,
                       const std::string& where) {
-  BagScan scan;
-  scan.topic = m.getTopic();
-  scan.bag_time = m.getTime().toSec();
-  std_msgs::Header header;
   if (type == "sensor_msgs/PointCloud2") {
-    const sensor_msgs::PointCloud2::ConstPtr cloud =
-        CheckedInstantiate<sensor_msgs::PointCloud2>(m, where);
+    const auto cloud = CheckedInstantiate<sensor_msgs::PointCloud2>(m, where);
     Require(cloud != nullptr, where + ": not a sensor_msgs/PointCloud2");
-    scan.loaded.input = PointsOf(*cloud, where);
-    header = cloud->header;
-  } else {
-    const sensor_msgs::Image::ConstPtr image = CheckedInstantiate<sensor_msgs::Image>(m, where);
-    Require(image != nullptr, where + ": not a sensor_msgs/Image");
-    DepthFrame depth = DepthOf(*image, options.depth_scale, where);
-    Require(depth.width == camera->width && depth.height == camera->height,
-            where + ": the image is " + std::to_string(depth.width) + "x" +
-                std::to_string(depth.height) + " but the CameraInfo of " + info_topic + " is for " +
-                std::to_string(camera->width) + "x" + std::to_string(camera->height));
-    scan.loaded.input.points = BackProject(depth, *camera);
-    scan.loaded.input.width = depth.width;
-    scan.loaded.input.height = depth.height;
-    scan.loaded.camera = *camera;
-    header = image->header;
+    return scans.OnCloud(CloudOf(*cloud), m.getTopic(), m.getTime().toSec());
   }
-  scan.frame_id = header.frame_id;
-  scan.stamp = header.stamp.toSec();
-  scan.seq = header.seq;
-  scan.loaded.description = options.bag_path + ":" + scan.topic + "@" + TimeText(header.stamp);
-  return scan;
+  const auto image = CheckedInstantiate<sensor_msgs::Image>(m, where);
+  Require(image != nullptr, where + ": not a sensor_msgs/Image");
+  return scans.OnImage(ImageOf(*image), m.getTopic(), m.getTime().toSec(), where);
 }
 
 }  // namespace
 
 int ForEachBagScan(const BagScanOptions& options, const std::function<void(const BagScan&)>& each) {
-  Require(!options.topic.empty(), "--bag needs --topic");
-  Require(
-      options.depth_scale >= 0 && std::isfinite(options.depth_scale) && options.depth_scale <= 1e6,
-      "--depth-scale " + std::to_string(options.depth_scale) + " must be in 0..1e6");
+  CheckBagScanOptions(options);
   rosbag::Bag bag;
   OpenBag(options.bag_path, &bag);
   const TfBuffer tf = options.world_frame.empty() ? TfBuffer() : ReadTf(bag, options.bag_path);
-  const std::string info_topic = options.camera_info_topic.empty()
-                                     ? Namespace(options.topic) + "/camera_info"
-                                     : options.camera_info_topic;
-  int scans = 0;
+  const std::string info_topic = CameraInfoTopic(options);
+  BagScanAssembler scans(options, &tf, info_topic);
+  int count = 0;
   try {
     const std::string type = TopicType(bag, options);
-    std::optional<CameraIntrinsics> camera;
-    if (type == "sensor_msgs/Image") camera = FirstCameraInfo(bag, options, info_topic);
+    if (type == "sensor_msgs/Image")
+      FirstCameraInfo(bag, info_topic, options.bag_path + " " + info_topic, &scans);
     const int total = static_cast<int>(rosbag::View(bag, rosbag::TopicQuery(options.topic)).size());
     rosbag::View view(bag, rosbag::TopicQuery(std::vector<std::string>{options.topic, info_topic}));
     for (const rosbag::MessageInstance& m : view) {
@@ -444,26 +288,18 @@ int ForEachBagScan(const BagScanOptions& options, const std::function<void(const
           options.bag_path + " " + m.getTopic() + " at " + TimeText(m.getTime());
       if (m.getTopic() == info_topic && m.getTopic() != options.topic) {
         if (const auto info = CheckedInstantiate<sensor_msgs::CameraInfo>(m, where))
-          camera = IntrinsicsOf(*info, where);
+          scans.OnCameraInfo(InfoOf(*info), where);
         continue;
       }
-      BagScan scan = ScanOfMessage(m, type, camera, options, info_topic, where);
+      BagScan scan = ScanOfMessage(m, type, scans, where);
       scan.total = total;
-      if (!tf.empty()) {
-        const double time = scan.stamp == 0 ? scan.bag_time : scan.stamp;  // no header stamp
-        if (const auto pose = tf.Lookup(options.world_frame, scan.frame_id, time)) {
-          scan.loaded.input.world_from_camera = *pose;
-          scan.loaded.pose_source = "tf: " + options.world_frame + " <- " + scan.frame_id;
-          scan.pose_from_tf = true;
-        }
-      }
       each(scan);
-      ++scans;
+      ++count;
     }
   } catch (...) {
     RethrowAsInputError(options.bag_path);
   }
-  return scans;
+  return count;
 }
 
 struct BagMarkerWriter::Impl {
@@ -509,45 +345,17 @@ void BagMarkerWriter::Add(const BagScan& scan,
                           const DetectionResult& result,
                           const TrainedModel& model) {
   visualization_msgs::MarkerArray markers;
-  ros::Time stamp;
   const double seconds = scan.stamp > 0 ? scan.stamp : scan.bag_time;
   char text_of_time[64];
   std::snprintf(text_of_time, sizeof(text_of_time), "%.17g", seconds);
   Require(seconds >= 0 && seconds < 4294967295.0,
           scan.loaded.description + ": its time stamp " + text_of_time +
               " s lies outside ROS time (0 to 2^32 s): no marker can carry it");
-  stamp.fromSec(seconds);
-  // The world frame of TF, else the sensor's frame (the detector's floor
-  // frame exists only inside this scan).
-  const std::string& frame = scan.pose_from_tf ? impl_->world_frame : scan.frame_id;
-  const Eigen::Isometry3d frame_from_world =
-      scan.pose_from_tf ? Eigen::Isometry3d::Identity() : result.world_from_camera.inverse();
-  markers.markers.push_back(ClearMarkers());
-  int id = 0;
-  for (const Detection& d : result.detections) {
-    const std::string name = ClassName(d.furniture_class);
-    const DetectionBox detection_box = BoxOf(d, model);
-    const Eigen::Vector3d size = (detection_box.high - detection_box.low).cast<double>();
-    visualization_msgs::Marker box = BoxMarker(
-        "furnidet/" + name, id, d.furniture_class, d.x, d.y, d.yaw, size, frame_from_world);
-    visualization_msgs::Marker label = box;
-    label.ns = "furnidet/labels";
-    label.type = visualization_msgs::Marker::TEXT_VIEW_FACING;
-    char text[96];
-    std::snprintf(text, sizeof(text), "%s %.2f", name.c_str(), d.score);
-    label.text = text;
-    label.pose.position.z += size.z() / 2 + 0.15;
-    label.scale.x = label.scale.y = label.scale.z = 0.15;
-    label.color.a = 1;
-    for (visualization_msgs::Marker* m : {&box, &label}) {
-      m->header.frame_id = frame;
-      m->header.stamp = stamp;
-      markers.markers.push_back(*m);
-    }
-    ++id;
-  }
-  markers.markers.front().header.frame_id = frame;
-  markers.markers.front().header.stamp = stamp;
+  RosHeader header;
+  header.stamp = seconds;
+  header.frame_id = MarkerFrame(scan, impl_->world_frame);
+  for (const RosMarker& m : DetectionMarkers(result, model, header, FrameFromWorld(scan, result)))
+    markers.markers.push_back(Ros1Marker(m));
   ros::Time bag_time;
   bag_time.fromSec(scan.bag_time);
   try {
@@ -579,57 +387,35 @@ void BagMarkerWriter::Finish() {
 
 namespace {
 
-sensor_msgs::Image DepthImage(const DepthFrame& depth, const std_msgs::Header& header) {
-  sensor_msgs::Image image;
-  image.header = header;
-  image.width = depth.width;
-  image.height = depth.height;
-  image.encoding = "16UC1";
-  image.is_bigendian = 0;
-  image.step = 2 * depth.width;
-  image.data.resize(image.step * image.height);
-  for (size_t i = 0; i < depth.depth.size(); ++i) {
-    const uint16_t mm = static_cast<uint16_t>(std::lround(depth.depth[i] * 1000.0));
-    std::memcpy(&image.data[2 * i], &mm, 2);
-  }
-  return image;
+sensor_msgs::Image Ros1Image(const RosImage& image) {
+  sensor_msgs::Image out;
+  out.header = Ros1Header(image.header);
+  out.width = image.width;
+  out.height = image.height;
+  out.encoding = image.encoding;
+  out.is_bigendian = image.is_bigendian;
+  out.step = image.step;
+  out.data = image.data;
+  return out;
 }
 
-sensor_msgs::CameraInfo CameraInfoOf(const FrameRecord& frame, const std_msgs::Header& header) {
-  sensor_msgs::CameraInfo info;
-  info.header = header;
-  info.width = frame.width;
-  info.height = frame.height;
-  info.distortion_model = "plumb_bob";
-  info.D.assign(5, 0.0);
-  info.K = {frame.fx, 0, frame.cx, 0, frame.fy, frame.cy, 0, 0, 1};
-  info.R = {1, 0, 0, 0, 1, 0, 0, 0, 1};
-  info.P = {frame.fx, 0, frame.cx, 0, 0, frame.fy, frame.cy, 0, 0, 0, 1, 0};
-  return info;
+sensor_msgs::CameraInfo Ros1CameraInfo(const RosCameraInfo& info) {
+  sensor_msgs::CameraInfo out;
+  out.header = Ros1Header(info.header);
+  out.width = info.width;
+  out.height = info.height;
+  out.distortion_model = info.distortion_model;
+  out.D = info.d;
+  std::copy(info.k.begin(), info.k.end(), out.K.begin());
+  std::copy(info.r.begin(), info.r.end(), out.R.begin());
+  std::copy(info.p.begin(), info.p.end(), out.P.begin());
+  return out;
 }
 
-// A cube per object of the room, namespace its class or "clutter".
-visualization_msgs::MarkerArray TruthMarkers(const RoomRecord& room, const ros::Time& stamp) {
-  visualization_msgs::MarkerArray truth;
-  truth.markers.push_back(ClearMarkers());
-  truth.markers.front().header.frame_id = "world";
-  truth.markers.front().header.stamp = stamp;
-  for (const ObjectRecord& object : room.objects) {
-    visualization_msgs::Marker box =
-        BoxMarker(object.furniture_class ? ClassName(*object.furniture_class) : "clutter",
-                  object.instance_id,
-                  object.furniture_class,
-                  object.reference_x,
-                  object.reference_y,
-                  object.yaw,
-                  Eigen::Vector3d(object.width, object.depth, object.height),
-                  Eigen::Isometry3d::Identity());
-    box.header.frame_id = "world";
-    box.header.stamp = stamp;
-    box.text = object.model_id;
-    truth.markers.push_back(box);
-  }
-  return truth;
+visualization_msgs::MarkerArray Ros1Markers(const std::vector<RosMarker>& markers) {
+  visualization_msgs::MarkerArray out;
+  for (const RosMarker& m : markers) out.markers.push_back(Ros1Marker(m));
+  return out;
 }
 
 }  // namespace
@@ -671,30 +457,26 @@ void FrameBagWriter::Write(const RoomRecord& room,
                            const std::string& where) {
   try {
     const int written = impl_->frames;
-    ros::Time stamp(1 + written / 10, (written % 10) * 100000000);
-    std_msgs::Header header;
-    header.stamp = stamp;
-    header.frame_id = kCameraFrame;
-    header.seq = static_cast<uint32_t>(frame.id);
-    const sensor_msgs::Image image =
-        DepthImage(DecodeDepthPng(frame.depth_noisy_png, where), header);
-    sensor_msgs::Image ids = image;
-    DepthFrame labels;
-    labels.Resize(frame.width, frame.height);
-    DecodeIdPng(frame.ids_png, where + " ids", &labels);
-    std::memcpy(ids.data.data(), labels.instance_ids.data(), 2 * labels.instance_ids.size());
+    const RecordedFrame recorded = RecordFrame(room, frame, written, where);
+    // Whole tenths of seconds as ROS 1 time: no rounding through a double.
+    const ros::Time stamp(1 + written / 10, (written % 10) * 100000000);
+    sensor_msgs::Image image = Ros1Image(recorded.depth), ids = Ros1Image(recorded.ids);
+    sensor_msgs::CameraInfo info = Ros1CameraInfo(recorded.info);
+    image.header.stamp = ids.header.stamp = info.header.stamp = stamp;
     tf2_msgs::TFMessage tf;
     geometry_msgs::TransformStamped transform;
     transform.header.stamp = stamp;
-    transform.header.frame_id = "world";
-    transform.child_frame_id = kCameraFrame;
+    transform.header.frame_id = recorded.world_from_camera.header.frame_id;
+    transform.child_frame_id = recorded.world_from_camera.child_frame_id;
     SetTransform(frame.world_from_camera, &transform.transform);
     tf.transforms.push_back(transform);
+    visualization_msgs::MarkerArray truth = Ros1Markers(recorded.truth);
+    for (visualization_msgs::Marker& m : truth.markers) m.header.stamp = stamp;
     impl_->bag.write("/tf", stamp, tf);
-    impl_->bag.write("/camera/depth/camera_info", stamp, CameraInfoOf(frame, header));
+    impl_->bag.write("/camera/depth/camera_info", stamp, info);
     impl_->bag.write("/camera/depth/image_raw", stamp, image);
     impl_->bag.write("/camera/depth/ids", stamp, ids);
-    impl_->bag.write("/furnidet/ground_truth", stamp, TruthMarkers(room, stamp));
+    impl_->bag.write("/furnidet/ground_truth", stamp, truth);
     ++impl_->frames;
   } catch (...) {
     RethrowAsInputError(impl_->out_path);

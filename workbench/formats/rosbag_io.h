@@ -58,10 +58,31 @@ struct BagScan {
 // message. Returns the number of scans.
 int ForEachBagScan(const BagScanOptions& options, const std::function<void(const BagScan&)>& each);
 
+// Where `detect --bag --out-bag` writes each scan's detections (ROS 1 or 2).
+class DetectionBagSink {
+ public:
+  virtual ~DetectionBagSink() = default;
+  // Markers of one scan's detections, stamped as its message. In the world
+  // frame when its pose came from TF, else in the message's own frame.
+  virtual void Add(const BagScan& scan, const DetectionResult& result, const TrainedModel& model) = 0;
+  // Copies every message of the input bag and moves the output into place.
+  virtual void Finish() = 0;
+};
+
+// Where `dataset export --format rosbag` writes frames (ROS 1 or 2).
+class FrameBagSink {
+ public:
+  virtual ~FrameBagSink() = default;
+  // `where` names the frame in errors.
+  virtual void Write(const RoomRecord& room, const FrameRecord& frame, const std::string& where) = 0;
+  // Returns the frames written.
+  virtual int Finish() = 0;
+};
+
 // A copy of a bag with one visualization_msgs/MarkerArray per scan added on
 // `marker_topic` (cubes of the fitted models' boxes coloured by class, and
 // labels); written to a temporary name and renamed by Finish.
-class BagMarkerWriter {
+class BagMarkerWriter : public DetectionBagSink {
  public:
   // `world_frame`: the TF frame of scans whose pose came from TF
   // (BagScanOptions::world_frame).
@@ -69,14 +90,11 @@ class BagMarkerWriter {
                   const std::string& out_bag,
                   std::string world_frame,
                   std::string marker_topic = "/furnidet/detections");
-  ~BagMarkerWriter();
+  ~BagMarkerWriter() override;
   BagMarkerWriter(const BagMarkerWriter&) = delete;
   BagMarkerWriter& operator=(const BagMarkerWriter&) = delete;
-  // Markers of one scan's detections, stamped as its message. In the world
-  // frame when its pose came from TF, else in the message's own frame.
-  void Add(const BagScan& scan, const DetectionResult& result, const TrainedModel& model);
-  // Copies every message of the input bag and moves the file into place.
-  void Finish();
+  void Add(const BagScan& scan, const DetectionResult& result, const TrainedModel& model) override;
+  void Finish() override;
 
  private:
   struct Impl;
@@ -92,14 +110,12 @@ class BagMarkerWriter {
 // apart from t = 1 s. Written to <out>.partial and moved into place by
 // Finish(); destroyed unfinished, it leaves no file. Chunks are LZ4
 // compressed unless `compress` is false.
-class FrameBagWriter {
+class FrameBagWriter : public FrameBagSink {
  public:
   explicit FrameBagWriter(const std::string& out_bag, bool compress = true);
-  ~FrameBagWriter();
-  // `where` names the frame in errors.
-  void Write(const RoomRecord& room, const FrameRecord& frame, const std::string& where);
-  // Returns the frames written.
-  int Finish();
+  ~FrameBagWriter() override;
+  void Write(const RoomRecord& room, const FrameRecord& frame, const std::string& where) override;
+  int Finish() override;
 
  private:
   struct Impl;

@@ -3,7 +3,9 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <filesystem>
 #include <map>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
 
@@ -12,6 +14,7 @@
 #include "core/progress.h"
 #include "reports/detection_debug.h"
 #include "workbench/formats/detection_output.h"
+#include "workbench/formats/ros2_bag.h"
 
 namespace furn {
 namespace {
@@ -76,7 +79,7 @@ int DetectOneScan(const LoadedScan& scan, const Detector& detector, const Detect
                         GroundTruthInDetectorFrame(scan, result),
                         run.debug_dir);
   }
-  Emit(DetectionJson(result, scan), run);
+  Emit(DetectionJson(result, scan, detector.model()), run);
   if (!run.quiet) PrintDetections(scan, result);
   if (run.explain) std::fputs(ExplainDetection(result, detector.model()).c_str(), stderr);
   if (run.timings || run.repeat > 1) PrintStageTimes(result, stage_times, run.repeat);
@@ -101,7 +104,7 @@ int DetectBatch(const std::vector<ScanSource>& sources,
         lines += ScanErrorJson(scan.description, result.message);
         ++failed;
       } else {
-        lines += DetectionJson(result, scan, /*one_line=*/true);
+        lines += DetectionJson(result, scan, detector.model(), /*one_line=*/true);
         totals.push_back(result.timings_ms.Of(DetectionStage::kTotal));
         if (run.explain) Explain(scan.description, result, detector);
       }
@@ -129,13 +132,13 @@ int DetectBatch(const std::vector<ScanSource>& sources,
 
 // One message's JSON line: its place in the bag first, then what
 // DetectionJson (or the error line) says.
-std::string BagLine(const BagScan& scan, const DetectionResult& result) {
+std::string BagLine(const BagScan& scan, const DetectionResult& result, const TrainedModel& model) {
   const nlohmann::ordered_json place{
       {"topic", scan.topic}, {"stamp", scan.stamp}, {"seq", scan.seq}, {"frame_id", scan.frame_id}};
   const std::string place_text = place.dump();  // {"topic":...}
   const std::string line = result.status != DetectionStatus::kDetected
                                ? ScanErrorJson(scan.loaded.description, result.message)
-                               : DetectionJson(result, scan.loaded, /*one_line=*/true);
+                               : DetectionJson(result, scan.loaded, model, /*one_line=*/true);
   // Both are one-line JSON objects: splice the place in after the brace.
   return place_text.substr(0, place_text.size() - 1) + "," + line.substr(1);
 }
@@ -170,15 +173,18 @@ int DetectScans(const std::vector<ScanSource>& sources, bool batch, const Detect
 int DetectInBag(const BagScanOptions& bag,
                 const std::string& out_bag,
                 const DetectRunOptions& run) {
-  RequireRegularFile(bag.bag_path);  // before the model loads: a wrong path fails at once
+  // Before the model loads: a wrong path fails at once.
+  std::error_code ec;
+  Require(std::filesystem::exists(bag.bag_path, ec), bag.bag_path + ": does not exist");
+  if (!std::filesystem::is_directory(bag.bag_path, ec)) RequireRegularFile(bag.bag_path);
   const Detector detector(LoadTrainedModel(run.model_path), run.detector);
-  std::optional<BagMarkerWriter> markers;
-  if (!out_bag.empty()) markers.emplace(bag.bag_path, out_bag, bag.world_frame);
+  std::unique_ptr<DetectionBagSink> markers;
+  if (!out_bag.empty()) markers = OpenDetectionBag(bag.bag_path, out_bag, bag.world_frame);
   std::string lines;
   std::vector<double> totals;
   int without = 0;
   std::optional<Progress> progress;
-  ForEachBagScan(bag, [&](const BagScan& scan) {
+  ForEachScanInBag(bag, [&](const BagScan& scan) {
     if (!progress) progress.emplace("detect", scan.total, "messages");  // its clock starts here
     const DetectionResult result = detector.Detect(scan.loaded.input, /*keep_debug=*/false);
     if (result.status != DetectionStatus::kDetected) {
@@ -186,7 +192,7 @@ int DetectInBag(const BagScanOptions& bag,
     } else {
       totals.push_back(result.timings_ms.Of(DetectionStage::kTotal));
     }
-    lines += BagLine(scan, result);
+    lines += BagLine(scan, result, detector.model());
     if (markers) markers->Add(scan, result, detector.model());
     if (run.explain) Explain(scan.loaded.description, result, detector);
     progress->Advance();

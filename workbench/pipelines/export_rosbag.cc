@@ -5,7 +5,7 @@
 #include "core/error.h"
 #include "core/progress.h"
 #include "db/dataset_db.h"
-#include "workbench/formats/rosbag_io.h"
+#include "workbench/formats/ros2_bag.h"
 
 namespace furn {
 
@@ -23,15 +23,15 @@ int ExportRosbag(const std::string& db_path, const std::string& out_bag, const s
   Require(frames_total > 0,
           db_path + ": no frames in split '" + std::string(EnumName(selected)) + "'");
   Progress progress("export", frames_total, "frames");
-  FrameBagWriter writer(out_bag);
+  const std::unique_ptr<FrameBagSink> writer = OpenFrameBag(out_bag);
   for (int64_t room_id : rooms) {
     const RoomRecord room = dataset.ReadRoom(room_id, /*with_images=*/true);
     for (const FrameRecord& frame : room.frames) {
-      writer.Write(room, frame, db_path + " frame " + std::to_string(frame.id));
+      writer->Write(room, frame, db_path + " frame " + std::to_string(frame.id));
       progress.Advance();
     }
   }
-  const int written = writer.Finish();
+  const int written = writer->Finish();
   progress.Finish();
   return written;
 }

@@ -27,6 +27,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "core/conventions.h"
 #include "core/detector.h"
 #include "core/error.h"
 #include "core/furniture_class.h"
@@ -150,6 +151,16 @@ struct PyFrame {
   }
 };
 
+py::dict BoxDict(const OrientedBox& box) {
+  py::dict d;
+  d["centre"] = py::make_tuple(box.centre.x(), box.centre.y(), box.centre.z());
+  d["size"] = py::make_tuple(box.size.x(), box.size.y(), box.size.z());
+  d["yaw"] = box.yaw;
+  const std::array<double, 4> q = QuaternionXyzw(box.yaw);
+  d["quaternion"] = py::make_tuple(q[0], q[1], q[2], q[3]);
+  return d;
+}
+
 py::dict ObjectDict(const ObjectRecord& object, const FrameObjectRecord* seen) {
   py::dict d;
   d["instance_id"] = object.instance_id;
@@ -159,8 +170,14 @@ py::dict ObjectDict(const ObjectRecord& object, const FrameObjectRecord* seen) {
   d["x"] = object.reference_x;  // the reference point: footprint centre on the floor
   d["y"] = object.reference_y;
   d["z"] = object.z;
-  d["yaw"] = object.yaw;
-  d["size"] = py::make_tuple(object.width, object.depth, object.height);
+  // REP 103 (docs/conventions.md): the box's x is the object's front.
+  const OrientedBox box = BoxInWorld(Eigen::Vector3d(object.reference_x, object.reference_y, object.z),
+                                     object.yaw,
+                                     Eigen::Vector3d(-object.width / 2, -object.depth / 2, 0),
+                                     Eigen::Vector3d(object.width / 2, object.depth / 2, object.height));
+  d["yaw"] = box.yaw;
+  d["size"] = py::make_tuple(box.size.x(), box.size.y(), box.size.z());
+  d["box"] = BoxDict(box);
   d["visibility"] = seen ? seen->visibility : 0.0;
   d["visible_pixels"] = seen ? seen->visible_pixels : 0;
   d["amodal_pixels"] = seen ? seen->amodal_pixels : 0;
@@ -291,6 +308,17 @@ DetectorOptions OptionsFromPython(const py::object& options) {
   return DetectorOptionsFromJson(text, "options");
 }
 
+// A detection as Python sees it: the engine's, with its REP 103 box
+// (docs/conventions.md), which needs the model that detected it.
+struct PyDetection {
+  Detection detection;
+  OrientedBox box;
+};
+struct PyResult {
+  DetectionResult result;
+  std::vector<PyDetection> detections;
+};
+
 class PyDetector {
  public:
   PyDetector(const std::string& model_path, const py::object& options)
@@ -298,7 +326,7 @@ class PyDetector {
 
   // Depth in metres (float) or in 1/depth_scale metres (integers; default
   // 1000: millimetres); 0 or non-finite: no return.
-  DetectionResult DetectDepth(const py::array& depth,
+  PyResult DetectDepth(const py::array& depth,
                               const py::object& k,
                               const py::object& world_from_camera,
                               std::optional<double> depth_scale) const {
@@ -347,7 +375,7 @@ class PyDetector {
   }
 
   // Camera-frame points, (N, 3) or organised (H, W, 3), metres; NaN: none.
-  DetectionResult DetectPoints(const py::array& points, const py::object& world_from_camera) const {
+  PyResult DetectPoints(const py::array& points, const py::object& world_from_camera) const {
     const auto xyz = py::array_t<float, py::array::c_style | py::array::forcecast>::ensure(points);
     if (!xyz) throw InputError("points must hold numbers");
     DetectionInput input;
@@ -375,9 +403,19 @@ class PyDetector {
   std::vector<std::string> ModelNames() const { return detector_.model().model_names; }
 
  private:
-  DetectionResult Run(const DetectionInput& input) const {
+  PyResult Run(const DetectionInput& input) const {
     py::gil_scoped_release release;
-    return detector_.Detect(input);
+    PyResult out;
+    out.result = detector_.Detect(input);
+    for (const Detection& d : out.result.detections) {
+      const DetectionBox local = BoxOf(d, detector_.model());
+      out.detections.push_back({d,
+                                BoxInWorld(Eigen::Vector3d(d.x, d.y, d.z),
+                                           d.yaw,
+                                           local.low.cast<double>(),
+                                           local.high.cast<double>())});
+    }
+    return out;
   }
   Detector detector_;
 };
@@ -478,43 +516,67 @@ PYBIND11_MODULE(_furnidet, m) {
       .def("runs", &PyDataset::Runs)
       .def("run_metrics", &PyDataset::RunMetrics, py::arg("run_id"));
 
-  py::class_<Detection>(m, "Detection", "One detected piece: world frame, floor at z = 0.")
-      .def_property_readonly("cls", [](const Detection& d) { return ClassName(d.furniture_class); })
-      .def_readonly("x", &Detection::x)
-      .def_readonly("y", &Detection::y)
-      .def_readonly("z", &Detection::z)
-      .def_readonly("yaw", &Detection::yaw)
-      .def_readonly("model", &Detection::model_name)
-      .def_readonly("score", &Detection::score)
-      .def_readonly("vote_weight", &Detection::vote_weight)
-      .def_readonly("verification", &Detection::verification)
-      .def_readonly("covered_fraction", &Detection::covered_fraction)
-      .def("__repr__", [](const Detection& d) {
+  // Conventions version 2 (docs/conventions.md): yaw and box REP 103, x the object's front.
+  m.attr("CONVENTIONS") = 2;
+  py::class_<PyDetection>(
+      m,
+      "Detection",
+      "One detected piece, world frame (floor at z = 0, z up): x, y the floor point under it; "
+      "yaw and box REP 103 (x = the object's front, radians); model and verification None "
+      "without a fit.")
+      .def_property_readonly("cls",
+                             [](const PyDetection& d) { return ClassName(d.detection.furniture_class); })
+      .def_property_readonly("x", [](const PyDetection& d) { return d.detection.x; })
+      .def_property_readonly("y", [](const PyDetection& d) { return d.detection.y; })
+      .def_property_readonly("z", [](const PyDetection& d) { return d.detection.z; })
+      .def_property_readonly("yaw", [](const PyDetection& d) { return d.box.yaw; })
+      .def_property_readonly("box", [](const PyDetection& d) { return BoxDict(d.box); })
+      .def_property_readonly("model",
+                             [](const PyDetection& d) -> py::object {
+                               if (d.detection.model_index < 0) return py::none();
+                               return py::str(d.detection.model_name);
+                             })
+      .def_property_readonly("score", [](const PyDetection& d) { return d.detection.score; })
+      .def_property_readonly("vote_weight",
+                             [](const PyDetection& d) { return d.detection.vote_weight; })
+      .def_property_readonly("verification",
+                             [](const PyDetection& d) -> py::object {
+                               if (d.detection.model_index < 0) return py::none();
+                               return py::float_(d.detection.verification);
+                             })
+      .def_property_readonly("covered_fraction",
+                             [](const PyDetection& d) -> py::object {
+                               if (d.detection.model_index < 0) return py::none();
+                               return py::float_(d.detection.covered_fraction);
+                             })
+      .def("__repr__", [](const PyDetection& p) {
         char text[160];
         std::snprintf(text,
                       sizeof(text),
                       "<furnidet.Detection %s x=%.3f y=%.3f yaw=%.3f score=%.3f>",
-                      ClassName(d.furniture_class),
-                      d.x,
-                      d.y,
-                      d.yaw,
-                      d.score);
+                      ClassName(p.detection.furniture_class),
+                      p.detection.x,
+                      p.detection.y,
+                      p.box.yaw,
+                      p.detection.score);
         return std::string(text);
       });
 
-  py::class_<DetectionResult>(m, "DetectionResult")
-      .def_property_readonly("status", [](const DetectionResult& r) { return EnumName(r.status); })
-      .def_readonly("message", &DetectionResult::message)
-      .def_readonly("detections", &DetectionResult::detections)
-      .def_readonly("floor_estimated", &DetectionResult::floor_estimated)
-      .def_readonly("points", &DetectionResult::points)
-      .def_readonly("segments", &DetectionResult::segments)
+  py::class_<PyResult>(m, "DetectionResult")
+      .def_property_readonly("status", [](const PyResult& r) { return EnumName(r.result.status); })
+      .def_property_readonly("message", [](const PyResult& r) { return r.result.message; })
+      .def_readonly("detections", &PyResult::detections)
+      .def_property_readonly("floor_estimated",
+                             [](const PyResult& r) { return r.result.floor_estimated; })
+      .def_property_readonly("points", [](const PyResult& r) { return r.result.points; })
+      .def_property_readonly("segments", [](const PyResult& r) { return r.result.segments; })
       .def_property_readonly(
           "world_from_camera",
-          [](const DetectionResult& r) { return MatrixArray(r.world_from_camera.matrix()); })
-      .def_property_readonly("timings_ms", [](const DetectionResult& r) {
+          [](const PyResult& r) { return MatrixArray(r.result.world_from_camera.matrix()); })
+      .def_property_readonly("timings_ms", [](const PyResult& r) {
         py::dict timings;
-        for (const StageTime& t : r.timings_ms.stages) timings[py::str(EnumName(t.stage))] = t.ms;
+        for (const StageTime& t : r.result.timings_ms.stages)
+          timings[py::str(EnumName(t.stage))] = t.ms;
         return timings;
       });
 

@@ -1,0 +1,533 @@
+#include "workbench/formats/ros2_bag.h"
+
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <climits>
+#include <deque>
+#include <filesystem>
+#include <map>
+#include <set>
+#include <unistd.h>
+
+#include "core/error.h"
+#include "core/file_util.h"
+#include "db/sqlite.h"
+#include "workbench/formats/ros2_messages.h"
+#include "workbench/formats/ros_common.h"
+
+namespace furn {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr int64_t kMaxMessageBytes = int64_t{1} << 28;  // 256 MiB: 100 raw 1080p depth frames
+constexpr int kMaxTopics = 10000;
+
+std::string SecondsText(int64_t time_ns) {
+  char text[32];
+  std::snprintf(text, sizeof(text), "%.3f", time_ns * 1e-9);
+  return text;
+}
+
+// The number after the last '_' of a file's stem (rosbag2 splits: x_0, x_1, ...).
+int64_t SplitIndex(const fs::path& file) {
+  const std::string stem = file.stem().string();
+  const size_t underscore = stem.rfind('_');
+  if (underscore == std::string::npos) return 0;
+  try {
+    return std::stoll(stem.substr(underscore + 1));
+  } catch (const std::exception&) {
+    return 0;
+  }
+}
+
+// The .db3 files of a bag, in split order.
+std::vector<std::string> BagFiles(const std::string& path) {
+  std::error_code ec;
+  if (!fs::is_directory(path, ec)) {
+    RequireRegularFile(path);
+    Require(fs::exists(path, ec), path + ": does not exist");
+    return {path};
+  }
+  std::vector<fs::path> files;
+  bool other_storage = false;
+  for (const fs::directory_entry& entry : fs::directory_iterator(path, ec)) {
+    const std::string name = entry.path().filename().string();
+    if (entry.path().extension() == ".db3") files.push_back(entry.path());
+    if (entry.path().extension() == ".mcap" || name.find(".db3.") != std::string::npos)
+      other_storage = true;
+  }
+  Require(!ec, path + ": cannot list the bag folder (" + ec.message() + ")");
+  Require(!files.empty(),
+          path + (other_storage ? ": MCAP or compressed storage is not read here; convert with "
+                                  "'ros2 bag convert' to sqlite3 without compression"
+                                : ": no .db3 file (a ROS 2 bag folder holds metadata.yaml and "
+                                  "<name>_0.db3)"));
+  std::sort(files.begin(), files.end(), [](const fs::path& a, const fs::path& b) {
+    return std::make_pair(SplitIndex(a), a.string()) < std::make_pair(SplitIndex(b), b.string());
+  });
+  std::vector<std::string> paths;
+  for (const fs::path& file : files) paths.push_back(file.string());
+  return paths;
+}
+
+struct Topic {
+  std::string name, type, serialization;
+};
+
+// One .db3 of a bag, opened read-only; its tables checked before use.
+class BagFile {
+ public:
+  explicit BagFile(const std::string& path) : path_(path), db_(Open(path)) {
+    // A hostile file may define its tables as views calling functions.
+    db_.Execute("PRAGMA trusted_schema = OFF");
+    for (const char* table : {"topics", "messages"}) {
+      Statement kind(&db_, "SELECT type FROM sqlite_master WHERE name = ?");
+      kind.Bind(1, std::string(table));
+      Require(kind.Step() && kind.ColumnText(0) == "table",
+              path + ": no '" + table + "' table: not a rosbag2 SQLite file");
+    }
+    Statement topics(&db_, "SELECT id, name, type, serialization_format FROM topics");
+    while (topics.Step()) {
+      Require(static_cast<int>(topics_.size()) < kMaxTopics,
+              path + ": more than " + std::to_string(kMaxTopics) + " topics");
+      const std::string name = topics.ColumnText(1), type = topics.ColumnText(2);
+      Require(name.size() <= 256 && type.size() <= 256,
+              path + ": a topic name or type longer than 256 bytes");
+      topics_[topics.ColumnInt(0)] = {name, type, topics.ColumnText(3)};
+    }
+  }
+  const std::map<int64_t, Topic>& topics() const { return topics_; }
+
+  // Topic ids of the names (and, when not empty, of the type).
+  std::set<int64_t> Ids(const std::set<std::string>& names, const std::string& type = "") const {
+    std::set<int64_t> ids;
+    for (const auto& [id, topic] : topics_) {
+      if (names.count(topic.name) && (type.empty() || topic.type == type)) ids.insert(id);
+    }
+    return ids;
+  }
+
+  int64_t Count(const std::set<int64_t>& ids) {
+    if (ids.empty()) return 0;
+    Statement count(&db_, "SELECT COUNT(*) FROM messages WHERE topic_id IN (" + List(ids) + ")");
+    return count.Step() ? count.ColumnInt(0) : 0;
+  }
+
+  // The messages of the topics in time order; a message above
+  // kMaxMessageBytes is refused before it is read.
+  void ForEach(const std::set<int64_t>& ids, const std::function<void(const Ros2Message&)>& each) {
+    if (ids.empty()) return;
+    Statement rows(&db_,
+                   "SELECT topic_id, timestamp, length(data), CASE WHEN length(data) <= " +
+                       std::to_string(kMaxMessageBytes) +
+                       " THEN data END FROM messages WHERE topic_id IN (" + List(ids) +
+                       ") ORDER BY timestamp, id");
+    Ros2Message message;
+    while (rows.Step()) {
+      const Topic& topic = topics_.at(rows.ColumnInt(0));
+      message.topic = topic.name;
+      message.type = topic.type;
+      message.time_ns = rows.ColumnInt(1);
+      Require(rows.ColumnInt(2) <= kMaxMessageBytes,
+              path_ + " " + topic.name + " at " + SecondsText(message.time_ns) + ": a message of " +
+                  std::to_string(rows.ColumnInt(2)) + " bytes, more than " +
+                  std::to_string(kMaxMessageBytes));
+      Require(topic.serialization == "cdr",
+              path_ + " " + topic.name + ": serialization '" + topic.serialization.substr(0, 32) +
+                  "' is not cdr");
+      message.data = rows.ColumnBlob(3);
+      each(message);
+    }
+  }
+
+ private:
+  static Database Open(const std::string& path) {
+    try {
+      return Database(path, Database::Mode::kReadOnly);
+    } catch (const DbError& e) {
+      throw InputError(std::string(e.what()));
+    }
+  }
+  static std::string List(const std::set<int64_t>& ids) {
+    std::string list;
+    for (int64_t id : ids) list += (list.empty() ? "" : ",") + std::to_string(id);
+    return list;
+  }
+  std::string path_;
+  Database db_;
+  std::map<int64_t, Topic> topics_;
+};
+
+// Runs `body`, turning SQLite's errors into InputError naming the bag.
+template <typename Body>
+auto Guarded(const std::string& path, Body body) {
+  try {
+    return body();
+  } catch (const DbError& e) {
+    throw InputError(path + ": " + e.what());
+  }
+}
+
+TfBuffer ReadTf(std::deque<BagFile>& files, const std::string& path) {
+  TfBuffer tf;
+  for (BagFile& file : files) {
+    file.ForEach(file.Ids({"/tf", "/tf_static", "tf", "tf_static"}, kRos2TfMessage),
+                 [&](const Ros2Message& m) {
+                   const std::string where = path + " " + m.topic + " at " + SecondsText(m.time_ns);
+                   const bool is_static = m.topic.find("tf_static") != std::string::npos;
+                   for (const RosTransform& t : DecodeTfMessage(m.data, where))
+                     tf.Add(t, is_static, where);
+                 });
+  }
+  tf.Sort();
+  return tf;
+}
+
+// The scan topic's type across the files: PointCloud2 or Image.
+std::string ScanTopicType(const std::deque<BagFile>& files, const BagScanOptions& options) {
+  std::string type;
+  for (const BagFile& file : files) {
+    for (const auto& [id, topic] : file.topics())
+      if (topic.name == options.topic) type = topic.type;
+  }
+  Require(!type.empty(), options.bag_path + ": no topic " + options.topic);
+  Require(type == kRos2PointCloud2 || type == kRos2Image,
+          options.bag_path + ": topic " + options.topic + " is " + type + "; it must be " +
+              kRos2PointCloud2 + " or " + kRos2Image);
+  return type;
+}
+
+int ScanFiles(std::deque<BagFile>& files,
+              const BagScanOptions& options,
+              const TfBuffer& tf,
+              const std::function<void(const BagScan&)>& each) {
+  const std::string info_topic = CameraInfoTopic(options);
+  const std::string type = ScanTopicType(files, options);
+  BagScanAssembler scans(options, &tf, info_topic);
+  int64_t total = 0;
+  for (BagFile& file : files) total += file.Count(file.Ids({options.topic}));
+  if (type == kRos2Image) {  // the first CameraInfo, for images recorded before it
+    for (BagFile& file : files) {
+      file.ForEach(file.Ids({info_topic}, kRos2CameraInfo), [&](const Ros2Message& m) {
+        const std::string where = options.bag_path + " " + m.topic;
+        if (!scans.has_camera()) scans.OnCameraInfo(DecodeCameraInfo(m.data, where), where);
+      });
+    }
+  }
+  int count = 0;
+  for (BagFile& file : files) {
+    file.ForEach(file.Ids({options.topic, info_topic}), [&](const Ros2Message& m) {
+      const std::string where = options.bag_path + " " + m.topic + " at " + SecondsText(m.time_ns);
+      const double bag_time = m.time_ns * 1e-9;
+      if (m.topic == info_topic && m.topic != options.topic) {
+        Require(m.type == kRos2CameraInfo, where + ": " + m.type + " is not " + kRos2CameraInfo);
+        scans.OnCameraInfo(DecodeCameraInfo(m.data, where), where);
+        return;
+      }
+      BagScan scan = type == kRos2Image
+                         ? scans.OnImage(DecodeImage(m.data, where), m.topic, bag_time, where)
+                         : scans.OnCloud(DecodePointCloud2(m.data, where), m.topic, bag_time);
+      scan.total = static_cast<int>(std::min<int64_t>(total, INT_MAX));
+      each(scan);
+      ++count;
+    });
+  }
+  return count;
+}
+
+std::deque<BagFile> OpenBagFiles(const std::string& path) {
+  std::deque<BagFile> files;
+  for (const std::string& file : BagFiles(path)) files.emplace_back(file);
+  return files;  // moved as a whole: the files stay where they are
+}
+
+}  // namespace
+
+bool IsRos2Bag(const std::string& path) {
+  std::error_code ec;
+  return fs::is_directory(path, ec) || FileExtension(path) == "db3";
+}
+
+int ForEachRos2BagScan(const BagScanOptions& options,
+                       const std::function<void(const BagScan&)>& each) {
+  CheckBagScanOptions(options);
+  return Guarded(options.bag_path, [&] {
+    std::deque<BagFile> files = OpenBagFiles(options.bag_path);
+    const TfBuffer tf =
+        options.world_frame.empty() ? TfBuffer() : ReadTf(files, options.bag_path);
+    return ScanFiles(files, options, tf, each);
+  });
+}
+
+void ForEachRos2Message(const std::string& bag,
+                        const std::function<void(const Ros2Message&)>& each) {
+  Guarded(bag, [&] {
+    for (BagFile& file : OpenBagFiles(bag)) {
+      std::set<int64_t> all;
+      for (const auto& [id, topic] : file.topics()) all.insert(id);
+      file.ForEach(all, each);
+    }
+    return 0;
+  });
+}
+
+// ---------------------------------------------------------------- writing
+
+namespace {
+
+// What metadata.yaml says of a bag.
+struct BagSummary {
+  struct TopicCount {
+    int64_t id = 0;
+    std::string type;
+    int64_t messages = 0;
+  };
+  std::string file_name;
+  std::map<std::string, TopicCount> topics;
+  int64_t first_ns = INT64_MAX, last_ns = INT64_MIN, messages = 0;
+};
+
+// A folder this writer may replace: one holding only a ROS 2 bag.
+bool IsBagFolder(const std::string& path) {
+  std::error_code ec;
+  if (!fs::is_directory(path, ec)) return false;
+  for (const fs::directory_entry& entry : fs::directory_iterator(path, ec)) {
+    const std::string name = entry.path().filename().string();
+    if (name != "metadata.yaml" && entry.path().extension() != ".db3") return false;
+  }
+  return !ec;
+}
+
+std::string MetadataYaml(const BagSummary& bag) {
+  const int64_t start = bag.messages > 0 ? bag.first_ns : 0;
+  const int64_t duration = bag.messages > 0 ? bag.last_ns - bag.first_ns : 0;
+  YAML::Emitter yaml;
+  yaml << YAML::BeginMap << YAML::Key << "rosbag2_bagfile_information" << YAML::Value
+       << YAML::BeginMap;
+  yaml << YAML::Key << "version" << YAML::Value << 5;
+  yaml << YAML::Key << "storage_identifier" << YAML::Value << "sqlite3";
+  yaml << YAML::Key << "duration" << YAML::Value << YAML::BeginMap << YAML::Key << "nanoseconds"
+       << YAML::Value << duration << YAML::EndMap;
+  yaml << YAML::Key << "starting_time" << YAML::Value << YAML::BeginMap << YAML::Key
+       << "nanoseconds_since_epoch" << YAML::Value << start << YAML::EndMap;
+  yaml << YAML::Key << "message_count" << YAML::Value << bag.messages;
+  yaml << YAML::Key << "topics_with_message_count" << YAML::Value << YAML::BeginSeq;
+  for (const auto& [name, topic] : bag.topics) {
+    yaml << YAML::BeginMap << YAML::Key << "topic_metadata" << YAML::Value << YAML::BeginMap;
+    yaml << YAML::Key << "name" << YAML::Value << name;
+    yaml << YAML::Key << "type" << YAML::Value << topic.type;
+    yaml << YAML::Key << "serialization_format" << YAML::Value << "cdr";
+    yaml << YAML::Key << "offered_qos_profiles" << YAML::Value << YAML::DoubleQuoted << "";
+    yaml << YAML::EndMap << YAML::Key << "message_count" << YAML::Value << topic.messages
+         << YAML::EndMap;
+  }
+  yaml << YAML::EndSeq;
+  yaml << YAML::Key << "compression_format" << YAML::Value << YAML::DoubleQuoted << "";
+  yaml << YAML::Key << "compression_mode" << YAML::Value << YAML::DoubleQuoted << "";
+  yaml << YAML::Key << "relative_file_paths" << YAML::Value << YAML::BeginSeq << bag.file_name
+       << YAML::EndSeq;
+  yaml << YAML::Key << "files" << YAML::Value << YAML::BeginSeq << YAML::BeginMap;
+  yaml << YAML::Key << "path" << YAML::Value << bag.file_name;
+  yaml << YAML::Key << "starting_time" << YAML::Value << YAML::BeginMap << YAML::Key
+       << "nanoseconds_since_epoch" << YAML::Value << start << YAML::EndMap;
+  yaml << YAML::Key << "duration" << YAML::Value << YAML::BeginMap << YAML::Key << "nanoseconds"
+       << YAML::Value << duration << YAML::EndMap;
+  yaml << YAML::Key << "message_count" << YAML::Value << bag.messages;
+  yaml << YAML::EndMap << YAML::EndSeq << YAML::EndMap << YAML::EndMap;
+  return std::string(yaml.c_str()) + "\n";
+}
+
+}  // namespace
+
+struct Ros2BagWriter::Impl {
+  std::string out, partial;
+  std::unique_ptr<Database> db;
+  std::unique_ptr<Statement> insert;
+  BagSummary summary;
+  bool finished = false;
+};
+
+Ros2BagWriter::Ros2BagWriter(const std::string& out) : impl_(std::make_unique<Impl>()) {
+  std::string trimmed = out;
+  while (trimmed.size() > 1 && trimmed.back() == '/') trimmed.pop_back();
+  std::error_code ec;
+  Require(!fs::exists(trimmed, ec) || IsBagFolder(trimmed),
+          out + ": exists and is not a ROS 2 bag folder; a ROS 2 bag is written as a new folder");
+  impl_->out = trimmed;
+  impl_->partial = trimmed + ".partial-" + std::to_string(getpid());
+  impl_->summary.file_name = fs::path(trimmed).filename().string() + "_0.db3";
+  fs::remove_all(impl_->partial, ec);
+  Require(fs::create_directories(impl_->partial, ec) && !ec,
+          out + ": cannot create the bag folder " + impl_->partial + " (" + ec.message() + ")");
+  Guarded(out, [&] {
+    impl_->db = std::make_unique<Database>(impl_->partial + "/" + impl_->summary.file_name);
+    impl_->db->Execute(
+        "PRAGMA journal_mode = DELETE;"
+        "CREATE TABLE schema(schema_version INTEGER PRIMARY KEY, ros_distro TEXT NOT NULL);"
+        "INSERT INTO schema VALUES (3, 'humble');"
+        "CREATE TABLE topics(id INTEGER PRIMARY KEY, name TEXT NOT NULL, type TEXT NOT NULL, "
+        "serialization_format TEXT NOT NULL, offered_qos_profiles TEXT NOT NULL);"
+        "CREATE TABLE messages(id INTEGER PRIMARY KEY, topic_id INTEGER NOT NULL, "
+        "timestamp INTEGER NOT NULL, data BLOB NOT NULL);"
+        "CREATE INDEX timestamp_idx ON messages (timestamp ASC);"
+        "BEGIN");
+    impl_->insert = std::make_unique<Statement>(
+        impl_->db.get(), "INSERT INTO messages(topic_id, timestamp, data) VALUES (?, ?, ?)");
+    return 0;
+  });
+}
+
+Ros2BagWriter::~Ros2BagWriter() {
+  if (impl_->finished) return;
+  impl_->insert.reset();
+  impl_->db.reset();
+  std::error_code ec;
+  fs::remove_all(impl_->partial, ec);
+}
+
+void Ros2BagWriter::Write(const std::string& topic,
+                          const std::string& type,
+                          int64_t time_ns,
+                          const std::vector<uint8_t>& cdr) {
+  Guarded(impl_->out, [&] {
+    auto found = impl_->summary.topics.find(topic);
+    if (found == impl_->summary.topics.end()) {
+      Statement add(impl_->db.get(),
+                    "INSERT INTO topics(name, type, serialization_format, offered_qos_profiles) "
+                    "VALUES (?, ?, 'cdr', '')");
+      add.Bind(1, topic).Bind(2, type).Run();
+      found = impl_->summary.topics.emplace(topic, BagSummary::TopicCount{impl_->db->LastInsertRowId(), type, 0})
+                  .first;
+    }
+    Require(found->second.type == type,
+            impl_->out + ": topic " + topic + " written as " + found->second.type + " and " + type);
+    impl_->insert->Bind(1, found->second.id).Bind(2, time_ns).BindBlob(3, cdr).Run();
+    impl_->insert->Reset();
+    ++found->second.messages;
+    ++impl_->summary.messages;
+    impl_->summary.first_ns = std::min(impl_->summary.first_ns, time_ns);
+    impl_->summary.last_ns = std::max(impl_->summary.last_ns, time_ns);
+    return 0;
+  });
+}
+
+int64_t Ros2BagWriter::Finish() {
+  Guarded(impl_->out, [&] {
+    impl_->db->Execute("COMMIT");
+    impl_->insert.reset();
+    impl_->db.reset();
+    return 0;
+  });
+  WriteFileAtomically(impl_->partial + "/metadata.yaml", MetadataYaml(impl_->summary));
+  std::error_code ec;
+  if (fs::exists(impl_->out, ec)) {
+    Require(IsBagFolder(impl_->out), impl_->out + ": exists and is not a ROS 2 bag folder");
+    fs::remove_all(impl_->out, ec);
+  }
+  fs::rename(impl_->partial, impl_->out, ec);
+  Require(!ec, impl_->out + ": cannot move the finished bag into place (" + ec.message() + ")");
+  impl_->finished = true;
+  return impl_->summary.messages;
+}
+
+namespace {
+
+int64_t Nanoseconds(double seconds, const std::string& where) {
+  const auto [sec, nanosec] = Ros2Time(seconds, where);
+  return int64_t{sec} * 1000000000 + nanosec;
+}
+
+std::string CheckedInput(const std::string& in_bag, const std::string& out_bag) {
+  std::error_code ec_in, ec_out;
+  const fs::path in = fs::weakly_canonical(in_bag, ec_in);
+  const fs::path out = fs::weakly_canonical(out_bag, ec_out);
+  Require(ec_in || ec_out || (in != out && in.parent_path() != out),
+          "--out-bag " + out_bag + " must not be the input bag or its folder");
+  return in_bag;
+}
+
+}  // namespace
+
+Ros2DetectionWriter::Ros2DetectionWriter(const std::string& in_bag,
+                                         const std::string& out_bag,
+                                         std::string world_frame,
+                                         std::string marker_topic)
+    : in_bag_(CheckedInput(in_bag, out_bag)),
+      world_frame_(std::move(world_frame)),
+      marker_topic_(std::move(marker_topic)),
+      out_(out_bag) {}
+
+Ros2DetectionWriter::~Ros2DetectionWriter() = default;
+
+void Ros2DetectionWriter::Add(const BagScan& scan,
+                              const DetectionResult& result,
+                              const TrainedModel& model) {
+  RosHeader header;
+  header.stamp = scan.stamp > 0 ? scan.stamp : scan.bag_time;
+  header.frame_id = MarkerFrame(scan, world_frame_);
+  const Eigen::Isometry3d frame_from_world = FrameFromWorld(scan, result);
+  const int64_t time_ns = Nanoseconds(scan.bag_time, scan.loaded.description);
+  Nanoseconds(header.stamp, scan.loaded.description);  // a stamp ROS 2 can carry
+  out_.Write(marker_topic_,
+             kRos2MarkerArray,
+             time_ns,
+             EncodeMarkerArray(DetectionMarkers(result, model, header, frame_from_world)));
+  out_.Write(marker_topic_ + "_3d",
+             kRos2Detection3DArray,
+             time_ns,
+             EncodeDetection3DArray(header, DetectionBoxes(result, model, frame_from_world)));
+}
+
+void Ros2DetectionWriter::Finish() {
+  ForEachRos2Message(in_bag_, [&](const Ros2Message& m) {
+    if (m.topic == marker_topic_ || m.topic == marker_topic_ + "_3d") return;  // a rerun's
+    out_.Write(m.topic, m.type, m.time_ns, m.data);
+  });
+  out_.Finish();
+}
+
+void Ros2FrameWriter::Write(const RoomRecord& room,
+                            const FrameRecord& frame,
+                            const std::string& where) {
+  const RecordedFrame recorded = RecordFrame(room, frame, frames_, where);
+  const int64_t time_ns = Nanoseconds(recorded.stamp, where);
+  out_.Write("/tf", kRos2TfMessage, time_ns, EncodeTfMessage({recorded.world_from_camera}));
+  out_.Write("/camera/depth/camera_info",
+             kRos2CameraInfo,
+             time_ns,
+             EncodeCameraInfo(recorded.info));
+  out_.Write("/camera/depth/image_raw", kRos2Image, time_ns, EncodeImage(recorded.depth));
+  out_.Write("/camera/depth/ids", kRos2Image, time_ns, EncodeImage(recorded.ids));
+  out_.Write("/furnidet/ground_truth",
+             kRos2MarkerArray,
+             time_ns,
+             EncodeMarkerArray(recorded.truth));
+  ++frames_;
+}
+
+int Ros2FrameWriter::Finish() {
+  out_.Finish();
+  return frames_;
+}
+
+int ForEachScanInBag(const BagScanOptions& options,
+                     const std::function<void(const BagScan&)>& each) {
+  return IsRos2Bag(options.bag_path) ? ForEachRos2BagScan(options, each)
+                                     : ForEachBagScan(options, each);
+}
+
+std::unique_ptr<DetectionBagSink> OpenDetectionBag(const std::string& in_bag,
+                                                   const std::string& out_bag,
+                                                   const std::string& world_frame) {
+  if (IsRos2Bag(in_bag)) return std::make_unique<Ros2DetectionWriter>(in_bag, out_bag, world_frame);
+  return std::make_unique<BagMarkerWriter>(in_bag, out_bag, world_frame);
+}
+
+std::unique_ptr<FrameBagSink> OpenFrameBag(const std::string& out_bag) {
+  if (FileExtension(out_bag) == "bag") return std::make_unique<FrameBagWriter>(out_bag);
+  return std::make_unique<Ros2FrameWriter>(out_bag);
+}
+
+}  // namespace furn
