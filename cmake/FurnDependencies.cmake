@@ -1,10 +1,10 @@
 # Every dependency comes from a Debian 12 package. A missing one stops the
-# configure step with the package to install (tools/setup.sh installs them all).
+# configure step with the package to install (tools/install_deps.sh installs them all).
 
 function(furn_missing what debian_package)
   message(FATAL_ERROR
     "Missing dependency ${what}: install the Debian package '${debian_package}' "
-    "(apt-get install ${debian_package}), or run tools/setup.sh")
+    "(apt-get install ${debian_package}), or run tools/install_deps.sh")
 endfunction()
 
 macro(furn_find_package name debian_package)

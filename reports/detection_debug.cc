@@ -71,6 +71,9 @@ cv::Scalar GreyForDistance(float distance) {
 // Top-down canvas over a world xy rectangle, y up, `pixels_per_metre`.
 class TopDown {
  public:
+  static cv::Scalar GridColour(int metre) {
+    return metre == 0 ? cv::Scalar(90, 90, 90) : cv::Scalar(52, 52, 52);
+  }
   TopDown(const Eigen::Vector2f& low, const Eigen::Vector2f& high, double pixels_per_metre)
       : low_(low), high_(high), scale_(pixels_per_metre) {
     image_ = cv::Mat(static_cast<int>((high.y() - low.y()) * scale_) + 1,
@@ -98,6 +101,24 @@ class TopDown {
     // Front (-y in the model frame) marked by a tick from the centre.
     const Eigen::Vector3f front = pose.Apply(Eigen::Vector3f(0, low.y(), 0));
     cv::line(image_, At(pose.x, pose.y), At(front.x(), front.y()), colour, 1, cv::LINE_AA);
+  }
+  // Lines every metre (brighter at whole metres of 0) and a 1 m scale bar.
+  void Grid() {
+    for (int x = static_cast<int>(std::ceil(low_.x())); x <= high_.x(); ++x) {
+      cv::line(image_, At(x, low_.y()), At(x, high_.y()), GridColour(x), 1);
+      DrawLabel(&image_, std::to_string(x) + " m", At(x, low_.y()) + cv::Point(3, -4),
+                cv::Scalar(140, 140, 140), 0.35);
+    }
+    for (int y = static_cast<int>(std::ceil(low_.y())); y <= high_.y(); ++y) {
+      cv::line(image_, At(low_.x(), y), At(high_.x(), y), GridColour(y), 1);
+      DrawLabel(&image_, std::to_string(y) + " m", At(low_.x(), y) + cv::Point(3, -4),
+                cv::Scalar(140, 140, 140), 0.35);
+    }
+    const cv::Point start(image_.cols - static_cast<int>(scale_) - 16, image_.rows - 40);
+    cv::line(image_, start, start + cv::Point(static_cast<int>(scale_), 0),
+             cv::Scalar(230, 230, 230), 2);
+    DrawLabel(&image_, "1 m", start + cv::Point(static_cast<int>(scale_) / 2 - 10, -6),
+              cv::Scalar(230, 230, 230), 0.4);
   }
   cv::Mat& image() { return image_; }
 
@@ -163,9 +184,16 @@ void WriteFittedPng(const DebugInput& in) {
   WritePngAtomically(view.image(), in.Path("fitted.png"));
 }
 
+constexpr int kMinCaptionWidth = 640;  // pixels: the longest caption at its font
+
 // A class's vote heat map, top-down with y up, with its maxima.
 void WriteVotesPng(const DebugInput& in, const DetectionDebug::VoteGrid& grid) {
   if (grid.values.empty()) return;
+  // A class the model has no CAD model of has no map worth a file.
+  if (std::find(in.model.model_classes.begin(),
+                in.model.model_classes.end(),
+                grid.furniture_class) == in.model.model_classes.end())
+    return;
   cv::Mat values(grid.rows, grid.cols, CV_32F, const_cast<float*>(grid.values.data()));
   double high = 0;
   cv::minMaxLoc(values, nullptr, &high);
@@ -179,6 +207,10 @@ void WriteVotesPng(const DebugInput& in, const DetectionDebug::VoteGrid& grid) {
   cv::applyColorMap(flipped, heat, cv::COLORMAP_INFERNO);
   const double scale = std::clamp(700.0 / std::max(grid.cols, grid.rows), 1.0, 4.0);
   cv::resize(heat, heat, cv::Size(), scale, scale, cv::INTER_NEAREST);
+  // Room on the right for the caption: a narrow room's map is wide enough to read.
+  if (heat.cols < kMinCaptionWidth)
+    cv::copyMakeBorder(heat, heat, 0, 0, 0, kMinCaptionWidth - heat.cols, cv::BORDER_CONSTANT,
+                       cv::Scalar(24, 24, 24));
   const double pixels_per_metre = scale / grid.cell_m;
   auto at = [&](double x, double y) {
     return cv::Point(static_cast<int>((x - grid.origin.x()) * pixels_per_metre),
@@ -231,6 +263,7 @@ void WriteTopDownPng(const DebugInput& in) {
   high += Eigen::Vector2f::Constant(0.5f);
   const double pixels_per_metre = std::clamp(700.0 / (high - low).maxCoeff(), 40.0, 200.0);
   TopDown top(low, high, pixels_per_metre);
+  top.Grid();
   for (const Eigen::Vector3f& p : in.debug().points)
     cv::circle(top.image(), top.At(p.x(), p.y()), 0, GreyForDistance(2.5f - p.z() * 1.5f), 1);
   cv::circle(top.image(),
@@ -254,7 +287,11 @@ void WriteTopDownPng(const DebugInput& in) {
     std::snprintf(text, sizeof(text), "%s %.2f", ClassName(d.furniture_class), d.score);
     DrawLabel(&top.image(), text, top.At(d.x, d.y) + cv::Point(6, -6), colour, 0.4);
   }
-  Caption(&top.image(), "top-down: detections (class colour) and ground truth (white)");
+  // Only a labelled frame has truth to show (a real scan given to detect has none).
+  Caption(&top.image(),
+          in.ground_truth.empty()
+              ? "top-down, world frame (1 m grid): detections (class colour), sensor (white dot)"
+              : "top-down, world frame (1 m grid): detections (class colour), ground truth (white)");
   WritePngAtomically(top.image(), in.Path("topdown.png"));
 }
 

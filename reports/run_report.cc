@@ -656,7 +656,7 @@ void WriteRunReport(const RunReportInput& input, const std::string& dir) {
   PlotCurves(curves,
              "A/",
              "",
-             "protocol A (paper): Hough maxima, 5 cm window, threshold swept",
+             "protocol A (paper): maxima (Hough votes or learned heat), 5 cm window, threshold swept",
              path("pr_paper.png"));
   PlotLatency(input.frame_ms, path("latency.png"));
   PlotConfusion(results, classes, path("confusion.png"));

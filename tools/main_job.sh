@@ -85,6 +85,12 @@ echo "   back, and the Python example on one frame"
 "$workbench" detect --model "$out_dir/model.fcm" --bag "$out_dir/synth_test.bag" \
   --topic /camera/depth/image_raw --out "$out_dir/synth_test_bag.jsonl" \
   --out-bag "$out_dir/synth_test_marked.bag"
+# The same as a ROS 2 bag folder (no .bag: rosbag2's SQLite storage), with
+# markers and vision_msgs/Detection3DArray written back.
+"$workbench" dataset export "$out_dir/synth.db" --format rosbag --split test --out "$out_dir/synth_test_ros2"
+"$workbench" detect --model "$out_dir/model.fcm" --bag "$out_dir/synth_test_ros2" \
+  --topic /camera/depth/image_raw --out "$out_dir/synth_test_ros2.jsonl" \
+  --out-bag "$out_dir/synth_test_ros2_marked"
 if [[ -d "$build_dir/python/furnidet" ]]; then
   PYTHONPATH="$build_dir/python" MPLBACKEND=Agg /usr/bin/python3 "$repo/examples/detect_in_frame.py" \
     "$out_dir/synth.db" "$out_dir/model.fcm" --out "$out_dir/python_frame.png"
@@ -105,6 +111,7 @@ echo "  $out_dir/crossval_codebook_report/index.html  the same for the codebook"
 echo "  $out_dir/real.db, real_report/index.html, real_sheets/  the labelled real scans, their run and labels"
 echo "  $out_dir/history/history.html  every run of synth.db and real.db, side by side"
 echo "  $out_dir/synth_test.bag, synth_test_marked.bag  the test split as a ROS bag, and with detections"
+echo "  $out_dir/synth_test_ros2/, synth_test_ros2_marked/  the same as ROS 2 bag folders"
 echo "  $out_dir/python_frame.png  the Python example's plot of one test frame"
 echo
 echo "headline metrics, models seen in training (test split):"

@@ -58,6 +58,31 @@ std::string SetWith(const std::string& scan_json) {
   return R"({"format": "furnidet-real-set", "version": 1, "scans": [)" + scan_json + "]}";
 }
 
+// Version 2 labels are REP 103 boxes (docs/conventions.md): the front's yaw
+// and [along the front, across, height]; they read as the version 1 labels
+// of the same chair (the CAD model's yaw, front -y, and [width, depth, height]).
+TEST(RealSet, Version2LabelsAreRep103BoxesOfTheSameObjects) {
+  const std::string dir = testing::ScratchDir();
+  const std::string cloud = WriteFloorAlignedCloud(dir);
+  auto scan = [&](const std::string& object) {
+    return R"({"id": "a", "cloud": ")" + cloud +
+           R"(", "floor_aligned": true, "source": "made here", "licence": "CC0", "objects": [)" +
+           object + "]}";
+  };
+  testing::WriteText(dir + "/v1.json",
+                     SetWith(scan(R"({"class": "chair", "x": 1, "y": 0, "yaw": 0.5,
+                                      "size": [0.4, 0.6, 0.9]})")));
+  std::string v2 = SetWith(scan(R"({"class": "chair", "x": 1, "y": 0, "yaw": -1.0707963267948966,
+                                    "size": [0.6, 0.4, 0.9]})"));
+  v2.replace(v2.find("\"version\": 1"), 12, "\"version\": 2");
+  testing::WriteText(dir + "/v2.json", v2);
+  const RealObject a = ReadRealSet(dir + "/v1.json").scans[0].objects[0];
+  const RealObject b = ReadRealSet(dir + "/v2.json").scans[0].objects[0];
+  EXPECT_NEAR(*b.yaw, *a.yaw, 1e-9);
+  EXPECT_TRUE(b.size.isApprox(a.size)) << b.size.transpose();
+  EXPECT_NEAR(b.size.x(), 0.4, 1e-12);  // width, across the front
+}
+
 TEST(RealSet, ReadsAScanAndRefusesBadFieldsWithOneLine) {
   const std::string dir = testing::ScratchDir();
   const std::string cloud = WriteFloorAlignedCloud(dir);

@@ -4,6 +4,8 @@
 
 #include <CLI/CLI.hpp>
 #include <cstdlib>
+#include <memory>
+#include <sstream>
 
 #include "core/progress.h"
 
@@ -18,8 +20,12 @@ void AddCatalogFlags(CLI::App* app, CatalogFlags* flags) {
   app->add_option(
          "--catalog-dir", flags->catalog_dir, "Directory of the .sh3f files (env FURN_CATALOG_DIR)")
       ->capture_default_str();
-  app->add_option("--data-dir", flags->data_dir, "Directory of class_map.json (env FURN_DATA_DIR)")
-      ->capture_default_str();
+  // The default is this build's data/ folder: a path of the build machine,
+  // not shown as if it were a choice.
+  app->add_option("--data-dir",
+                  flags->data_dir,
+                  "Directory of class_map.json (default: the data/ folder of this build's "
+                  "source tree; env FURN_DATA_DIR)");
   app->add_flag("--quiet,-q", flags->quiet, "No progress output");
 }
 
@@ -52,10 +58,62 @@ void CheckSeedsAreUnsigned(CLI::App* app) {
     CheckSeedsAreUnsigned(sub);
 }
 
+// "ENUM:value in {auto->0,codebook->1} OR {0,1}" -> "{auto,codebook}";
+// "UINT:unsigned seed" -> "UINT": the type a user types, not the library's.
+std::string PlainTypeName(const std::string& type) {
+  const std::string kEnum = "ENUM:value in {";
+  if (type.rfind(kEnum, 0) == 0) {
+    const size_t end = type.find('}', kEnum.size());
+    std::string names, entry;
+    std::istringstream entries(type.substr(kEnum.size(), end - kEnum.size()));
+    while (std::getline(entries, entry, ',')) {
+      names += (names.empty() ? "" : ",") + entry.substr(0, entry.find("->"));
+    }
+    return "{" + names + "}";
+  }
+  return type.substr(0, type.find(':'));
+}
+
+// Help without the library's noise: no "{false}" after a flag's names, enum
+// names without their numbers, no validator names after a type.
+class PlainFormatter : public CLI::Formatter {
+ public:
+  std::string make_option_name(const CLI::Option* option, bool positional) const override {
+    if (positional) return CLI::Formatter::make_option_name(option, positional);
+    std::string name = option->get_name(false, true), plain;
+    int depth = 0;
+    for (char c : name) {  // drop "{...}" defaults of flags
+      depth += c == '{';
+      if (depth == 0) plain += c;
+      depth -= c == '}' && depth > 0;
+    }
+    return plain;
+  }
+  std::string make_option_opts(const CLI::Option* option) const override {
+    if (!option->get_option_text().empty()) return " " + option->get_option_text();
+    std::string out;
+    if (option->get_type_size() != 0) {  // flags show no value
+      if (!option->get_type_name().empty()) out += " " + PlainTypeName(option->get_type_name());
+      if (!option->get_default_str().empty()) out += "=" + option->get_default_str();
+      if (option->get_expected_max() == CLI::detail::expected_max_vector_size) out += " ...";
+      if (option->get_required()) out += " (required)";
+    }
+    if (!option->get_envname().empty()) out += " (env " + option->get_envname() + ")";
+    return out;
+  }
+};
+
+void UsePlainHelp(CLI::App* app, const std::shared_ptr<CLI::Formatter>& formatter) {
+  app->formatter(formatter);
+  for (CLI::App* sub : app->get_subcommands([](CLI::App*) { return true; }))
+    UsePlainHelp(sub, formatter);
+}
+
 }  // namespace
 
 std::optional<int> ParseCommandLine(CLI::App* app, int argc, char** argv) {
   CheckSeedsAreUnsigned(app);
+  UsePlainHelp(app, std::make_shared<PlainFormatter>());
   try {
     app->parse(argc, argv);
   } catch (const CLI::ParseError& error) {
@@ -67,9 +125,8 @@ std::optional<int> ParseCommandLine(CLI::App* app, int argc, char** argv) {
 void AddVoteNetFlags(CLI::App* app, VoteNetFlags* flags) {
   app->add_flag("--vote-net,!--no-vote-net",
                 flags->enabled,
-                "Train the learned vote map (generated rooms, a CNN) into the model; "
-                "--no-vote-net: the codebook alone")
-      ->capture_default_str();
+                "Train the learned vote map (generated rooms, a CNN) into the model (the "
+                "default); --no-vote-net: the codebook alone");
   VoteNetTrainingOptions& o = flags->options;
   app->add_option("--vote-rooms", o.rooms, "Vote network: generated training rooms")
       ->capture_default_str();

@@ -13,16 +13,17 @@ std::string DetectionLine(const Detection& d) {
   char line[256];
   std::snprintf(line,
                 sizeof(line),
-                "%-9s x %6.2f  y %6.2f  yaw %5.1f deg  score %.2f  %s",
+                "%-9s x %6.2f  y %6.2f  yaw %6.1f deg  score %.2f",
                 ClassName(d.furniture_class),
                 d.x,
                 d.y,
-                d.yaw * 180 / M_PI,
-                d.score,
-                d.model_name.c_str());
+                Rep103YawFromModelYaw(d.yaw) * 180 / M_PI,
+                d.score);
   std::string text = line;
+  if (d.model_index >= 0) text += "  " + d.model_name;
   if (d.width > 0) {
-    std::snprintf(line, sizeof(line), "footprint %.2f x %.2f m", d.width, d.depth);
+    // REP 103: along the front, then across.
+    std::snprintf(line, sizeof(line), "  footprint %.2f x %.2f m", d.depth, d.width);
     text += line;
   }
   return text;
@@ -121,9 +122,9 @@ std::string ExplainDetection(const DetectionResult& result, const TrainedModel& 
                     ClassName(h.furniture_class),
                     h.x,
                     h.y,
-                    h.yaw * 180 / M_PI,
-                    h.width,
+                    Rep103YawFromModelYaw(h.yaw) * 180 / M_PI,
                     h.depth,
+                    h.width,
                     h.vote_weight);
       out << line;
       if (h.votes > 0) {

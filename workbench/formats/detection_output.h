@@ -36,8 +36,9 @@ std::string DetectionJson(const DetectionResult& result,
 // A JSON line for a scan of a batch that could not be detected in.
 std::string ScanErrorJson(const std::string& input, const std::string& error);
 
-// One detection for people: "chair     x   0.20  y   0.10  yaw  30.0 deg
-// score 0.95  Scopia/chair3".
+// One detection for people: "chair     x   0.20  y   0.10  yaw   30.0 deg
+// score 0.95  Scopia/chair3  footprint 0.55 x 0.50 m" (REP 103 yaw; the
+// footprint along the front, then across; the model only when fitted).
 std::string DetectionLine(const Detection& d);
 
 // Every hypothesis of a detection, one line each: class, place, vote weight,

@@ -6,6 +6,8 @@
 #include <map>
 #include <nlohmann/json.hpp>
 
+#include "core/angles.h"
+#include "core/conventions.h"
 #include "core/error.h"
 #include "core/file_util.h"
 #include "workbench/formats/camera_file.h"
@@ -64,7 +66,10 @@ class Fields {
   std::string where_;
 };
 
-RealObject ReadObject(const nlohmann::json& json, const std::string& where) {
+// Version 1 labels give the CAD model's yaw (front -y) and size [width,
+// depth, height]; version 2 REP 103 boxes (docs/conventions.md): the yaw of
+// the front and size [along the front, across, height].
+RealObject ReadObject(const nlohmann::json& json, const std::string& where, int version) {
   const Fields fields(json, where, {"class", "x", "y", "yaw", "size", "visibility", "note"});
   RealObject object;
   const std::string name = fields.Text("class");
@@ -84,13 +89,17 @@ RealObject ReadObject(const nlohmann::json& json, const std::string& where) {
     // Radians: beyond +-2 pi a value is degrees or a typo.
     Require(std::abs(*object.yaw) <= 2 * M_PI + 1e-9,
             where + ": 'yaw' " + std::to_string(*object.yaw) + " must be radians in -2 pi..2 pi");
+    if (version >= 2) object.yaw = WrapAngle(ModelYawFromRep103Yaw(*object.yaw));
   }
   if (fields.Has("size")) {
     const std::vector<double> size = fields.Numbers("size", 3);
     Require(
         size[0] > 0 && size[1] > 0 && size[2] > 0 && size[0] < 10 && size[1] < 10 && size[2] < 10,
-        where + ": 'size' [width, depth, height] must be in (0, 10) metres");
-    object.size = Eigen::Vector3d(size[0], size[1], size[2]);
+        where + (version >= 2 ? ": 'size' [along the front, across, height]"
+                              : ": 'size' [width, depth, height]") +
+            " must be in (0, 10) metres");
+    object.size = version >= 2 ? Eigen::Vector3d(size[1], size[0], size[2])
+                               : Eigen::Vector3d(size[0], size[1], size[2]);
   }
   object.visibility = fields.Number("visibility", 1);
   Require(object.visibility >= 0 && object.visibility <= 1,
@@ -117,7 +126,8 @@ Eigen::Isometry3d RigidFromRows(const std::vector<double>& m, const std::string&
 
 RealScan ReadScan(const nlohmann::json& json,
                   const std::filesystem::path& base,
-                  const std::string& where) {
+                  const std::string& where,
+                  int version) {
   const Fields fields(json,
                       where,
                       {"id",
@@ -183,7 +193,7 @@ RealScan ReadScan(const nlohmann::json& json,
           named + ": needs 'objects' (an array, empty for a scan without furniture)");
   for (size_t k = 0; k < json.at("objects").size(); ++k) {
     scan.objects.push_back(
-        ReadObject(json.at("objects")[k], named + " object " + std::to_string(k)));
+        ReadObject(json.at("objects")[k], named + " object " + std::to_string(k), version));
   }
   return scan;
 }
@@ -199,16 +209,19 @@ RealSet ReadRealSet(const std::string& path) {
   }
   const Fields top(json, path, {"format", "version", "scans", "note"});
   Require(top.Text("format") == kFormat, path + ": 'format' must be \"" + kFormat + "\"");
-  Require(json.at("version").is_number_integer() && json.at("version").get<int>() == 1,
-          path + ": 'version' must be 1 (this build reads version 1)");
+  Require(json.at("version").is_number_integer() &&
+              (json.at("version").get<int>() == 1 || json.at("version").get<int>() == 2),
+          path + ": 'version' must be 1 or 2 (2: REP 103 yaw and size, docs/conventions.md)");
   Require(json.contains("scans") && json.at("scans").is_array() && !json.at("scans").empty(),
           path + ": 'scans' must be a non-empty array");
+  const int version = json.at("version").get<int>();
   RealSet set;
   set.path = path;
   const std::filesystem::path base = std::filesystem::path(path).parent_path();
   std::set<std::string> ids;
   for (size_t k = 0; k < json.at("scans").size(); ++k) {
-    RealScan scan = ReadScan(json.at("scans")[k], base, path + ": scan " + std::to_string(k));
+    RealScan scan =
+        ReadScan(json.at("scans")[k], base, path + ": scan " + std::to_string(k), version);
     Require(ids.insert(scan.id).second, path + ": scan id '" + scan.id + "' appears twice");
     set.scans.push_back(std::move(scan));
   }

@@ -61,6 +61,14 @@ void PrintStageTimes(const DetectionResult& result,
   }
 }
 
+// A hint for an image with nothing in range: most often its depth unit.
+std::string UnitHint(const LoadedScan& scan, const DetectionResult& result) {
+  if (scan.input.width <= 0 || result.message.find("no finite point within") == std::string::npos)
+    return "";
+  return "; if the image's depth unit is not the millimetre, give --depth-scale (units per "
+         "metre; TUM RGB-D PNGs: 5000)";
+}
+
 // One scan given by the user: its errors throw, with debug PNGs and repeats.
 int DetectOneScan(const LoadedScan& scan, const Detector& detector, const DetectRunOptions& run) {
   std::map<DetectionStage, std::vector<double>> stage_times;
@@ -69,7 +77,8 @@ int DetectOneScan(const LoadedScan& scan, const Detector& detector, const Detect
     result =
         detector.Detect(scan.input, /*keep_debug=*/!run.debug_dir.empty() && k == run.repeat - 1);
     // One scan given by the user: nothing in range is most likely a wrong file or unit.
-    Require(result.status == DetectionStatus::kDetected, scan.description + ": " + result.message);
+    Require(result.status == DetectionStatus::kDetected,
+            scan.description + ": " + result.message + UnitHint(scan, result));
     for (const StageTime& t : result.timings_ms.stages) stage_times[t.stage].push_back(t.ms);
   }
   if (!run.debug_dir.empty()) {  // first: --out may name a file inside it

@@ -1,5 +1,7 @@
 #include "workbench/pipelines/render_showcase.h"
 
+#include "core/conventions.h"
+
 #include <cmath>
 #include <filesystem>
 #include <nlohmann/json.hpp>
@@ -61,10 +63,8 @@ RenderOutputs RenderShowcase(const CadModel& model, const RenderShowcaseOptions&
                                        {"cx", options.camera.cx},
                                        {"cy", options.camera.cy}}},
                                      {"depth_units_per_metre", 1000},
-                                     {"world_from_camera",
-                                      std::vector<double>(world_from_camera.matrix().data(),
-                                                          world_from_camera.matrix().data() + 16)},
-                                     {"world_from_camera_layout", "4x4 column-major"}};
+                                     {"format", 2},  // 1: a flat column-major pose
+                                     {"world_from_camera", PoseRows(world_from_camera)}};
   WriteFileAtomically(path("camera.json"), camera_json.dump(2) + "\n");
   outputs.ideal_valid = capture.ideal.NumValid();
   outputs.noisy_valid = capture.noisy.NumValid();
