@@ -106,19 +106,31 @@ class TopDown {
   void Grid() {
     for (int x = static_cast<int>(std::ceil(low_.x())); x <= high_.x(); ++x) {
       cv::line(image_, At(x, low_.y()), At(x, high_.y()), GridColour(x), 1);
-      DrawLabel(&image_, std::to_string(x) + " m", At(x, low_.y()) + cv::Point(3, -4),
-                cv::Scalar(140, 140, 140), 0.35);
+      DrawLabel(&image_,
+                std::to_string(x) + " m",
+                At(x, low_.y()) + cv::Point(3, -4),
+                cv::Scalar(140, 140, 140),
+                0.35);
     }
     for (int y = static_cast<int>(std::ceil(low_.y())); y <= high_.y(); ++y) {
       cv::line(image_, At(low_.x(), y), At(high_.x(), y), GridColour(y), 1);
-      DrawLabel(&image_, std::to_string(y) + " m", At(low_.x(), y) + cv::Point(3, -4),
-                cv::Scalar(140, 140, 140), 0.35);
+      DrawLabel(&image_,
+                std::to_string(y) + " m",
+                At(low_.x(), y) + cv::Point(3, -4),
+                cv::Scalar(140, 140, 140),
+                0.35);
     }
     const cv::Point start(image_.cols - static_cast<int>(scale_) - 16, image_.rows - 40);
-    cv::line(image_, start, start + cv::Point(static_cast<int>(scale_), 0),
-             cv::Scalar(230, 230, 230), 2);
-    DrawLabel(&image_, "1 m", start + cv::Point(static_cast<int>(scale_) / 2 - 10, -6),
-              cv::Scalar(230, 230, 230), 0.4);
+    cv::line(image_,
+             start,
+             start + cv::Point(static_cast<int>(scale_), 0),
+             cv::Scalar(230, 230, 230),
+             2);
+    DrawLabel(&image_,
+              "1 m",
+              start + cv::Point(static_cast<int>(scale_) / 2 - 10, -6),
+              cv::Scalar(230, 230, 230),
+              0.4);
   }
   cv::Mat& image() { return image_; }
 
@@ -209,7 +221,13 @@ void WriteVotesPng(const DebugInput& in, const DetectionDebug::VoteGrid& grid) {
   cv::resize(heat, heat, cv::Size(), scale, scale, cv::INTER_NEAREST);
   // Room on the right for the caption: a narrow room's map is wide enough to read.
   if (heat.cols < kMinCaptionWidth)
-    cv::copyMakeBorder(heat, heat, 0, 0, 0, kMinCaptionWidth - heat.cols, cv::BORDER_CONSTANT,
+    cv::copyMakeBorder(heat,
+                       heat,
+                       0,
+                       0,
+                       0,
+                       kMinCaptionWidth - heat.cols,
+                       cv::BORDER_CONSTANT,
                        cv::Scalar(24, 24, 24));
   const double pixels_per_metre = scale / grid.cell_m;
   auto at = [&](double x, double y) {
@@ -288,10 +306,11 @@ void WriteTopDownPng(const DebugInput& in) {
     DrawLabel(&top.image(), text, top.At(d.x, d.y) + cv::Point(6, -6), colour, 0.4);
   }
   // Only a labelled frame has truth to show (a real scan given to detect has none).
-  Caption(&top.image(),
-          in.ground_truth.empty()
-              ? "top-down, world frame (1 m grid): detections (class colour), sensor (white dot)"
-              : "top-down, world frame (1 m grid): detections (class colour), ground truth (white)");
+  Caption(
+      &top.image(),
+      in.ground_truth.empty()
+          ? "top-down, world frame (1 m grid): detections (class colour), sensor (white dot)"
+          : "top-down, world frame (1 m grid): detections (class colour), ground truth (white)");
   WritePngAtomically(top.image(), in.Path("topdown.png"));
 }
 

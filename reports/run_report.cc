@@ -653,11 +653,12 @@ void WriteRunReport(const RunReportInput& input, const std::string& dir) {
 
   PlotCurves(
       curves, "B/", "@10cm", "protocol B: detections by score, 10 cm", path("pr_detection.png"));
-  PlotCurves(curves,
-             "A/",
-             "",
-             "protocol A (paper): maxima (Hough votes or learned heat), 5 cm window, threshold swept",
-             path("pr_paper.png"));
+  PlotCurves(
+      curves,
+      "A/",
+      "",
+      "protocol A (paper): maxima (Hough votes or learned heat), 5 cm window, threshold swept",
+      path("pr_paper.png"));
   PlotLatency(input.frame_ms, path("latency.png"));
   PlotConfusion(results, classes, path("confusion.png"));
 

@@ -108,8 +108,8 @@ TEST(RealSet, ReadsAScanAndRefusesBadFieldsWithOneLine) {
   EXPECT_NE(error_of("{").find("not JSON"), std::string::npos);
   EXPECT_NE(error_of(R"({"format": "x", "version": 1, "scans": []})").find("'format' must be"),
             std::string::npos);
-  EXPECT_NE(error_of(R"({"format": "furnidet-real-set", "version": 2, "scans": []})")
-                .find("'version' must be 1"),
+  EXPECT_NE(error_of(R"({"format": "furnidet-real-set", "version": 3, "scans": []})")
+                .find("'version' must be 1 or 2"),
             std::string::npos);
   EXPECT_NE(error_of(scan_with("\"id\"", "\"idd\"")).find("unknown key 'idd'"), std::string::npos);
   EXPECT_NE(error_of(scan_with(cloud, "missing.pcd")).find("missing.pcd' does not exist"),

@@ -146,9 +146,10 @@ TEST(Ros2Messages, FuzzedMessagesNeverCrash) {
   t.child_frame_id = "camera";
   RosPointCloud2 cloud;
   cloud.fields = {{"x", 0, 7, 1}};
-  const std::vector<std::vector<uint8_t>> seeds = {
-      EncodeImage(SomeImage()), EncodeCameraInfo(info), EncodeTfMessage({t}),
-      EncodePointCloud2(cloud)};
+  const std::vector<std::vector<uint8_t>> seeds = {EncodeImage(SomeImage()),
+                                                   EncodeCameraInfo(info),
+                                                   EncodeTfMessage({t}),
+                                                   EncodePointCloud2(cloud)};
   std::mt19937 random(5);
   int refused = 0, decoded = 0;
   for (int round = 0; round < 20000; ++round) {
@@ -158,10 +159,18 @@ TEST(Ros2Messages, FuzzedMessagesNeverCrash) {
     if (random() % 4 == 0) bytes.resize(random() % bytes.size());
     try {
       switch (round % 4) {
-        case 0: DecodeImage(bytes, "fuzz"); break;
-        case 1: DecodeCameraInfo(bytes, "fuzz"); break;
-        case 2: DecodeTfMessage(bytes, "fuzz"); break;
-        default: DecodePointCloud2(bytes, "fuzz"); break;
+        case 0:
+          DecodeImage(bytes, "fuzz");
+          break;
+        case 1:
+          DecodeCameraInfo(bytes, "fuzz");
+          break;
+        case 2:
+          DecodeTfMessage(bytes, "fuzz");
+          break;
+        default:
+          DecodePointCloud2(bytes, "fuzz");
+          break;
       }
       ++decoded;
     } catch (const InputError&) {
@@ -205,9 +214,12 @@ class Ros2BagTest : public ::testing::Test {
 TEST_F(Ros2BagTest, AFolderWrittenHereReadsBackWithMetadata) {
   const std::string bag = WriteBag("run", 3);
   const std::string metadata = ReadFileBytes(bag + "/metadata.yaml");
-  for (const char* expected : {"storage_identifier: sqlite3", "message_count: 7",
-                               "name: /cam/image", "type: sensor_msgs/msg/Image",
-                               "run_0.db3", "nanoseconds_since_epoch: 900000000"})
+  for (const char* expected : {"storage_identifier: sqlite3",
+                               "message_count: 7",
+                               "name: /cam/image",
+                               "type: sensor_msgs/msg/Image",
+                               "run_0.db3",
+                               "nanoseconds_since_epoch: 900000000"})
     EXPECT_NE(metadata.find(expected), std::string::npos) << expected << "\n" << metadata;
   BagScanOptions options;
   options.bag_path = bag;
@@ -284,8 +296,9 @@ TEST_F(Ros2BagTest, HostileBagsAreRefusedByName) {
     return copy;
   };
   expect_refused(damaged("no_messages", "DROP TABLE messages"), "no 'messages' table");
-  expect_refused(damaged("view", "ALTER TABLE topics RENAME TO t2; CREATE VIEW topics AS "
-                                 "SELECT * FROM t2"),
+  expect_refused(damaged("view",
+                         "ALTER TABLE topics RENAME TO t2; CREATE VIEW topics AS "
+                         "SELECT * FROM t2"),
                  "no 'topics' table");
   expect_refused(damaged("json", "UPDATE topics SET serialization_format = 'json'"),
                  "serialization 'json' is not cdr");

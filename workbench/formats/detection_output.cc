@@ -46,18 +46,19 @@ nlohmann::ordered_json DetectionBoxJson(const Detection& d, const TrainedModel& 
   const OrientedBox box = BoxInWorld(
       Eigen::Vector3d(d.x, d.y, d.z), d.yaw, local.low.cast<double>(), local.high.cast<double>());
   const bool fitted = d.model_index >= 0;
-  return {{"class", ClassName(d.furniture_class)},
-          {"score", d.score},
-          {"centre", Vector3Json(box.centre)},
-          {"size", Vector3Json(box.size)},
-          {"yaw", box.yaw},
-          {"quaternion", QuaternionXyzw(box.yaw)},
-          {"floor_point", {d.x, d.y}},
-          {"model", fitted ? nlohmann::ordered_json(d.model_name) : nlohmann::ordered_json(nullptr)},
-          {"size_source", d.width > 0 ? "network" : (fitted ? "model" : "class")},
-          {"vote_weight", d.vote_weight},
-          {"verification", NumberOrNull(fitted, d.verification)},
-          {"covered_fraction", NumberOrNull(fitted, d.covered_fraction)}};
+  return {
+      {"class", ClassName(d.furniture_class)},
+      {"score", d.score},
+      {"centre", Vector3Json(box.centre)},
+      {"size", Vector3Json(box.size)},
+      {"yaw", box.yaw},
+      {"quaternion", QuaternionXyzw(box.yaw)},
+      {"floor_point", {d.x, d.y}},
+      {"model", fitted ? nlohmann::ordered_json(d.model_name) : nlohmann::ordered_json(nullptr)},
+      {"size_source", d.width > 0 ? "network" : (fitted ? "model" : "class")},
+      {"vote_weight", d.vote_weight},
+      {"verification", NumberOrNull(fitted, d.verification)},
+      {"covered_fraction", NumberOrNull(fitted, d.covered_fraction)}};
 }
 
 std::string DetectionJson(const DetectionResult& result,

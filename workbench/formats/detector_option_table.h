@@ -43,15 +43,18 @@ void ForEachDetectorOption(Options* options, Visit&& visit) {
   visit(DetectorOptionInfo{"cell_m", "", ""}, o.cell_m);
   visit(DetectorOptionInfo{"vote_sigma_m", "", ""}, o.vote_sigma_m);
   visit(DetectorOptionInfo{"vote_height_tolerance_m", "", ""}, o.vote_height_tolerance_m);
-  visit(
-      DetectorOptionInfo{"relative_threshold", "--threshold", "Codebook voting: relative vote threshold t (eq. 8)"},
-      o.relative_threshold);
-  visit(DetectorOptionInfo{"absolute_threshold", "--absolute-threshold", "Codebook voting: minimum vote weight"},
-        o.absolute_threshold);
+  visit(DetectorOptionInfo{"relative_threshold",
+                           "--threshold",
+                           "Codebook voting: relative vote threshold t (eq. 8)"},
+        o.relative_threshold);
   visit(
       DetectorOptionInfo{
-          "max_hypotheses_per_class", "--max-hypotheses", "Codebook voting: strongest maxima kept per class"},
-      o.max_hypotheses_per_class);
+          "absolute_threshold", "--absolute-threshold", "Codebook voting: minimum vote weight"},
+      o.absolute_threshold);
+  visit(DetectorOptionInfo{"max_hypotheses_per_class",
+                           "--max-hypotheses",
+                           "Codebook voting: strongest maxima kept per class"},
+        o.max_hypotheses_per_class);
   visit(DetectorOptionInfo{"support_radius_m", "", ""}, o.support_radius_m);
   visit(DetectorOptionInfo{"neighbours", "", ""}, o.neighbours);
   visit(DetectorOptionInfo{"top_models", "--top-models", "CAD models fitted per hypothesis"},
@@ -63,25 +66,34 @@ void ForEachDetectorOption(Options* options, Visit&& visit) {
   visit(DetectorOptionInfo{"fit.max_offset_m", "", ""}, o.fit.max_offset_m);
   visit(DetectorOptionInfo{"fit.refine_iterations", "", ""}, o.fit.refine_iterations);
   visit(DetectorOptionInfo{"fit.above_m", "", ""}, o.fit.above_m);
-  visit(DetectorOptionInfo{"min_covered_fraction",
-                           "--min-covered",
-                           "Codebook voting, fixed gates: share of the box's points a fit must explain"},
-        o.min_covered_fraction);
-  visit(DetectorOptionInfo{"own_segment_share",
-                           "--own-segments",
-                           "Codebook voting: count in the covered share only segments at least this much inside "
-                           "the fit's box (0: off; e.g. 0.5 finds chairs pushed under desks)"},
-        o.own_segment_share);
+  visit(
+      DetectorOptionInfo{
+          "min_covered_fraction",
+          "--min-covered",
+          "Codebook voting, fixed gates: share of the box's points a fit must explain"},
+      o.min_covered_fraction);
+  visit(
+      DetectorOptionInfo{
+          "own_segment_share",
+          "--own-segments",
+          "Codebook voting: count in the covered share only segments at least this much inside "
+          "the fit's box (0: off; e.g. 0.5 finds chairs pushed under desks)"},
+      o.own_segment_share);
   visit(DetectorOptionInfo{"occupancy_voxel_m", "", ""}, o.occupancy_voxel_m);
   visit(DetectorOptionInfo{"occupied_weight", "", ""}, o.occupied_weight);
+  visit(DetectorOptionInfo{"min_verification",
+                           "--min-verification",
+                           "Codebook voting, fixed gates: visibility score"},
+        o.min_verification);
   visit(
-      DetectorOptionInfo{"min_verification", "--min-verification", "Codebook voting, fixed gates: visibility score"},
-      o.min_verification);
-  visit(DetectorOptionInfo{"min_seen_occupied",
-                           "--min-seen",
-                           "Codebook voting, fixed gates: share of the fit's observable surface seen"},
-        o.min_seen_occupied);
-  visit(DetectorOptionInfo{"min_score", "--min-score", "Codebook voting, fixed gates: ranking score"}, o.min_score);
+      DetectorOptionInfo{
+          "min_seen_occupied",
+          "--min-seen",
+          "Codebook voting, fixed gates: share of the fit's observable surface seen"},
+      o.min_seen_occupied);
+  visit(
+      DetectorOptionInfo{"min_score", "--min-score", "Codebook voting, fixed gates: ranking score"},
+      o.min_score);
   visit(DetectorOptionInfo{"max_shared_support", "", ""}, o.max_shared_support);
   visit(DetectorOptionInfo{"max_footprint_overlap", "", ""}, o.max_footprint_overlap);
   visit(DetectorOptionInfo{"use_scorer", "", ""}, o.use_scorer);

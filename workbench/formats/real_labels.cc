@@ -95,8 +95,9 @@ RealObject ReadObject(const nlohmann::json& json, const std::string& where, int 
     const std::vector<double> size = fields.Numbers("size", 3);
     Require(
         size[0] > 0 && size[1] > 0 && size[2] > 0 && size[0] < 10 && size[1] < 10 && size[2] < 10,
-        where + (version >= 2 ? ": 'size' [along the front, across, height]"
-                              : ": 'size' [width, depth, height]") +
+        where +
+            (version >= 2 ? ": 'size' [along the front, across, height]"
+                          : ": 'size' [width, depth, height]") +
             " must be in (0, 10) metres");
     object.size = version >= 2 ? Eigen::Vector3d(size[1], size[0], size[2])
                                : Eigen::Vector3d(size[0], size[1], size[2]);

@@ -2,13 +2,13 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <unistd.h>
 #include <algorithm>
 #include <climits>
 #include <deque>
 #include <filesystem>
 #include <map>
 #include <set>
-#include <unistd.h>
 
 #include "core/error.h"
 #include "core/file_util.h"
@@ -255,8 +255,7 @@ int ForEachRos2BagScan(const BagScanOptions& options,
   CheckBagScanOptions(options);
   return Guarded(options.bag_path, [&] {
     std::deque<BagFile> files = OpenBagFiles(options.bag_path);
-    const TfBuffer tf =
-        options.world_frame.empty() ? TfBuffer() : ReadTf(files, options.bag_path);
+    const TfBuffer tf = options.world_frame.empty() ? TfBuffer() : ReadTf(files, options.bag_path);
     return ScanFiles(files, options, tf, each);
   });
 }
@@ -398,7 +397,8 @@ void Ros2BagWriter::Write(const std::string& topic,
                     "INSERT INTO topics(name, type, serialization_format, offered_qos_profiles) "
                     "VALUES (?, ?, 'cdr', '')");
       add.Bind(1, topic).Bind(2, type).Run();
-      found = impl_->summary.topics.emplace(topic, BagSummary::TopicCount{impl_->db->LastInsertRowId(), type, 0})
+      found = impl_->summary.topics
+                  .emplace(topic, BagSummary::TopicCount{impl_->db->LastInsertRowId(), type, 0})
                   .first;
     }
     Require(found->second.type == type,
@@ -494,16 +494,12 @@ void Ros2FrameWriter::Write(const RoomRecord& room,
   const RecordedFrame recorded = RecordFrame(room, frame, frames_, where);
   const int64_t time_ns = Nanoseconds(recorded.stamp, where);
   out_.Write("/tf", kRos2TfMessage, time_ns, EncodeTfMessage({recorded.world_from_camera}));
-  out_.Write("/camera/depth/camera_info",
-             kRos2CameraInfo,
-             time_ns,
-             EncodeCameraInfo(recorded.info));
+  out_.Write(
+      "/camera/depth/camera_info", kRos2CameraInfo, time_ns, EncodeCameraInfo(recorded.info));
   out_.Write("/camera/depth/image_raw", kRos2Image, time_ns, EncodeImage(recorded.depth));
   out_.Write("/camera/depth/ids", kRos2Image, time_ns, EncodeImage(recorded.ids));
-  out_.Write("/furnidet/ground_truth",
-             kRos2MarkerArray,
-             time_ns,
-             EncodeMarkerArray(recorded.truth));
+  out_.Write(
+      "/furnidet/ground_truth", kRos2MarkerArray, time_ns, EncodeMarkerArray(recorded.truth));
   ++frames_;
 }
 

@@ -37,7 +37,8 @@ struct Ros2Message {
 };
 // Every message of a bag in time order (for tests and copies); bounded as
 // the scan reader.
-void ForEachRos2Message(const std::string& bag, const std::function<void(const Ros2Message&)>& each);
+void ForEachRos2Message(const std::string& bag,
+                        const std::function<void(const Ros2Message&)>& each);
 
 // Writes a ROS 2 bag folder: <out>/<name>_0.db3 (the Humble layout, schema
 // 3) and metadata.yaml (version 5). Written into <out>.partial and moved

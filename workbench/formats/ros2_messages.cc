@@ -164,7 +164,7 @@ std::vector<uint8_t> EncodeCameraInfo(const RosCameraInfo& info) {
   for (double v : info.r) out.Write<double>(v);
   for (double v : info.p) out.Write<double>(v);
   for (int i = 0; i < 6; ++i) out.Write<uint32_t>(0);  // binning x, y; roi
-  out.WriteBool(false);                               // roi.do_rectify
+  out.WriteBool(false);                                // roi.do_rectify
   return out.Take();
 }
 
@@ -217,19 +217,19 @@ std::vector<uint8_t> EncodeMarkerArray(const std::vector<RosMarker>& markers) {
     for (float c : m.rgba) out.Write<float>(c);
     out.Write<int32_t>(0);  // lifetime: forever
     out.Write<uint32_t>(0);
-    out.WriteBool(false);      // frame_locked
-    out.SequenceLength(0);     // points
-    out.SequenceLength(0);     // colors
-    out.String("");            // texture_resource
+    out.WriteBool(false);           // frame_locked
+    out.SequenceLength(0);          // points
+    out.SequenceLength(0);          // colors
+    out.String("");                 // texture_resource
     WriteHeader(out, RosHeader{});  // texture (CompressedImage): header,
     out.String("");                 //   format,
     out.SequenceLength(0);          //   data
-    out.SequenceLength(0);     // uv_coordinates
+    out.SequenceLength(0);          // uv_coordinates
     out.String(m.text);
-    out.String("");            // mesh_resource
-    out.String("");            // mesh_file.filename
-    out.SequenceLength(0);     // mesh_file.data
-    out.WriteBool(false);      // mesh_use_embedded_materials
+    out.String("");         // mesh_resource
+    out.String("");         // mesh_file.filename
+    out.SequenceLength(0);  // mesh_file.data
+    out.WriteBool(false);   // mesh_use_embedded_materials
   }
   return out.Take();
 }
@@ -244,10 +244,10 @@ std::vector<uint8_t> EncodeDetection3DArray(const RosHeader& header,
     out.SequenceLength(1);  // results: one hypothesis
     out.String(d.class_id);
     out.Write<double>(d.score);
-    WritePose(out, d.box_pose);                   // hypothesis pose
+    WritePose(out, d.box_pose);                           // hypothesis pose
     for (int i = 0; i < 36; ++i) out.Write<double>(0.0);  // its covariance: unknown
-    WritePose(out, d.box_pose);                   // bbox.center
-    WriteVector3(out, d.size);                    // bbox.size
+    WritePose(out, d.box_pose);                           // bbox.center
+    WriteVector3(out, d.size);                            // bbox.size
     out.String(d.id);
   }
   return out.Take();

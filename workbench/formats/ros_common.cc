@@ -87,8 +87,8 @@ Eigen::Isometry3d TfBuffer::At(const Edge& edge, double time) {
   } else if (after != s.begin()) {
     a = &*(after - 1);
     b = &*after;
-    share = std::isfinite(a->time) && b->time > a->time ? (time - a->time) / (b->time - a->time)
-                                                        : 1.0;
+    share =
+        std::isfinite(a->time) && b->time > a->time ? (time - a->time) / (b->time - a->time) : 1.0;
   } else {
     a = b = &*after;
   }
@@ -187,9 +187,8 @@ BagScan BagScanAssembler::OnImage(const RosImage& image,
   DepthFrame depth = DepthOfImage(image, options_.depth_scale, where);
   Require(depth.width == camera_->width && depth.height == camera_->height,
           where + ": the image is " + std::to_string(depth.width) + "x" +
-              std::to_string(depth.height) + " but the CameraInfo of " + info_topic_ +
-              " is for " + std::to_string(camera_->width) + "x" +
-              std::to_string(camera_->height));
+              std::to_string(depth.height) + " but the CameraInfo of " + info_topic_ + " is for " +
+              std::to_string(camera_->width) + "x" + std::to_string(camera_->height));
   BagScan scan;
   scan.topic = topic;
   scan.bag_time = bag_time;
@@ -284,7 +283,8 @@ std::vector<RosMarker> DetectionMarkers(const DetectionResult& result,
     std::snprintf(text, sizeof(text), "%s %.2f", name.c_str(), d.score);
     label.text = text;
     label.pose.translation() =
-        frame_from_world * (world_box.centre + Eigen::Vector3d(0, 0, world_box.size.z() / 2 + 0.15));
+        frame_from_world *
+        (world_box.centre + Eigen::Vector3d(0, 0, world_box.size.z() / 2 + 0.15));
     label.scale = Eigen::Vector3d::Constant(0.15);
     label.rgba[3] = 1;
     markers.push_back(box);
@@ -321,13 +321,12 @@ std::vector<RosMarker> TruthMarkers(const RoomRecord& room, double stamp) {
   std::vector<RosMarker> markers{DeleteAll(header)};
   for (const ObjectRecord& object : room.objects) {
     const Eigen::Vector3d half(object.width / 2, object.depth / 2, object.height);
-    RosMarker box = BoxMarker(
-        BoxInWorld(Eigen::Vector3d(object.reference_x, object.reference_y, 0),
-                   object.yaw,
-                   Eigen::Vector3d(-half.x(), -half.y(), 0),
-                   half),
-        object.furniture_class,
-        Eigen::Isometry3d::Identity());
+    RosMarker box = BoxMarker(BoxInWorld(Eigen::Vector3d(object.reference_x, object.reference_y, 0),
+                                         object.yaw,
+                                         Eigen::Vector3d(-half.x(), -half.y(), 0),
+                                         half),
+                              object.furniture_class,
+                              Eigen::Isometry3d::Identity());
     box.header = header;
     box.ns = object.furniture_class ? ClassName(*object.furniture_class) : "clutter";
     box.id = static_cast<int32_t>(object.instance_id);

@@ -64,7 +64,9 @@ class DetectionBagSink {
   virtual ~DetectionBagSink() = default;
   // Markers of one scan's detections, stamped as its message. In the world
   // frame when its pose came from TF, else in the message's own frame.
-  virtual void Add(const BagScan& scan, const DetectionResult& result, const TrainedModel& model) = 0;
+  virtual void Add(const BagScan& scan,
+                   const DetectionResult& result,
+                   const TrainedModel& model) = 0;
   // Copies every message of the input bag and moves the output into place.
   virtual void Finish() = 0;
 };
@@ -74,7 +76,9 @@ class FrameBagSink {
  public:
   virtual ~FrameBagSink() = default;
   // `where` names the frame in errors.
-  virtual void Write(const RoomRecord& room, const FrameRecord& frame, const std::string& where) = 0;
+  virtual void Write(const RoomRecord& room,
+                     const FrameRecord& frame,
+                     const std::string& where) = 0;
   // Returns the frames written.
   virtual int Finish() = 0;
 };

@@ -171,10 +171,11 @@ py::dict ObjectDict(const ObjectRecord& object, const FrameObjectRecord* seen) {
   d["y"] = object.reference_y;
   d["z"] = object.z;
   // REP 103 (docs/conventions.md): the box's x is the object's front.
-  const OrientedBox box = BoxInWorld(Eigen::Vector3d(object.reference_x, object.reference_y, object.z),
-                                     object.yaw,
-                                     Eigen::Vector3d(-object.width / 2, -object.depth / 2, 0),
-                                     Eigen::Vector3d(object.width / 2, object.depth / 2, object.height));
+  const OrientedBox box =
+      BoxInWorld(Eigen::Vector3d(object.reference_x, object.reference_y, object.z),
+                 object.yaw,
+                 Eigen::Vector3d(-object.width / 2, -object.depth / 2, 0),
+                 Eigen::Vector3d(object.width / 2, object.depth / 2, object.height));
   d["yaw"] = box.yaw;
   d["size"] = py::make_tuple(box.size.x(), box.size.y(), box.size.z());
   d["box"] = BoxDict(box);
@@ -327,9 +328,9 @@ class PyDetector {
   // Depth in metres (float) or in 1/depth_scale metres (integers; default
   // 1000: millimetres); 0 or non-finite: no return.
   PyResult DetectDepth(const py::array& depth,
-                              const py::object& k,
-                              const py::object& world_from_camera,
-                              std::optional<double> depth_scale) const {
+                       const py::object& k,
+                       const py::object& world_from_camera,
+                       std::optional<double> depth_scale) const {
     if (depth.ndim() != 2) throw InputError("depth must be a 2-D array (height, width)");
     // Depth is float metres or integer units; booleans, objects and complex
     // numbers are refused, and so are negative integers.
@@ -446,6 +447,73 @@ py::dict EvaluateFromPython(const std::string& model,
   return d;
 }
 
+// Detection and DetectionResult, as Python sees them (REP 103 boxes).
+void BindDetections(py::module_& m) {
+  // Conventions version 2 (docs/conventions.md): yaw and box REP 103, x the object's front.
+  m.attr("CONVENTIONS") = 2;
+  py::class_<PyDetection>(
+      m,
+      "Detection",
+      "One detected piece, world frame (floor at z = 0, z up): x, y the floor point under it; "
+      "yaw and box REP 103 (x = the object's front, radians); model and verification None "
+      "without a fit.")
+      .def_property_readonly(
+          "cls", [](const PyDetection& d) { return ClassName(d.detection.furniture_class); })
+      .def_property_readonly("x", [](const PyDetection& d) { return d.detection.x; })
+      .def_property_readonly("y", [](const PyDetection& d) { return d.detection.y; })
+      .def_property_readonly("z", [](const PyDetection& d) { return d.detection.z; })
+      .def_property_readonly("yaw", [](const PyDetection& d) { return d.box.yaw; })
+      .def_property_readonly("box", [](const PyDetection& d) { return BoxDict(d.box); })
+      .def_property_readonly("model",
+                             [](const PyDetection& d) -> py::object {
+                               if (d.detection.model_index < 0) return py::none();
+                               return py::str(d.detection.model_name);
+                             })
+      .def_property_readonly("score", [](const PyDetection& d) { return d.detection.score; })
+      .def_property_readonly("vote_weight",
+                             [](const PyDetection& d) { return d.detection.vote_weight; })
+      .def_property_readonly("verification",
+                             [](const PyDetection& d) -> py::object {
+                               if (d.detection.model_index < 0) return py::none();
+                               return py::float_(d.detection.verification);
+                             })
+      .def_property_readonly("covered_fraction",
+                             [](const PyDetection& d) -> py::object {
+                               if (d.detection.model_index < 0) return py::none();
+                               return py::float_(d.detection.covered_fraction);
+                             })
+      .def("__repr__", [](const PyDetection& p) {
+        char text[160];
+        std::snprintf(text,
+                      sizeof(text),
+                      "<furnidet.Detection %s x=%.3f y=%.3f yaw=%.3f score=%.3f>",
+                      ClassName(p.detection.furniture_class),
+                      p.detection.x,
+                      p.detection.y,
+                      p.box.yaw,
+                      p.detection.score);
+        return std::string(text);
+      });
+
+  py::class_<PyResult>(m, "DetectionResult")
+      .def_property_readonly("status", [](const PyResult& r) { return EnumName(r.result.status); })
+      .def_property_readonly("message", [](const PyResult& r) { return r.result.message; })
+      .def_readonly("detections", &PyResult::detections)
+      .def_property_readonly("floor_estimated",
+                             [](const PyResult& r) { return r.result.floor_estimated; })
+      .def_property_readonly("points", [](const PyResult& r) { return r.result.points; })
+      .def_property_readonly("segments", [](const PyResult& r) { return r.result.segments; })
+      .def_property_readonly(
+          "world_from_camera",
+          [](const PyResult& r) { return MatrixArray(r.result.world_from_camera.matrix()); })
+      .def_property_readonly("timings_ms", [](const PyResult& r) {
+        py::dict timings;
+        for (const StageTime& t : r.result.timings_ms.stages)
+          timings[py::str(EnumName(t.stage))] = t.ms;
+        return timings;
+      });
+}
+
 }  // namespace
 }  // namespace furn
 
@@ -516,69 +584,7 @@ PYBIND11_MODULE(_furnidet, m) {
       .def("runs", &PyDataset::Runs)
       .def("run_metrics", &PyDataset::RunMetrics, py::arg("run_id"));
 
-  // Conventions version 2 (docs/conventions.md): yaw and box REP 103, x the object's front.
-  m.attr("CONVENTIONS") = 2;
-  py::class_<PyDetection>(
-      m,
-      "Detection",
-      "One detected piece, world frame (floor at z = 0, z up): x, y the floor point under it; "
-      "yaw and box REP 103 (x = the object's front, radians); model and verification None "
-      "without a fit.")
-      .def_property_readonly("cls",
-                             [](const PyDetection& d) { return ClassName(d.detection.furniture_class); })
-      .def_property_readonly("x", [](const PyDetection& d) { return d.detection.x; })
-      .def_property_readonly("y", [](const PyDetection& d) { return d.detection.y; })
-      .def_property_readonly("z", [](const PyDetection& d) { return d.detection.z; })
-      .def_property_readonly("yaw", [](const PyDetection& d) { return d.box.yaw; })
-      .def_property_readonly("box", [](const PyDetection& d) { return BoxDict(d.box); })
-      .def_property_readonly("model",
-                             [](const PyDetection& d) -> py::object {
-                               if (d.detection.model_index < 0) return py::none();
-                               return py::str(d.detection.model_name);
-                             })
-      .def_property_readonly("score", [](const PyDetection& d) { return d.detection.score; })
-      .def_property_readonly("vote_weight",
-                             [](const PyDetection& d) { return d.detection.vote_weight; })
-      .def_property_readonly("verification",
-                             [](const PyDetection& d) -> py::object {
-                               if (d.detection.model_index < 0) return py::none();
-                               return py::float_(d.detection.verification);
-                             })
-      .def_property_readonly("covered_fraction",
-                             [](const PyDetection& d) -> py::object {
-                               if (d.detection.model_index < 0) return py::none();
-                               return py::float_(d.detection.covered_fraction);
-                             })
-      .def("__repr__", [](const PyDetection& p) {
-        char text[160];
-        std::snprintf(text,
-                      sizeof(text),
-                      "<furnidet.Detection %s x=%.3f y=%.3f yaw=%.3f score=%.3f>",
-                      ClassName(p.detection.furniture_class),
-                      p.detection.x,
-                      p.detection.y,
-                      p.box.yaw,
-                      p.detection.score);
-        return std::string(text);
-      });
-
-  py::class_<PyResult>(m, "DetectionResult")
-      .def_property_readonly("status", [](const PyResult& r) { return EnumName(r.result.status); })
-      .def_property_readonly("message", [](const PyResult& r) { return r.result.message; })
-      .def_readonly("detections", &PyResult::detections)
-      .def_property_readonly("floor_estimated",
-                             [](const PyResult& r) { return r.result.floor_estimated; })
-      .def_property_readonly("points", [](const PyResult& r) { return r.result.points; })
-      .def_property_readonly("segments", [](const PyResult& r) { return r.result.segments; })
-      .def_property_readonly(
-          "world_from_camera",
-          [](const PyResult& r) { return MatrixArray(r.result.world_from_camera.matrix()); })
-      .def_property_readonly("timings_ms", [](const PyResult& r) {
-        py::dict timings;
-        for (const StageTime& t : r.result.timings_ms.stages)
-          timings[py::str(EnumName(t.stage))] = t.ms;
-        return timings;
-      });
+  BindDetections(m);
 
   py::class_<PyDetector>(m, "Detector", "A trained model ready to detect; loads once.")
       .def(py::init<const std::string&, const py::object&>(),
