@@ -9,7 +9,7 @@
 // (SPEC §4, the dataset database, BOP export): the functions here are the one
 // place that turns one into the other.
 //
-//   const OrientedBox box = BoxInWorld(detection, BoxOf(detection, model));
+//   const OrientedBox box = DetectionBoxInWorld(detection, model);  // detection_box.h
 //   json["yaw"] = box.yaw;  json["quaternion"] = QuaternionXyzw(box.yaw);
 #pragma once
 
@@ -52,6 +52,24 @@ inline OrientedBox BoxInWorld(const Eigen::Vector3d& reference,
   box.size = Eigen::Vector3d(high.y() - low.y(), high.x() - low.x(), high.z() - low.z());
   box.yaw = Rep103YawFromModelYaw(model_yaw);
   return box;
+}
+
+// The box of a footprint width x depth (across the front, front to back)
+// centred on `reference` on the floor, `height` tall, turned by a CAD-model yaw.
+inline OrientedBox FootprintBoxInWorld(
+    const Eigen::Vector3d& reference, double model_yaw, double width, double depth, double height) {
+  return BoxInWorld(reference,
+                    model_yaw,
+                    Eigen::Vector3d(-width / 2, -depth / 2, 0),
+                    Eigen::Vector3d(width / 2, depth / 2, height));
+}
+
+// The box's own frame in the world: its centre, x along its front.
+inline Eigen::Isometry3d WorldFromBox(const OrientedBox& box) {
+  Eigen::Isometry3d world_from_box = Eigen::Isometry3d::Identity();
+  world_from_box.translation() = box.centre;
+  world_from_box.linear() = Eigen::AngleAxisd(box.yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  return world_from_box;
 }
 
 // The rotation about z by `yaw` as a quaternion x, y, z, w (ROS order).

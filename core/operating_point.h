@@ -25,10 +25,14 @@ struct ClassOperatingPoint {
   int targets = 0;  // objects of the class to find there
 };
 
+// The match distance operating points are chosen and reported at (m): a
+// decision ("there is a table here"), looser than AP@10cm's localisation.
+inline constexpr double kOperatingMatchM = 0.2;
+
 struct OperatingPoint {
   std::array<ClassOperatingPoint, kAllClasses.size()> classes{};
-  double match_m = 0.2;   // a detection this near a true object of its class is true
-  std::string chosen_on;  // "240 validation frames of the training rooms", or empty
+  double match_m = kOperatingMatchM;  // a detection this near a true object of its class is true
+  std::string chosen_on;              // "240 validation frames of the training rooms", or empty
 
   // Whether no class has a threshold (a model trained before the operating
   // point, or one nobody chose one for).
@@ -46,9 +50,5 @@ struct OperatingPoint {
     return min_score < 0 || score >= min_score;
   }
 };
-
-// The match distance operating points are chosen and reported at (m): a
-// decision ("there is a table here"), looser than AP@10cm's localisation.
-inline constexpr double kOperatingMatchM = 0.2;
 
 }  // namespace furn

@@ -519,10 +519,20 @@ std::pair<int, int> CountsAtScore(const Matching& matching, double min_score) {
   return counts;
 }
 
-double F1(int tp, int fp, int targets) {
-  const double precision = tp + fp > 0 ? static_cast<double>(tp) / (tp + fp) : 0;
-  const double recall = targets > 0 ? static_cast<double>(tp) / targets : 0;
-  return precision + recall > 0 ? 2 * precision * recall / (precision + recall) : 0;
+// A threshold and what the detections at or above it measure.
+struct BestF1 {
+  double min_score = -1, precision = 0, recall = 0, f1 = 0;
+};
+
+// Precision, recall and F1 of tp true and fp false detections among
+// `targets` objects (0 where a share is undefined).
+BestF1 Measured(double min_score, int tp, int fp, int targets) {
+  BestF1 m{min_score,
+           tp + fp > 0 ? static_cast<double>(tp) / (tp + fp) : 0,
+           targets > 0 ? static_cast<double>(tp) / targets : 0,
+           0};
+  m.f1 = m.precision + m.recall > 0 ? 2 * m.precision * m.recall / (m.precision + m.recall) : 0;
+  return m;
 }
 
 // Precision, recall and F1 of the detections at the operating point, per
@@ -535,13 +545,13 @@ void AddOperatingPoint(const std::vector<FrameOutcome>& frames,
   const double distance = point.match_m;
   int all_tp = 0, all_fp = 0, all_targets = 0;
   auto add = [&](std::optional<FurnitureClass> c, int tp, int fp, int targets) {
+    const BestF1 measured = Measured(-1, tp, fp, targets);
     if (tp + fp > 0)
       (*m)[MetricId::Operating(c, OperatingMeasure::kPrecision, distance).Name()] =
-          static_cast<double>(tp) / (tp + fp);
+          measured.precision;
     if (targets > 0) {
-      (*m)[MetricId::Operating(c, OperatingMeasure::kRecall, distance).Name()] =
-          static_cast<double>(tp) / targets;
-      (*m)[MetricId::Operating(c, OperatingMeasure::kF1, distance).Name()] = F1(tp, fp, targets);
+      (*m)[MetricId::Operating(c, OperatingMeasure::kRecall, distance).Name()] = measured.recall;
+      (*m)[MetricId::Operating(c, OperatingMeasure::kF1, distance).Name()] = measured.f1;
     }
   };
   for (FurnitureClass c : options.classes) {
@@ -557,14 +567,6 @@ void AddOperatingPoint(const std::vector<FrameOutcome>& frames,
       static_cast<double>(all_fp) / frames.size();
 }
 
-}  // namespace
-
-namespace {
-
-struct BestF1 {
-  double min_score = -1, precision = 0, recall = 0, f1 = 0;
-};
-
 // The threshold of best F1 along score-sorted cumulative counts. Strictly
 // better only: among equal F1 the higher threshold (fewer detections); a
 // detection scoring as the next one must go with it.
@@ -574,14 +576,9 @@ BestF1 BestF1Along(const std::vector<PrPoint>& curve,
   BestF1 best;
   for (size_t i = 0; i < curve.size(); ++i) {
     const auto [tp, fp] = counts[i];
-    const double f1 = F1(tp, fp, targets);
+    const BestF1 here = Measured(curve[i].threshold, tp, fp, targets);
     const bool tie_next = i + 1 < curve.size() && curve[i + 1].threshold == curve[i].threshold;
-    if (f1 > best.f1 && !tie_next) {
-      best = {curve[i].threshold,
-              static_cast<double>(tp) / (tp + fp),
-              static_cast<double>(tp) / targets,
-              f1};
-    }
+    if (here.f1 > best.f1 && !tie_next) best = here;
   }
   return best;
 }
@@ -642,13 +639,8 @@ OperatingPoint ChooseOperatingPoint(const std::vector<FrameOutcome>& frames,
                         ? BestF1Along(matching.curve, matching.counts, matching.targets)
                         : BestF1{};
     if (chosen.f1 == 0) {  // too few objects, or never found: the pooled threshold
-      chosen.min_score = pooled.min_score;
-      if (matching.targets > 0) {
-        const auto [tp, fp] = CountsAtScore(matching, pooled.min_score);
-        chosen.precision = tp + fp > 0 ? static_cast<double>(tp) / (tp + fp) : 0;
-        chosen.recall = static_cast<double>(tp) / matching.targets;
-        chosen.f1 = F1(tp, fp, matching.targets);
-      }
+      const auto [tp, fp] = CountsAtScore(matching, pooled.min_score);
+      chosen = Measured(pooled.min_score, tp, fp, matching.targets);
     }
     entry.min_score = chosen.min_score;
     if (matching.targets > 0) {

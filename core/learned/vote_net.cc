@@ -111,6 +111,14 @@ void TakeTensor(const std::string& bytes,
   *at += data_bytes;
 }
 
+// The FURNVNET magic and the format version after it; `at` moves past both.
+uint32_t ReadMagicAndVersion(const std::string& bytes, size_t* at, const std::string& what) {
+  Require(bytes.size() >= sizeof(kMagic) && std::memcmp(bytes.data(), kMagic, sizeof(kMagic)) == 0,
+          what + ": not a vote network (no FURNVNET header)");
+  *at = sizeof(kMagic);
+  return Take<uint32_t>(bytes, at, what);
+}
+
 }  // namespace
 
 VoteNetOptions ReadVoteNetHeader(const std::string& bytes,
@@ -142,10 +150,8 @@ VoteNetOptions ReadVoteNetHeader(const std::string& bytes,
 }
 
 std::string UpgradeTorchScriptVoteNet(const std::string& bytes, const std::string& what) {
-  Require(bytes.size() >= sizeof(kMagic) && std::memcmp(bytes.data(), kMagic, sizeof(kMagic)) == 0,
-          what + ": not a vote network (no FURNVNET header)");
-  size_t at = sizeof(kMagic);
-  const uint32_t version = Take<uint32_t>(bytes, &at, what);
+  size_t at = 0;
+  const uint32_t version = ReadMagicAndVersion(bytes, &at, what);
   if (version == kVersion) return bytes;
   Require(version == kFirstArchiveVersion || version == kFirstArchiveVersion + 1,
           what + ": vote network format " + std::to_string(version) + " cannot be upgraded");
@@ -324,10 +330,8 @@ std::string VoteNet::Serialize() const {
 }
 
 VoteNet VoteNet::Deserialize(const std::string& bytes, const std::string& what) {
-  Require(bytes.size() >= sizeof(kMagic) && std::memcmp(bytes.data(), kMagic, sizeof(kMagic)) == 0,
-          what + ": not a vote network (no FURNVNET header)");
-  size_t at = sizeof(kMagic);
-  const uint32_t version = Take<uint32_t>(bytes, &at, what);
+  size_t at = 0;
+  const uint32_t version = ReadMagicAndVersion(bytes, &at, what);
   Require(version != kFirstArchiveVersion && version != kFirstArchiveVersion + 1,
           what + ": vote network format " + std::to_string(version) +
               " keeps its weights as a TorchScript archive, which this build does not load "

@@ -17,7 +17,6 @@
 #include "workbench/cli/cluster_flags.h"
 #include "workbench/cli/commands.h"
 #include "workbench/cli/detector_flags.h"
-#include "workbench/formats/json_text.h"
 #include "workbench/pipelines/compare_vocab.h"
 #include "workbench/pipelines/crossval.h"
 #include "workbench/pipelines/evaluate.h"
@@ -350,18 +349,7 @@ ArrayJob CrossvalArrayJob(const ClusterFlags& cluster,
                           const std::string& db_path,
                           int argc,
                           char** argv) {
-  const std::optional<std::string> generation =
-      DatasetDb(db_path, DatasetDb::Mode::kReadOnly).GenerationOptions();
-  int folds = 0;
-  if (generation) {
-    const nlohmann::json options =
-        ParseUserJson<nlohmann::json>(*generation, db_path + " (its generation options)");
-    if (options.is_object() && options.contains("model_folds") &&
-        options["model_folds"].is_object() && options["model_folds"].contains("folds") &&
-        options["model_folds"]["folds"].is_number_integer())
-      folds = options["model_folds"]["folds"].get<int>();
-  }
-  Require(folds >= 2, db_path + ": not generated with --model-folds K (no folds to run)");
+  const int folds = ReadDatasetFolds(db_path).count;
   Require(cluster.shards == folds,
           "--shards " + std::to_string(cluster.shards) + ": " + db_path + " has " +
               std::to_string(folds) + " folds, one task each (--shards " + std::to_string(folds) +

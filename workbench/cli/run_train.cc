@@ -340,18 +340,9 @@ int RunModel(int argc, char** argv) {
     evaluate.split = ParseSplit(split, "--split");
     evaluate.detector = detector_flags.Resolve();
     TrainedModel model = LoadTrainedModel(path);  // a bad model fails before detection runs
-    if (!rooms_path.empty()) {
-      Require(!model.vote_net.empty(), path + ": has no vote network (--training-rooms needs one)");
-      const VoteNet net = VoteNet::Deserialize(model.vote_net, path);
-      VoteNetTrainingOptions rooms;
-      rooms.net = net.options();
-      std::vector<BevSample> training, validation;
-      ReadBevSamples(rooms_path, rooms, &training, &validation);
-      Require(!validation.empty(), rooms_path + ": has no validation room (every 10th room)");
-      model.operating_point = VoteNetOperatingPoint(net, validation);
-    } else {
-      model.operating_point = ChooseOperatingPointOn(path, db_path, evaluate);
-    }
+    model.operating_point = rooms_path.empty()
+                                ? ChooseOperatingPointOn(model, db_path, evaluate)
+                                : VoteNetOperatingPointOnRooms(model, path, rooms_path);
     SaveTrainedModel(model, out);
     std::cout << out << ": " << DescribeOperatingPoint(model.operating_point);
     return 0;

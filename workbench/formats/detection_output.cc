@@ -5,7 +5,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "core/conventions.h"
+#include "core/detection_box.h"
 
 namespace furn {
 
@@ -42,9 +42,7 @@ nlohmann::ordered_json Vector3Json(const Eigen::Vector3d& v) { return {v.x(), v.
 }  // namespace
 
 nlohmann::ordered_json DetectionBoxJson(const Detection& d, const TrainedModel& model) {
-  const DetectionBox local = BoxOf(d, model);
-  const OrientedBox box = BoxInWorld(
-      Eigen::Vector3d(d.x, d.y, d.z), d.yaw, local.low.cast<double>(), local.high.cast<double>());
+  const OrientedBox box = DetectionBoxInWorld(d, model);
   const bool fitted = d.model_index >= 0;
   return {
       {"class", ClassName(d.furniture_class)},

@@ -9,6 +9,9 @@
 //   });
 #pragma once
 
+#include <array>
+#include <string>
+
 #include "core/detector.h"
 
 namespace furn {
@@ -18,6 +21,27 @@ struct DetectorOptionInfo {
   const char* flag;  // "--name", or "" for an option set by files only
   const char* help;
 };
+
+// The key, flag and help of each class's operating-point option, made once
+// (DetectorOptionInfo points into them).
+struct ClassOptionNames {
+  std::string key, flag, help;
+};
+inline const std::array<ClassOptionNames, kAllClasses.size()>& ClassMinScoreOptionNames() {
+  static const std::array<ClassOptionNames, kAllClasses.size()> names = [] {
+    std::array<ClassOptionNames, kAllClasses.size()> made;
+    for (size_t c = 0; c < kAllClasses.size(); ++c) {
+      const std::string name = ClassName(kAllClasses[c]);
+      const char* article = std::string("aeiou").find(name[0]) == std::string::npos ? "a" : "an";
+      made[c] = {"class_min_score." + name,
+                 "--op-" + name,
+                 std::string("Operating point: least score of ") + article + " " + name +
+                     " detection (-1: the model's)"};
+    }
+    return made;
+  }();
+  return names;
+}
 
 // Calls visit(info, member) for every field of `options`, in the order runs
 // store them (that order is part of the stored text: do not reorder).
@@ -158,29 +182,12 @@ void ForEachDetectorOption(Options* options, Visit&& visit) {
                          "Output every candidate (each maximum that passed its stages), not only "
                          "those at the model's operating point (evaluate always sweeps them all)"},
       o.all_candidates);
-  static_assert(kAllClasses.size() == 5, "one operating-point option per class");
-  visit(DetectorOptionInfo{"class_min_score.chair",
-                           "--op-chair",
-                           "Operating point: least score of a chair detection (-1: the model's)"},
-        o.class_min_score[0]);
-  visit(DetectorOptionInfo{"class_min_score.armchair",
-                           "--op-armchair",
-                           "Operating point: least score of an armchair detection (-1: the "
-                           "model's)"},
-        o.class_min_score[1]);
-  visit(DetectorOptionInfo{"class_min_score.table",
-                           "--op-table",
-                           "Operating point: least score of a table detection (-1: the model's)"},
-        o.class_min_score[2]);
-  visit(DetectorOptionInfo{"class_min_score.sideboard",
-                           "--op-sideboard",
-                           "Operating point: least score of a sideboard detection (-1: the "
-                           "model's)"},
-        o.class_min_score[3]);
-  visit(DetectorOptionInfo{"class_min_score.sofa",
-                           "--op-sofa",
-                           "Operating point: least score of a sofa detection (-1: the model's)"},
-        o.class_min_score[4]);
+  // One operating-point option per class: class_min_score.<class>, --op-<class>.
+  const auto& names = ClassMinScoreOptionNames();
+  for (size_t c = 0; c < kAllClasses.size(); ++c) {
+    visit(DetectorOptionInfo{names[c].key.c_str(), names[c].flag.c_str(), names[c].help.c_str()},
+          o.class_min_score[static_cast<size_t>(kAllClasses[c])]);
+  }
 }
 
 }  // namespace furn

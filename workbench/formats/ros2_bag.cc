@@ -24,11 +24,7 @@ namespace fs = std::filesystem;
 constexpr int64_t kMaxMessageBytes = int64_t{1} << 28;  // 256 MiB: 100 raw 1080p depth frames
 constexpr int kMaxTopics = 10000;
 
-std::string SecondsText(int64_t time_ns) {
-  char text[32];
-  std::snprintf(text, sizeof(text), "%.3f", time_ns * 1e-9);
-  return text;
-}
+std::string SecondsText(int64_t time_ns) { return TimeText(time_ns * 1e-9); }
 
 // The number after the last '_' of a file's stem (rosbag2 splits: x_0, x_1, ...).
 int64_t SplitIndex(const fs::path& file) {
@@ -115,15 +111,18 @@ class BagFile {
     return count.Step() ? count.ColumnInt(0) : 0;
   }
 
-  // The messages of the topics in time order; a message above
-  // kMaxMessageBytes is refused before it is read.
-  void ForEach(const std::set<int64_t>& ids, const std::function<void(const Ros2Message&)>& each) {
+  // The messages of the topics in time order (the first `limit`; 0: all); a
+  // message above kMaxMessageBytes is refused before it is read.
+  void ForEach(const std::set<int64_t>& ids,
+               const std::function<void(const Ros2Message&)>& each,
+               int64_t limit = 0) {
     if (ids.empty()) return;
     Statement rows(&db_,
                    "SELECT topic_id, timestamp, length(data), CASE WHEN length(data) <= " +
                        std::to_string(kMaxMessageBytes) +
                        " THEN data END FROM messages WHERE topic_id IN (" + List(ids) +
-                       ") ORDER BY timestamp, id");
+                       ") ORDER BY timestamp, id" +
+                       (limit > 0 ? " LIMIT " + std::to_string(limit) : std::string()));
     Ros2Message message;
     while (rows.Step()) {
       const Topic& topic = topics_.at(rows.ColumnInt(0));
@@ -210,10 +209,14 @@ int ScanFiles(std::deque<BagFile>& files,
   for (BagFile& file : files) total += file.Count(file.Ids({options.topic}));
   if (type == kRos2Image) {  // the first CameraInfo, for images recorded before it
     for (BagFile& file : files) {
-      file.ForEach(file.Ids({info_topic}, kRos2CameraInfo), [&](const Ros2Message& m) {
-        const std::string where = options.bag_path + " " + m.topic;
-        if (!scans.has_camera()) scans.OnCameraInfo(DecodeCameraInfo(m.data, where), where);
-      });
+      if (scans.has_camera()) break;
+      file.ForEach(
+          file.Ids({info_topic}, kRos2CameraInfo),
+          [&](const Ros2Message& m) {
+            const std::string where = options.bag_path + " " + m.topic;
+            scans.OnCameraInfo(DecodeCameraInfo(m.data, where), where);
+          },
+          /*limit=*/1);
     }
   }
   int count = 0;

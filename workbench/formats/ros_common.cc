@@ -5,7 +5,7 @@
 #include <cstring>
 #include <limits>
 
-#include "core/conventions.h"
+#include "core/detection_box.h"
 #include "core/error.h"
 #include "core/furniture_class.h"
 #include "reports/class_colours.h"
@@ -20,13 +20,13 @@ std::string StripSlash(const std::string& frame) {
   return !frame.empty() && frame[0] == '/' ? frame.substr(1) : frame;
 }
 
+}  // namespace
+
 std::string TimeText(double seconds) {
   char text[32];
   std::snprintf(text, sizeof(text), "%.3f", seconds);
   return text;
 }
-
-}  // namespace
 
 void TfBuffer::Add(const RosTransform& t, bool is_static, const std::string& where) {
   const Eigen::Vector3d& p = t.translation;
@@ -245,20 +245,11 @@ RosMarker BoxMarker(const OrientedBox& box,
                     std::optional<FurnitureClass> furniture_class,
                     const Eigen::Isometry3d& frame_from_world) {
   RosMarker marker;
-  Eigen::Isometry3d world_from_box = Eigen::Isometry3d::Identity();
-  world_from_box.translation() = box.centre;
-  world_from_box.linear() = Eigen::AngleAxisd(box.yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
-  marker.pose = frame_from_world * world_from_box;
+  marker.pose = frame_from_world * WorldFromBox(box);
   marker.scale = box.size.cwiseMax(0.01);
   const std::array<uint8_t, 3> rgb = ClassColourRgb(furniture_class);
   marker.rgba = {rgb[0] / 255.0f, rgb[1] / 255.0f, rgb[2] / 255.0f, 0.5f};
   return marker;
-}
-
-OrientedBox WorldBoxOf(const Detection& d, const TrainedModel& model) {
-  const DetectionBox local = BoxOf(d, model);
-  return BoxInWorld(
-      Eigen::Vector3d(d.x, d.y, d.z), d.yaw, local.low.cast<double>(), local.high.cast<double>());
 }
 
 }  // namespace
@@ -271,7 +262,7 @@ std::vector<RosMarker> DetectionMarkers(const DetectionResult& result,
   int id = 0;
   for (const Detection& d : result.detections) {
     const std::string name = ClassName(d.furniture_class);
-    const OrientedBox world_box = WorldBoxOf(d, model);
+    const OrientedBox world_box = DetectionBoxInWorld(d, model);
     RosMarker box = BoxMarker(world_box, d.furniture_class, frame_from_world);
     box.header = header;
     box.ns = "furnidet/" + name;
@@ -298,16 +289,12 @@ std::vector<RosDetection3D> DetectionBoxes(const DetectionResult& result,
                                            const Eigen::Isometry3d& frame_from_world) {
   std::vector<RosDetection3D> boxes;
   for (const Detection& d : result.detections) {
-    const OrientedBox box = WorldBoxOf(d, model);
+    const OrientedBox box = DetectionBoxInWorld(d, model);
     RosDetection3D out;
     out.class_id = ClassName(d.furniture_class);
     out.id = d.model_index >= 0 ? d.model_name : "";
     out.score = d.score;
-    Eigen::Isometry3d world_from_box = Eigen::Isometry3d::Identity();
-    world_from_box.translation() = box.centre;
-    world_from_box.linear() =
-        Eigen::AngleAxisd(box.yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
-    out.box_pose = frame_from_world * world_from_box;
+    out.box_pose = frame_from_world * WorldFromBox(box);
     out.size = box.size;
     boxes.push_back(out);
   }
@@ -320,13 +307,14 @@ std::vector<RosMarker> TruthMarkers(const RoomRecord& room, double stamp) {
   header.frame_id = "world";
   std::vector<RosMarker> markers{DeleteAll(header)};
   for (const ObjectRecord& object : room.objects) {
-    const Eigen::Vector3d half(object.width / 2, object.depth / 2, object.height);
-    RosMarker box = BoxMarker(BoxInWorld(Eigen::Vector3d(object.reference_x, object.reference_y, 0),
-                                         object.yaw,
-                                         Eigen::Vector3d(-half.x(), -half.y(), 0),
-                                         half),
-                              object.furniture_class,
-                              Eigen::Isometry3d::Identity());
+    RosMarker box =
+        BoxMarker(FootprintBoxInWorld(Eigen::Vector3d(object.reference_x, object.reference_y, 0),
+                                      object.yaw,
+                                      object.width,
+                                      object.depth,
+                                      object.height),
+                  object.furniture_class,
+                  Eigen::Isometry3d::Identity());
     box.header = header;
     box.ns = object.furniture_class ? ClassName(*object.furniture_class) : "clutter";
     box.id = static_cast<int32_t>(object.instance_id);

@@ -124,6 +124,8 @@ class TfBuffer {
 // m); InputError naming `where` for sizes, encodings and data that do not fit.
 DepthFrame DepthOfImage(const RosImage& image, double depth_scale, const std::string& where);
 CameraIntrinsics IntrinsicsOfInfo(const RosCameraInfo& info, const std::string& where);
+// A time in messages: seconds with 3 decimals ("12.250").
+std::string TimeText(double seconds);
 // The topic's namespace: "/camera/depth" of "/camera/depth/image_raw".
 std::string TopicNamespace(const std::string& topic);
 

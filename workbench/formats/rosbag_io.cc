@@ -64,11 +64,7 @@ int FrameBagWriter::Finish() { NoRos(); }
 namespace furn {
 namespace {
 
-std::string TimeText(const ros::Time& time) {
-  char text[32];
-  std::snprintf(text, sizeof(text), "%.3f", time.toSec());
-  return text;
-}
+std::string TimeText(const ros::Time& time) { return furn::TimeText(time.toSec()); }
 
 // Our one line for whatever rosbag or a message's deserialisation threw.
 [[noreturn]] void RethrowAsInputError(const std::string& where) {
@@ -179,26 +175,17 @@ TfBuffer ReadTf(rosbag::Bag& bag, const std::string& path) {
   return tf;
 }
 
-void SetPose(const Eigen::Isometry3d& pose, geometry_msgs::Pose* out) {
-  const Eigen::Quaterniond q(pose.linear());
-  out->position.x = pose.translation().x();
-  out->position.y = pose.translation().y();
-  out->position.z = pose.translation().z();
-  out->orientation.w = q.w();
-  out->orientation.x = q.x();
-  out->orientation.y = q.y();
-  out->orientation.z = q.z();
-}
-
-void SetTransform(const Eigen::Isometry3d& pose, geometry_msgs::Transform* out) {
-  const Eigen::Quaterniond q(pose.linear());
-  out->translation.x = pose.translation().x();
-  out->translation.y = pose.translation().y();
-  out->translation.z = pose.translation().z();
-  out->rotation.w = q.w();
-  out->rotation.x = q.x();
-  out->rotation.y = q.y();
-  out->rotation.z = q.z();
+// A translation and rotation into ROS 1's x, y, z (Point, Vector3) and
+// x, y, z, w (Quaternion) fields.
+template <typename Xyz, typename Xyzw>
+void SetRigid(const Eigen::Vector3d& t, const Eigen::Quaterniond& q, Xyz* xyz, Xyzw* xyzw) {
+  xyz->x = t.x();
+  xyz->y = t.y();
+  xyz->z = t.z();
+  xyzw->w = q.w();
+  xyzw->x = q.x();
+  xyzw->y = q.y();
+  xyzw->z = q.z();
 }
 
 visualization_msgs::Marker Ros1Marker(const RosMarker& m) {
@@ -208,7 +195,10 @@ visualization_msgs::Marker Ros1Marker(const RosMarker& m) {
   marker.id = m.id;
   marker.type = m.type;
   marker.action = m.action;
-  SetPose(m.pose, &marker.pose);
+  SetRigid(m.pose.translation(),
+           Eigen::Quaterniond(m.pose.linear()),
+           &marker.pose.position,
+           &marker.pose.orientation);
   marker.scale.x = m.scale.x();
   marker.scale.y = m.scale.y();
   marker.scale.z = m.scale.z();
@@ -468,7 +458,10 @@ void FrameBagWriter::Write(const RoomRecord& room,
     transform.header.stamp = stamp;
     transform.header.frame_id = recorded.world_from_camera.header.frame_id;
     transform.child_frame_id = recorded.world_from_camera.child_frame_id;
-    SetTransform(frame.world_from_camera, &transform.transform);
+    SetRigid(recorded.world_from_camera.translation,
+             recorded.world_from_camera.rotation,
+             &transform.transform.translation,
+             &transform.transform.rotation);
     tf.transforms.push_back(transform);
     visualization_msgs::MarkerArray truth = Ros1Markers(recorded.truth);
     for (visualization_msgs::Marker& m : truth.markers) m.header.stamp = stamp;

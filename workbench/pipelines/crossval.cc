@@ -16,12 +16,10 @@
 #include "workbench/pipelines/train.h"
 
 namespace furn {
-namespace {
 
-// The folds the dataset was generated with (`generate --model-folds`).
-ModelFolds DatasetFolds(const Catalog& catalog, const std::string& db_path, uint64_t* seed) {
-  DatasetDb dataset(db_path, DatasetDb::Mode::kReadOnly);
-  const std::optional<std::string> generation = dataset.GenerationOptions();
+DatasetFoldSpec ReadDatasetFolds(const std::string& db_path) {
+  const std::optional<std::string> generation =
+      DatasetDb(db_path, DatasetDb::Mode::kReadOnly).GenerationOptions();
   const std::string what = db_path + " (its generation options)";
   const nlohmann::json options =
       generation ? ParseUserJson<nlohmann::json>(*generation, what) : nlohmann::json::object();
@@ -29,16 +27,23 @@ ModelFolds DatasetFolds(const Catalog& catalog, const std::string& db_path, uint
           db_path +
               ": was not generated with leave-models-out folds (make one with "
               "'workbench generate --model-folds 5 ...')");
-  const nlohmann::json& folds_json = options["model_folds"];
-  Require(folds_json.is_object() && folds_json.contains("folds") &&
-              folds_json["folds"].is_number_integer() && folds_json["folds"] >= 2 &&
-              folds_json["folds"] <= 100,
+  const nlohmann::json& folds = options["model_folds"];
+  Require(folds.is_object() && folds.contains("folds") && folds["folds"].is_number_integer() &&
+              folds["folds"] >= 2 && folds["folds"] <= 100,
           what + ": 'model_folds.folds' must be an integer in 2..100");
-  Require(folds_json.contains("seed") && folds_json["seed"].is_number_unsigned(),
+  Require(folds.contains("seed") && folds["seed"].is_number_unsigned(),
           what + ": 'model_folds.seed' must be a non-negative integer");
-  const int count = folds_json["folds"].get<int>();
-  *seed = folds_json["seed"].get<uint64_t>();
-  ModelFolds folds = AssignModelFolds(catalog, count, *seed);
+  return {folds["folds"].get<int>(), folds["seed"].get<uint64_t>()};
+}
+
+namespace {
+
+// The folds the dataset was generated with (`generate --model-folds`).
+ModelFolds DatasetFolds(const Catalog& catalog, const std::string& db_path, uint64_t* seed) {
+  const DatasetFoldSpec spec = ReadDatasetFolds(db_path);
+  *seed = spec.seed;
+  DatasetDb dataset(db_path, DatasetDb::Mode::kReadOnly);
+  ModelFolds folds = AssignModelFolds(catalog, spec.count, spec.seed);
   // The same catalog must give the same split: every target of room k is a
   // model of fold k % K.
   for (int64_t room_id : dataset.RoomIds()) {

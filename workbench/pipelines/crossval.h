@@ -73,6 +73,15 @@ struct CrossvalSummary {
   double seconds = 0;
 };
 
+// The leave-models-out folds a dataset was generated with (`generate
+// --model-folds K`). Throws InputError naming the database when it has none
+// or they are malformed.
+struct DatasetFoldSpec {
+  int count = 0;
+  uint64_t seed = 0;
+};
+DatasetFoldSpec ReadDatasetFolds(const std::string& db_path);
+
 // Throws InputError when the dataset was not generated with model folds, or
 // when the catalog's folds disagree with the dataset's rooms (another catalog).
 CrossvalSummary RunLeaveModelsOut(const Catalog& catalog,

@@ -63,8 +63,7 @@ void PrintStageTimes(const DetectionResult& result,
 
 // A hint for an image with nothing in range: most often its depth unit.
 std::string UnitHint(const LoadedScan& scan, const DetectionResult& result) {
-  if (scan.input.width <= 0 || result.message.find("no finite point within") == std::string::npos)
-    return "";
+  if (scan.input.width <= 0 || result.status != DetectionStatus::kNoPointsInRange) return "";
   return "; if the image's depth unit is not the millimetre, give --depth-scale (units per "
          "metre; TUM RGB-D PNGs: 5000)";
 }

@@ -542,15 +542,14 @@ EvaluateSummary MergeEvaluation(const std::string& model_path,
   return summary;
 }
 
-OperatingPoint ChooseOperatingPointOn(const std::string& model_path,
+OperatingPoint ChooseOperatingPointOn(const TrainedModel& model,
                                       const std::string& db_path,
                                       const EvaluateCommandOptions& command_options) {
   CheckEvaluateOptions(command_options);
   Require(command_options.shard_count == 0, "an operating point is chosen on every frame at once");
   DatasetDb dataset(db_path, DatasetDb::Mode::kReadOnly);
-  TrainedModel model = LoadTrainedModel(model_path);
   const EvaluateCommandOptions options = WithOperatingPoint(command_options, model);
-  const Detector detector(std::move(model), options.detector);
+  const Detector detector(model, options.detector);
   const FrameSelection selection = SelectFrames(dataset, db_path, options);
   std::vector<FrameOutcome> outcomes;
   for (EvaluatedFrame& frame : DetectFrames(dataset, db_path, detector, selection, options))

@@ -88,15 +88,15 @@ EvaluateSummary MergeEvaluation(const std::string& model_path,
                                 const EvaluateCommandOptions& options,
                                 const std::vector<std::string>& shard_paths);
 
-// `workbench report`: the run's report folder, with a gallery of the frames
-// with the most errors (detection rerun with the run's options and model).
-// Detection with every candidate over the selected frames (options' split,
-// max_frames), and the operating point of best F1 per class there
-// (ChooseOperatingPoint at kOperatingMatchM). Stores no run.
-OperatingPoint ChooseOperatingPointOn(const std::string& model_path,
+// Detection by `model` with every candidate over the selected frames
+// (options' split, max_frames), and the operating point of best F1 per class
+// there (ChooseOperatingPoint at kOperatingMatchM). Stores no run.
+OperatingPoint ChooseOperatingPointOn(const TrainedModel& model,
                                       const std::string& db_path,
                                       const EvaluateCommandOptions& options);
 
+// `workbench report`: the run's report folder, with a gallery of the frames
+// with the most errors (detection rerun with the run's options and model).
 void WriteReportForRun(const std::string& db_path, int64_t run_id, const std::string& out_dir);
 
 // Rotational symmetry order (4, 2 or 1) of a model shape about its origin:

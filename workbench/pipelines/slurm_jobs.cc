@@ -252,11 +252,9 @@ void WriteJobScripts(const ArrayJob& job) {
     RequirePrintable(*text, "a job's command or output path");
   // A folder holding another command's jobs is refused before anything in
   // it is written.
-  if (fs::exists(JobsJson(job.dir))) {
-    const nlohmann::json earlier = ReadJobs(job.dir);
-    Require(!earlier.contains("task_command") || earlier["task_command"] == job.task_command,
-            job.dir + ": holds the jobs of another command; use a new --job-dir");
-  }
+  nlohmann::json jobs = fs::exists(JobsJson(job.dir)) ? ReadJobs(job.dir) : nlohmann::json{};
+  Require(!jobs.contains("task_command") || jobs["task_command"] == job.task_command,
+          job.dir + ": holds the jobs of another command; use a new --job-dir");
   std::error_code ec;
   fs::create_directories(job.dir + "/logs", ec);
   fs::create_directories(job.dir + "/status", ec);
@@ -272,7 +270,6 @@ void WriteJobScripts(const ArrayJob& job) {
                         Header(job, "the final step", dir + "/logs/final.log") +
                             Body(ShellQuote(dir + "/status/final"), job.final_command));
   }
-  nlohmann::json jobs = fs::exists(JobsJson(job.dir)) ? ReadJobs(job.dir) : nlohmann::json{};
   jobs["name"] = job.name;
   jobs["tasks"] = job.tasks;
   jobs["task_command"] = job.task_command;

@@ -338,6 +338,20 @@ OperatingPoint VoteNetOperatingPoint(const VoteNet& net, const std::vector<BevSa
                                   "maxima at the default decoding)");
 }
 
+OperatingPoint VoteNetOperatingPointOnRooms(const TrainedModel& model,
+                                            const std::string& model_path,
+                                            const std::string& rooms_path) {
+  Require(!model.vote_net.empty(),
+          model_path + ": has no vote network (--training-rooms needs one)");
+  const VoteNet net = VoteNet::Deserialize(model.vote_net, model_path);
+  VoteNetTrainingOptions rooms;
+  rooms.net = net.options();
+  std::vector<BevSample> training, validation;
+  ReadBevSamples(rooms_path, rooms, &training, &validation);
+  Require(!validation.empty(), rooms_path + ": has no validation room (every 10th room)");
+  return VoteNetOperatingPoint(net, validation);
+}
+
 std::string TrainVoteNet(const Catalog& catalog,
                          const std::set<std::string>& held_out,
                          const VoteNetTrainingOptions& options,

@@ -21,6 +21,7 @@
 #include "core/learned/vote_net.h"
 #include "core/learned/vote_net_training.h"
 #include "core/operating_point.h"
+#include "core/trainer.h"
 #include "scenes/catalog.h"
 #include "scenes/room_composer.h"
 
@@ -96,6 +97,13 @@ VoteNet TrainVoteNetOnSamples(const std::vector<BevSample>& training,
 // network's maxima, decoded as the detector does by default, on
 // `validation` (not empty).
 OperatingPoint VoteNetOperatingPoint(const VoteNet& net, const std::vector<BevSample>& validation);
+
+// The same for a trained model, on the validation rooms of its training
+// rooms database (`train --keep-rooms`: <model>.rooms.db); `model_path`
+// names the model in errors.
+OperatingPoint VoteNetOperatingPointOnRooms(const TrainedModel& model,
+                                            const std::string& model_path,
+                                            const std::string& rooms_path);
 
 // Generates the rooms into rooms_db (resuming one already there; or merges
 // options.room_shards into it, which must hold every room), rasterises their

@@ -27,7 +27,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "core/conventions.h"
+#include "core/detection_box.h"
 #include "core/detector.h"
 #include "core/error.h"
 #include "core/furniture_class.h"
@@ -172,10 +172,11 @@ py::dict ObjectDict(const ObjectRecord& object, const FrameObjectRecord* seen) {
   d["z"] = object.z;
   // REP 103 (docs/conventions.md): the box's x is the object's front.
   const OrientedBox box =
-      BoxInWorld(Eigen::Vector3d(object.reference_x, object.reference_y, object.z),
-                 object.yaw,
-                 Eigen::Vector3d(-object.width / 2, -object.depth / 2, 0),
-                 Eigen::Vector3d(object.width / 2, object.depth / 2, object.height));
+      FootprintBoxInWorld(Eigen::Vector3d(object.reference_x, object.reference_y, object.z),
+                          object.yaw,
+                          object.width,
+                          object.depth,
+                          object.height);
   d["yaw"] = box.yaw;
   d["size"] = py::make_tuple(box.size.x(), box.size.y(), box.size.z());
   d["box"] = BoxDict(box);
@@ -408,14 +409,8 @@ class PyDetector {
     py::gil_scoped_release release;
     PyResult out;
     out.result = detector_.Detect(input);
-    for (const Detection& d : out.result.detections) {
-      const DetectionBox local = BoxOf(d, detector_.model());
-      out.detections.push_back({d,
-                                BoxInWorld(Eigen::Vector3d(d.x, d.y, d.z),
-                                           d.yaw,
-                                           local.low.cast<double>(),
-                                           local.high.cast<double>())});
-    }
+    for (const Detection& d : out.result.detections)
+      out.detections.push_back({d, DetectionBoxInWorld(d, detector_.model())});
     return out;
   }
   Detector detector_;
@@ -445,6 +440,55 @@ py::dict EvaluateFromPython(const std::string& model,
   d["seconds"] = summary.seconds;
   d["metrics"] = summary.result.metrics;
   return d;
+}
+
+// Frame and Dataset: a dataset database's frames as NumPy arrays.
+void BindDataset(py::module_& m) {
+  py::class_<PyFrame>(m, "Frame", "A dataset frame: images decoded on access, ground truth.")
+      .def_readonly("id", &PyFrame::id)
+      .def_readonly("room_id", &PyFrame::room_id)
+      .def_readonly("frame_index", &PyFrame::frame_index)
+      .def_readonly("split", &PyFrame::split)
+      .def_readonly(
+          "pose_known", &PyFrame::pose_known, "False for a real scan whose floor is found")
+      .def_property_readonly("width", [](const PyFrame& f) { return f.camera.width; })
+      .def_property_readonly("height", [](const PyFrame& f) { return f.camera.height; })
+      .def_property_readonly("K", [](const PyFrame& f) { return KArray(f.camera); })
+      .def_property_readonly("intrinsics",
+                             [](const PyFrame& f) {
+                               return py::make_tuple(
+                                   f.camera.fx, f.camera.fy, f.camera.cx, f.camera.cy);
+                             })
+      .def_property_readonly(
+          "world_from_camera",
+          [](const PyFrame& f) { return MatrixArray(f.world_from_camera.matrix()); },
+          "4x4; camera frame optical (x right, y down, z forward), world z up, floor z = 0")
+      .def_property_readonly(
+          "depth",
+          [](const PyFrame& f) { return f.Depth(f.depth_png, "noisy depth"); },
+          "float32 (H, W) metres of the simulated sensor; 0 = no return")
+      .def_property_readonly(
+          "depth_ideal",
+          [](const PyFrame& f) { return f.Depth(f.depth_ideal_png, "ideal depth"); },
+          "float32 (H, W) metres, noise-free")
+      .def_property_readonly("ids", &PyFrame::Ids, "uint16 (H, W) instance ids; 0 = none")
+      .def_readonly("objects", &PyFrame::objects, "ground truth: one dict per object")
+      .def("__repr__", [](const PyFrame& f) {
+        return "<furnidet.Frame " + std::to_string(f.id) + " of room " + std::to_string(f.room_id) +
+               " (" + f.split + ")>";
+      });
+
+  py::class_<PyDataset>(m, "Dataset", "A dataset database, read-only.")
+      .def(py::init<const std::string&>(), py::arg("path"))
+      .def_property_readonly("path", &PyDataset::path)
+      .def_property_readonly("generation_json", &PyDataset::generation_json)
+      .def("frame_ids", &PyDataset::FrameIds, py::arg("split") = py::none())
+      .def("room_ids", &PyDataset::RoomIds)
+      .def("room", &PyDataset::Room, py::arg("room_id"))
+      .def("frame", &PyDataset::Frame, py::arg("frame_id"))
+      .def("models", &PyDataset::Models)
+      .def("runs", &PyDataset::Runs)
+      .def("run_metrics", &PyDataset::RunMetrics, py::arg("run_id"));
 }
 
 // Detection and DetectionResult, as Python sees them (REP 103 boxes).
@@ -538,52 +582,7 @@ PYBIND11_MODULE(_furnidet, m) {
   for (FurnitureClass c : kAllClasses) classes.append(ClassName(c));
   m.attr("CLASSES") = classes;
 
-  py::class_<PyFrame>(m, "Frame", "A dataset frame: images decoded on access, ground truth.")
-      .def_readonly("id", &PyFrame::id)
-      .def_readonly("room_id", &PyFrame::room_id)
-      .def_readonly("frame_index", &PyFrame::frame_index)
-      .def_readonly("split", &PyFrame::split)
-      .def_readonly(
-          "pose_known", &PyFrame::pose_known, "False for a real scan whose floor is found")
-      .def_property_readonly("width", [](const PyFrame& f) { return f.camera.width; })
-      .def_property_readonly("height", [](const PyFrame& f) { return f.camera.height; })
-      .def_property_readonly("K", [](const PyFrame& f) { return KArray(f.camera); })
-      .def_property_readonly("intrinsics",
-                             [](const PyFrame& f) {
-                               return py::make_tuple(
-                                   f.camera.fx, f.camera.fy, f.camera.cx, f.camera.cy);
-                             })
-      .def_property_readonly(
-          "world_from_camera",
-          [](const PyFrame& f) { return MatrixArray(f.world_from_camera.matrix()); },
-          "4x4; camera frame optical (x right, y down, z forward), world z up, floor z = 0")
-      .def_property_readonly(
-          "depth",
-          [](const PyFrame& f) { return f.Depth(f.depth_png, "noisy depth"); },
-          "float32 (H, W) metres of the simulated sensor; 0 = no return")
-      .def_property_readonly(
-          "depth_ideal",
-          [](const PyFrame& f) { return f.Depth(f.depth_ideal_png, "ideal depth"); },
-          "float32 (H, W) metres, noise-free")
-      .def_property_readonly("ids", &PyFrame::Ids, "uint16 (H, W) instance ids; 0 = none")
-      .def_readonly("objects", &PyFrame::objects, "ground truth: one dict per object")
-      .def("__repr__", [](const PyFrame& f) {
-        return "<furnidet.Frame " + std::to_string(f.id) + " of room " + std::to_string(f.room_id) +
-               " (" + f.split + ")>";
-      });
-
-  py::class_<PyDataset>(m, "Dataset", "A dataset database, read-only.")
-      .def(py::init<const std::string&>(), py::arg("path"))
-      .def_property_readonly("path", &PyDataset::path)
-      .def_property_readonly("generation_json", &PyDataset::generation_json)
-      .def("frame_ids", &PyDataset::FrameIds, py::arg("split") = py::none())
-      .def("room_ids", &PyDataset::RoomIds)
-      .def("room", &PyDataset::Room, py::arg("room_id"))
-      .def("frame", &PyDataset::Frame, py::arg("frame_id"))
-      .def("models", &PyDataset::Models)
-      .def("runs", &PyDataset::Runs)
-      .def("run_metrics", &PyDataset::RunMetrics, py::arg("run_id"));
-
+  BindDataset(m);
   BindDetections(m);
 
   py::class_<PyDetector>(m, "Detector", "A trained model ready to detect; loads once.")
