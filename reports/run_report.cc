@@ -131,20 +131,84 @@ void RunGnuplot(const std::string& script, const std::string& png_path) {
   Require(!error, png_path + ": cannot write (" + error.message() + ")");
 }
 
+namespace {
+
+struct HistoryRow {
+  const HistoryDataset* dataset;
+  const RunRecord* run;
+  const std::map<std::string, double>* metrics;
+};
+
+// The gnuplot script of one metric over the runs, a line per dataset.
+std::string HistoryPlotScript(const std::vector<HistoryDataset>& datasets,
+                              const std::vector<HistoryRow>& rows,
+                              const std::string& metric) {
+  const char* colours[] = {"#aa3377", "#4477aa", "#228833", "#ccbb44", "#66ccee", "#ee6677"};
+  std::ostringstream script;
+  script << "set terminal pngcairo noenhanced size 560,320 font 'sans,10'\nset title '" << metric
+         << " by run'\nset xlabel 'run (in the order they started)'\nset grid\n"
+         << (datasets.size() > 1 ? "set key outside bottom center horizontal\n" : "set key off\n");
+  std::vector<std::string> series;
+  for (size_t d = 0; d < datasets.size(); ++d) {
+    std::ostringstream points;
+    for (size_t k = 0; k < rows.size(); ++k) {
+      if (rows[k].dataset != &datasets[d]) continue;
+      const auto it = rows[k].metrics->find(metric);
+      if (it != rows[k].metrics->end() && std::isfinite(it->second))
+        points << k + 1 << " " << it->second << "\n";
+    }
+    if (points.str().empty()) continue;
+    script << "$d" << d << " << EOD\n" << points.str() << "EOD\n";
+    std::string name = datasets[d].name;
+    std::replace(name.begin(), name.end(), '\'', ' ');
+    series.push_back("$d" + std::to_string(d) + " using 1:2 with linespoints pt 7 lc rgb '" +
+                     colours[d % 6] + "' title '" + name + "'");
+  }
+  if (series.empty()) script << "set label 'no run has this metric' at graph 0.3,0.5\nplot NaN\n";
+  for (size_t k = 0; k < series.size(); ++k)
+    script << (k == 0 ? "plot " : ", ") << series[k] << (k + 1 == series.size() ? "\n" : "");
+  return script.str();
+}
+
+// The table of every metric of every run, a row per run.
+std::string HistoryTableHtml(const std::vector<HistoryRow>& rows) {
+  std::vector<std::string> names;  // every metric any run has, sorted
+  for (const HistoryRow& row : rows) {
+    for (const auto& [name, value] : *row.metrics) names.push_back(name);
+  }
+  std::sort(names.begin(), names.end());
+  names.erase(std::unique(names.begin(), names.end()), names.end());
+  std::ostringstream html;
+  html << "<table><tr><th>dataset</th><th>run</th><th>started</th><th>commit</th>"
+       << "<th>kind</th><th>label</th>";
+  for (const std::string& name : names) html << "<th>" << HtmlEscape(name) << "</th>";
+  html << "</tr>\n";
+  for (const HistoryRow& row : rows) {
+    const RunRecord& run = *row.run;
+    html << "<tr><td>" << HtmlEscape(row.dataset->name) << "</td><td>" << run.id << "</td><td>"
+         << HtmlEscape(run.started) << "</td><td>" << HtmlEscape(run.git_commit.substr(0, 10))
+         << (run.git_dirty ? "+" : "") << "</td><td>" << HtmlEscape(run.kind) << "</td><td>"
+         << HtmlEscape(run.label) << "</td>";
+    for (const std::string& name : names) {  // stored names, of any version
+      const auto it = row.metrics->find(name);
+      html << "<td>" << Number(it == row.metrics->end() ? std::nan("") : it->second, 3) << "</td>";
+    }
+    html << "</tr>\n";
+  }
+  return html.str();
+}
+
+}  // namespace
+
 void WriteHistoryReport(const std::vector<HistoryDataset>& datasets, const std::string& dir) {
-  struct Row {
-    const HistoryDataset* dataset;
-    const RunRecord* run;
-    const std::map<std::string, double>* metrics;
-  };
-  std::vector<Row> rows;
+  std::vector<HistoryRow> rows;
   for (const HistoryDataset& d : datasets) {
     Require(d.runs.size() == d.metrics.size(), d.name + ": a metrics map per run is needed");
     for (size_t r = 0; r < d.runs.size(); ++r) rows.push_back({&d, &d.runs[r], &d.metrics[r]});
   }
   Require(!rows.empty(), "history needs at least one run");
   // Runs in the order they started (ISO 8601 sorts as text); ties by dataset and id.
-  std::stable_sort(rows.begin(), rows.end(), [](const Row& a, const Row& b) {
+  std::stable_sort(rows.begin(), rows.end(), [](const HistoryRow& a, const HistoryRow& b) {
     return a.run->started < b.run->started;
   });
   std::error_code error;
@@ -157,40 +221,10 @@ void WriteHistoryReport(const std::vector<HistoryDataset>& datasets, const std::
                                             MetricId::Plain(PlainMetric::kFalseAboveTrue).Name(),
                                             MetricId::Plain(PlainMetric::kXyErrorMean).Name(),
                                             MetricId::Plain(PlainMetric::kLatencyP50).Name()};
-  const char* colours[] = {"#aa3377", "#4477aa", "#228833", "#ccbb44", "#66ccee", "#ee6677"};
   for (size_t p = 0; p < plotted.size(); ++p) {
-    std::ostringstream script;
-    script << "set terminal pngcairo noenhanced size 560,320 font 'sans,10'\nset title '"
-           << plotted[p] << " by run'\nset xlabel 'run (in the order they started)'\nset grid\n"
-           << (datasets.size() > 1 ? "set key outside bottom center horizontal\n"
-                                   : "set key off\n");
-    std::vector<std::string> series;
-    for (size_t d = 0; d < datasets.size(); ++d) {
-      std::ostringstream points;
-      for (size_t k = 0; k < rows.size(); ++k) {
-        if (rows[k].dataset != &datasets[d]) continue;
-        const auto it = rows[k].metrics->find(plotted[p]);
-        if (it != rows[k].metrics->end() && std::isfinite(it->second))
-          points << k + 1 << " " << it->second << "\n";
-      }
-      if (points.str().empty()) continue;
-      script << "$d" << d << " << EOD\n" << points.str() << "EOD\n";
-      std::string name = datasets[d].name;
-      std::replace(name.begin(), name.end(), '\'', ' ');
-      series.push_back("$d" + std::to_string(d) + " using 1:2 with linespoints pt 7 lc rgb '" +
-                       colours[d % 6] + "' title '" + name + "'");
-    }
-    if (series.empty()) script << "set label 'no run has this metric' at graph 0.3,0.5\nplot NaN\n";
-    for (size_t k = 0; k < series.size(); ++k)
-      script << (k == 0 ? "plot " : ", ") << series[k] << (k + 1 == series.size() ? "\n" : "");
-    RunGnuplot(script.str(), path("history_" + std::to_string(p) + ".png"));
+    RunGnuplot(HistoryPlotScript(datasets, rows, plotted[p]),
+               path("history_" + std::to_string(p) + ".png"));
   }
-  std::vector<std::string> names;  // every metric any run has, sorted
-  for (const Row& row : rows) {
-    for (const auto& [name, value] : *row.metrics) names.push_back(name);
-  }
-  std::sort(names.begin(), names.end());
-  names.erase(std::unique(names.begin(), names.end()), names.end());
   std::ostringstream html;
   html << "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>furnidet "
        << "history</title>\n<style>body{font-family:sans-serif;margin:24px}table{border-collapse:"
@@ -205,22 +239,7 @@ void WriteHistoryReport(const std::vector<HistoryDataset>& datasets, const std::
   html << ")</h1>\n<div>";
   for (size_t p = 0; p < plotted.size(); ++p)
     html << "<img src=\"history_" << p << ".png\" alt=\"" << HtmlEscape(plotted[p]) << "\">";
-  html << "</div>\n<table><tr><th>dataset</th><th>run</th><th>started</th><th>commit</th>"
-       << "<th>kind</th><th>label</th>";
-  for (const std::string& name : names) html << "<th>" << HtmlEscape(name) << "</th>";
-  html << "</tr>\n";
-  for (const Row& row : rows) {
-    const RunRecord& run = *row.run;
-    html << "<tr><td>" << HtmlEscape(row.dataset->name) << "</td><td>" << run.id << "</td><td>"
-         << HtmlEscape(run.started) << "</td><td>" << HtmlEscape(run.git_commit.substr(0, 10))
-         << (run.git_dirty ? "+" : "") << "</td><td>" << HtmlEscape(run.kind) << "</td><td>"
-         << HtmlEscape(run.label) << "</td>";
-    for (const std::string& name : names) {  // stored names, of any version
-      const auto it = row.metrics->find(name);
-      html << "<td>" << Number(it == row.metrics->end() ? std::nan("") : it->second, 3) << "</td>";
-    }
-    html << "</tr>\n";
-  }
+  html << "</div>\n" << HistoryTableHtml(rows);
   html << "</table>\n<p>+ after a commit: run on a working tree with uncommitted changes.</p>\n"
        << "</body></html>\n";
   WriteFileAtomically(path("history.html"), html.str());

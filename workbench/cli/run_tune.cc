@@ -76,15 +76,11 @@ std::string DefaultTuneSpace(const std::string& data_dir, const std::string& mod
       .string();
 }
 
-}  // namespace
-
-int RunTune(int argc, char** argv) {
-  CLI::App app{"Search training and detection options on a validation split; every trial is a run",
-               "workbench tune"};
-  TuneOptions options;
-  std::string strategy = "random";
-  CatalogFlags catalog_flags;
-  AddCatalogFlags(&app, &catalog_flags);
+// The search: dataset, space, report and cache folders, trials, strategy,
+// splits, objective and bounds.
+void AddSearchFlags(CLI::App* app_pointer, TuneOptions* options_pointer, std::string* strategy) {
+  CLI::App& app = *app_pointer;
+  TuneOptions& options = *options_pointer;
   app.add_option("--db", options.db_path, "Dataset database (trials are stored as runs)")
       ->required();
   app.add_option("--space",
@@ -98,7 +94,7 @@ int RunTune(int argc, char** argv) {
       ->required();
   app.add_option("--trials", options.trials, "Trials, the base options included")
       ->capture_default_str();
-  app.add_option("--strategy", strategy, "grid or random")->capture_default_str();
+  app.add_option("--strategy", *strategy, "grid or random")->capture_default_str();
   app.add_option("--seed", options.seed, "Seed of the random search and grid sampling")
       ->capture_default_str();
   app.add_option("--split", options.split, "Split the trials are scored on")->capture_default_str();
@@ -113,6 +109,18 @@ int RunTune(int argc, char** argv) {
                  options.seeds,
                  "Detector seeds per trial; metrics are their mean (RANSAC makes one run noisy)")
       ->capture_default_str();
+}
+
+}  // namespace
+
+int RunTune(int argc, char** argv) {
+  CLI::App app{"Search training and detection options on a validation split; every trial is a run",
+               "workbench tune"};
+  TuneOptions options;
+  std::string strategy = "random";
+  CatalogFlags catalog_flags;
+  AddCatalogFlags(&app, &catalog_flags);
+  AddSearchFlags(&app, &options, &strategy);
   // --options FILE: the options the trials start from; detector flags on top.
   DetectorFlags detector_flags(&app, {"--seed"});
   app.add_option("--model",
