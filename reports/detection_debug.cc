@@ -54,6 +54,29 @@ class CameraView {
     const Eigen::Vector2d pixel = camera_.Project(p.cast<double>());
     return cv::Point(static_cast<int>(pixel.x()), static_cast<int>(pixel.y()));
   }
+  // The 12 edges of a box posed at `pose` with its base at height z (an edge
+  // with an end behind the camera is left out).
+  void Box(const PlanarPose& pose,
+           float z,
+           const Eigen::Vector3f& low,
+           const Eigen::Vector3f& high,
+           const cv::Scalar& colour,
+           int thickness) {
+    std::optional<cv::Point> corners[8];
+    for (int k = 0; k < 8; ++k) {
+      const Eigen::Vector3f local((k & 1) ? high.x() : low.x(),
+                                  (k & 2) ? high.y() : low.y(),
+                                  (k & 4) ? high.z() : low.z());
+      corners[k] = Pixel(pose.Apply(local) + Eigen::Vector3f(0, 0, z));
+    }
+    for (int a = 0; a < 8; ++a) {
+      for (int bit : {1, 2, 4}) {
+        const int b = a | bit;
+        if (b == a || !corners[a] || !corners[b]) continue;
+        cv::line(image_, *corners[a], *corners[b], colour, thickness, cv::LINE_AA);
+      }
+    }
+  }
   cv::Mat& image() { return image_; }
 
  private:
@@ -159,7 +182,13 @@ struct DebugInput {
   }
 };
 
-// Segments, from the camera.
+bool LearnedRun(const DetectionDebug& debug) {
+  return std::any_of(debug.grids.begin(), debug.grids.end(), [](const auto& g) {
+    return g.learned;
+  });
+}
+
+// Segments, from the camera (the codebook path).
 void WriteSegmentsPng(const DebugInput& in) {
   CameraView view(in.camera, in.result.world_from_camera);
   for (size_t i = 0; i < in.debug().points.size(); ++i) {
@@ -172,7 +201,75 @@ void WriteSegmentsPng(const DebugInput& in) {
   WritePngAtomically(view.image(), in.Path("segments.png"));
 }
 
-// Fitted models over the scan, from the camera.
+// The strongest learned heat under a world point and its class (none below 0.05).
+std::pair<std::optional<FurnitureClass>, float> HeatAt(const DetectionDebug& debug,
+                                                       const Eigen::Vector3f& p) {
+  std::pair<std::optional<FurnitureClass>, float> best{std::nullopt, 0.05f};
+  for (const DetectionDebug::VoteGrid& g : debug.grids) {
+    if (!g.learned || g.cell_m <= 0) continue;
+    const int col = static_cast<int>(std::floor((p.x() - g.origin.x()) / g.cell_m));
+    const int row = static_cast<int>(std::floor((p.y() - g.origin.y()) / g.cell_m));
+    if (col < 0 || row < 0 || col >= g.cols || row >= g.rows) continue;
+    const float value = g.values[static_cast<size_t>(row) * g.cols + col];
+    if (value > best.second) best = {g.furniture_class, value};
+  }
+  return best;
+}
+
+// The learned path, from the camera: each point in the colour of the class
+// whose heat is strongest under it (brighter: hotter), and every maximum on
+// the floor, ringed (thick: detected) and labelled with its heat and fate.
+void WriteHeatPng(const DebugInput& in) {
+  CameraView view(in.camera, in.result.world_from_camera);
+  const Eigen::Vector3f sensor = in.sensor();
+  for (const Eigen::Vector3f& p : in.debug().points) {
+    const auto [furniture_class, heat] = HeatAt(in.debug(), p);
+    if (!furniture_class) {
+      view.Dot(p, GreyForDistance((p - sensor).norm()) * 0.5);
+      continue;
+    }
+    view.Dot(p, ClassColour(furniture_class) * (0.3 + 0.7 * std::min(heat, 1.0f)));
+  }
+  for (const DetectionDebug::Hypothesis& h : in.debug().hypotheses) {
+    const auto at = view.Pixel(Eigen::Vector3f(h.x, h.y, 0));
+    if (!at) continue;
+    const bool detected = h.outcome == HypothesisOutcome::kDetected;
+    const cv::Scalar colour = detected ? ClassColour(h.furniture_class) : cv::Scalar(200, 200, 200);
+    cv::circle(view.image(), *at, detected ? 8 : 5, colour, detected ? 2 : 1, cv::LINE_AA);
+    char text[128];
+    std::snprintf(text,
+                  sizeof(text),
+                  "%s %.2f %s",
+                  ClassName(h.furniture_class),
+                  h.vote_weight,
+                  detected ? "" : DetectionDebug::Describe(h).c_str());
+    DrawLabel(&view.image(), text, *at + cv::Point(9, 4), colour, detected ? 0.42 : 0.34);
+  }
+  Caption(&view.image(),
+          "learned heat under each point (class colour, brighter: hotter); " +
+              std::to_string(in.debug().hypotheses.size()) + " maxima on the floor (ringed)");
+  WritePngAtomically(view.image(), in.Path("heat.png"));
+}
+
+// Every fit a hypothesis tried: its model's footprint on the floor, thin grey.
+int DrawTriedFits(const DebugInput& in, CameraView* view) {
+  int tried = 0;
+  for (const DetectionDebug::Hypothesis& h : in.debug().hypotheses) {
+    for (const DetectionDebug::Hypothesis::Fit& f : h.fits) {
+      if (f.model_index < 0 || f.model_index >= static_cast<int>(in.model.model_shapes.size()))
+        continue;
+      const ModelShape& shape = in.model.model_shapes[f.model_index];
+      const Eigen::Vector3f low(shape.low.x(), shape.low.y(), 0);
+      const Eigen::Vector3f high(shape.high.x(), shape.high.y(), 0);
+      view->Box(PlanarPose{f.x, f.y, f.yaw}, 0, low, high, cv::Scalar(150, 150, 150), 1);
+      ++tried;
+    }
+  }
+  return tried;
+}
+
+// Fitted models and every detection's 3-D box over the scan, from the camera,
+// with the fits that were tried.
 void WriteFittedPng(const DebugInput& in) {
   CameraView view(in.camera, in.result.world_from_camera);
   const Eigen::Vector3f sensor = in.sensor();
@@ -182,17 +279,22 @@ void WriteFittedPng(const DebugInput& in) {
     const cv::Scalar colour = ClassColour(in.result.detections[d].furniture_class);
     for (const Eigen::Vector3f& p : in.debug().fitted_points[d]) view.Dot(p, colour);
   }
+  const int tried = DrawTriedFits(in, &view);
   for (const Detection& d : in.result.detections) {
     const DetectionBox box = BoxOf(d, in.model);
     const PlanarPose pose{d.x, d.y, d.yaw};
+    const cv::Scalar colour = ClassColour(d.furniture_class);
+    view.Box(pose, static_cast<float>(d.z), box.low, box.high, colour, 2);
     if (const auto at = view.Pixel(pose.Apply(Eigen::Vector3f(0, 0, box.high.z())))) {
       char text[96];
       std::snprintf(text, sizeof(text), "%s %.2f", ClassName(d.furniture_class), d.score);
-      DrawLabel(&view.image(), text, *at + cv::Point(-30, -6), ClassColour(d.furniture_class));
+      DrawLabel(&view.image(), text, *at + cv::Point(-30, -6), colour);
     }
   }
   Caption(&view.image(),
-          std::to_string(in.result.detections.size()) + " detections: fitted models");
+          std::to_string(in.result.detections.size()) + " detections: 3-D boxes" +
+              (in.debug().fitted_points.empty() ? "" : " and fitted models") + "; " +
+              std::to_string(tried) + " fits tried (grey footprints)");
   WritePngAtomically(view.image(), in.Path("fitted.png"));
 }
 
@@ -354,7 +456,14 @@ void WriteDetectionDebug(const DetectionResult& result,
   std::filesystem::create_directories(dir, error);
   Require(!error, dir + ": cannot create the debug directory (" + error.message() + ")");
   const DebugInput in{result, model, camera, ground_truth, dir};
-  WriteSegmentsPng(in);
+  const bool learned = LearnedRun(result.debug);
+  if (learned) {
+    WriteHeatPng(in);  // no segments on the learned path
+  } else {
+    WriteSegmentsPng(in);
+  }
+  // A folder used before by the other path keeps no figure of that run.
+  std::filesystem::remove(in.Path(learned ? "segments.png" : "heat.png"), error);
   WriteFittedPng(in);
   for (const DetectionDebug::VoteGrid& grid : result.debug.grids) WriteVotesPng(in, grid);
   WriteTopDownPng(in);

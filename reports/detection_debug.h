@@ -1,8 +1,12 @@
-// The debug bundle of one detection run as PNGs (issue 6, SPEC.md §8.8):
-//   segments.png      preprocessed points seen from the camera, one colour per segment;
-//   votes_<class>.png per-class Hough vote heat map (top-down) with its maxima,
+// The debug bundle of one detection run as PNGs (SPEC.md §8.8):
+//   segments.png      (codebook voting) preprocessed points seen from the camera, one
+//                     colour per segment;
+//   heat.png          (learned voting) the points coloured by the strongest class heat
+//                     under them, the maxima on the floor with their fate;
+//   votes_<class>.png per-class Hough votes or learned heat (top-down) with its maxima,
 //                     each marked by outcome (detected / rejected);
-//   fitted.png        the fitted models' points over the scan, from the camera;
+//   fitted.png        each detection's 3-D box, the fitted models' points and the
+//                     footprints of every fit tried, over the scan from the camera;
 //   topdown.png       scene points from above, fitted footprints and ground truth;
 //   hypotheses.json   every hypothesis: class, position, votes, candidates, outcome.
 //

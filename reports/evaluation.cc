@@ -220,6 +220,7 @@ std::map<std::string, std::map<std::string, int>> ConfusionByName(const Evaluati
     for (const auto& [truth, count] : row)
       named[ClassName(detected)][truth ? ClassName(*truth) : "background"] = count;
   }
+  for (const auto& [truth, count] : result.missed) named["missed"][ClassName(truth)] = count;
   return named;
 }
 
@@ -397,23 +398,35 @@ void AddSeenAndUnseen(const std::vector<FrameOutcome>& frames,
   }
 }
 
-// Confusion at 10 cm: each detection against the nearest target object.
+// Confusion at the operating point, 10 cm: each kept detection against the
+// nearest present object, and the target objects no kept detection reached.
 void AddConfusion(const std::vector<FrameOutcome>& frames,
+                  const EvaluationOptions& options,
                   const RoleOf& role,
                   EvaluationResult* result) {
+  constexpr double kConfusionM = 0.10;
   for (const FrameOutcome& f : frames) {
+    std::vector<bool> reached(f.truth.size(), false);
     for (const ScoredDetection& d : f.detections) {
+      if (!options.operating_point.Keeps(d.furniture_class, d.score)) continue;
       std::optional<FurnitureClass> truth;
-      double best = 0.10;
-      for (const TruthObject& t : f.truth) {
+      double best = kConfusionM;
+      for (size_t k = 0; k < f.truth.size(); ++k) {
+        const TruthObject& t = f.truth[k];
         if (!t.furniture_class || role(t) == Role::kAbsent) continue;
         const double distance = std::hypot(t.x - d.x, t.y - d.y);
+        reached[k] = reached[k] || distance <= kConfusionM;
         if (distance <= best) {
           best = distance;
           truth = t.furniture_class;
         }
       }
       ++result->confusion[d.furniture_class][truth];
+    }
+    for (size_t k = 0; k < f.truth.size(); ++k) {
+      const TruthObject& t = f.truth[k];
+      if (t.furniture_class && role(t) == Role::kTarget && !reached[k])
+        ++result->missed[*t.furniture_class];
     }
   }
 }
@@ -668,7 +681,7 @@ EvaluationResult EvaluateFrames(const std::vector<FrameOutcome>& frames,
   m[MetricId::Plain(PlainMetric::kFalseAboveTrue).Name()] = FalseAboveTrue(frames, options, role);
   AddLossesAndPoseErrors(frames, options, role, &result);
   AddSeenAndUnseen(frames, options, role, &m);
-  AddConfusion(frames, role, &result);
+  AddConfusion(frames, options, role, &result);
   AddPaperProtocol(frames, options, role, &result);
   AddLatency(frames, &m);
   AddOperatingPoint(frames, options, role, &m);

@@ -99,9 +99,12 @@ struct EvaluationResult {
   std::map<std::string, double> metrics;
   // PR curves: "B/<class>@10cm" (by score) and "A/<class>" (by threshold).
   std::map<std::string, std::vector<PrPoint>> curves;
-  // Confusion of detected class against the class of the true object it lies
-  // within 10 cm of (none: background): counts[detected][true].
+  // Confusion at the operating point (what detect outputs): each kept
+  // detection against the class of the nearest true object within 10 cm
+  // (none: background), counts[detected][true]; and per true class the
+  // objects no kept detection of any class lies within 10 cm of.
   std::map<FurnitureClass, std::map<std::optional<FurnitureClass>, int>> confusion;
+  std::map<FurnitureClass, int> missed;
   // Per frame id: false positives and missed objects at 10 cm (protocol B).
   std::map<int64_t, std::pair<int, int>> frame_errors;
   // Ten equal bins of score over [0, 1] (scores outside are clamped).
@@ -158,7 +161,8 @@ double ClassObjectCount(const std::map<std::string, double>& metrics,
 // and latency); InputError for a name that is no metric.
 bool HigherIsBetter(const std::string& metric);
 
-// The confusion as JSON: {detected: {true class or "background": count}}.
+// The confusion as JSON: {detected class or "missed": {true class or
+// "background": count}}.
 std::map<std::string, std::map<std::string, int>> ConfusionByName(const EvaluationResult& result);
 
 }  // namespace furn

@@ -149,6 +149,8 @@ class MetricId {
   const char* Unit() const;
 
   Kind kind() const { return kind_; }
+  // The class a per-class metric is about (none: over every class).
+  std::optional<FurnitureClass> furniture_class() const { return class_; }
   Group group() const { return group_; }
   bool operator==(const MetricId& other) const { return Name() == other.Name(); }
 

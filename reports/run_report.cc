@@ -43,6 +43,7 @@ void PlotCurves(const nlohmann::json& curves,
                 const std::string& prefix,
                 const std::string& suffix,
                 const std::string& title,
+                const std::map<std::string, double>& metrics,
                 const std::string& png_path) {
   std::ostringstream script, plot;
   script << "set terminal pngcairo noenhanced size 640,420 font 'sans,10'\n"
@@ -60,7 +61,7 @@ void PlotCurves(const nlohmann::json& curves,
       script << p[0].get<double>() << " " << p[1].get<double>() << "\n";
     script << "EOD\n";
     plot << (any ? ", " : "plot ") << "$" << c << " using 1:2 with linespoints pt 7 ps 0.5 title '"
-         << c << "'";
+         << c << " (" << Number(ClassObjectCount(metrics, furniture_class), 0) << " objects)'";
     any = true;
   }
   if (!any) plot << "plot 2 title 'no objects of these classes'";
@@ -103,6 +104,11 @@ std::string Number(double value, int digits) {
   return text;
 }
 
+std::string ApWithObjects(double ap, double objects) {
+  if (std::isnan(objects)) return Number(ap);
+  return Number(ap) + " <small>(" + Number(objects, 0) + ")</small>";
+}
+
 std::string ImageCheckHtml() {
   return "<p id=\"image-check\">images not checked</p>\n<script>\n"
          "window.addEventListener('load', function () {\n"
@@ -139,32 +145,55 @@ struct HistoryRow {
   const std::map<std::string, double>* metrics;
 };
 
-// The gnuplot script of one metric over the runs, a line per dataset.
-std::string HistoryPlotScript(const std::vector<HistoryDataset>& datasets,
-                              const std::vector<HistoryRow>& rows,
-                              const std::string& metric) {
+// The line a run belongs on: its dataset, the frames it measured and, for
+// anything but a plain evaluation, its kind. Runs on the validation split
+// (tuning) and on the test split are never joined into one line.
+std::string HistorySeries(const HistoryRow& row) {
+  std::string series = row.dataset->name + ", " + EnumName(row.run->split);
+  if (row.run->kind != "evaluate") series += " (" + row.run->kind + ")";
+  return series;
+}
+
+// Every line's name in the order its first run started.
+std::vector<std::string> HistorySeriesNames(const std::vector<HistoryRow>& rows) {
+  std::vector<std::string> names;
+  for (const HistoryRow& row : rows) {
+    const std::string name = HistorySeries(row);
+    if (std::find(names.begin(), names.end(), name) == names.end()) names.push_back(name);
+  }
+  return names;
+}
+
+// The gnuplot script of one metric over the runs, a line per series.
+std::string HistoryPlotScript(const std::vector<HistoryRow>& rows, const std::string& metric) {
   const char* colours[] = {"#aa3377", "#4477aa", "#228833", "#ccbb44", "#66ccee", "#ee6677"};
+  const std::vector<std::string> names = HistorySeriesNames(rows);
   std::ostringstream script;
-  script << "set terminal pngcairo noenhanced size 560,320 font 'sans,10'\nset title '" << metric
+  script << "set terminal pngcairo noenhanced size 560,340 font 'sans,10'\nset title '" << metric
          << " by run'\nset xlabel 'run (in the order they started)'\nset grid\n"
-         << (datasets.size() > 1 ? "set key outside bottom center horizontal\n" : "set key off\n");
+         << "set key outside bottom center horizontal\nset offsets graph 0.04, graph 0.04, "
+         << "graph 0.08, graph 0.08\nset xtics " << std::max<size_t>(1, rows.size() / 10)
+         << "\nset mxtics 1\n";
   std::vector<std::string> series;
-  for (size_t d = 0; d < datasets.size(); ++d) {
+  for (size_t s = 0; s < names.size(); ++s) {
     std::ostringstream points;
     for (size_t k = 0; k < rows.size(); ++k) {
-      if (rows[k].dataset != &datasets[d]) continue;
+      if (HistorySeries(rows[k]) != names[s]) continue;
       const auto it = rows[k].metrics->find(metric);
       if (it != rows[k].metrics->end() && std::isfinite(it->second))
         points << k + 1 << " " << it->second << "\n";
     }
     if (points.str().empty()) continue;
-    script << "$d" << d << " << EOD\n" << points.str() << "EOD\n";
-    std::string name = datasets[d].name;
+    script << "$d" << s << " << EOD\n" << points.str() << "EOD\n";
+    std::string name = names[s];
     std::replace(name.begin(), name.end(), '\'', ' ');
-    series.push_back("$d" + std::to_string(d) + " using 1:2 with linespoints pt 7 lc rgb '" +
-                     colours[d % 6] + "' title '" + name + "'");
+    series.push_back("$d" + std::to_string(s) + " using 1:2 with linespoints pt 7 lc rgb '" +
+                     colours[s % 6] + "' title '" + name + "'");
   }
-  if (series.empty()) script << "set label 'no run has this metric' at graph 0.3,0.5\nplot NaN\n";
+  if (series.empty()) {  // an empty frame with the words (gnuplot refuses to plot nothing)
+    script << "set label 'no run has this metric' at graph 0.3,0.5\nset xrange [0:1]\n"
+           << "set yrange [0:1]\nplot -1 notitle\n";
+  }
   for (size_t k = 0; k < series.size(); ++k)
     script << (k == 0 ? "plot " : ", ") << series[k] << (k + 1 == series.size() ? "\n" : "");
   return script.str();
@@ -179,13 +208,14 @@ std::string HistoryTableHtml(const std::vector<HistoryRow>& rows) {
   std::sort(names.begin(), names.end());
   names.erase(std::unique(names.begin(), names.end()), names.end());
   std::ostringstream html;
-  html << "<table><tr><th>dataset</th><th>run</th><th>started</th><th>commit</th>"
+  html << "<table><tr><th>dataset</th><th>split</th><th>run</th><th>started</th><th>commit</th>"
        << "<th>kind</th><th>label</th>";
   for (const std::string& name : names) html << "<th>" << HtmlEscape(name) << "</th>";
   html << "</tr>\n";
   for (const HistoryRow& row : rows) {
     const RunRecord& run = *row.run;
-    html << "<tr><td>" << HtmlEscape(row.dataset->name) << "</td><td>" << run.id << "</td><td>"
+    html << "<tr><td>" << HtmlEscape(row.dataset->name) << "</td><td>" << EnumName(run.split)
+         << "</td><td>" << run.id << "</td><td>"
          << HtmlEscape(run.started) << "</td><td>" << HtmlEscape(run.git_commit.substr(0, 10))
          << (run.git_dirty ? "+" : "") << "</td><td>" << HtmlEscape(run.kind) << "</td><td>"
          << HtmlEscape(run.label) << "</td>";
@@ -222,21 +252,29 @@ void WriteHistoryReport(const std::vector<HistoryDataset>& datasets, const std::
                                             MetricId::Plain(PlainMetric::kXyErrorMean).Name(),
                                             MetricId::Plain(PlainMetric::kLatencyP50).Name()};
   for (size_t p = 0; p < plotted.size(); ++p) {
-    RunGnuplot(HistoryPlotScript(datasets, rows, plotted[p]),
+    RunGnuplot(HistoryPlotScript(rows, plotted[p]),
                path("history_" + std::to_string(p) + ".png"));
   }
   std::ostringstream html;
   html << "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>furnidet "
        << "history</title>\n<style>body{font-family:sans-serif;margin:24px}table{border-collapse:"
        << "collapse;font-size:12px}td,th{border:1px solid #ccc;padding:3px 8px;text-align:right}"
-       << "th{background:#f0f0f0;position:sticky;top:0}td:nth-child(-n+6),th:nth-child(-n+6)"
+       << "th{background:#f0f0f0;position:sticky;top:0}td:nth-child(-n+7),th:nth-child(-n+7)"
        << "{text-align:left}img{border:1px solid #ddd;margin:4px}</style></head><body>\n"
        << "<h1>Metric history (" << rows.size() << " runs";
   if (datasets.size() > 1) {
     html << " of " << datasets.size() << " datasets:";
     for (const HistoryDataset& d : datasets) html << " " << HtmlEscape(d.name);
   }
-  html << ")</h1>\n<div>";
+  html << ")</h1>\n<p>One line per dataset and split (and run kind): a run on other frames "
+          "is another line, never a step in this one. Lines:";
+  for (const std::string& series : HistorySeriesNames(rows)) {
+    html << " <span class=\"series\">" << HtmlEscape(series) << "</span> ("
+         << std::count_if(rows.begin(), rows.end(), [&](const HistoryRow& row) {
+              return HistorySeries(row) == series;
+            }) << " runs);";
+  }
+  html << "</p>\n<div>";
   for (size_t p = 0; p < plotted.size(); ++p)
     html << "<img src=\"history_" << p << ".png\" alt=\"" << HtmlEscape(plotted[p]) << "\">";
   html << "</div>\n" << HistoryTableHtml(rows);
@@ -419,8 +457,15 @@ std::string FoldRowHtml(const nlohmann::json& fold,
        << "</td>";
   for (double d : kDistances)
     html << "<td>" << Number(JsonMetric(fm, MetricId::MeanAp(d))) << "</td>";
-  for (FurnitureClass c : classes)
-    html << "<td>" << Number(JsonMetric(fm, MetricId::ClassAp(c, 0.10))) << "</td>";
+  std::map<std::string, double> fold_metrics;  // NaN is stored as null
+  for (const auto& [name, value] : fm.items())
+    if (value.is_number()) fold_metrics[name] = value.get<double>();
+  for (FurnitureClass c : classes) {
+    html << "<td>"
+         << ApWithObjects(JsonMetric(fm, MetricId::ClassAp(c, 0.10)),
+                          ClassObjectCount(fold_metrics, c))
+         << "</td>";
+  }
   html << "<td>";
   if (!fold_report.empty()) {
     html << "<a href=\"" << HtmlEscape(fold_report) << "/index.html\">run " << fold.value("run", 0)
@@ -440,7 +485,7 @@ std::string FoldsTableHtml(const nlohmann::json& folds,
   std::ostringstream html;
   html << "<table><tr><th>fold</th><th>held out</th><th>frames</th>"
           "<th>objects</th><th>mAP @5cm</th><th>mAP @10cm</th><th>mAP @20cm</th>";
-  for (FurnitureClass c : classes) html << "<th>" << ClassName(c) << " AP @10cm</th>";
+  for (FurnitureClass c : classes) html << "<th>" << ClassName(c) << " AP @10cm (objects)</th>";
   html << "<th>report</th></tr>";
   for (size_t k = 0; k < folds.size(); ++k)
     html << FoldRowHtml(folds[k], classes, k < fold_reports.size() ? fold_reports[k] : "");
@@ -553,22 +598,30 @@ void PlotLatency(const std::vector<double>& frame_ms, const std::string& png_pat
   RunGnuplot(script.str(), png_path);
 }
 
-// Confusion of detected class against the true class at 10 cm.
+// Confusion at the operating point, 10 cm: rows the true class (background:
+// nothing there), columns the detected class and "missed" (no detection
+// within 10 cm). Runs stored before misses were counted keep the old square.
 void PlotConfusion(const nlohmann::json& results,
                    const std::vector<FurnitureClass>& classes,
                    const std::string& png_path) {
-  std::vector<std::string> labels;
-  for (FurnitureClass c : classes) labels.push_back(ClassName(c));
-  labels.push_back("background");
-  std::vector<std::vector<int64_t>> counts(labels.size(), std::vector<int64_t>(labels.size(), 0));
+  std::vector<std::string> rows, columns;
+  for (FurnitureClass c : classes) rows.push_back(ClassName(c));
+  columns = rows;
+  rows.push_back("background");
+  const bool with_missed = results.contains("confusion_layout");
+  columns.push_back(with_missed ? "missed" : "background");
+  std::vector<std::vector<int64_t>> counts(rows.size(), std::vector<int64_t>(columns.size(), 0));
   const nlohmann::json confusion = results.value("confusion", nlohmann::json::object());
-  for (size_t predicted = 0; predicted < labels.size(); ++predicted) {
-    if (!confusion.contains(labels[predicted])) continue;
-    for (size_t truth = 0; truth < labels.size(); ++truth) {
-      counts[truth][predicted] = confusion[labels[predicted]].value(labels[truth], 0);
-    }
+  for (size_t column = 0; column < columns.size(); ++column) {
+    if (!confusion.contains(columns[column])) continue;
+    for (size_t row = 0; row < rows.size(); ++row)
+      counts[row][column] = confusion[columns[column]].value(rows[row], 0);
   }
-  WriteConfusionPng(labels, counts, "detections at 10 cm", png_path);
+  WriteConfusionPng(rows,
+                    columns,
+                    counts,
+                    with_missed ? "at the operating point, 10 cm" : "every detection, 10 cm",
+                    png_path);
 }
 
 // The headline metrics and the per-class table.
@@ -626,7 +679,7 @@ std::string FiguresHtml(const std::map<std::string, double>& m) {
   html
       << "<div class=\"row\"><div><h3>PR, protocol B</h3><img src=\"pr_detection.png\" "
       << "alt=\"protocol B PR curves\"></div><div><h3>PR, protocol A</h3><img src=\"pr_paper.png\" "
-      << "alt=\"protocol A PR curves\"></div></div>\n<div class=\"row\"><div><h3>Confusion (10 cm)"
+      << "alt=\"protocol A PR curves\"></div></div>\n<div class=\"row\"><div><h3>Confusion at the operating point (10 cm)"
       << "</h3><img src=\"confusion.png\" alt=\"confusion matrix\"></div><div><h3>Latency</h3>"
       << "<img src=\"latency.png\" alt=\"latency histogram\"><table><tr><th>stage</th>"
       << "<th>p50 ms</th></tr>";
@@ -670,14 +723,18 @@ void WriteRunReport(const RunReportInput& input, const std::string& dir) {
   const std::vector<FurnitureClass> classes =
       ReportedClasses([&](FurnitureClass c) { return HasClassMetrics(m, c); });
 
-  PlotCurves(
-      curves, "B/", "@10cm", "protocol B: detections by score, 10 cm", path("pr_detection.png"));
-  PlotCurves(
-      curves,
-      "A/",
-      "",
-      "protocol A (paper): maxima (Hough votes or learned heat), 5 cm window, threshold swept",
-      path("pr_paper.png"));
+  PlotCurves(curves,
+             "B/",
+             "@10cm",
+             "protocol B: detections by score, 10 cm",
+             m,
+             path("pr_detection.png"));
+  PlotCurves(curves,
+             "A/",
+             "",
+             "protocol A (paper): maxima (Hough votes or learned heat), 5 cm window, threshold swept",
+             m,
+             path("pr_paper.png"));
   PlotLatency(input.frame_ms, path("latency.png"));
   PlotConfusion(results, classes, path("confusion.png"));
 

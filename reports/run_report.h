@@ -62,6 +62,10 @@ std::string HtmlEscape(const std::string& text);
 // `value` with `digits` decimals; an en dash for NaN (a metric a run lacks).
 std::string Number(double value, int digits = 3);
 
+// An average precision with the number of objects it was measured on, for
+// tables: "0.805 <small>(95)</small>" (NaN objects: the number alone).
+std::string ApWithObjects(double ap, double objects);
+
 // A paragraph and script that, once the page has loaded, say "images
 // loaded: N of M", for a headless browser's --dump-dom to check.
 std::string ImageCheckHtml();

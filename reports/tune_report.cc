@@ -138,14 +138,19 @@ void WriteComparison(const TuneReportInput& input, std::ostringstream* html) {
   }
   *html << "</tr>\n";
   for (const MetricId& name : rows) {
-    *html << "<tr><td>" << HtmlEscape(name.Name()) << "</td><td>"
-          << Number(MetricOrNan(input.base_validation, name)) << "</td><td>"
-          << Number(MetricOrNan(input.best_validation, name)) << "</td>";
+    // A class's AP with the objects it was measured on (the same for base and best).
+    auto cell = [&](const std::map<std::string, double>& metrics) {
+      const double value = MetricOrNan(metrics, name);
+      if (name.kind() != MetricId::Kind::kClassAp) return Number(value);
+      return ApWithObjects(value, ClassObjectCount(metrics, *name.furniture_class()));
+    };
+    *html << "<tr><td>" << HtmlEscape(name.Name()) << "</td><td>" << cell(input.base_validation)
+          << "</td><td>" << cell(input.best_validation) << "</td>";
     if (test) {
       const double base = MetricOrNan(input.base_test, name),
                    best = MetricOrNan(input.best_test, name);
-      *html << "<td>" << Number(base) << "</td><td>" << Number(best) << "</td><td>"
-            << (best - base >= 0 ? "+" : "") << Number(best - base) << "</td>";
+      *html << "<td>" << cell(input.base_test) << "</td><td>" << cell(input.best_test)
+            << "</td><td>" << (best - base >= 0 ? "+" : "") << Number(best - base) << "</td>";
     }
     *html << "</tr>\n";
   }

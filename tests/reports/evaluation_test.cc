@@ -119,6 +119,33 @@ TEST(ProtocolB, GreedyMatchingByScoreWithinTheDistance) {
   EXPECT_DOUBLE_EQ(r.metrics.at("latency_p50_ms"), 50);
 }
 
+// The confusion counts what detect outputs: detections below the operating
+// point are not in it, and a true object nothing reached is "missed".
+TEST(Confusion, KeptDetectionsAgainstTheTruthAndTheMissedObjects) {
+  FrameOutcome frame;
+  TruthObject table = Chair(3, 0);
+  table.furniture_class = FurnitureClass::kTable;
+  frame.truth = {Chair(0, 0), Chair(1, 0), table, Chair(5, 0, /*visibility=*/0.1)};
+  ScoredDetection as_chair = Found(3.02, 0, 0.9);  // the table called a chair
+  frame.detections = {Found(0.03, 0, 0.8),  // a hit
+                      Found(1.0, 0, 0.2),   // below the chair's least score: not output
+                      as_chair,
+                      Found(9, 0, 0.7)};  // nothing there
+  EvaluationOptions options;
+  options.operating_point.classes[static_cast<size_t>(FurnitureClass::kChair)].min_score = 0.5;
+  const EvaluationResult r = EvaluateFrames({frame}, options);
+  const auto named = ConfusionByName(r);
+  EXPECT_EQ(named.at("chair").at("chair"), 1);
+  EXPECT_EQ(named.at("chair").at("table"), 1);
+  EXPECT_EQ(named.at("chair").at("background"), 1);
+  EXPECT_EQ(named.at("missed").at("chair"), 1);     // the chair at x = 1
+  EXPECT_EQ(named.at("missed").count("table"), 0u);  // reached, by the wrong class
+  EXPECT_EQ(named.at("chair").size(), 3u);           // nothing else: 0.2 not kept
+  int missed = 0;
+  for (const auto& [c, n] : r.missed) missed += n;
+  EXPECT_EQ(missed, 1);  // the barely visible chair is no target
+}
+
 TEST(Calibration, BinsCountTruePositivesAndTheErrorWeighsThem) {
   FrameOutcome frame;
   frame.truth = {Chair(0, 0), Chair(2, 0), Chair(4, 0, /*visibility=*/0.1)};

@@ -5,12 +5,14 @@
 #include <filesystem>
 
 #include <Eigen/Geometry>
+#include <opencv2/imgcodecs.hpp>
 
 #include "core/detector.h"
 #include "core/error.h"
 #include "core/file_util.h"
 #include "core/progress.h"
 #include "db/dataset_db.h"
+#include "reports/detection_debug.h"
 #include "tests/test_util.h"
 #include "workbench/formats/scan_file.h"
 #include "workbench/pipelines/train.h"
@@ -277,6 +279,22 @@ TEST(Train, VoteNetIsStoredUsedAndItsRoomsHoldNoHeldOutModel) {
     }
     EXPECT_EQ(k, static_cast<int>(fitted.detections.size()));
     EXPECT_GT(refined, 0) << "no hypothesis was fitted";
+    // Its debug figures show what it did: heat under the points and boxes in
+    // class colours, not grey points; no segments figure on this path.
+    std::filesystem::create_directories(dir + "/debug");
+    testing::WriteText(dir + "/debug/segments.png", "a codebook run's figure");
+    WriteDetectionDebug(fitted, model, CameraIntrinsics::KinectV1(), {}, dir + "/debug");
+    EXPECT_FALSE(std::filesystem::exists(dir + "/debug/segments.png"));
+    for (const char* png : {"heat.png", "fitted.png"}) {
+      const cv::Mat image = cv::imread(dir + "/debug/" + png);
+      ASSERT_FALSE(image.empty()) << png;
+      int coloured = 0;
+      for (auto it = image.begin<cv::Vec3b>(); it != image.end<cv::Vec3b>(); ++it) {
+        const cv::Vec3b c = *it;
+        coloured += std::max({c[0], c[1], c[2]}) - std::min({c[0], c[1], c[2]}) > 60;
+      }
+      EXPECT_GT(coloured, 200) << png << " is grey";
+    }
   }
   {  // The operating point: a candidate below its class's threshold is no
      // detection; it is stored in the model file; all_candidates and a

@@ -137,7 +137,7 @@ std::string Cell(double value, int width) {
 void PrintFolds(const CrossvalSummary& summary, const std::vector<FurnitureClass>& classes) {
   const MetricId map10 = MetricId::MeanAp(0.10);
   std::printf("%-6s %6s %7s %13s", "fold", "frames", "objects", "mAP@10cm");
-  for (FurnitureClass c : classes) std::printf(" %13s", ClassName(c));
+  for (FurnitureClass c : classes) std::printf(" %13s", (std::string(ClassName(c)) + " (n)").c_str());
   std::printf("\n");
   for (const CrossvalFold& fold : summary.per_fold) {
     const auto& m = fold.evaluation.result.metrics;
@@ -146,8 +146,12 @@ void PrintFolds(const CrossvalSummary& summary, const std::vector<FurnitureClass
                 fold.evaluation.frames,
                 MetricOrNan(m, MetricId::Plain(PlainMetric::kObjects)),
                 Cell(MetricOrNan(m, map10), 13).c_str());
-    for (FurnitureClass c : classes)
-      std::printf(" %s", Cell(MetricOrNan(m, MetricId::ClassAp(c, 0.10)), 13).c_str());
+    for (FurnitureClass c : classes) {  // AP with its objects: "0.805 (95)"
+      const double ap = MetricOrNan(m, MetricId::ClassAp(c, 0.10));
+      char text[40];
+      std::snprintf(text, sizeof(text), "%.3f (%.0f)", ap, ClassObjectCount(m, c));
+      std::printf(" %13s", std::isnan(ap) ? "-" : text);
+    }
     std::printf("\n");
   }
   auto both = [&](const MetricId& id) {

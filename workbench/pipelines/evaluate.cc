@@ -63,6 +63,9 @@ nlohmann::json CurvesJson(const EvaluationResult& result) {
           {"calibration", calibration["calibration"]},
           {"calibration_layout", calibration["calibration_layout"]},
           {"confusion", ConfusionByName(result)},
+          {"confusion_layout",
+           "{detected class or missed: {true class or background: count}}, detections at the "
+           "operating point within 10 cm"},
           {"frame_errors", frame_errors},
           {"frame_errors_layout", "false positives, missed objects at 10 cm"}};
 }
@@ -631,7 +634,11 @@ void WriteReportForRun(const std::string& db_path, int64_t run_id, const std::st
                         scan.camera,
                         GroundTruthInDetectorFrame(scan, result),
                         (std::filesystem::path(out_dir) / g.dir).string());
-    g.pngs = {"fitted.png", "topdown.png", "segments.png"};
+    g.pngs = {"fitted.png", "topdown.png"};
+    for (const char* c : {"segments", "heat"}) {  // whichever the path wrote
+      if (std::filesystem::exists(std::filesystem::path(out_dir) / g.dir / (std::string(c) + ".png")))
+        g.pngs.push_back(std::string(c) + ".png");
+    }
     for (const char* c : {"chair", "armchair", "table", "sideboard"}) {
       if (std::filesystem::exists(std::filesystem::path(out_dir) / g.dir /
                                   (std::string("votes_") + c + ".png")))
