@@ -106,3 +106,16 @@ if(FURN_WITH_ROS)
   endforeach()
   list(REMOVE_DUPLICATES FURN_ROS_INCLUDE_DIRS)
 endif()
+
+# The 3-D scene view (reports/scene_view.cc) copies three.js from Debian's
+# libjs-three into report folders; its release is recorded beside it.
+find_path(FURN_THREE_JS_DIR three.min.js PATHS /usr/share/javascript/three NO_DEFAULT_PATH)
+if(NOT FURN_THREE_JS_DIR OR NOT EXISTS "${FURN_THREE_JS_DIR}/examples/js/controls/OrbitControls.js")
+  furn_missing(three.js libjs-three)
+endif()
+file(READ "${FURN_THREE_JS_DIR}/three.min.js" furn_three_head LIMIT 4096)
+string(REGEX MATCH "REVISION=\"([0-9a-z]+)\"" furn_three_revision "${furn_three_head}")
+if(NOT CMAKE_MATCH_1)
+  message(FATAL_ERROR "${FURN_THREE_JS_DIR}/three.min.js: no REVISION in its first 4 kB")
+endif()
+set(FURN_THREE_JS_REVISION "${CMAKE_MATCH_1}")

@@ -9,6 +9,7 @@
 #include "core/error.h"
 #include "core/file_util.h"
 #include "reports/png_file.h"
+#include "reports/scene_view.h"
 
 namespace furn {
 namespace {
@@ -451,7 +452,8 @@ void WriteDetectionDebug(const DetectionResult& result,
                          const TrainedModel& model,
                          const CameraIntrinsics& camera,
                          const std::vector<GroundTruthFootprint>& ground_truth,
-                         const std::string& dir) {
+                         const std::string& dir,
+                         const SceneViewLinks& links) {
   std::error_code error;
   std::filesystem::create_directories(dir, error);
   Require(!error, dir + ": cannot create the debug directory (" + error.message() + ")");
@@ -468,6 +470,7 @@ void WriteDetectionDebug(const DetectionResult& result,
   for (const DetectionDebug::VoteGrid& grid : result.debug.grids) WriteVotesPng(in, grid);
   WriteTopDownPng(in);
   WriteHypothesesJson(in);
+  WriteSceneView(result, model, camera, ground_truth, dir, links);
 }
 
 }  // namespace furn

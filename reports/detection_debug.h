@@ -8,7 +8,8 @@
 //   fitted.png        each detection's 3-D box, the fitted models' points and the
 //                     footprints of every fit tried, over the scan from the camera;
 //   topdown.png       scene points from above, fitted footprints and ground truth;
-//   hypotheses.json   every hypothesis: class, position, votes, candidates, outcome.
+//   hypotheses.json   every hypothesis: class, position, votes, candidates, outcome;
+//   scene.html        the run in 3-D (reports/scene_view.h).
 //
 //   WriteDetectionDebug(result, detector.model(), camera, ground_truth, "debug/");
 #pragma once
@@ -26,14 +27,28 @@ struct GroundTruthFootprint {
   std::optional<FurnitureClass> furniture_class;  // none for clutter
   double x = 0, y = 0, yaw = 0, width = 0, depth = 0;
   double height = 0;
+  std::string model_id;     // empty: not known
+  double visibility = -1;   // visible / amodal pixels in this frame; -1: not known
+};
+
+// What the folder's 3-D page (scene.html, reports/scene_view.h) is called
+// and links to.
+struct SceneViewLinks {
+  std::string title = "furnidet scene";
+  // The viewer's library folder relative to the page; empty: "three",
+  // written beside the page (a report writes one shared folder instead).
+  std::string library;
+  std::string previous, next, index;  // hrefs relative to the page; empty: none
 };
 
 // `camera` projects the camera-frame points (Kinect v1 when the input had no
-// intrinsics). Creates `dir`; every file is written atomically.
+// intrinsics). Creates `dir`; every file is written atomically. Also writes
+// the 3-D page scene.html (reports/scene_view.h).
 void WriteDetectionDebug(const DetectionResult& result,
                          const TrainedModel& model,
                          const CameraIntrinsics& camera,
                          const std::vector<GroundTruthFootprint>& ground_truth,
-                         const std::string& dir);
+                         const std::string& dir,
+                         const SceneViewLinks& links = SceneViewLinks{});
 
 }  // namespace furn

@@ -132,20 +132,7 @@ void CountLosses(const std::vector<FrameOutcome>& frames,
         count(FunnelStage::kDetected);
         continue;
       }
-      bool any_maximum = false, own_class = false;
-      HypothesisOutcome furthest = HypothesisOutcome::kNoSupport;
-      for (const HoughMaximum& h : frame.maxima) {
-        if (std::hypot(h.x - t.x, h.y - t.y) > window) continue;
-        any_maximum = true;
-        if (h.furniture_class != furniture_class) continue;
-        furthest = own_class ? std::max(furthest, h.outcome) : h.outcome;
-        own_class = true;
-      }
-      if (!own_class) {
-        count(any_maximum ? FunnelStage::kWrongClassOnly : FunnelStage::kNoMaximum);
-      } else {
-        count(FunnelStageOf(furthest));
-      }
+      count(LostAt(t, frame.maxima, window));
     }
     for (const ScoredDetection& d : frame.detections) {
       if (d.furniture_class != furniture_class || true_positives.count(&d)) continue;
@@ -172,6 +159,22 @@ void CountLosses(const std::vector<FrameOutcome>& frames,
 }
 
 }  // namespace
+
+FunnelStage LostAt(const TruthObject& object,
+                   const std::vector<HoughMaximum>& maxima,
+                   double window_m) {
+  bool any_maximum = false, own_class = false;
+  HypothesisOutcome furthest = HypothesisOutcome::kNoSupport;
+  for (const HoughMaximum& h : maxima) {
+    if (std::hypot(h.x - object.x, h.y - object.y) > window_m) continue;
+    any_maximum = true;
+    if (h.furniture_class != object.furniture_class) continue;
+    furthest = own_class ? std::max(furthest, h.outcome) : h.outcome;
+    own_class = true;
+  }
+  if (own_class) return FunnelStageOf(furthest);
+  return any_maximum ? FunnelStage::kWrongClassOnly : FunnelStage::kNoMaximum;
+}
 
 double AveragePrecision(const std::vector<PrPoint>& curve) {
   // Precision envelope from the right, then the area over recall steps.

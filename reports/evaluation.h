@@ -111,6 +111,13 @@ struct EvaluationResult {
   std::vector<CalibrationBin> calibration;
 };
 
+// The funnel stage of an object no detection found: the furthest stage a
+// maximum of its class within window_m of it reached, else kWrongClassOnly
+// (maxima of other classes only) or kNoMaximum.
+FunnelStage LostAt(const TruthObject& object,
+                   const std::vector<HoughMaximum>& maxima,
+                   double window_m);
+
 // Expected calibration error of the bins: the detection-weighted mean of
 // |true-positive share - mean score|; NaN without detections.
 double CalibrationError(const std::vector<CalibrationBin>& bins);

@@ -695,12 +695,15 @@ std::string FiguresHtml(const std::map<std::string, double>& m) {
 
 std::string GalleryHtml(const std::vector<GalleryFrame>& gallery) {
   std::ostringstream html;
-  html << "<h2>Frames with the most errors</h2>\n";
+  html << "<h2>Frames with the most errors</h2>\n<p>Each frame's 3-D page shows its points, "
+          "the true boxes (red: missed), the detections, the maxima and the learned heat; a "
+          "click on a box says what became of it.</p>\n";
   if (gallery.empty())
     html << "<p>No gallery (no frame had an error, or the model file is gone).</p>\n";
   for (const GalleryFrame& g : gallery) {
     html << "<h3>frame " << g.frame_id << ": " << g.false_positives << " false positive(s), "
-         << g.false_negatives << " missed</h3>\n<div class=\"gallery row\">";
+         << g.false_negatives << " missed &mdash; <a href=\"" << HtmlEscape(g.dir)
+         << "/scene.html\">look around in 3-D</a></h3>\n<div class=\"gallery row\">";
     for (const std::string& png : g.pngs) {
       html << "<a href=\"" << HtmlEscape(g.dir + "/" + png) << "\"><img src=\""
            << HtmlEscape(g.dir + "/" + png) << "\" alt=\"" << HtmlEscape(png) << "\"></a>";

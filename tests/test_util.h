@@ -23,4 +23,10 @@ struct CommandResult {
 };
 CommandResult RunCommand(const std::string& command);
 
+// Opens a 3-D scene page (reports/scene_view.h) in headless Chromium with
+// #selftest and returns what the page wrote into <pre id="scene-check"> (a
+// JSON object: counts, toggles, drawn pixels, load_ms, errors), or "" with
+// the browser's output in *output when it wrote nothing.
+std::string SceneSelfTest(const std::string& page, std::string* output = nullptr);
+
 }  // namespace furn::testing

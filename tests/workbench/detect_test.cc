@@ -145,7 +145,9 @@ class DetectTest : public ::testing::Test {
                               p.yaw_deg * M_PI / 180,
                               entry.size_m.x(),
                               entry.size_m.y(),
-                              entry.size_m.z()});
+                              entry.size_m.z(),
+                              p.model_id,
+                              1.0});
       }
       WriteDetectionDebug(result,
                           detector_->model(),

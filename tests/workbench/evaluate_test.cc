@@ -25,6 +25,58 @@ testing::CommandResult Workbench(const std::string& arguments) {
   return testing::RunCommand(std::string(FURN_WORKBENCH_BINARY) + " " + arguments);
 }
 
+// The first gallery frame's 3-D page, opened in Chromium: as many boxes and
+// points as its data (and true boxes as the room has objects), every layer
+// hides when toggled, a click on a detection names it, no error, and the
+// neighbouring frame and the report are linked.
+void CheckGalleryScene(const std::string& report, const std::string& db) {
+  const std::string html = ReadFileBytes(report + "/index.html");
+  const size_t end = html.find("/scene.html\">look around in 3-D");
+  ASSERT_NE(end, std::string::npos) << "no 3-D link in the gallery";
+  const size_t start = html.rfind("\"", end) + 1;
+  const std::string frame_dir = report + "/" + html.substr(start, end - start);
+  std::string data = ReadFileBytes(frame_dir + "/scene_data.js");
+  ASSERT_EQ(data.rfind("window.FURN_SCENE = ", 0), 0u);
+  const nlohmann::json scene = nlohmann::json::parse(data.substr(20, data.size() - 22));
+  EXPECT_TRUE(std::filesystem::exists(report + "/three/three.min.js"));
+  EXPECT_FALSE(std::filesystem::exists(frame_dir + "/three"));  // one copy per report
+  EXPECT_EQ(scene["navigation"]["index"], "../../index.html");
+  const std::string next = scene["navigation"]["next"];
+  if (!next.empty()) {
+    EXPECT_TRUE(std::filesystem::exists(frame_dir + "/" + next)) << next;
+  }
+  {
+    DatasetDb dataset(db, DatasetDb::Mode::kReadOnly);
+    const int64_t frame = std::stoll(std::filesystem::path(frame_dir).filename().string());
+    EXPECT_EQ(scene["truth"].size(), dataset.ReadRoom(*dataset.RoomOfFrame(frame), false).objects.size());
+  }
+  std::string output;
+  const std::string text = testing::SceneSelfTest(frame_dir + "/scene.html", &output);
+  ASSERT_FALSE(text.empty()) << output;
+  const nlohmann::json check = nlohmann::json::parse(text);
+  EXPECT_TRUE(check["webgl"].get<bool>());
+  EXPECT_EQ(check["errors"].size(), 0u) << text;
+  EXPECT_EQ(check["counts"]["points"], scene["points"]["count"]);
+  EXPECT_GT(check["counts"]["points"].get<int>(), 1000);
+  EXPECT_EQ(check["objects"]["truth"].get<size_t>(), scene["truth"].size());
+  EXPECT_EQ(check["objects"]["detections"].get<size_t>(), scene["detections"].size());
+  EXPECT_EQ(check["objects"]["maxima"].get<size_t>(), scene["maxima"].size());
+  for (const auto& [layer, hid] : check["toggles"].items()) EXPECT_TRUE(hid.get<bool>()) << layer;
+  EXPECT_LT(check["drawn"]["without_points"], check["drawn"]["all"]);
+  EXPECT_LT(check["drawn"]["without_truth"], check["drawn"]["all"]);
+  if (!scene["detections"].empty()) {
+    EXPECT_EQ(check["pick"].get<std::string>().rfind("detection: " +
+                                                     scene["detections"][0]["class"].get<std::string>(),
+                                                     0),
+              0u)
+        << check["pick"];
+  }
+  std::printf("scene page %s: %d points, loaded in %d ms (virtual time)\n",
+              frame_dir.c_str(),
+              check["counts"]["points"].get<int>(),
+              check["load_ms"].get<int>());
+}
+
 TEST(Evaluate, SmallRunIsStoredAndGatedByTheCommittedBaseline) {
   const std::string dir = testing::ScratchDir();
   const std::string db = dir + "/small.db", model = dir + "/small.fcm";
@@ -77,6 +129,7 @@ TEST(Evaluate, SmallRunIsStoredAndGatedByTheCommittedBaseline) {
     EXPECT_EQ(loaded, total);
     EXPECT_EQ(browser.output.find("CONSOLE"), std::string::npos) << browser.output;
     EXPECT_EQ(browser.output.find("Uncaught"), std::string::npos) << browser.output;
+    CheckGalleryScene(report, db);
   }
 
   // The CI gate: no metric worse than the committed baseline.

@@ -5,6 +5,7 @@
 #include <filesystem>
 
 #include <Eigen/Geometry>
+#include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 
 #include "core/detector.h"
@@ -295,6 +296,17 @@ TEST(Train, VoteNetIsStoredUsedAndItsRoomsHoldNoHeldOutModel) {
       }
       EXPECT_GT(coloured, 200) << png << " is grey";
     }
+    // Its 3-D page has the heat on the floor, and hiding it changes the picture.
+    std::string output;
+    const std::string text = testing::SceneSelfTest(dir + "/debug/scene.html", &output);
+    ASSERT_FALSE(text.empty()) << output;
+    const nlohmann::json check = nlohmann::json::parse(text);
+    EXPECT_EQ(check["errors"].size(), 0u) << text;
+    EXPECT_EQ(check["objects"]["heat"], 1) << text;
+    EXPECT_EQ(check["objects"]["detections"].get<size_t>(), fitted.detections.size());
+    EXPECT_TRUE(check["toggles"]["heat"].get<bool>());
+    EXPECT_LT(check["drawn"]["without_heat"], check["drawn"]["all"]) << text;
+    EXPECT_TRUE(std::filesystem::exists(dir + "/debug/three/VERSION"));
   }
   {  // The operating point: a candidate below its class's threshold is no
      // detection; it is stored in the model file; all_candidates and a

@@ -290,12 +290,19 @@ LoadedScan LoadDatasetFrame(const ScanSource& source) {
     scan.input.world_from_camera.reset();
   }
   for (const ObjectRecord& object : room.objects) {
+    double visibility = 0;  // an object the frame does not list is out of view
+    for (const FrameObjectRecord& seen : frame->objects) {
+      if (seen.instance_id == object.instance_id) visibility = seen.visibility;
+    }
     scan.ground_truth.push_back({object.furniture_class,
                                  object.reference_x,
                                  object.reference_y,
                                  object.yaw,
                                  object.width,
-                                 object.depth});
+                                 object.depth,
+                                 object.height,
+                                 object.model_id,
+                                 visibility});
   }
   return scan;
 }

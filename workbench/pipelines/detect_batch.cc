@@ -85,7 +85,8 @@ int DetectOneScan(const LoadedScan& scan, const Detector& detector, const Detect
                         detector.model(),
                         scan.camera,
                         GroundTruthInDetectorFrame(scan, result),
-                        run.debug_dir);
+                        run.debug_dir,
+                        SceneViewLinks{scan.description, "", "", "", ""});
   }
   Emit(DetectionJson(result, scan, detector.model()), run);
   if (!run.quiet) PrintDetections(scan, result);

@@ -18,6 +18,7 @@
 #include "renderers/camera.h"
 #include "reports/detection_debug.h"
 #include "reports/run_report.h"
+#include "reports/scene_view.h"
 #include "scenes/model_folds.h"
 #include "workbench/formats/json_text.h"
 #include "workbench/formats/real_labels.h"
@@ -565,6 +566,70 @@ OperatingPoint ChooseOperatingPointOn(const TrainedModel& model,
                                   EnumName(options.split) + ")");
 }
 
+namespace {
+
+// The frames with the most errors at 10 cm (as evaluate counted them,
+// protocol B), detection rerun (deterministic: the same result) with the
+// debug PNGs and a 3-D page each, linked to one another in gallery order.
+std::vector<GalleryFrame> WriteGallery(const std::string& db_path,
+                                       const RunRecord& run,
+                                       const std::string& out_dir) {
+  struct Errors {
+    int64_t frame_id;
+    int fp, fn;
+  };
+  std::vector<Errors> errors;
+  const nlohmann::json results = nlohmann::json::parse(run.results_json);
+  const nlohmann::json frame_errors = results.value("frame_errors", nlohmann::json::object());
+  for (const auto& [frame, counts] : frame_errors.items()) {
+    const Errors e{std::stoll(frame), counts[0].get<int>(), counts[1].get<int>()};
+    if (e.fp + e.fn > 0) errors.push_back(e);
+  }
+  std::sort(errors.begin(), errors.end(), [](const Errors& a, const Errors& b) {
+    return a.fp + a.fn != b.fp + b.fn ? a.fp + a.fn > b.fp + b.fn : a.frame_id < b.frame_id;
+  });
+  constexpr size_t kGallery = 6;
+  errors.resize(std::min(kGallery, errors.size()));
+  std::vector<GalleryFrame> gallery;
+  if (errors.empty() || !std::filesystem::is_regular_file(run.model_path)) return gallery;
+  const Detector detector(LoadTrainedModel(run.model_path),
+                          DetectorOptionsFromJson(run.options_json, db_path + " run options"));
+  WriteSceneLibrary((std::filesystem::path(out_dir) / "three").string());
+  auto scene_of = [&](size_t k) {
+    return k < errors.size() ? "../" + std::to_string(errors[k].frame_id) + "/scene.html"
+                             : std::string();
+  };
+  for (size_t k = 0; k < errors.size(); ++k) {
+    ScanSource source;
+    source.db_path = db_path;
+    source.frame_id = errors[k].frame_id;
+    const LoadedScan scan = LoadScan(source);
+    const DetectionResult result = detector.Detect(scan.input, /*keep_debug=*/true);
+    GalleryFrame g{errors[k].frame_id, errors[k].fp, errors[k].fn, "", {}};
+    g.dir = "frames/" + std::to_string(g.frame_id);
+    const std::filesystem::path dir = std::filesystem::path(out_dir) / g.dir;
+    SceneViewLinks links;
+    links.title = "run " + std::to_string(run.id) + ", frame " + std::to_string(g.frame_id) +
+                  ": " + std::to_string(g.false_positives) + " false, " +
+                  std::to_string(g.false_negatives) + " missed";
+    links.library = "../../three";
+    links.previous = k > 0 ? scene_of(k - 1) : "";
+    links.next = scene_of(k + 1);
+    links.index = "../../index.html";
+    WriteDetectionDebug(
+        result, detector.model(), scan.camera, GroundTruthInDetectorFrame(scan, result), dir.string(),
+        links);
+    for (const std::string png : {"fitted", "topdown", "segments", "heat", "votes_chair",
+                                  "votes_armchair", "votes_table", "votes_sideboard"}) {
+      if (std::filesystem::exists(dir / (png + ".png"))) g.pngs.push_back(png + ".png");
+    }
+    gallery.push_back(std::move(g));
+  }
+  return gallery;
+}
+
+}  // namespace
+
 void WriteReportForRun(const std::string& db_path, int64_t run_id, const std::string& out_dir) {
   DatasetDb dataset(db_path, DatasetDb::Mode::kReadOnly);
   const std::vector<RunRecord> runs = dataset.Runs();
@@ -593,59 +658,7 @@ void WriteReportForRun(const std::string& db_path, int64_t run_id, const std::st
   }
   for (const RunFrameRecord& f : dataset.RunFrames(run_id)) input.frame_ms.push_back(f.total_ms);
 
-  // Errors per frame at 10 cm, as evaluate counted them (protocol B).
-  const DetectorOptions options =
-      DetectorOptionsFromJson(run->options_json, db_path + " run options");
-  struct Errors {
-    int64_t frame_id;
-    int fp, fn;
-  };
-  std::vector<Errors> errors;
-  const nlohmann::json results = nlohmann::json::parse(run->results_json);
-  const nlohmann::json frame_errors = results.value("frame_errors", nlohmann::json::object());
-  for (const auto& [frame, counts] : frame_errors.items())
-    errors.push_back({std::stoll(frame), counts[0].get<int>(), counts[1].get<int>()});
-  std::sort(errors.begin(), errors.end(), [](const Errors& a, const Errors& b) {
-    return a.frame_id < b.frame_id;
-  });
-  std::stable_sort(errors.begin(), errors.end(), [](const Errors& a, const Errors& b) {
-    return a.fp + a.fn > b.fp + b.fn;
-  });
-  // The gallery: detection rerun (deterministic: the same result) with debug PNGs.
-  std::unique_ptr<Detector> detector;
-  if (std::filesystem::is_regular_file(run->model_path)) {
-    detector = std::make_unique<Detector>(LoadTrainedModel(run->model_path), options);
-  }
-  constexpr size_t kGallery = 6;
-  for (size_t k = 0; k < std::min(kGallery, errors.size()) && detector; ++k) {
-    if (errors[k].fp + errors[k].fn == 0) break;
-    ScanSource source;
-    source.db_path = db_path;
-    source.frame_id = errors[k].frame_id;
-    const LoadedScan scan = LoadScan(source);
-    const DetectionResult result = detector->Detect(scan.input, /*keep_debug=*/true);
-    GalleryFrame g;
-    g.frame_id = errors[k].frame_id;
-    g.false_positives = errors[k].fp;
-    g.false_negatives = errors[k].fn;
-    g.dir = "frames/" + std::to_string(g.frame_id);
-    WriteDetectionDebug(result,
-                        detector->model(),
-                        scan.camera,
-                        GroundTruthInDetectorFrame(scan, result),
-                        (std::filesystem::path(out_dir) / g.dir).string());
-    g.pngs = {"fitted.png", "topdown.png"};
-    for (const char* c : {"segments", "heat"}) {  // whichever the path wrote
-      if (std::filesystem::exists(std::filesystem::path(out_dir) / g.dir / (std::string(c) + ".png")))
-        g.pngs.push_back(std::string(c) + ".png");
-    }
-    for (const char* c : {"chair", "armchair", "table", "sideboard"}) {
-      if (std::filesystem::exists(std::filesystem::path(out_dir) / g.dir /
-                                  (std::string("votes_") + c + ".png")))
-        g.pngs.push_back(std::string("votes_") + c + ".png");
-    }
-    input.gallery.push_back(std::move(g));
-  }
+  input.gallery = WriteGallery(db_path, *run, out_dir);
   WriteRunReport(input, out_dir);
 }
 

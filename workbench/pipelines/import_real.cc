@@ -26,7 +26,9 @@ std::vector<GroundTruthFootprint> Footprints(const RealScan& scan) {
                           o.yaw ? *o.yaw : std::nan(""),
                           o.size.x(),
                           o.size.y(),
-                          o.size.z()});
+                          o.size.z(),
+                          "",
+                          -1});
   }
   return footprints;
 }
