@@ -82,9 +82,10 @@ void WriteConfusionPng(const std::vector<std::string>& row_labels,
   for (const std::string& label : headings.rows)
     left = std::max(left, TextWidth(label, 0.45) + 16);
   const int kLeft = std::min(left, 640);                          // longer labels are cut
-  const int width = std::max(kLeft + columns * kCell + 20, 560);  // room for the title
+  const std::string heading = title + " (rows: true, columns: predicted)";
+  const int width = std::max(kLeft + columns * kCell + 20, TextWidth(heading, 0.55) + 20);
   cv::Mat image(kTop + rows * kCell + 20, width, CV_8UC3, cv::Scalar(255, 255, 255));
-  Text(image, title + " (rows: true, columns: predicted)", cv::Point(10, 24), 0.55);
+  Text(image, heading, cv::Point(10, 24), 0.55);
   for (int c = 0; c < columns; ++c) {  // a label wider than its cell is drawn smaller, not cut
     const std::string& label = headings.columns[c];
     Text(image,

@@ -4,8 +4,6 @@
 #include <cmath>
 #include <filesystem>
 #include <nlohmann/json.hpp>
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
 
 #include "core/conventions.h"
 #include "core/detection_box.h"
@@ -100,30 +98,28 @@ Json FittedJson(const DetectionDebug& debug, const Eigen::Vector3f& origin) {
   return {{"count", kept}, {"xyz_mm", Base64(xyz)}, {"detection", Base64(owner)}};
 }
 
-// The learned heat of every class as one RGBA PNG (row 0 = the largest y):
-// the hottest class's colour, alpha its heat. Null on the codebook path.
+// The learned heat of every class as one RGBA image, row 0 at the smallest
+// y (a texture's first row is its bottom): the hottest class's colour, alpha
+// its heat. Null on the codebook path.
 Json HeatJson(const DetectionDebug& debug) {
   const DetectionDebug::VoteGrid* first = nullptr;
   for (const DetectionDebug::VoteGrid& g : debug.grids)
     if (g.learned && !g.values.empty() && first == nullptr) first = &g;
   if (first == nullptr) return nullptr;
-  cv::Mat image(first->rows, first->cols, CV_8UC4, cv::Scalar(0, 0, 0, 0));
+  const size_t cells = static_cast<size_t>(first->rows) * first->cols;
+  std::string rgba(4 * cells, '\0');
   for (const DetectionDebug::VoteGrid& g : debug.grids) {
     if (!g.learned || g.rows != first->rows || g.cols != first->cols) continue;
     const std::array<uint8_t, 3> rgb = ClassColourRgb(g.furniture_class);
-    for (int row = 0; row < g.rows; ++row) {
-      for (int col = 0; col < g.cols; ++col) {
-        const float heat = std::clamp(g.values[static_cast<size_t>(row) * g.cols + col], 0.0f, 1.0f);
-        cv::Vec4b& pixel = image.at<cv::Vec4b>(g.rows - 1 - row, col);
-        const auto alpha = static_cast<uint8_t>(std::lround(255 * heat));
-        if (alpha <= pixel[3]) continue;
-        pixel = cv::Vec4b(rgb[2], rgb[1], rgb[0], alpha);
-      }
+    for (size_t cell = 0; cell < cells; ++cell) {
+      const float heat = std::clamp(g.values[cell], 0.0f, 1.0f);
+      const auto alpha = static_cast<char>(std::lround(255 * heat));
+      if (static_cast<uint8_t>(alpha) <= static_cast<uint8_t>(rgba[4 * cell + 3])) continue;
+      rgba.replace(4 * cell, 4, {static_cast<char>(rgb[0]), static_cast<char>(rgb[1]),
+                                 static_cast<char>(rgb[2]), alpha});
     }
   }
-  std::vector<uint8_t> png;
-  Require(cv::imencode(".png", image, png), "the heat map could not be encoded as PNG");
-  return {{"png", "data:image/png;base64," + Base64(std::string(png.begin(), png.end()))},
+  return {{"rgba", Base64(rgba)},
           {"origin", {first->origin.x(), first->origin.y()}},
           {"cell_m", first->cell_m},
           {"cols", first->cols},

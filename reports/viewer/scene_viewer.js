@@ -185,23 +185,21 @@
   });
   addLayer('maxima', 'maxima (' + data.maxima.length + ')', maximaLayer, true);
 
-  // The learned heat as a texture on the floor.
+  // The learned heat as a texture on the floor (row 0 at the smallest y).
   var heatLayer = new THREE.Group();
-  var heatPending = false;
   if (data.heat) {
-    heatPending = true;
+    var text = atob(data.heat.rgba);
+    var rgba = new Uint8Array(text.length);
+    for (var h = 0; h < text.length; ++h) rgba[h] = text.charCodeAt(h);
+    var texture = new THREE.DataTexture(rgba, data.heat.cols, data.heat.rows, THREE.RGBAFormat);
+    texture.magFilter = THREE.NearestFilter;
+    texture.needsUpdate = true;
     var width = data.heat.cols * data.heat.cell_m, depth = data.heat.rows * data.heat.cell_m;
-    new THREE.TextureLoader().load(data.heat.png, function (texture) {
-      texture.magFilter = THREE.NearestFilter;
-      var plane = new THREE.Mesh(new THREE.PlaneBufferGeometry(width, depth),
-                                 new THREE.MeshBasicMaterial({map: texture, transparent: true,
-                                                              depthWrite: false}));
-      plane.position.set(data.heat.origin[0] + width / 2, data.heat.origin[1] + depth / 2, 0.004);
-      heatLayer.add(plane);
-      heatPending = false;
-      render();
-      finishLoading();
-    });
+    var plane = new THREE.Mesh(new THREE.PlaneBufferGeometry(width, depth),
+                               new THREE.MeshBasicMaterial({map: texture, transparent: true,
+                                                            depthWrite: false}));
+    plane.position.set(data.heat.origin[0] + width / 2, data.heat.origin[1] + depth / 2, 0.004);
+    heatLayer.add(plane);
   }
   addLayer('heat', data.heat ? 'learned heat' : 'learned heat (none: codebook run)', heatLayer,
            !!data.heat);
@@ -361,10 +359,7 @@
     check.hidden = false;
   }
 
-  var loaded = false;
   function finishLoading() {
-    if (loaded || heatPending) return;
-    loaded = true;
     render();
     window.furnScene = {layers: layers, setLayer: setLayer, pick: pick, counts: counts,
                         load_ms: performance.now()};

@@ -89,7 +89,10 @@ int RunDetect(int argc, char** argv) {
   app.add_option("--db", source.db_path, "Dataset database (with --frame)");
   app.add_option("--frame", source.frame_id, "Frame id in --db");
   app.add_option("--out", out, "Detections as JSON, or JSON lines for several scans");
-  app.add_option("--debug-dir", debug_dir, "Write debug PNGs (segments, votes, fits, top-down)");
+  app.add_option("--debug-dir",
+                 debug_dir,
+                 "Write debug PNGs (segments or heat, votes, boxes and fits, top-down) and "
+                 "scene.html, the frame in 3-D (opens offline)");
   app.add_flag("--explain", explain, "Print every hypothesis and the test that rejected it");
   app.add_flag("--timings", timings, "Print the time of every stage and of loading the model");
   app.add_option("--repeat", repeat, "Run N times and report median stage times (benchmark)")
