@@ -56,9 +56,8 @@ Headings MakeHeadings(const std::vector<std::string>& row_labels,
     headings.rows[k] = std::to_string(k + 1) + ". " + row_labels[k];
   for (size_t k = 0; k < column_labels.size(); ++k) {
     const auto same = std::find(row_labels.begin(), row_labels.end(), column_labels[k]);
-    headings.columns[k] = same != row_labels.end()
-                              ? std::to_string(same - row_labels.begin() + 1)
-                              : column_labels[k].substr(0, 8);
+    headings.columns[k] = same != row_labels.end() ? std::to_string(same - row_labels.begin() + 1)
+                                                   : column_labels[k].substr(0, 8);
   }
   return headings;
 }
@@ -79,9 +78,8 @@ void WriteConfusionPng(const std::vector<std::string>& row_labels,
   Require(FileExtension(png_path) == "png", png_path + ": the confusion matrix is written as .png");
   const Headings headings = MakeHeadings(row_labels, column_labels);
   int left = 110;
-  for (const std::string& label : headings.rows)
-    left = std::max(left, TextWidth(label, 0.45) + 16);
-  const int kLeft = std::min(left, 640);                          // longer labels are cut
+  for (const std::string& label : headings.rows) left = std::max(left, TextWidth(label, 0.45) + 16);
+  const int kLeft = std::min(left, 640);  // longer labels are cut
   const std::string heading = title + " (rows: true, columns: predicted)";
   const int width = std::max(kLeft + columns * kCell + 20, TextWidth(heading, 0.55) + 20);
   cv::Mat image(kTop + rows * kCell + 20, width, CV_8UC3, cv::Scalar(255, 255, 255));

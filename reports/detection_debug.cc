@@ -65,9 +65,8 @@ class CameraView {
            int thickness) {
     std::optional<cv::Point> corners[8];
     for (int k = 0; k < 8; ++k) {
-      const Eigen::Vector3f local((k & 1) ? high.x() : low.x(),
-                                  (k & 2) ? high.y() : low.y(),
-                                  (k & 4) ? high.z() : low.z());
+      const Eigen::Vector3f local(
+          (k & 1) ? high.x() : low.x(), (k & 2) ? high.y() : low.y(), (k & 4) ? high.z() : low.z());
       corners[k] = Pixel(pose.Apply(local) + Eigen::Vector3f(0, 0, z));
     }
     for (int a = 0; a < 8; ++a) {
@@ -184,9 +183,8 @@ struct DebugInput {
 };
 
 bool LearnedRun(const DetectionDebug& debug) {
-  return std::any_of(debug.grids.begin(), debug.grids.end(), [](const auto& g) {
-    return g.learned;
-  });
+  return std::any_of(
+      debug.grids.begin(), debug.grids.end(), [](const auto& g) { return g.learned; });
 }
 
 // Segments, from the camera (the codebook path).

@@ -215,10 +215,9 @@ std::string HistoryTableHtml(const std::vector<HistoryRow>& rows) {
   for (const HistoryRow& row : rows) {
     const RunRecord& run = *row.run;
     html << "<tr><td>" << HtmlEscape(row.dataset->name) << "</td><td>" << EnumName(run.split)
-         << "</td><td>" << run.id << "</td><td>"
-         << HtmlEscape(run.started) << "</td><td>" << HtmlEscape(run.git_commit.substr(0, 10))
-         << (run.git_dirty ? "+" : "") << "</td><td>" << HtmlEscape(run.kind) << "</td><td>"
-         << HtmlEscape(run.label) << "</td>";
+         << "</td><td>" << run.id << "</td><td>" << HtmlEscape(run.started) << "</td><td>"
+         << HtmlEscape(run.git_commit.substr(0, 10)) << (run.git_dirty ? "+" : "") << "</td><td>"
+         << HtmlEscape(run.kind) << "</td><td>" << HtmlEscape(run.label) << "</td>";
     for (const std::string& name : names) {  // stored names, of any version
       const auto it = row.metrics->find(name);
       html << "<td>" << Number(it == row.metrics->end() ? std::nan("") : it->second, 3) << "</td>";
@@ -252,8 +251,7 @@ void WriteHistoryReport(const std::vector<HistoryDataset>& datasets, const std::
                                             MetricId::Plain(PlainMetric::kXyErrorMean).Name(),
                                             MetricId::Plain(PlainMetric::kLatencyP50).Name()};
   for (size_t p = 0; p < plotted.size(); ++p) {
-    RunGnuplot(HistoryPlotScript(rows, plotted[p]),
-               path("history_" + std::to_string(p) + ".png"));
+    RunGnuplot(HistoryPlotScript(rows, plotted[p]), path("history_" + std::to_string(p) + ".png"));
   }
   std::ostringstream html;
   html << "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>furnidet "
@@ -270,9 +268,10 @@ void WriteHistoryReport(const std::vector<HistoryDataset>& datasets, const std::
           "is another line, never a step in this one. Lines:";
   for (const std::string& series : HistorySeriesNames(rows)) {
     html << " <span class=\"series\">" << HtmlEscape(series) << "</span> ("
-         << std::count_if(rows.begin(), rows.end(), [&](const HistoryRow& row) {
-              return HistorySeries(row) == series;
-            }) << " runs);";
+         << std::count_if(rows.begin(),
+                          rows.end(),
+                          [&](const HistoryRow& row) { return HistorySeries(row) == series; })
+         << " runs);";
   }
   html << "</p>\n<div>";
   for (size_t p = 0; p < plotted.size(); ++p)
@@ -679,7 +678,8 @@ std::string FiguresHtml(const std::map<std::string, double>& m) {
   html
       << "<div class=\"row\"><div><h3>PR, protocol B</h3><img src=\"pr_detection.png\" "
       << "alt=\"protocol B PR curves\"></div><div><h3>PR, protocol A</h3><img src=\"pr_paper.png\" "
-      << "alt=\"protocol A PR curves\"></div></div>\n<div class=\"row\"><div><h3>Confusion at the operating point (10 cm)"
+      << "alt=\"protocol A PR curves\"></div></div>\n<div class=\"row\"><div><h3>Confusion at the "
+         "operating point (10 cm)"
       << "</h3><img src=\"confusion.png\" alt=\"confusion matrix\"></div><div><h3>Latency</h3>"
       << "<img src=\"latency.png\" alt=\"latency histogram\"><table><tr><th>stage</th>"
       << "<th>p50 ms</th></tr>";
@@ -726,18 +726,15 @@ void WriteRunReport(const RunReportInput& input, const std::string& dir) {
   const std::vector<FurnitureClass> classes =
       ReportedClasses([&](FurnitureClass c) { return HasClassMetrics(m, c); });
 
-  PlotCurves(curves,
-             "B/",
-             "@10cm",
-             "protocol B: detections by score, 10 cm",
-             m,
-             path("pr_detection.png"));
-  PlotCurves(curves,
-             "A/",
-             "",
-             "protocol A (paper): maxima (Hough votes or learned heat), 5 cm window, threshold swept",
-             m,
-             path("pr_paper.png"));
+  PlotCurves(
+      curves, "B/", "@10cm", "protocol B: detections by score, 10 cm", m, path("pr_detection.png"));
+  PlotCurves(
+      curves,
+      "A/",
+      "",
+      "protocol A (paper): maxima (Hough votes or learned heat), 5 cm window, threshold swept",
+      m,
+      path("pr_paper.png"));
   PlotLatency(input.frame_ms, path("latency.png"));
   PlotConfusion(results, classes, path("confusion.png"));
 

@@ -18,7 +18,7 @@ namespace {
 
 using Json = nlohmann::ordered_json;
 
-constexpr double kMatchM = 0.10;         // a detection this near a true object of its class found it
+constexpr double kMatchM = 0.10;  // a detection this near a true object of its class found it
 constexpr double kFunnelWindowM = 0.15;  // a maximum this near an object is about it (evaluation)
 constexpr double kTargetVisibility = 0.25;
 
@@ -115,8 +115,10 @@ Json HeatJson(const DetectionDebug& debug) {
       const float heat = std::clamp(g.values[cell], 0.0f, 1.0f);
       const auto alpha = static_cast<char>(std::lround(255 * heat));
       if (static_cast<uint8_t>(alpha) <= static_cast<uint8_t>(rgba[4 * cell + 3])) continue;
-      rgba.replace(4 * cell, 4, {static_cast<char>(rgb[0]), static_cast<char>(rgb[1]),
-                                 static_cast<char>(rgb[2]), alpha});
+      rgba.replace(
+          4 * cell,
+          4,
+          {static_cast<char>(rgb[0]), static_cast<char>(rgb[1]), static_cast<char>(rgb[2]), alpha});
     }
   }
   return {{"rgba", Base64(rgba)},
@@ -178,7 +180,8 @@ Fates FatesOf(const DetectionResult& result, const std::vector<GroundTruthFootpr
       match = static_cast<int>(t);
     }
     if (match < 0) {
-      if (!truth.empty()) fates.detections[k] = "false detection (no free true object within 10 cm)";
+      if (!truth.empty())
+        fates.detections[k] = "false detection (no free true object within 10 cm)";
       continue;
     }
     taken[match] = true;
@@ -211,8 +214,8 @@ Json TruthJson(const std::vector<GroundTruthFootprint>& truth, const Fates& fate
   for (size_t t = 0; t < truth.size(); ++t) {
     const GroundTruthFootprint& g = truth[t];
     const double height = g.height > 0 ? g.height : 0.8;
-    Json object = BoxJson(FootprintBoxInWorld(
-        Eigen::Vector3d(g.x, g.y, 0), g.yaw, g.width, g.depth, height));
+    Json object =
+        BoxJson(FootprintBoxInWorld(Eigen::Vector3d(g.x, g.y, 0), g.yaw, g.width, g.depth, height));
     object["class"] = g.furniture_class ? Json(ClassName(*g.furniture_class)) : Json(nullptr);
     object["model"] = g.model_id.empty() ? Json(nullptr) : Json(g.model_id);
     object["visibility"] = g.visibility >= 0 ? Json(g.visibility) : Json(nullptr);
@@ -261,20 +264,20 @@ Json SceneJson(const DetectionResult& result,
   const Fates fates = FatesOf(result, truth);
   Json colours = Json::object();
   for (FurnitureClass c : kAllClasses) colours[ClassName(c)] = HexColour(c);
-  return {{"format", 1},
-          {"conventions", "REP 103 world frame: metres, z up, box x along the object's front"},
-          {"title", links.title},
-          {"origin", {origin.x(), origin.y(), origin.z()}},
-          {"colours", colours},
-          {"points", PointsJson(result.debug, origin)},
-          {"fitted", FittedJson(result.debug, origin)},
-          {"camera", CameraJson(result, camera)},
-          {"truth", TruthJson(truth, fates)},
-          {"detections", DetectionsJson(result, model, fates)},
-          {"maxima", MaximaJson(result.debug)},
-          {"heat", HeatJson(result.debug)},
-          {"navigation",
-           {{"previous", links.previous}, {"next", links.next}, {"index", links.index}}}};
+  return {
+      {"format", 1},
+      {"conventions", "REP 103 world frame: metres, z up, box x along the object's front"},
+      {"title", links.title},
+      {"origin", {origin.x(), origin.y(), origin.z()}},
+      {"colours", colours},
+      {"points", PointsJson(result.debug, origin)},
+      {"fitted", FittedJson(result.debug, origin)},
+      {"camera", CameraJson(result, camera)},
+      {"truth", TruthJson(truth, fates)},
+      {"detections", DetectionsJson(result, model, fates)},
+      {"maxima", MaximaJson(result.debug)},
+      {"heat", HeatJson(result.debug)},
+      {"navigation", {{"previous", links.previous}, {"next", links.next}, {"index", links.index}}}};
 }
 
 std::string HtmlText(const std::string& text) {

@@ -74,10 +74,10 @@ CommandResult RunCommand(const std::string& command) {
 }
 
 std::string SceneSelfTest(const std::string& page, std::string* output) {
-  const CommandResult browser =
-      RunCommand("chromium --headless --no-sandbox --disable-gpu --window-size=1200,800 "
-                 "--virtual-time-budget=10000 --dump-dom 'file://" +
-                 std::filesystem::absolute(page).string() + "#selftest' 2>/dev/null");
+  const CommandResult browser = RunCommand(
+      "chromium --headless --no-sandbox --disable-gpu --window-size=1200,800 "
+      "--virtual-time-budget=10000 --dump-dom 'file://" +
+      std::filesystem::absolute(page).string() + "#selftest' 2>/dev/null");
   if (output != nullptr) *output = browser.output;
   const std::string open = "<pre id=\"scene-check\">";
   const size_t at = browser.output.find(open);
@@ -85,7 +85,9 @@ std::string SceneSelfTest(const std::string& page, std::string* output) {
   const size_t end = browser.output.find("</pre>", at);
   std::string text = browser.output.substr(at + open.size(), end - at - open.size());
   for (const auto& [entity, character] :  // --dump-dom escapes these in text
-       {std::pair<std::string, std::string>{"&quot;", "\""}, {"&lt;", "<"}, {"&gt;", ">"},
+       {std::pair<std::string, std::string>{"&quot;", "\""},
+        {"&lt;", "<"},
+        {"&gt;", ">"},
         {"&amp;", "&"}}) {
     for (size_t k = text.find(entity); k != std::string::npos; k = text.find(entity, k + 1))
       text.replace(k, entity.size(), character);

@@ -127,8 +127,8 @@ TEST(Confusion, KeptDetectionsAgainstTheTruthAndTheMissedObjects) {
   table.furniture_class = FurnitureClass::kTable;
   frame.truth = {Chair(0, 0), Chair(1, 0), table, Chair(5, 0, /*visibility=*/0.1)};
   ScoredDetection as_chair = Found(3.02, 0, 0.9);  // the table called a chair
-  frame.detections = {Found(0.03, 0, 0.8),  // a hit
-                      Found(1.0, 0, 0.2),   // below the chair's least score: not output
+  frame.detections = {Found(0.03, 0, 0.8),         // a hit
+                      Found(1.0, 0, 0.2),          // below the chair's least score: not output
                       as_chair,
                       Found(9, 0, 0.7)};  // nothing there
   EvaluationOptions options;
@@ -138,7 +138,7 @@ TEST(Confusion, KeptDetectionsAgainstTheTruthAndTheMissedObjects) {
   EXPECT_EQ(named.at("chair").at("chair"), 1);
   EXPECT_EQ(named.at("chair").at("table"), 1);
   EXPECT_EQ(named.at("chair").at("background"), 1);
-  EXPECT_EQ(named.at("missed").at("chair"), 1);     // the chair at x = 1
+  EXPECT_EQ(named.at("missed").at("chair"), 1);      // the chair at x = 1
   EXPECT_EQ(named.at("missed").count("table"), 0u);  // reached, by the wrong class
   EXPECT_EQ(named.at("chair").size(), 3u);           // nothing else: 0.2 not kept
   int missed = 0;

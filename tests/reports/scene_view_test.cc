@@ -59,7 +59,8 @@ TEST(SceneView, FatesAndBoxesFollowTheEvaluationsRules) {
   SceneViewLinks links;
   links.title = "frame <7>";
   links.next = "../8/scene.html";
-  WriteSceneView(TwoChairsOneFound(), TrainedModel{}, CameraIntrinsics::KinectV1(), truth, dir, links);
+  WriteSceneView(
+      TwoChairsOneFound(), TrainedModel{}, CameraIntrinsics::KinectV1(), truth, dir, links);
   const nlohmann::json scene = SceneData(dir);
   EXPECT_EQ(scene["truth"][0]["fate"], "found (score 0.80, 2 cm off)");
   EXPECT_EQ(scene["truth"][1]["fate"], "missed: lost at low coverage");
@@ -90,7 +91,12 @@ TEST(SceneView, AReportSharesOneLibraryFolder) {
   const std::string dir = testing::ScratchDir();
   SceneViewLinks links;
   links.library = "../../three";
-  WriteSceneView(TwoChairsOneFound(), TrainedModel{}, CameraIntrinsics::KinectV1(), {}, dir + "/frames/1", links);
+  WriteSceneView(TwoChairsOneFound(),
+                 TrainedModel{},
+                 CameraIntrinsics::KinectV1(),
+                 {},
+                 dir + "/frames/1",
+                 links);
   EXPECT_FALSE(std::filesystem::exists(dir + "/frames/1/three"));
   EXPECT_NE(ReadFileBytes(dir + "/frames/1/scene.html").find("src=\"../../three/scene_viewer.js\""),
             std::string::npos);

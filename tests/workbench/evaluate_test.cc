@@ -48,7 +48,8 @@ void CheckGalleryScene(const std::string& report, const std::string& db) {
   {
     DatasetDb dataset(db, DatasetDb::Mode::kReadOnly);
     const int64_t frame = std::stoll(std::filesystem::path(frame_dir).filename().string());
-    EXPECT_EQ(scene["truth"].size(), dataset.ReadRoom(*dataset.RoomOfFrame(frame), false).objects.size());
+    EXPECT_EQ(scene["truth"].size(),
+              dataset.ReadRoom(*dataset.RoomOfFrame(frame), false).objects.size());
   }
   std::string output;
   const std::string text = testing::SceneSelfTest(frame_dir + "/scene.html", &output);
@@ -65,9 +66,8 @@ void CheckGalleryScene(const std::string& report, const std::string& db) {
   EXPECT_LT(check["drawn"]["without_points"], check["drawn"]["all"]);
   EXPECT_LT(check["drawn"]["without_truth"], check["drawn"]["all"]);
   if (!scene["detections"].empty()) {
-    EXPECT_EQ(check["pick"].get<std::string>().rfind("detection: " +
-                                                     scene["detections"][0]["class"].get<std::string>(),
-                                                     0),
+    EXPECT_EQ(check["pick"].get<std::string>().rfind(
+                  "detection: " + scene["detections"][0]["class"].get<std::string>(), 0),
               0u)
         << check["pick"];
   }

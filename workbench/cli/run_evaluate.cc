@@ -137,7 +137,8 @@ std::string Cell(double value, int width) {
 void PrintFolds(const CrossvalSummary& summary, const std::vector<FurnitureClass>& classes) {
   const MetricId map10 = MetricId::MeanAp(0.10);
   std::printf("%-6s %6s %7s %13s", "fold", "frames", "objects", "mAP@10cm");
-  for (FurnitureClass c : classes) std::printf(" %13s", (std::string(ClassName(c)) + " (n)").c_str());
+  for (FurnitureClass c : classes)
+    std::printf(" %13s", (std::string(ClassName(c)) + " (n)").c_str());
   std::printf("\n");
   for (const CrossvalFold& fold : summary.per_fold) {
     const auto& m = fold.evaluation.result.metrics;

@@ -609,18 +609,27 @@ std::vector<GalleryFrame> WriteGallery(const std::string& db_path,
     g.dir = "frames/" + std::to_string(g.frame_id);
     const std::filesystem::path dir = std::filesystem::path(out_dir) / g.dir;
     SceneViewLinks links;
-    links.title = "run " + std::to_string(run.id) + ", frame " + std::to_string(g.frame_id) +
-                  ": " + std::to_string(g.false_positives) + " false, " +
+    links.title = "run " + std::to_string(run.id) + ", frame " + std::to_string(g.frame_id) + ": " +
+                  std::to_string(g.false_positives) + " false, " +
                   std::to_string(g.false_negatives) + " missed";
     links.library = "../../three";
     links.previous = k > 0 ? scene_of(k - 1) : "";
     links.next = scene_of(k + 1);
     links.index = "../../index.html";
-    WriteDetectionDebug(
-        result, detector.model(), scan.camera, GroundTruthInDetectorFrame(scan, result), dir.string(),
-        links);
-    for (const std::string png : {"fitted", "topdown", "segments", "heat", "votes_chair",
-                                  "votes_armchair", "votes_table", "votes_sideboard"}) {
+    WriteDetectionDebug(result,
+                        detector.model(),
+                        scan.camera,
+                        GroundTruthInDetectorFrame(scan, result),
+                        dir.string(),
+                        links);
+    for (const std::string png : {"fitted",
+                                  "topdown",
+                                  "segments",
+                                  "heat",
+                                  "votes_chair",
+                                  "votes_armchair",
+                                  "votes_table",
+                                  "votes_sideboard"}) {
       if (std::filesystem::exists(dir / (png + ".png"))) g.pngs.push_back(png + ".png");
     }
     gallery.push_back(std::move(g));
