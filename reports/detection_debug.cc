@@ -200,10 +200,10 @@ void WriteSegmentsPng(const DebugInput& in) {
   WritePngAtomically(view.image(), in.Path("segments.png"));
 }
 
-// The strongest learned heat under a world point and its class (none below 0.05).
+// The strongest learned heat under a world point and its class (none below 0.02).
 std::pair<std::optional<FurnitureClass>, float> HeatAt(const DetectionDebug& debug,
                                                        const Eigen::Vector3f& p) {
-  std::pair<std::optional<FurnitureClass>, float> best{std::nullopt, 0.05f};
+  std::pair<std::optional<FurnitureClass>, float> best{std::nullopt, 0.02f};
   for (const DetectionDebug::VoteGrid& g : debug.grids) {
     if (!g.learned || g.cell_m <= 0) continue;
     const int col = static_cast<int>(std::floor((p.x() - g.origin.x()) / g.cell_m));
@@ -227,7 +227,7 @@ void WriteHeatPng(const DebugInput& in) {
       view.Dot(p, GreyForDistance((p - sensor).norm()) * 0.5);
       continue;
     }
-    view.Dot(p, ClassColour(furniture_class) * (0.3 + 0.7 * std::min(heat, 1.0f)));
+    view.Dot(p, ClassColour(furniture_class) * (0.3 + 0.7 * std::sqrt(std::min(heat, 1.0f))));
   }
   for (const DetectionDebug::Hypothesis& h : in.debug().hypotheses) {
     const auto at = view.Pixel(Eigen::Vector3f(h.x, h.y, 0));
@@ -236,17 +236,20 @@ void WriteHeatPng(const DebugInput& in) {
     const cv::Scalar colour = detected ? ClassColour(h.furniture_class) : cv::Scalar(200, 200, 200);
     cv::circle(view.image(), *at, detected ? 8 : 5, colour, detected ? 2 : 1, cv::LINE_AA);
     char text[128];
-    std::snprintf(text,
-                  sizeof(text),
-                  "%s %.2f %s",
-                  ClassName(h.furniture_class),
-                  h.vote_weight,
-                  detected ? "" : DetectionDebug::Describe(h).c_str());
+    if (detected) {
+      std::snprintf(text, sizeof(text), "%s %.2f", ClassName(h.furniture_class), h.vote_weight);
+    } else {
+      std::snprintf(text,
+                    sizeof(text),
+                    "%s: %s",
+                    ClassName(h.furniture_class),
+                    DetectionDebug::Describe(h).c_str());
+    }
     DrawLabel(&view.image(), text, *at + cv::Point(9, 4), colour, detected ? 0.42 : 0.34);
   }
   Caption(&view.image(),
-          "learned heat under each point (class colour, brighter: hotter); " +
-              std::to_string(in.debug().hypotheses.size()) + " maxima on the floor (ringed)");
+          "learned heat under the points (brighter: hotter); " +
+              std::to_string(in.debug().hypotheses.size()) + " maxima ringed");
   WritePngAtomically(view.image(), in.Path("heat.png"));
 }
 
@@ -291,7 +294,8 @@ void WriteFittedPng(const DebugInput& in) {
     }
   }
   Caption(&view.image(),
-          std::to_string(in.result.detections.size()) + " detections: 3-D boxes" +
+          std::to_string(in.result.detections.size()) +
+              (in.result.detections.size() == 1 ? " detection: 3-D box" : " detections: 3-D boxes") +
               (in.debug().fitted_points.empty() ? "" : " and fitted models") + "; " +
               std::to_string(tried) + " fits tried (grey footprints)");
   WritePngAtomically(view.image(), in.Path("fitted.png"));

@@ -1,5 +1,6 @@
 #include "reports/png_file.h"
 
+#include <algorithm>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <vector>
@@ -40,6 +41,11 @@ cv::Scalar ClassColour(std::optional<FurnitureClass> furniture_class) {
 
 void DrawLabel(
     cv::Mat* image, const std::string& text, cv::Point at, const cv::Scalar& colour, double scale) {
+  // Kept inside the image: a label at an edge moves in rather than being cut.
+  int baseline = 0;
+  const cv::Size size = cv::getTextSize(text, cv::FONT_HERSHEY_SIMPLEX, scale, 3, &baseline);
+  at.x = std::max(2, std::min(at.x, image->cols - size.width - 2));
+  at.y = std::max(size.height + 2, std::min(at.y, image->rows - baseline - 2));
   cv::putText(
       *image, text, at, cv::FONT_HERSHEY_SIMPLEX, scale, cv::Scalar(0, 0, 0), 3, cv::LINE_AA);
   cv::putText(*image, text, at, cv::FONT_HERSHEY_SIMPLEX, scale, colour, 1, cv::LINE_AA);

@@ -100,7 +100,7 @@ Json FittedJson(const DetectionDebug& debug, const Eigen::Vector3f& origin) {
 
 // The learned heat of every class as one RGBA image, row 0 at the smallest
 // y (a texture's first row is its bottom): the hottest class's colour, alpha
-// its heat. Null on the codebook path.
+// the square root of its heat (none below 0.05). Null on the codebook path.
 Json HeatJson(const DetectionDebug& debug) {
   const DetectionDebug::VoteGrid* first = nullptr;
   for (const DetectionDebug::VoteGrid& g : debug.grids)
@@ -112,8 +112,11 @@ Json HeatJson(const DetectionDebug& debug) {
     if (!g.learned || g.rows != first->rows || g.cols != first->cols) continue;
     const std::array<uint8_t, 3> rgb = ClassColourRgb(g.furniture_class);
     for (size_t cell = 0; cell < cells; ++cell) {
+      // Alpha the square root of the heat (a weak peak is still seen), below
+      // 0.05 none (the network's faint floor everywhere hides nothing).
       const float heat = std::clamp(g.values[cell], 0.0f, 1.0f);
-      const auto alpha = static_cast<char>(std::lround(255 * heat));
+      if (heat < 0.05f) continue;
+      const auto alpha = static_cast<char>(std::lround(255 * std::sqrt(heat)));
       if (static_cast<uint8_t>(alpha) <= static_cast<uint8_t>(rgba[4 * cell + 3])) continue;
       rgba.replace(
           4 * cell,

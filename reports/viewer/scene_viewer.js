@@ -298,9 +298,11 @@
     if (e.key === 'n' && data.navigation.next) window.location.href = data.navigation.next;
     if (e.key === 'p' && data.navigation.previous) window.location.href = data.navigation.previous;
   });
-  document.getElementById('counts').textContent = counts.points + ' points, ' +
-      counts.detections + ' detections, ' + counts.truth + ' true objects, ' + counts.maxima +
-      ' maxima';
+  function several(n, one, many) { return n + ' ' + (n === 1 ? one : many); }
+  document.getElementById('counts').textContent = several(counts.points, 'point', 'points') +
+      ', ' + several(counts.detections, 'detection', 'detections') + ', ' +
+      several(counts.truth, 'true object', 'true objects') + ', ' +
+      several(counts.maxima, 'maximum', 'maxima');
   var legend = document.getElementById('legend');
   Object.keys(data.colours).forEach(function (name) {
     var span = document.createElement('span');
