@@ -293,11 +293,12 @@ void WriteFittedPng(const DebugInput& in) {
       DrawLabel(&view.image(), text, *at + cv::Point(-30, -6), colour);
     }
   }
-  Caption(&view.image(),
-          std::to_string(in.result.detections.size()) +
-              (in.result.detections.size() == 1 ? " detection: 3-D box" : " detections: 3-D boxes") +
-              (in.debug().fitted_points.empty() ? "" : " and fitted models") + "; " +
-              std::to_string(tried) + " fits tried (grey footprints)");
+  Caption(
+      &view.image(),
+      std::to_string(in.result.detections.size()) +
+          (in.result.detections.size() == 1 ? " detection: 3-D box" : " detections: 3-D boxes") +
+          (in.debug().fitted_points.empty() ? "" : " and fitted models") + "; " +
+          std::to_string(tried) + " fits tried (grey footprints)");
   WritePngAtomically(view.image(), in.Path("fitted.png"));
 }
 
