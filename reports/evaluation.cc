@@ -42,6 +42,7 @@ struct Matching {
   int targets = 0;
   std::vector<int> targets_in_frame, true_positives_in_frame, false_positives_in_frame;
   std::vector<std::pair<const ScoredDetection*, const TruthObject*>> true_positives;
+  std::vector<const ScoredDetection*> false_positives;
 };
 
 // Protocol B for one class and distance; `role` says how each true object counts.
@@ -98,6 +99,7 @@ Matching MatchClass(const std::vector<FrameOutcome>& frames,
     } else {
       ++fp;
       ++result.false_positives_in_frame[c.frame];
+      result.false_positives.push_back(c.detection);
     }
     result.curve.push_back({result.targets > 0 ? static_cast<double>(tp) / result.targets : 0,
                             static_cast<double>(tp) / (tp + fp),
@@ -314,6 +316,32 @@ void AddToCalibration(const std::vector<FrameOutcome>& frames,
   }
 }
 
+// Per frame, what detect outputs gets wrong at 10 cm: the false detections
+// at the operating point and the objects none of its true ones found. (Greedy
+// matching by score: a kept detection's match is the same among every
+// candidate as among the kept ones, which all score higher.)
+void AddFrameErrors(const std::vector<FrameOutcome>& frames,
+                    FurnitureClass furniture_class,
+                    const Matching& matching,
+                    const OperatingPoint& point,
+                    std::map<int64_t, std::pair<int, int>>* frame_errors) {
+  std::set<const ScoredDetection*> true_positives;
+  for (const auto& [d, t] : matching.true_positives) true_positives.insert(d);
+  const std::set<const ScoredDetection*> false_positives(matching.false_positives.begin(),
+                                                         matching.false_positives.end());
+  for (size_t f = 0; f < frames.size(); ++f) {
+    int found = 0, wrong = 0;
+    for (const ScoredDetection& d : frames[f].detections) {
+      if (d.furniture_class != furniture_class || !point.Keeps(furniture_class, d.score)) continue;
+      found += true_positives.count(&d) > 0;
+      wrong += false_positives.count(&d) > 0;
+    }
+    std::pair<int, int>& errors = (*frame_errors)[frames[f].frame_id];
+    errors.first += wrong;
+    errors.second += matching.targets_in_frame[f] - found;
+  }
+}
+
 // At 10 cm: the funnel, false positives, calibration, per-frame errors,
 // pose errors and CAD identification.
 void AddLossesAndPoseErrors(const std::vector<FrameOutcome>& frames,
@@ -340,11 +368,7 @@ void AddLossesAndPoseErrors(const std::vector<FrameOutcome>& frames,
     const Matching matching = MatchClass(frames, c, 0.10, role);
     CountLosses(frames, c, matching, options, role, &m);
     AddToCalibration(frames, c, matching, role, &result->calibration);
-    for (size_t f = 0; f < frames.size(); ++f) {
-      std::pair<int, int>& errors = result->frame_errors[frames[f].frame_id];
-      errors.first += matching.false_positives_in_frame[f];
-      errors.second += matching.targets_in_frame[f] - matching.true_positives_in_frame[f];
-    }
+    AddFrameErrors(frames, c, matching, options.operating_point, &result->frame_errors);
     for (const auto& [d, t] : matching.true_positives) {
       xy_sum += std::hypot(d->x - t->x, d->y - t->y);
       yaw_sum += YawErrorDeg(d->yaw, t->yaw, d->symmetry);

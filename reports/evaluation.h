@@ -105,7 +105,8 @@ struct EvaluationResult {
   // objects no kept detection of any class lies within 10 cm of.
   std::map<FurnitureClass, std::map<std::optional<FurnitureClass>, int>> confusion;
   std::map<FurnitureClass, int> missed;
-  // Per frame id: false positives and missed objects at 10 cm (protocol B).
+  // Per frame id: false detections and missed objects at 10 cm (protocol B)
+  // among the detections at the operating point (what detect outputs).
   std::map<int64_t, std::pair<int, int>> frame_errors;
   // Ten equal bins of score over [0, 1] (scores outside are clamped).
   std::vector<CalibrationBin> calibration;

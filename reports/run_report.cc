@@ -695,7 +695,9 @@ std::string FiguresHtml(const std::map<std::string, double>& m) {
 
 std::string GalleryHtml(const std::vector<GalleryFrame>& gallery) {
   std::ostringstream html;
-  html << "<h2>Frames with the most errors</h2>\n<p>Each frame's 3-D page shows its points, "
+  html << "<h2>Frames with the most errors</h2>\n<p>Errors of the detections at the operating "
+          "point (what <code>detect</code> outputs), at 10 cm. Each frame's 3-D page shows its "
+          "points, "
           "the true boxes (red: missed), the detections, the maxima and the learned heat; a "
           "click on a box says what became of it.</p>\n";
   if (gallery.empty())

@@ -68,7 +68,8 @@ nlohmann::json CurvesJson(const EvaluationResult& result) {
            "{detected class or missed: {true class or background: count}}, detections at the "
            "operating point within 10 cm"},
           {"frame_errors", frame_errors},
-          {"frame_errors_layout", "false positives, missed objects at 10 cm"}};
+          {"frame_errors_layout",
+           "false positives, missed objects at 10 cm, detections at the operating point"}};
 }
 
 }  // namespace
@@ -568,9 +569,10 @@ OperatingPoint ChooseOperatingPointOn(const TrainedModel& model,
 
 namespace {
 
-// The frames with the most errors at 10 cm (as evaluate counted them,
-// protocol B), detection rerun (deterministic: the same result) with the
-// debug PNGs and a 3-D page each, linked to one another in gallery order.
+// The frames with the most errors at 10 cm among the detections at the
+// operating point (as evaluate counted them), detection rerun as detect runs
+// it (deterministic: the same result) with the debug PNGs and a 3-D page
+// each, linked to one another in gallery order.
 std::vector<GalleryFrame> WriteGallery(const std::string& db_path,
                                        const RunRecord& run,
                                        const std::string& out_dir) {
@@ -592,8 +594,10 @@ std::vector<GalleryFrame> WriteGallery(const std::string& db_path,
   errors.resize(std::min(kGallery, errors.size()));
   std::vector<GalleryFrame> gallery;
   if (errors.empty() || !std::filesystem::is_regular_file(run.model_path)) return gallery;
-  const Detector detector(LoadTrainedModel(run.model_path),
-                          DetectorOptionsFromJson(run.options_json, db_path + " run options"));
+  // What detect outputs (the run itself swept every candidate for AP).
+  DetectorOptions options = DetectorOptionsFromJson(run.options_json, db_path + " run options");
+  options.all_candidates = !results.contains("confusion_layout");  // older runs: as counted
+  const Detector detector(LoadTrainedModel(run.model_path), options);
   WriteSceneLibrary((std::filesystem::path(out_dir) / "three").string());
   auto scene_of = [&](size_t k) {
     return k < errors.size() ? "../" + std::to_string(errors[k].frame_id) + "/scene.html"
