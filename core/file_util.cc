@@ -44,6 +44,12 @@ std::string ReadFileBytes(const std::string& path) {
   return bytes;
 }
 
+void MakeDirectories(const std::string& dir, const std::string& what) {
+  std::error_code error;
+  std::filesystem::create_directories(dir, error);
+  Require(!error, dir + ": cannot create the " + what + " (" + error.message() + ")");
+}
+
 void WriteDirectoryAtomically(const std::string& out,
                               const std::function<void(const std::string& dir)>& write) {
   namespace fs = std::filesystem;

@@ -24,6 +24,10 @@ std::string ReadFileBytes(const std::string& path);
 // A missing path passes: callers say "does not exist" in their own words.
 void RequireRegularFile(const std::string& path);
 
+// Creates `dir` and its parents; InputError "<dir>: cannot create the <what>
+// (<reason>)" when it cannot.
+void MakeDirectories(const std::string& dir, const std::string& what);
+
 // Runs `write(dir)` into a fresh temporary directory beside `out` and, when it
 // returns, moves what it wrote into `out` (created if missing; files of the
 // same names replaced, others kept). When it throws, the temporary directory

@@ -457,9 +457,7 @@ void WriteDetectionDebug(const DetectionResult& result,
                          const std::vector<GroundTruthFootprint>& ground_truth,
                          const std::string& dir,
                          const SceneViewLinks& links) {
-  std::error_code error;
-  std::filesystem::create_directories(dir, error);
-  Require(!error, dir + ": cannot create the debug directory (" + error.message() + ")");
+  MakeDirectories(dir, "debug directory");
   const DebugInput in{result, model, camera, ground_truth, dir};
   const bool learned = LearnedRun(result.debug);
   if (learned) {
@@ -468,6 +466,7 @@ void WriteDetectionDebug(const DetectionResult& result,
     WriteSegmentsPng(in);
   }
   // A folder used before by the other path keeps no figure of that run.
+  std::error_code error;
   std::filesystem::remove(in.Path(learned ? "segments.png" : "heat.png"), error);
   WriteFittedPng(in);
   for (const DetectionDebug::VoteGrid& grid : result.debug.grids) WriteVotesPng(in, grid);

@@ -692,6 +692,27 @@ OperatingPoint ChooseOperatingPoint(const std::vector<FrameOutcome>& frames,
   return point;
 }
 
+FrameMatch MatchFrame(const FrameOutcome& frame,
+                      const EvaluationOptions& options,
+                      double distance_m) {
+  const std::vector<FrameOutcome> frames = {frame};
+  const FrameOutcome& copy = frames.front();
+  const RoleOf role = RoleFor(options);
+  FrameMatch match;
+  match.truth_of_detection.assign(copy.detections.size(), FrameMatch::kMatchedIgnored);
+  for (const TruthObject& t : copy.truth)
+    match.target.push_back(t.furniture_class.has_value() && role(t) == Role::kTarget);
+  for (FurnitureClass c : kAllClasses) {
+    const Matching matching = MatchClass(frames, c, distance_m, role);
+    for (const auto& [d, t] : matching.true_positives)
+      match.truth_of_detection[d - copy.detections.data()] =
+          static_cast<int>(t - copy.truth.data());
+    for (const ScoredDetection* d : matching.false_positives)
+      match.truth_of_detection[d - copy.detections.data()] = FrameMatch::kFalseDetection;
+  }
+  return match;
+}
+
 EvaluationResult EvaluateFrames(const std::vector<FrameOutcome>& frames,
                                 const EvaluationOptions& options) {
   Require(!frames.empty(), "evaluation needs at least one frame");

@@ -112,6 +112,20 @@ struct EvaluationResult {
   std::vector<CalibrationBin> calibration;
 };
 
+// Protocol B on one frame at `distance_m` (greedy by score within each
+// class, objects' roles by `options`): per detection the index of the true
+// object it found, kFalseDetection, or kMatchedIgnored (it lies on an object
+// too little seen or too far to count: neither true nor false); per true
+// object whether it is a target (an object to find).
+struct FrameMatch {
+  static constexpr int kFalseDetection = -1, kMatchedIgnored = -2;
+  std::vector<int> truth_of_detection;
+  std::vector<bool> target;
+};
+FrameMatch MatchFrame(const FrameOutcome& frame,
+                      const EvaluationOptions& options,
+                      double distance_m);
+
 // The funnel stage of an object no detection found: the furthest stage a
 // maximum of its class within window_m of it reached, else kWrongClassOnly
 // (maxima of other classes only) or kNoMaximum.

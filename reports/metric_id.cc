@@ -1,5 +1,6 @@
 #include "reports/metric_id.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "core/error.h"
@@ -62,6 +63,12 @@ bool StartsWith(const std::string& text, const char* prefix, std::string* rest) 
 }
 
 }  // namespace
+
+std::string FunnelStageWords(FunnelStage stage) {
+  std::string words = EnumName(stage);
+  std::replace(words.begin(), words.end(), '_', ' ');
+  return words;
+}
 
 FunnelStage FunnelStageOf(HypothesisOutcome outcome) {
   switch (outcome) {

@@ -57,6 +57,9 @@ struct EnumText<FunnelStage> {
       {FunnelStage::kNoMaximum, "no_maximum"},
   };
 };
+// A stage's name for people: "low coverage" for low_coverage.
+std::string FunnelStageWords(FunnelStage stage);
+
 // The stage an object whose nearest maximum of its class stopped at
 // `outcome` reached (kDetected: detected off target).
 FunnelStage FunnelStageOf(HypothesisOutcome outcome);

@@ -328,11 +328,8 @@ std::string FunnelHtml(const std::vector<FurnitureClass>& classes,
           "found, or the furthest stage a maximum of its class (Hough or learned heat) within 15 "
           "cm of it "
           "reached. Start tuning from the biggest loss.</p>\n<table><tr><th>class</th>";
-  for (FunnelStage funnel_stage : EnumValues<FunnelStage>()) {  // spaces, so the header wraps
-    std::string stage = EnumName(funnel_stage);
-    std::replace(stage.begin(), stage.end(), '_', ' ');
-    html << "<th>" << stage << "</th>";
-  }
+  for (FunnelStage stage : EnumValues<FunnelStage>())  // spaces, so the header wraps
+    html << "<th>" << FunnelStageWords(stage) << "</th>";
   html << "</tr>";
   std::vector<std::optional<FurnitureClass>> rows(classes.begin(), classes.end());
   rows.push_back(std::nullopt);  // all

@@ -11,6 +11,7 @@
 #include "core/file_util.h"
 #include "reports/class_colours.h"
 #include "reports/evaluation.h"
+#include "reports/run_report.h"
 #include "reports/scene_assets.h"
 
 namespace furn {
@@ -143,70 +144,67 @@ Json CameraJson(const DetectionResult& result, const CameraIntrinsics& camera) {
           {"cy", camera.cy}};
 }
 
-std::string Words(const std::string& name) {
-  std::string words = name;
-  std::replace(words.begin(), words.end(), '_', ' ');
-  return words;
-}
-
 // What became of each true object and what each detection is, by the
-// evaluation's rules on this one frame (10 cm, greedy by score).
+// evaluation's protocol B on this one frame (evaluation.h MatchFrame, 10 cm)
+// and its funnel. The page does not know the run's range: no object is
+// ignored for its distance. A visibility not known counts as fully seen.
 struct Fates {
   std::vector<std::string> truth, detections;
   std::vector<bool> missed, target;
 };
 Fates FatesOf(const DetectionResult& result, const std::vector<GroundTruthFootprint>& truth) {
-  Fates fates;
-  fates.truth.assign(truth.size(), "");
-  fates.missed.assign(truth.size(), false);
-  fates.target.assign(truth.size(), false);
-  for (size_t t = 0; t < truth.size(); ++t) {
-    fates.target[t] = truth[t].furniture_class.has_value() &&
-                      (truth[t].visibility < 0 || truth[t].visibility >= kTargetVisibility);
+  const EvaluationOptions rules;
+  FrameOutcome frame;
+  for (const GroundTruthFootprint& g : truth) {
+    TruthObject object;
+    object.furniture_class = g.furniture_class;
+    object.model_id = g.model_id;
+    object.x = g.x;
+    object.y = g.y;
+    object.visibility = g.visibility < 0 ? 1.0 : g.visibility;
+    frame.truth.push_back(object);
   }
-  fates.detections.assign(result.detections.size(), truth.empty() ? "no ground truth here" : "");
-  std::vector<size_t> order(result.detections.size());
-  for (size_t k = 0; k < order.size(); ++k) order[k] = k;
-  std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) {
-    return result.detections[a].score > result.detections[b].score;
-  });
-  std::vector<bool> taken(truth.size(), false);
+  for (const Detection& d : result.detections) {
+    frame.detections.push_back(
+        {d.furniture_class, d.model_name, d.x, d.y, d.yaw, d.score, 1, d.width, d.depth});
+  }
+  for (const DetectionDebug::Hypothesis& h : result.debug.hypotheses)
+    frame.maxima.push_back({h.furniture_class, h.x, h.y, h.relative_weight, h.outcome});
+  const FrameMatch match = MatchFrame(frame, rules, kMatchM);
+  Fates fates{std::vector<std::string>(truth.size()),
+              std::vector<std::string>(result.detections.size(), "no ground truth here"),
+              std::vector<bool>(truth.size(), false),
+              match.target};
+  std::vector<bool> found(truth.size(), false);
   char text[160];
-  for (size_t k : order) {
-    const Detection& d = result.detections[k];
-    double best = kMatchM;
-    int match = -1;
-    for (size_t t = 0; t < truth.size(); ++t) {
-      const double distance = std::hypot(truth[t].x - d.x, truth[t].y - d.y);
-      if (taken[t] || truth[t].furniture_class != d.furniture_class || distance > best) continue;
-      best = distance;
-      match = static_cast<int>(t);
-    }
-    if (match < 0) {
-      if (!truth.empty())
-        fates.detections[k] = "false detection (no free true object within 10 cm)";
+  for (size_t k = 0; k < result.detections.size() && !truth.empty(); ++k) {
+    const int t = match.truth_of_detection[k];
+    if (t < 0) {
+      fates.detections[k] = t == FrameMatch::kFalseDetection
+                                ? "false detection (no free true object within 10 cm)"
+                                : "on an object too little seen to count (neither true nor false)";
       continue;
     }
-    taken[match] = true;
-    std::snprintf(text, sizeof(text), "true detection, %.0f cm off", 100 * best);
+    const double off =
+        std::hypot(truth[t].x - result.detections[k].x, truth[t].y - result.detections[k].y);
+    std::snprintf(text, sizeof(text), "true detection, %.0f cm off", 100 * off);
     fates.detections[k] = text;
-    std::snprintf(text, sizeof(text), "found (score %.2f, %.0f cm off)", d.score, 100 * best);
-    fates.truth[match] = text;
+    std::snprintf(text,
+                  sizeof(text),
+                  "found (score %.2f, %.0f cm off)",
+                  result.detections[k].score,
+                  100 * off);
+    fates.truth[t] = text;
+    found[t] = true;
   }
-  std::vector<HoughMaximum> maxima;
-  for (const DetectionDebug::Hypothesis& h : result.debug.hypotheses)
-    maxima.push_back({h.furniture_class, h.x, h.y, h.relative_weight, h.outcome});
   for (size_t t = 0; t < truth.size(); ++t) {
-    if (taken[t] || !truth[t].furniture_class) continue;
+    if (found[t] || !truth[t].furniture_class) continue;
     if (!fates.target[t]) {
       fates.truth[t] = "barely visible or out of view: not a target";
       continue;
     }
-    TruthObject object;
-    object.furniture_class = truth[t].furniture_class;
-    object.x = truth[t].x;
-    object.y = truth[t].y;
-    fates.truth[t] = "missed: lost at " + Words(EnumName(LostAt(object, maxima, kFunnelWindowM)));
+    fates.truth[t] = "missed: lost at " +
+                     FunnelStageWords(LostAt(frame.truth[t], frame.maxima, rules.funnel_window_m));
     fates.missed[t] = true;
   }
   return fates;
@@ -283,24 +281,6 @@ Json SceneJson(const DetectionResult& result,
       {"navigation", {{"previous", links.previous}, {"next", links.next}, {"index", links.index}}}};
 }
 
-std::string HtmlText(const std::string& text) {
-  std::string out;
-  for (char c : text) {
-    if (c == '<') {
-      out += "&lt;";
-    } else if (c == '>') {
-      out += "&gt;";
-    } else if (c == '&') {
-      out += "&amp;";
-    } else if (c == '"') {
-      out += "&quot;";
-    } else {
-      out += c;
-    }
-  }
-  return out;
-}
-
 std::string Replaced(std::string text, const std::string& key, const std::string& value) {
   for (size_t at = text.find(key); at != std::string::npos; at = text.find(key, at + value.size()))
     text.replace(at, key.size(), value);
@@ -316,9 +296,7 @@ void WriteSceneLibrary(const std::string& dir) {
               std::filesystem::is_regular_file(controls),
           std::string(FURN_THREE_JS_DIR) +
               ": three.js is missing (apt-get install libjs-three, or tools/install_deps.sh)");
-  std::error_code error;
-  std::filesystem::create_directories(dir, error);
-  Require(!error, dir + ": cannot create the viewer's library folder (" + error.message() + ")");
+  MakeDirectories(dir, "viewer's library folder");
   const std::filesystem::path out(dir);
   WriteFileAtomically((out / "three.min.js").string(),
                       ReadFileBytes((three / "three.min.js").string()));
@@ -337,9 +315,7 @@ void WriteSceneView(const DetectionResult& result,
                     const std::vector<GroundTruthFootprint>& ground_truth,
                     const std::string& dir,
                     const SceneViewLinks& links) {
-  std::error_code error;
-  std::filesystem::create_directories(dir, error);
-  Require(!error, dir + ": cannot create the scene folder (" + error.message() + ")");
+  MakeDirectories(dir, "scene folder");
   const std::filesystem::path out(dir);
   const std::string library = links.library.empty() ? "three" : links.library;
   if (links.library.empty()) WriteSceneLibrary((out / "three").string());
@@ -347,8 +323,8 @@ void WriteSceneView(const DetectionResult& result,
   const std::string data =
       Replaced(SceneJson(result, model, camera, ground_truth, links).dump(), "<", "\\u003c");
   WriteFileAtomically((out / "scene_data.js").string(), "window.FURN_SCENE = " + data + ";\n");
-  std::string page = Replaced(kSceneHtml, "@TITLE@", HtmlText(links.title));
-  page = Replaced(page, "@LIBRARY@", HtmlText(library));
+  std::string page = Replaced(kSceneHtml, "@TITLE@", HtmlEscape(links.title));
+  page = Replaced(page, "@LIBRARY@", HtmlEscape(library));
   WriteFileAtomically((out / "scene.html").string(), page);
 }
 
