@@ -46,6 +46,7 @@
 #include "core/floor.h"
 #include "core/hypothesis_scorer.h"
 #include "core/learned/bev_box_coder.h"
+#include "core/learned/bev_extent.h"
 #include "core/learned/vote_net.h"
 #include "core/occupancy.h"
 #include "core/operating_point.h"
@@ -171,6 +172,12 @@ struct DetectorOptions {
   BevCentre learned_centre = BevCentre::kVotes;
   double learned_vote_bandwidth_m = 0.1;
   double learned_vote_heat_power = 0;  // BevDecodeOptions::vote_heat_power
+  // The extent fit (core/learned/bev_extent.h): the detections of these
+  // classes move their box to the edges of the surface the scan shows, where
+  // it saw them end (a long table's centre from its two ends, not from one
+  // peak cell).
+  ExtentFitClasses learned_extent_fit = ExtentFitClasses::kNone;
+  bool learned_extent_one_edge = true;  // ExtentFitOptions::one_edge_moves
 
   // The operating point (core/operating_point.h): a candidate whose score is
   // below its class's threshold is no detection (HypothesisOutcome
@@ -353,6 +360,11 @@ struct DetectionDebug {
     // and gave the detection its yaw and CAD model (fit_x, fit_y and the fits
     // say where it was).
     bool refined = false;
+    // Learned voting with learned_extent_fit: how many of the box's four
+    // edges the scan saw end (its box moved to them; 0: the network's box
+    // stayed; -1: not tried), and how far its centre moved (m).
+    int extent_edges = -1;
+    double extent_moved_m = 0;
   };
   // One line for people: "detected", "covers 0.62 of the points", ...
   static std::string Describe(const Hypothesis& hypothesis);
@@ -563,6 +575,12 @@ class Detector {
   void FitLearned(const PreparedScan& scan,
                   std::vector<DetectionDebug::Hypothesis>* hypotheses,
                   std::vector<Detection>* detections) const;
+  // Learned voting's extent fit (DetectorOptions::learned_extent_fit), after
+  // FitLearned (it uses the fit's yaw); the same correspondence.
+  void ExtentFitLearned(const PreparedScan& scan,
+                        const BevImage& image,
+                        std::vector<DetectionDebug::Hypothesis>* hypotheses,
+                        std::vector<Detection>* detections) const;
   // Detect's learned path after Prepare: vote map, maxima, detections.
   void DetectLearned(const PreparedScan& scan,
                      bool keep_debug,

@@ -11,6 +11,7 @@
 #include "core/detector_impl.h"
 #include "core/error.h"
 #include "core/parallel.h"
+#include "core/render_compare.h"
 
 namespace furn {
 namespace {
@@ -82,7 +83,46 @@ std::map<int, double> SegmentsInBox(const PreparedScan& scan,
   return support;
 }
 
+// The extent fit's visibility test: the scan's own depth image where it is
+// organised (VisibilityInScan), else the BEV image's lenient test.
+VisibilityTest ScanVisibility(const PreparedScan& scan, const BevImage& image) {
+  if (!scan.intrinsics || scan.width == 0)
+    return [&image](const Eigen::Vector3d& world) { return BevVisibility(image, world); };
+  const Eigen::Isometry3d camera_from_world = scan.world_from_camera.inverse();
+  return [&scan, camera_from_world](const Eigen::Vector3d& world) {
+    return VisibilityInScan(
+        scan.camera_points, scan.width, scan.height, *scan.intrinsics, camera_from_world * world);
+  };
+}
+
 }  // namespace
+
+void Detector::ExtentFitLearned(const PreparedScan& scan,
+                                const BevImage& image,
+                                std::vector<DetectionDebug::Hypothesis>* hypotheses,
+                                std::vector<Detection>* detections) const {
+  const ExtentFitClasses classes = impl_->options.learned_extent_fit;
+  if (classes == ExtentFitClasses::kNone) return;
+  const VisibilityTest visibility = ScanVisibility(scan, image);
+  ExtentFitOptions fit_options;
+  fit_options.one_edge_moves = impl_->options.learned_extent_one_edge;
+  size_t k = 0;
+  for (DetectionDebug::Hypothesis& h : *hypotheses) {
+    if (h.outcome != HypothesisOutcome::kDetected) continue;
+    Require(k < detections->size(), "ExtentFitLearned: hypotheses and detections differ");
+    Detection& d = (*detections)[k++];
+    if (!FitsExtent(classes, d.furniture_class)) continue;
+    const ExtentFit fit =
+        FitExtent(image, {d.x, d.y, d.yaw, d.width, d.depth}, visibility, fit_options);
+    h.extent_edges = static_cast<int>(std::count(fit.edge_seen.begin(), fit.edge_seen.end(), true));
+    h.extent_moved_m = std::hypot(fit.box.x - d.x, fit.box.y - d.y);
+    d.x = h.x = fit.box.x;
+    d.y = h.y = fit.box.y;
+    d.yaw = h.yaw = fit.box.yaw;
+    d.width = h.width = fit.box.width;
+    d.depth = h.depth = fit.box.depth;
+  }
+}
 
 void Detector::FitLearned(const PreparedScan& scan,
                           std::vector<DetectionDebug::Hypothesis>* hypotheses,
@@ -186,6 +226,7 @@ void Detector::DetectLearned(const PreparedScan& scan,
     FitLearned(scan, &result->debug.hypotheses, &result->detections);
     timer->Lap(DetectionStage::kFitAndVerify);
   }
+  ExtentFitLearned(scan, image, &result->debug.hypotheses, &result->detections);
   timer->Total();
   result->points = scan.input_points;
   if (!keep_debug) return;

@@ -182,6 +182,9 @@ PreparedScan Detector::Prepare(const DetectionInput& input) const {
   if (impl.learned) {  // the network's grid is rasterised from the points as given
     scan.camera_points = input.points;
     if (!options.learned_fit) {  // else segments, structure and occupancy for the fits
+      // The extent fit's visibility test projects onto the depth image.
+      if (options.learned_extent_fit != ExtentFitClasses::kNone)
+        KeepDepthImage(input, options.max_range_m, &scan);
       scan.sensor = scan.world_from_camera.translation().cast<float>();
       timer.Lap(DetectionStage::kFloor);
       return scan;

@@ -182,6 +182,27 @@ double RenderComparison::SupportShare() const {
 
 float RenderTolerance(float z) { return 0.04f + 0.005f * z * z; }
 
+Visibility VisibilityInScan(const std::vector<Eigen::Vector3f>& points,
+                            int width,
+                            int height,
+                            const PinholeIntrinsics& intrinsics,
+                            const Eigen::Vector3d& point_in_camera) {
+  const Eigen::Vector3d& p = point_in_camera;
+  constexpr double kNearestM = 0.1;
+  if (p.z() < kNearestM || static_cast<size_t>(width) * height != points.size())
+    return Visibility::kUnknown;
+  const double u = std::floor(intrinsics.fx * p.x() / p.z() + intrinsics.cx);
+  const double v = std::floor(intrinsics.fy * p.y() / p.z() + intrinsics.cy);
+  if (!(u >= 0 && v >= 0 && u < width && v < height)) return Visibility::kUnknown;
+  const Eigen::Vector3f& seen = points[static_cast<size_t>(v) * width + static_cast<size_t>(u)];
+  // No return: a grazing, dark or far surface, or nothing; it says nothing.
+  if (!seen.allFinite() || seen.z() <= 0) return Visibility::kUnknown;
+  const double tolerance = RenderTolerance(static_cast<float>(p.z()));
+  if (seen.z() > p.z() + tolerance) return Visibility::kFree;
+  if (seen.z() < p.z() - tolerance) return Visibility::kHidden;
+  return Visibility::kOccupied;
+}
+
 namespace {
 
 // One drawn pixel: the model's depth there against what the sensor saw.

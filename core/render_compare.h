@@ -26,6 +26,7 @@
 #include <optional>
 #include <vector>
 
+#include "core/learned/bev_extent.h"  // Visibility
 #include "core/mesh.h"
 
 namespace furn {
@@ -68,6 +69,19 @@ struct RenderComparison {
 
 // The depth tolerance at depth z (m): 0.04 + 0.005 z^2.
 float RenderTolerance(float z);
+
+// What an organised scan says about a point (camera frame) of the room, by
+// the ray through the point's pixel: free where it returned from beyond the
+// point (by more than RenderTolerance), occupied where it returned there,
+// hidden where in front of it, unknown out of view or without a return.
+// `points`: the organised cloud's camera-frame points, width x height,
+// row-major, the range cut not applied (a wall 4 m away shows the space in
+// front of it free). What the learned extent fit probes edges with.
+Visibility VisibilityInScan(const std::vector<Eigen::Vector3f>& points,
+                            int width,
+                            int height,
+                            const PinholeIntrinsics& intrinsics,
+                            const Eigen::Vector3d& point_in_camera);
 
 // `model_points` in the camera frame (z forward); `depth` the observed depth
 // per pixel (row-major, <= 0 or non-finite: no return); `splat_m` the

@@ -105,9 +105,10 @@ BevImage RasteriseBev(const std::vector<Eigen::Vector3f>& world_points,
     const auto slice = std::upper_bound(kSliceTopsM.begin(), kSliceTopsM.end(), p.z());
     if (slice != kSliceTopsM.end())
       image.At(1 + static_cast<int>(slice - kSliceTopsM.begin()), row, col) += 1.0f;
-    image.At(6, row, col) = std::max(image.At(6, row, col), std::min(p.z(), 4.0f) / 2.0f);
+    image.At(kBevTopChannel, row, col) =
+        std::max(image.At(kBevTopChannel, row, col), std::min(p.z(), 4.0f) / 2.0f);
   }
-  for (int k = 0; k < 6; ++k) {
+  for (int k = 0; k < kBevTopChannel; ++k) {  // the counts
     for (int r = 0; r < spec.rows; ++r) {
       for (int c = 0; c < spec.cols; ++c) image.At(k, r, c) = LogCount(image.At(k, r, c));
     }
@@ -117,7 +118,7 @@ BevImage RasteriseBev(const std::vector<Eigen::Vector3f>& world_points,
     for (int c = 0; c < spec.cols; ++c) {
       const Eigen::Vector2d d = frame.WorldOf({r + 0.5, c + 0.5}, spec) - sensor_xy;
       const double u = d.dot(frame.forward), v = d.dot(left);
-      image.At(7, r, c) = std::hypot(u, v) < farthest[BearingBin(u, v)] ? 1.0f : 0.0f;
+      image.At(kBevSeenChannel, r, c) = std::hypot(u, v) < farthest[BearingBin(u, v)] ? 1.0f : 0.0f;
     }
   }
   return image;

@@ -34,6 +34,8 @@ namespace furn {
 
 inline constexpr int kBevChannels = 8;
 inline constexpr std::array<float, 5> kSliceTopsM = {0.25f, 0.5f, 0.8f, 1.1f, 1.8f};
+inline constexpr int kBevTopChannel = 6;   // the highest point's height / 2 (m)
+inline constexpr int kBevSeenChannel = 7;  // 1: nearer than its bearing's farthest return
 
 struct BevGridSpec {
   double cell_m = 0.05;

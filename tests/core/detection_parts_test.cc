@@ -296,6 +296,24 @@ TEST(RenderCompare, IntrinsicsOfAnOrganisedCloudAreRecovered) {
           .has_value());
 }
 
+TEST(RenderCompare, AScanSaysWhatItSawAboutAPoint) {
+  const PinholeIntrinsics k{525, 525, 319.5, 239.5};
+  std::vector<Eigen::Vector3f> points = Wall(3.0f, k);
+  // A hole in the wall: the pixel of (0, 0, z) has no return.
+  points[239 * 640 + 319] = Eigen::Vector3f::Constant(NAN);
+  auto at = [&](double x, double y, double z) {
+    return VisibilityInScan(points, 640, 480, k, Eigen::Vector3d(x, y, z));
+  };
+  EXPECT_EQ(at(0.3, 0.2, 2.0), Visibility::kFree);             // the ray went on to the wall
+  EXPECT_EQ(at(0.3, 0.2, 3.02), Visibility::kOccupied);        // the wall itself
+  EXPECT_EQ(at(0.3, 0.2, 3.5), Visibility::kHidden);           // behind the wall
+  EXPECT_EQ(at(-0.0005, -0.0005, 2.0), Visibility::kUnknown);  // no return there
+  EXPECT_EQ(at(5.0, 0.0, 2.0), Visibility::kUnknown);          // out of view
+  EXPECT_EQ(at(0.0, 0.0, -1.0), Visibility::kUnknown);         // behind the camera
+  EXPECT_EQ(VisibilityInScan(points, 320, 480, k, Eigen::Vector3d(0.3, 0.2, 2.0)),
+            Visibility::kUnknown);  // not the cloud's size
+}
+
 TEST(RenderCompare, SeenThroughSupportedOccludedAndUnknownPixels) {
   const PinholeIntrinsics k{525, 525, 319.5, 239.5};
   // The model: a 40 cm square panel facing the camera at 2 m, sampled every 2 cm.

@@ -289,6 +289,11 @@ int RunEvaluate(int argc, char** argv) {
   app.add_option("--max-frames", options.max_frames, "Evaluate at most N frames (0: all)")
       ->capture_default_str();
   app.add_option("--label", options.label, "Free text stored with the run");
+  std::string fold;
+  app.add_option("--fold",
+                 fold,
+                 "k/N: only the rooms of model fold k of N (a dataset generated with "
+                 "--model-folds N; what crossval evaluates fold k's model on)");
   DetectorFlags detector_flags(&app);
   bool compare_vocab = false;
   int seeds = 3;
@@ -323,6 +328,13 @@ int RunEvaluate(int argc, char** argv) {
   Require(!(compare_vocab && (cluster.Active() || !shard.empty() || !merge.empty())),
           "--compare-vocab runs in one process (no --shards, --shard or --merge-shards)");
   if (!shard.empty()) std::tie(options.shard_index, options.shard_count) = ParseShard(shard);
+  if (!fold.empty()) {
+    try {
+      std::tie(options.fold, options.fold_count) = ParseShard(fold);
+    } catch (const InputError&) {
+      throw InputError("--fold '" + fold + "' must be k/N with 0 <= k < N, e.g. 1/3");
+    }
+  }
   options.split = ParseSplit(split, "--split");
   options.detector = detector_flags.Resolve();
   if (compare_vocab) {

@@ -143,6 +143,14 @@ std::string ExplainDetection(const DetectionResult& result, const TrainedModel& 
                       h.refined ? "agrees: its yaw and model" : "disagrees: the network's yaw");
         out << line;
       }
+      if (h.extent_edges >= 0) {
+        std::snprintf(line,
+                      sizeof(line),
+                      "extent: %d of 4 edges seen, moved %.2f m  ",
+                      h.extent_edges,
+                      h.extent_moved_m);
+        out << line;
+      }
       out << "-> " << DetectionDebug::Describe(h) << "\n";
       continue;
     }

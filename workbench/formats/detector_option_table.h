@@ -176,6 +176,17 @@ void ForEachDetectorOption(Options* options, Visit&& visit) {
                            "Learned voting: a vote's weight is its membership times the class's "
                            "heat at its cell to this power (0: membership alone)"},
         o.learned_vote_heat_power);
+  visit(DetectorOptionInfo{"learned_extent_fit",
+                           "--extent-fit",
+                           "Learned voting: move the boxes of these classes ('none', 'tables', "
+                           "'large': tables, sideboards and sofas, 'all') to the edges of the "
+                           "surface the scan saw end"},
+        o.learned_extent_fit);
+  visit(DetectorOptionInfo{"learned_extent_one_edge",
+                           "--extent-one-edge",
+                           "Learned voting: an axis of the extent fit with one edge seen keeps "
+                           "the network's size from it (else only axes with both edges seen move)"},
+        o.learned_extent_one_edge);
   visit(
       DetectorOptionInfo{"all_candidates",
                          "--all-candidates",
