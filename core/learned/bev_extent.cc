@@ -239,9 +239,9 @@ Surface SurfaceOf(const BevImage& image, const FootprintBox& box, const ExtentFi
   return surface;
 }
 
-// The area of the surface's robust bounding rectangle turned by `angle`
-// from the box's axes.
-double TurnedArea(const Surface& surface, double angle, double cell_m) {
+// The side lengths (along, across) of the surface's robust bounding
+// rectangle turned by `angle` from the box's axes, each cell counted whole.
+Eigen::Vector2d TurnedLengths(const Surface& surface, double angle, double cell_m) {
   const double c = std::cos(angle), s = std::sin(angle);
   std::vector<double> along, across;
   for (int i : surface.members) {
@@ -249,8 +249,8 @@ double TurnedArea(const Surface& surface, double angle, double cell_m) {
     along.push_back(c * p.x() + s * p.y());
     across.push_back(-s * p.x() + c * p.y());
   }
-  return (RobustExtreme(along, true, cell_m) - RobustExtreme(along, false, cell_m) + cell_m) *
-         (RobustExtreme(across, true, cell_m) - RobustExtreme(across, false, cell_m) + cell_m);
+  return {RobustExtreme(along, true, cell_m) - RobustExtreme(along, false, cell_m) + cell_m,
+          RobustExtreme(across, true, cell_m) - RobustExtreme(across, false, cell_m) + cell_m};
 }
 
 // The yaw of the surface's smallest bounding rectangle (search-based
@@ -263,32 +263,23 @@ double SurfaceYaw(const Surface& surface,
                   double cell_m,
                   const ExtentFitOptions& options) {
   constexpr int kSteps = 90;  // 1 degree over a quarter turn
-  const double unturned = TurnedArea(surface, 0, cell_m);
+  const double unturned = TurnedLengths(surface, 0, cell_m).prod();
   double best_angle = 0, best_area = unturned;
   for (int k = -kSteps / 2; k < kSteps / 2; ++k) {
     const double angle = k * (M_PI / 2) / kSteps;
-    const double area = TurnedArea(surface, angle, cell_m);
+    const double area = TurnedLengths(surface, angle, cell_m).prod();
     if (area < best_area) {
       best_area = area;
       best_angle = angle;
     }
   }
   if (best_area > (1 - options.min_area_gain) * unturned) return box.yaw;
-  // The box's aspect: is its width the longer side?
+  // Keep the box's aspect where it has a clear one: is its width the longer side?
+  constexpr double kClearAspect = 1.15;
   const double aspect = box.width / std::max(box.depth, 1e-6);
-  if (aspect > 1.15 || aspect < 1 / 1.15) {
-    const double c = std::cos(best_angle), s = std::sin(best_angle);
-    std::vector<double> along, across;
-    for (int i : surface.members) {
-      const Eigen::Vector2d& p = surface.cells[i].local;
-      along.push_back(c * p.x() + s * p.y());
-      across.push_back(-s * p.x() + c * p.y());
-    }
-    const double length_along =
-        RobustExtreme(along, true, cell_m) - RobustExtreme(along, false, cell_m);
-    const double length_across =
-        RobustExtreme(across, true, cell_m) - RobustExtreme(across, false, cell_m);
-    if ((length_along > length_across) != (aspect > 1))
+  if (aspect > kClearAspect || aspect < 1 / kClearAspect) {
+    const Eigen::Vector2d lengths = TurnedLengths(surface, best_angle, cell_m);
+    if ((lengths.x() > lengths.y()) != (aspect > 1))
       best_angle += best_angle >= 0 ? -M_PI / 2 : M_PI / 2;
   }
   return box.yaw + best_angle;

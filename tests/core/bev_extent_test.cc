@@ -52,6 +52,25 @@ VisibilityTest ImageVisibility(const BevImage& image) {
   return [&image](const Eigen::Vector3d& world) { return BevVisibility(image, world); };
 }
 
+Eigen::Vector2d TableAxis() { return {std::cos(kTable.yaw), std::sin(kTable.yaw)}; }
+
+// Only the near half of the top returned points.
+BevImage NearHalfScan() {
+  FootprintBox near_half = kTable;
+  near_half.width = 1.0;
+  near_half.x -= 0.5 * TableAxis().x();
+  near_half.y -= 0.5 * TableAxis().y();
+  return Scan({{near_half, 0.75}});
+}
+
+// The image's own test, and beyond the table's middle nothing known.
+VisibilityTest FarHalfUnknown(const BevImage& image) {
+  return [&image](const Eigen::Vector3d& world) {
+    const double along = (world.head<2>() - Eigen::Vector2d(kTable.x, kTable.y)).dot(TableAxis());
+    return along > 0 ? Visibility::kUnknown : BevVisibility(image, world);
+  };
+}
+
 TEST(ExtentFit, BothEndsSeenPlaceTheCentreBetweenThem) {
   const BevImage image = Scan({{kTable, 0.75}});
   const ExtentFit fit = FitExtent(image, NetworkBox(), ImageVisibility(image), ExtentFitOptions{});
@@ -66,17 +85,9 @@ TEST(ExtentFit, BothEndsSeenPlaceTheCentreBetweenThem) {
 }
 
 TEST(ExtentFit, AnUnseenEndKeepsTheNetworksSizeFromTheSeenOne) {
-  // Only the near half of the top returned points; beyond it nothing is known.
-  FootprintBox near_half = kTable;
-  near_half.width = 1.0;
-  near_half.x -= 0.5 * std::cos(kTable.yaw);
-  near_half.y -= 0.5 * std::sin(kTable.yaw);
-  const BevImage image = Scan({{near_half, 0.75}});
-  const Eigen::Vector2d axis(std::cos(kTable.yaw), std::sin(kTable.yaw));
-  const VisibilityTest visibility = [&](const Eigen::Vector3d& world) {
-    const double along = (world.head<2>() - Eigen::Vector2d(kTable.x, kTable.y)).dot(axis);
-    return along > 0 ? Visibility::kUnknown : BevVisibility(image, world);
-  };
+  const BevImage image = NearHalfScan();
+  const Eigen::Vector2d axis = TableAxis();
+  const VisibilityTest visibility = FarHalfUnknown(image);
   const ExtentFit fit = FitExtent(image, NetworkBox(), visibility, ExtentFitOptions{});
   EXPECT_TRUE(fit.moved);
   EXPECT_FALSE(fit.edge_seen[0]);  // the far (+width) end
@@ -89,16 +100,9 @@ TEST(ExtentFit, AnUnseenEndKeepsTheNetworksSizeFromTheSeenOne) {
 }
 
 TEST(ExtentFit, WithoutOneEdgeMovesOnlyAxesSeenWholeMove) {
-  FootprintBox near_half = kTable;
-  near_half.width = 1.0;
-  near_half.x -= 0.5 * std::cos(kTable.yaw);
-  near_half.y -= 0.5 * std::sin(kTable.yaw);
-  const BevImage image = Scan({{near_half, 0.75}});
-  const Eigen::Vector2d axis(std::cos(kTable.yaw), std::sin(kTable.yaw));
-  const VisibilityTest visibility = [&](const Eigen::Vector3d& world) {
-    const double along = (world.head<2>() - Eigen::Vector2d(kTable.x, kTable.y)).dot(axis);
-    return along > 0 ? Visibility::kUnknown : BevVisibility(image, world);
-  };
+  const BevImage image = NearHalfScan();
+  const Eigen::Vector2d axis = TableAxis();
+  const VisibilityTest visibility = FarHalfUnknown(image);
   ExtentFitOptions options;
   options.one_edge_moves = false;
   const FootprintBox network = NetworkBox();
