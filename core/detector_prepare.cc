@@ -137,15 +137,22 @@ bool PlaceInWorld(const DetectionInput& input, const DetectorOptions& options, P
   return true;
 }
 
+// An organised scan's intrinsics and size (false for unorganised scans):
+// what projects a point onto its pixel.
+bool KeepIntrinsics(const DetectionInput& input, PreparedScan* scan) {
+  if (input.width * input.height == 0) return false;
+  scan->intrinsics = IntrinsicsOfOrganisedCloud(input.points, input.width, input.height);
+  if (!scan->intrinsics) return false;
+  scan->width = input.width;
+  scan->height = input.height;
+  return true;
+}
+
 // An organised scan's depth image and intrinsics, which render-and-compare
 // needs; nothing for unorganised scans.
 void KeepDepthImage(const DetectionInput& input, double max_range_m, PreparedScan* scan) {
-  if (input.width * input.height == 0) return;
-  scan->intrinsics = IntrinsicsOfOrganisedCloud(input.points, input.width, input.height);
-  if (!scan->intrinsics) return;
+  if (!KeepIntrinsics(input, scan)) return;
   const float max_range2 = static_cast<float>(max_range_m * max_range_m);
-  scan->width = input.width;
-  scan->height = input.height;
   scan->depth.assign(input.points.size(), std::numeric_limits<float>::quiet_NaN());
   for (size_t i = 0; i < input.points.size(); ++i) {
     const Eigen::Vector3f& p = input.points[i];
@@ -182,9 +189,8 @@ PreparedScan Detector::Prepare(const DetectionInput& input) const {
   if (impl.learned) {  // the network's grid is rasterised from the points as given
     scan.camera_points = input.points;
     if (!options.learned_fit) {  // else segments, structure and occupancy for the fits
-      // The extent fit's visibility test projects onto the depth image.
-      if (options.learned_extent_fit != ExtentFitClasses::kNone)
-        KeepDepthImage(input, options.max_range_m, &scan);
+      // The extent fit's visibility test projects onto the scan's pixels.
+      if (options.learned_extent_fit != ExtentFitClasses::kNone) KeepIntrinsics(input, &scan);
       scan.sensor = scan.world_from_camera.translation().cast<float>();
       timer.Lap(DetectionStage::kFloor);
       return scan;

@@ -295,23 +295,19 @@ ExtentFit FitExtent(const BevImage& image,
   ExtentFit fit;
   fit.box = network_box;
   const double cell_m = image.spec.cell_m;
+  constexpr size_t kLeastCells = 4;
   FootprintBox box = network_box;
   Surface surface = SurfaceOf(image, box, options);
-  if (surface.members.size() < 4) {
-    fit.top_m = surface.top_m;
-    fit.surface_cells = static_cast<int>(surface.members.size());
-    return fit;
-  }
-  if (options.fit_yaw) {
+  if (options.fit_yaw && surface.members.size() >= kLeastCells) {
     const double yaw = SurfaceYaw(surface, box, cell_m, options);
     if (yaw != box.yaw) {
       box.yaw = yaw;
       surface = SurfaceOf(image, box, options);
-      if (surface.members.size() < 4) return fit;
     }
   }
   fit.top_m = surface.top_m;
   fit.surface_cells = static_cast<int>(surface.members.size());
+  if (surface.members.size() < kLeastCells) return fit;
   const BoxFrame frame(box);
   std::array<double, 2> low{}, high{};
   for (int axis = 0; axis < 2; ++axis) {
