@@ -401,6 +401,32 @@ void AddLossesAndPoseErrors(const std::vector<FrameOutcome>& frames,
     m[MetricId::Plain(PlainMetric::kCalibrationError).Name()] = calibration_error;
 }
 
+// centre/<class>/median_m (kCentreErrorVisibility): how near the detections
+// come to the objects seen well, whatever their scores.
+void AddCentreErrors(const std::vector<FrameOutcome>& frames,
+                     const EvaluationOptions& options,
+                     const RoleOf& role,
+                     Metrics* m) {
+  for (FurnitureClass c : options.classes) {
+    std::vector<double> errors;
+    for (const FrameOutcome& f : frames) {
+      for (const TruthObject& t : f.truth) {
+        if (t.furniture_class != c || role(t) != Role::kTarget ||
+            t.visibility < kCentreErrorVisibility)
+          continue;
+        double nearest = kCentreErrorReachM;
+        for (const ScoredDetection& d : f.detections) {
+          if (d.furniture_class != c) continue;
+          const double distance = std::hypot(d.x - t.x, d.y - t.y);
+          nearest = std::min(nearest, distance);
+        }
+        errors.push_back(nearest);
+      }
+    }
+    if (!errors.empty()) (*m)[MetricId::CentreErrorMedian(c).Name()] = Median(errors);
+  }
+}
+
 // Seen and unseen CAD models: the other group's objects become "ignore".
 void AddSeenAndUnseen(const std::vector<FrameOutcome>& frames,
                       const EvaluationOptions& options,
@@ -729,6 +755,7 @@ EvaluationResult EvaluateFrames(const std::vector<FrameOutcome>& frames,
   m[MetricId::Plain(PlainMetric::kFalseAboveTrue).Name()] = FalseAboveTrue(frames, options, role);
   AddLossesAndPoseErrors(frames, options, role, &result);
   AddSeenAndUnseen(frames, options, role, &m);
+  AddCentreErrors(frames, options, role, &m);
   AddConfusion(frames, options, role, &result);
   AddPaperProtocol(frames, options, role, &result);
   AddLatency(frames, &m);

@@ -65,6 +65,15 @@ struct FrameOutcome {
   std::map<DetectionStage, double> stage_ms;  // every stage but kTotal
 };
 
+// centre/<class>/median_m (issue 37's target for tables): over the class's
+// target objects seen at least this much, the distance from each to the
+// nearest detection of its class (any score: how well the detector places
+// what it finds, as AP sweeps every detection), or kCentreErrorReachM when
+// none is nearer (so the median reads the reach when at most half of them
+// were found).
+inline constexpr double kCentreErrorVisibility = 0.5;
+inline constexpr double kCentreErrorReachM = 0.5;
+
 struct EvaluationOptions {
   // Classes evaluated: every class (one without objects or detections in the
   // frames adds no metric).

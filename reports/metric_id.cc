@@ -158,6 +158,13 @@ MetricId MetricId::Operating(std::optional<FurnitureClass> furniture_class,
   return id;
 }
 
+MetricId MetricId::CentreErrorMedian(FurnitureClass furniture_class) {
+  MetricId id;
+  id.kind_ = Kind::kCentreError;
+  id.class_ = furniture_class;
+  return id;
+}
+
 MetricId MetricId::InGroup(Group group) const {
   MetricId id = *this;
   id.group_ = group;
@@ -185,6 +192,8 @@ std::string MetricId::Name() const {
     case Kind::kOperating:
       return name + "op/" + (class_ ? std::string(ClassName(*class_)) + "/" : "") +
              EnumName(measure_) + "@" + cm;
+    case Kind::kCentreError:
+      return name + "centre/" + ClassName(*class_) + "/median_m";
   }
   throw std::logic_error("metric without a name");
 }
@@ -234,6 +243,10 @@ std::optional<MetricId> MetricId::TryParse(const std::string& full) {
     }
     const auto measure = TryParseEnum<OperatingMeasure>(what);
     if (cm && measure) id = Operating(c, *measure, *cm / 100.0);
+  } else if (!id && StartsWith(name, "centre/", &rest) && rest.size() > 9 &&
+             rest.compare(rest.size() - 9, 9, "/median_m") == 0) {
+    if (const auto c = FurnitureClassNamed(rest.substr(0, rest.size() - 9)))
+      id = CentreErrorMedian(*c);
   }
   if (id) id->group_ = group;
   return id;
@@ -241,9 +254,10 @@ std::optional<MetricId> MetricId::TryParse(const std::string& full) {
 
 MetricId MetricId::Parse(const std::string& name) {
   if (const std::optional<MetricId> id = TryParse(name)) return *id;
-  throw InputError("unknown metric '" + name +
-                   "' (e.g. mAP@10cm, AP/chair@20cm, xy_error_mean_m, latency_p50_ms, "
-                   "paper/table/best_f1, funnel/all/no_maximum, op/precision@20cm)");
+  throw InputError(
+      "unknown metric '" + name +
+      "' (e.g. mAP@10cm, AP/chair@20cm, xy_error_mean_m, latency_p50_ms, "
+      "paper/table/best_f1, funnel/all/no_maximum, op/precision@20cm, centre/table/median_m)");
 }
 
 bool MetricId::HigherIsBetter() const {
@@ -261,6 +275,8 @@ bool MetricId::HigherIsBetter() const {
       return funnel_ == FunnelStage::kDetected;
     case Kind::kOperating:
       return measure_ != OperatingMeasure::kFalsePerFrame;
+    case Kind::kCentreError:
+      return false;
   }
   return true;
 }
@@ -271,6 +287,8 @@ const char* MetricId::Unit() const {
       return EntryOf(plain_).unit;
     case Kind::kStageLatency:
       return "ms";
+    case Kind::kCentreError:
+      return "m";
     case Kind::kFunnel:
     case Kind::kFalsePositives:
       return "count";

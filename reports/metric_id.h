@@ -121,7 +121,8 @@ class MetricId {
     kStageLatency,
     kFunnel,
     kFalsePositives,
-    kOperating
+    kOperating,
+    kCentreError
   };
   // Crossval runs store each metric's mean plainly, and its spread over the
   // folds and its value with the fixed gates under a prefix.
@@ -140,6 +141,9 @@ class MetricId {
   static MetricId Operating(std::optional<FurnitureClass> furniture_class,
                             OperatingMeasure measure,
                             double distance_m);
+  // centre/<class>/median_m: the median centre error of the class's objects
+  // seen at least half (reports/evaluation.h, kCentreErrorVisibility).
+  static MetricId CentreErrorMedian(FurnitureClass furniture_class);
 
   // The metric of this name; InputError naming it and what names look like.
   static MetricId Parse(const std::string& name);

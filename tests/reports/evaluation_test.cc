@@ -150,6 +150,39 @@ TEST(Confusion, KeptDetectionsAgainstTheTruthAndTheMissedObjects) {
   EXPECT_EQ(r.frame_errors.at(0), std::make_pair(2, 2));
 }
 
+// The centre error of the objects seen well: per object its nearest
+// detection of its class, whatever its score; a miss counts as the reach, so
+// the median reads it once half are missed.
+TEST(CentreError, MedianOverObjectsSeenWellWithMissesAtTheReach) {
+  FrameOutcome frame;
+  frame.truth = {Chair(0, 0),
+                 Chair(2, 0),
+                 Chair(4, 0),
+                 Chair(6, 0),
+                 Chair(8, 0, /*visibility=*/0.3)};  // a target, but seen too little
+  frame.detections = {Found(0.02, 0, 0.3),          // 2 cm from the first: the weaker of two
+                      Found(0.2, 0, 0.9),
+                      Found(2.06, 0, 0.8),   // 6 cm
+                      Found(4.3, 0, 0.1),    // 30 cm: weak, but a detection
+                      Found(6.14, 0, 0.7),   // 14 cm
+                      Found(8.01, 0, 0.9)};  // on the little-seen chair: not counted
+  const EvaluationOptions options = ChairsOnly();
+  const MetricId id = MetricId::CentreErrorMedian(FurnitureClass::kChair);
+  // 0.02, 0.06, 0.30, 0.14: the median of four.
+  EXPECT_NEAR(EvaluateFrames({frame}, options).metrics.at(id.Name()), (0.06 + 0.14) / 2, 1e-9);
+  // Without the 30 cm one, that chair is missed (the reach, 0.5 m); without
+  // the 6 cm one too, half are missed and the median is the reach's mean
+  // with 14 cm; with one more miss it reads the reach.
+  frame.detections.erase(frame.detections.begin() + 3);
+  EXPECT_NEAR(EvaluateFrames({frame}, options).metrics.at(id.Name()), (0.06 + 0.14) / 2, 1e-9);
+  frame.detections.erase(frame.detections.begin() + 2);
+  EXPECT_NEAR(EvaluateFrames({frame}, options).metrics.at(id.Name()), (0.14 + 0.5) / 2, 1e-9);
+  frame.detections.erase(frame.detections.begin() + 2);
+  EXPECT_NEAR(EvaluateFrames({frame}, options).metrics.at(id.Name()), kCentreErrorReachM, 1e-9);
+  // A class without objects seen well has no such metric.
+  EXPECT_FALSE(EvaluateFrames({frame}, options).metrics.count("centre/table/median_m"));
+}
+
 TEST(Calibration, BinsCountTruePositivesAndTheErrorWeighsThem) {
   FrameOutcome frame;
   frame.truth = {Chair(0, 0), Chair(2, 0), Chair(4, 0, /*visibility=*/0.1)};
@@ -250,7 +283,8 @@ TEST(MetricId, NamesParseBackWithTheirDirectionAndUnit) {
       MetricId::MeanAp(0.20).InGroup(MetricId::Group::kSpread),
       MetricId::Operating(std::nullopt, OperatingMeasure::kPrecision, 0.20),
       MetricId::Operating(FurnitureClass::kTable, OperatingMeasure::kFalsePerFrame, 0.10),
-      MetricId::ClassAp(FurnitureClass::kChair, 0.10).InGroup(MetricId::Group::kGates)};
+      MetricId::ClassAp(FurnitureClass::kChair, 0.10).InGroup(MetricId::Group::kGates),
+      MetricId::CentreErrorMedian(FurnitureClass::kTable)};
   const std::vector<std::string> names = {"mAP@10cm",
                                           "AP/sofa@5cm",
                                           "paper/table/best_f1",
@@ -262,7 +296,8 @@ TEST(MetricId, NamesParseBackWithTheirDirectionAndUnit) {
                                           "spread/mAP@20cm",
                                           "op/precision@20cm",
                                           "op/table/false_per_frame@10cm",
-                                          "gates/AP/chair@10cm"};
+                                          "gates/AP/chair@10cm",
+                                          "centre/table/median_m"};
   for (size_t k = 0; k < ids.size(); ++k) {
     EXPECT_EQ(ids[k].Name(), names[k]);
     EXPECT_EQ(MetricId::Parse(names[k]).Name(), names[k]);
@@ -273,6 +308,8 @@ TEST(MetricId, NamesParseBackWithTheirDirectionAndUnit) {
   EXPECT_STREQ(MetricId::Parse("latency_vote_p50_ms").Unit(), "ms");
   EXPECT_STREQ(MetricId::Parse("xy_error_mean_m").Unit(), "m");
   EXPECT_STREQ(MetricId::Parse("objects").Unit(), "count");
+  EXPECT_STREQ(MetricId::Parse("centre/table/median_m").Unit(), "m");
+  EXPECT_FALSE(MetricId::Parse("centre/table/median_m").HigherIsBetter());
   // A misspelt name is an error, not a silent NaN.
   EXPECT_TRUE(MetricId::Parse("op/chair/recall@20cm").HigherIsBetter());
   EXPECT_FALSE(MetricId::Parse("op/false_per_frame@20cm").HigherIsBetter());
@@ -283,6 +320,8 @@ TEST(MetricId, NamesParseBackWithTheirDirectionAndUnit) {
                           "",
                           "op/stool/recall@20cm",
                           "op/chair/recal@20cm",
+                          "centre/stool/median_m",
+                          "centre/table/mean_m",
                           "op/precision"})
     EXPECT_NE(testing::ErrorOf([&] { MetricId::Parse(bad); }).find("unknown metric"),
               std::string::npos)

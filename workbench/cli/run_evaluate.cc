@@ -71,6 +71,28 @@ void PrintLosses(const std::map<std::string, double>& m) {
       MetricOrNan(m, MetricId::FalsePositives(FalsePositiveKind::kBackground)));
 }
 
+// centre/<class>/median_m per class on one line; the reach reads "≥".
+void PrintCentreErrors(const std::map<std::string, double>& m,
+                       const std::vector<FurnitureClass>& classes) {
+  std::string line;
+  for (FurnitureClass c : classes) {
+    const double median = MetricOrNan(m, MetricId::CentreErrorMedian(c));
+    if (std::isnan(median)) continue;
+    char text[64];
+    std::snprintf(text,
+                  sizeof(text),
+                  "%s %s%.1f cm",
+                  ClassName(c),
+                  median >= kCentreErrorReachM ? ">= " : "",
+                  median * 100);
+    line += (line.empty() ? "" : ", ") + std::string(text);
+  }
+  if (line.empty()) return;
+  std::printf("  centre error median (objects seen >= %.0f %%, nearest detection): %s\n",
+              kCentreErrorVisibility * 100,
+              line.c_str());
+}
+
 void PrintHeadline(const EvaluateSummary& summary) {
   const std::map<std::string, double>& m = summary.result.metrics;
   auto get = [&](PlainMetric metric) { return MetricOrNan(m, MetricId::Plain(metric)); };
@@ -106,6 +128,7 @@ void PrintHeadline(const EvaluateSummary& summary) {
         MetricOrNan(m, MetricId::PaperBestF1(c)));
   }
   PrintOperatingPoint(m, "  ");
+  PrintCentreErrors(m, PrintedClasses(m));
   std::printf(
       "  pose error: xy %.3f m, yaw %.1f deg (median %.1f); footprint size error median %.3f; "
       "CAD model identified %.3f\n",
@@ -182,6 +205,7 @@ void PrintCrossval(const CrossvalSummary& summary) {
               MetricOrNan(summary.mean, MetricId::Plain(PlainMetric::kXyErrorMean)),
               MetricOrNan(summary.mean, MetricId::Plain(PlainMetric::kLatencyP50)));
   PrintOperatingPoint(summary.mean, "  ");
+  PrintCentreErrors(summary.mean, classes);
   if (summary.gates.empty()) return;
   std::printf("  without the scorer (fixed gates): mAP@10cm %.3f;",
               MetricOrNan(summary.gates, MetricId::MeanAp(0.10)));
