@@ -412,7 +412,7 @@ void AddCentreErrors(const std::vector<FrameOutcome>& frames,
     for (const FrameOutcome& f : frames) {
       for (const TruthObject& t : f.truth) {
         if (t.furniture_class != c || role(t) != Role::kTarget ||
-            t.visibility < kCentreErrorVisibility)
+            t.visibility * t.in_view < kCentreErrorVisibility)
           continue;
         double nearest = kCentreErrorReachM;
         for (const ScoredDetection& d : f.detections) {

@@ -38,6 +38,10 @@ struct TruthObject {
   double distance_m = 0;         // from the camera to the reference point
   bool seen_in_training = true;  // false for evaluation-only CAD models
   double width = 0, depth = 0;   // footprint (m); 0: unknown
+  // Share of the object's 3-D box inside the camera's view (1: wholly in
+  // the frame). `visibility` counts only the pixels in the frame; a long
+  // table cut by the image's side is "fully visible" there but half in view.
+  double in_view = 1;
 };
 
 struct ScoredDetection {
@@ -66,7 +70,8 @@ struct FrameOutcome {
 };
 
 // centre/<class>/median_m (issue 37's target for tables): over the class's
-// target objects seen at least this much, the distance from each to the
+// target objects seen at least this much (visibility x in_view: the share
+// of the whole object the scan shows), the distance from each to the
 // nearest detection of its class (any score: how well the detector places
 // what it finds, as AP sweeps every detection), or kCentreErrorReachM when
 // none is nearer (so the median reads the reach when at most half of them

@@ -655,7 +655,10 @@ std::string SummaryHtml(const std::map<std::string, double>& m,
           "its detections are matched at "
        << Number(op * 100, 0) << " cm.</p>\n<h2>Per class</h2>\n<table><tr><th>class</th>"
        << "<th>objects</th><th>AP@5cm</th><th>AP@10cm</th><th>AP@20cm</th><th>precision at the "
-          "operating point</th><th>recall at the operating point</th><th>paper best F1</th></tr>";
+          "operating point</th><th>recall at the operating point</th><th>paper best F1</th>"
+       << "<th>centre error median (m; objects seen &ge; "
+       << Number(kCentreErrorVisibility * 100, 0) << " %, nearest detection, a miss counts "
+       << Number(kCentreErrorReachM, 1) << ")</th></tr>";
   for (FurnitureClass c : classes) {
     html << "<tr><td>" << ClassName(c) << "</td><td>" << Number(ClassObjectCount(m, c), 0)
          << "</td>";
@@ -663,7 +666,8 @@ std::string SummaryHtml(const std::map<std::string, double>& m,
       html << "<td>" << Number(MetricOrNan(m, MetricId::ClassAp(c, d))) << "</td>";
     for (OperatingMeasure measure : {OperatingMeasure::kPrecision, OperatingMeasure::kRecall})
       html << "<td>" << Number(MetricOrNan(m, MetricId::Operating(c, measure, op))) << "</td>";
-    html << "<td>" << Number(MetricOrNan(m, MetricId::PaperBestF1(c))) << "</td></tr>";
+    html << "<td>" << Number(MetricOrNan(m, MetricId::PaperBestF1(c))) << "</td><td>"
+         << Number(MetricOrNan(m, MetricId::CentreErrorMedian(c))) << "</td></tr>";
   }
   html << "</table>\n";
   return html.str();

@@ -159,13 +159,16 @@ TEST(CentreError, MedianOverObjectsSeenWellWithMissesAtTheReach) {
                  Chair(2, 0),
                  Chair(4, 0),
                  Chair(6, 0),
-                 Chair(8, 0, /*visibility=*/0.3)};  // a target, but seen too little
-  frame.detections = {Found(0.02, 0, 0.3),          // 2 cm from the first: the weaker of two
+                 Chair(8, 0, /*visibility=*/0.3),  // a target, but seen too little
+                 Chair(10, 0)};                    // all its pixels seen, but 40 % in view
+  frame.truth.back().in_view = 0.4;
+  frame.detections = {Found(0.02, 0, 0.3),  // 2 cm from the first: the weaker of two
                       Found(0.2, 0, 0.9),
                       Found(2.06, 0, 0.8),   // 6 cm
                       Found(4.3, 0, 0.1),    // 30 cm: weak, but a detection
                       Found(6.14, 0, 0.7),   // 14 cm
-                      Found(8.01, 0, 0.9)};  // on the little-seen chair: not counted
+                      Found(8.01, 0, 0.9),   // on the little-seen chair: not counted
+                      Found(10.4, 0, 0.9)};  // nor on the one mostly out of view
   const EvaluationOptions options = ChairsOnly();
   const MetricId id = MetricId::CentreErrorMedian(FurnitureClass::kChair);
   // 0.02, 0.06, 0.30, 0.14: the median of four.

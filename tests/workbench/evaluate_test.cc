@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <map>
@@ -17,6 +18,7 @@
 #include "tests/workbench/dataset_dump.h"
 #include "tests/workbench/workbench_commands.h"
 #include "workbench/formats/depth_png.h"
+#include "workbench/pipelines/evaluate.h"
 
 namespace furn {
 namespace {
@@ -75,6 +77,35 @@ void CheckGalleryScene(const std::string& report, const std::string& db) {
               frame_dir.c_str(),
               check["counts"]["points"].get<int>(),
               check["load_ms"].get<int>());
+}
+
+// A 640 x 480 camera 0.25 m above the floor looking along world +x; its
+// image's side at 2 m lies 2 * 320 / 580 = 1.103 m to the left (+y).
+TEST(Evaluate, ShareInViewIsThePartOfTheBoxInsideTheImage) {
+  FrameRecord frame;
+  frame.width = 640;
+  frame.height = 480;
+  frame.fx = frame.fy = 580;
+  frame.cx = 319.5;
+  frame.cy = 239.5;
+  Eigen::Matrix3d world_from_camera;  // camera x right = world -y, y down = -z, z ahead = +x
+  world_from_camera << 0, 0, 1, -1, 0, 0, 0, -1, 0;
+  frame.world_from_camera.linear() = world_from_camera;
+  frame.world_from_camera.translation() = Eigen::Vector3d(0, 0, 0.25);
+  ObjectRecord table;
+  table.x = 2;
+  table.width = 1.0;  // along its own x: turned by yaw = 90 deg, along world y
+  table.depth = 0.2;
+  table.height = 0.5;
+  table.yaw = M_PI / 2;
+  EXPECT_DOUBLE_EQ(ShareInView(table, frame), 1.0);
+  table.y = 1.103;  // centred on the image's side: half of it beyond
+  EXPECT_NEAR(ShareInView(table, frame), 0.5, 0.07);
+  table.y = 2.5;  // wholly beyond the side
+  EXPECT_DOUBLE_EQ(ShareInView(table, frame), 0.0);
+  table.y = 0;
+  table.x = -2;  // behind the camera
+  EXPECT_DOUBLE_EQ(ShareInView(table, frame), 0.0);
 }
 
 TEST(Evaluate, SmallRunIsStoredAndGatedByTheCommittedBaseline) {

@@ -74,6 +74,32 @@ nlohmann::json CurvesJson(const EvaluationResult& result) {
 
 }  // namespace
 
+// 8 x 8 x 4 points: whole objects in view give 1; a table whose far half
+// lies beyond the image's side about 0.5.
+double ShareInView(const ObjectRecord& object, const FrameRecord& frame) {
+  const Eigen::Isometry3d camera_from_world = frame.world_from_camera.inverse();
+  const Eigen::Isometry3d world_from_object =
+      Eigen::Translation3d(object.x, object.y, object.z) *
+      Eigen::AngleAxisd(object.yaw, Eigen::Vector3d::UnitZ());
+  constexpr int kAcross = 8, kUp = 4;
+  int inside = 0;
+  for (int i = 0; i < kAcross; ++i) {
+    for (int j = 0; j < kAcross; ++j) {
+      for (int k = 0; k < kUp; ++k) {
+        const Eigen::Vector3d local(((i + 0.5) / kAcross - 0.5) * object.width,
+                                    ((j + 0.5) / kAcross - 0.5) * object.depth,
+                                    (k + 0.5) / kUp * object.height);
+        const Eigen::Vector3d p = camera_from_world * (world_from_object * local);
+        if (p.z() <= 0) continue;
+        const double u = frame.fx * p.x() / p.z() + frame.cx;
+        const double v = frame.fy * p.y() / p.z() + frame.cy;
+        inside += u >= -0.5 && u < frame.width - 0.5 && v >= -0.5 && v < frame.height - 0.5;
+      }
+    }
+  }
+  return static_cast<double>(inside) / (kAcross * kAcross * kUp);
+}
+
 nlohmann::json CalibrationJson(const std::vector<CalibrationBin>& bins) {
   nlohmann::json rows = nlohmann::json::array();
   for (const CalibrationBin& bin : bins)
@@ -191,7 +217,8 @@ std::vector<TruthObject> TruthOf(const RoomRecord& room,
                      (reference - eye).norm(),
                      facts.trained.count(object.model_id) > 0,
                      object.width,
-                     object.depth});
+                     object.depth,
+                     ShareInView(object, frame)});
   }
   return truth;
 }

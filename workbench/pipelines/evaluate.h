@@ -99,6 +99,11 @@ OperatingPoint ChooseOperatingPointOn(const TrainedModel& model,
 // with the most errors (detection rerun with the run's options and model).
 void WriteReportForRun(const std::string& db_path, int64_t run_id, const std::string& out_dir);
 
+// The share of an object's 3-D box in the frame's view (TruthObject::in_view):
+// of a regular grid of points inside the box, those in front of the camera
+// that project into the image.
+double ShareInView(const ObjectRecord& object, const FrameRecord& frame);
+
 // Rotational symmetry order (4, 2 or 1) of a model shape about its origin:
 // the largest order whose rotation maps 90 % of its points onto itself.
 int SymmetryOrder(const ModelShape& shape);
