@@ -85,6 +85,10 @@ struct EvaluationOptions {
   std::vector<FurnitureClass> classes{kAllClasses.begin(), kAllClasses.end()};
   std::vector<double> distances_m = {0.05, 0.10, 0.20};
   double min_visibility = 0.25;
+  // Objects with less of their box in view (TruthObject::in_view: cut by the
+  // image's side) are "ignore" too; 0, the default, keeps them as targets
+  // (what every figure so far counted). KITTI calls it truncation.
+  double min_in_view = 0;
   double max_distance_m = 3.0;           // objects farther from the camera are "ignore"
   double paper_window_m = 0.05;          // protocol A: half the window's side
   double funnel_window_m = 0.15;         // a maximum this near an object is about it

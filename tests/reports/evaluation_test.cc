@@ -186,6 +186,25 @@ TEST(CentreError, MedianOverObjectsSeenWellWithMissesAtTheReach) {
   EXPECT_FALSE(EvaluateFrames({frame}, options).metrics.count("centre/table/median_m"));
 }
 
+// --min-in-view: an object mostly beyond the image's side is neither found
+// nor missed (a detection on it is no false positive); by default it counts.
+TEST(ProtocolB, ObjectsMostlyOutOfViewAreIgnoredOnRequest) {
+  FrameOutcome frame;
+  frame.truth = {Chair(0, 0), Chair(2, 0), Chair(4, 0)};
+  frame.truth[1].in_view = 0.3;
+  frame.truth[2].in_view = 0.3;
+  frame.detections = {Found(0.01, 0, 0.9), Found(2.01, 0, 0.8)};  // the third never found
+  EvaluationOptions options = ChairsOnly();
+  EvaluationResult r = EvaluateFrames({frame}, options);
+  EXPECT_DOUBLE_EQ(r.metrics.at("objects"), 3);
+  EXPECT_NEAR(r.metrics.at("AP/chair@10cm"), 2.0 / 3, 1e-12);
+  options.min_in_view = 0.5;
+  r = EvaluateFrames({frame}, options);
+  EXPECT_DOUBLE_EQ(r.metrics.at("objects"), 1);
+  EXPECT_NEAR(r.metrics.at("AP/chair@10cm"), 1.0, 1e-12);
+  EXPECT_EQ(r.metrics.at("false_positives/background"), 0);
+}
+
 TEST(Calibration, BinsCountTruePositivesAndTheErrorWeighsThem) {
   FrameOutcome frame;
   frame.truth = {Chair(0, 0), Chair(2, 0), Chair(4, 0, /*visibility=*/0.1)};

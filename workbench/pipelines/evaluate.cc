@@ -325,6 +325,7 @@ std::string StoredOptionsJson(const EvaluateCommandOptions& options,
        options.fold_count > 0 ? nlohmann::json{options.fold, options.fold_count}
                               : nlohmann::json()},
       {"min_visibility", evaluation.min_visibility},
+      {"min_in_view", evaluation.min_in_view},
       {"paper_window_m", evaluation.paper_window_m}};
   nlohmann::ordered_json point{{"match_m", evaluation.operating_point.match_m}};
   for (FurnitureClass c : kAllClasses) point[ClassName(c)] = evaluation.operating_point.MinScore(c);
@@ -342,6 +343,8 @@ namespace {
 
 void CheckEvaluateOptions(const EvaluateCommandOptions& options) {
   Require(options.max_frames >= 0, "max frames must be >= 0");
+  Require(options.evaluation.min_in_view >= 0 && options.evaluation.min_in_view <= 1,
+          "--min-in-view " + std::to_string(options.evaluation.min_in_view) + " must be in 0..1");
   Require(options.fold_count == 0 || (options.fold >= 0 && options.fold < options.fold_count),
           "fold " + std::to_string(options.fold) + " must be in 0.." +
               std::to_string(options.fold_count - 1));
