@@ -156,6 +156,9 @@ struct DetectorOptions {
   // unseen furniture (armchairs under chair maxima). torch_threads: the
   // network's intra-op threads (0: the library's default).
   VotingMode voting = VotingMode::kAuto;
+  // The network's outputs averaged with those of the mirrored image
+  // (VoteNet::Predict); off by default (twice the network's time).
+  bool learned_mirror_average = false;
   double learned_min_heat = 0.1;
   int learned_max_per_class = 16;
   double learned_suppress_m = 0;

@@ -218,7 +218,7 @@ void Detector::DetectLearned(const PreparedScan& scan,
                                        impl.options.max_range_m,
                                        impl.vote_net.options().grid);
   timer->Lap(DetectionStage::kBev);
-  const BevOutput output = impl.vote_net.Predict(image);
+  const BevOutput output = impl.vote_net.Predict(image, impl.options.learned_mirror_average);
   timer->Lap(DetectionStage::kNetwork);
   result->debug.hypotheses = LearnedMaxima(image, output, &result->detections);
   timer->Lap(DetectionStage::kMaxima);

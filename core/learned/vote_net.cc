@@ -358,14 +358,30 @@ VoteNet VoteNet::Deserialize(const std::string& bytes, const std::string& what) 
   return net;
 }
 
-BevOutput VoteNet::Predict(const BevImage& image) const {
+BevOutput VoteNet::Predict(const BevImage& image, bool mirror_average) const {
   Require(impl_ != nullptr, "an empty vote network cannot predict");
   torch::NoGradGuard no_grad;
-  const torch::Tensor input = ImageTensor({&image}, impl_->options.grid);
-  torch::Tensor output = impl_->net.ptr()->forward(input)[0];
   namespace ch = bev_channels;
-  output.slice(0, ch::kHeat.first, ch::kHeat.end()).sigmoid_();
-  output.slice(0, ch::kMembership.first, ch::kMembership.end()).sigmoid_();
+  torch::Tensor input = ImageTensor({&image}, impl_->options.grid);  // 1 x C x rows x cols
+  // The mirrored image (columns reversed, as BevImage::Mirrored) as a second
+  // sample of the same batch.
+  if (mirror_average) input = torch::cat({input, input.flip({3})}, 0);
+  torch::Tensor outputs = impl_->net.ptr()->forward(input);
+  outputs.slice(1, ch::kHeat.first, ch::kHeat.end()).sigmoid_();
+  outputs.slice(1, ch::kMembership.first, ch::kMembership.end()).sigmoid_();
+  torch::Tensor output = outputs[0];
+  if (mirror_average) {
+    // The mirror's answer turned back: columns reversed, the column offset
+    // negated. Heat, membership, offset and footprint are averaged; the yaw
+    // stays the image's own (its mirror depends on the class's symmetry).
+    torch::Tensor back = outputs[1].flip({2});
+    back.select(0, ch::kOffset[1]).neg_();
+    for (const BevSlice& slice : {ch::kHeat, ch::kMembership, ch::kOffset, ch::kLogSize}) {
+      output.slice(0, slice.first, slice.end())
+          .add_(back.slice(0, slice.first, slice.end()))
+          .mul_(0.5);
+    }
+  }
   output = output.contiguous();
   BevOutput out;
   out.spec = image.spec;

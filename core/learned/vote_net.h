@@ -53,7 +53,10 @@ class VoteNet {
   int64_t Parameters() const;
 
   // Inference (evaluation mode), on the calling thread's torch thread count.
-  BevOutput Predict(const BevImage& image) const;
+  // mirror_average: the image and its mirror (BevImage::Mirrored) in one
+  // batch, the mirror's heat, membership, offset and footprint turned back
+  // and averaged with the image's (test-time augmentation; twice the work).
+  BevOutput Predict(const BevImage& image, bool mirror_average = false) const;
 
   struct Impl;  // vote_net_module.h: torch's module, for the learned library's own files
 

@@ -142,6 +142,41 @@ TEST(VoteNet, FitsAHandfulOfRoomsAlmostPerfectly) {
   EXPECT_NE(point.chosen_on.find("8 validation frames"), std::string::npos) << point.chosen_on;
 }
 
+// --mirror-average on an untrained network (not mirror-symmetric by chance):
+// each averaged channel is the mean of the image's answer and the mirror's
+// turned back (columns reversed, the column offset negated), the yaw is the
+// image's own, and the mirrored image's averaged heat is the mirror of it.
+TEST(VoteNet, MirrorAverageTurnsTheMirrorsAnswerBack) {
+  SetTorchThreads(1);
+  VoteNetOptions options;
+  options.grid = SmallGrid();
+  options.width = 8;
+  const VoteNet net = VoteNet::Create(options, /*seed=*/3);
+  const BevImage image = Rooms(1)[0].image;
+  const BevOutput own = net.Predict(image), mirror = net.Predict(image.Mirrored());
+  const BevOutput averaged = net.Predict(image, /*mirror_average=*/true);
+  const BevOutput averaged_mirror = net.Predict(image.Mirrored(), true);
+  namespace ch = bev_channels;
+  const int cols = image.spec.cols;
+  double largest_difference = 0;
+  for (int r = 0; r < image.spec.rows; ++r) {
+    for (int c = 0; c < cols; ++c) {
+      for (int k = 0; k < ch::kCount; ++k) {
+        const bool yaw = k >= ch::kYaw.first && k < ch::kYaw.end();
+        const double sign = k == ch::kOffset[1] ? -1 : 1;
+        const double expected =
+            yaw ? own.At(k, r, c) : (own.At(k, r, c) + sign * mirror.At(k, r, cols - 1 - c)) / 2;
+        ASSERT_NEAR(averaged.At(k, r, c), expected, 1e-5) << "channel " << k;
+        largest_difference =
+            std::max(largest_difference, std::abs(double{own.At(k, r, c)} - expected));
+      }
+      for (int k = ch::kHeat.first; k < ch::kHeat.end(); ++k)
+        ASSERT_NEAR(averaged_mirror.At(k, r, cols - 1 - c), averaged.At(k, r, c), 1e-5);
+    }
+  }
+  EXPECT_GT(largest_difference, 1e-3);  // the average did change something
+}
+
 TEST(VoteNet, BytesRoundTripAndDamageIsOneLine) {
   const std::vector<BevSample> rooms = Rooms(2);
   VoteNetTrainingOptions options = SmallTraining();

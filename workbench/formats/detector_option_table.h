@@ -176,6 +176,11 @@ void ForEachDetectorOption(Options* options, Visit&& visit) {
                            "Learned voting: a vote's weight is its membership times the class's "
                            "heat at its cell to this power (0: membership alone)"},
         o.learned_vote_heat_power);
+  visit(DetectorOptionInfo{"learned_mirror_average",
+                           "--mirror-average",
+                           "Learned voting: average the network's outputs with those of the "
+                           "mirrored image (test-time augmentation; twice the network's time)"},
+        o.learned_mirror_average);
   visit(DetectorOptionInfo{"learned_extent_fit",
                            "--extent-fit",
                            "Learned voting: move the boxes of these classes ('none', 'tables', "
