@@ -60,6 +60,7 @@ void BM_DetectFrame(benchmark::State& state) {
   }
   DetectorOptions options;
   options.torch_threads = static_cast<int>(state.range(0));  // the learned path's network
+  options.learned_mirror_average = state.range(1) != 0;
   const Detector detector(LoadTrainedModel(model_path), options);
   // Every 3rd frame of the dataset (up to 27; every frame index of the
   // rooms is represented), loaded once.
@@ -78,11 +79,14 @@ void BM_DetectFrame(benchmark::State& state) {
   }
   DetectInTurn(detector, scans, state);
 }
-// Arg: the network's torch threads (learned voting; the codebook path ignores it).
+// Args: the network's torch threads and --mirror-average (learned voting;
+// the codebook path ignores both).
 BENCHMARK(BM_DetectFrame)
-    ->Arg(1)
-    ->Arg(2)
-    ->ArgName("torch_threads")
+    ->Args({1, 0})
+    ->Args({2, 0})
+    ->Args({1, 1})
+    ->Args({2, 1})
+    ->ArgNames({"torch_threads", "mirror_average"})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime()
     ->Iterations(81);
