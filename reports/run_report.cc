@@ -656,9 +656,7 @@ std::string SummaryHtml(const std::map<std::string, double>& m,
        << Number(op * 100, 0) << " cm.</p>\n<h2>Per class</h2>\n<table><tr><th>class</th>"
        << "<th>objects</th><th>AP@5cm</th><th>AP@10cm</th><th>AP@20cm</th><th>precision at the "
           "operating point</th><th>recall at the operating point</th><th>paper best F1</th>"
-       << "<th>centre error median (m; objects seen &ge; "
-       << Number(kCentreErrorVisibility * 100, 0) << " %, nearest detection, a miss counts "
-       << Number(kCentreErrorReachM, 1) << ")</th></tr>";
+       << "<th>centre error median (m)</th></tr>";
   for (FurnitureClass c : classes) {
     html << "<tr><td>" << ClassName(c) << "</td><td>" << Number(ClassObjectCount(m, c), 0)
          << "</td>";
@@ -669,7 +667,11 @@ std::string SummaryHtml(const std::map<std::string, double>& m,
     html << "<td>" << Number(MetricOrNan(m, MetricId::PaperBestF1(c))) << "</td><td>"
          << Number(MetricOrNan(m, MetricId::CentreErrorMedian(c))) << "</td></tr>";
   }
-  html << "</table>\n";
+  html << "</table>\n<p>Centre error: over the class's objects seen at least "
+       << Number(kCentreErrorVisibility * 100, 0)
+       << " % (visible share of the pixels in the image times the share of the box in view), "
+          "the distance to the nearest detection of the class, a miss counted as "
+       << Number(kCentreErrorReachM, 1) << " m.</p>\n";
   return html.str();
 }
 
