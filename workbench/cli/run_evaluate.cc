@@ -300,6 +300,15 @@ int EvaluateHere(const std::string& model_path,
   return 0;
 }
 
+// --min-in-view, shared by evaluate and crossval.
+void AddMinInViewOption(CLI::App* app, EvaluationOptions* evaluation) {
+  app->add_option("--min-in-view",
+                  evaluation->min_in_view,
+                  "Objects with less of their box inside the image (cut by its side) are "
+                  "neither found nor missed (0: every object counts, as in every figure so far)")
+      ->capture_default_str();
+}
+
 }  // namespace
 
 int RunEvaluate(int argc, char** argv) {
@@ -310,11 +319,7 @@ int RunEvaluate(int argc, char** argv) {
   app.add_option("--model", model_path, "Model file (.fcm)");
   app.add_option("--db", db_path, "Dataset database")->required();
   app.add_option("--split", split, "train, val, test or all")->capture_default_str();
-  app.add_option("--min-in-view",
-                 options.evaluation.min_in_view,
-                 "Objects with less of their box inside the image (cut by its side) are neither "
-                 "found nor missed (0: every object counts, as in every figure so far)")
-      ->capture_default_str();
+  AddMinInViewOption(&app, &options.evaluation);
   app.add_option("--max-frames", options.max_frames, "Evaluate at most N frames (0: all)")
       ->capture_default_str();
   app.add_option("--label", options.label, "Free text stored with the run");
@@ -425,10 +430,7 @@ int RunCrossval(int argc, char** argv) {
       ->required();
   std::string split = "all";
   app.add_option("--split", split, "train, val, test or all")->capture_default_str();
-  app.add_option("--min-in-view",
-                 options.evaluate.evaluation.min_in_view,
-                 "Objects with less of their box inside the image are neither found nor missed")
-      ->capture_default_str();
+  AddMinInViewOption(&app, &options.evaluate.evaluation);
   app.add_option("--max-frames", options.evaluate.max_frames, "At most N frames per fold (0: all)")
       ->capture_default_str();
   app.add_option("--label", options.evaluate.label, "Free text stored with the run");

@@ -14,6 +14,7 @@
 #include "core/mesh.h"
 #include "core/pose_fit.h"
 #include "core/progress.h"
+#include "core/scene.h"
 #include "db/dataset_db.h"
 #include "renderers/camera.h"
 #include "reports/detection_debug.h"
@@ -77,10 +78,9 @@ nlohmann::json CurvesJson(const EvaluationResult& result) {
 // 8 x 8 x 4 points: whole objects in view give 1; a table whose far half
 // lies beyond the image's side about 0.5.
 double ShareInView(const ObjectRecord& object, const FrameRecord& frame) {
-  const Eigen::Isometry3d camera_from_world = frame.world_from_camera.inverse();
-  const Eigen::Isometry3d world_from_object =
-      Eigen::Translation3d(object.x, object.y, object.z) *
-      Eigen::AngleAxisd(object.yaw, Eigen::Vector3d::UnitZ());
+  const CameraIntrinsics camera = IntrinsicsOf(frame);
+  const Eigen::Isometry3d camera_from_object =
+      frame.world_from_camera.inverse() * PoseXYZYaw(object.x, object.y, object.z, object.yaw);
   constexpr int kAcross = 8, kUp = 4;
   int inside = 0;
   for (int i = 0; i < kAcross; ++i) {
@@ -89,11 +89,11 @@ double ShareInView(const ObjectRecord& object, const FrameRecord& frame) {
         const Eigen::Vector3d local(((i + 0.5) / kAcross - 0.5) * object.width,
                                     ((j + 0.5) / kAcross - 0.5) * object.depth,
                                     (k + 0.5) / kUp * object.height);
-        const Eigen::Vector3d p = camera_from_world * (world_from_object * local);
+        const Eigen::Vector3d p = camera_from_object * local;
         if (p.z() <= 0) continue;
-        const double u = frame.fx * p.x() / p.z() + frame.cx;
-        const double v = frame.fy * p.y() / p.z() + frame.cy;
-        inside += u >= -0.5 && u < frame.width - 0.5 && v >= -0.5 && v < frame.height - 0.5;
+        const Eigen::Vector2d pixel = camera.Project(p);
+        inside += pixel.x() >= -0.5 && pixel.x() < frame.width - 0.5 && pixel.y() >= -0.5 &&
+                  pixel.y() < frame.height - 0.5;
       }
     }
   }
@@ -218,7 +218,8 @@ std::vector<TruthObject> TruthOf(const RoomRecord& room,
                      facts.trained.count(object.model_id) > 0,
                      object.width,
                      object.depth,
-                     ShareInView(object, frame)});
+                     // Only a target's share counts (clutter is never one).
+                     object.furniture_class ? ShareInView(object, frame) : 1.0});
   }
   return truth;
 }
