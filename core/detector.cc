@@ -5,6 +5,8 @@
 
 #include "core/detector_impl.h"
 #include "core/error.h"
+#include "core/scene.h"  // PoseXYZYaw
+#include "core/view_share.h"
 
 namespace furn {
 
@@ -207,6 +209,29 @@ std::string DetectionDebug::Describe(const Hypothesis& h) {
   return "unknown";
 }
 
+namespace {
+
+// Each detection's share in view (Detection::in_view).
+void SetShareInView(const PreparedScan& scan,
+                    const DetectionInput& input,
+                    const TrainedModel& model,
+                    std::vector<Detection>* detections) {
+  const std::optional<ViewFrustum> view =
+      scan.intrinsics ? ViewFrustum::OfPinhole(*scan.intrinsics, scan.width, scan.height)
+                      : ViewFrustum::OfPoints(input.points);
+  if (!view) return;
+  const Eigen::Isometry3d camera_from_world = scan.world_from_camera.inverse();
+  for (Detection& d : *detections) {
+    const DetectionBox box = BoxOf(d, model);
+    d.in_view = ShareOfBoxInView(*view,
+                                 camera_from_world * PoseXYZYaw(d.x, d.y, d.z, d.yaw),
+                                 box.low.cast<double>(),
+                                 box.high.cast<double>());
+  }
+}
+
+}  // namespace
+
 DetectionResult Detector::Detect(const DetectionInput& input, bool keep_debug) const {
   DetectionResult result;
   StageTimer timer(&result.timings_ms);
@@ -226,6 +251,7 @@ DetectionResult Detector::Detect(const DetectionInput& input, bool keep_debug) c
   timer.Restart();
   if (impl_->learned) {
     DetectLearned(scan, keep_debug, &timer, &result);
+    SetShareInView(scan, input, impl_->model, &result.detections);
     return result;
   }
 
@@ -252,6 +278,7 @@ DetectionResult Detector::Detect(const DetectionInput& input, bool keep_debug) c
     result.detections.push_back(detection);
   }
   timer.Lap(DetectionStage::kSuppress);
+  SetShareInView(scan, input, impl_->model, &result.detections);
   timer.Total();
   result.debug.hypotheses = std::move(hypotheses);  // small: kept for evaluation (protocol A) too
 

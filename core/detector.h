@@ -220,6 +220,11 @@ struct Detection {
   double vote_weight = 0;       // smoothed Hough value at the maximum
   double verification = 0;      // visibility score vs
   double covered_fraction = 0;  // of the scene points inside the fitted box, those it explains
+  // Of the box (BoxOf), the share inside the sensor's view (ShareOfBoxInView:
+  // the image of an organised scan, else the scan's tangent span). Below 1
+  // the box is cut by the frame, and its centre and size are guessed from
+  // the part in view.
+  double in_view = 1;
 };
 
 // A detection's box in its own frame (yaw about its reference point, base on

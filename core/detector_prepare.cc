@@ -189,8 +189,9 @@ PreparedScan Detector::Prepare(const DetectionInput& input) const {
   if (impl.learned) {  // the network's grid is rasterised from the points as given
     scan.camera_points = input.points;
     if (!options.learned_fit) {  // else segments, structure and occupancy for the fits
-      // The extent fit's visibility test projects onto the scan's pixels.
-      if (options.learned_extent_fit != ExtentFitClasses::kNone) KeepIntrinsics(input, &scan);
+      // The extent fit's visibility test and each detection's share in view
+      // project onto the scan's pixels.
+      KeepIntrinsics(input, &scan);
       scan.sensor = scan.world_from_camera.translation().cast<float>();
       timer.Lap(DetectionStage::kFloor);
       return scan;

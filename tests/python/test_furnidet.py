@@ -133,6 +133,9 @@ class FurnidetTest(unittest.TestCase):
         rec = furnidet.records(result.detections)
         self.assertEqual(len(rec), len(result.detections))
         self.assertEqual(rec.dtype, furnidet.DETECTION_DTYPE)
+        self.assertTrue(np.all((rec.in_view >= 0) & (rec.in_view <= 1)))
+        for i, d in enumerate(result.detections):
+            self.assertEqual(d.in_view, rec.in_view[i])
         empty = self.detector.detect_points(np.zeros((0, 3), np.float32),
                                             world_from_camera=np.eye(4))
         self.assertEqual(empty.status, "no_points_in_range")

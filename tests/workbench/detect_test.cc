@@ -206,6 +206,7 @@ TEST_F(DetectTest, OneChairIsFoundWithItsPoseClassAndModel) {
   EXPECT_LT(std::hypot(d.x - 0.2, d.y - 0.1), 0.05) << Describe(result);
   EXPECT_LT(YawErrorDeg(d.yaw, 30 * M_PI / 180), 10) << Describe(result);
   EXPECT_EQ(d.model_name, chair);
+  EXPECT_DOUBLE_EQ(d.in_view, 1.0);  // wholly inside the image
 }
 
 // Each stage called alone, in order, on one chair: what it hands to the next
@@ -502,6 +503,7 @@ TEST_F(DetectTest, CommandLineOnAPcdWritesJsonAndDebugPngs) {
   EXPECT_TRUE(json["floor_estimated"].get<bool>());  // no pose given: found by RANSAC
   ASSERT_EQ(json["detections"].size(), 1u) << run.output;
   EXPECT_EQ(json["detections"][0]["class"], "chair");
+  EXPECT_EQ(json["detections"][0]["in_view"].get<double>(), 1.0);
   EXPECT_NE(run.output.find("total"), std::string::npos);  // --timings
   for (const char* png : {"segments.png", "fitted.png", "topdown.png", "votes_chair.png"}) {
     const cv::Mat image = cv::imread(dir + "/debug/" + png);

@@ -26,6 +26,10 @@ std::string DetectionLine(const Detection& d) {
     std::snprintf(line, sizeof(line), "  footprint %.2f x %.2f m", d.depth, d.width);
     text += line;
   }
+  if (d.in_view < 1) {  // cut by the frame: the centre is a guess from the part in view
+    std::snprintf(line, sizeof(line), "  %.0f %% in view", 100 * d.in_view);
+    text += line;
+  }
   return text;
 }
 
@@ -54,6 +58,7 @@ nlohmann::ordered_json DetectionBoxJson(const Detection& d, const TrainedModel& 
       {"floor_point", {d.x, d.y}},
       {"model", fitted ? nlohmann::ordered_json(d.model_name) : nlohmann::ordered_json(nullptr)},
       {"size_source", d.width > 0 ? "network" : (fitted ? "model" : "class")},
+      {"in_view", d.in_view},
       {"vote_weight", d.vote_weight},
       {"verification", NumberOrNull(fitted, d.verification)},
       {"covered_fraction", NumberOrNull(fitted, d.covered_fraction)}};

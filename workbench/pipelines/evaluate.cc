@@ -14,7 +14,9 @@
 #include "core/mesh.h"
 #include "core/pose_fit.h"
 #include "core/progress.h"
+#include "core/render_compare.h"  // PinholeIntrinsics
 #include "core/scene.h"
+#include "core/view_share.h"
 #include "db/dataset_db.h"
 #include "renderers/camera.h"
 #include "reports/detection_debug.h"
@@ -75,29 +77,17 @@ nlohmann::json CurvesJson(const EvaluationResult& result) {
 
 }  // namespace
 
-// 8 x 8 x 4 points: whole objects in view give 1; a table whose far half
-// lies beyond the image's side about 0.5.
+// The ground truth's box, as a detection's (Detection::in_view).
 double ShareInView(const ObjectRecord& object, const FrameRecord& frame) {
   const CameraIntrinsics camera = IntrinsicsOf(frame);
-  const Eigen::Isometry3d camera_from_object =
-      frame.world_from_camera.inverse() * PoseXYZYaw(object.x, object.y, object.z, object.yaw);
-  constexpr int kAcross = 8, kUp = 4;
-  int inside = 0;
-  for (int i = 0; i < kAcross; ++i) {
-    for (int j = 0; j < kAcross; ++j) {
-      for (int k = 0; k < kUp; ++k) {
-        const Eigen::Vector3d local(((i + 0.5) / kAcross - 0.5) * object.width,
-                                    ((j + 0.5) / kAcross - 0.5) * object.depth,
-                                    (k + 0.5) / kUp * object.height);
-        const Eigen::Vector3d p = camera_from_object * local;
-        if (p.z() <= 0) continue;
-        const Eigen::Vector2d pixel = camera.Project(p);
-        inside += pixel.x() >= -0.5 && pixel.x() < frame.width - 0.5 && pixel.y() >= -0.5 &&
-                  pixel.y() < frame.height - 0.5;
-      }
-    }
-  }
-  return static_cast<double>(inside) / (kAcross * kAcross * kUp);
+  const ViewFrustum view = ViewFrustum::OfPinhole(
+      PinholeIntrinsics{camera.fx, camera.fy, camera.cx, camera.cy}, camera.width, camera.height);
+  const Eigen::Vector3d half(object.width / 2, object.depth / 2, 0);
+  return ShareOfBoxInView(
+      view,
+      frame.world_from_camera.inverse() * PoseXYZYaw(object.x, object.y, object.z, object.yaw),
+      -half,
+      half + Eigen::Vector3d(0, 0, object.height));
 }
 
 nlohmann::json CalibrationJson(const std::vector<CalibrationBin>& bins) {

@@ -526,6 +526,7 @@ void BindDetections(py::module_& m) {
                                if (d.detection.model_index < 0) return py::none();
                                return py::float_(d.detection.covered_fraction);
                              })
+      .def_property_readonly("in_view", [](const PyDetection& d) { return d.detection.in_view; })
       .def("__repr__", [](const PyDetection& p) {
         char text[160];
         std::snprintf(text,

@@ -59,12 +59,13 @@ class Detector(_Detector):
 
 # x, y, z: the floor point; yaw and the box (centre, size along the box's
 # own x = the object's front, y, z) REP 103 (docs/conventions.md);
-# verification and covered_fraction NaN and model "" without a fit.
+# verification and covered_fraction NaN and model "" without a fit; in_view
+# the box's share inside the sensor's view (below 1: cut by the frame).
 DETECTION_DTYPE = _np.dtype([
     ("cls", "U9"), ("x", "f8"), ("y", "f8"), ("z", "f8"), ("yaw", "f8"),
     ("cx", "f8"), ("cy", "f8"), ("cz", "f8"), ("sx", "f8"), ("sy", "f8"), ("sz", "f8"),
     ("score", "f8"), ("vote_weight", "f8"), ("verification", "f8"),
-    ("covered_fraction", "f8"), ("model", "U64")])
+    ("covered_fraction", "f8"), ("model", "U64"), ("in_view", "f8")])
 
 
 def _or_nan(value):
@@ -80,6 +81,7 @@ def records(detections):
         raise InputError("records: detections must be furnidet.Detection objects (e.g. "
                          "result.detections), not %s" % type(bad[0]).__name__)
     rows = [(d.cls, d.x, d.y, d.z, d.yaw, *d.box["centre"], *d.box["size"], d.score,
-             d.vote_weight, _or_nan(d.verification), _or_nan(d.covered_fraction), d.model or "")
+             d.vote_weight, _or_nan(d.verification), _or_nan(d.covered_fraction), d.model or "",
+             d.in_view)
             for d in detections]
     return _np.rec.array(_np.array(rows, dtype=DETECTION_DTYPE))
