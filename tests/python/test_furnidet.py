@@ -6,6 +6,7 @@ folder and FURN_WORKBENCH naming the CLI binary.
 import json
 import os
 import subprocess
+import sys
 import tempfile
 import threading
 import time
@@ -140,6 +141,20 @@ class FurnidetTest(unittest.TestCase):
                                             world_from_camera=np.eye(4))
         self.assertEqual(empty.status, "no_points_in_range")
         self.assertEqual(len(furnidet.records(empty.detections)), 0)
+
+    def test_in_view_error_tool_splits_detections_by_their_share_in_view(self):
+        tool = os.path.join(os.path.dirname(__file__), "..", "..", "tools", "in_view_error.py")
+        done = subprocess.run([sys.executable, tool, self.db, self.model], capture_output=True,
+                              text=True)
+        self.assertEqual(done.returncode, 0, done.stderr)
+        lines = done.stdout.splitlines()
+        self.assertTrue(lines[0].startswith("class      group"), done.stdout)
+        for line in lines[1:]:
+            self.assertIn(line.split()[1], ("cut", "whole"))
+        bad = subprocess.run([sys.executable, tool, self.db, self.model, "--cut", "2"],
+                             capture_output=True, text=True)
+        self.assertNotEqual(bad.returncode, 0)
+        self.assertIn("--cut", bad.stderr)
 
     def test_detection_releases_the_gil(self):
         frame = self.dataset.frame(self.dataset.frame_ids()[0])

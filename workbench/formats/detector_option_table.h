@@ -179,7 +179,8 @@ void ForEachDetectorOption(Options* options, Visit&& visit) {
   visit(DetectorOptionInfo{"learned_mirror_average",
                            "--mirror-average",
                            "Learned voting: average the network's outputs with those of the "
-                           "mirrored image (test-time augmentation; twice the network's time)"},
+                           "mirrored image (test-time augmentation; twice the network's time; "
+                           "--no-mirror-average: the image alone)"},
         o.learned_mirror_average);
   visit(DetectorOptionInfo{"learned_extent_fit",
                            "--extent-fit",
