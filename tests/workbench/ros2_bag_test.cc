@@ -16,6 +16,7 @@
 #include "db/sqlite.h"
 #include "tests/test_util.h"
 #include "workbench/formats/cdr.h"
+#include "workbench/formats/ros_common.h"
 #include "workbench/formats/ros2_bag.h"
 #include "workbench/formats/ros2_messages.h"
 
@@ -314,6 +315,26 @@ TEST_F(Ros2BagTest, HostileBagsAreRefusedByName) {
                          "UPDATE topics SET type = 'sensor_msgs/msg/Image' WHERE name = "
                          "'/cam/camera_info'"),
                  "/cam/camera_info");
+}
+
+// Each detection's label says how much of its box is in view when the frame
+// cuts it (its centre is then a guess from the part in view).
+TEST(DetectionMarkers, LabelsOfBoxesCutByTheFrameSaySo) {
+  DetectionResult result;
+  Detection whole;
+  whole.width = whole.depth = 0.5;
+  whole.score = 0.83;
+  Detection cut = whole;
+  cut.furniture_class = FurnitureClass::kTable;
+  cut.x = 2;
+  cut.in_view = 0.4;
+  result.detections = {whole, cut};
+  const std::vector<RosMarker> markers =
+      DetectionMarkers(result, TrainedModel{}, RosHeader{}, Eigen::Isometry3d::Identity());
+  ASSERT_EQ(markers.size(), 5u);  // DELETEALL, then a box and a label each
+  EXPECT_EQ(markers[2].text, "chair 0.83");
+  EXPECT_EQ(markers[4].text, "table 0.83 (40% in view)");
+  EXPECT_EQ(markers[4].ns, "furnidet/labels");
 }
 
 }  // namespace
