@@ -159,7 +159,7 @@ struct DetectorOptions {
   // The network's outputs averaged with those of the mirrored image
   // (VoteNet::Predict; the network's time twice, the frame's +3 %). On by
   // default since issue 37 measured it on three fold seeds of protocol E
-  // (docs/learned-voting.md); the operating point is chosen with it.
+  // (docs/learned-voting.md); the operating point is chosen without it.
   bool learned_mirror_average = true;
   double learned_min_heat = 0.1;
   int learned_max_per_class = 16;
