@@ -21,8 +21,8 @@ struct PinholeIntrinsics;
 // frame: x right, y down, z forward): in view when z > 0 and x / z, y / z
 // lie within them.
 struct ViewFrustum {
-  double left = 0, right = 0, top = 0,
-         bottom = 0;  // x / z in [left, right), y / z in [top, bottom)
+  // x / z in [left, right), y / z in [top, bottom).
+  double left = 0, right = 0, top = 0, bottom = 0;
 
   // The image of `width` x `height` pixels: pixel centres -0.5 .. width - 0.5.
   static ViewFrustum OfPinhole(const PinholeIntrinsics& intrinsics, int width, int height);

@@ -16,9 +16,9 @@
 #include "db/sqlite.h"
 #include "tests/test_util.h"
 #include "workbench/formats/cdr.h"
-#include "workbench/formats/ros_common.h"
 #include "workbench/formats/ros2_bag.h"
 #include "workbench/formats/ros2_messages.h"
+#include "workbench/formats/ros_common.h"
 
 namespace furn {
 namespace {

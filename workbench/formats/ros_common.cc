@@ -271,13 +271,12 @@ std::vector<RosMarker> DetectionMarkers(const DetectionResult& result,
     label.ns = "furnidet/labels";
     label.type = RosMarker::kText;
     char text[96];
-    // A box cut by the frame says so: its centre is a guess from the part in view.
-    if (d.in_view < 1)
-      std::snprintf(
-          text, sizeof(text), "%s %.2f (%.0f%% in view)", name.c_str(), d.score, 100 * d.in_view);
-    else
-      std::snprintf(text, sizeof(text), "%s %.2f", name.c_str(), d.score);
+    std::snprintf(text, sizeof(text), "%s %.2f", name.c_str(), d.score);
     label.text = text;
+    if (d.in_view < 1) {  // cut by the frame: the centre is a guess from the part in view
+      std::snprintf(text, sizeof(text), " (%.0f%% in view)", 100 * d.in_view);
+      label.text += text;
+    }
     label.pose.translation() =
         frame_from_world *
         (world_box.centre + Eigen::Vector3d(0, 0, world_box.size.z() / 2 + 0.15));
