@@ -213,9 +213,10 @@ void Detector::DetectLearned(const PreparedScan& scan,
                              DetectionResult* result) const {
   const Impl& impl = *impl_;
   SetTorchThreads(impl.options.torch_threads);
+  // The network's own range (it was trained on it), not the codebook's.
   const BevImage image = RasteriseScan(scan.camera_points,
                                        scan.world_from_camera,
-                                       impl.options.max_range_m,
+                                       impl.vote_net.options().range_m,
                                        impl.vote_net.options().grid);
   timer->Lap(DetectionStage::kBev);
   const BevOutput output = impl.vote_net.Predict(image, impl.options.learned_mirror_average);
@@ -234,7 +235,7 @@ void Detector::DetectLearned(const PreparedScan& scan,
   for (int k = 0; k < kBevClasses; ++k)
     debug.grids.push_back(WorldGridOf(image, output, k, impl.options.learned_min_heat));
   const Eigen::Isometry3f world_from_camera = scan.world_from_camera.cast<float>();
-  const float max_range2 = static_cast<float>(impl.options.max_range_m * impl.options.max_range_m);
+  const float max_range2 = static_cast<float>(std::pow(impl.vote_net.options().range_m, 2));
   for (const Eigen::Vector3f& p : scan.camera_points) {
     if (!p.allFinite() || p.squaredNorm() == 0 || p.squaredNorm() > max_range2) continue;
     const Eigen::Vector3f world = world_from_camera * p;

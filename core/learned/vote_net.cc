@@ -19,7 +19,7 @@ constexpr char kMagic[8] = {'F', 'U', 'R', 'N', 'V', 'N', 'E', 'T'};
 // in the header (issue 37); 2: dense votes and membership. Versions 2 and 3
 // hold the weights as a TorchScript archive, whose loading can run code: not
 // read (nor is 1, whose channels mean something else).
-constexpr uint32_t kVersion = 4;
+constexpr uint32_t kVersion = 5;  // 5: the rasterised range (4: 3 m)
 constexpr uint32_t kFirstArchiveVersion = 2;
 
 // A tensor record's element type.
@@ -141,6 +141,7 @@ VoteNetOptions ReadVoteNetHeader(const std::string& bytes,
     options.coder.vote_margin_m = Take<double>(bytes, at, what);
     options.coder.ignore_radius_cells = Take<double>(bytes, at, what);
   }
+  if (version >= 5) options.range_m = Take<double>(bytes, at, what);
   try {
     options.Check();  // bounds the network the header builds (width, grid)
   } catch (const InputError& error) {
@@ -153,6 +154,7 @@ std::string UpgradeTorchScriptVoteNet(const std::string& bytes, const std::strin
   size_t at = 0;
   const uint32_t version = ReadMagicAndVersion(bytes, &at, what);
   if (version == kVersion) return bytes;
+  if (version == kVersion - 1) return VoteNet::Deserialize(bytes, what).Serialize();
   Require(version == kFirstArchiveVersion || version == kFirstArchiveVersion + 1,
           what + ": vote network format " + std::to_string(version) + " cannot be upgraded");
   const VoteNetOptions options = ReadVoteNetHeader(bytes, &at, what, version);
@@ -277,6 +279,8 @@ TargetTensors TargetTensorsOf(const std::vector<const BevTargets*>& targets,
 void VoteNetOptions::Check() const {
   grid.Check();
   coder.Check();
+  Require(range_m > 0 && range_m <= 20,
+          "vote network range " + std::to_string(range_m) + " m must be in (0, 20]");
   Require(width >= 4 && width <= 128,
           "vote network width " + std::to_string(width) + " must be in 4..128");
 }
@@ -323,6 +327,7 @@ std::string VoteNet::Serialize() const {
   Put(&out, o.coder.heat_sigma_cells);
   Put(&out, o.coder.vote_margin_m);
   Put(&out, o.coder.ignore_radius_cells);
+  Put(&out, o.range_m);
   const auto tensors = NamedTensors(impl_->net);
   Put(&out, static_cast<uint32_t>(tensors.size()));
   for (const auto& [name, tensor] : tensors) PutTensor(&out, name, tensor);
@@ -336,7 +341,7 @@ VoteNet VoteNet::Deserialize(const std::string& bytes, const std::string& what) 
           what + ": vote network format " + std::to_string(version) +
               " keeps its weights as a TorchScript archive, which this build does not load "
               "(loading one can run code): train the model again with this build");
-  Require(version == kVersion,
+  Require(version == kVersion || version == kVersion - 1,
           what + ": vote network format " + std::to_string(version) + " is not this build's (" +
               std::to_string(kVersion) + "): train the model again with this build");
   const VoteNetOptions options = ReadVoteNetHeader(bytes, &at, what, version);

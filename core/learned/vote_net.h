@@ -30,6 +30,10 @@ struct VoteNetOptions {
   // How its targets were encoded (stored with the weights: decoding follows
   // it, e.g. the votes' mean shift only where every cell's vote was trained).
   BevCoderOptions coder;
+  // The scan's points within this distance of the sensor are rasterised, in
+  // training and in detection alike (stored with the weights). The grid
+  // reaches 3.6 m forward: at 3 m a table's far end beyond it is never seen.
+  double range_m = 3.0;
 
   void Check() const;
 };

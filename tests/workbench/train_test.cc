@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstring>
 #include <filesystem>
 
 #include <Eigen/Geometry>
@@ -239,6 +240,23 @@ TEST(Train, VoteNetIsStoredUsedAndItsRoomsHoldNoHeldOutModel) {
                                            DetectionStage::kMaxima,
                                            DetectionStage::kTotal}));
     EXPECT_EQ(result.debug.grids.size(), kAllClasses.size());
+    // Detection rasterises the range its network was trained on (stored with
+    // the weights), whatever the detector's --max-range: a network of 1 m
+    // sees no point beyond it.
+    TrainedModel near = model;
+    const double one_metre = 1.0;
+    std::memcpy(&near.vote_net[68], &one_metre, sizeof(one_metre));  // the range field
+    DetectorOptions far = network_only;
+    far.max_range_m = 4;
+    const DetectionResult cut =
+        Detector(near, far).Detect(DetectionInputOf(room.frames.front(), "frame"), true);
+    const Eigen::Vector3f sensor =
+        room.frames.front().world_from_camera.translation().cast<float>();
+    float farthest = 0;
+    for (const Eigen::Vector3f& p : cut.debug.points)
+      farthest = std::max(farthest, (p - sensor).norm());
+    EXPECT_LE(farthest, 1.0f + 1e-4f);
+    EXPECT_LT(cut.debug.points.size(), result.debug.points.size());
     for (const DetectionDebug::Hypothesis& h : result.debug.hypotheses) EXPECT_TRUE(h.learned);
     for (const Detection& d : result.detections) {
       EXPECT_EQ(d.model_index, -1);

@@ -237,9 +237,10 @@ TEST(VoteNet, WeightRecordsAreCheckedBeforeTheyAreRead) {
     return testing::ErrorOf([&] { VoteNet::Deserialize(damaged, "shared.fcm"); });
   };
   // Header: magic 8, version 4, cell 8, rows 4, cols 4, band 8, width 4,
-  // dense 4, three doubles 24: the record count at 68, the first record at 72
-  // (name size 4, "e1.conv1.weight" 15, type 1, dims 4, then the sizes).
-  constexpr size_t kCount = 68, kFirst = 72;
+  // dense 4, three doubles 24, range 8: the record count at 76, the first
+  // record at 80 (name size 4, "e1.conv1.weight" 15, type 1, dims 4, then
+  // the sizes).
+  constexpr size_t kCount = 76, kFirst = 80;
   const std::string first_name = "e1.conv1.weight";
   ASSERT_EQ(bytes.substr(kFirst + 4, first_name.size()), first_name);
   const size_t dims_at = kFirst + 4 + first_name.size() + 1 + 4;
@@ -270,6 +271,39 @@ TEST(VoteNet, WeightRecordsAreCheckedBeforeTheyAreRead) {
   for (uint32_t old : {2u, 3u}) {
     EXPECT_NE(error_of(with(8, old)).find("TorchScript archive, which this build does not load"),
               std::string::npos);
+  }
+}
+
+// The range of points rasterised is stored with the weights (format 5);
+// a format-4 block (before the field) reads as the 3 m it was trained on,
+// and a range outside (0, 20] m is refused by name.
+TEST(VoteNet, RangeIsStoredAndFormatFourReadsAsThreeMetres) {
+  VoteNetOptions options;
+  options.grid = SmallGrid();
+  options.width = 4;
+  options.range_m = 3.6;
+  const std::string bytes = VoteNet::Create(options, 1).Serialize();
+  EXPECT_DOUBLE_EQ(VoteNet::Deserialize(bytes, "new.fcm").options().range_m, 3.6);
+
+  constexpr size_t kRangeAt = 68;  // after the coder's three doubles
+  double stored = 0;
+  std::memcpy(&stored, &bytes[kRangeAt], sizeof(stored));
+  ASSERT_EQ(stored, 3.6);
+  std::string format4 = bytes.substr(0, kRangeAt) + bytes.substr(kRangeAt + sizeof(double));
+  const uint32_t four = 4;
+  std::memcpy(&format4[8], &four, sizeof(four));
+  const VoteNet old = VoteNet::Deserialize(format4, "old.fcm");
+  EXPECT_DOUBLE_EQ(old.options().range_m, 3.0);
+  EXPECT_DOUBLE_EQ(VoteNet::Deserialize(old.Serialize(), "old.fcm").options().range_m, 3.0);
+
+  for (double bad : {0.0, -1.0, 25.0, std::nan("")}) {
+    std::string damaged = bytes;
+    std::memcpy(&damaged[kRangeAt], &bad, sizeof(bad));
+    const std::string message =
+        testing::ErrorOf([&] { VoteNet::Deserialize(damaged, "shared.fcm"); });
+    EXPECT_NE(message.find("shared.fcm: vote network is corrupt (vote network range"),
+              std::string::npos)
+        << bad << ": " << message;
   }
 }
 

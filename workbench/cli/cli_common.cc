@@ -144,6 +144,11 @@ void AddVoteNetFlags(CLI::App* app, VoteNetFlags* flags) {
       ->capture_default_str();
   app->add_option("--vote-lr", o.learning_rate, "Vote network: peak learning rate (Adam)")
       ->capture_default_str();
+  app->add_option("--vote-range",
+                  o.net.range_m,
+                  "Vote network: the scan's points within this distance of the sensor are "
+                  "rasterised (m; stored in the model, detection uses the same)")
+      ->capture_default_str();
   app->add_option("--vote-size-jitter",
                   o.room.size_jitter,
                   "Vote network: per-side size jitter of the training rooms' furniture (0..0.5)")

@@ -8,6 +8,7 @@
 #include "core/error.h"
 #include "core/file_util.h"
 #include "core/hypothesis_scorer.h"
+#include "core/learned/vote_net.h"
 #include "core/learned/vote_net_upgrade.h"
 #include "core/model_upgrade.h"
 #include "db/dataset_db.h"
@@ -350,8 +351,10 @@ int RunModel(int argc, char** argv) {
   if (upgrade->parsed()) {
     TrainedModel model =
         trust_torchscript ? LoadTrainedModelUnchecked(path) : LoadTrainedModel(path);
-    if (trust_torchscript && !model.vote_net.empty())
-      model.vote_net = UpgradeTorchScriptVoteNet(model.vote_net, path);
+    if (!model.vote_net.empty())  // format 4 gains its range; 2 and 3 only when trusted
+      model.vote_net = trust_torchscript
+                           ? UpgradeTorchScriptVoteNet(model.vote_net, path)
+                           : VoteNet::Deserialize(model.vote_net, path).Serialize();
     SaveTrainedModel(model, out);
     std::cout << out << ": written in the current model file format\n";
     return 0;

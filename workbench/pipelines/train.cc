@@ -189,7 +189,8 @@ std::string DescribeTrainedModel(const TrainedModel& model) {
     const BevGridSpec& grid = net.options().grid;
     out << "vote net:    U-Net, " << net.Parameters() << " parameters, width "
         << net.options().width << "; BEV grid " << grid.rows << " x " << grid.cols << " cells of "
-        << grid.cell_m << " m (" << model.vote_net.size() / 1024
+        << grid.cell_m << " m, points within " << net.options().range_m << " m ("
+        << model.vote_net.size() / 1024
         << " KiB); targets: " << (net.options().coder.dense_votes ? "dense votes" : "centre cell")
         << "\n";
   }

@@ -180,7 +180,6 @@ void VoteNetTrainingOptions::Check() const {
   Require(learning_rate > 0 && learning_rate <= 1, "vote-net learning rate must be in (0, 1]");
   Require(threads >= 0 && threads <= 256, "vote-net threads must be in 0..256");
   Require(min_visibility >= 0 && min_visibility <= 1, "vote-net min visibility must be in 0..1");
-  Require(max_range_m > 0 && max_range_m <= 20, "vote-net max range must be in (0, 20] m");
   Require(validation_share >= 0 && validation_share < 1,
           "vote-net validation share must be in [0, 1)");
   Require(shape_variety >= 0 && shape_variety <= 1000,
@@ -200,7 +199,7 @@ std::string VoteNetTrainingOptions::Json() const {
       {"learning_rate", learning_rate},
       {"threads", threads},
       {"min_visibility", min_visibility},
-      {"max_range_m", max_range_m},
+      {"max_range_m", net.range_m},
       {"validation_share", validation_share},
       {"grid",
        {{"cell_m", net.grid.cell_m},
@@ -247,7 +246,7 @@ void ReadBevSamples(const std::string& db_path,
           DetectionInputOf(frame, db_path + " frame " + std::to_string(frame.id));
       BevSample sample;
       sample.image = RasteriseScan(
-          input.points, frame.world_from_camera, options.max_range_m, options.net.grid);
+          input.points, frame.world_from_camera, options.net.range_m, options.net.grid);
       AddObjectsOfFrame(room, frame, options.min_visibility, &sample);
       out->push_back(std::move(sample));
     }

@@ -43,9 +43,8 @@ struct VoteNetTrainingOptions {
   // Objects seen less than this (visible / amodal pixels) are not targets;
   // the loss ignores the heat around them (BevCoderOptions::ignore_radius_cells).
   double min_visibility = 0.15;
-  double max_range_m = 3.0;       // rasterised like detection's (DetectorOptions::max_range_m)
   double validation_share = 0.1;  // of the rooms, for the per-epoch validation loss
-  VoteNetOptions net;             // with net.coder: what the targets are (heat width, dense votes)
+  VoteNetOptions net;  // with net.coder: what the targets are; net.range_m: the points rasterised
   VoteNetLossWeights loss;        // the loss terms' weights
   // Of the training rooms (evaluation-only entries never placed); sizes
   // jittered by 20 % per side so that the network learns classes, not models.
