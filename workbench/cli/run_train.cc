@@ -352,9 +352,8 @@ int RunModel(int argc, char** argv) {
     TrainedModel model =
         trust_torchscript ? LoadTrainedModelUnchecked(path) : LoadTrainedModel(path);
     if (!model.vote_net.empty())  // format 4 gains its range; 2 and 3 only when trusted
-      model.vote_net = trust_torchscript
-                           ? UpgradeTorchScriptVoteNet(model.vote_net, path)
-                           : VoteNet::Deserialize(model.vote_net, path).Serialize();
+      model.vote_net = trust_torchscript ? UpgradeTorchScriptVoteNet(model.vote_net, path)
+                                         : VoteNet::Deserialize(model.vote_net, path).Serialize();
     SaveTrainedModel(model, out);
     std::cout << out << ": written in the current model file format\n";
     return 0;

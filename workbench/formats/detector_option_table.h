@@ -48,7 +48,10 @@ inline const std::array<ClassOptionNames, kAllClasses.size()>& ClassMinScoreOpti
 template <typename Options, typename Visit>
 void ForEachDetectorOption(Options* options, Visit&& visit) {
   Options& o = *options;
-  visit(DetectorOptionInfo{"max_range_m", "--max-range", "Drop points beyond (m; the vote map keeps its model's range)"}, o.max_range_m);
+  visit(DetectorOptionInfo{"max_range_m",
+                           "--max-range",
+                           "Drop points beyond (m; the vote map keeps its model's range)"},
+        o.max_range_m);
   visit(
       DetectorOptionInfo{"floor_band_m", "--floor-band", "Points below this height are floor (m)"},
       o.floor_band_m);

@@ -45,7 +45,7 @@ struct VoteNetTrainingOptions {
   double min_visibility = 0.15;
   double validation_share = 0.1;  // of the rooms, for the per-epoch validation loss
   VoteNetOptions net;  // with net.coder: what the targets are; net.range_m: the points rasterised
-  VoteNetLossWeights loss;        // the loss terms' weights
+  VoteNetLossWeights loss;  // the loss terms' weights
   // Of the training rooms (evaluation-only entries never placed); sizes
   // jittered by 20 % per side so that the network learns classes, not models.
   RoomOptions room = [] {
