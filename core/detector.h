@@ -72,8 +72,10 @@ struct EnumText<VotingMode> {
 };
 
 struct DetectorOptions {
-  // Input (m): points farther from the sensor are dropped; points below the
-  // floor band are floor. FindFloor's options apply when the pose is unknown.
+  // Input (m): points farther from the sensor are dropped (the learned vote
+  // map rasterises the range its network was trained on, VoteNetOptions::
+  // range_m, and drops its maxima farther than this across the floor);
+  // points below the floor band are floor. FindFloor's options apply when the pose is unknown.
   double max_range_m = 3.0;
   double floor_band_m = 0.03;
   FloorOptions floor;

@@ -171,6 +171,10 @@ std::vector<DetectionDebug::Hypothesis> Detector::LearnedMaxima(
   const DetectorOptions& options = impl_->options;
   std::vector<DetectionDebug::Hypothesis> hypotheses;
   for (const BevPeak& peak : DecodeBevOutput(image, output, options.LearnedDecode())) {
+    // The network may see farther than the detector's range (its far rows
+    // show a near table's far end); what it finds out there is not reported.
+    if ((Eigen::Vector2d(peak.x, peak.y) - image.frame.origin).norm() > options.max_range_m)
+      continue;
     DetectionDebug::Hypothesis h;
     h.learned = true;
     h.furniture_class = peak.furniture_class;

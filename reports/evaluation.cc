@@ -634,20 +634,32 @@ void AddOperatingPoint(const std::vector<FrameOutcome>& frames,
       static_cast<double>(all_fp) / frames.size();
 }
 
-// The threshold of best F1 along score-sorted cumulative counts. Strictly
-// better only: among equal F1 the higher threshold (fewer detections); a
-// detection scoring as the next one must go with it.
+// The operating point's F1 plateau: thresholds whose F1 is within this of
+// the best are as good (on a few hundred objects one detection moves F1 by
+// about 0.003), and the highest of them is chosen. A flat F1 curve then
+// yields fewer false detections instead of a threshold at its low end,
+// whichever decoding produced the scores.
+constexpr double kF1Plateau = 0.01;
+
+// The highest threshold along score-sorted cumulative counts whose F1 is
+// within kF1Plateau of the best; a detection scoring as the next one must go
+// with it.
 BestF1 BestF1Along(const std::vector<PrPoint>& curve,
                    const std::vector<std::pair<int, int>>& counts,
                    int targets) {
-  BestF1 best;
+  std::vector<BestF1> candidates;  // thresholds a cut may fall after
+  double best_f1 = 0;
   for (size_t i = 0; i < curve.size(); ++i) {
-    const auto [tp, fp] = counts[i];
-    const BestF1 here = Measured(curve[i].threshold, tp, fp, targets);
     const bool tie_next = i + 1 < curve.size() && curve[i + 1].threshold == curve[i].threshold;
-    if (here.f1 > best.f1 && !tie_next) best = here;
+    if (tie_next) continue;
+    const auto [tp, fp] = counts[i];
+    candidates.push_back(Measured(curve[i].threshold, tp, fp, targets));
+    best_f1 = std::max(best_f1, candidates.back().f1);
   }
-  return best;
+  for (const BestF1& candidate : candidates) {
+    if (best_f1 > 0 && candidate.f1 >= best_f1 - kF1Plateau) return candidate;
+  }
+  return BestF1{};
 }
 
 // Every class's detections in one list: the threshold a class with too few

@@ -179,7 +179,8 @@ EvaluationResult EvaluateFrames(const std::vector<FrameOutcome>& frames,
 
 // Per class, the threshold on the detection score with the best F1 over
 // `frames` (matched at match_m, protocol B's roles), with its precision,
-// recall and F1 there (among thresholds of equal F1 the highest). A class
+// recall and F1 there (the highest threshold whose F1 is within 0.01 of the
+// best: a flat F1 curve gives fewer false detections). A class
 // with fewer than kOwnOperatingPointObjects objects, or never found, takes
 // the threshold of best F1 over every class's detections pooled (none when
 // nothing was found at all), measured on its own objects.

@@ -439,6 +439,27 @@ TEST(OperatingPoint, AClassWithFewObjectsTakesThePooledThreshold) {
   EXPECT_DOUBLE_EQ(ChooseOperatingPoint({frame}, options, 0.2, "").classes[2].min_score, 0.45);
 }
 
+// A flat F1 curve: the highest threshold within 0.01 of the best F1 is
+// chosen, not the best's own at the curve's low end.
+TEST(OperatingPoint, TheHighestThresholdOnTheF1PlateauIsChosen) {
+  FrameOutcome frame;
+  for (int k = 0; k < 20; ++k) frame.truth.push_back(Chair(k, 0));
+  for (int k = 0; k < 12; ++k) frame.detections.push_back(Found(k, 0, 0.95 - 0.01 * k));
+  // 12 true of 12 at 0.84: F1 24/32 = 0.75. Three false, two true below:
+  // 14 true, 3 false at 0.69: F1 28/37 = 0.757, the best by 0.007.
+  for (const auto& [x, score] :
+       {std::pair{50.0, 0.80}, {51.0, 0.79}, {52.0, 0.78}, {12.0, 0.70}, {13.0, 0.69}, {60.0, 0.5}})
+    frame.detections.push_back(Found(x, 0, score));
+  const ClassOperatingPoint chair = ChooseOperatingPoint({frame}, ChairsOnly(), 0.2, "").classes[0];
+  EXPECT_NEAR(chair.min_score, 0.84, 1e-12);
+  EXPECT_NEAR(chair.f1, 0.75, 1e-12);
+  EXPECT_NEAR(chair.precision, 1.0, 1e-12);
+  // A best F1 more than 0.01 above: chosen. One more true at 0.68 gives
+  // 15 true, 3 false: F1 30/38 = 0.789.
+  frame.detections.push_back(Found(14, 0, 0.68));
+  EXPECT_DOUBLE_EQ(ChooseOperatingPoint({frame}, ChairsOnly(), 0.2, "").classes[0].min_score, 0.68);
+}
+
 // Equal scores go together: a threshold never splits detections of one score.
 TEST(OperatingPoint, EqualScoresAreKeptOrDroppedTogether) {
   FrameOutcome frame;

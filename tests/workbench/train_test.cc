@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <filesystem>
 
@@ -257,6 +258,23 @@ TEST(Train, VoteNetIsStoredUsedAndItsRoomsHoldNoHeldOutModel) {
       farthest = std::max(farthest, (p - sensor).norm());
     EXPECT_LE(farthest, 1.0f + 1e-4f);
     EXPECT_LT(cut.debug.points.size(), result.debug.points.size());
+    // Its maxima farther across the floor than the detector's range are not
+    // reported (the network sees its own range for context).
+    auto farthest_maximum = [&](const DetectionResult& r) {
+      double metres = 0;
+      for (const DetectionDebug::Hypothesis& h : r.debug.hypotheses)
+        metres = std::max(metres, std::hypot(h.x - sensor.x(), h.y - sensor.y()));
+      return metres;
+    };
+    DetectorOptions every_maximum = network_only;
+    every_maximum.learned_min_heat = 0;  // up to 16 per class, anywhere
+    const DetectionResult all =
+        Detector(model, every_maximum).Detect(DetectionInputOf(room.frames.front(), "frame"), true);
+    every_maximum.max_range_m = 1.5;
+    const DetectionResult near_only =
+        Detector(model, every_maximum).Detect(DetectionInputOf(room.frames.front(), "frame"), true);
+    EXPECT_GT(farthest_maximum(all), 1.5);
+    EXPECT_LE(farthest_maximum(near_only), 1.5);
     for (const DetectionDebug::Hypothesis& h : result.debug.hypotheses) EXPECT_TRUE(h.learned);
     for (const Detection& d : result.detections) {
       EXPECT_EQ(d.model_index, -1);
