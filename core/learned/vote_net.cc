@@ -141,7 +141,7 @@ VoteNetOptions ReadVoteNetHeader(const std::string& bytes,
     options.coder.vote_margin_m = Take<double>(bytes, at, what);
     options.coder.ignore_radius_cells = Take<double>(bytes, at, what);
   }
-  if (version >= 5) options.range_m = Take<double>(bytes, at, what);
+  options.range_m = version >= 5 ? Take<double>(bytes, at, what) : 3.0;  // 4: trained on 3 m
   try {
     options.Check();  // bounds the network the header builds (width, grid)
   } catch (const InputError& error) {

@@ -31,9 +31,10 @@ struct VoteNetOptions {
   // it, e.g. the votes' mean shift only where every cell's vote was trained).
   BevCoderOptions coder;
   // The scan's points within this distance of the sensor are rasterised, in
-  // training and in detection alike (stored with the weights). The grid
-  // reaches 3.6 m forward: at 3 m a table's far end beyond it is never seen.
-  double range_m = 3.0;
+  // training and in detection alike (stored with the weights): the grid's
+  // forward reach. At 3 m (networks before format 5) a quarter of the tables
+  // within 3 m had their far end cut off (docs/learned-voting.md).
+  double range_m = 3.6;
 
   void Check() const;
 };

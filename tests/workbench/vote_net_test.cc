@@ -281,14 +281,15 @@ TEST(VoteNet, RangeIsStoredAndFormatFourReadsAsThreeMetres) {
   VoteNetOptions options;
   options.grid = SmallGrid();
   options.width = 4;
-  options.range_m = 3.6;
+  EXPECT_DOUBLE_EQ(options.range_m, 3.6);  // the grid's forward reach
+  options.range_m = 3.3;
   const std::string bytes = VoteNet::Create(options, 1).Serialize();
-  EXPECT_DOUBLE_EQ(VoteNet::Deserialize(bytes, "new.fcm").options().range_m, 3.6);
+  EXPECT_DOUBLE_EQ(VoteNet::Deserialize(bytes, "new.fcm").options().range_m, 3.3);
 
   constexpr size_t kRangeAt = 68;  // after the coder's three doubles
   double stored = 0;
   std::memcpy(&stored, &bytes[kRangeAt], sizeof(stored));
-  ASSERT_EQ(stored, 3.6);
+  ASSERT_EQ(stored, 3.3);
   std::string format4 = bytes.substr(0, kRangeAt) + bytes.substr(kRangeAt + sizeof(double));
   const uint32_t four = 4;
   std::memcpy(&format4[8], &four, sizeof(four));
