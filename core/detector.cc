@@ -82,6 +82,7 @@ BevDecodeOptions DetectorOptions::LearnedDecode() const {
   decode.min_heat = learned_min_heat;
   decode.max_per_class = learned_max_per_class;
   decode.suppress_m = learned_suppress_m;
+  decode.max_distance_m = max_range_m;
   decode.centre = learned_centre;
   decode.vote_bandwidth_m = learned_vote_bandwidth_m;
   decode.vote_heat_power = learned_vote_heat_power;

@@ -171,10 +171,6 @@ std::vector<DetectionDebug::Hypothesis> Detector::LearnedMaxima(
   const DetectorOptions& options = impl_->options;
   std::vector<DetectionDebug::Hypothesis> hypotheses;
   for (const BevPeak& peak : DecodeBevOutput(image, output, options.LearnedDecode())) {
-    // The network may see farther than the detector's range (its far rows
-    // show a near table's far end); what it finds out there is not reported.
-    if ((Eigen::Vector2d(peak.x, peak.y) - image.frame.origin).norm() > options.max_range_m)
-      continue;
     DetectionDebug::Hypothesis h;
     h.learned = true;
     h.furniture_class = peak.furniture_class;
@@ -239,7 +235,8 @@ void Detector::DetectLearned(const PreparedScan& scan,
   for (int k = 0; k < kBevClasses; ++k)
     debug.grids.push_back(WorldGridOf(image, output, k, impl.options.learned_min_heat));
   const Eigen::Isometry3f world_from_camera = scan.world_from_camera.cast<float>();
-  const float max_range2 = static_cast<float>(std::pow(impl.vote_net.options().range_m, 2));
+  const float max_range2 =
+      static_cast<float>(impl.vote_net.options().range_m * impl.vote_net.options().range_m);
   for (const Eigen::Vector3f& p : scan.camera_points) {
     if (!p.allFinite() || p.squaredNorm() == 0 || p.squaredNorm() > max_range2) continue;
     const Eigen::Vector3f world = world_from_camera * p;

@@ -299,6 +299,8 @@ void BevDecodeOptions::Check() const {
           "learned min heat " + std::to_string(min_heat) + " must be in 0..1");
   Require(max_per_class >= 1 && max_per_class <= 1000,
           "learned maxima per class " + std::to_string(max_per_class) + " must be in 1..1000");
+  Require(max_distance_m > 0,
+          "learned maxima range " + std::to_string(max_distance_m) + " m must be > 0");
   Require(suppress_m >= 0 && suppress_m <= 5,
           "learned suppression radius " + std::to_string(suppress_m) + " m must be in 0..5");
   Require(vote_bandwidth_m > 0 && vote_bandwidth_m <= 1,
@@ -371,6 +373,8 @@ std::vector<BevPeak> DecodeBevOutput(const BevImage& image,
   std::vector<BevPeak> peaks;
   for (const Cell& cell : cells) {
     BevPeak peak = PeakOf(image, output, cell, options);
+    if ((Eigen::Vector2d(peak.x, peak.y) - image.frame.origin).norm() > options.max_distance_m)
+      continue;
     for (const BevPeak& kept : peaks) {
       const double distance = std::hypot(kept.x - peak.x, kept.y - peak.y);
       if (options.suppress_m > 0 && !kept.suppressed && distance < options.suppress_m) {

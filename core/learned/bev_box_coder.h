@@ -30,6 +30,7 @@
 //   for (const BevPeak& p : DecodeBevOutput(image, output, BevDecodeOptions{})) ...
 #pragma once
 
+#include <limits>
 #include <vector>
 
 #include "core/enum_text.h"
@@ -99,6 +100,9 @@ struct BevDecodeOptions {
   // near a stronger kept one is marked suppressed. 0: off (the default: it
   // cost 0.03 mAP@10cm on unseen furniture, mostly armchairs under chairs).
   double suppress_m = 0;
+  // Maxima farther than this from the sensor across the floor are dropped
+  // (detection's range: the network may see farther, for context).
+  double max_distance_m = std::numeric_limits<double>::infinity();
   BevCentre centre = BevCentre::kVotes;
   double vote_bandwidth_m = 0.1;  // the mean shift's Gaussian kernel (m)
   double min_membership = 0.3;    // cells below this do not vote

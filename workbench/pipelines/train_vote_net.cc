@@ -5,7 +5,6 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <limits>
 #include <nlohmann/json.hpp>
 #include <random>
 
@@ -73,13 +72,12 @@ VoteNetLoss ValidationLoss(const VoteNet& net,
 // (chair 0.32 against 0.40): twice the false detections at the same F1 on
 // seen-model rooms (docs/learned-voting.md, "fold seed 3 and mirror
 // averaging"). Objects seen too little to be targets count as "ignore" when
-// `ignore_non_targets`, else are left out; maxima beyond `report_range_m`
-// across the floor are dropped, as detection drops them.
+// `ignore_non_targets`, else are left out. `decode` says how far maxima
+// are kept (detection's range for the operating point, every one for AP).
 std::vector<FrameOutcome> DecodedFrames(const VoteNet& net,
                                         const std::vector<BevSample>& validation,
                                         const BevDecodeOptions& decode,
-                                        bool ignore_non_targets,
-                                        double report_range_m) {
+                                        bool ignore_non_targets) {
   std::vector<FrameOutcome> frames;
   for (size_t i = 0; i < validation.size(); ++i) {
     const BevSample& sample = validation[i];
@@ -102,9 +100,6 @@ std::vector<FrameOutcome> DecodedFrames(const VoteNet& net,
     }
     for (const BevPeak& peak : DecodeBevOutput(sample.image, net.Predict(sample.image), decode)) {
       if (peak.suppressed) continue;
-      // As detection reports them: nothing beyond its range across the floor.
-      if ((Eigen::Vector2d(peak.x, peak.y) - sample.image.frame.origin).norm() > report_range_m)
-        continue;
       ScoredDetection d;
       d.furniture_class = peak.furniture_class;
       d.x = peak.x;
@@ -130,9 +125,8 @@ EvaluationOptions ValidationEvaluation() {
 double ValidationMeanAp(const VoteNet& net, const std::vector<BevSample>& validation) {
   BevDecodeOptions decode;
   decode.min_heat = 0.02;  // low: AP sweeps the score
-  const EvaluationResult result = EvaluateFrames(
-      DecodedFrames(net, validation, decode, false, std::numeric_limits<double>::infinity()),
-      ValidationEvaluation());
+  const EvaluationResult result =
+      EvaluateFrames(DecodedFrames(net, validation, decode, false), ValidationEvaluation());
   return MetricOrNan(result.metrics, MetricId::MeanAp(0.10));
 }
 
@@ -336,8 +330,8 @@ VoteNet TrainVoteNetOnSamples(const std::vector<BevSample>& training,
 
 OperatingPoint VoteNetOperatingPoint(const VoteNet& net, const std::vector<BevSample>& validation) {
   Require(!validation.empty(), "an operating point needs validation frames");
-  const std::vector<FrameOutcome> frames = DecodedFrames(
-      net, validation, DetectorOptions{}.LearnedDecode(), true, DetectorOptions{}.max_range_m);
+  const std::vector<FrameOutcome> frames =
+      DecodedFrames(net, validation, DetectorOptions{}.LearnedDecode(), true);
   EvaluationOptions roles;  // as evaluate counts objects: 25 % visible, within 3 m
   roles.max_distance_m = DetectorOptions{}.max_range_m;
   return ChooseOperatingPoint(frames,
