@@ -19,7 +19,8 @@ constexpr char kMagic[8] = {'F', 'U', 'R', 'N', 'V', 'N', 'E', 'T'};
 // in the header (issue 37); 2: dense votes and membership. Versions 2 and 3
 // hold the weights as a TorchScript archive, whose loading can run code: not
 // read (nor is 1, whose channels mean something else).
-constexpr uint32_t kVersion = 5;  // 5: the rasterised range (4: 3 m)
+constexpr uint32_t kVersion = 6;        // 6: the U-Net's levels (before: 3); 5: the range (4: 3 m)
+constexpr uint32_t kOldestVersion = 4;  // the first format of weight records
 constexpr uint32_t kFirstArchiveVersion = 2;
 
 // A tensor record's element type.
@@ -142,8 +143,9 @@ VoteNetOptions ReadVoteNetHeader(const std::string& bytes,
     options.coder.ignore_radius_cells = Take<double>(bytes, at, what);
   }
   options.range_m = version >= 5 ? Take<double>(bytes, at, what) : 3.0;  // 4: trained on 3 m
+  options.levels = version >= 6 ? Take<int32_t>(bytes, at, what) : 3;
   try {
-    options.Check();  // bounds the network the header builds (width, grid)
+    options.Check();  // bounds the network the header builds (width, grid, levels)
   } catch (const InputError& error) {
     throw InputError(what + ": vote network is corrupt (" + error.what() + ")");
   }
@@ -154,7 +156,7 @@ std::string UpgradeTorchScriptVoteNet(const std::string& bytes, const std::strin
   size_t at = 0;
   const uint32_t version = ReadMagicAndVersion(bytes, &at, what);
   if (version == kVersion) return bytes;
-  if (version == kVersion - 1) return VoteNet::Deserialize(bytes, what).Serialize();
+  if (version >= kOldestVersion) return VoteNet::Deserialize(bytes, what).Serialize();
   Require(version == kFirstArchiveVersion || version == kFirstArchiveVersion + 1,
           what + ": vote network format " + std::to_string(version) + " cannot be upgraded");
   const VoteNetOptions options = ReadVoteNetHeader(bytes, &at, what, version);
@@ -191,23 +193,21 @@ torch::Tensor ConvBlockImpl::forward(torch::Tensor x) {
   return torch::relu(bn2(conv2(x)));
 }
 
-UNetImpl::UNetImpl(int in, int w, int out)
-    : e1(in, w),
-      e2(w, 2 * w),
-      e3(2 * w, 4 * w),
-      bottom(4 * w, 4 * w),
-      d3(8 * w, 4 * w),
-      d2(6 * w, 2 * w),
-      d1(3 * w, w),
-      head(torch::nn::Conv2dOptions(w, out, 1)) {
-  register_module("e1", e1);
-  register_module("e2", e2);
-  register_module("e3", e3);
-  register_module("bottom", bottom);
-  register_module("d3", d3);
-  register_module("d2", d2);
-  register_module("d1", d1);
-  register_module("head", head);
+UNetImpl::UNetImpl(int in, int w, int out, int levels) {
+  const auto channels = [w](int level) { return w * std::min(1 << level, 4); };
+  for (int i = 0; i < levels; ++i) {
+    encoders.push_back(register_module("e" + std::to_string(i + 1),
+                                       ConvBlock(i == 0 ? in : channels(i - 1), channels(i))));
+  }
+  bottom = register_module("bottom", ConvBlock(channels(levels - 1), channels(levels)));
+  decoders.resize(levels, ConvBlock(nullptr));
+  for (int i = levels - 1; i >= 0; --i) {
+    // The level below's output (the bottleneck's for the deepest) and this
+    // level's skip connection.
+    decoders[i] = register_module("d" + std::to_string(i + 1),
+                                  ConvBlock(channels(i + 1) + channels(i), channels(i)));
+  }
+  head = register_module("head", torch::nn::Conv2d(torch::nn::Conv2dOptions(w, out, 1)));
   // CenterNet's heat bias: sigmoid(-2.19) = 0.1, so the first steps are not
   // swamped by the background; the membership likewise.
   torch::NoGradGuard no_grad;
@@ -230,13 +230,15 @@ torch::Tensor Up(const torch::Tensor& x, const torch::Tensor& like) {
 }  // namespace
 
 torch::Tensor UNetImpl::forward(const torch::Tensor& x) {
-  const torch::Tensor x1 = e1(x);
-  const torch::Tensor x2 = e2(torch::max_pool2d(x1, 2));
-  const torch::Tensor x3 = e3(torch::max_pool2d(x2, 2));
-  torch::Tensor y = bottom(torch::max_pool2d(x3, 2));
-  y = d3(torch::cat({Up(y, x3), x3}, 1));
-  y = d2(torch::cat({Up(y, x2), x2}, 1));
-  y = d1(torch::cat({Up(y, x1), x1}, 1));
+  std::vector<torch::Tensor> skips;
+  torch::Tensor y = x;
+  for (size_t i = 0; i < encoders.size(); ++i) {
+    y = encoders[i]->forward(i == 0 ? y : torch::max_pool2d(y, 2));
+    skips.push_back(y);
+  }
+  y = bottom->forward(torch::max_pool2d(y, 2));
+  for (size_t i = decoders.size(); i-- > 0;)
+    y = decoders[i]->forward(torch::cat({Up(y, skips[i]), skips[i]}, 1));
   return head(y);
 }
 
@@ -283,6 +285,11 @@ void VoteNetOptions::Check() const {
           "vote network range " + std::to_string(range_m) + " m must be in (0, 20]");
   Require(width >= 4 && width <= 128,
           "vote network width " + std::to_string(width) + " must be in 4..128");
+  Require(levels >= 2 && levels <= 5,
+          "vote network levels " + std::to_string(levels) + " must be in 2..5");
+  Require((grid.rows >> levels) >= 1 && (grid.cols >> levels) >= 1,
+          "a BEV grid of " + std::to_string(grid.rows) + " x " + std::to_string(grid.cols) +
+              " cells cannot be halved " + std::to_string(levels) + " times");
 }
 
 VoteNet::VoteNet() = default;
@@ -296,7 +303,7 @@ VoteNet VoteNet::Create(const VoteNetOptions& options, uint64_t seed) {
   VoteNet net;
   net.impl_ = std::make_unique<Impl>();
   net.impl_->options = options;
-  net.impl_->net = UNet(kBevChannels, options.width, bev_channels::kCount);
+  net.impl_->net = UNet(kBevChannels, options.width, bev_channels::kCount, options.levels);
   net.impl_->net->eval();
   return net;
 }
@@ -328,6 +335,7 @@ std::string VoteNet::Serialize() const {
   Put(&out, o.coder.vote_margin_m);
   Put(&out, o.coder.ignore_radius_cells);
   Put(&out, o.range_m);
+  Put(&out, static_cast<int32_t>(o.levels));
   const auto tensors = NamedTensors(impl_->net);
   Put(&out, static_cast<uint32_t>(tensors.size()));
   for (const auto& [name, tensor] : tensors) PutTensor(&out, name, tensor);
@@ -341,7 +349,7 @@ VoteNet VoteNet::Deserialize(const std::string& bytes, const std::string& what) 
           what + ": vote network format " + std::to_string(version) +
               " keeps its weights as a TorchScript archive, which this build does not load "
               "(loading one can run code): train the model again with this build");
-  Require(version == kVersion || version == kVersion - 1,
+  Require(version >= kOldestVersion && version <= kVersion,
           what + ": vote network format " + std::to_string(version) + " is not this build's (" +
               std::to_string(kVersion) + "): train the model again with this build");
   const VoteNetOptions options = ReadVoteNetHeader(bytes, &at, what, version);

@@ -1,5 +1,5 @@
 // The learned vote map (issues 30, 37): a small encoder-decoder CNN (U-Net,
-// three halvings) from a bird's-eye-view image (bev_grid.h) to, per cell, the
+// three or four halvings) from a bird's-eye-view image (bev_grid.h) to, per cell, the
 // channels of bev_channels.h: a centre heat map per class and a dense vote
 // (offset to its object's centre, footprint, yaw, membership). What the
 // channels mean is the box coder's (bev_box_coder.h); the loss and the
@@ -35,6 +35,10 @@ struct VoteNetOptions {
   // forward reach. At 3 m (networks before format 5) a quarter of the tables
   // within 3 m had their far end cut off (docs/learned-voting.md).
   double range_m = 3.6;
+  // Halvings of the U-Net's encoder (stored with the weights; 3 before format
+  // 6). Each one doubles the receptive field: at 3 the bottleneck's cells are
+  // 40 cm, at 4 80 cm, enough context to see both ends of a 2 m table top.
+  int levels = 3;
 
   void Check() const;
 };

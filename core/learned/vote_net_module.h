@@ -24,13 +24,17 @@ struct ConvBlockImpl : torch::nn::Module {
 };
 TORCH_MODULE(ConvBlock);
 
-// Encoder (3 halvings), bottleneck, decoder with skip connections, 1x1 head
-// with bev_channels::kCount outputs.
+// Encoder (`levels` halvings), bottleneck, decoder with skip connections,
+// 1x1 head with bev_channels::kCount outputs. Level i (from 0) has
+// w * min(2^i, 4) channels; the modules are named e1..eL, bottom, dL..d1,
+// head, so three levels keep the names of the networks before the option.
 struct UNetImpl : torch::nn::Module {
-  UNetImpl(int in, int w, int out);
+  UNetImpl(int in, int w, int out, int levels);
   torch::Tensor forward(const torch::Tensor& x);
-  ConvBlock e1, e2, e3, bottom, d3, d2, d1;
-  torch::nn::Conv2d head;
+  std::vector<ConvBlock> encoders;  // e1..eL
+  ConvBlock bottom{nullptr};
+  std::vector<ConvBlock> decoders;  // d1..dL (decoders[i] is d(i+1))
+  torch::nn::Conv2d head{nullptr};
 };
 TORCH_MODULE(UNet);
 

@@ -237,10 +237,10 @@ TEST(VoteNet, WeightRecordsAreCheckedBeforeTheyAreRead) {
     return testing::ErrorOf([&] { VoteNet::Deserialize(damaged, "shared.fcm"); });
   };
   // Header: magic 8, version 4, cell 8, rows 4, cols 4, band 8, width 4,
-  // dense 4, three doubles 24, range 8: the record count at 76, the first
-  // record at 80 (name size 4, "e1.conv1.weight" 15, type 1, dims 4, then
-  // the sizes).
-  constexpr size_t kCount = 76, kFirst = 80;
+  // dense 4, three doubles 24, range 8, levels 4: the record count at 80,
+  // the first record at 84 (name size 4, "e1.conv1.weight" 15, type 1,
+  // dims 4, then the sizes).
+  constexpr size_t kCount = 80, kFirst = 84;
   const std::string first_name = "e1.conv1.weight";
   ASSERT_EQ(bytes.substr(kFirst + 4, first_name.size()), first_name);
   const size_t dims_at = kFirst + 4 + first_name.size() + 1 + 4;
@@ -286,11 +286,12 @@ TEST(VoteNet, RangeIsStoredAndFormatFourReadsAsThreeMetres) {
   const std::string bytes = VoteNet::Create(options, 1).Serialize();
   EXPECT_DOUBLE_EQ(VoteNet::Deserialize(bytes, "new.fcm").options().range_m, 3.3);
 
-  constexpr size_t kRangeAt = 68;  // after the coder's three doubles
+  constexpr size_t kRangeAt = 68;  // after the coder's three doubles; then the levels
   double stored = 0;
   std::memcpy(&stored, &bytes[kRangeAt], sizeof(stored));
   ASSERT_EQ(stored, 3.3);
-  std::string format4 = bytes.substr(0, kRangeAt) + bytes.substr(kRangeAt + sizeof(double));
+  std::string format4 =
+      bytes.substr(0, kRangeAt) + bytes.substr(kRangeAt + sizeof(double) + sizeof(int32_t));
   const uint32_t four = 4;
   std::memcpy(&format4[8], &four, sizeof(four));
   const VoteNet old = VoteNet::Deserialize(format4, "old.fcm");
@@ -306,6 +307,58 @@ TEST(VoteNet, RangeIsStoredAndFormatFourReadsAsThreeMetres) {
               std::string::npos)
         << bad << ": " << message;
   }
+}
+
+// The U-Net's halvings are stored with the weights (format 6): a fourth
+// level doubles the receptive field; a format-5 block (before the field)
+// reads as the three levels it was built with, and levels the grid cannot
+// take are refused by name.
+TEST(VoteNet, LevelsAreStoredAndFormatFiveReadsAsThree) {
+  VoteNetOptions options;
+  options.grid = SmallGrid();
+  options.width = 4;
+  EXPECT_EQ(options.levels, 3);
+  const VoteNet three = VoteNet::Create(options, 1);
+  options.levels = 4;
+  const VoteNet four = VoteNet::Create(options, 1);
+  EXPECT_GT(four.Parameters(), three.Parameters());  // e4 and d4
+  const std::string bytes = four.Serialize();
+  const VoteNet loaded = VoteNet::Deserialize(bytes, "deep.fcm");
+  EXPECT_EQ(loaded.options().levels, 4);
+  EXPECT_EQ(loaded.Serialize(), bytes);
+  const BevImage image = Rooms(1)[0].image;
+  const BevOutput a = four.Predict(image), b = loaded.Predict(image);
+  ASSERT_EQ(a.values.size(), b.values.size());
+  EXPECT_EQ(a.values, b.values);
+  EXPECT_EQ(a.values.size(), three.Predict(image).values.size());
+
+  constexpr size_t kLevelsAt = 76;  // after the range
+  const std::string three_bytes = three.Serialize();
+  int32_t stored = 0;
+  std::memcpy(&stored, &three_bytes[kLevelsAt], sizeof(stored));
+  ASSERT_EQ(stored, 3);
+  std::string format5 =
+      three_bytes.substr(0, kLevelsAt) + three_bytes.substr(kLevelsAt + sizeof(int32_t));
+  const uint32_t five = 5;
+  std::memcpy(&format5[8], &five, sizeof(five));
+  const VoteNet old = VoteNet::Deserialize(format5, "old.fcm");
+  EXPECT_EQ(old.options().levels, 3);
+  EXPECT_EQ(old.Serialize(), three_bytes);  // the upgrade is the same network
+
+  for (int32_t bad : {1, 6, -3}) {
+    std::string damaged = bytes;
+    std::memcpy(&damaged[kLevelsAt], &bad, sizeof(bad));
+    const std::string message =
+        testing::ErrorOf([&] { VoteNet::Deserialize(damaged, "shared.fcm"); });
+    EXPECT_NE(message.find("shared.fcm: vote network is corrupt (vote network levels"),
+              std::string::npos)
+        << bad << ": " << message;
+  }
+  options.levels = 5;  // 32 / 2^5 = 1 cell: still a grid
+  EXPECT_NO_THROW(VoteNet::Create(options, 1));
+  options.grid.rows = 16;
+  EXPECT_NE(testing::ErrorOf([&] { VoteNet::Create(options, 1); }).find("cannot be halved 5 times"),
+            std::string::npos);
 }
 
 TEST(VoteNet, SameSeedAndThreadsSameWeights) {

@@ -140,6 +140,10 @@ void AddVoteNetFlags(CLI::App* app, VoteNetFlags* flags) {
       ->capture_default_str();
   app->add_option("--vote-width", o.net.width, "Vote network: channels of its first level")
       ->capture_default_str();
+  app->add_option("--vote-levels",
+                  o.net.levels,
+                  "Vote network: halvings of its encoder (receptive field; stored in the model)")
+      ->capture_default_str();
   app->add_option("--vote-batch", o.batch_size, "Vote network: frames per training step")
       ->capture_default_str();
   app->add_option("--vote-lr", o.learning_rate, "Vote network: peak learning rate (Adam)")

@@ -351,7 +351,7 @@ int RunModel(int argc, char** argv) {
   if (upgrade->parsed()) {
     TrainedModel model =
         trust_torchscript ? LoadTrainedModelUnchecked(path) : LoadTrainedModel(path);
-    if (!model.vote_net.empty())  // format 4 gains its range; 2 and 3 only when trusted
+    if (!model.vote_net.empty())  // 4 and 5 gain range and levels; 2 and 3 only when trusted
       model.vote_net = trust_torchscript ? UpgradeTorchScriptVoteNet(model.vote_net, path)
                                          : VoteNet::Deserialize(model.vote_net, path).Serialize();
     SaveTrainedModel(model, out);

@@ -187,10 +187,10 @@ std::string DescribeTrainedModel(const TrainedModel& model) {
   } else {
     const VoteNet net = VoteNet::Deserialize(model.vote_net, "the model's vote network");
     const BevGridSpec& grid = net.options().grid;
-    out << "vote net:    U-Net, " << net.Parameters() << " parameters, width "
-        << net.options().width << "; BEV grid " << grid.rows << " x " << grid.cols << " cells of "
-        << grid.cell_m << " m, points within " << net.options().range_m << " m ("
-        << model.vote_net.size() / 1024
+    out << "vote net:    U-Net, " << net.options().levels << " halvings, " << net.Parameters()
+        << " parameters, width " << net.options().width << "; BEV grid " << grid.rows << " x "
+        << grid.cols << " cells of " << grid.cell_m << " m, points within " << net.options().range_m
+        << " m (" << model.vote_net.size() / 1024
         << " KiB); targets: " << (net.options().coder.dense_votes ? "dense votes" : "centre cell")
         << "\n";
   }

@@ -208,6 +208,7 @@ std::string VoteNetTrainingOptions::Json() const {
         {"cols", net.grid.cols},
         {"floor_band_m", net.grid.floor_band_m}}},
       {"width", net.width},
+      {"levels", net.levels},
       {"coder",
        {{"heat_sigma_cells", net.coder.heat_sigma_cells},
         {"vote_margin_m", net.coder.vote_margin_m},
