@@ -274,6 +274,15 @@ TEST(VoteNet, WeightRecordsAreCheckedBeforeTheyAreRead) {
   }
 }
 
+// The error of loading `bytes` as "shared.fcm" with the header field at
+// `at` overwritten by `value`.
+template <typename T>
+std::string ErrorWithHeaderField(const std::string& bytes, size_t at, T value) {
+  std::string damaged = bytes;
+  std::memcpy(&damaged[at], &value, sizeof(value));
+  return testing::ErrorOf([&] { VoteNet::Deserialize(damaged, "shared.fcm"); });
+}
+
 // The range of points rasterised is stored with the weights (format 5);
 // a format-4 block (before the field) reads as the 3 m it was trained on,
 // and a range outside (0, 20] m is refused by name.
@@ -299,10 +308,7 @@ TEST(VoteNet, RangeIsStoredAndFormatFourReadsAsThreeMetres) {
   EXPECT_DOUBLE_EQ(VoteNet::Deserialize(old.Serialize(), "old.fcm").options().range_m, 3.0);
 
   for (double bad : {0.0, -1.0, 25.0, std::nan("")}) {
-    std::string damaged = bytes;
-    std::memcpy(&damaged[kRangeAt], &bad, sizeof(bad));
-    const std::string message =
-        testing::ErrorOf([&] { VoteNet::Deserialize(damaged, "shared.fcm"); });
+    const std::string message = ErrorWithHeaderField(bytes, kRangeAt, bad);
     EXPECT_NE(message.find("shared.fcm: vote network is corrupt (vote network range"),
               std::string::npos)
         << bad << ": " << message;
@@ -346,10 +352,7 @@ TEST(VoteNet, LevelsAreStoredAndFormatFiveReadsAsThree) {
   EXPECT_EQ(old.Serialize(), three_bytes);  // the upgrade is the same network
 
   for (int32_t bad : {1, 6, -3}) {
-    std::string damaged = bytes;
-    std::memcpy(&damaged[kLevelsAt], &bad, sizeof(bad));
-    const std::string message =
-        testing::ErrorOf([&] { VoteNet::Deserialize(damaged, "shared.fcm"); });
+    const std::string message = ErrorWithHeaderField(bytes, kLevelsAt, bad);
     EXPECT_NE(message.find("shared.fcm: vote network is corrupt (vote network levels"),
               std::string::npos)
         << bad << ": " << message;
