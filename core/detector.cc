@@ -86,6 +86,7 @@ BevDecodeOptions DetectorOptions::LearnedDecode() const {
   decode.centre = learned_centre;
   decode.vote_bandwidth_m = learned_vote_bandwidth_m;
   decode.vote_heat_power = learned_vote_heat_power;
+  decode.edge_classes = learned_edge_classes;
   return decode;
 }
 

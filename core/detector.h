@@ -179,6 +179,9 @@ struct DetectorOptions {
   BevCentre learned_centre = BevCentre::kVotes;
   double learned_vote_bandwidth_m = 0.1;
   double learned_vote_heat_power = 0;  // BevDecodeOptions::vote_heat_power
+  // Networks trained with edge votes: the classes centred between the sides
+  // their cells place (BevDecodeOptions::edge_classes).
+  BevEdgeClasses learned_edge_classes = BevEdgeClasses::kLarge;
   // The extent fit (core/learned/bev_extent.h): the detections of these
   // classes move their box to the edges of the surface the scan shows, where
   // it saw them end (a long table's centre from its two ends, not from one
@@ -366,8 +369,10 @@ struct DetectionDebug {
     bool learned = false;
     double yaw = 0, width = 0, depth = 0;
     // Learned voting: where the peak cell's own vote put the centre, and the
-    // summed weight of the dense votes that placed it (0: the peak's own).
+    // summed weight of the dense votes that placed it (0: the peak's own),
+    // and the cells whose edge votes placed it (0: not by edges).
     double peak_x = 0, peak_y = 0, votes = 0;
+    int edge_cells = 0;
     // Learned voting with learned_fit: the best fit agreed with the network
     // and gave the detection its yaw and CAD model (fit_x, fit_y and the fits
     // say where it was).

@@ -183,6 +183,7 @@ std::vector<DetectionDebug::Hypothesis> Detector::LearnedMaxima(
     h.peak_x = peak.peak_x;
     h.peak_y = peak.peak_y;
     h.votes = peak.votes;
+    h.edge_cells = peak.edge_cells;
     h.outcome = peak.suppressed ? HypothesisOutcome::kSuppressed : HypothesisOutcome::kDetected;
     h.outcome_values[0] = peak.suppressed_by_m;
     const OperatingPoint& point = impl_->operating_point;

@@ -140,6 +140,63 @@ void EncodeVotes(const std::vector<BevObject>& objects,
   }
 }
 
+// The bounding box of an object's footprint in continuous cell coordinates:
+// (row min, row max, col min, col max).
+Eigen::Vector4d FootprintBoxCells(const BevObject& object, const BevImage& image) {
+  Eigen::Vector4d box(1e30, -1e30, 1e30, -1e30);
+  const Eigen::Rotation2Dd rotation(object.yaw);
+  for (const double sx : {-0.5, 0.5}) {
+    for (const double sy : {-0.5, 0.5}) {
+      const Eigen::Vector2d corner =
+          object.centre + rotation * Eigen::Vector2d(sx * object.width, sy * object.depth);
+      const Eigen::Vector2d cell = image.frame.CellOf(corner, image.spec);
+      box[0] = std::min(box[0], cell.x());
+      box[1] = std::max(box[1], cell.x());
+      box[2] = std::min(box[2], cell.y());
+      box[3] = std::max(box[3], cell.y());
+    }
+  }
+  return box;
+}
+
+// Each occupied cell inside a target's widened footprint (the nearest centre
+// wins) regresses log(distance + kEdgeEpsM) to the four sides of that
+// target's box.
+void EncodeEdges(const std::vector<BevObject>& objects,
+                 const BevImage& image,
+                 const BevCoderOptions& options,
+                 BevTargets* targets) {
+  const BevGridSpec& spec = image.spec;
+  const size_t plane = static_cast<size_t>(spec.rows) * spec.cols;
+  std::vector<Eigen::Vector4d> boxes;
+  for (const BevObject& object : objects) boxes.push_back(FootprintBoxCells(object, image));
+  for (int r = 0; r < spec.rows; ++r) {
+    for (int c = 0; c < spec.cols; ++c) {
+      if (!image.Occupied(r, c)) continue;
+      const Eigen::Vector2d xy = image.frame.WorldOf({r + 0.5, c + 0.5}, spec);
+      int owner = -1;
+      double nearest = 1e30;
+      for (size_t i = 0; i < objects.size(); ++i) {
+        const double distance = (objects[i].centre - xy).norm();
+        if (objects[i].target && distance < nearest &&
+            InFootprint(objects[i], xy, options.vote_margin_m))
+          owner = static_cast<int>(i), nearest = distance;
+      }
+      if (owner < 0) continue;
+      const Eigen::Vector4d& box = boxes[owner];
+      const double distances[4] = {
+          r + 0.5 - box[0], box[1] - r - 0.5, c + 0.5 - box[2], box[3] - c - 0.5};
+      const size_t at = PlaneIndex(spec, r, c);
+      for (int side = 0; side < 4; ++side) {
+        const double metres = std::max(0.0, distances[side]) * spec.cell_m;
+        targets->values[ch::kEdges[side] * plane + at] =
+            static_cast<float>(std::log(metres + ch::kEdgeEpsM));
+      }
+      targets->edges[at] = 1.0f;
+    }
+  }
+}
+
 struct Cell {
   int class_index = 0, row = 0, col = 0;
   float heat = 0;
@@ -234,6 +291,72 @@ VotedBox MeanShiftVotes(const BevImage& image,
   return box;
 }
 
+// The centre between the four sides the cells around `start` place (FCOS's
+// edge distances): each occupied cell whose distances put the centre within
+// edge_agree_m of `start` says where each side lies, its say on a side
+// falling off with its distance to it, so each side is placed by the cells
+// nearest it. Two rounds, the second around the first's centre. `cells`
+// receives how many cells voted (0: `start` is kept).
+Eigen::Vector2d EdgeCentre(const BevImage& image,
+                           const BevOutput& output,
+                           const Eigen::Vector2d& start,
+                           double reach_cells,
+                           const BevDecodeOptions& options,
+                           int* cells) {
+  const BevGridSpec& spec = output.spec;
+  struct EdgeVote {
+    Eigen::Vector4d sides;     // row min, row max, col min, col max (cells)
+    Eigen::Vector4d distance;  // to each (cells)
+    Eigen::Vector2d centre;
+  };
+  std::vector<EdgeVote> votes;
+  const int row0 = static_cast<int>(std::floor(start.x()));
+  const int col0 = static_cast<int>(std::floor(start.y()));
+  const int span = static_cast<int>(std::ceil(reach_cells));
+  for (int r = std::max(0, row0 - span); r <= std::min(spec.rows - 1, row0 + span); ++r) {
+    for (int c = std::max(0, col0 - span); c <= std::min(spec.cols - 1, col0 + span); ++c) {
+      if (!image.Occupied(r, c)) continue;
+      EdgeVote vote;
+      for (int side = 0; side < 4; ++side) {
+        const double metres =
+            std::exp(std::clamp(output.At(ch::kEdges[side], r, c), -5.0f, 2.0f)) - ch::kEdgeEpsM;
+        vote.distance[side] = std::max(0.0, metres) / spec.cell_m;
+      }
+      vote.sides = {r + 0.5 - vote.distance[0],
+                    r + 0.5 + vote.distance[1],
+                    c + 0.5 - vote.distance[2],
+                    c + 0.5 + vote.distance[3]};
+      vote.centre = {(vote.sides[0] + vote.sides[1]) / 2, (vote.sides[2] + vote.sides[3]) / 2};
+      votes.push_back(vote);
+    }
+  }
+  const double agree = options.edge_agree_m / spec.cell_m;
+  const double near = options.edge_near_m / spec.cell_m;
+  Eigen::Vector2d centre = start;
+  *cells = 0;
+  for (int round = 0; round < 2; ++round) {
+    std::vector<const EdgeVote*> agreeing;
+    for (const EdgeVote& vote : votes)
+      if ((vote.centre - centre).norm() <= agree) agreeing.push_back(&vote);
+    if (agreeing.empty()) break;
+    Eigen::Vector4d sides;
+    for (int side = 0; side < 4; ++side) {
+      double closest = 1e30;
+      for (const EdgeVote* vote : agreeing) closest = std::min(closest, vote->distance[side]);
+      double sum = 0, weight = 0;
+      for (const EdgeVote* vote : agreeing) {
+        const double w = std::exp(-(vote->distance[side] - closest) / near);
+        sum += w * vote->sides[side];
+        weight += w;
+      }
+      sides[side] = sum / weight;
+    }
+    centre = {(sides[0] + sides[1]) / 2, (sides[2] + sides[3]) / 2};
+    *cells = static_cast<int>(agreeing.size());
+  }
+  return centre;
+}
+
 BevPeak PeakOf(const BevImage& image,
                const BevOutput& output,
                const Cell& cell,
@@ -250,6 +373,12 @@ BevPeak PeakOf(const BevImage& image,
     const VotedBox voted = MeanShiftVotes(image, output, cell.class_index, own, options);
     if (voted.weight > 0) box = voted;
   }
+  if (output.edge_votes && UsesEdges(options.edge_classes, peak.furniture_class)) {
+    const double reach =
+        std::hypot(std::exp(box.log_width), std::exp(box.log_depth)) / 2 / output.spec.cell_m + 2;
+    box.centre_cells =
+        EdgeCentre(image, output, box.centre_cells, reach, options, &peak.edge_cells);
+  }
   const Eigen::Vector2d xy = image.frame.WorldOf(box.centre_cells, output.spec);
   peak.x = xy.x();
   peak.y = xy.y();
@@ -262,6 +391,20 @@ BevPeak PeakOf(const BevImage& image,
 }
 
 }  // namespace
+
+bool UsesEdges(BevEdgeClasses classes, FurnitureClass furniture_class) {
+  switch (classes) {
+    case BevEdgeClasses::kNone:
+      return false;
+    case BevEdgeClasses::kAll:
+      return true;
+    case BevEdgeClasses::kLarge:
+      return furniture_class == FurnitureClass::kTable ||
+             furniture_class == FurnitureClass::kSideboard ||
+             furniture_class == FurnitureClass::kSofa;
+  }
+  return false;
+}
 
 int BevYawSymmetry(FurnitureClass furniture_class) {
   return furniture_class == FurnitureClass::kTable ? 2 : 1;
@@ -277,7 +420,8 @@ BevCoderOptions BevCoderOptions::Dense() {
 
 bool BevCoderOptions::operator==(const BevCoderOptions& other) const {
   return heat_sigma_cells == other.heat_sigma_cells && dense_votes == other.dense_votes &&
-         vote_margin_m == other.vote_margin_m && ignore_radius_cells == other.ignore_radius_cells;
+         vote_margin_m == other.vote_margin_m && ignore_radius_cells == other.ignore_radius_cells &&
+         edge_votes == other.edge_votes;
 }
 
 double BevSplatSigma(double width_m, double depth_m, const BevGridSpec& spec) {
@@ -311,6 +455,10 @@ void BevDecodeOptions::Check() const {
           "vote heat power " + std::to_string(vote_heat_power) + " must be in 0..8");
   Require(mean_shift_iterations >= 1 && mean_shift_iterations <= 100,
           "mean shift iterations must be in 1..100");
+  Require(edge_near_m > 0 && edge_near_m <= 5,
+          "edge vote reach " + std::to_string(edge_near_m) + " m must be in (0, 5]");
+  Require(edge_agree_m > 0 && edge_agree_m <= 5,
+          "edge vote agreement " + std::to_string(edge_agree_m) + " m must be in (0, 5]");
 }
 
 BevTargets EncodeBevTargets(const std::vector<BevObject>& objects,
@@ -319,9 +467,11 @@ BevTargets EncodeBevTargets(const std::vector<BevObject>& objects,
   const BevGridSpec& spec = image.spec;
   const size_t plane = static_cast<size_t>(spec.rows) * spec.cols;
   BevTargets targets;
-  targets.values.assign(ch::kCount * plane, 0.0f);
+  targets.channels = options.Channels();
+  targets.values.assign(targets.channels * plane, 0.0f);
   targets.votes.assign(plane, 0.0f);
   targets.weight.assign(plane, 1.0f);
+  if (options.edge_votes) targets.edges.assign(plane, 0.0f);
   for (const BevObject& object : objects) {
     const Eigen::Vector2d cell = image.frame.CellOf(object.centre, spec);
     if (!InGrid(cell, spec)) continue;
@@ -337,6 +487,7 @@ BevTargets EncodeBevTargets(const std::vector<BevObject>& objects,
     SplatHeat(cell, sigma, spec, &targets.values[ch::kHeat[k] * plane]);
   }
   if (options.dense_votes) EncodeVotes(objects, image, options, &targets);
+  if (options.edge_votes) EncodeEdges(objects, image, options, &targets);
   // A target's centre cell always regresses its box, seen or not (a table's
   // centre under its top may hold no point when the top was not seen).
   for (const BevObject& object : objects) {
@@ -358,9 +509,9 @@ std::vector<BevPeak> DecodeBevOutput(const BevImage& image,
                                      const BevOutput& output,
                                      const BevDecodeOptions& options) {
   options.Check();
-  Require(
-      output.values.size() == static_cast<size_t>(ch::kCount) * output.spec.rows * output.spec.cols,
-      "a vote network output has the wrong number of channels");
+  Require(output.values.size() == static_cast<size_t>(ch::CountOf(output.edge_votes)) *
+                                      output.spec.rows * output.spec.cols,
+          "a vote network output has the wrong number of channels");
   std::vector<Cell> cells;
   for (int k = 0; k < kBevClasses; ++k) {
     std::vector<Cell> of_class = MaximaOf(output, k, options.min_heat);

@@ -15,7 +15,10 @@
 //               target's footprint (widened by vote_margin_m; the nearest
 //               centre wins where two overlap) does, with membership 1;
 //   ignore      with ignore_radius_cells > 0, around an object seen too little
-//               to be a target, no heat or membership loss within that radius.
+//               to be a target, no heat or membership loss within that radius;
+//   edges       with edge_votes, every occupied cell inside a target's
+//               footprint (the nearest centre wins) regresses its distances to
+//               the four sides of the footprint's bounding box in the grid.
 //
 // Decoding: per class, 3 x 3 local maxima of the heat of at least min_heat,
 // the strongest max_per_class. A maximum's centre is either its own cell's
@@ -24,7 +27,10 @@
 // weighted by membership (kVotes: a partly seen table top is hundreds of cells
 // agreeing on one centre); footprint and yaw likewise. Cross-class
 // suppression (a weaker maximum of any class within suppress_m of a stronger
-// one is marked) is optional; evaluation ranks every maximum.
+// one is marked) is optional; evaluation ranks every maximum. With edge
+// votes, a maximum of the edge classes is centred between its box's four
+// sides, each side placed by the cells nearest it (a long table's far end
+// by the cells at that end, not by its centre cell's guess).
 //
 //   const BevTargets targets = EncodeBevTargets(objects, image, BevCoderOptions{});
 //   for (const BevPeak& p : DecodeBevOutput(image, output, BevDecodeOptions{})) ...
@@ -34,6 +40,7 @@
 #include <vector>
 
 #include "core/enum_text.h"
+#include "core/learned/bev_channels.h"
 #include "core/learned/bev_grid.h"
 
 namespace furn {
@@ -56,7 +63,12 @@ struct BevCoderOptions {
   // No heat or membership loss this near an object that is no target
   // (cells); 0: such objects are left out.
   double ignore_radius_cells = 0;
+  // Edge votes: every occupied cell of a target regresses its distances to
+  // the sides of its footprint's box (bev_channels::kEdges; four more output
+  // channels).
+  bool edge_votes = false;
 
+  int Channels() const { return bev_channels::CountOf(edge_votes); }
   // Issue 37's encoding: fixed heat width 1.5 cells, dense votes, ignore
   // regions of 3 cells.
   static BevCoderOptions Dense();
@@ -69,14 +81,17 @@ struct BevCoderOptions {
 // footprint's smaller side, 1 to 3 cells.
 double BevSplatSigma(double width_m, double depth_m, const BevGridSpec& spec);
 
-// bev_channels::kCount x rows x cols of targets, and per cell (rows x cols)
-// where the regressions count (`votes`: 1 on a target's occupied cells) and
-// how much the heat and membership losses count (`weight`: 0 in ignore
-// regions, else 1).
+// `channels` (BevCoderOptions::Channels) x rows x cols of targets, and per
+// cell (rows x cols) where the regressions count (`votes`: 1 on a target's
+// occupied cells), how much the heat and membership losses count (`weight`:
+// 0 in ignore regions, else 1) and, with edge votes, where the edge
+// distances count (`edges`: 1 on a target's occupied cells; else empty).
 struct BevTargets {
+  int channels = bev_channels::kCount;
   std::vector<float> values;
   std::vector<float> votes;
   std::vector<float> weight;
+  std::vector<float> edges;
   int objects = 0;  // targets whose centre lies inside the grid
 };
 
@@ -92,6 +107,20 @@ struct EnumText<BevCentre> {
   static constexpr EnumEntry<BevCentre> kEntries[] = {{BevCentre::kPeak, "peak"},
                                                       {BevCentre::kVotes, "votes"}};
 };
+
+// Which classes' maxima a network with edge votes centres between the sides
+// its cells place.
+enum class BevEdgeClasses { kNone, kLarge, kAll };
+template <>
+struct EnumText<BevEdgeClasses> {
+  static constexpr const char* kKind = "edge-vote classes";
+  static constexpr EnumEntry<BevEdgeClasses> kEntries[] = {
+      {BevEdgeClasses::kNone, "none"},
+      {BevEdgeClasses::kLarge, "large"},  // tables, sideboards and sofas
+      {BevEdgeClasses::kAll, "all"},
+  };
+};
+bool UsesEdges(BevEdgeClasses classes, FurnitureClass furniture_class);
 
 struct BevDecodeOptions {
   double min_heat = 0.1;  // least heat of a maximum
@@ -111,6 +140,13 @@ struct BevDecodeOptions {
   // central more (a chair's peak is precise; its outer cells' votes less so).
   double vote_heat_power = 0;
   int mean_shift_iterations = 5;
+  // Edge votes (networks trained with them): the classes centred by them;
+  // a cell's say on a side falls off as exp(-distance to it / edge_near_m);
+  // the cells whose four distances put the centre within edge_agree_m of
+  // the maximum's own centre are the object's.
+  BevEdgeClasses edge_classes = BevEdgeClasses::kLarge;
+  double edge_near_m = 0.15;
+  double edge_agree_m = 0.3;
 
   // Throws InputError naming the field and the rule.
   void Check() const;
@@ -123,6 +159,7 @@ struct BevPeak {
   double heat = 0;
   double peak_x = 0, peak_y = 0;  // the peak cell's own vote (world)
   double votes = 0;               // summed weight of the votes that placed it (kVotes)
+  int edge_cells = 0;             // cells whose edge votes placed it (0: not by edges)
   bool suppressed = false;
   double suppressed_by_m = 0;  // distance to the stronger maximum, when suppressed
 };

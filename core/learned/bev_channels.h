@@ -12,6 +12,12 @@
 //   yaw         2            cos, sin of symmetry x (yaw - the grid's heading)
 //   membership  1            a logit: the cell belongs to a target object, so
 //                            its vote counts
+//   edges       4            networks trained with edge votes only (after the
+//                            rest): log(distance + kEdgeEpsM) from the cell's
+//                            centre to the four sides of its object's
+//                            footprint's bounding box in the grid (row min,
+//                            row max, col min, col max; m): FCOS's distances,
+//                            each side placed by the cells near it
 //
 //   const float heat = output.At(bev_channels::kHeat.first + k, row, col);
 #pragma once
@@ -37,11 +43,17 @@ inline constexpr BevSlice kOffset{kHeat.end(), 2};
 inline constexpr BevSlice kLogSize{kOffset.end(), 2};
 inline constexpr BevSlice kYaw{kLogSize.end(), 2};
 inline constexpr BevSlice kMembership{kYaw.end(), 1};
-inline constexpr int kCount = kMembership.end();
+inline constexpr int kCount = kMembership.end();  // without edge votes
+inline constexpr BevSlice kEdges{kCount, 4};
+inline constexpr int kCountWithEdges = kEdges.end();
+constexpr int CountOf(bool edge_votes) { return edge_votes ? kCountWithEdges : kCount; }
 
 // The offset channels' unit (m): votes of a large table reach 0.5 m, so the
 // loss sees them in tenths of a metre rather than in cells.
 inline constexpr double kOffsetUnitM = 0.1;
+// The edge distances' floor inside the log (m): a cell on a side is 0 m
+// from it.
+inline constexpr double kEdgeEpsM = 0.05;
 
 }  // namespace bev_channels
 }  // namespace furn

@@ -85,13 +85,14 @@ struct BevImage {
   bool Occupied(int row, int col) const;
 };
 
-// The vote network's output for one image: bev_channels::kCount x rows x
-// cols, channel-major, the heat and membership channels through a sigmoid
+// The vote network's output for one image: bev_channels::CountOf(edge_votes)
+// x rows x cols, channel-major, the heat and membership channels through a sigmoid
 // (0..1), the rest as regressed.
 struct BevOutput {
   BevGridSpec spec;
   std::vector<float> values;
   bool dense_votes = false;  // every cell's vote was trained (BevCoderOptions)
+  bool edge_votes = false;   // the edge channels are there (bev_channels::kEdges)
   float At(int channel, int row, int col) const {
     return values[(static_cast<size_t>(channel) * spec.rows + row) * spec.cols + col];
   }

@@ -19,7 +19,9 @@ constexpr char kMagic[8] = {'F', 'U', 'R', 'N', 'V', 'N', 'E', 'T'};
 // in the header (issue 37); 2: dense votes and membership. Versions 2 and 3
 // hold the weights as a TorchScript archive, whose loading can run code: not
 // read (nor is 1, whose channels mean something else).
-constexpr uint32_t kVersion = 6;        // 6: the U-Net's levels (before: 3); 5: the range (4: 3 m)
+// 7: edge votes (before: none); 6: the U-Net's levels (before: 3); 5: the
+// range (4: 3 m).
+constexpr uint32_t kVersion = 7;
 constexpr uint32_t kOldestVersion = 4;  // the first format of weight records
 constexpr uint32_t kFirstArchiveVersion = 2;
 
@@ -144,6 +146,11 @@ VoteNetOptions ReadVoteNetHeader(const std::string& bytes,
   }
   options.range_m = version >= 5 ? Take<double>(bytes, at, what) : 3.0;  // 4: trained on 3 m
   options.levels = version >= 6 ? Take<int32_t>(bytes, at, what) : 3;
+  if (version >= 7) {
+    const int32_t edges = Take<int32_t>(bytes, at, what);
+    Require(edges == 0 || edges == 1, what + ": vote network is corrupt (edge votes flag)");
+    options.coder.edge_votes = edges == 1;
+  }
   try {
     options.Check();  // bounds the network the header builds (width, grid, levels)
   } catch (const InputError& error) {
@@ -267,15 +274,24 @@ torch::Tensor ImageTensor(const std::vector<const BevImage*>& images, const BevG
 
 TargetTensors TargetTensorsOf(const std::vector<const BevTargets*>& targets,
                               const BevGridSpec& spec) {
-  std::vector<const std::vector<float>*> values, votes, weight;
+  Require(!targets.empty(), "a training batch has no targets");
+  const int channels = targets[0]->channels;
+  const bool edges = !targets[0]->edges.empty();
+  std::vector<const std::vector<float>*> values, votes, weight, edge_cells;
   for (const BevTargets* t : targets) {
+    Require(t->channels == channels && t->edges.empty() != edges,
+            "a training batch mixes targets of two encodings");
     values.push_back(&t->values);
     votes.push_back(&t->votes);
     weight.push_back(&t->weight);
+    if (edges) edge_cells.push_back(&t->edges);
   }
-  return {StackPlanes(values, bev_channels::kCount, spec),
-          StackPlanes(votes, 1, spec).squeeze(1),
-          StackPlanes(weight, 1, spec).squeeze(1)};
+  TargetTensors tensors{StackPlanes(values, channels, spec),
+                        StackPlanes(votes, 1, spec).squeeze(1),
+                        StackPlanes(weight, 1, spec).squeeze(1),
+                        {}};
+  if (edges) tensors.edges = StackPlanes(edge_cells, 1, spec).squeeze(1);
+  return tensors;
 }
 
 void VoteNetOptions::Check() const {
@@ -303,7 +319,7 @@ VoteNet VoteNet::Create(const VoteNetOptions& options, uint64_t seed) {
   VoteNet net;
   net.impl_ = std::make_unique<Impl>();
   net.impl_->options = options;
-  net.impl_->net = UNet(kBevChannels, options.width, bev_channels::kCount, options.levels);
+  net.impl_->net = UNet(kBevChannels, options.width, options.coder.Channels(), options.levels);
   net.impl_->net->eval();
   return net;
 }
@@ -336,6 +352,7 @@ std::string VoteNet::Serialize() const {
   Put(&out, o.coder.ignore_radius_cells);
   Put(&out, o.range_m);
   Put(&out, static_cast<int32_t>(o.levels));
+  Put(&out, static_cast<int32_t>(o.coder.edge_votes ? 1 : 0));
   const auto tensors = NamedTensors(impl_->net);
   Put(&out, static_cast<uint32_t>(tensors.size()));
   for (const auto& [name, tensor] : tensors) PutTensor(&out, name, tensor);
@@ -387,9 +404,17 @@ BevOutput VoteNet::Predict(const BevImage& image, bool mirror_average) const {
     // The mirror's answer turned back: columns reversed, the column offset
     // negated. Heat, membership, offset and footprint are averaged; the yaw
     // stays the image's own (its mirror depends on the class's symmetry).
+    // With edge votes the column sides swap and are averaged too.
     torch::Tensor back = outputs[1].flip({2});
     back.select(0, ch::kOffset[1]).neg_();
-    for (const BevSlice& slice : {ch::kHeat, ch::kMembership, ch::kOffset, ch::kLogSize}) {
+    std::vector<BevSlice> averaged = {ch::kHeat, ch::kMembership, ch::kOffset, ch::kLogSize};
+    if (impl_->options.coder.edge_votes) {
+      const torch::Tensor col_min = back.select(0, ch::kEdges[2]).clone();
+      back.select(0, ch::kEdges[2]).copy_(back.select(0, ch::kEdges[3]));
+      back.select(0, ch::kEdges[3]).copy_(col_min);
+      averaged.push_back(ch::kEdges);
+    }
+    for (const BevSlice& slice : averaged) {
       output.slice(0, slice.first, slice.end())
           .add_(back.slice(0, slice.first, slice.end()))
           .mul_(0.5);
@@ -399,6 +424,7 @@ BevOutput VoteNet::Predict(const BevImage& image, bool mirror_average) const {
   BevOutput out;
   out.spec = image.spec;
   out.dense_votes = impl_->options.coder.dense_votes;
+  out.edge_votes = impl_->options.coder.edge_votes;
   out.values.assign(output.data_ptr<float>(), output.data_ptr<float>() + output.numel());
   return out;
 }

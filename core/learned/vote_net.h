@@ -1,7 +1,8 @@
 // The learned vote map (issues 30, 37): a small encoder-decoder CNN (U-Net,
-// three or four halvings) from a bird's-eye-view image (bev_grid.h) to, per cell, the
-// channels of bev_channels.h: a centre heat map per class and a dense vote
-// (offset to its object's centre, footprint, yaw, membership). What the
+// 2 to 5 halvings; 3 by default) from a bird's-eye-view image (bev_grid.h) to,
+// per cell, the channels of bev_channels.h: a centre heat map per class, a
+// dense vote (offset to its object's centre, footprint, yaw, membership) and,
+// trained with edge votes, the distances to its object's sides. What the
 // channels mean is the box coder's (bev_box_coder.h); the loss and the
 // optimiser are vote_net_loss.h and vote_net_training.h. Built on libtorch
 // (Debian's libtorch-dev, CPU); no torch header leaves the learned library's

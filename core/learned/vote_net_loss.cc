@@ -10,7 +10,8 @@ void VoteNetLossWeights::Check() const {
                                     {"offset", offset},
                                     {"size", size},
                                     {"yaw", yaw},
-                                    {"membership", membership}}) {
+                                    {"membership", membership},
+                                    {"edges", edges}}) {
     Require(value >= 0 && value <= 100,
             std::string("vote loss weight ") + name + " " + std::to_string(value) +
                 " must be in 0..100");
@@ -55,8 +56,20 @@ VoteNetLoss VoteNetLossOf(const torch::Tensor& output,
   const torch::Tensor h = heat_loss * weights.heat, o = offset * weights.offset,
                       s = size * weights.size, y = yaw * weights.yaw,
                       m = membership * weights.membership;
-  if (total != nullptr) *total = h + o + s + y + m;
-  return {h.item<double>(), o.item<double>(), s.item<double>(), y.item<double>(), m.item<double>()};
+  torch::Tensor e = torch::zeros({}, output.options());
+  if (targets.edges.defined()) {
+    Require(output.size(1) >= ch::kEdges.end(), "a vote network without edge channels");
+    const torch::Tensor cells = targets.edges.unsqueeze(1);
+    e = ((slice(output, ch::kEdges) - slice(targets.values, ch::kEdges)).abs() * cells).sum() /
+        (cells.sum().clamp_min(1.0) * static_cast<double>(ch::kEdges.count)) * weights.edges;
+  }
+  if (total != nullptr) *total = h + o + s + y + m + e;
+  return {h.item<double>(),
+          o.item<double>(),
+          s.item<double>(),
+          y.item<double>(),
+          m.item<double>(),
+          e.item<double>()};
 }
 
 }  // namespace furn

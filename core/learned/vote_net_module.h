@@ -25,7 +25,7 @@ struct ConvBlockImpl : torch::nn::Module {
 TORCH_MODULE(ConvBlock);
 
 // Encoder (`levels` halvings), bottleneck, decoder with skip connections,
-// 1x1 head with bev_channels::kCount outputs. Level i (from 0) has
+// 1x1 head with `out` outputs (BevCoderOptions::Channels). Level i (from 0) has
 // w * min(2^i, 4) channels; the modules are named e1..eL, bottom, dL..d1,
 // head, so three levels keep the names of the networks before the option.
 struct UNetImpl : torch::nn::Module {
@@ -62,10 +62,10 @@ torch::Tensor StackPlanes(const std::vector<const std::vector<float>*>& planes,
                           const BevGridSpec& spec);
 torch::Tensor ImageTensor(const std::vector<const BevImage*>& images, const BevGridSpec& spec);
 
-// A batch's targets as tensors: values N x kCount x rows x cols, votes and
-// weight N x rows x cols.
+// A batch's targets as tensors: values N x channels x rows x cols, votes,
+// weight and (with edge votes; else undefined) edges N x rows x cols.
 struct TargetTensors {
-  torch::Tensor values, votes, weight;
+  torch::Tensor values, votes, weight, edges;
 };
 TargetTensors TargetTensorsOf(const std::vector<const BevTargets*>& targets,
                               const BevGridSpec& spec);

@@ -2,7 +2,8 @@
 // dense votes on each target's occupied cells, ignore regions), and that
 // decoding the targets themselves gives back the objects, by the peak cell
 // and by the votes; the votes' mean shift outvotes one wrong peak cell;
-// cross-class suppression is an option.
+// cross-class suppression is an option; edge votes place a long table's
+// sides where its centre cell guessed wrong.
 #include "core/learned/bev_box_coder.h"
 
 #include <gtest/gtest.h>
@@ -183,6 +184,71 @@ TEST(BevBoxCoder, CentreCellEncodingRegressesAtTheCentreOnly) {
   EXPECT_NEAR(peaks[0].x, kTable.centre.x(), 1e-4);
   EXPECT_NEAR(peaks[0].y, kTable.centre.y(), 1e-4);
   EXPECT_NEAR(peaks[0].width, kTable.width, 1e-4);
+}
+
+// Edge votes: every occupied cell of a target regresses its distances to
+// the sides of the footprint's box in the grid; decoding centres a table
+// between the sides its cells place, where its centre cell's own vote slid
+// 20 cm along its length, and leaves a chair beside it (whose cells place
+// another box) and the chair's own centre alone.
+TEST(BevBoxCoder, EdgeVotesCentreALongTableWhereItsPeakSlid) {
+  const BevObject table{FurnitureClass::kTable, {2.1, 0.2}, 0.3, 2.0, 0.9};
+  const BevObject chair{FurnitureClass::kChair, {2.0, -0.85}, 1.8, 0.5, 0.5};
+  const BevImage image = ImageWith({table, chair});
+  const BevGridSpec& spec = image.spec;
+  BevCoderOptions coder;
+  coder.edge_votes = true;
+  BevTargets t = EncodeBevTargets({table, chair}, image, coder);
+  ASSERT_EQ(t.channels, ch::kCountWithEdges);
+  ASSERT_EQ(t.values.size(), static_cast<size_t>(ch::kCountWithEdges) * spec.rows * spec.cols);
+  // A cell of the table: log(distance + eps) to each side of its box.
+  const Eigen::Vector2d probe = image.frame.CellOf({2.5, 0.35}, spec);
+  const int pr = static_cast<int>(probe.x()), pc = static_cast<int>(probe.y());
+  ASSERT_EQ(t.edges[static_cast<size_t>(pr) * spec.cols + pc], 1.0f);
+  double row_min = 1e9, row_max = -1e9;
+  for (double sx : {-1.0, 1.0}) {
+    for (double sy : {-1.0, 1.0}) {
+      const Eigen::Vector2d corner =
+          table.centre + Eigen::Rotation2Dd(table.yaw) * Eigen::Vector2d(sx * 1.0, sy * 0.45);
+      row_min = std::min(row_min, image.frame.CellOf(corner, spec).x());
+      row_max = std::max(row_max, image.frame.CellOf(corner, spec).x());
+    }
+  }
+  EXPECT_NEAR(std::exp(t.values[At(spec, ch::kEdges[0], pr, pc)]) - ch::kEdgeEpsM,
+              (pr + 0.5 - row_min) * spec.cell_m,
+              1e-5);
+  EXPECT_NEAR(std::exp(t.values[At(spec, ch::kEdges[1], pr, pc)]) - ch::kEdgeEpsM,
+              (row_max - pr - 0.5) * spec.cell_m,
+              1e-5);
+  // Free floor: no edge loss.
+  const Eigen::Vector2d free = image.frame.CellOf({1.0, 1.0}, spec);
+  EXPECT_EQ(t.edges[static_cast<size_t>(free.x()) * spec.cols + static_cast<size_t>(free.y())], 0);
+
+  // The table's centre cell votes 20 cm off along the grid's rows.
+  const Eigen::Vector2d cell = image.frame.CellOf(table.centre, spec);
+  const int row = static_cast<int>(cell.x()), col = static_cast<int>(cell.y());
+  t.values[At(spec, ch::kOffset[0], row, col)] += 0.2f / ch::kOffsetUnitM;
+  BevOutput output{spec, t.values, /*dense_votes=*/false, /*edge_votes=*/true};
+  BevDecodeOptions options;
+  options.edge_classes = BevEdgeClasses::kNone;
+  auto of_class = [](const std::vector<BevPeak>& peaks, FurnitureClass c) {
+    for (const BevPeak& peak : peaks)
+      if (peak.furniture_class == c) return peak;
+    ADD_FAILURE() << "no " << ClassName(c);
+    return BevPeak{};
+  };
+  const BevPeak slid = of_class(DecodeBevOutput(image, output, options), FurnitureClass::kTable);
+  EXPECT_NEAR(std::hypot(slid.x - table.centre.x(), slid.y - table.centre.y()), 0.2, 1e-3);
+  EXPECT_EQ(slid.edge_cells, 0);
+  options.edge_classes = BevEdgeClasses::kAll;
+  const std::vector<BevPeak> peaks = DecodeBevOutput(image, output, options);
+  const BevPeak placed = of_class(peaks, FurnitureClass::kTable);
+  EXPECT_LT(std::hypot(placed.x - table.centre.x(), placed.y - table.centre.y()), 0.01);
+  EXPECT_GT(placed.edge_cells, 300);  // 2 x 0.9 m of 5 cm cells: about 720
+  const BevPeak seat = of_class(peaks, FurnitureClass::kChair);
+  EXPECT_LT(std::hypot(seat.x - chair.centre.x(), seat.y - chair.centre.y()), 0.01);
+  EXPECT_LT(seat.edge_cells, 150);  // its own cells, not the table's
+  EXPECT_GT(seat.edge_cells, 50);
 }
 
 TEST(BevBoxCoder, CrossClassSuppressionIsAnOption) {

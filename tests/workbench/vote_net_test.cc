@@ -237,10 +237,10 @@ TEST(VoteNet, WeightRecordsAreCheckedBeforeTheyAreRead) {
     return testing::ErrorOf([&] { VoteNet::Deserialize(damaged, "shared.fcm"); });
   };
   // Header: magic 8, version 4, cell 8, rows 4, cols 4, band 8, width 4,
-  // dense 4, three doubles 24, range 8, levels 4: the record count at 80,
-  // the first record at 84 (name size 4, "e1.conv1.weight" 15, type 1,
-  // dims 4, then the sizes).
-  constexpr size_t kCount = 80, kFirst = 84;
+  // dense 4, three doubles 24, range 8, levels 4, edges 4: the record count
+  // at 84, the first record at 88 (name size 4, "e1.conv1.weight" 15, type
+  // 1, dims 4, then the sizes).
+  constexpr size_t kCount = 84, kFirst = 88;
   const std::string first_name = "e1.conv1.weight";
   ASSERT_EQ(bytes.substr(kFirst + 4, first_name.size()), first_name);
   const size_t dims_at = kFirst + 4 + first_name.size() + 1 + 4;
@@ -300,7 +300,7 @@ TEST(VoteNet, RangeIsStoredAndFormatFourReadsAsThreeMetres) {
   std::memcpy(&stored, &bytes[kRangeAt], sizeof(stored));
   ASSERT_EQ(stored, 3.3);
   std::string format4 =
-      bytes.substr(0, kRangeAt) + bytes.substr(kRangeAt + sizeof(double) + sizeof(int32_t));
+      bytes.substr(0, kRangeAt) + bytes.substr(kRangeAt + sizeof(double) + 2 * sizeof(int32_t));
   const uint32_t four = 4;
   std::memcpy(&format4[8], &four, sizeof(four));
   const VoteNet old = VoteNet::Deserialize(format4, "old.fcm");
@@ -344,7 +344,7 @@ TEST(VoteNet, LevelsAreStoredAndFormatFiveReadsAsThree) {
   std::memcpy(&stored, &three_bytes[kLevelsAt], sizeof(stored));
   ASSERT_EQ(stored, 3);
   std::string format5 =
-      three_bytes.substr(0, kLevelsAt) + three_bytes.substr(kLevelsAt + sizeof(int32_t));
+      three_bytes.substr(0, kLevelsAt) + three_bytes.substr(kLevelsAt + 2 * sizeof(int32_t));
   const uint32_t five = 5;
   std::memcpy(&format5[8], &five, sizeof(five));
   const VoteNet old = VoteNet::Deserialize(format5, "old.fcm");
@@ -362,6 +362,73 @@ TEST(VoteNet, LevelsAreStoredAndFormatFiveReadsAsThree) {
   options.grid.rows = 16;
   EXPECT_NE(testing::ErrorOf([&] { VoteNet::Create(options, 1); }).find("cannot be halved 5 times"),
             std::string::npos);
+}
+
+// Edge votes are stored with the weights (format 7): four more output
+// channels, trained (the edges loss term falls), kept through a round trip,
+// averaged with the mirror's with the column sides swapped; a format-6 block
+// (before the flag) reads as a network without them, and a flag other than 0
+// or 1 is refused by name.
+TEST(VoteNet, EdgeVotesAreStoredTrainedAndMirrored) {
+  const std::vector<BevSample> rooms = Rooms(2);
+  VoteNetTrainingOptions options = SmallTraining();
+  options.epochs = 3;
+  options.net.coder.edge_votes = true;
+  VoteNetTrainingSummary summary;
+  const VoteNet net = TrainVoteNetOnSamples(rooms, {}, options, &summary);
+  ASSERT_TRUE(net.options().coder.edge_votes);
+  const TrainingBatch batch = MakeTrainingBatch(rooms, {0, 1}, {}, options.net.coder);
+  ASSERT_EQ(batch.targets[0].channels, bev_channels::kCountWithEdges);
+  const double trained = EvaluateVoteNetLoss(net, batch, {}).edges;
+  VoteNetOptions fresh_options = options.net;
+  const double untrained = EvaluateVoteNetLoss(VoteNet::Create(fresh_options, 1), batch, {}).edges;
+  EXPECT_GT(trained, 0);
+  EXPECT_LT(trained, untrained);
+
+  const std::string bytes = net.Serialize();
+  const VoteNet loaded = VoteNet::Deserialize(bytes, "edges.fcm");
+  EXPECT_TRUE(loaded.options().coder.edge_votes);
+  EXPECT_EQ(loaded.Serialize(), bytes);
+  const BevImage image = rooms[0].image;
+  const BevOutput own = net.Predict(image), mirror = net.Predict(image.Mirrored());
+  const BevOutput averaged = net.Predict(image, /*mirror_average=*/true);
+  ASSERT_TRUE(averaged.edge_votes);
+  ASSERT_EQ(averaged.values.size(),
+            static_cast<size_t>(bev_channels::kCountWithEdges) * image.spec.rows * image.spec.cols);
+  namespace ch = bev_channels;
+  const int cols = image.spec.cols;
+  for (int r = 0; r < image.spec.rows; r += 3) {
+    for (int c = 0; c < cols; c += 3) {
+      const int swapped[4] = {0, 1, 3, 2};  // the mirror's col min is the image's col max
+      for (int side = 0; side < 4; ++side) {
+        const double expected = (own.At(ch::kEdges[side], r, c) +
+                                 mirror.At(ch::kEdges[swapped[side]], r, cols - 1 - c)) /
+                                2;
+        ASSERT_NEAR(averaged.At(ch::kEdges[side], r, c), expected, 1e-5) << "side " << side;
+      }
+    }
+  }
+
+  constexpr size_t kEdgesAt = 80;  // after the levels
+  int32_t stored = 0;
+  std::memcpy(&stored, &bytes[kEdgesAt], sizeof(stored));
+  ASSERT_EQ(stored, 1);
+  VoteNetOptions plain = options.net;
+  plain.coder.edge_votes = false;
+  const std::string plain_bytes = VoteNet::Create(plain, 1).Serialize();
+  std::string format6 =
+      plain_bytes.substr(0, kEdgesAt) + plain_bytes.substr(kEdgesAt + sizeof(int32_t));
+  const uint32_t six = 6;
+  std::memcpy(&format6[8], &six, sizeof(six));
+  const VoteNet old = VoteNet::Deserialize(format6, "old.fcm");
+  EXPECT_FALSE(old.options().coder.edge_votes);
+  EXPECT_EQ(old.Serialize(), plain_bytes);
+  for (int32_t bad : {2, -1}) {
+    const std::string message = ErrorWithHeaderField(bytes, kEdgesAt, bad);
+    EXPECT_NE(message.find("shared.fcm: vote network is corrupt (edge votes flag)"),
+              std::string::npos)
+        << bad << ": " << message;
+  }
 }
 
 TEST(VoteNet, SameSeedAndThreadsSameWeights) {

@@ -168,6 +168,12 @@ void AddVoteNetFlags(CLI::App* app, VoteNetFlags* flags) {
       [&o] { o.net.coder = BevCoderOptions::Dense(); },
       "Vote network: dense votes (every cell of a piece votes for its centre, decoded by the "
       "votes' mean shift; fixed heat width, ignore regions) instead of the centre cell alone");
+  app->add_flag_callback(
+      "--vote-edges",
+      [&o] { o.net.coder.edge_votes = true; },
+      "Vote network: edge votes (every cell of a piece regresses its distances to the four "
+      "sides of the piece's box; detection centres tables, sideboards and sofas between the "
+      "sides their cells place)");
   app->add_flag("--keep-rooms",
                 o.keep_rooms,
                 "Keep the vote network's training rooms (<model>.rooms.db) for reuse");

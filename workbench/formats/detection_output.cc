@@ -139,6 +139,14 @@ std::string ExplainDetection(const DetectionResult& result, const TrainedModel& 
                       std::hypot(h.peak_x - h.x, h.peak_y - h.y));
         out << line;
       }
+      if (h.edge_cells > 0) {
+        std::snprintf(line,
+                      sizeof(line),
+                      "sides placed by %d cells (%.2f m from the peak cell's)  ",
+                      h.edge_cells,
+                      std::hypot(h.peak_x - h.x, h.peak_y - h.y));
+        out << line;
+      }
       if (const DetectionDebug::Hypothesis::Fit* best = BestFit(h)) {  // learned_fit
         std::snprintf(line,
                       sizeof(line),

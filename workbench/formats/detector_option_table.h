@@ -179,6 +179,12 @@ void ForEachDetectorOption(Options* options, Visit&& visit) {
                            "Learned voting: a vote's weight is its membership times the class's "
                            "heat at its cell to this power (0: membership alone)"},
         o.learned_vote_heat_power);
+  visit(DetectorOptionInfo{"learned_edge_classes",
+                           "--edge-centres",
+                           "Learned voting, networks trained with edge votes: the classes centred "
+                           "between the four sides their cells place ('none', 'large': tables, "
+                           "sideboards and sofas, 'all')"},
+        o.learned_edge_classes);
   visit(DetectorOptionInfo{"learned_mirror_average",
                            "--mirror-average",
                            "Learned voting: average the network's outputs with those of the "

@@ -192,7 +192,7 @@ std::string DescribeTrainedModel(const TrainedModel& model) {
         << grid.cols << " cells of " << grid.cell_m << " m, points within " << net.options().range_m
         << " m (" << model.vote_net.size() / 1024
         << " KiB); targets: " << (net.options().coder.dense_votes ? "dense votes" : "centre cell")
-        << "\n";
+        << (net.options().coder.edge_votes ? ", edge votes" : "") << "\n";
   }
   out << DescribeOperatingPoint(model.operating_point);
   return out.str();

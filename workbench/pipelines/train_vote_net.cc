@@ -225,6 +225,10 @@ std::string VoteNetTrainingOptions::Json() const {
   // Only when used: keys of models trained before the option stay valid.
   if (shape_variety > 0) json["shape_variety"] = shape_variety;
   if (!net.coder.dense_votes) json["coder"]["dense_votes"] = false;
+  if (net.coder.edge_votes) {
+    json["coder"]["edge_votes"] = true;
+    json["loss"]["edges"] = loss.edges;
+  }
   return json.dump();
 }
 
