@@ -161,7 +161,8 @@ Eigen::Vector4d FootprintBoxCells(const BevObject& object, const BevImage& image
 
 // Each occupied cell inside a target's widened footprint (the nearest centre
 // wins) regresses log(distance + kEdgeEpsM) to the four sides of that
-// target's box.
+// target's box, and has membership 1 (cells of nothing, whose distances are
+// never trained, do not vote).
 void EncodeEdges(const std::vector<BevObject>& objects,
                  const BevImage& image,
                  const BevCoderOptions& options,
@@ -193,6 +194,8 @@ void EncodeEdges(const std::vector<BevObject>& objects,
             static_cast<float>(std::log(metres + ch::kEdgeEpsM));
       }
       targets->edges[at] = 1.0f;
+      // The cell belongs to a target: its edge votes count at decoding.
+      targets->values[ch::kMembership.first * plane + at] = 1.0f;
     }
   }
 }
@@ -292,10 +295,11 @@ VotedBox MeanShiftVotes(const BevImage& image,
 }
 
 // The centre between the four sides the cells around `start` place (FCOS's
-// edge distances): each occupied cell whose distances put the centre within
+// edge distances): each occupied cell of at least min_membership (trained
+// on every cell of a target) whose distances put the centre within
 // edge_agree_m of `start` says where each side lies, its say on a side
-// falling off with its distance to it, so each side is placed by the cells
-// nearest it. Two rounds, the second around the first's centre. `cells`
+// falling off with its distance to it (times its membership), so each side
+// is placed by the cells nearest it. Two rounds, the second around the first's centre. `cells`
 // receives how many cells voted (0: `start` is kept).
 Eigen::Vector2d EdgeCentre(const BevImage& image,
                            const BevOutput& output,
@@ -308,6 +312,7 @@ Eigen::Vector2d EdgeCentre(const BevImage& image,
     Eigen::Vector4d sides;     // row min, row max, col min, col max (cells)
     Eigen::Vector4d distance;  // to each (cells)
     Eigen::Vector2d centre;
+    double membership = 0;
   };
   std::vector<EdgeVote> votes;
   const int row0 = static_cast<int>(std::floor(start.x()));
@@ -317,6 +322,8 @@ Eigen::Vector2d EdgeCentre(const BevImage& image,
     for (int c = std::max(0, col0 - span); c <= std::min(spec.cols - 1, col0 + span); ++c) {
       if (!image.Occupied(r, c)) continue;
       EdgeVote vote;
+      vote.membership = output.At(ch::kMembership.first, r, c);
+      if (vote.membership < options.min_membership) continue;
       for (int side = 0; side < 4; ++side) {
         const double metres =
             std::exp(std::clamp(output.At(ch::kEdges[side], r, c), -5.0f, 2.0f)) - ch::kEdgeEpsM;
@@ -345,7 +352,7 @@ Eigen::Vector2d EdgeCentre(const BevImage& image,
       for (const EdgeVote* vote : agreeing) closest = std::min(closest, vote->distance[side]);
       double sum = 0, weight = 0;
       for (const EdgeVote* vote : agreeing) {
-        const double w = std::exp(-(vote->distance[side] - closest) / near);
+        const double w = vote->membership * std::exp(-(vote->distance[side] - closest) / near);
         sum += w * vote->sides[side];
         weight += w;
       }

@@ -18,7 +18,8 @@
 //               to be a target, no heat or membership loss within that radius;
 //   edges       with edge_votes, every occupied cell inside a target's
 //               footprint (the nearest centre wins) regresses its distances to
-//               the four sides of the footprint's bounding box in the grid.
+//               the four sides of the footprint's bounding box in the grid,
+//               with membership 1.
 //
 // Decoding: per class, 3 x 3 local maxima of the heat of at least min_heat,
 // the strongest max_per_class. A maximum's centre is either its own cell's

@@ -224,6 +224,25 @@ TEST(BevBoxCoder, EdgeVotesCentreALongTableWhereItsPeakSlid) {
   const Eigen::Vector2d free = image.frame.CellOf({1.0, 1.0}, spec);
   EXPECT_EQ(t.edges[static_cast<size_t>(free.x()) * spec.cols + static_cast<size_t>(free.y())], 0);
 
+  // A shelf behind the table (no target: its cells' distances are never
+  // trained, and here claim the table's far side at their own row, with a
+  // centre 12.5 cm beyond the table's) has membership 0 and does not vote.
+  const BevObject shelf{FurnitureClass::kSideboard, {3.45, 0.2}, 0.0, 0.3, 1.5, false};
+  const BevImage with_shelf = ImageWith({table, chair, shelf});
+  const BevTargets t2 = EncodeBevTargets({table, chair, shelf}, with_shelf, coder);
+  EXPECT_EQ(t2.values, t.values);  // the shelf encodes nothing
+  for (int r = 0; r < spec.rows; ++r) {
+    for (int c = 0; c < spec.cols; ++c) {
+      const Eigen::Vector2d xy = with_shelf.frame.WorldOf({r + 0.5, c + 0.5}, spec);
+      if (!with_shelf.Occupied(r, c) || image.Occupied(r, c)) continue;
+      ASSERT_GT(xy.x(), 3.25);
+      t.values[At(spec, ch::kEdges[1], r, c)] = std::log(0.0f + ch::kEdgeEpsM);
+      t.values[At(spec, ch::kEdges[0], r, c)] = std::log(static_cast<float>(
+          (r + 0.5 - image.frame.CellOf(table.centre, spec).x()) * 2 * spec.cell_m - 0.25 +
+          ch::kEdgeEpsM));
+    }
+  }
+
   // The table's centre cell votes 20 cm off along the grid's rows.
   const Eigen::Vector2d cell = image.frame.CellOf(table.centre, spec);
   const int row = static_cast<int>(cell.x()), col = static_cast<int>(cell.y());
@@ -237,13 +256,24 @@ TEST(BevBoxCoder, EdgeVotesCentreALongTableWhereItsPeakSlid) {
     ADD_FAILURE() << "no " << ClassName(c);
     return BevPeak{};
   };
-  const BevPeak slid = of_class(DecodeBevOutput(image, output, options), FurnitureClass::kTable);
+  const BevPeak slid =
+      of_class(DecodeBevOutput(with_shelf, output, options), FurnitureClass::kTable);
   EXPECT_NEAR(std::hypot(slid.x - table.centre.x(), slid.y - table.centre.y()), 0.2, 1e-3);
   EXPECT_EQ(slid.edge_cells, 0);
   options.edge_classes = BevEdgeClasses::kAll;
-  const std::vector<BevPeak> peaks = DecodeBevOutput(image, output, options);
+  const std::vector<BevPeak> peaks = DecodeBevOutput(with_shelf, output, options);
   const BevPeak placed = of_class(peaks, FurnitureClass::kTable);
   EXPECT_LT(std::hypot(placed.x - table.centre.x(), placed.y - table.centre.y()), 0.01);
+  // Were the shelf's cells members, they would pull the far side in.
+  for (int r = 0; r < spec.rows; ++r) {
+    for (int c = 0; c < spec.cols; ++c) {
+      if (with_shelf.Occupied(r, c) && !image.Occupied(r, c))
+        output.values[At(spec, ch::kMembership.first, r, c)] = 1.0f;
+    }
+  }
+  const BevPeak pulled =
+      of_class(DecodeBevOutput(with_shelf, output, options), FurnitureClass::kTable);
+  EXPECT_GT(std::hypot(pulled.x - table.centre.x(), pulled.y - table.centre.y()), 0.02);
   EXPECT_GT(placed.edge_cells, 300);  // 2 x 0.9 m of 5 cm cells: about 720
   const BevPeak seat = of_class(peaks, FurnitureClass::kChair);
   EXPECT_LT(std::hypot(seat.x - chair.centre.x(), seat.y - chair.centre.y()), 0.01);
