@@ -111,6 +111,19 @@ bool InGrid(const Eigen::Vector2d& cell, const BevGridSpec& spec) {
   return cell.x() >= 0 && cell.x() < spec.rows && cell.y() >= 0 && cell.y() < spec.cols;
 }
 
+// The index of the target nearest world point `xy` whose footprint widened
+// by `margin` holds it; -1: none.
+int OwnerOf(const std::vector<BevObject>& objects, const Eigen::Vector2d& xy, double margin) {
+  int owner = -1;
+  double nearest = 1e30;
+  for (size_t i = 0; i < objects.size(); ++i) {
+    const double distance = (objects[i].centre - xy).norm();
+    if (objects[i].target && distance < nearest && InFootprint(objects[i], xy, margin))
+      owner = static_cast<int>(i), nearest = distance;
+  }
+  return owner;
+}
+
 // Each occupied cell votes for the nearest target whose widened footprint
 // holds it.
 void EncodeVotes(const std::vector<BevObject>& objects,
@@ -123,17 +136,12 @@ void EncodeVotes(const std::vector<BevObject>& objects,
     for (int c = 0; c < spec.cols; ++c) {
       if (!image.Occupied(r, c)) continue;
       const Eigen::Vector2d cell_centre(r + 0.5, c + 0.5);
-      const Eigen::Vector2d xy = image.frame.WorldOf(cell_centre, spec);
-      const BevObject* owner = nullptr;
-      double nearest = 1e30;
-      for (const BevObject& object : objects) {
-        const double distance = (object.centre - xy).norm();
-        if (object.target && distance < nearest && InFootprint(object, xy, options.vote_margin_m))
-          owner = &object, nearest = distance;
-      }
-      if (owner == nullptr) continue;
+      const int owner =
+          OwnerOf(objects, image.frame.WorldOf(cell_centre, spec), options.vote_margin_m);
+      if (owner < 0) continue;
       const size_t at = PlaneIndex(spec, r, c);
-      WriteBox(EncodeBox(*owner, cell_centre, image.frame, spec), spec, at, &targets->values);
+      WriteBox(
+          EncodeBox(objects[owner], cell_centre, image.frame, spec), spec, at, &targets->values);
       targets->values[ch::kMembership.first * plane + at] = 1.0f;
       targets->votes[at] = 1.0f;
     }
@@ -174,15 +182,8 @@ void EncodeEdges(const std::vector<BevObject>& objects,
   for (int r = 0; r < spec.rows; ++r) {
     for (int c = 0; c < spec.cols; ++c) {
       if (!image.Occupied(r, c)) continue;
-      const Eigen::Vector2d xy = image.frame.WorldOf({r + 0.5, c + 0.5}, spec);
-      int owner = -1;
-      double nearest = 1e30;
-      for (size_t i = 0; i < objects.size(); ++i) {
-        const double distance = (objects[i].centre - xy).norm();
-        if (objects[i].target && distance < nearest &&
-            InFootprint(objects[i], xy, options.vote_margin_m))
-          owner = static_cast<int>(i), nearest = distance;
-      }
+      const int owner =
+          OwnerOf(objects, image.frame.WorldOf({r + 0.5, c + 0.5}, spec), options.vote_margin_m);
       if (owner < 0) continue;
       const Eigen::Vector4d& box = boxes[owner];
       const double distances[4] = {
