@@ -87,6 +87,8 @@ BevDecodeOptions DetectorOptions::LearnedDecode() const {
   decode.vote_bandwidth_m = learned_vote_bandwidth_m;
   decode.vote_heat_power = learned_vote_heat_power;
   decode.edge_classes = learned_edge_classes;
+  decode.edge_near_m = learned_edge_near_m;
+  decode.edge_agree_m = learned_edge_agree_m;
   return decode;
 }
 

@@ -180,8 +180,11 @@ struct DetectorOptions {
   double learned_vote_bandwidth_m = 0.1;
   double learned_vote_heat_power = 0;  // BevDecodeOptions::vote_heat_power
   // Networks trained with edge votes: the classes centred between the sides
-  // their cells place (BevDecodeOptions::edge_classes).
-  BevEdgeClasses learned_edge_classes = BevEdgeClasses::kLarge;
+  // their cells place, and how (BevDecodeOptions::edge_*). None by default:
+  // on protocol E the peak cell's own centre placed tables better.
+  BevEdgeClasses learned_edge_classes = BevEdgeClasses::kNone;
+  double learned_edge_near_m = 0.15;
+  double learned_edge_agree_m = 0.3;
   // The extent fit (core/learned/bev_extent.h): the detections of these
   // classes move their box to the edges of the surface the scan shows, where
   // it saw them end (a long table's centre from its two ends, not from one

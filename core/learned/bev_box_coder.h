@@ -29,9 +29,9 @@
 // agreeing on one centre); footprint and yaw likewise. Cross-class
 // suppression (a weaker maximum of any class within suppress_m of a stronger
 // one is marked) is optional; evaluation ranks every maximum. With edge
-// votes, a maximum of the edge classes is centred between its box's four
-// sides, each side placed by the cells nearest it (a long table's far end
-// by the cells at that end, not by its centre cell's guess).
+// votes and edge_classes, a maximum of those classes is centred between its
+// box's four sides, each side placed by the cells nearest it (a long table's
+// far end by the cells at that end, not by its centre cell's guess).
 //
 //   const BevTargets targets = EncodeBevTargets(objects, image, BevCoderOptions{});
 //   for (const BevPeak& p : DecodeBevOutput(image, output, BevDecodeOptions{})) ...
@@ -141,11 +141,13 @@ struct BevDecodeOptions {
   // central more (a chair's peak is precise; its outer cells' votes less so).
   double vote_heat_power = 0;
   int mean_shift_iterations = 5;
-  // Edge votes (networks trained with them): the classes centred by them;
-  // a cell's say on a side falls off as exp(-distance to it / edge_near_m);
-  // the cells whose four distances put the centre within edge_agree_m of
-  // the maximum's own centre are the object's.
-  BevEdgeClasses edge_classes = BevEdgeClasses::kLarge;
+  // Edge votes (networks trained with them): the classes centred by them
+  // (none by default: on protocol E the peak cell's own centre placed tables
+  // better, docs/learned-voting.md); a cell's say on a side falls off as
+  // exp(-distance to it / edge_near_m); the cells whose four distances put
+  // the centre within edge_agree_m of the maximum's own centre are the
+  // object's.
+  BevEdgeClasses edge_classes = BevEdgeClasses::kNone;
   double edge_near_m = 0.15;
   double edge_agree_m = 0.3;
 

@@ -182,9 +182,19 @@ void ForEachDetectorOption(Options* options, Visit&& visit) {
   visit(DetectorOptionInfo{"learned_edge_classes",
                            "--edge-centres",
                            "Learned voting, networks trained with edge votes: the classes centred "
-                           "between the four sides their cells place ('none', 'large': tables, "
-                           "sideboards and sofas, 'all')"},
+                           "between the four sides their cells place ('none', the default: the "
+                           "peak cell's centre; 'large': tables, sideboards and sofas; 'all')"},
         o.learned_edge_classes);
+  visit(DetectorOptionInfo{"learned_edge_near_m",
+                           "--edge-reach",
+                           "Learned voting, --edge-centres: a cell's say on a side falls off as "
+                           "exp(-its distance to the side / this) (m)"},
+        o.learned_edge_near_m);
+  visit(DetectorOptionInfo{"learned_edge_agree_m",
+                           "--edge-agree",
+                           "Learned voting, --edge-centres: the cells whose distances put the "
+                           "centre this near the maximum's own are the object's (m)"},
+        o.learned_edge_agree_m);
   visit(DetectorOptionInfo{"learned_mirror_average",
                            "--mirror-average",
                            "Learned voting: average the network's outputs with those of the "
