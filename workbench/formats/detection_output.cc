@@ -110,6 +110,27 @@ const char* ModelNameOf(const TrainedModel& model, int index) {
              : "?";
 }
 
+// What moved a learned maximum's centre from its peak cell's own vote: the
+// dense votes' mean shift and/or the sides its cells' edge votes placed.
+std::string LearnedPlacement(const DetectionDebug::Hypothesis& h) {
+  const double moved = std::hypot(h.peak_x - h.x, h.peak_y - h.y);
+  char text[128];
+  std::string out;
+  if (h.votes > 0) {
+    std::snprintf(text, sizeof(text), "votes %.0f (%.2f m from the peak cell's)  ", h.votes, moved);
+    out += text;
+  }
+  if (h.edge_cells > 0) {
+    std::snprintf(text,
+                  sizeof(text),
+                  "sides placed by %d cells (%.2f m from the peak cell's)  ",
+                  h.edge_cells,
+                  moved);
+    out += text;
+  }
+  return out;
+}
+
 }  // namespace
 
 std::string ExplainDetection(const DetectionResult& result, const TrainedModel& model) {
@@ -131,22 +152,7 @@ std::string ExplainDetection(const DetectionResult& result, const TrainedModel& 
                     h.width,
                     h.vote_weight);
       out << line;
-      if (h.votes > 0) {
-        std::snprintf(line,
-                      sizeof(line),
-                      "votes %.0f (%.2f m from the peak cell's)  ",
-                      h.votes,
-                      std::hypot(h.peak_x - h.x, h.peak_y - h.y));
-        out << line;
-      }
-      if (h.edge_cells > 0) {
-        std::snprintf(line,
-                      sizeof(line),
-                      "sides placed by %d cells (%.2f m from the peak cell's)  ",
-                      h.edge_cells,
-                      std::hypot(h.peak_x - h.x, h.peak_y - h.y));
-        out << line;
-      }
+      out << LearnedPlacement(h);
       if (const DetectionDebug::Hypothesis::Fit* best = BestFit(h)) {  // learned_fit
         std::snprintf(line,
                       sizeof(line),
