@@ -30,9 +30,9 @@ namespace furn {
 struct VoteNetTrainingOptions {
   // 1200 rooms x 4 frames, 10 epochs: the steps of 600 rooms x 20 epochs
   // (9 min of training on an idle 2-core machine) over twice the rooms. On
-  // protocol E, paired fold networks, mAP@10cm +0.05 and tables +0.07: the
-  // network had begun to learn 600 rooms by heart (docs/learned-voting.md,
-  // "twice the rooms, half the epochs").
+  // protocol E, seven paired fold networks, mAP@10cm +0.025 and tables
+  // +0.05 (six of seven higher): the network had begun to learn 600 rooms
+  // by heart (docs/learned-voting.md, "twice the rooms, half the epochs").
   int rooms = 1200;  // generated training rooms
   int frames_per_room = 4;
   uint64_t seed = 1;  // rooms, weights, batches, augmentation
