@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "core/angles.h"
 #include "core/error.h"
@@ -398,6 +399,41 @@ BevPeak PeakOf(const BevImage& image,
   return peak;
 }
 
+// A target's centre cell always regresses its box, seen or not (a table's
+// centre under its top may hold no point when the top was not seen); so do
+// the cells within `radius` cells of it that no dense vote took, each for
+// the nearest such centre.
+void EncodeCentreCells(const std::vector<BevObject>& objects,
+                       const BevImage& image,
+                       double radius,
+                       BevTargets* targets) {
+  const BevGridSpec& spec = image.spec;
+  const size_t plane = static_cast<size_t>(spec.rows) * spec.cols;
+  const int reach = static_cast<int>(std::floor(radius));
+  std::vector<float> taken_at(plane, std::numeric_limits<float>::infinity());
+  for (size_t i = 0; i < plane; ++i) {
+    if (targets->votes[i] > 0) taken_at[i] = -1;  // a dense vote's
+  }
+  for (const BevObject& object : objects) {
+    const Eigen::Vector2d cell = image.frame.CellOf(object.centre, spec);
+    if (!object.target || !InGrid(cell, spec)) continue;
+    const int row = static_cast<int>(std::floor(cell.x())),
+              col = static_cast<int>(std::floor(cell.y()));
+    for (int r = std::max(0, row - reach); r <= std::min(spec.rows - 1, row + reach); ++r) {
+      for (int c = std::max(0, col - reach); c <= std::min(spec.cols - 1, col + reach); ++c) {
+        const float distance = static_cast<float>(std::hypot(r - row, c - col));
+        const size_t at = PlaneIndex(spec, r, c);
+        if (distance > radius || distance >= taken_at[at]) continue;
+        taken_at[at] = distance;
+        WriteBox(
+            EncodeBox(object, {r + 0.5, c + 0.5}, image.frame, spec), spec, at, &targets->values);
+        targets->values[ch::kMembership.first * plane + at] = 1.0f;
+        targets->votes[at] = 1.0f;
+      }
+    }
+  }
+}
+
 }  // namespace
 
 bool UsesEdges(BevEdgeClasses classes, FurnitureClass furniture_class) {
@@ -429,7 +465,7 @@ BevCoderOptions BevCoderOptions::Dense() {
 bool BevCoderOptions::operator==(const BevCoderOptions& other) const {
   return heat_sigma_cells == other.heat_sigma_cells && dense_votes == other.dense_votes &&
          vote_margin_m == other.vote_margin_m && ignore_radius_cells == other.ignore_radius_cells &&
-         edge_votes == other.edge_votes;
+         edge_votes == other.edge_votes && centre_radius_cells == other.centre_radius_cells;
 }
 
 double BevSplatSigma(double width_m, double depth_m, const BevGridSpec& spec) {
@@ -444,6 +480,8 @@ void BevCoderOptions::Check() const {
           "BEV vote margin " + std::to_string(vote_margin_m) + " m must be in 0..1");
   Require(ignore_radius_cells >= 0 && ignore_radius_cells <= 20,
           "BEV ignore radius " + std::to_string(ignore_radius_cells) + " cells must be in 0..20");
+  Require(centre_radius_cells >= 0 && centre_radius_cells <= 10,
+          "BEV centre radius " + std::to_string(centre_radius_cells) + " cells must be in 0..10");
 }
 
 void BevDecodeOptions::Check() const {
@@ -496,20 +534,8 @@ BevTargets EncodeBevTargets(const std::vector<BevObject>& objects,
   }
   if (options.dense_votes) EncodeVotes(objects, image, options, &targets);
   if (options.edge_votes) EncodeEdges(objects, image, options, &targets);
-  // A target's centre cell always regresses its box, seen or not (a table's
-  // centre under its top may hold no point when the top was not seen).
-  for (const BevObject& object : objects) {
-    const Eigen::Vector2d cell = image.frame.CellOf(object.centre, spec);
-    if (!object.target || !InGrid(cell, spec)) continue;
-    const int row = static_cast<int>(std::floor(cell.x())),
-              col = static_cast<int>(std::floor(cell.y()));
-    const size_t at = PlaneIndex(spec, row, col);
-    if (targets.votes[at] > 0) continue;
-    WriteBox(
-        EncodeBox(object, {row + 0.5, col + 0.5}, image.frame, spec), spec, at, &targets.values);
-    targets.values[ch::kMembership.first * plane + at] = 1.0f;
-    targets.votes[at] = 1.0f;
-  }
+  EncodeCentreCells(
+      objects, image, options.dense_votes ? 0 : options.centre_radius_cells, &targets);
   return targets;
 }
 

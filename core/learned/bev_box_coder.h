@@ -68,6 +68,11 @@ struct BevCoderOptions {
   // the sides of its footprint's box (bev_channels::kEdges; four more output
   // channels).
   bool edge_votes = false;
+  // Without dense votes: the cells within this distance of a target's centre
+  // cell (cells; the nearest centre wins) regress its box as the centre cell
+  // does, so a heat peak a cell or two off the centre still carries a trained
+  // vote for it (TTFNet's regression area; 0: the centre cell alone).
+  double centre_radius_cells = 0;
 
   int Channels() const { return bev_channels::CountOf(edge_votes); }
   // Issue 37's encoding: fixed heat width 1.5 cells, dense votes, ignore
@@ -124,7 +129,7 @@ struct EnumText<BevEdgeClasses> {
 bool UsesEdges(BevEdgeClasses classes, FurnitureClass furniture_class);
 
 struct BevDecodeOptions {
-  double min_heat = 0.1;  // least heat of a maximum
+  double min_heat = 0.03;  // least heat of a maximum (a candidate)
   int max_per_class = 16;
   // Cross-class suppression radius (m): a weaker maximum of any class this
   // near a stronger kept one is marked suppressed. 0: off (the default: it

@@ -21,7 +21,7 @@ constexpr char kMagic[8] = {'F', 'U', 'R', 'N', 'V', 'N', 'E', 'T'};
 // read (nor is 1, whose channels mean something else).
 // 7: edge votes (before: none); 6: the U-Net's levels (before: 3); 5: the
 // range (4: 3 m).
-constexpr uint32_t kVersion = 7;
+constexpr uint32_t kVersion = 8;
 constexpr uint32_t kOldestVersion = 4;  // the first format of weight records
 constexpr uint32_t kFirstArchiveVersion = 2;
 
@@ -151,6 +151,8 @@ VoteNetOptions ReadVoteNetHeader(const std::string& bytes,
     Require(edges == 0 || edges == 1, what + ": vote network is corrupt (edge votes flag)");
     options.coder.edge_votes = edges == 1;
   }
+  // 8: the centre cells' radius (before: the centre cell alone).
+  if (version >= 8) options.coder.centre_radius_cells = Take<double>(bytes, at, what);
   try {
     options.Check();  // bounds the network the header builds (width, grid, levels)
   } catch (const InputError& error) {
@@ -353,6 +355,7 @@ std::string VoteNet::Serialize() const {
   Put(&out, o.range_m);
   Put(&out, static_cast<int32_t>(o.levels));
   Put(&out, static_cast<int32_t>(o.coder.edge_votes ? 1 : 0));
+  Put(&out, o.coder.centre_radius_cells);
   const auto tensors = NamedTensors(impl_->net);
   Put(&out, static_cast<uint32_t>(tensors.size()));
   for (const auto& [name, tensor] : tensors) PutTensor(&out, name, tensor);

@@ -186,6 +186,52 @@ TEST(BevBoxCoder, CentreCellEncodingRegressesAtTheCentreOnly) {
   EXPECT_NEAR(peaks[0].width, kTable.width, 1e-4);
 }
 
+// The centre cells' radius: the cells within 2 cells of each centre regress
+// the box too, each for its nearest centre (two chairs 3 cells apart share
+// none), so a heat peak that lands a cell off the centre decodes to the
+// centre; the centre cell alone (radius 0) is the encoding as before.
+TEST(BevBoxCoder, CentreRadiusCellsRegressTheCentreTheyAreNear) {
+  const BevObject left{FurnitureClass::kChair, {1.512, 0.312}, 0.2, 0.5, 0.5};
+  const BevObject right{FurnitureClass::kChair, {1.512, 0.162}, 0.2, 0.5, 0.5};
+  const BevImage image = ImageWith({left, right});
+  const BevGridSpec& spec = image.spec;
+  BevCoderOptions coder;
+  coder.centre_radius_cells = 2;
+  const BevTargets wide = EncodeBevTargets({left, right}, image, coder);
+  const BevTargets alone = EncodeBevTargets({left, right}, image, BevCoderOptions{});
+  double voting = 0, voting_alone = 0;
+  for (size_t i = 0; i < wide.votes.size(); ++i) voting += wide.votes[i];
+  for (size_t i = 0; i < alone.votes.size(); ++i) voting_alone += alone.votes[i];
+  EXPECT_EQ(voting_alone, 2);
+  EXPECT_GT(voting, 2 * 9);  // a disc of 13 cells each, less what the other took
+  EXPECT_LT(voting, 2 * 13);
+  // A peak one cell towards the other chair, on each side of the midline,
+  // regresses the centre of the chair it is nearer.
+  for (const int toward : {-1, 1}) {  // columns grow to the left: -1 is rightwards
+    const BevObject& chair = toward < 0 ? left : right;
+    const Eigen::Vector2d cell = image.frame.CellOf(chair.centre, spec);
+    const int row = static_cast<int>(cell.x()), col = static_cast<int>(cell.y());
+    BevOutput output = PerfectOutput(wide, spec, /*dense_votes=*/false);
+    const int heat = ch::kHeat[static_cast<int>(FurnitureClass::kChair)];
+    for (int dc = -2; dc <= 2; ++dc)  // the heat's peak moved one cell
+      output.values[At(spec, heat, row, col + dc)] = dc == toward ? 1.0f : 0.5f;
+    BevDecodeOptions decode;
+    decode.centre = BevCentre::kPeak;
+    const BevPeak* nearest = nullptr;
+    const std::vector<BevPeak> peaks = DecodeBevOutput(image, output, decode);
+    for (const BevPeak& peak : peaks) {
+      if (!nearest || std::hypot(peak.x - chair.centre.x(), peak.y - chair.centre.y()) <
+                          std::hypot(nearest->x - chair.centre.x(), nearest->y - chair.centre.y()))
+        nearest = &peak;
+    }
+    ASSERT_NE(nearest, nullptr);
+    EXPECT_NEAR(nearest->x, chair.centre.x(), 1e-4);
+    EXPECT_NEAR(nearest->y, chair.centre.y(), 1e-4);
+  }
+  coder.centre_radius_cells = 10.5;
+  EXPECT_THROW(coder.Check(), InputError);
+}
+
 // Edge votes: every occupied cell of a target regresses its distances to
 // the sides of the footprint's box in the grid; decoding centres a table
 // between the sides its cells place, where its centre cell's own vote slid

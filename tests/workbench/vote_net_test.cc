@@ -237,10 +237,10 @@ TEST(VoteNet, WeightRecordsAreCheckedBeforeTheyAreRead) {
     return testing::ErrorOf([&] { VoteNet::Deserialize(damaged, "shared.fcm"); });
   };
   // Header: magic 8, version 4, cell 8, rows 4, cols 4, band 8, width 4,
-  // dense 4, three doubles 24, range 8, levels 4, edges 4: the record count
-  // at 84, the first record at 88 (name size 4, "e1.conv1.weight" 15, type
+  // dense 4, three doubles 24, range 8, levels 4, edges 4, centre radius 8:
+  // the record count at 92, the first record at 96 (name size 4, "e1.conv1.weight" 15, type
   // 1, dims 4, then the sizes).
-  constexpr size_t kCount = 84, kFirst = 88;
+  constexpr size_t kCount = 92, kFirst = 96;
   const std::string first_name = "e1.conv1.weight";
   ASSERT_EQ(bytes.substr(kFirst + 4, first_name.size()), first_name);
   const size_t dims_at = kFirst + 4 + first_name.size() + 1 + 4;
@@ -300,7 +300,7 @@ TEST(VoteNet, RangeIsStoredAndFormatFourReadsAsThreeMetres) {
   std::memcpy(&stored, &bytes[kRangeAt], sizeof(stored));
   ASSERT_EQ(stored, 3.3);
   std::string format4 =
-      bytes.substr(0, kRangeAt) + bytes.substr(kRangeAt + sizeof(double) + 2 * sizeof(int32_t));
+      bytes.substr(0, kRangeAt) + bytes.substr(kRangeAt + 2 * sizeof(double) + 2 * sizeof(int32_t));
   const uint32_t four = 4;
   std::memcpy(&format4[8], &four, sizeof(four));
   const VoteNet old = VoteNet::Deserialize(format4, "old.fcm");
@@ -343,8 +343,8 @@ TEST(VoteNet, LevelsAreStoredAndFormatFiveReadsAsThree) {
   int32_t stored = 0;
   std::memcpy(&stored, &three_bytes[kLevelsAt], sizeof(stored));
   ASSERT_EQ(stored, 3);
-  std::string format5 =
-      three_bytes.substr(0, kLevelsAt) + three_bytes.substr(kLevelsAt + 2 * sizeof(int32_t));
+  std::string format5 = three_bytes.substr(0, kLevelsAt) +
+                        three_bytes.substr(kLevelsAt + 2 * sizeof(int32_t) + sizeof(double));
   const uint32_t five = 5;
   std::memcpy(&format5[8], &five, sizeof(five));
   const VoteNet old = VoteNet::Deserialize(format5, "old.fcm");
@@ -416,8 +416,8 @@ TEST(VoteNet, EdgeVotesAreStoredTrainedAndMirrored) {
   VoteNetOptions plain = options.net;
   plain.coder.edge_votes = false;
   const std::string plain_bytes = VoteNet::Create(plain, 1).Serialize();
-  std::string format6 =
-      plain_bytes.substr(0, kEdgesAt) + plain_bytes.substr(kEdgesAt + sizeof(int32_t));
+  std::string format6 = plain_bytes.substr(0, kEdgesAt) +
+                        plain_bytes.substr(kEdgesAt + sizeof(int32_t) + sizeof(double));
   const uint32_t six = 6;
   std::memcpy(&format6[8], &six, sizeof(six));
   const VoteNet old = VoteNet::Deserialize(format6, "old.fcm");
@@ -426,6 +426,36 @@ TEST(VoteNet, EdgeVotesAreStoredTrainedAndMirrored) {
   for (int32_t bad : {2, -1}) {
     const std::string message = ErrorWithHeaderField(bytes, kEdgesAt, bad);
     EXPECT_NE(message.find("shared.fcm: vote network is corrupt (edge votes flag)"),
+              std::string::npos)
+        << bad << ": " << message;
+  }
+}
+
+// The centre cells' radius is stored with the weights (format 8); a
+// format-7 block (before the field) reads as the centre cell alone, and a
+// radius outside 0..10 cells is refused by name.
+TEST(VoteNet, CentreRadiusIsStoredAndFormatSevenReadsAsTheCentreCell) {
+  VoteNetOptions options;
+  options.grid = SmallGrid();
+  options.width = 4;
+  options.coder.centre_radius_cells = 1.5;
+  const std::string bytes = VoteNet::Create(options, 1).Serialize();
+  EXPECT_EQ(VoteNet::Deserialize(bytes, "radius.fcm").options().coder.centre_radius_cells, 1.5);
+  constexpr size_t kRadiusAt = 84;  // after the edge votes flag
+  double stored = 0;
+  std::memcpy(&stored, &bytes[kRadiusAt], sizeof(stored));
+  ASSERT_EQ(stored, 1.5);
+  options.coder.centre_radius_cells = 0;
+  const std::string plain = VoteNet::Create(options, 1).Serialize();
+  std::string format7 = plain.substr(0, kRadiusAt) + plain.substr(kRadiusAt + sizeof(double));
+  const uint32_t seven = 7;
+  std::memcpy(&format7[8], &seven, sizeof(seven));
+  const VoteNet old = VoteNet::Deserialize(format7, "old.fcm");
+  EXPECT_EQ(old.options().coder.centre_radius_cells, 0);
+  EXPECT_EQ(old.Serialize(), plain);
+  for (double bad : {-1.0, 11.0, std::nan("")}) {
+    const std::string message = ErrorWithHeaderField(bytes, kRadiusAt, bad);
+    EXPECT_NE(message.find("shared.fcm: vote network is corrupt (BEV centre radius"),
               std::string::npos)
         << bad << ": " << message;
   }

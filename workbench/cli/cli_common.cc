@@ -163,6 +163,12 @@ void AddVoteNetFlags(CLI::App* app, VoteNetFlags* flags) {
                   "trestle; doors, drawers, shelves) mixed into the training rooms, sized within "
                   "the catalog's range (0: none)")
       ->capture_default_str();
+  app->add_option("--vote-centre-radius",
+                  o.net.coder.centre_radius_cells,
+                  "Vote network: the cells within this distance of a piece's centre cell "
+                  "regress its box as the centre cell does (cells, 0..10; 0: the centre cell "
+                  "alone; without --vote-dense)")
+      ->capture_default_str();
   app->add_flag_callback(
       "--vote-dense",
       [&o] { o.net.coder = BevCoderOptions::Dense(); },

@@ -140,7 +140,8 @@ void ForEachDetectorOption(Options* options, Visit&& visit) {
         o.voting);
   visit(DetectorOptionInfo{"learned_min_heat",
                            "--min-heat",
-                           "Learned voting: least heat of a maximum that becomes a detection"},
+                           "Learned voting: least heat of a maximum that becomes a candidate (the "
+                           "operating point decides the detections)"},
         o.learned_min_heat);
   visit(DetectorOptionInfo{"learned_max_per_class", "", ""}, o.learned_max_per_class);
   visit(DetectorOptionInfo{"learned_suppress_m",

@@ -147,6 +147,22 @@ TrainSummary TrainFromCatalog(const Catalog& catalog,
   return summary;
 }
 
+namespace {
+
+// What a vote network was trained to regress, as `model info` prints it.
+std::string TargetsText(const BevCoderOptions& coder) {
+  std::string text = coder.dense_votes ? "dense votes" : "centre cell";
+  if (!coder.dense_votes && coder.centre_radius_cells > 0) {
+    std::ostringstream radius;
+    radius << coder.centre_radius_cells;
+    text += " and the cells within " + radius.str() + " of it";
+  }
+  if (coder.edge_votes) text += ", edge votes";
+  return text;
+}
+
+}  // namespace
+
 std::string DescribeTrainedModel(const TrainedModel& model) {
   std::ostringstream out;
   std::map<std::string, int> per_class;
@@ -191,8 +207,7 @@ std::string DescribeTrainedModel(const TrainedModel& model) {
         << " parameters, width " << net.options().width << "; BEV grid " << grid.rows << " x "
         << grid.cols << " cells of " << grid.cell_m << " m, points within " << net.options().range_m
         << " m (" << model.vote_net.size() / 1024
-        << " KiB); targets: " << (net.options().coder.dense_votes ? "dense votes" : "centre cell")
-        << (net.options().coder.edge_votes ? ", edge votes" : "") << "\n";
+        << " KiB); targets: " << TargetsText(net.options().coder) << "\n";
   }
   out << DescribeOperatingPoint(model.operating_point);
   return out.str();

@@ -123,8 +123,7 @@ EvaluationOptions ValidationEvaluation() {
 // mAP@10cm of the network's decoded maxima on the validation frames (every
 // target a labelled object; protocol B's matching).
 double ValidationMeanAp(const VoteNet& net, const std::vector<BevSample>& validation) {
-  BevDecodeOptions decode;
-  decode.min_heat = 0.02;  // low: AP sweeps the score
+  const BevDecodeOptions decode;  // its floor is low: AP sweeps the score
   const EvaluationResult result =
       EvaluateFrames(DecodedFrames(net, validation, decode, false), ValidationEvaluation());
   return MetricOrNan(result.metrics, MetricId::MeanAp(0.10));
@@ -225,6 +224,8 @@ std::string VoteNetTrainingOptions::Json() const {
   // Only when used: keys of models trained before the option stay valid.
   if (shape_variety > 0) json["shape_variety"] = shape_variety;
   if (!net.coder.dense_votes) json["coder"]["dense_votes"] = false;
+  if (net.coder.centre_radius_cells > 0)
+    json["coder"]["centre_radius_cells"] = net.coder.centre_radius_cells;
   if (net.coder.edge_votes) {
     json["coder"]["edge_votes"] = true;
     json["loss"]["edges"] = loss.edges;
