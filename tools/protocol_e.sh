@@ -2,7 +2,7 @@
 # Protocol E (leave-models-out) of the learned detector at the default
 # training budget, over several fold seeds: for each seed S a dataset of 60
 # rooms x 4 frames whose targets are one fold's models (3 folds), then
-# `crossval` trains a vote network per fold (1200 rooms x 10 epochs unless
+# `crossval` trains a vote network per fold (2400 rooms x 10 epochs unless
 # FURN_PE_FLAGS says otherwise) without that fold's models and evaluates it.
 # A second decoding or option on the same fold models costs an evaluation
 # only: crossval reuses a fold's model when its inputs are the same.
