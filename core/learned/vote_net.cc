@@ -19,8 +19,8 @@ constexpr char kMagic[8] = {'F', 'U', 'R', 'N', 'V', 'N', 'E', 'T'};
 // in the header (issue 37); 2: dense votes and membership. Versions 2 and 3
 // hold the weights as a TorchScript archive, whose loading can run code: not
 // read (nor is 1, whose channels mean something else).
-// 7: edge votes (before: none); 6: the U-Net's levels (before: 3); 5: the
-// range (4: 3 m).
+// 8: the centre cells' radius (before: the centre cell alone); 7: edge votes
+// (before: none); 6: the U-Net's levels (before: 3); 5: the range (4: 3 m).
 constexpr uint32_t kVersion = 8;
 constexpr uint32_t kOldestVersion = 4;  // the first format of weight records
 constexpr uint32_t kFirstArchiveVersion = 2;
