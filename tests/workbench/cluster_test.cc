@@ -62,6 +62,13 @@ std::string ShardedGenerate(const std::string& dir) {
          "/merged.db --shards 4 --cpus 1 --slurm --job-dir " + dir + "/job";
 }
 
+// Jobs submitted while the partition is down stay queued, so that a test can
+// act on them before they run (sbatch reads no environment variable for
+// --hold, and the workbench offers none).
+testing::CommandResult SetPartition(const std::string& state) {
+  return Shell("scontrol update PartitionName=local State=" + state);
+}
+
 std::string WaitFor(const std::string& dir, int timeout_s) {
   return "jobs wait " + dir + "/job --poll 0.5 --timeout " + std::to_string(timeout_s) + " --quiet";
 }
@@ -137,15 +144,16 @@ TEST_F(Cluster, ACancelledTaskIsResubmittedAloneByARerun) {
   const std::string dir = testing::ScratchDir();
   ASSERT_EQ(Workbench(std::string(kGenerate) + " --out " + dir + "/one.db").exit_code, 0);
   const std::string command = ShardedGenerate(dir);
-  // Held, so that task 2 can be cancelled before it runs.
-  setenv("SBATCH_HOLD", "1", 1);
+  // Queued on a down partition, so that task 2 can be cancelled before it runs.
+  ASSERT_EQ(SetPartition("DOWN").exit_code, 0);
   const testing::CommandResult submit = Workbench(command);
-  unsetenv("SBATCH_HOLD");
+  const testing::CommandResult cancel = [&] {
+    const std::string array = submit.output.substr(submit.output.find("array job ") + 10);
+    return Shell("scancel " + array.substr(0, array.find(':')) + "_2");
+  }();
+  ASSERT_EQ(SetPartition("UP").exit_code, 0);
   ASSERT_EQ(submit.exit_code, 0) << submit.output;
-  const std::string array = submit.output.substr(submit.output.find("array job ") + 10);
-  const std::string id = array.substr(0, array.find(':'));
-  ASSERT_EQ(Shell("scancel " + id + "_2").exit_code, 0);
-  ASSERT_EQ(Shell("scontrol release " + id).exit_code, 0);
+  ASSERT_EQ(cancel.exit_code, 0) << cancel.output;
   const testing::CommandResult failed = Workbench(WaitFor(dir, 300));
   EXPECT_EQ(failed.exit_code, 1) << failed.output;
   EXPECT_NE(failed.output.find("task 2 missing"), std::string::npos) << failed.output;
@@ -203,11 +211,11 @@ TEST_F(Cluster, CrossvalFoldTasksGiveTheOneProcessMetrics) {
 // (nothing queued, tasks missing), and a rerun would resubmit them all.
 TEST_F(Cluster, JobsCancelEndsTheTasksAndTheFinalJob) {
   const std::string dir = testing::ScratchDir();
-  setenv("SBATCH_HOLD", "1", 1);
+  ASSERT_EQ(SetPartition("DOWN").exit_code, 0);  // nothing runs before the cancel
   const testing::CommandResult submit = Workbench(ShardedGenerate(dir));
-  unsetenv("SBATCH_HOLD");
-  ASSERT_EQ(submit.exit_code, 0) << submit.output;
   const testing::CommandResult cancel = Workbench("jobs cancel " + dir + "/job");
+  ASSERT_EQ(SetPartition("UP").exit_code, 0);
+  ASSERT_EQ(submit.exit_code, 0) << submit.output;
   ASSERT_EQ(cancel.exit_code, 0) << cancel.output;
   EXPECT_NE(cancel.output.find("cancelled jobs "), std::string::npos) << cancel.output;
   std::string queued = "?";
