@@ -8,10 +8,17 @@ class the objects, the median distance and the share within 5, 10 and 20 cm.
 The run is the latest of --kind unless --runs are given; with --kind
 crossval-fold every fold run of the latest crossval is taken.
 
+With --losses, per class and by whether the object's image box touches the
+image's side ("cut") or not ("whole"), where each object ends up: a
+detection of its class within 10 cm, 10-20 cm, 20-50 cm, only another class
+within 20 cm, or nothing. Several databases add up: give DB:RUN,RUN.
+
   python3 tools/centre_error.py out/pe/pe-1.db --kind crossval-fold --min-visibility 0.5
+  python3 tools/centre_error.py pe-2.db:30 pe-3.db:15 --losses --min-visibility 0.15
 """
 import argparse
 import math
+import os
 import sqlite3
 import statistics
 import sys
@@ -24,6 +31,8 @@ def camera_position(text):
 
 def fold_runs(db, kind, runs, folds):
     if runs:
+        if not all(r.isdigit() for r in runs.split(",")):
+            sys.exit(f"runs '{runs}': must be run ids, comma-separated")
         return [int(r) for r in runs.split(",")]
     ids = [r[0] for r in db.execute("SELECT id FROM runs WHERE kind = ? ORDER BY id DESC", (kind,))]
     if not ids:
@@ -31,40 +40,39 @@ def fold_runs(db, kind, runs, folds):
     return sorted(ids[:folds]) if kind == "crossval-fold" else ids[:1]
 
 
-def main():
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("db")
-    parser.add_argument("--kind", default="crossval-fold")
-    parser.add_argument("--runs", default="", help="run ids, comma-separated (default: the latest)")
-    parser.add_argument("--folds", type=int, default=3, help="fold runs of the latest crossval")
-    parser.add_argument("--min-visibility", type=float, default=0.5)
-    parser.add_argument("--max-range", type=float, default=3.0)
-    parser.add_argument("--search", type=float, default=0.8)
-    args = parser.parse_args()
-    db = sqlite3.connect(f"file:{args.db}?mode=ro", uri=True)
-    runs = fold_runs(db, args.kind, args.runs, args.folds)
-    distances = {}
+def objects_of(db, runs, args):
+    """(class, cut, nearest distance of its class, nearest other class within 20 cm or '')."""
     for run in runs:
         frames = [r[0] for r in db.execute(
             "SELECT DISTINCT frame_id FROM run_frames WHERE run_id = ?", (run,))]
         for frame in frames:
-            room, pose = db.execute(
-                "SELECT room_id, world_from_camera FROM frames WHERE id = ?", (frame,)).fetchone()
+            room, pose, width, height = db.execute(
+                "SELECT room_id, world_from_camera, width, height FROM frames WHERE id = ?",
+                (frame,)).fetchone()
             cx, cy = camera_position(pose)
             detections = db.execute(
                 "SELECT class, x, y FROM run_detections WHERE run_id = ? AND frame_id = ?",
                 (run, frame)).fetchall()
             objects = db.execute(
-                "SELECT o.class, o.reference_x, o.reference_y FROM objects o JOIN frame_objects f "
+                "SELECT o.class, o.reference_x, o.reference_y, f.amodal_u0, f.amodal_v0, "
+                "f.amodal_u1, f.amodal_v1 FROM objects o JOIN frame_objects f "
                 "ON f.instance_id = o.instance_id AND f.frame_id = ? WHERE o.room_id = ? AND "
                 "o.class != '' AND f.visibility >= ?", (frame, room, args.min_visibility)).fetchall()
-            for cls, x, y in objects:
+            for cls, x, y, u0, v0, u1, v1 in objects:
                 if math.hypot(x - cx, y - cy) > args.max_range:
                     continue
-                near = [math.hypot(x - dx, y - dy) for c, dx, dy in detections if c == cls]
-                best = min(near) if near else math.inf
-                distances.setdefault(cls, []).append(best if best <= args.search else math.inf)
-    print(f"runs {runs}, objects seen >= {args.min_visibility:.0%} within {args.max_range} m")
+                cut = u0 <= 0 or v0 <= 0 or u1 >= width - 1 or v1 >= height - 1
+                near = sorted((math.hypot(x - dx, y - dy), c) for c, dx, dy in detections)
+                best = min([d for d, c in near if c == cls], default=math.inf)
+                other = next((c for d, c in near if c != cls and d < 0.2), "")
+                yield cls, cut, best if best <= args.search else math.inf, other
+
+
+def print_distances(found_objects, header):
+    distances = {}
+    for cls, _, best, _ in found_objects:
+        distances.setdefault(cls, []).append(best)
+    print(header)
     print(f"{'class':10} {'objects':>7} {'median cm':>9} {'<5cm':>6} {'<10cm':>6} {'<20cm':>6} {'none':>5}")
     for cls in sorted(distances):
         d = distances[cls]
@@ -73,6 +81,46 @@ def main():
         share = lambda r: sum(v < r for v in d) / len(d)
         print(f"{cls:10} {len(d):7d} {median:9.1f} {share(0.05):6.2f} {share(0.10):6.2f} "
               f"{share(0.20):6.2f} {len(d) - len(found):5d}")
+
+
+def print_losses(found_objects, header):
+    kinds = ["<10cm", "10-20cm", "20-50cm", "other class", "nothing"]
+    counts = {}
+    for cls, cut, best, other in found_objects:
+        kind = (kinds[0] if best < 0.1 else kinds[1] if best < 0.2 else
+                kinds[3] if other else kinds[2] if best < 0.5 else kinds[4])
+        row = counts.setdefault((cls, "cut" if cut else "whole"), dict.fromkeys(kinds, 0))
+        row[kind] += 1
+    print(header + "; where each object ends up (other class: only another class within 20 cm)")
+    print(f"{'class':10} {'':5} {'objects':>7} " + " ".join(f"{k:>12}" for k in kinds))
+    for (cls, cut), row in sorted(counts.items()):
+        n = sum(row.values())
+        print(f"{cls:10} {cut:5} {n:7d} " +
+              " ".join(f"{row[k]:5d} ({row[k] / n:4.0%})" for k in kinds))
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("db", nargs="+", help="a dataset database, or DB:RUN,RUN")
+    parser.add_argument("--kind", default="crossval-fold")
+    parser.add_argument("--runs", default="", help="run ids, comma-separated (default: the latest)")
+    parser.add_argument("--folds", type=int, default=3, help="fold runs of the latest crossval")
+    parser.add_argument("--min-visibility", type=float, default=0.5)
+    parser.add_argument("--max-range", type=float, default=3.0)
+    parser.add_argument("--search", type=float, default=0.8)
+    parser.add_argument("--losses", action="store_true", help="where each object ends up, cut or whole")
+    args = parser.parse_args()
+    found_objects, names = [], []
+    for spec in args.db:
+        path, _, run_list = spec.partition(":")
+        if not os.path.isfile(path):
+            sys.exit(f"{path}: no such dataset database")
+        db = sqlite3.connect(f"file:{path}?mode=ro", uri=True)
+        runs = fold_runs(db, args.kind, run_list or args.runs, args.folds)
+        found_objects += list(objects_of(db, runs, args))
+        names.append(f"{path} runs {runs}")
+    header = f"{'; '.join(names)}: objects seen >= {args.min_visibility:.0%} within {args.max_range} m"
+    (print_losses if args.losses else print_distances)(found_objects, header)
 
 
 if __name__ == "__main__":

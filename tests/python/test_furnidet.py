@@ -156,6 +156,35 @@ class FurnidetTest(unittest.TestCase):
         self.assertNotEqual(bad.returncode, 0)
         self.assertIn("--cut", bad.stderr)
 
+    def test_centre_error_tool_adds_databases_and_splits_losses_by_cut(self):
+        tool = os.path.join(os.path.dirname(__file__), "..", "..", "tools", "centre_error.py")
+        out = workbench("evaluate", "--model", self.model, "--db", self.db, "--split", "all")
+        run = out.split()[1].rstrip(":")
+        self.assertTrue(out.startswith("run ") and run.isdigit(), out)
+
+        def losses(*specs):
+            done = subprocess.run([sys.executable, tool, *specs, "--losses", "--min-visibility", "0"],
+                                  capture_output=True, text=True)
+            self.assertEqual(done.returncode, 0, done.stderr)
+            rows = {}
+            for line in done.stdout.splitlines()[2:]:
+                cls, cut, n, *kinds = line.replace("(", " ").replace(")", " ").split()
+                self.assertIn(cut, ("cut", "whole"))
+                counts = [int(k) for k in kinds if not k.endswith("%")]
+                self.assertEqual(sum(counts), int(n), line)
+                rows[(cls, cut)] = int(n)
+            return rows
+
+        one = losses(f"{self.db}:{run}")
+        self.assertGreater(sum(one.values()), 0)
+        self.assertEqual(losses(f"{self.db}:{run}", f"{self.db}:{run}"),
+                         {key: 2 * n for key, n in one.items()})
+        for bad, rule in ((f"{self.dir}/none.db:{run}", "no such dataset database"),
+                          (f"{self.db}:x", "must be run ids")):
+            done = subprocess.run([sys.executable, tool, bad], capture_output=True, text=True)
+            self.assertNotEqual(done.returncode, 0)
+            self.assertIn(rule, done.stderr)
+
     def test_detection_releases_the_gil(self):
         frame = self.dataset.frame(self.dataset.frame_ids()[0])
         depth, K, pose = frame.depth, frame.K, frame.world_from_camera
