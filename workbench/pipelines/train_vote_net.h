@@ -33,9 +33,9 @@ struct VoteNetTrainingOptions {
   // fold networks) and twice the rooms again. Two paired fold networks of
   // protocol E: mAP@10cm +0.017 and +0.152, tables +0.060 and +0.149, table
   // centre error 7.6 -> 3.7 and 8.7 -> 7.9 cm; the real set held with fewer
-  // false detections. Twice the network's training time (about 19 min on an
-  // idle 2-core machine, from 600 x 20's measured 9.4) and the frames' memory
-  // (about 1 GB more; both estimates; docs/learned-voting.md, "2400 rooms").
+  // false detections. Measured on an idle 2-core machine: `train --catalog
+  // default` 34.5 min (the network 25.6), 4.25 GB resident at the peak
+  // (docs/learned-voting.md, "2400 rooms").
   int rooms = 2400;  // generated training rooms
   int frames_per_room = 4;
   uint64_t seed = 1;  // rooms, weights, batches, augmentation
