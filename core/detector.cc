@@ -78,17 +78,8 @@ OperatingPoint DetectorOptions::EffectiveOperatingPoint(const OperatingPoint& mo
 }
 
 BevDecodeOptions DetectorOptions::LearnedDecode() const {
-  BevDecodeOptions decode;
-  decode.min_heat = learned_min_heat;
-  decode.max_per_class = learned_max_per_class;
-  decode.suppress_m = learned_suppress_m;
+  BevDecodeOptions decode = learned_decode;
   decode.max_distance_m = max_range_m;
-  decode.centre = learned_centre;
-  decode.vote_bandwidth_m = learned_vote_bandwidth_m;
-  decode.vote_heat_power = learned_vote_heat_power;
-  decode.edge_classes = learned_edge_classes;
-  decode.edge_near_m = learned_edge_near_m;
-  decode.edge_agree_m = learned_edge_agree_m;
   return decode;
 }
 

@@ -149,27 +149,20 @@ struct DetectorOptions {
 
   uint64_t seed = 1;  // RANSAC draws
 
-  // Learned voting (core/learned/): heat-map maxima of at least
-  // learned_min_heat are candidates, at most learned_max_per_class per
-  // class, centred by learned_centre (bev_box_coder.h: the mean shift of the
-  // dense votes, or the peak cell's own). With learned_suppress_m > 0 a
-  // weaker maximum of any class that near a stronger one is dropped (one
-  // piece of furniture, one label); off by default: it cost 0.03 mAP@10cm on
-  // unseen furniture (armchairs under chair maxima). torch_threads: the
-  // network's intra-op threads (0: the library's default).
+  // Learned voting (core/learned/): how the network's heat-map maxima
+  // become candidates is learned_decode (bev_box_coder.h, its defaults the
+  // product's; its range is max_range_m); torch_threads: the network's
+  // intra-op threads (0: the library's default).
   VotingMode voting = VotingMode::kAuto;
   // The network's outputs averaged with those of the mirrored image
   // (VoteNet::Predict; the network's time twice, the frame's +3 %). On by
   // default since issue 37 measured it on three fold seeds of protocol E
   // (docs/learned-voting.md); the operating point is chosen without it.
   bool learned_mirror_average = true;
-  // Candidates only: the operating point decides what becomes a detection,
-  // so the floor is low and average precision sweeps the weak maxima too
-  // (0.1 -> 0.03: +0.006 mAP@10cm and +0.008 for tables over seven fold
-  // networks of protocol E, every one at least as high; 0.01 the same).
-  double learned_min_heat = 0.03;
-  int learned_max_per_class = 16;
-  double learned_suppress_m = 0;
+  // Floor, maxima per class, suppression, same-class separation, centring
+  // (the mean shift of the dense votes, or the peak cell's own) and edge
+  // votes; max_distance_m is ignored (LearnedDecode sets max_range_m).
+  BevDecodeOptions learned_decode;
   int torch_threads = 1;
   // The paper's stages after the learned vote: each detection's CAD models
   // ranked by the VFH part subsets of the segments inside its box (top_models
@@ -180,15 +173,6 @@ struct DetectorOptions {
   // (2 fold seeds) the same mAP, yaw error median 6° instead of 42–49°.
   bool learned_fit = true;
   double learned_fit_agree_m = 0.15;
-  BevCentre learned_centre = BevCentre::kVotes;
-  double learned_vote_bandwidth_m = 0.1;
-  double learned_vote_heat_power = 0;  // BevDecodeOptions::vote_heat_power
-  // Networks trained with edge votes: the classes centred between the sides
-  // their cells place, and how (BevDecodeOptions::edge_*). None by default:
-  // on protocol E the peak cell's own centre placed tables better.
-  BevEdgeClasses learned_edge_classes = BevEdgeClasses::kNone;
-  double learned_edge_near_m = 0.15;
-  double learned_edge_agree_m = 0.3;
   // The extent fit (core/learned/bev_extent.h): the detections of these
   // classes move their box to the edges of the surface the scan shows, where
   // it saw them end (a long table's centre from its two ends, not from one
@@ -209,7 +193,7 @@ struct DetectorOptions {
   // model's operating point (< 0: none).
   OperatingPoint EffectiveOperatingPoint(const OperatingPoint& model_point) const;
 
-  // The learned maxima's decoding from the fields above.
+  // learned_decode within max_range_m.
   BevDecodeOptions LearnedDecode() const;
 
   // Throws InputError naming the field and the rule.

@@ -1,7 +1,7 @@
 // Learned voting (issues 30, 37): the scan's bird's-eye-view image through
 // the model's vote network; the heat maps' maxima, centred by the box coder
 // (core/learned/bev_box_coder.h), are hypotheses and, unless suppressed
-// (learned_suppress_m > 0), detections with the network's position, yaw and
+// (learned_decode.suppress_m > 0), detections with the network's position, yaw and
 // footprint.
 #include <algorithm>
 #include <cmath>
@@ -234,7 +234,7 @@ void Detector::DetectLearned(const PreparedScan& scan,
   if (!keep_debug) return;
   DetectionDebug& debug = result->debug;
   for (int k = 0; k < kBevClasses; ++k)
-    debug.grids.push_back(WorldGridOf(image, output, k, impl.options.learned_min_heat));
+    debug.grids.push_back(WorldGridOf(image, output, k, impl.options.learned_decode.min_heat));
   const Eigen::Isometry3f world_from_camera = scan.world_from_camera.cast<float>();
   const float max_range2 =
       static_cast<float>(impl.vote_net.options().range_m * impl.vote_net.options().range_m);

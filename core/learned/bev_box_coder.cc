@@ -434,6 +434,14 @@ void EncodeCentreCells(const std::vector<BevObject>& objects,
   }
 }
 
+// Whether a peak of peak's class lies within distance_m of it.
+bool NearOneOfItsClass(const std::vector<BevPeak>& peaks, const BevPeak& peak, double distance_m) {
+  return std::any_of(peaks.begin(), peaks.end(), [&](const BevPeak& kept) {
+    return kept.furniture_class == peak.furniture_class &&
+           std::hypot(kept.x - peak.x, kept.y - peak.y) < distance_m;
+  });
+}
+
 }  // namespace
 
 bool UsesEdges(BevEdgeClasses classes, FurnitureClass furniture_class) {
@@ -489,6 +497,8 @@ void BevDecodeOptions::Check() const {
           "learned min heat " + std::to_string(min_heat) + " must be in 0..1");
   Require(max_per_class >= 1 && max_per_class <= 1000,
           "learned maxima per class " + std::to_string(max_per_class) + " must be in 1..1000");
+  Require(same_class_m >= 0 && same_class_m <= 5,
+          "learned same-class separation " + std::to_string(same_class_m) + " m must be in 0..5");
   Require(max_distance_m > 0,
           "learned maxima range " + std::to_string(max_distance_m) + " m must be > 0");
   Require(suppress_m >= 0 && suppress_m <= 5,
@@ -560,6 +570,7 @@ std::vector<BevPeak> DecodeBevOutput(const BevImage& image,
     BevPeak peak = PeakOf(image, output, cell, options);
     if ((Eigen::Vector2d(peak.x, peak.y) - image.frame.origin).norm() > options.max_distance_m)
       continue;
+    if (NearOneOfItsClass(peaks, peak, options.same_class_m)) continue;
     for (const BevPeak& kept : peaks) {
       const double distance = std::hypot(kept.x - peak.x, kept.y - peak.y);
       if (options.suppress_m > 0 && !kept.suppressed && distance < options.suppress_m) {

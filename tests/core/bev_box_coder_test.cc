@@ -2,8 +2,9 @@
 // dense votes on each target's occupied cells, ignore regions), and that
 // decoding the targets themselves gives back the objects, by the peak cell
 // and by the votes; the votes' mean shift outvotes one wrong peak cell;
-// cross-class suppression is an option; edge votes place a long table's
-// sides where its centre cell guessed wrong.
+// cross-class suppression is an option, a class's maximum seen twice is
+// one object; edge votes place a long table's sides where its centre cell
+// guessed wrong.
 #include "core/learned/bev_box_coder.h"
 
 #include <gtest/gtest.h>
@@ -217,6 +218,7 @@ TEST(BevBoxCoder, CentreRadiusCellsRegressTheCentreTheyAreNear) {
       output.values[At(spec, heat, row, col + dc)] = dc == toward ? 1.0f : 0.5f;
     BevDecodeOptions decode;
     decode.centre = BevCentre::kPeak;
+    decode.same_class_m = 0;  // two chairs closer than any two stand
     const BevPeak* nearest = nullptr;
     const std::vector<BevPeak> peaks = DecodeBevOutput(image, output, decode);
     for (const BevPeak& peak : peaks) {
@@ -349,6 +351,44 @@ TEST(BevBoxCoder, CrossClassSuppressionIsAnOption) {
   EXPECT_EQ(peaks[0].furniture_class, FurnitureClass::kChair);
   EXPECT_TRUE(peaks[1].suppressed);
   EXPECT_LT(peaks[1].suppressed_by_m, 0.01);
+}
+
+TEST(BevBoxCoder, AClassMaximumSeenTwiceIsOneObject) {
+  // Two chairs 0.6 m apart; the first's heat has a second, weaker maximum
+  // three cells off, whose votes centre it on the same chair.
+  BevObject neighbour = kChair;
+  neighbour.centre += Eigen::Vector2d(0.0, 0.6);
+  const BevImage image = ImageWith({kChair, neighbour});
+  BevTargets t = EncodeBevTargets({kChair, neighbour}, image, BevCoderOptions::Dense());
+  const Eigen::Vector2d cell = image.frame.CellOf(kChair.centre, image.spec);
+  t.values[At(image.spec,
+              ch::kHeat[static_cast<int>(FurnitureClass::kChair)],
+              static_cast<int>(cell.x()) + 3,
+              static_cast<int>(cell.y()))] = 0.7f;
+  BevDecodeOptions options;  // 0.2 m by default
+  const std::vector<BevPeak> once = DecodeBevOutput(image, PerfectOutput(t, image.spec), options);
+  ASSERT_EQ(once.size(), 2u);
+  for (const BevPeak& peak : once) {
+    const double to_first = std::hypot(peak.x - kChair.centre.x(), peak.y - kChair.centre.y());
+    const double to_second =
+        std::hypot(peak.x - neighbour.centre.x(), peak.y - neighbour.centre.y());
+    EXPECT_LT(std::min(to_first, to_second), 0.01);
+    EXPECT_EQ(peak.heat, 1.0);
+  }
+  options.same_class_m = 0;
+  const std::vector<BevPeak> twice = DecodeBevOutput(image, PerfectOutput(t, image.spec), options);
+  ASSERT_EQ(twice.size(), 3u);
+  EXPECT_NEAR(twice[2].heat, 0.7, 1e-6);
+  EXPECT_LT(std::hypot(twice[2].x - kChair.centre.x(), twice[2].y - kChair.centre.y()), 0.05);
+  // Another class at the same place is not the same object.
+  t.values[At(image.spec,
+              ch::kHeat[static_cast<int>(FurnitureClass::kArmchair)],
+              static_cast<int>(cell.x()) + 3,
+              static_cast<int>(cell.y()))] = 0.7f;
+  options.same_class_m = 0.2;
+  EXPECT_EQ(DecodeBevOutput(image, PerfectOutput(t, image.spec), options).size(), 3u);
+  options.same_class_m = -0.1;
+  EXPECT_THROW(options.Check(), InputError);
 }
 
 TEST(BevBoxCoder, OptionChecksNameTheValue) {

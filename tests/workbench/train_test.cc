@@ -267,7 +267,7 @@ TEST(Train, VoteNetIsStoredUsedAndItsRoomsHoldNoHeldOutModel) {
       return metres;
     };
     DetectorOptions every_maximum = network_only;
-    every_maximum.learned_min_heat = 0;  // up to 16 per class, anywhere
+    every_maximum.learned_decode.min_heat = 0;  // up to 16 per class, anywhere
     const DetectionResult all =
         Detector(model, every_maximum).Detect(DetectionInputOf(room.frames.front(), "frame"), true);
     every_maximum.max_range_m = 1.5;
@@ -285,7 +285,7 @@ TEST(Train, VoteNetIsStoredUsedAndItsRoomsHoldNoHeldOutModel) {
     DetectorOptions fitting;
     fitting.learned_fit = true;
     fitting.learned_fit_agree_m = 2.0;
-    fitting.learned_min_heat = 0.0;
+    fitting.learned_decode.min_heat = 0.0;
     const DetectionResult fitted =
         Detector(model, fitting).Detect(DetectionInputOf(room.frames.front(), "frame"), true);
     stages.clear();
@@ -351,7 +351,7 @@ TEST(Train, VoteNetIsStoredUsedAndItsRoomsHoldNoHeldOutModel) {
     const RoomRecord room = rooms.ReadRoom(rooms.RoomIds().front(), true);
     const DetectionInput input = DetectionInputOf(room.frames.front(), "frame");
     DetectorOptions options = network_only;
-    options.learned_min_heat = 0.0;
+    options.learned_decode.min_heat = 0.0;
     const DetectionResult every = Detector(model, options).Detect(input, false);
     ASSERT_GE(every.detections.size(), 2u);
     std::vector<double> scores;

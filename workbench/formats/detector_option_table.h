@@ -142,13 +142,19 @@ void ForEachDetectorOption(Options* options, Visit&& visit) {
                            "--min-heat",
                            "Learned voting: least heat of a maximum that becomes a candidate (the "
                            "operating point decides the detections)"},
-        o.learned_min_heat);
-  visit(DetectorOptionInfo{"learned_max_per_class", "", ""}, o.learned_max_per_class);
+        o.learned_decode.min_heat);
+  visit(DetectorOptionInfo{"learned_max_per_class", "", ""}, o.learned_decode.max_per_class);
   visit(DetectorOptionInfo{"learned_suppress_m",
                            "--suppress-radius",
                            "Learned voting: a weaker maximum of any class this near a stronger "
                            "one is dropped (m; 0, the default: off)"},
-        o.learned_suppress_m);
+        o.learned_decode.suppress_m);
+  visit(
+      DetectorOptionInfo{"learned_same_class_m",
+                         "--same-class-radius",
+                         "Learned voting: a weaker maximum of a class this near a stronger one of "
+                         "the same class is dropped, one object seen twice (m; 0: off)"},
+      o.learned_decode.same_class_m);
   visit(DetectorOptionInfo{"torch_threads",
                            "--torch-threads",
                            "Learned voting: the network's threads (0: the library's default)"},
@@ -170,32 +176,32 @@ void ForEachDetectorOption(Options* options, Visit&& visit) {
                            "--centre-from",
                            "Learned voting: a maximum's centre from 'votes' (the mean shift of the "
                            "dense votes around it) or 'peak' (its own cell's vote)"},
-        o.learned_centre);
+        o.learned_decode.centre);
   visit(DetectorOptionInfo{"learned_vote_bandwidth_m",
                            "--vote-bandwidth",
                            "Learned voting: the mean shift's kernel width (m)"},
-        o.learned_vote_bandwidth_m);
+        o.learned_decode.vote_bandwidth_m);
   visit(DetectorOptionInfo{"learned_vote_heat_power",
                            "--vote-heat-power",
                            "Learned voting: a vote's weight is its membership times the class's "
                            "heat at its cell to this power (0: membership alone)"},
-        o.learned_vote_heat_power);
+        o.learned_decode.vote_heat_power);
   visit(DetectorOptionInfo{"learned_edge_classes",
                            "--edge-centres",
                            "Learned voting, networks trained with edge votes: the classes centred "
                            "between the four sides their cells place ('none', the default: the "
                            "peak cell's centre; 'large': tables, sideboards and sofas; 'all')"},
-        o.learned_edge_classes);
+        o.learned_decode.edge_classes);
   visit(DetectorOptionInfo{"learned_edge_near_m",
                            "--edge-reach",
                            "Learned voting, --edge-centres: a cell's say on a side falls off as "
                            "exp(-its distance to the side / this) (m)"},
-        o.learned_edge_near_m);
+        o.learned_decode.edge_near_m);
   visit(DetectorOptionInfo{"learned_edge_agree_m",
                            "--edge-agree",
                            "Learned voting, --edge-centres: the cells whose distances put the "
                            "centre this near the maximum's own are the object's (m)"},
-        o.learned_edge_agree_m);
+        o.learned_decode.edge_agree_m);
   visit(DetectorOptionInfo{"learned_mirror_average",
                            "--mirror-average",
                            "Learned voting: average the network's outputs with those of the "
