@@ -41,6 +41,13 @@ struct TableSize {
   float hx, hy, height, top;
 };
 
+// What decides a varied table besides its size range.
+struct TableDraw {
+  uint64_t seed;
+  ShapeSizes sizes;
+  bool cloth;
+};
+
 void FourLegTable(Rng* rng, const TableSize& s, TriangleMesh* mesh) {
   const float leg = rng->Uniform(0.035, 0.08), inset = rng->Uniform(0.0, 0.12);
   const float under = s.height - s.top;
@@ -93,15 +100,52 @@ void TrestleTable(Rng* rng, const TableSize& s, TriangleMesh* mesh) {
          Vector3f(s.hx - inset, 0.025f, stretcher + 0.06f));
 }
 
-TriangleMesh MakeTable(Rng* rng, const SizeRange& range) {
+// A cloth over a table's top: the top covered and a skirt hanging below it.
+// On a round top it falls to the floor more often than not (a cylinder, a
+// little flared at its foot: a box, as a sideboard is, but round and of a
+// table's height); on a rectangular one it hangs 15-40 cm.
+void AddCloth(Rng* rng, const TableSize& s, bool round_top, TriangleMesh* mesh) {
+  constexpr float kThickness = 0.01f;
+  const bool to_floor = round_top && rng->Bernoulli(0.6);
+  const float drop = to_floor
+                         ? s.height - 0.01f
+                         : std::min(s.height - 0.05f, static_cast<float>(rng->Uniform(0.15, 0.4)));
+  const float low = s.height - drop, high = s.height + kThickness;
+  if (round_top) {
+    const float flare = to_floor ? static_cast<float>(rng->Uniform(0.02, 0.1)) : kThickness;
+    AppendMesh(MakeCylinder(Vector3f(0, 0, low), s.hx + flare, high - low, 2 * kSegments), mesh);
+    return;
+  }
+  const float hx = s.hx + kThickness, hy = s.hy + kThickness;
+  AddBox(mesh, Vector3f(-hx, -hy, s.height), Vector3f(hx, hy, high));
+  for (int side : {-1, 1}) {
+    const float y0 = side < 0 ? -hy : s.hy, x0 = side < 0 ? -hx : s.hx;
+    AddBox(mesh, Vector3f(-hx, y0, low), Vector3f(hx, y0 + kThickness, high));
+    AddBox(mesh, Vector3f(x0, -hy, low), Vector3f(x0 + kThickness, hy, high));
+  }
+}
+
+TriangleMesh MakeTable(Rng* rng, const SizeRange& range, const TableDraw& draw) {
   float width = Draw(rng, range, 0), depth = Draw(rng, range, 1);
+  // The widened range's depths lie within its widths: swapping keeps both in range.
+  if (draw.sizes == ShapeSizes::kReal && depth > width) std::swap(width, depth);
   const float height = Draw(rng, range, 2);
-  const double style = rng->Uniform01();
+  double style = rng->Uniform01();
   // A round top's diameter must fit both the width and the depth ranges.
   const float round_low = std::max(range.min_m.x(), range.min_m.y());
   const float round_high = std::min(range.max_m.x(), range.max_m.y());
-  const bool round_top = style < 0.25 && rng->Bernoulli(0.6) && round_low <= round_high;
+  bool round_top = style < 0.25 && rng->Bernoulli(0.6) && round_low <= round_high;
   if (round_top) width = depth = static_cast<float>(rng->Uniform(round_low, round_high + 1e-3));
+  // A cloth draws from a stream of its own: the table's other draws stay as
+  // they are without it. Half the cloths lie on a round top, on a pedestal
+  // (corner legs would stand outside a round top).
+  constexpr uint64_t kClothStream = 0xC107;
+  Rng cloth_rng(DeriveSeed(draw.seed, kClothStream));
+  if (draw.cloth && round_low <= round_high && cloth_rng.Bernoulli(0.5)) {
+    round_top = true;
+    style = 0;
+    width = depth = static_cast<float>(cloth_rng.Uniform(round_low, round_high + 1e-3));
+  }
   const TableSize s{width / 2, depth / 2, height, static_cast<float>(rng->Uniform(0.02, 0.06))};
   TriangleMesh mesh;
   if (style < 0.25) {
@@ -116,6 +160,7 @@ TriangleMesh MakeTable(Rng* rng, const SizeRange& range) {
   } else {
     AddBox(&mesh, Vector3f(-s.hx, -s.hy, s.height - s.top), Vector3f(s.hx, s.hy, s.height));
   }
+  if (draw.cloth) AddCloth(&cloth_rng, s, round_top, &mesh);
   return mesh;
 }
 
@@ -196,6 +241,21 @@ bool HasShapeVariety(FurnitureClass furniture_class) {
   return furniture_class == FurnitureClass::kTable || furniture_class == FurnitureClass::kSideboard;
 }
 
+SizeRange TypicalSizeRange(FurnitureClass furniture_class) {
+  switch (furniture_class) {
+    case FurnitureClass::kTable:  // cafe tables to eight-seat dining tables
+      return SizeRange{Vector3f(0.6f, 0.6f, 0.70f), Vector3f(2.4f, 1.2f, 0.80f)};
+    case FurnitureClass::kSideboard:
+      return SizeRange{Vector3f(0.8f, 0.35f, 0.6f), Vector3f(2.2f, 0.6f, 1.0f)};
+    default:
+      throw InputError(std::string("no shape variety for class ") + ClassName(furniture_class));
+  }
+}
+
+SizeRange Union(const SizeRange& a, const SizeRange& b) {
+  return SizeRange{a.min_m.cwiseMin(b.min_m), a.max_m.cwiseMax(b.max_m)};
+}
+
 SizeRange ClassSizeRange(const Catalog& catalog,
                          FurnitureClass furniture_class,
                          const std::set<std::string>& excluded) {
@@ -217,16 +277,20 @@ SizeRange ClassSizeRange(const Catalog& catalog,
 
 ProceduralModel MakeVariedModel(FurnitureClass furniture_class,
                                 const SizeRange& range,
-                                uint64_t seed) {
+                                uint64_t seed,
+                                ShapeSizes sizes,
+                                bool cloth) {
   Require(HasShapeVariety(furniture_class),
           std::string("no shape variety for class ") + ClassName(furniture_class));
+  Require(!cloth || furniture_class == FurnitureClass::kTable, "only a table wears a cloth");
   Require((range.min_m.array() > 0).all() && (range.max_m.array() >= range.min_m.array()).all(),
           "a shape variety size range must be positive and ordered");
   Rng rng(seed);
   ProceduralModel item;
   item.furniture_class = furniture_class;
-  TriangleMesh mesh = furniture_class == FurnitureClass::kTable ? MakeTable(&rng, range)
-                                                                : MakeSideboard(&rng, range);
+  TriangleMesh mesh = furniture_class == FurnitureClass::kTable
+                          ? MakeTable(&rng, range, TableDraw{seed, sizes, cloth})
+                          : MakeSideboard(&rng, range);
   PlaceOnFloorCentred(&mesh);
   item.model.mesh = std::move(mesh);
   item.model.content_hash = HashMesh(item.model.mesh);
@@ -236,19 +300,24 @@ ProceduralModel MakeVariedModel(FurnitureClass furniture_class,
 std::vector<ProceduralModel> MakeShapeVariety(const Catalog& catalog,
                                               const std::set<std::string>& excluded,
                                               int per_class,
-                                              uint64_t seed) {
+                                              uint64_t seed,
+                                              ShapeSizes sizes) {
   Require(per_class >= 0 && per_class <= 1000,
           "shape variety: " + std::to_string(per_class) + " models per class must be in 0..1000");
   std::vector<ProceduralModel> models;
   for (FurnitureClass furniture_class : kAllClasses) {
     if (!HasShapeVariety(furniture_class) || per_class == 0) continue;
-    const SizeRange range = ClassSizeRange(catalog, furniture_class, excluded);
+    SizeRange range = ClassSizeRange(catalog, furniture_class, excluded);
+    if (sizes == ShapeSizes::kReal) range = Union(range, TypicalSizeRange(furniture_class));
     for (int k = 0; k < per_class; ++k) {
       const uint64_t stream = static_cast<uint64_t>(furniture_class) * 100000 + k;
-      ProceduralModel item = MakeVariedModel(furniture_class, range, DeriveSeed(seed, stream));
+      const bool cloth = sizes == ShapeSizes::kReal && furniture_class == FurnitureClass::kTable &&
+                         k % kClothEvery == kClothEvery / 2;
+      ProceduralModel item =
+          MakeVariedModel(furniture_class, range, DeriveSeed(seed, stream), sizes, cloth);
       const std::string name = std::string(ClassName(furniture_class)) + "-" + std::to_string(k);
       item.model.id = "varied/" + name;
-      item.model.name = "Varied " + name;
+      item.model.name = "Varied " + name + (cloth ? " (cloth)" : "");
       item.model.source_path = "varied:" + std::to_string(seed);
       models.push_back(std::move(item));
     }

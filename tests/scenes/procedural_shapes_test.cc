@@ -1,12 +1,18 @@
 // Shape variety for the vote network's training rooms: varied tables and
 // sideboards come in several styles, sized within the range given, the same
 // seed gives the same mesh; a catalog copy takes them as classified entries
-// without changing the catalog it was copied from.
+// without changing the catalog it was copied from; real sizes reach the
+// class's usual sizes beyond the catalog's, and a share of the tables wear a
+// cloth.
 #include "scenes/procedural_shapes.h"
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <set>
+#include <string>
+#include <vector>
 
 #include "core/error.h"
 
@@ -43,6 +49,79 @@ TEST(ProceduralShapes, TablesAndSideboardsVaryInStyleWithinTheRange) {
   EXPECT_EQ(MakeVariedModel(FurnitureClass::kTable, tables, 7).model.content_hash,
             MakeVariedModel(FurnitureClass::kTable, tables, 7).model.content_hash);
   EXPECT_THROW(MakeVariedModel(FurnitureClass::kChair, tables, 1), InputError);
+}
+
+TEST(ProceduralShapes, RealSizesReachTheClassesUsualSizes) {
+  const Catalog catalog = OpenCatalog("procedural:3");
+  const SizeRange own = ClassSizeRange(catalog, FurnitureClass::kTable, {});
+  const SizeRange real = Union(own, TypicalSizeRange(FurnitureClass::kTable));
+  EXPECT_LE(real.min_m.x(), 0.6f + 1e-6f);
+  EXPECT_GE(real.max_m.x(), 2.4f - 1e-6f);
+  float narrowest = 1e9f, widest = 0;
+  int tables = 0;
+  for (const ProceduralModel& item : MakeShapeVariety(catalog, {}, 80, 5, ShapeSizes::kReal)) {
+    if (item.furniture_class != FurnitureClass::kTable) {
+      ExpectWithin(BoundingBox(item.model.mesh).Size(),
+                   Union(ClassSizeRange(catalog, FurnitureClass::kSideboard, {}),
+                         TypicalSizeRange(FurnitureClass::kSideboard)),
+                   0.07f);
+      continue;
+    }
+    ++tables;
+    const Eigen::Vector3f size = BoundingBox(item.model.mesh).Size();
+    ExpectWithin(size, real, 0.21f);  // a cloth flares up to 10 cm a side
+    EXPECT_LE(size.y(), size.x() + 0.2f) << item.model.id << ": deeper than wide";
+    narrowest = std::min(narrowest, size.x());
+    widest = std::max(widest, size.x());
+  }
+  EXPECT_EQ(tables, 80);
+  EXPECT_LT(narrowest, std::max(0.75f, own.min_m.x() - 0.1f)) << "no small table";
+  EXPECT_GT(widest, std::min(2.0f, own.max_m.x() + 0.2f)) << "no large table";
+  EXPECT_THROW(TypicalSizeRange(FurnitureClass::kChair), InputError);
+}
+
+TEST(ProceduralShapes, ClothedTablesHangToTheFloorOrPartWay) {
+  const SizeRange range = Range({0.7f, 0.7f, 0.72f}, {1.8f, 1.0f, 0.76f});
+  int to_floor = 0;
+  constexpr int kTables = 60;
+  for (uint64_t seed = 1; seed <= kTables; ++seed) {
+    const TriangleMesh bare = MakeVariedModel(FurnitureClass::kTable, range, seed).model.mesh;
+    const ProceduralModel item =
+        MakeVariedModel(FurnitureClass::kTable, range, seed, ShapeSizes::kCatalog, true);
+    EXPECT_EQ(item.model.content_hash,
+              MakeVariedModel(FurnitureClass::kTable, range, seed, ShapeSizes::kCatalog, true)
+                  .model.content_hash);
+    const Box3 box = BoundingBox(item.model.mesh);
+    EXPECT_GT(item.model.mesh.triangles.size(), bare.triangles.size()) << "seed " << seed;
+    EXPECT_NEAR(box.max.z(), BoundingBox(bare).max.z() + 0.01f, 1e-4f) << "a cloth on the top";
+    ExpectWithin(box.Size(), range, 0.21f);  // a cloth flares up to 10 cm a side
+    // To the floor: a round skirt's foot on the outline.
+    const float radius = box.Size().x() / 2;
+    for (const Eigen::Vector3f& v : item.model.mesh.vertices) {
+      const float r = std::hypot(v.x() - box.Center().x(), v.y() - box.Center().y());
+      if (v.z() < 0.03f && std::abs(r - radius) < 0.005f) {
+        ++to_floor;
+        break;
+      }
+    }
+  }
+  // Half the cloths lie on round tops, 60 % of those reach the floor.
+  EXPECT_GT(to_floor, kTables * 0.1);
+  EXPECT_LT(to_floor, kTables * 0.6);
+  EXPECT_THROW(MakeVariedModel(FurnitureClass::kSideboard, range, 1, ShapeSizes::kReal, true),
+               InputError);
+}
+
+TEST(ProceduralShapes, AFifthOfTheRealVarietysTablesWearACloth) {
+  const Catalog catalog = OpenCatalog("procedural:3");
+  std::vector<std::string> clothed;
+  for (const ProceduralModel& item : MakeShapeVariety(catalog, {}, 10, 5, ShapeSizes::kReal)) {
+    if (item.model.name.find("cloth") != std::string::npos) clothed.push_back(item.model.id);
+  }
+  EXPECT_EQ(clothed, (std::vector<std::string>{"varied/table-2", "varied/table-7"}));
+  for (const ProceduralModel& item : MakeShapeVariety(catalog, {}, 10, 5)) {
+    EXPECT_EQ(item.model.name.find("cloth"), std::string::npos) << "catalog sizes: no cloth";
+  }
 }
 
 TEST(ProceduralShapes, ACatalogCopyTakesThemAsTrainingEntries) {

@@ -75,6 +75,14 @@ TEST(Cli, SheetWritesAPng) {
       RunWorkbench("catalog sheet --catalog procedural --quiet --out " + dir + "/s.png");
   ASSERT_EQ(sheet.exit_code, 0) << sheet.output;
   EXPECT_GT(std::filesystem::file_size(dir + "/s.png"), 10000u);
+  // With the shape variety the vote network may train on, real sizes.
+  const RunResult varied = RunWorkbench(
+      "catalog sheet --catalog procedural --class table --shape-variety 5 --shape-sizes real "
+      "--quiet --out " +
+      dir + "/v.png");
+  ASSERT_EQ(varied.exit_code, 0) << varied.output;
+  EXPECT_NE(varied.output.find("models"), std::string::npos) << varied.output;
+  EXPECT_GT(std::filesystem::file_size(dir + "/v.png"), 10000u);
 }
 
 TEST(Cli, UserMistakesGiveOneLineAndNonZeroExit) {
@@ -242,6 +250,19 @@ TEST(Cli, UsageMistakesExitWithTwo) {
   EXPECT_EQ(RunWorkbench("render --catalog procedural:2 --seed 18446744073709551616 --out /tmp/x")
                 .exit_code,
             2);
+  // An enum's value by name; a wrong one named with the names it takes.
+  const testing::CommandResult sizes =
+      RunWorkbench("catalog sheet --catalog procedural --shape-sizes huge --out /tmp/x.png");
+  EXPECT_EQ(sizes.exit_code, 2);
+  EXPECT_NE(sizes.output.find("--shape-sizes: 'huge' is not one of catalog, real"),
+            std::string::npos)
+      << sizes.output;
+  const testing::CommandResult voting =
+      RunWorkbench("detect --voting hough --model /tmp/m.fcm --db /tmp/x.db");
+  EXPECT_EQ(voting.exit_code, 2);
+  EXPECT_NE(voting.output.find("--voting: 'hough' is not one of auto, codebook, learned"),
+            std::string::npos)
+      << voting.output;
   EXPECT_EQ(RunWorkbench("--help").exit_code, 0);
   const testing::CommandResult version = RunWorkbench("--version");
   EXPECT_EQ(version.exit_code, 0);

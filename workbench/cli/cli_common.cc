@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "core/progress.h"
+#include "workbench/cli/enum_option.h"
 
 namespace furn {
 
@@ -163,6 +164,11 @@ void AddVoteNetFlags(CLI::App* app, VoteNetFlags* flags) {
                   "trestle; doors, drawers, shelves) mixed into the training rooms, sized within "
                   "the catalog's range (0: none)")
       ->capture_default_str();
+  AddEnumOption(app,
+                "--vote-shape-sizes",
+                &o.shape_sizes,
+                "Vote network: the varied models' sizes: the catalog's range, or real (widened "
+                "to the class's usual sizes, a fifth of the tables under a cloth)");
   app->add_option("--vote-centre-radius",
                   o.net.coder.centre_radius_cells,
                   "Vote network: the cells within this distance of a piece's centre cell "

@@ -1,12 +1,12 @@
 #include "workbench/cli/detector_flags.h"
 
 #include <CLI/CLI.hpp>
-#include <map>
 #include <string>
 #include <type_traits>
 #include <vector>
 
 #include "core/file_util.h"
+#include "workbench/cli/enum_option.h"
 #include "workbench/formats/detector_option_table.h"
 #include "workbench/formats/options_file.h"
 
@@ -18,11 +18,7 @@ DetectorFlags::DetectorFlags(CLI::App* app, const std::set<std::string>& skip)
     if (*info.flag == '\0' || skip_.count(info.flag)) return;
     using T = std::remove_reference_t<decltype(value)>;
     if constexpr (std::is_enum_v<T>) {  // by name: "--voting learned"
-      std::map<std::string, T> names;
-      for (T v : EnumValues<T>()) names[EnumName(v)] = v;
-      app_->add_option(info.flag, value, info.help)
-          ->transform(CLI::CheckedTransformer(names))
-          ->default_str(EnumName(value));
+      AddEnumOption(app_, info.flag, &value, info.help);
     } else if constexpr (std::is_same_v<T, bool>) {  // "--learned-fit" / "--no-learned-fit"
       app_->add_flag(std::string(info.flag) + ",!--no-" + (info.flag + 2), value, info.help)
           ->capture_default_str();

@@ -9,6 +9,7 @@
 #include "scenes/procedural_shapes.h"
 #include "workbench/cli/cli_common.h"
 #include "workbench/cli/commands.h"
+#include "workbench/cli/enum_option.h"
 #include "workbench/pipelines/catalog_tools.h"
 
 namespace furn {
@@ -112,6 +113,11 @@ int RunCatalog(int argc, char** argv) {
                     shape_variety,
                     "Also draw this many varied tables and sideboards per class (what "
                     "train --vote-shape-variety mixes into the training rooms, seed 1)");
+  ShapeSizes shape_sizes = ShapeSizes::kCatalog;
+  AddEnumOption(sheet,
+                "--shape-sizes",
+                &shape_sizes,
+                "Their sizes (train --vote-shape-sizes): the catalog's range, or real");
 
   CLI::App* import = app.add_subcommand(
       "import", "Write a starter class map (version 2) for a folder of mesh files");
@@ -155,8 +161,9 @@ int RunCatalog(int argc, char** argv) {
   // sheet
   Catalog drawn_catalog = catalog.Copy();
   if (shape_variety != 0)
-    drawn_catalog.AddModels(
-        MakeShapeVariety(catalog, {}, shape_variety, 1), "Shape variety", "shape variety");
+    drawn_catalog.AddModels(MakeShapeVariety(catalog, {}, shape_variety, 1, shape_sizes),
+                            "Shape variety",
+                            "shape variety");
   const int drawn = DrawCatalogSheet(drawn_catalog, list_options, sheet_options, out_path);
   std::cout << "wrote " << out_path << " (" << drawn << " models)\n";
   return 0;

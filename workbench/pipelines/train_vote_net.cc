@@ -152,11 +152,12 @@ Catalog TrainingCatalog(const Catalog& catalog,
                         const VoteNetTrainingOptions& options) {
   Catalog training = catalog.Copy();
   if (options.shape_variety > 0) {
-    training.AddModels(MakeShapeVariety(catalog, held_out, options.shape_variety, options.seed),
-                       "Shape variety",
-                       std::to_string(options.shape_variety) +
-                           " varied tables and sideboards per class (seed " +
-                           std::to_string(options.seed) + ")");
+    training.AddModels(
+        MakeShapeVariety(
+            catalog, held_out, options.shape_variety, options.seed, options.shape_sizes),
+        "Shape variety",
+        std::to_string(options.shape_variety) + " varied tables and sideboards per class (" +
+            EnumName(options.shape_sizes) + " sizes, seed " + std::to_string(options.seed) + ")");
   }
   return training;
 }
@@ -223,6 +224,8 @@ std::string VoteNetTrainingOptions::Json() const {
       {"rooms_content", nlohmann::json::parse(TrainingRooms(*this, "", {}).ContentJson())}};
   // Only when used: keys of models trained before the option stay valid.
   if (shape_variety > 0) json["shape_variety"] = shape_variety;
+  if (shape_variety > 0 && shape_sizes != ShapeSizes::kCatalog)
+    json["shape_sizes"] = EnumName(shape_sizes);
   if (!net.coder.dense_votes) json["coder"]["dense_votes"] = false;
   if (net.coder.centre_radius_cells > 0)
     json["coder"]["centre_radius_cells"] = net.coder.centre_radius_cells;

@@ -23,6 +23,7 @@
 #include "core/operating_point.h"
 #include "core/trainer.h"
 #include "scenes/catalog.h"
+#include "scenes/procedural_shapes.h"
 #include "scenes/room_composer.h"
 
 namespace furn {
@@ -61,6 +62,9 @@ struct VoteNetTrainingOptions {
   // Procedural tables and sideboards per class (scenes/procedural_shapes.h)
   // added to the training rooms' catalog, never to evaluation; 0: none.
   int shape_variety = 0;
+  // Their sizes: the catalog's range, or widened to the class's usual sizes
+  // with cloths on a share of the tables (scenes/procedural_shapes.h).
+  ShapeSizes shape_sizes = ShapeSizes::kCatalog;
   bool keep_rooms = false;  // keep the rooms' database after training (else deleted)
   // The training rooms made elsewhere (the tasks of `train --shards N`, each
   // by GenerateTrainingRoomsShard): merged into the rooms' database instead
