@@ -67,6 +67,38 @@ int ImportFolder(MeshFolderImportOptions options, const std::string& import_clas
   return 0;
 }
 
+// The varied tables and sideboards a sheet may draw besides the catalog's.
+struct SheetVariety {
+  int per_class = 0;
+  ShapeSizes sizes = ShapeSizes::kCatalog;
+};
+
+void AddSheetVarietyFlags(CLI::App* sheet, SheetVariety* variety) {
+  sheet->add_option("--shape-variety",
+                    variety->per_class,
+                    "Also draw this many varied tables and sideboards per class (what "
+                    "train --vote-shape-variety mixes into the training rooms, seed 1)");
+  AddEnumOption(sheet,
+                "--shape-sizes",
+                &variety->sizes,
+                "Their sizes (train --vote-shape-sizes): the catalog's range, or real");
+}
+
+int DrawSheet(const Catalog& catalog,
+              const SheetVariety& variety,
+              const ListCatalogOptions& list_options,
+              const MeshSheetOptions& sheet_options,
+              const std::string& out_path) {
+  Catalog drawn_catalog = catalog.Copy();
+  if (variety.per_class != 0)
+    drawn_catalog.AddModels(MakeShapeVariety(catalog, {}, variety.per_class, 1, variety.sizes),
+                            "Shape variety",
+                            "shape variety");
+  const int drawn = DrawCatalogSheet(drawn_catalog, list_options, sheet_options, out_path);
+  std::cout << "wrote " << out_path << " (" << drawn << " models)\n";
+  return 0;
+}
+
 }  // namespace
 
 int RunCatalog(int argc, char** argv) {
@@ -108,16 +140,8 @@ int RunCatalog(int argc, char** argv) {
   sheet->add_option("--out", out_path, "Output .png")->required();
   sheet->add_option("--tile", sheet_options.tile_px, "Tile size in pixels")->capture_default_str();
   sheet->add_option("--columns", sheet_options.columns, "Tiles per row")->capture_default_str();
-  int shape_variety = 0;
-  sheet->add_option("--shape-variety",
-                    shape_variety,
-                    "Also draw this many varied tables and sideboards per class (what "
-                    "train --vote-shape-variety mixes into the training rooms, seed 1)");
-  ShapeSizes shape_sizes = ShapeSizes::kCatalog;
-  AddEnumOption(sheet,
-                "--shape-sizes",
-                &shape_sizes,
-                "Their sizes (train --vote-shape-sizes): the catalog's range, or real");
+  SheetVariety variety;
+  AddSheetVarietyFlags(sheet, &variety);
 
   CLI::App* import = app.add_subcommand(
       "import", "Write a starter class map (version 2) for a folder of mesh files");
@@ -158,15 +182,7 @@ int RunCatalog(int argc, char** argv) {
     std::cout << "wrote " << out_path << " (" << model.mesh.NumTriangles() << " triangles)\n";
     return 0;
   }
-  // sheet
-  Catalog drawn_catalog = catalog.Copy();
-  if (shape_variety != 0)
-    drawn_catalog.AddModels(MakeShapeVariety(catalog, {}, shape_variety, 1, shape_sizes),
-                            "Shape variety",
-                            "shape variety");
-  const int drawn = DrawCatalogSheet(drawn_catalog, list_options, sheet_options, out_path);
-  std::cout << "wrote " << out_path << " (" << drawn << " models)\n";
-  return 0;
+  return DrawSheet(catalog, variety, list_options, sheet_options, out_path);
 }
 
 }  // namespace furn
