@@ -12,6 +12,11 @@ using Eigen::Vector3f;
 
 constexpr int kSegments = 16;
 
+void RequireShapeVariety(FurnitureClass furniture_class) {
+  Require(HasShapeVariety(furniture_class),
+          std::string("no shape variety for class ") + ClassName(furniture_class));
+}
+
 void AddBox(TriangleMesh* mesh, Vector3f low, Vector3f high) {
   AppendMesh(MakeBox(low, high), mesh);
 }
@@ -242,14 +247,10 @@ bool HasShapeVariety(FurnitureClass furniture_class) {
 }
 
 SizeRange TypicalSizeRange(FurnitureClass furniture_class) {
-  switch (furniture_class) {
-    case FurnitureClass::kTable:  // cafe tables to eight-seat dining tables
-      return SizeRange{Vector3f(0.6f, 0.6f, 0.70f), Vector3f(2.4f, 1.2f, 0.80f)};
-    case FurnitureClass::kSideboard:
-      return SizeRange{Vector3f(0.8f, 0.35f, 0.6f), Vector3f(2.2f, 0.6f, 1.0f)};
-    default:
-      throw InputError(std::string("no shape variety for class ") + ClassName(furniture_class));
-  }
+  RequireShapeVariety(furniture_class);
+  if (furniture_class == FurnitureClass::kTable)  // cafe tables to eight-seat dining tables
+    return SizeRange{Vector3f(0.6f, 0.6f, 0.70f), Vector3f(2.4f, 1.2f, 0.80f)};
+  return SizeRange{Vector3f(0.8f, 0.35f, 0.6f), Vector3f(2.2f, 0.6f, 1.0f)};  // sideboards
 }
 
 SizeRange Union(const SizeRange& a, const SizeRange& b) {
@@ -280,8 +281,7 @@ ProceduralModel MakeVariedModel(FurnitureClass furniture_class,
                                 uint64_t seed,
                                 ShapeSizes sizes,
                                 bool cloth) {
-  Require(HasShapeVariety(furniture_class),
-          std::string("no shape variety for class ") + ClassName(furniture_class));
+  RequireShapeVariety(furniture_class);
   Require(!cloth || furniture_class == FurnitureClass::kTable, "only a table wears a cloth");
   Require((range.min_m.array() > 0).all() && (range.max_m.array() >= range.min_m.array()).all(),
           "a shape variety size range must be positive and ordered");

@@ -240,29 +240,23 @@ TEST(Cli, UsageMistakesExitWithTwo) {
   EXPECT_EQ(RunWorkbench("catalog export Test/x").exit_code,
             2);                                     // --out missing
   EXPECT_EQ(RunWorkbench("catalog").exit_code, 2);  // subcommand missing
+  // Exit 2 with `expected` in the message.
+  const auto expect_usage_error = [](const std::string& arguments, const std::string& expected) {
+    const testing::CommandResult result = RunWorkbench(arguments);
+    EXPECT_EQ(result.exit_code, 2) << arguments;
+    EXPECT_NE(result.output.find(expected), std::string::npos) << result.output;
+  };
   // Seeds are unsigned: no wrapping of -1 to 2^64 - 1.
-  const testing::CommandResult negative =
-      RunWorkbench("generate --catalog procedural:2 --rooms 1 --seed -1 --out /tmp/x.db");
-  EXPECT_EQ(negative.exit_code, 2);
-  EXPECT_NE(negative.output.find("--seed -1 must be a whole number in 0..2^64-1"),
-            std::string::npos)
-      << negative.output;
+  expect_usage_error("generate --catalog procedural:2 --rooms 1 --seed -1 --out /tmp/x.db",
+                     "--seed -1 must be a whole number in 0..2^64-1");
   EXPECT_EQ(RunWorkbench("render --catalog procedural:2 --seed 18446744073709551616 --out /tmp/x")
                 .exit_code,
             2);
   // An enum's value by name; a wrong one named with the names it takes.
-  const testing::CommandResult sizes =
-      RunWorkbench("catalog sheet --catalog procedural --shape-sizes huge --out /tmp/x.png");
-  EXPECT_EQ(sizes.exit_code, 2);
-  EXPECT_NE(sizes.output.find("--shape-sizes: 'huge' is not one of catalog, real"),
-            std::string::npos)
-      << sizes.output;
-  const testing::CommandResult voting =
-      RunWorkbench("detect --voting hough --model /tmp/m.fcm --db /tmp/x.db");
-  EXPECT_EQ(voting.exit_code, 2);
-  EXPECT_NE(voting.output.find("--voting: 'hough' is not one of auto, codebook, learned"),
-            std::string::npos)
-      << voting.output;
+  expect_usage_error("catalog sheet --catalog procedural --shape-sizes huge --out /tmp/x.png",
+                     "--shape-sizes: 'huge' is not one of catalog, real");
+  expect_usage_error("detect --voting hough --model /tmp/m.fcm --db /tmp/x.db",
+                     "--voting: 'hough' is not one of auto, codebook, learned");
   EXPECT_EQ(RunWorkbench("--help").exit_code, 0);
   const testing::CommandResult version = RunWorkbench("--version");
   EXPECT_EQ(version.exit_code, 0);

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <string>
 
 #include "core/enum_text.h"
@@ -15,9 +16,9 @@ CLI::Option* AddEnumOption(CLI::App* app,
                            const std::string& flag,
                            E* value,
                            const std::string& help) {
-  const std::string names = EnumNameList<E>();
-  std::string choices;  // "{auto,codebook,learned}" in the help
-  for (E v : EnumValues<E>()) choices += (choices.empty() ? "{" : ",") + std::string(EnumName(v));
+  const std::string names = EnumNameList<E>();  // "auto, codebook, learned"
+  std::string choices = "{" + names + "}";      // "{auto,codebook,learned}" in the help
+  choices.erase(std::remove(choices.begin(), choices.end(), ' '), choices.end());
   const CLI::Validator known(
       [names](std::string& text) -> std::string {
         if (TryParseEnum<E>(text)) return "";
@@ -28,7 +29,7 @@ CLI::Option* AddEnumOption(CLI::App* app,
       ->add_option_function<std::string>(
           flag, [value](const std::string& text) { *value = ParseEnum<E>(text); }, help)
       ->check(known)
-      ->type_name(choices + "}")
+      ->type_name(choices)
       ->default_str(EnumName(*value));
 }
 

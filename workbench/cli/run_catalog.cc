@@ -67,6 +67,28 @@ int ImportFolder(MeshFolderImportOptions options, const std::string& import_clas
   return 0;
 }
 
+// `catalog import`: needs no catalog.
+struct ImportFlags {
+  MeshFolderImportOptions options;
+  std::string furniture_class = "auto";
+};
+
+CLI::App* AddImportSubcommand(CLI::App* app, ImportFlags* flags) {
+  CLI::App* import = app->add_subcommand(
+      "import", "Write a starter class map (version 2) for a folder of mesh files");
+  import->add_option("dir", flags->options.dir, "Folder of meshes (searched recursively)")
+      ->required();
+  import
+      ->add_option("--class",
+                   flags->furniture_class,
+                   EnumNameList<FurnitureClass>() +
+                       ", clutter, or auto: each file's folder name (Chairs/, Tables/, ...)")
+      ->capture_default_str();
+  import->add_option("--out", flags->options.out, "Class map to write (.json)")->required();
+  import->add_flag("--overwrite", flags->options.overwrite, "Replace an existing class map");
+  return import;
+}
+
 // The varied tables and sideboards a sheet may draw besides the catalog's.
 struct SheetVariety {
   int per_class = 0;
@@ -143,24 +165,12 @@ int RunCatalog(int argc, char** argv) {
   SheetVariety variety;
   AddSheetVarietyFlags(sheet, &variety);
 
-  CLI::App* import = app.add_subcommand(
-      "import", "Write a starter class map (version 2) for a folder of mesh files");
-  MeshFolderImportOptions import_options;
-  std::string import_class = "auto";
-  import->add_option("dir", import_options.dir, "Folder of meshes (searched recursively)")
-      ->required();
-  import
-      ->add_option("--class",
-                   import_class,
-                   EnumNameList<FurnitureClass>() +
-                       ", clutter, or auto: each file's folder name (Chairs/, Tables/, ...)")
-      ->capture_default_str();
-  import->add_option("--out", import_options.out, "Class map to write (.json)")->required();
-  import->add_flag("--overwrite", import_options.overwrite, "Replace an existing class map");
+  ImportFlags import_flags;
+  CLI::App* import = AddImportSubcommand(&app, &import_flags);
 
   if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
   ApplyGlobalFlags(catalog_flags);
-  if (import->parsed()) return ImportFolder(import_options, import_class);  // needs no catalog
+  if (import->parsed()) return ImportFolder(import_flags.options, import_flags.furniture_class);
   if (!class_name.empty()) list_options.only_class = ParseFurnitureClass(class_name);
   const Catalog catalog = OpenCatalog(catalog_flags.spec, MakeOpenOptions(catalog_flags));
   PrintWarnings(catalog.warnings());
