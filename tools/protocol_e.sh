@@ -23,6 +23,7 @@ for seed in "$@"; do
     --model-folds 3 --fold-seed "$seed" --quiet --out "$db"
   tag="${FURN_PE_TAG:-default}"
   # shellcheck disable=SC2086  # the flags are words on purpose
-  "$workbench" crossval --db "$db" --work-dir "$out_dir/models-$seed" ${FURN_PE_FLAGS:-} \
+  "$workbench" crossval --db "$db" --work-dir "$out_dir/models-$seed" \
+    --rooms-cache "$out_dir/rooms" ${FURN_PE_FLAGS:-} \
     ${FURN_PE_EVAL:-} --label "pe-$tag" --quiet | tee "$out_dir/seed-$seed-$tag.txt"
 done

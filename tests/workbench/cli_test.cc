@@ -263,6 +263,21 @@ TEST(Cli, UsageMistakesExitWithTwo) {
   EXPECT_EQ(version.output.rfind("workbench (furnidet) ", 0), 0u) << version.output;
 }
 
+// The rooms cache keeps the rooms itself: with --keep-rooms it is one line
+// before anything is trained, and no model file is written.
+TEST(Cli, RoomsCacheIsNotCombinedWithKeepRooms) {
+  const std::string dir = testing::ScratchDir();
+  const testing::CommandResult both =
+      RunWorkbench("train --catalog procedural:2 --keep-rooms --rooms-cache " + dir +
+                   "/rooms --out " + dir + "/m.fcm");
+  EXPECT_EQ(both.exit_code, 1);
+  EXPECT_NE(both.output.find("--rooms-cache " + dir + "/rooms keeps the rooms itself"),
+            std::string::npos)
+      << both.output;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/m.fcm"));
+  EXPECT_FALSE(std::filesystem::exists(dir + "/rooms"));
+}
+
 TEST(CatalogCommands, ListingCountsClassesAndLoadsModels) {
   const Catalog catalog = OpenCatalog("procedural:5");
   ListCatalogOptions options;

@@ -189,6 +189,11 @@ void AddVoteNetFlags(CLI::App* app, VoteNetFlags* flags) {
   app->add_flag("--keep-rooms",
                 o.keep_rooms,
                 "Keep the vote network's training rooms (<model>.rooms.db) for reuse");
+  app->add_option("--rooms-cache",
+                  o.rooms_cache,
+                  "Vote network: keep the training rooms in this directory by what decides "
+                  "them (catalog, held-out models, seed, room count, sensor) and reuse them in "
+                  "any later training of the same rooms, e.g. another network on one fold");
 }
 
 const VoteNetTrainingOptions* VoteNetFlags::Resolve(bool quiet) {

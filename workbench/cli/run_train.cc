@@ -61,6 +61,11 @@ void PrintTrainSummary(const std::string& out,
         v.raster_s,
         v.train_s,
         v.epochs.empty() ? 0.0 : v.epochs.back().validation_loss);
+    if (v.rooms_reused > 0)
+      std::printf("  vote net rooms: %d of %d from the rooms cache (%s)\n",
+                  v.rooms_reused,
+                  v.rooms,
+                  v.rooms_path.c_str());
     std::printf("  %s", DescribeOperatingPoint(v.operating_point).c_str());
   }
 }

@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <random>
 
 #include "core/error.h"
@@ -17,6 +18,7 @@
 #include "workbench/formats/scan_file.h"
 #include "workbench/pipelines/dataset_tools.h"  // MergeDatasets
 #include "workbench/pipelines/generate.h"
+#include "workbench/pipelines/rooms_cache.h"
 
 namespace furn {
 namespace {
@@ -185,6 +187,12 @@ void VoteNetTrainingOptions::Check() const {
           "vote-net validation share must be in [0, 1)");
   Require(shape_variety >= 0 && shape_variety <= 1000,
           "vote-net shape variety " + std::to_string(shape_variety) + " must be in 0..1000");
+  Require(rooms_cache.empty() || (!keep_rooms && room_shards.empty()),
+          "--rooms-cache " + rooms_cache + " keeps the rooms itself: not with --keep-rooms " +
+              "or the rooms of 'train --shards'");
+  Require(rooms_cache.empty() || !std::filesystem::exists(rooms_cache) ||
+              std::filesystem::is_directory(rooms_cache),
+          "--rooms-cache " + rooms_cache + " must be a directory (or not exist yet)");
   net.Check();
   loss.Check();
   room.Check();
@@ -374,27 +382,38 @@ std::string TrainVoteNet(const Catalog& catalog,
   const Catalog training_catalog = TrainingCatalog(catalog, held_out, options);
   const GenerateOptions generate = TrainingRooms(options, training_catalog.description(), held_out);
   auto start = std::chrono::steady_clock::now();
-  // A database kept from an earlier run resumes (rooms already in it are
-  // skipped); one of other options is refused by GenerateDataset.
-  if (!options.keep_rooms || !options.room_shards.empty()) RemoveDatabase(rooms_db);
-  // MergeDatasets refuses shards that lack any of the generation's rooms.
-  if (!options.room_shards.empty()) MergeDatasets(options.room_shards, rooms_db);
+  std::optional<CachedRooms> cached;  // locked until the rooms are read
+  if (!options.rooms_cache.empty()) {
+    cached.emplace(options.rooms_cache, training_catalog, generate, options.quiet);
+    summary->rooms_path = cached->path();
+    summary->rooms_reused = cached->rooms_present();
+  } else {
+    summary->rooms_path = rooms_db;
+    // A database kept from an earlier run resumes (rooms already in it are
+    // skipped); one of other options is refused by GenerateDataset.
+    if (!options.keep_rooms || !options.room_shards.empty()) RemoveDatabase(rooms_db);
+    // MergeDatasets refuses shards that lack any of the generation's rooms.
+    if (!options.room_shards.empty()) MergeDatasets(options.room_shards, rooms_db);
+  }
   if (!options.quiet)
     std::fprintf(stderr,
-                 "vote net: %s %d training rooms into %s\n",
+                 "vote net: %s %d training rooms into %s (%d there already)\n",
                  options.room_shards.empty() ? "generating" : "merged",
                  options.rooms,
-                 rooms_db.c_str());
-  const GenerateSummary generated = GenerateDataset(training_catalog, generate, rooms_db);
+                 summary->rooms_path.c_str(),
+                 summary->rooms_reused);
+  const GenerateSummary generated =
+      GenerateDataset(training_catalog, generate, summary->rooms_path);
   summary->rooms = generated.rooms_in_shard;
   summary->generate_s = Seconds(start);
   start = std::chrono::steady_clock::now();
   std::vector<BevSample> training, validation;
-  ReadBevSamples(rooms_db, options, &training, &validation);
+  ReadBevSamples(summary->rooms_path, options, &training, &validation);
+  cached.reset();
   summary->raster_s = Seconds(start);
   const VoteNet net = TrainVoteNetOnSamples(training, validation, options, summary);
   if (!validation.empty()) summary->operating_point = VoteNetOperatingPoint(net, validation);
-  if (!options.keep_rooms) RemoveDatabase(rooms_db);
+  if (!options.keep_rooms && options.rooms_cache.empty()) RemoveDatabase(rooms_db);
   if (!options.curve_png.empty()) {
     std::vector<TrainingCurvePoint> curve;
     for (const VoteNetEpoch& e : summary->epochs)

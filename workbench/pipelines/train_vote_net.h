@@ -66,6 +66,10 @@ struct VoteNetTrainingOptions {
   // with cloths on a share of the tables (scenes/procedural_shapes.h).
   ShapeSizes shape_sizes = ShapeSizes::kCatalog;
   bool keep_rooms = false;  // keep the rooms' database after training (else deleted)
+  // A directory where the rooms are kept by what decides them and reused by
+  // any later training of the same rooms (workbench/pipelines/rooms_cache.h);
+  // empty: none. Not with keep_rooms or room_shards.
+  std::string rooms_cache;
   // The training rooms made elsewhere (the tasks of `train --shards N`, each
   // by GenerateTrainingRoomsShard): merged into the rooms' database instead
   // of generating the rooms here; empty: generated here.
@@ -88,6 +92,8 @@ struct VoteNetEpoch {
 
 struct VoteNetTrainingSummary {
   int rooms = 0, frames = 0, objects = 0, validation_frames = 0;
+  int rooms_reused = 0;    // of `rooms`, found in the rooms cache
+  std::string rooms_path;  // where the rooms were (the cache's file, or rooms_db)
   int64_t parameters = 0;
   std::vector<VoteNetEpoch> epochs;
   double generate_s = 0, raster_s = 0, train_s = 0;
@@ -114,8 +120,9 @@ OperatingPoint VoteNetOperatingPointOnRooms(const TrainedModel& model,
                                             const std::string& rooms_path);
 
 // Generates the rooms into rooms_db (resuming one already there; or merges
-// options.room_shards into it, which must hold every room), rasterises their
-// frames and trains; returns VoteNet::Serialize's bytes.
+// options.room_shards into it, which must hold every room) or, with
+// options.rooms_cache, finds them there or makes them there; rasterises
+// their frames and trains; returns VoteNet::Serialize's bytes.
 std::string TrainVoteNet(const Catalog& catalog,
                          const std::set<std::string>& held_out,
                          const VoteNetTrainingOptions& options,

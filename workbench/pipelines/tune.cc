@@ -1,9 +1,5 @@
 #include "workbench/pipelines/tune.h"
 
-#include <fcntl.h>
-#include <sys/file.h>
-#include <unistd.h>
-
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -21,6 +17,7 @@
 #include "workbench/formats/json_text.h"
 #include "workbench/pipelines/evaluate.h"
 #include "workbench/pipelines/evaluated_frame.h"
+#include "workbench/pipelines/file_lock.h"
 #include "workbench/pipelines/train.h"
 
 namespace furn {
@@ -330,25 +327,6 @@ void TuneOptions::Check() const {
 
 namespace {
 
-// An exclusive lock on a file (made if missing) for as long as it lives:
-// flock(2), which NFS v4 and cluster filesystems honour across nodes.
-class CacheLock {
- public:
-  explicit CacheLock(const std::string& path) : fd_(open(path.c_str(), O_RDWR | O_CREAT, 0644)) {
-    Require(fd_ >= 0, path + ": cannot open the model cache's lock file");
-    if (flock(fd_, LOCK_EX) != 0) {
-      close(fd_);
-      throw InputError(path + ": cannot lock the model cache");
-    }
-  }
-  ~CacheLock() { close(fd_); }  // releases the lock
-  CacheLock(const CacheLock&) = delete;
-  CacheLock& operator=(const CacheLock&) = delete;
-
- private:
-  int fd_;
-};
-
 // One search: its trials, the runs an earlier tune of the same search left
 // in the dataset, the model cache, and the evaluation of a trial on a split.
 class Tuning {
@@ -549,7 +527,7 @@ class Tuning {
     const std::string hash = ShortHash(json + "\n" + options_.catalog_spec);
     const std::string path = options_.work_dir + "/models/" + hash + ".fcm";
     if (std::filesystem::exists(path)) return path;
-    const CacheLock lock(options_.work_dir + "/locks/" + hash + ".lock");
+    const FileLock lock(options_.work_dir + "/locks/" + hash + ".lock", "the model cache");
     if (!std::filesystem::exists(path)) {
       std::printf("tune: training a model for %s\n", path.c_str());
       std::fflush(stdout);

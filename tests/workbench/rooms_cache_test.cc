@@ -1,0 +1,167 @@
+// The rooms cache (issue 37): a training of the same rooms reuses them and
+// trains the same network byte for byte; a file another generator made is
+// made again; one training of the same rooms at a time.
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <thread>
+
+#include "core/error.h"
+#include "core/progress.h"
+#include "db/sqlite.h"
+#include "tests/test_util.h"
+#include "workbench/pipelines/rooms_cache.h"
+#include "workbench/pipelines/train_vote_net.h"
+
+namespace furn {
+namespace {
+
+VoteNetTrainingOptions TinyTraining() {
+  VoteNetTrainingOptions options;
+  options.rooms = 3;
+  options.frames_per_room = 2;
+  options.epochs = 1;
+  options.net.width = 4;
+  options.quiet = true;
+  return options;
+}
+
+GenerateOptions TwoRooms() {
+  GenerateOptions generate;
+  generate.catalog_spec = "procedural:2";
+  generate.rooms = 2;
+  generate.room.frames_per_room = 1;
+  return generate;
+}
+
+size_t FilesIn(const std::string& dir, const std::string& extension) {
+  size_t count = 0;
+  for (const auto& file : std::filesystem::directory_iterator(dir))
+    count += file.path().extension() == extension;
+  return count;
+}
+
+TEST(RoomsCache, SameRoomsAreReusedAndTrainTheSameNetwork) {
+  Progress::SetQuiet(true);
+  const std::string dir = testing::ScratchDir();
+  const Catalog catalog = OpenCatalog("procedural:2");
+  VoteNetTrainingOptions options = TinyTraining();
+  VoteNetTrainingSummary plain_summary;
+  const std::string plain = TrainVoteNet(catalog, {}, options, dir + "/plain.db", &plain_summary);
+  EXPECT_EQ(plain_summary.rooms_reused, 0);
+
+  options.rooms_cache = dir + "/cache";
+  VoteNetTrainingSummary made, reused, wider;
+  EXPECT_EQ(TrainVoteNet(catalog, {}, options, dir + "/made.db", &made), plain);
+  EXPECT_EQ(made.rooms_reused, 0);
+  EXPECT_EQ(TrainVoteNet(catalog, {}, options, dir + "/reused.db", &reused), plain);
+  EXPECT_EQ(reused.rooms_reused, 3);
+  EXPECT_EQ(reused.frames, plain_summary.frames);
+  // The model's own rooms file is not written: the cache holds them.
+  EXPECT_FALSE(std::filesystem::exists(dir + "/made.db"));
+  EXPECT_FALSE(std::filesystem::exists(dir + "/reused.db"));
+  EXPECT_EQ(FilesIn(dir + "/cache", ".db"), 1u);
+
+  // Another network on the same rooms reuses them; other rooms (a model
+  // held out) are another file.
+  options.net.width = 6;
+  EXPECT_NE(TrainVoteNet(catalog, {}, options, dir + "/wider.db", &wider), plain);
+  EXPECT_EQ(wider.rooms_reused, 3);
+  VoteNetTrainingSummary held_out;
+  TrainVoteNet(catalog, {catalog.Classified().front()->id}, options, dir + "/held.db", &held_out);
+  EXPECT_EQ(held_out.rooms_reused, 0);
+  EXPECT_EQ(FilesIn(dir + "/cache", ".db"), 2u);
+  EXPECT_EQ(FilesIn(dir + "/cache", ".lock"), 2u);
+
+  // The cache keeps the rooms; keeping them beside the model too, or merging
+  // shards into it, is refused in one line naming both.
+  options.keep_rooms = true;
+  const std::string both = testing::ErrorOf([&] { options.Check(); });
+  EXPECT_NE(both.find("--keep-rooms"), std::string::npos) << both;
+  EXPECT_NE(both.find("--rooms-cache"), std::string::npos) << both;
+  options.keep_rooms = false;
+  options.room_shards = {dir + "/shard.db"};
+  EXPECT_NE(testing::ErrorOf([&] { options.Check(); }).find("--rooms-cache"), std::string::npos);
+  options.room_shards.clear();
+  std::ofstream(dir + "/file") << "x";
+  options.rooms_cache = dir + "/file";
+  EXPECT_NE(testing::ErrorOf([&] { options.Check(); }).find("must be a directory"),
+            std::string::npos);
+}
+
+TEST(RoomsCache, KeyFollowsTheRoomsAndTheCatalog) {
+  const Catalog catalog = OpenCatalog("procedural:2");
+  const GenerateOptions generate = TwoRooms();
+  const std::string key = RoomsCacheKey(catalog, generate);
+  EXPECT_EQ(key.size(), 16u);
+  EXPECT_EQ(RoomsCacheKey(OpenCatalog("procedural:2"), generate), key);
+  GenerateOptions other = generate;
+  other.seed = 2;
+  EXPECT_NE(RoomsCacheKey(catalog, other), key);
+  other = generate;
+  other.excluded_models = {catalog.Classified().front()->id};
+  EXPECT_NE(RoomsCacheKey(catalog, other), key);
+  EXPECT_NE(RoomsCacheKey(OpenCatalog("procedural:3"), generate), key);
+  other = generate;
+  other.shard_index = 1;  // shards make one run's rooms
+  other.shard_count = 2;
+  EXPECT_EQ(RoomsCacheKey(catalog, other), key);
+}
+
+TEST(RoomsCache, AFileOfAnotherGeneratorIsMadeAgain) {
+  Progress::SetQuiet(true);
+  const std::string dir = testing::ScratchDir();
+  const Catalog catalog = OpenCatalog("procedural:2");
+  const GenerateOptions generate = TwoRooms();
+  std::string path;
+  {
+    const CachedRooms rooms(dir, catalog, generate, true);
+    path = rooms.path();
+    EXPECT_EQ(rooms.rooms_present(), 0);
+    GenerateDataset(catalog, generate, path);
+  }
+  {
+    const CachedRooms rooms(dir, catalog, generate, true);
+    EXPECT_EQ(rooms.path(), path);
+    EXPECT_EQ(rooms.rooms_present(), 2);
+  }
+  // As if another renderer had drawn the first room: its frames differ.
+  Database(path).Execute("UPDATE frames SET content_hash = 'other' WHERE room_id = 0");
+  {
+    const CachedRooms rooms(dir, catalog, generate, true);
+    EXPECT_EQ(rooms.rooms_present(), 0);
+    EXPECT_FALSE(std::filesystem::exists(path));
+    EXPECT_FALSE(std::filesystem::exists(path + ".check.db"));
+  }
+  // A cache directory that is a file: one line naming it.
+  std::ofstream(dir + "/file") << "x";
+  const std::string error =
+      testing::ErrorOf([&] { CachedRooms(dir + "/file", catalog, generate, true); });
+  EXPECT_NE(error.find(dir + "/file"), std::string::npos) << error;
+  EXPECT_EQ(error.find('\n'), std::string::npos) << error;
+}
+
+TEST(RoomsCache, OneUserOfTheSameRoomsAtATime) {
+  const std::string dir = testing::ScratchDir();
+  const Catalog catalog = OpenCatalog("procedural:2");
+  const GenerateOptions generate = TwoRooms();
+  std::atomic<bool> second_in{false};
+  std::thread second;
+  {
+    const CachedRooms first(dir, catalog, generate, true);
+    second = std::thread([&] {
+      const CachedRooms waiting(dir, catalog, generate, true);
+      second_in = true;
+    });
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    EXPECT_FALSE(second_in.load());
+  }
+  second.join();
+  EXPECT_TRUE(second_in.load());
+}
+
+}  // namespace
+}  // namespace furn
