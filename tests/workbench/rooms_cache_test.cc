@@ -136,6 +136,12 @@ TEST(RoomsCache, AFileOfAnotherGeneratorIsMadeAgain) {
     EXPECT_FALSE(std::filesystem::exists(path));
     EXPECT_FALSE(std::filesystem::exists(path + ".check.db"));
   }
+  // A damaged file: one line naming it and what to do.
+  std::ofstream(path) << "not a database";
+  const std::string damaged = testing::ErrorOf([&] { CachedRooms(dir, catalog, generate, true); });
+  EXPECT_NE(damaged.find(path), std::string::npos) << damaged;
+  EXPECT_NE(damaged.find("delete it to make the rooms again"), std::string::npos) << damaged;
+  EXPECT_EQ(damaged.find('\n'), std::string::npos) << damaged;
   // A cache directory that is a file: one line naming it.
   std::ofstream(dir + "/file") << "x";
   const std::string error =

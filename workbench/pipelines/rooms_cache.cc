@@ -107,7 +107,14 @@ CachedRooms::CachedRooms(const std::string& dir,
     : path_(RoomsPathIn(dir, RoomsCacheKey(catalog, generate))),
       lock_(path_.substr(0, path_.size() - 3) + ".lock", "the rooms cache") {
   if (!std::filesystem::exists(path_)) return;
-  if (!SameGenerator(path_, catalog, generate)) {
+  bool same = false;
+  try {
+    same = SameGenerator(path_, catalog, generate);
+  } catch (const std::runtime_error& error) {  // InputError, or SQLite's DbError
+    throw InputError(std::string(error.what()) +
+                     "; it is a file of the rooms cache: delete it to make the rooms again");
+  }
+  if (!same) {
     if (!quiet)
       std::fprintf(stderr,
                    "rooms cache: %s was made by another version of the generator (its first "

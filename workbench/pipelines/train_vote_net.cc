@@ -395,13 +395,20 @@ std::string TrainVoteNet(const Catalog& catalog,
     // MergeDatasets refuses shards that lack any of the generation's rooms.
     if (!options.room_shards.empty()) MergeDatasets(options.room_shards, rooms_db);
   }
-  if (!options.quiet)
+  if (!options.quiet && cached) {
     std::fprintf(stderr,
-                 "vote net: %s %d training rooms into %s (%d there already)\n",
-                 options.room_shards.empty() ? "generating" : "merged",
+                 "vote net: %d training rooms in the rooms cache %s: %d there, %d to make\n",
                  options.rooms,
                  summary->rooms_path.c_str(),
-                 summary->rooms_reused);
+                 summary->rooms_reused,
+                 options.rooms - summary->rooms_reused);
+  } else if (!options.quiet) {
+    std::fprintf(stderr,
+                 "vote net: %s %d training rooms into %s\n",
+                 options.room_shards.empty() ? "generating" : "merged",
+                 options.rooms,
+                 summary->rooms_path.c_str());
+  }
   const GenerateSummary generated =
       GenerateDataset(training_catalog, generate, summary->rooms_path);
   summary->rooms = generated.rooms_in_shard;
