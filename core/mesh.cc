@@ -143,6 +143,14 @@ std::string ContentHasher::HexDigest() const {
   return text;
 }
 
+std::string ShortHash(const std::string& text, size_t digits) {
+  Require(digits >= 1 && digits <= 32,
+          "a short hash has 1 to 32 hex digits, not " + std::to_string(digits));
+  ContentHasher hasher;
+  hasher.Update(text.data(), text.size());
+  return hasher.HexDigest().substr(0, digits);
+}
+
 std::string HashMesh(const TriangleMesh& mesh) {
   ContentHasher hasher;
   hasher.Update(mesh.vertices.data(), mesh.vertices.size() * sizeof(Eigen::Vector3f));

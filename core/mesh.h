@@ -74,6 +74,10 @@ class ContentHasher {
   void* state_;
 };
 
+// The first `digits` (1..32) hex digits of the text's XXH3-128 hash: a short
+// name for what decides a file (a cache key, a fold's model).
+std::string ShortHash(const std::string& text, size_t digits = 16);
+
 // 32 hex digits (XXH3-128) over the vertex and triangle buffers: two meshes
 // with the same geometry have the same hash on every machine.
 std::string HashMesh(const TriangleMesh& mesh);

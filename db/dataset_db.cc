@@ -569,4 +569,8 @@ RoomRecord DatasetDb::ReadRoom(int64_t room_id, bool with_images) {
   return room;
 }
 
+void RemoveDatabaseFiles(const std::string& path) {
+  for (const char* suffix : {"", "-wal", "-shm"}) std::filesystem::remove(path + suffix);
+}
+
 }  // namespace furn

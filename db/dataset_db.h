@@ -153,6 +153,9 @@ class DatasetDb {
   Database db_;
 };
 
+// Removes a database file and its -wal and -shm files, those that exist.
+void RemoveDatabaseFiles(const std::string& path);
+
 // Train, val or test for a room seed, by fixed ratios 0.6 / 0.2 / 0.2.
 Split SplitForSeed(uint64_t room_seed);
 

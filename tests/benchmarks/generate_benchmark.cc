@@ -9,6 +9,7 @@
 #include <filesystem>
 
 #include "core/progress.h"
+#include "db/dataset_db.h"
 #include "workbench/pipelines/generate.h"
 
 namespace furn {
@@ -26,7 +27,7 @@ void BM_GenerateFrames(benchmark::State& state) {
   uint64_t seed = 0;
   for (auto _ : state) {
     state.PauseTiming();
-    for (const char* suffix : {"", "-wal", "-shm"}) std::filesystem::remove(path + suffix);
+    RemoveDatabaseFiles(path);
     options.seed = ++seed;
     state.ResumeTiming();
     last = GenerateDataset(catalog, options, path);
@@ -39,7 +40,7 @@ void BM_GenerateFrames(benchmark::State& state) {
   state.counters["png_ms"] = 1000 * last.encode_s / frames;
   state.counters["db_ms"] = 1000 * last.insert_s / frames;
   state.counters["load_ms"] = 1000 * last.load_s / frames;
-  for (const char* suffix : {"", "-wal", "-shm"}) std::filesystem::remove(path + suffix);
+  RemoveDatabaseFiles(path);
 }
 // 8 rooms: model import weighs in (about 60 models for 32 frames); 50 rooms
 // (the README's command): import is spread over 200 frames. Stage counters

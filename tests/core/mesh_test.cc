@@ -86,6 +86,16 @@ TEST(Mesh, HashIsStableAndSensitive) {
   EXPECT_NE(HashMesh(a), HashMesh(b));
 }
 
+TEST(Mesh, ShortHashIsAPrefixOfTheTextsHash) {
+  const std::string a = ShortHash("fold 1 of 3"), b = ShortHash("fold 2 of 3");
+  EXPECT_EQ(a.size(), 16u);
+  EXPECT_NE(a, b);
+  EXPECT_EQ(ShortHash("fold 1 of 3", 12), a.substr(0, 12));
+  EXPECT_EQ(ShortHash("fold 1 of 3", 32).substr(0, 16), a);
+  EXPECT_THROW(ShortHash("x", 0), InputError);
+  EXPECT_THROW(ShortHash("x", 33), InputError);
+}
+
 TEST(Mesh, CheckRejectsEmptyNonFiniteAndOutOfRange) {
   TriangleMesh mesh = MakeBox({0, 0, 0}, {1, 1, 1});
   EXPECT_NO_THROW(CheckMeshValid(mesh, "box"));

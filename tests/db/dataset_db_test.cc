@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <filesystem>
+
 #include "tests/test_util.h"
 
 namespace furn {
@@ -86,6 +88,17 @@ TEST(DatasetDb, FullDiskFailsCleanlyAndKeepsWholeRooms) {
   ASSERT_TRUE(check.Step());
   EXPECT_EQ(check.ColumnText(0), "ok");
   EXPECT_EQ(reopened.ReadRoom(0, false).frames.size(), 2u);
+}
+
+TEST(DatasetDb, RemoveDatabaseFilesTakesTheWalAndShmToo) {
+  const std::string path = testing::ScratchDir() + "/gone.db";
+  { DatasetDb db(path, DatasetDb::Mode::kReadWrite); }
+  testing::WriteText(path + "-wal", "x");  // as a killed writer leaves them
+  testing::WriteText(path + "-shm", "x");
+  RemoveDatabaseFiles(path);
+  for (const char* suffix : {"", "-wal", "-shm"})
+    EXPECT_FALSE(std::filesystem::exists(path + suffix)) << suffix;
+  RemoveDatabaseFiles(path);  // nothing there: no error
 }
 
 TEST(DatasetDb, SplitsFollowTheRatios) {

@@ -72,11 +72,9 @@ std::string FoldModelPath(const Catalog& catalog,
   for (const CatalogEntry* entry : catalog.Classified()) key += "\n" + entry->id;
   key += "\nheld out:";
   for (const std::string& id : held_out) key += "\n" + id;
-  ContentHasher hasher;
-  hasher.Update(key.data(), key.size());
   return (std::filesystem::path(options.work_dir) /
           ("fold-" + std::to_string(fold) + "-of-" + std::to_string(folds) + "-" +
-           hasher.HexDigest().substr(0, 12) + ".fcm"))
+           ShortHash(key, 12) + ".fcm"))
       .string();
 }
 

@@ -204,7 +204,7 @@ RealImportSummary ImportRealSet(const RealSet& set,
         {"labels", set.path},
         {"frames", frames}}.dump());
   } catch (...) {
-    for (const char* suffix : {"", "-wal", "-shm"}) std::filesystem::remove(temporary + suffix);
+    RemoveDatabaseFiles(temporary);
     throw;
   }
   for (const char* suffix : {"-wal", "-shm"}) std::filesystem::remove(temporary + suffix);

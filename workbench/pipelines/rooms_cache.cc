@@ -7,16 +7,11 @@
 #include <set>
 
 #include "core/error.h"
-#include "core/mesh.h"  // ContentHasher
+#include "core/mesh.h"  // ShortHash
 #include "db/dataset_db.h"
 
 namespace furn {
 namespace {
-
-// The database and the files SQLite keeps beside it.
-void RemoveDatabaseFiles(const std::string& path) {
-  for (const char* suffix : {"", "-wal", "-shm"}) std::filesystem::remove(path + suffix);
-}
 
 // What the catalog contributes to the rooms: every entry (clutter too), and
 // the size and modification time of each catalog file, so that an updated
@@ -94,10 +89,7 @@ std::string RoomsPathIn(const std::string& dir, const std::string& key) {
 }  // namespace
 
 std::string RoomsCacheKey(const Catalog& catalog, const GenerateOptions& generate) {
-  const std::string text = generate.ContentJson() + "\n" + CatalogFingerprint(catalog);
-  ContentHasher hasher;
-  hasher.Update(text.data(), text.size());
-  return hasher.HexDigest().substr(0, 16);
+  return ShortHash(generate.ContentJson() + "\n" + CatalogFingerprint(catalog));
 }
 
 CachedRooms::CachedRooms(const std::string& dir,

@@ -166,9 +166,6 @@ Catalog TrainingCatalog(const Catalog& catalog,
 
 // The database and the write-ahead log and shared-memory files SQLite keeps
 // beside it (a read-only connection leaves them behind).
-void RemoveDatabase(const std::string& path) {
-  for (const char* suffix : {"", "-wal", "-shm"}) std::filesystem::remove(path + suffix);
-}
 
 }  // namespace
 
@@ -391,7 +388,7 @@ std::string TrainVoteNet(const Catalog& catalog,
     summary->rooms_path = rooms_db;
     // A database kept from an earlier run resumes (rooms already in it are
     // skipped); one of other options is refused by GenerateDataset.
-    if (!options.keep_rooms || !options.room_shards.empty()) RemoveDatabase(rooms_db);
+    if (!options.keep_rooms || !options.room_shards.empty()) RemoveDatabaseFiles(rooms_db);
     // MergeDatasets refuses shards that lack any of the generation's rooms.
     if (!options.room_shards.empty()) MergeDatasets(options.room_shards, rooms_db);
   }
@@ -420,7 +417,7 @@ std::string TrainVoteNet(const Catalog& catalog,
   summary->raster_s = Seconds(start);
   const VoteNet net = TrainVoteNetOnSamples(training, validation, options, summary);
   if (!validation.empty()) summary->operating_point = VoteNetOperatingPoint(net, validation);
-  if (!options.keep_rooms && options.rooms_cache.empty()) RemoveDatabase(rooms_db);
+  if (!options.keep_rooms && options.rooms_cache.empty()) RemoveDatabaseFiles(rooms_db);
   if (!options.curve_png.empty()) {
     std::vector<TrainingCurvePoint> curve;
     for (const VoteNetEpoch& e : summary->epochs)

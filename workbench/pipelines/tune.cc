@@ -45,12 +45,6 @@ Json* Find(Json* root, const std::string& path) {
   }
 }
 
-std::string ShortHash(const std::string& text) {
-  ContentHasher hasher;
-  hasher.Update(text.data(), text.size());
-  return hasher.HexDigest().substr(0, 16);
-}
-
 // Options with the given parameter values set on the base; Check()ed, with
 // errors naming `what`.
 void BuildOptions(const Json& base,
