@@ -258,6 +258,7 @@ Catalog OpenCatalog(const std::string& spec, const CatalogOpenOptions& options) 
       if (it != classified.end()) {
         entry.furniture_class = it->second->furniture_class;
         entry.evaluation_only = it->second->evaluation_only;
+        entry.vote_net_only = it->second->vote_net_only;
         classified.erase(it);
       }
       catalog.entries_.push_back(std::move(entry));
@@ -303,6 +304,7 @@ Catalog OpenCatalog(const std::string& spec, const CatalogOpenOptions& options) 
     entry.source = mapped.mesh;
     entry.furniture_class = mapped.furniture_class;
     entry.evaluation_only = mapped.evaluation_only;
+    entry.vote_net_only = mapped.vote_net_only;
     entry.size_m = BoundingBox(models[i]->mesh).Size();
     models[i]->id = entry.id;
     models[i]->name = entry.name;

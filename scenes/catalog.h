@@ -35,6 +35,7 @@ struct CatalogEntry {
   std::string source;                             // .sh3f path, or "procedural:<seed>"
   std::optional<FurnitureClass> furniture_class;  // set for class-mapped entries
   bool evaluation_only = false;                   // never trained on
+  bool vote_net_only = false;  // the vote network's training rooms alone (class_map.h)
   bool door_or_window = false;
   Eigen::Vector3f size_m = Eigen::Vector3f::Zero();  // width (x), depth (y), height (z)
 };

@@ -84,13 +84,15 @@ ClassMapEntry ParseEntry(const json& item,
                          const std::filesystem::path& folder) {
   const std::string at = where + ": entries[" + std::to_string(position) + "]";
   Require(item.is_object(), at + " must be an object with \"id\" and \"class\"");
-  static const std::set<std::string> kCatalogKeys = {"id", "class", "evaluation_only", "note"};
+  static const std::set<std::string> kCatalogKeys = {
+      "id", "class", "evaluation_only", "vote_net_only", "note"};
   static const std::set<std::string> kMeshKeys = {"mesh", "units", "up", "front", "size"};
   for (const auto& [key, value] : item.items()) {
     if (kCatalogKeys.count(key) > 0) continue;
     Require(kMeshKeys.count(key) > 0,
             at + " has unknown field '" + key +
-                "' (allowed: id, class, evaluation_only, note; mesh, units, up, front, size)");
+                "' (allowed: id, class, evaluation_only, vote_net_only, note; mesh, units, up, "
+                "front, size)");
     Require(version >= 2,
             at + " field '" + key + "' needs class map version 2 (mesh-file entries)");
     Require(item.contains("mesh"), at + " field '" + key + "' belongs to a \"mesh\" entry");
@@ -113,6 +115,14 @@ ClassMapEntry ParseEntry(const json& item,
     Require(item["evaluation_only"].is_boolean(),
             at + " \"evaluation_only\" must be true or false");
     entry.evaluation_only = item["evaluation_only"].get<bool>();
+  }
+  if (item.contains("vote_net_only")) {
+    Require(item["vote_net_only"].is_boolean(), at + " \"vote_net_only\" must be true or false");
+    entry.vote_net_only = item["vote_net_only"].get<bool>();
+    Require(!(entry.vote_net_only && entry.evaluation_only),
+            at + " is \"evaluation_only\" and \"vote_net_only\": one excludes the other");
+    Require(!entry.vote_net_only || entry.furniture_class.has_value(),
+            at + " \"vote_net_only\" needs a detector class, not clutter");
   }
   if (item.contains("note") && item["note"].is_string())
     entry.note = item["note"].get<std::string>();

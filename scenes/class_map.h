@@ -11,6 +11,11 @@
 //
 // "evaluation_only" entries are never trained on; evaluation reports them
 // apart, to show how the method generalises to furniture it has not seen.
+// "vote_net_only" entries are more CAD variety for the learned vote map
+// alone: its training rooms place them, but the codebook does not learn
+// them, evaluation rooms never show them and protocol E's folds leave them
+// out, so that datasets, folds and the codebook's figures stay what they
+// were without them.
 // An entry id is "<catalog file stem>/<id>" (see Sh3fEntry::id).
 //
 // Version 2 adds entries that are mesh files of their own (any assimp format
@@ -48,6 +53,7 @@ struct ClassMapEntry {
   std::string id;
   std::optional<FurnitureClass> furniture_class;  // unset: "clutter"
   bool evaluation_only = false;
+  bool vote_net_only = false;
   // Version 2 mesh-file entries: the file (resolved against the class map's
   // folder) and how to bring it to the engine's units and axes; empty for
   // entries of a listed catalog.

@@ -20,7 +20,7 @@ ModelFolds AssignModelFolds(const Catalog& catalog, int folds, uint64_t seed) {
           "leave-models-out folds " + std::to_string(folds) + " must be in 2..20");
   std::map<FurnitureClass, std::vector<std::string>> ids_of_class;
   for (const CatalogEntry* entry : catalog.Classified())
-    ids_of_class[*entry->furniture_class].push_back(entry->id);
+    if (!entry->vote_net_only) ids_of_class[*entry->furniture_class].push_back(entry->id);
   Require(!ids_of_class.empty(),
           "catalog " + catalog.description() + " has no class-mapped entries to split into folds");
   ModelFolds result;

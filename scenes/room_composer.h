@@ -41,6 +41,7 @@ struct RoomOptions {
   double min_pitch_deg = 0.0;  // camera pitch down (degrees)
   double max_pitch_deg = 35.0;
   bool include_evaluation_only = true;  // evaluation-only entries may appear in rooms
+  bool include_vote_net_only = false;   // so may vote-net-only ones (its training rooms)
   // Per-object anisotropic size jitter of the class-mapped pieces: each side is
   // scaled by a factor drawn in [1 - j, 1 + j], then kept within the range of
   // that class's sizes in the catalog (a vote network's training rooms; 0: the
@@ -63,7 +64,9 @@ struct ComposerCatalog {
   std::vector<Item> clutter;    // plausible distractors outside the class map
 
   // Clutter: not a door or window, 0.1..1.6 m footprint sides, 0.05..2.0 m tall.
-  static ComposerCatalog From(const Catalog& catalog, bool include_evaluation_only = true);
+  static ComposerCatalog From(const Catalog& catalog,
+                              bool include_evaluation_only = true,
+                              bool include_vote_net_only = false);
   // The same clutter, and only the class-mapped entries whose id is in `ids`.
   ComposerCatalog WithFurnitureFrom(const std::set<std::string>& ids) const;
 };

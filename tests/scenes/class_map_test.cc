@@ -4,6 +4,8 @@
 
 #include "core/error.h"
 #include "scenes/catalog.h"
+#include "scenes/model_folds.h"
+#include "scenes/room_composer.h"
 #include "tests/scenes/fixtures.h"
 #include "tests/test_util.h"
 
@@ -97,6 +99,56 @@ TEST(ClassMap, OpenCatalogClassifiesEntriesFromTheMap) {
   EXPECT_EQ(catalog.Classified()[0]->furniture_class, FurnitureClass::kArmchair);
   EXPECT_FALSE(catalog.Get("Test/rotated").furniture_class.has_value());
   EXPECT_TRUE(catalog.Get("Test/rotated").size_m.isApprox(Eigen::Vector3f(0.8f, 1.2f, 2.0f)));
+}
+
+// A vote-net-only entry: in the catalog with its class, but out of the
+// codebook's and evaluation's rooms and out of protocol E's folds, so that
+// adding one changes no dataset and no fold.
+TEST(ClassMap, VoteNetOnlyEntriesStayOutOfEvaluationRoomsAndFolds) {
+  const std::string dir = testing::ScratchDir();
+  testing::WriteTestSh3f(dir, "Test.sh3f");
+  CatalogOpenOptions options;
+  options.catalog_dir = dir;
+  testing::WriteText(dir + "/both.json", MapJson(R"({"id": "Test/marker", "class": "chair"},
+                                {"id": "Test/rotated", "class": "chair"})"));
+  testing::WriteText(dir + "/extra.json", MapJson(R"({"id": "Test/marker", "class": "chair"},
+                                {"id": "Test/rotated", "class": "chair", "vote_net_only": true})"));
+  const Catalog both = OpenCatalog(dir + "/both.json", options);
+  const Catalog extra = OpenCatalog(dir + "/extra.json", options);
+  EXPECT_FALSE(extra.Get("Test/marker").vote_net_only);
+  EXPECT_TRUE(extra.Get("Test/rotated").vote_net_only);
+  EXPECT_EQ(extra.Get("Test/rotated").furniture_class, FurnitureClass::kChair);
+
+  // Rooms: evaluation's leave it out (and do not take it for clutter); the
+  // vote network's training rooms place it.
+  const ComposerCatalog evaluation = ComposerCatalog::From(extra);
+  ASSERT_EQ(evaluation.furniture.size(), 1u);
+  EXPECT_EQ(evaluation.furniture[0].id, "Test/marker");
+  for (const ComposerCatalog::Item& item : evaluation.clutter) EXPECT_NE(item.id, "Test/rotated");
+  EXPECT_EQ(ComposerCatalog::From(extra, false, true).furniture.size(), 2u);
+  EXPECT_EQ(ComposerCatalog::From(both).furniture.size(), 2u);
+
+  // Folds: two chairs make two folds; with one of them vote-net-only there is
+  // one chair to split.
+  EXPECT_EQ(AssignModelFolds(both, 2, 1).fold_of_model.size(), 2u);
+  EXPECT_NE(ErrorOf([&] {
+              AssignModelFolds(extra, 2, 1);
+            }).find("has 1 chair models, fewer than the 2 leave-models-out folds"),
+            std::string::npos);
+}
+
+TEST(ClassMap, VoteNetOnlyMistakesAreRejected) {
+  EXPECT_NE(ErrorOf([] {
+              ParseClassMap(MapJson(R"({"id": "Test/b", "class": "chair", "vote_net_only": 1})"),
+                            "m.json");
+            }).find("m.json: entries[0] \"vote_net_only\" must be true or false"),
+            std::string::npos);
+  EXPECT_NE(ErrorOf([] {
+              ParseClassMap(MapJson(R"({"id": "Test/b", "class": "chair", "vote_net_only": true,
+                                        "evaluation_only": true})"),
+                            "m.json");
+            }).find("is \"evaluation_only\" and \"vote_net_only\": one excludes the other"),
+            std::string::npos);
 }
 
 TEST(ClassMap, EntryMissingFromTheCatalogIsRejected) {

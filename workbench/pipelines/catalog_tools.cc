@@ -114,7 +114,9 @@ std::string FormatCatalogTable(const CatalogListing& listing) {
         triangles.c_str(),
         entry.name.c_str(),
         entry.category.c_str(),
-        entry.evaluation_only ? " [evaluation only]" : "");
+        entry.evaluation_only ? " [evaluation only]"
+        : entry.vote_net_only ? " [vote net only]"
+                              : "");
     out << line;
     ++per_class[ClassText(entry)];
   }
@@ -139,6 +141,7 @@ std::string CatalogListingToJson(const CatalogListing& listing) {
         {"category", entry.category},
         {"size_m", SizeJson(entry.size_m)},
         {"evaluation_only", entry.evaluation_only},
+        {"vote_net_only", entry.vote_net_only},
         {"source", entry.source}};
     if (row.triangles) {
       item["triangles"] = *row.triangles;
@@ -167,6 +170,7 @@ std::string DescribeModel(const CatalogEntry& entry, const CadModel& model, bool
         {"class", entry.furniture_class ? json(ClassName(*entry.furniture_class)) : json()},
         {"category", entry.category},
         {"evaluation_only", entry.evaluation_only},
+        {"vote_net_only", entry.vote_net_only},
         {"source_path", model.source_path},
         {"catalog_size_m", SizeJson(entry.size_m)},
         {"mesh_size_m", SizeJson(box.Size())},
@@ -181,7 +185,8 @@ std::string DescribeModel(const CatalogEntry& entry, const CadModel& model, bool
   out << "id:            " << entry.id << "\n"
       << "name:          " << entry.name << "\n"
       << "class:         " << ClassText(entry)
-      << (entry.evaluation_only ? " (evaluation only)" : "") << "\n"
+      << (entry.evaluation_only ? " (evaluation only)" : "")
+      << (entry.vote_net_only ? " (vote net only)" : "") << "\n"
       << "category:      " << entry.category << "\n"
       << "source:        " << model.source_path << "\n"
       << "catalog size:  " << FormatSize(entry.size_m) << " m (width x depth x height)\n"

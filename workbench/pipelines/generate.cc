@@ -323,7 +323,8 @@ class RoomGenerator {
   // What rooms are composed from: one, or one per leave-models-out fold.
   static std::vector<ComposerCatalog> ComposerCatalogsOf(const Catalog& catalog,
                                                          const GenerateOptions& options) {
-    ComposerCatalog all = ComposerCatalog::From(catalog, options.room.include_evaluation_only);
+    ComposerCatalog all = ComposerCatalog::From(
+        catalog, options.room.include_evaluation_only, options.room.include_vote_net_only);
     if (!options.excluded_models.empty()) {
       std::set<std::string> kept;
       for (const ComposerCatalog::Item& item : all.furniture) {
@@ -460,6 +461,7 @@ std::string GenerateOptions::ContentJson() const {
   if (!clutter_catalog_specs.empty()) json["clutter_catalogs"] = clutter_catalog_specs;
   if (!excluded_models.empty()) json["excluded_models"] = excluded_models;
   if (room.size_jitter > 0) json["room"]["size_jitter"] = room.size_jitter;
+  if (room.include_vote_net_only) json["room"]["include_vote_net_only"] = true;
   return json.dump();
 }
 
@@ -584,7 +586,8 @@ Catalog OpenGenerationCatalog(const std::string& spec,
   for (const std::string& warning : catalog.warnings())
     std::fprintf(stderr, "warning: %s\n", warning.c_str());
   if (room.max_clutter > 0 &&
-      ComposerCatalog::From(catalog, room.include_evaluation_only).clutter.empty()) {
+      ComposerCatalog::From(catalog, room.include_evaluation_only, room.include_vote_net_only)
+          .clutter.empty()) {
     std::fprintf(stderr,
                  "warning: catalog %s offers no clutter (every entry is classified, or the rest "
                  "are not 0.1-1.6 m across and 0.05-2 m tall): rooms hold targets only; list "

@@ -24,8 +24,8 @@ std::string CatalogFingerprint(const Catalog& catalog) {
     std::snprintf(
         size, sizeof(size), "%.6f %.6f %.6f", entry.size_m.x(), entry.size_m.y(), entry.size_m.z());
     text += entry.id + "|" + (entry.furniture_class ? ClassName(*entry.furniture_class) : "-") +
-            "|" + (entry.evaluation_only ? "e" : "") + (entry.door_or_window ? "d" : "") + "|" +
-            size + "|" + entry.source + "\n";
+            "|" + (entry.evaluation_only ? "e" : "") + (entry.vote_net_only ? "v" : "") +
+            (entry.door_or_window ? "d" : "") + "|" + size + "|" + entry.source + "\n";
     sources.insert(entry.source);
   }
   for (const std::string& source : sources) {

@@ -103,7 +103,7 @@ TrainSummary TrainFromCatalog(const Catalog& catalog,
   std::vector<std::string> ids;
   std::vector<FurnitureClass> classes;
   for (const CatalogEntry* entry : catalog.Classified()) {
-    if (entry->evaluation_only || held_out.count(entry->id)) continue;
+    if (entry->evaluation_only || entry->vote_net_only || held_out.count(entry->id)) continue;
     ids.push_back(entry->id);
     classes.push_back(*entry->furniture_class);
   }

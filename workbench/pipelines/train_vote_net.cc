@@ -143,6 +143,7 @@ GenerateOptions TrainingRooms(const VoteNetTrainingOptions& options,
   generate.room = options.room;
   generate.room.frames_per_room = options.frames_per_room;
   generate.room.include_evaluation_only = false;
+  generate.room.include_vote_net_only = true;
   generate.excluded_models = held_out;
   return generate;
 }
