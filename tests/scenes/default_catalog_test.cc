@@ -4,9 +4,14 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <fstream>
 #include <map>
 
+#include <nlohmann/json.hpp>
+
 #include "scenes/catalog.h"
+#include "scenes/model_folds.h"
+#include "tests/test_util.h"
 
 namespace furn {
 namespace {
@@ -62,6 +67,35 @@ TEST_F(DefaultCatalog, EveryClassifiedModelLoadsAtCatalogSizeOnTheFloor) {
     EXPECT_NEAR(box.min.z(), 0, 1e-5) << model.id;
     EXPECT_NEAR(box.Center().head<2>().norm(), 0, 1e-4) << model.id;
     EXPECT_GT(model.mesh.NumTriangles(), 10u) << model.id;
+  }
+}
+
+// The vote-net-only entries (more tables and sideboards for the vote
+// network's rooms) must not move a model of protocol E to another fold: the
+// folds with them are the folds of the map without them, for three seeds.
+TEST_F(DefaultCatalog, VoteNetOnlyEntriesLeaveProtocolEFoldsAsTheyWere) {
+  std::ifstream in(std::string(FURN_DEFAULT_DATA_DIR) + "/class_map.json");
+  nlohmann::json map = nlohmann::json::parse(in);
+  nlohmann::json kept = nlohmann::json::array();
+  int vote_net_only = 0;
+  for (const nlohmann::json& entry : map["entries"]) {
+    if (entry.value("vote_net_only", false))
+      ++vote_net_only;
+    else
+      kept.push_back(entry);
+  }
+  ASSERT_GT(vote_net_only, 0);
+  map["entries"] = kept;
+  const std::string without = ::furn::testing::ScratchDir() + "/without.json";
+  ::furn::testing::WriteText(without, map.dump());
+  CatalogOpenOptions options;
+  options.allow_procedural_fallback = false;
+  const Catalog catalog_without = OpenCatalog(without, options);
+  for (uint64_t seed : {1, 2, 3}) {
+    const ModelFolds with_them = AssignModelFolds(*catalog_, 3, seed);
+    EXPECT_EQ(with_them.fold_of_model, AssignModelFolds(catalog_without, 3, seed).fold_of_model)
+        << "fold seed " << seed;
+    EXPECT_EQ(with_them.fold_of_model.size() + vote_net_only, catalog_->Classified().size());
   }
 }
 
