@@ -8,7 +8,8 @@ class the objects, the median distance and the share within 5, 10 and 20 cm.
 The run is the latest of --kind unless --runs are given; with --kind
 crossval-fold every fold run of the latest crossval is taken.
 
-With --losses, per class and by whether the object's image box touches the
+With --by-model, the same per CAD model (which held-out models a change
+helps). With --losses, per class and by whether the object's image box touches the
 image's side ("cut") or not ("whole"), where each object ends up: a
 detection of its class within 10 cm, 10-20 cm, 20-50 cm, only another class
 within 20 cm, or nothing. Several databases add up: give DB:RUN,RUN.
@@ -41,7 +42,7 @@ def fold_runs(db, kind, runs, folds):
 
 
 def objects_of(db, runs, args):
-    """(class, cut, nearest distance of its class, nearest other class within 20 cm or '')."""
+    """(class, cut, nearest distance of its class, nearest other class within 20 cm or '', model)."""
     for run in runs:
         frames = [r[0] for r in db.execute(
             "SELECT DISTINCT frame_id FROM run_frames WHERE run_id = ?", (run,))]
@@ -55,38 +56,41 @@ def objects_of(db, runs, args):
                 (run, frame)).fetchall()
             objects = db.execute(
                 "SELECT o.class, o.reference_x, o.reference_y, f.amodal_u0, f.amodal_v0, "
-                "f.amodal_u1, f.amodal_v1 FROM objects o JOIN frame_objects f "
+                "f.amodal_u1, f.amodal_v1, o.model_id FROM objects o JOIN frame_objects f "
                 "ON f.instance_id = o.instance_id AND f.frame_id = ? WHERE o.room_id = ? AND "
                 "o.class != '' AND f.visibility >= ?", (frame, room, args.min_visibility)).fetchall()
-            for cls, x, y, u0, v0, u1, v1 in objects:
+            for cls, x, y, u0, v0, u1, v1, model in objects:
                 if math.hypot(x - cx, y - cy) > args.max_range:
                     continue
                 cut = u0 <= 0 or v0 <= 0 or u1 >= width - 1 or v1 >= height - 1
                 near = sorted((math.hypot(x - dx, y - dy), c) for c, dx, dy in detections)
                 best = min([d for d, c in near if c == cls], default=math.inf)
                 other = next((c for d, c in near if c != cls and d < 0.2), "")
-                yield cls, cut, best if best <= args.search else math.inf, other
+                yield cls, cut, best if best <= args.search else math.inf, other, model
 
 
-def print_distances(found_objects, header):
+def print_distances(found_objects, header, by_model=False):
     distances = {}
-    for cls, _, best, _ in found_objects:
-        distances.setdefault(cls, []).append(best)
+    for cls, _, best, _, model in found_objects:
+        distances.setdefault((cls, model) if by_model else cls, []).append(best)
     print(header)
-    print(f"{'class':10} {'objects':>7} {'median cm':>9} {'<5cm':>6} {'<10cm':>6} {'<20cm':>6} {'none':>5}")
-    for cls in sorted(distances):
-        d = distances[cls]
+    width = max([len(f"{c} {m}") for c, m in distances] if by_model else [10])
+    print(f"{'class model' if by_model else 'class':{width}} {'objects':>7} {'median cm':>9} "
+          f"{'<5cm':>6} {'<10cm':>6} {'<20cm':>6} {'none':>5}")
+    for key in sorted(distances):
+        d = distances[key]
         found = [v for v in d if math.isfinite(v)]
         median = statistics.median(d) * 100 if found and len(found) * 2 > len(d) else math.inf
         share = lambda r: sum(v < r for v in d) / len(d)
-        print(f"{cls:10} {len(d):7d} {median:9.1f} {share(0.05):6.2f} {share(0.10):6.2f} "
+        name = " ".join(key) if by_model else key
+        print(f"{name:{width}} {len(d):7d} {median:9.1f} {share(0.05):6.2f} {share(0.10):6.2f} "
               f"{share(0.20):6.2f} {len(d) - len(found):5d}")
 
 
 def print_losses(found_objects, header):
     kinds = ["<10cm", "10-20cm", "20-50cm", "other class", "nothing"]
     counts = {}
-    for cls, cut, best, other in found_objects:
+    for cls, cut, best, other, _ in found_objects:
         kind = (kinds[0] if best < 0.1 else kinds[1] if best < 0.2 else
                 kinds[3] if other else kinds[2] if best < 0.5 else kinds[4])
         row = counts.setdefault((cls, "cut" if cut else "whole"), dict.fromkeys(kinds, 0))
@@ -109,6 +113,8 @@ def main():
     parser.add_argument("--max-range", type=float, default=3.0)
     parser.add_argument("--search", type=float, default=0.8)
     parser.add_argument("--losses", action="store_true", help="where each object ends up, cut or whole")
+    parser.add_argument("--by-model", action="store_true",
+                        help="distances per CAD model instead of per class")
     args = parser.parse_args()
     found_objects, names = [], []
     for spec in args.db:
@@ -120,7 +126,10 @@ def main():
         found_objects += list(objects_of(db, runs, args))
         names.append(f"{path} runs {runs}")
     header = f"{'; '.join(names)}: objects seen >= {args.min_visibility:.0%} within {args.max_range} m"
-    (print_losses if args.losses else print_distances)(found_objects, header)
+    if args.losses:
+        print_losses(found_objects, header)
+    else:
+        print_distances(found_objects, header, args.by_model)
 
 
 if __name__ == "__main__":
