@@ -179,6 +179,20 @@ class FurnidetTest(unittest.TestCase):
         self.assertGreater(sum(one.values()), 0)
         self.assertEqual(losses(f"{self.db}:{run}", f"{self.db}:{run}"),
                          {key: 2 * n for key, n in one.items()})
+
+        def objects(*flags):  # class -> objects, summed over the rows (per model with --by-model)
+            done = subprocess.run([sys.executable, tool, f"{self.db}:{run}", "--min-visibility",
+                                   "0", *flags], capture_output=True, text=True)
+            self.assertEqual(done.returncode, 0, done.stderr)
+            counts = {}
+            for line in done.stdout.splitlines()[2:]:
+                fields = line.split()
+                counts[fields[0]] = counts.get(fields[0], 0) + int(fields[2 if flags else 1])
+            return counts
+
+        per_class = objects()
+        self.assertGreater(sum(per_class.values()), 0)
+        self.assertEqual(objects("--by-model"), per_class)
         for bad, rule in ((f"{self.dir}/none.db:{run}", "no such dataset database"),
                           (f"{self.db}:x", "must be run ids")):
             done = subprocess.run([sys.executable, tool, bad], capture_output=True, text=True)
