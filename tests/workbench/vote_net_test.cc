@@ -9,7 +9,12 @@
 #include <cstring>
 #include <random>
 
+#include <filesystem>
+#include <set>
+
 #include "core/error.h"
+#include "db/sqlite.h"
+#include "scenes/catalog.h"
 #include "tests/test_util.h"
 #include "workbench/pipelines/train_vote_net.h"
 
@@ -484,6 +489,37 @@ TEST(VoteNet, SameSeedAndThreadsSameWeights) {
   for (size_t i = 0; i < x.values.size(); ++i)
     worst = std::max(worst, static_cast<double>(std::abs(x.values[i] - y.values[i])));
   EXPECT_LT(worst, 1e-3);
+}
+
+// The default class map's vote-net-only tables and sideboards are placed in
+// the vote network's training rooms (and only there: the composer's test in
+// class_map_test.cc), and the summary counts them.
+TEST(VoteNet, TrainingRoomsPlaceTheVoteNetOnlyModels) {
+  if (!std::filesystem::exists("/usr/share/sweethome3d/furniture/Scopia.sh3f"))
+    GTEST_SKIP() << "sweethome3d-furniture is not installed";
+  CatalogOpenOptions open;
+  open.allow_procedural_fallback = false;
+  const Catalog catalog = OpenCatalog("default", open);
+  std::set<std::string> extra;
+  for (const CatalogEntry* entry : catalog.Classified())
+    if (entry->vote_net_only) extra.insert(entry->id);
+  ASSERT_FALSE(extra.empty());
+  VoteNetTrainingOptions options;
+  options.rooms = 16;
+  options.frames_per_room = 1;
+  options.epochs = 1;
+  options.net.width = 4;
+  options.keep_rooms = true;
+  options.quiet = true;
+  const std::string rooms = testing::ScratchDir() + "/rooms.db";
+  VoteNetTrainingSummary summary;
+  TrainVoteNet(catalog, {}, options, rooms, &summary);
+  EXPECT_EQ(summary.vote_net_only_models, static_cast<int>(extra.size()));
+  Database db(rooms, Database::Mode::kReadOnly);
+  Statement placed(&db, "SELECT DISTINCT model_id FROM objects");
+  int extra_placed = 0;
+  while (placed.Step()) extra_placed += extra.count(placed.ColumnText(0));
+  EXPECT_GT(extra_placed, 0) << "16 rooms and none of the vote-net-only models";
 }
 
 }  // namespace

@@ -61,6 +61,9 @@ void PrintTrainSummary(const std::string& out,
         v.raster_s,
         v.train_s,
         v.epochs.empty() ? 0.0 : v.epochs.back().validation_loss);
+    if (v.vote_net_only_models > 0)
+      std::printf("  vote net rooms also place the class map's %d vote-net-only models\n",
+                  v.vote_net_only_models);
     if (v.rooms_reused > 0)
       std::printf("  vote net rooms: %d of %d from the rooms cache (%s)\n",
                   v.rooms_reused,

@@ -379,6 +379,8 @@ std::string TrainVoteNet(const Catalog& catalog,
   options.Check();
   const Catalog training_catalog = TrainingCatalog(catalog, held_out, options);
   const GenerateOptions generate = TrainingRooms(options, training_catalog.description(), held_out);
+  for (const CatalogEntry* entry : catalog.Classified())
+    summary->vote_net_only_models += entry->vote_net_only && !held_out.count(entry->id);
   auto start = std::chrono::steady_clock::now();
   std::optional<CachedRooms> cached;  // locked until the rooms are read
   if (!options.rooms_cache.empty()) {

@@ -92,8 +92,9 @@ struct VoteNetEpoch {
 
 struct VoteNetTrainingSummary {
   int rooms = 0, frames = 0, objects = 0, validation_frames = 0;
-  int rooms_reused = 0;    // of `rooms`, found in the rooms cache
-  std::string rooms_path;  // where the rooms were (the cache's file, or rooms_db)
+  int rooms_reused = 0;          // of `rooms`, found in the rooms cache
+  int vote_net_only_models = 0;  // the class map's extra models its rooms may place
+  std::string rooms_path;        // where the rooms were (the cache's file, or rooms_db)
   int64_t parameters = 0;
   std::vector<VoteNetEpoch> epochs;
   double generate_s = 0, raster_s = 0, train_s = 0;
