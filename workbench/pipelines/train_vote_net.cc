@@ -165,9 +165,6 @@ Catalog TrainingCatalog(const Catalog& catalog,
   return training;
 }
 
-// The database and the write-ahead log and shared-memory files SQLite keeps
-// beside it (a read-only connection leaves them behind).
-
 }  // namespace
 
 void VoteNetTrainingOptions::Check() const {
