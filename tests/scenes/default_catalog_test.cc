@@ -4,13 +4,11 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
-#include <fstream>
 #include <map>
-
-#include <nlohmann/json.hpp>
 
 #include "scenes/catalog.h"
 #include "scenes/model_folds.h"
+#include "tests/scenes/vote_net_only_map.h"
 #include "tests/test_util.h"
 
 namespace furn {
@@ -70,32 +68,23 @@ TEST_F(DefaultCatalog, EveryClassifiedModelLoadsAtCatalogSizeOnTheFloor) {
   }
 }
 
-// The vote-net-only entries (more tables and sideboards for the vote
-// network's rooms) must not move a model of protocol E to another fold: the
-// folds with them are the folds of the map without them, for three seeds.
+// Vote-net-only entries (more tables and sideboards for the vote network's
+// rooms) must not move a model of protocol E to another fold: the folds of
+// the default map with six of them are the folds without, for three seeds.
 TEST_F(DefaultCatalog, VoteNetOnlyEntriesLeaveProtocolEFoldsAsTheyWere) {
-  std::ifstream in(std::string(FURN_DEFAULT_DATA_DIR) + "/class_map.json");
-  nlohmann::json map = nlohmann::json::parse(in);
-  nlohmann::json kept = nlohmann::json::array();
-  int vote_net_only = 0;
-  for (const nlohmann::json& entry : map["entries"]) {
-    if (entry.value("vote_net_only", false))
-      ++vote_net_only;
-    else
-      kept.push_back(entry);
-  }
-  ASSERT_GT(vote_net_only, 0);
-  map["entries"] = kept;
-  const std::string without = ::furn::testing::ScratchDir() + "/without.json";
-  ::furn::testing::WriteText(without, map.dump());
   CatalogOpenOptions options;
   options.allow_procedural_fallback = false;
-  const Catalog catalog_without = OpenCatalog(without, options);
+  const Catalog with_extras = OpenCatalog(
+      ::furn::testing::WriteDefaultMapWithVoteNetOnlyExtras(::furn::testing::ScratchDir()),
+      options);
+  int vote_net_only = 0;
+  for (const CatalogEntry* entry : with_extras.Classified()) vote_net_only += entry->vote_net_only;
+  ASSERT_EQ(vote_net_only, ::furn::testing::kVoteNetOnlyExtras) << "every extra loads";
   for (uint64_t seed : {1, 2, 3}) {
-    const ModelFolds with_them = AssignModelFolds(*catalog_, 3, seed);
-    EXPECT_EQ(with_them.fold_of_model, AssignModelFolds(catalog_without, 3, seed).fold_of_model)
+    const ModelFolds with_them = AssignModelFolds(with_extras, 3, seed);
+    EXPECT_EQ(with_them.fold_of_model, AssignModelFolds(*catalog_, 3, seed).fold_of_model)
         << "fold seed " << seed;
-    EXPECT_EQ(with_them.fold_of_model.size() + vote_net_only, catalog_->Classified().size());
+    EXPECT_EQ(with_them.fold_of_model.size() + vote_net_only, with_extras.Classified().size());
   }
 }
 

@@ -15,6 +15,7 @@
 #include "core/error.h"
 #include "db/sqlite.h"
 #include "scenes/catalog.h"
+#include "tests/scenes/vote_net_only_map.h"
 #include "tests/test_util.h"
 #include "workbench/pipelines/train_vote_net.h"
 
@@ -491,19 +492,21 @@ TEST(VoteNet, SameSeedAndThreadsSameWeights) {
   EXPECT_LT(worst, 1e-3);
 }
 
-// The default class map's vote-net-only tables and sideboards are placed in
-// the vote network's training rooms (and only there: the composer's test in
-// class_map_test.cc), and the summary counts them.
+// A class map's vote-net-only tables and sideboards (here six added to the
+// default map) are placed in the vote network's training rooms (and only
+// there: the composer's test in class_map_test.cc), and the summary counts
+// them.
 TEST(VoteNet, TrainingRoomsPlaceTheVoteNetOnlyModels) {
   if (!std::filesystem::exists("/usr/share/sweethome3d/furniture/Scopia.sh3f"))
     GTEST_SKIP() << "sweethome3d-furniture is not installed";
   CatalogOpenOptions open;
   open.allow_procedural_fallback = false;
-  const Catalog catalog = OpenCatalog("default", open);
+  const std::string dir = testing::ScratchDir();
+  const Catalog catalog = OpenCatalog(testing::WriteDefaultMapWithVoteNetOnlyExtras(dir), open);
   std::set<std::string> extra;
   for (const CatalogEntry* entry : catalog.Classified())
     if (entry->vote_net_only) extra.insert(entry->id);
-  ASSERT_FALSE(extra.empty());
+  ASSERT_EQ(extra.size(), static_cast<size_t>(testing::kVoteNetOnlyExtras));
   VoteNetTrainingOptions options;
   options.rooms = 16;
   options.frames_per_room = 1;
@@ -511,7 +514,7 @@ TEST(VoteNet, TrainingRoomsPlaceTheVoteNetOnlyModels) {
   options.net.width = 4;
   options.keep_rooms = true;
   options.quiet = true;
-  const std::string rooms = testing::ScratchDir() + "/rooms.db";
+  const std::string rooms = dir + "/rooms.db";
   VoteNetTrainingSummary summary;
   TrainVoteNet(catalog, {}, options, rooms, &summary);
   EXPECT_EQ(summary.vote_net_only_models, static_cast<int>(extra.size()));
