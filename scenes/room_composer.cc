@@ -260,15 +260,13 @@ void RoomOptions::Check() const {
           "size_jitter " + std::to_string(size_jitter) + " must be in [0, 0.5]");
 }
 
-ComposerCatalog ComposerCatalog::From(const Catalog& catalog,
-                                      bool include_evaluation_only,
-                                      bool include_vote_net_only) {
+ComposerCatalog ComposerCatalog::From(const Catalog& catalog, const RoomOptions& room) {
   ComposerCatalog result;
   for (const CatalogEntry& entry : catalog.entries()) {
     Item item{entry.id, entry.furniture_class, entry.size_m.cast<double>()};
     if (entry.furniture_class) {
-      if ((include_evaluation_only || !entry.evaluation_only) &&
-          (include_vote_net_only || !entry.vote_net_only))
+      if ((room.include_evaluation_only || !entry.evaluation_only) &&
+          (room.include_vote_net_only || !entry.vote_net_only))
         result.furniture.push_back(item);
       continue;
     }

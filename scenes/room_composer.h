@@ -64,9 +64,9 @@ struct ComposerCatalog {
   std::vector<Item> clutter;    // plausible distractors outside the class map
 
   // Clutter: not a door or window, 0.1..1.6 m footprint sides, 0.05..2.0 m tall.
-  static ComposerCatalog From(const Catalog& catalog,
-                              bool include_evaluation_only = true,
-                              bool include_vote_net_only = false);
+  // The room options' include_* flags decide which class-mapped entries are
+  // furniture (evaluation-only: yes by default; vote-net-only: no).
+  static ComposerCatalog From(const Catalog& catalog, const RoomOptions& room = RoomOptions{});
   // The same clutter, and only the class-mapped entries whose id is in `ids`.
   ComposerCatalog WithFurnitureFrom(const std::set<std::string>& ids) const;
 };

@@ -125,7 +125,10 @@ TEST(ClassMap, VoteNetOnlyEntriesStayOutOfEvaluationRoomsAndFolds) {
   ASSERT_EQ(evaluation.furniture.size(), 1u);
   EXPECT_EQ(evaluation.furniture[0].id, "Test/marker");
   for (const ComposerCatalog::Item& item : evaluation.clutter) EXPECT_NE(item.id, "Test/rotated");
-  EXPECT_EQ(ComposerCatalog::From(extra, false, true).furniture.size(), 2u);
+  RoomOptions training_rooms;
+  training_rooms.include_evaluation_only = false;
+  training_rooms.include_vote_net_only = true;
+  EXPECT_EQ(ComposerCatalog::From(extra, training_rooms).furniture.size(), 2u);
   EXPECT_EQ(ComposerCatalog::From(both).furniture.size(), 2u);
 
   // Folds: two chairs make two folds; with one of them vote-net-only there is

@@ -323,8 +323,7 @@ class RoomGenerator {
   // What rooms are composed from: one, or one per leave-models-out fold.
   static std::vector<ComposerCatalog> ComposerCatalogsOf(const Catalog& catalog,
                                                          const GenerateOptions& options) {
-    ComposerCatalog all = ComposerCatalog::From(
-        catalog, options.room.include_evaluation_only, options.room.include_vote_net_only);
+    ComposerCatalog all = ComposerCatalog::From(catalog, options.room);
     if (!options.excluded_models.empty()) {
       std::set<std::string> kept;
       for (const ComposerCatalog::Item& item : all.furniture) {
@@ -585,9 +584,7 @@ Catalog OpenGenerationCatalog(const std::string& spec,
   }
   for (const std::string& warning : catalog.warnings())
     std::fprintf(stderr, "warning: %s\n", warning.c_str());
-  if (room.max_clutter > 0 &&
-      ComposerCatalog::From(catalog, room.include_evaluation_only, room.include_vote_net_only)
-          .clutter.empty()) {
+  if (room.max_clutter > 0 && ComposerCatalog::From(catalog, room).clutter.empty()) {
     std::fprintf(stderr,
                  "warning: catalog %s offers no clutter (every entry is classified, or the rest "
                  "are not 0.1-1.6 m across and 0.05-2 m tall): rooms hold targets only; list "
