@@ -38,6 +38,13 @@ CatalogEntry EntryFromSh3f(const Sh3fEntry& sh3f, const std::string& source) {
   return entry;
 }
 
+// What a class map says of an entry: its class and where it may appear.
+void TakeMapFlags(const ClassMapEntry& mapped, CatalogEntry* entry) {
+  entry->furniture_class = mapped.furniture_class;
+  entry->evaluation_only = mapped.evaluation_only;
+  entry->vote_net_only = mapped.vote_net_only;
+}
+
 bool AllCatalogsPresent(const ClassMap& map, const std::string& dir) {
   std::error_code ec;
   return std::all_of(map.catalogs.begin(), map.catalogs.end(), [&](const std::string& name) {
@@ -197,6 +204,78 @@ LoadedModels Catalog::LoadModels(const std::vector<std::string>& ids, bool show_
   return loaded;
 }
 
+void Catalog::AppendMapCatalogs(const ClassMap& map,
+                                const std::string& catalog_dir,
+                                std::map<std::string, const ClassMapEntry*>* unmatched) {
+  for (const std::string& file_name : map.catalogs) {
+    const std::string path = (std::filesystem::path(catalog_dir) / file_name).string();
+    auto source = std::make_shared<Source>();
+    source->archive = std::make_unique<Sh3fCatalog>(path);
+    for (const std::string& problem : source->archive->problems()) warnings_.push_back(problem);
+    for (const Sh3fEntry& sh3f : source->archive->entries()) {
+      CatalogEntry entry = EntryFromSh3f(sh3f, path);
+      const auto it = unmatched->find(entry.id);
+      if (it != unmatched->end()) {
+        TakeMapFlags(*it->second, &entry);
+        unmatched->erase(it);
+      }
+      entries_.push_back(std::move(entry));
+      source_of_entry_.push_back(static_cast<int>(sources_.size()));
+    }
+    sources_.push_back(std::move(source));
+  }
+}
+
+// Mesh-file entries (version 2): loaded here, in parallel, because rooms are
+// composed from entry sizes and a mesh file declares none; kept as prebuilt
+// models. One that does not load is skipped with a warning, as a .sh3f
+// catalog skips a bad entry.
+void Catalog::AppendMeshEntries(const ClassMap& map,
+                                const std::string& class_map_path,
+                                std::map<std::string, const ClassMapEntry*>* unmatched) {
+  std::vector<const ClassMapEntry*> meshes;
+  for (const ClassMapEntry& mapped : map.entries) {
+    if (mapped.mesh.empty()) continue;
+    for (const CatalogEntry& other : entries_) {
+      Require(other.id != mapped.id,
+              class_map_path + ": mesh entry '" + mapped.id + "' has the id of an entry of " +
+                  other.source + "; give it another");
+    }
+    meshes.push_back(&mapped);
+    unmatched->erase(mapped.id);
+  }
+  std::vector<std::optional<CadModel>> models(meshes.size());
+  std::vector<std::string> errors(meshes.size());
+  ParallelFor(0, static_cast<int>(meshes.size()), [&](int i) {
+    try {
+      models[i] = LoadMeshFile(meshes[i]->mesh, meshes[i]->mesh_options);
+    } catch (const InputError& error) {
+      errors[i] = error.what();
+    }
+  });
+  auto source = std::make_shared<Source>();
+  for (size_t i = 0; i < meshes.size(); ++i) {
+    const ClassMapEntry& mapped = *meshes[i];
+    if (!models[i]) {
+      warnings_.push_back("skipped " + mapped.id + ": " + errors[i]);
+      continue;
+    }
+    CatalogEntry entry;
+    entry.id = mapped.id;
+    entry.name = std::filesystem::path(mapped.mesh).stem().string();
+    entry.category = "Mesh file";
+    entry.source = mapped.mesh;
+    TakeMapFlags(mapped, &entry);
+    entry.size_m = BoundingBox(models[i]->mesh).Size();
+    models[i]->id = entry.id;
+    models[i]->name = entry.name;
+    source->prebuilt.emplace(entry.id, std::move(*models[i]));
+    entries_.push_back(std::move(entry));
+    source_of_entry_.push_back(static_cast<int>(sources_.size()));
+  }
+  if (!source->prebuilt.empty()) sources_.push_back(std::move(source));
+}
+
 Catalog OpenCatalog(const std::string& spec, const CatalogOpenOptions& options) {
   Catalog catalog;
   catalog.description_ = spec;
@@ -243,78 +322,12 @@ Catalog OpenCatalog(const std::string& spec, const CatalogOpenOptions& options) 
     return catalog;
   }
 
-  std::map<std::string, const ClassMapEntry*> classified;
-  for (const ClassMapEntry& entry : map.entries) classified[entry.id] = &entry;
-  for (const std::string& file_name : map.catalogs) {
-    const std::string path = (std::filesystem::path(options.catalog_dir) / file_name).string();
-    auto source = std::make_shared<Catalog::Source>();
-    source->archive = std::make_unique<Sh3fCatalog>(path);
-    for (const std::string& problem : source->archive->problems()) {
-      catalog.warnings_.push_back(problem);
-    }
-    for (const Sh3fEntry& sh3f : source->archive->entries()) {
-      CatalogEntry entry = EntryFromSh3f(sh3f, path);
-      const auto it = classified.find(entry.id);
-      if (it != classified.end()) {
-        entry.furniture_class = it->second->furniture_class;
-        entry.evaluation_only = it->second->evaluation_only;
-        entry.vote_net_only = it->second->vote_net_only;
-        classified.erase(it);
-      }
-      catalog.entries_.push_back(std::move(entry));
-      catalog.source_of_entry_.push_back(static_cast<int>(catalog.sources_.size()));
-    }
-    catalog.sources_.push_back(std::move(source));
-  }
-  // Mesh-file entries (version 2): loaded here, in parallel, because rooms
-  // are composed from entry sizes and a mesh file declares none; kept as
-  // prebuilt models. One that does not load is skipped with a warning, as a
-  // .sh3f catalog skips a bad entry.
-  std::vector<const ClassMapEntry*> meshes;
-  for (const ClassMapEntry& mapped : map.entries) {
-    if (mapped.mesh.empty()) continue;
-    for (const CatalogEntry& other : catalog.entries_) {
-      Require(other.id != mapped.id,
-              class_map_path + ": mesh entry '" + mapped.id + "' has the id of an entry of " +
-                  other.source + "; give it another");
-    }
-    meshes.push_back(&mapped);
-    classified.erase(mapped.id);
-  }
-  std::vector<std::optional<CadModel>> models(meshes.size());
-  std::vector<std::string> errors(meshes.size());
-  ParallelFor(0, static_cast<int>(meshes.size()), [&](int i) {
-    try {
-      models[i] = LoadMeshFile(meshes[i]->mesh, meshes[i]->mesh_options);
-    } catch (const InputError& error) {
-      errors[i] = error.what();
-    }
-  });
-  auto source = std::make_shared<Catalog::Source>();
-  for (size_t i = 0; i < meshes.size(); ++i) {
-    const ClassMapEntry& mapped = *meshes[i];
-    if (!models[i]) {
-      catalog.warnings_.push_back("skipped " + mapped.id + ": " + errors[i]);
-      continue;
-    }
-    CatalogEntry entry;
-    entry.id = mapped.id;
-    entry.name = std::filesystem::path(mapped.mesh).stem().string();
-    entry.category = "Mesh file";
-    entry.source = mapped.mesh;
-    entry.furniture_class = mapped.furniture_class;
-    entry.evaluation_only = mapped.evaluation_only;
-    entry.vote_net_only = mapped.vote_net_only;
-    entry.size_m = BoundingBox(models[i]->mesh).Size();
-    models[i]->id = entry.id;
-    models[i]->name = entry.name;
-    source->prebuilt.emplace(entry.id, std::move(*models[i]));
-    catalog.entries_.push_back(std::move(entry));
-    catalog.source_of_entry_.push_back(static_cast<int>(catalog.sources_.size()));
-  }
-  if (!source->prebuilt.empty()) catalog.sources_.push_back(std::move(source));
-  if (!classified.empty()) {
-    const std::string id = classified.begin()->first;
+  std::map<std::string, const ClassMapEntry*> unmatched;
+  for (const ClassMapEntry& entry : map.entries) unmatched[entry.id] = &entry;
+  catalog.AppendMapCatalogs(map, options.catalog_dir, &unmatched);
+  catalog.AppendMeshEntries(map, class_map_path, &unmatched);
+  if (!unmatched.empty()) {
+    const std::string id = unmatched.begin()->first;
     throw InputError(class_map_path + ": entry '" + id + "' does not exist in catalog " +
                      id.substr(0, id.find('/')) + ".sh3f (in " + options.catalog_dir + ")");
   }

@@ -15,6 +15,7 @@
 //   }
 #pragma once
 
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -25,6 +26,9 @@
 #include "scenes/procedural_catalog.h"
 
 namespace furn {
+
+struct ClassMap;
+struct ClassMapEntry;
 
 class Sh3fCatalog;
 
@@ -107,6 +111,15 @@ class Catalog {
 
   // Models built in memory as classified entries of a new source.
   void AppendPrebuilt(std::vector<ProceduralModel> models, const std::string& category);
+  // A class map's steps (OpenCatalog): every entry of its .sh3f catalogs,
+  // classified where the map names them; then its mesh-file entries, loaded
+  // in parallel. Each takes the ids it classified out of *unmatched.
+  void AppendMapCatalogs(const ClassMap& map,
+                         const std::string& catalog_dir,
+                         std::map<std::string, const ClassMapEntry*>* unmatched);
+  void AppendMeshEntries(const ClassMap& map,
+                         const std::string& class_map_path,
+                         std::map<std::string, const ClassMapEntry*>* unmatched);
 
   std::string description_;
   std::vector<std::string> warnings_;
