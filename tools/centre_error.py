@@ -12,12 +12,19 @@ With --by-model, the same per CAD model (which held-out models a change
 helps). With --losses, per class and by whether the object's image box touches the
 image's side ("cut") or not ("whole"), where each object ends up: a
 detection of its class within 10 cm, 10-20 cm, 20-50 cm, only another class
-within 20 cm, or nothing. Several databases add up: give DB:RUN,RUN.
+within 20 cm, or nothing. With --bias, per class and by the image side that
+cuts the object, the median of the signed error of the nearest detection of
+its class within 50 cm: along the camera's horizontal view (forward, + is
+farther) and across it (right, + is the image's right). An object cut by
+the image's left side with its detections to the right on the median is
+placed towards the part in view. Several databases add up: give DB:RUN,RUN.
 
   python3 tools/centre_error.py out/pe/pe-1.db --kind crossval-fold --min-visibility 0.5
   python3 tools/centre_error.py pe-2.db:30 pe-3.db:15 --losses --min-visibility 0.15
+  python3 tools/centre_error.py pe-3.db:2 --bias --min-visibility 0.15
 """
 import argparse
+import collections
 import math
 import os
 import sqlite3
@@ -25,9 +32,32 @@ import statistics
 import sys
 
 
-def camera_position(text):
+# An object of the ground truth and where its class's nearest detection is:
+# distance (inf: none within --search), the signed error (m) along the
+# camera's horizontal forward and right (None: no detection within 0.5 m).
+Found = collections.namedtuple(
+    "Found", "cls cut side best other model forward right")
+
+BIAS_SEARCH_M = 0.5
+
+
+def camera_axes(text):
+    """Position (x, y), horizontal forward and right unit vectors of a row-major 4x4 pose."""
     m = [float(v) for v in text.split()]
-    return m[3], m[7]  # row-major 4x4: translation x, y
+    def horizontal(x, y):  # a column of the rotation on the floor plane
+        n = math.hypot(x, y) or 1.0
+        return x / n, y / n
+    # The optical frame: x right, z forward (docs/conventions.md).
+    return (m[3], m[7]), horizontal(m[2], m[6]), horizontal(m[0], m[4])
+
+
+def cut_side(u0, v0, u1, v1, width, height):
+    left, right = u0 <= 0, u1 >= width - 1
+    if left and right:
+        return "both sides"
+    if left or right:
+        return "left" if left else "right"
+    return "top/bottom" if v0 <= 0 or v1 >= height - 1 else "whole"
 
 
 def fold_runs(db, kind, runs, folds):
@@ -42,7 +72,7 @@ def fold_runs(db, kind, runs, folds):
 
 
 def objects_of(db, runs, args):
-    """(class, cut, nearest distance of its class, nearest other class within 20 cm or '', model)."""
+    """A Found per labelled object of every frame of the runs."""
     for run in runs:
         frames = [r[0] for r in db.execute(
             "SELECT DISTINCT frame_id FROM run_frames WHERE run_id = ?", (run,))]
@@ -50,7 +80,7 @@ def objects_of(db, runs, args):
             room, pose, width, height = db.execute(
                 "SELECT room_id, world_from_camera, width, height FROM frames WHERE id = ?",
                 (frame,)).fetchone()
-            cx, cy = camera_position(pose)
+            (cx, cy), forward, right = camera_axes(pose)
             detections = db.execute(
                 "SELECT class, x, y FROM run_detections WHERE run_id = ? AND frame_id = ?",
                 (run, frame)).fetchall()
@@ -62,17 +92,23 @@ def objects_of(db, runs, args):
             for cls, x, y, u0, v0, u1, v1, model in objects:
                 if math.hypot(x - cx, y - cy) > args.max_range:
                     continue
-                cut = u0 <= 0 or v0 <= 0 or u1 >= width - 1 or v1 >= height - 1
-                near = sorted((math.hypot(x - dx, y - dy), c) for c, dx, dy in detections)
-                best = min([d for d, c in near if c == cls], default=math.inf)
-                other = next((c for d, c in near if c != cls and d < 0.2), "")
-                yield cls, cut, best if best <= args.search else math.inf, other, model
+                side = cut_side(u0, v0, u1, v1, width, height)
+                near = sorted((math.hypot(x - dx, y - dy), c, dx, dy) for c, dx, dy in detections)
+                own = next((n for n in near if n[1] == cls), None)
+                best = own[0] if own else math.inf
+                other = next((c for d, c, _, _ in near if c != cls and d < 0.2), "")
+                ex, ey = (own[2] - x, own[3] - y) if own and best <= BIAS_SEARCH_M else (None, None)
+                yield Found(cls, side != "whole", side, best if best <= args.search else math.inf,
+                            other, model,
+                            None if ex is None else ex * forward[0] + ey * forward[1],
+                            None if ex is None else ex * right[0] + ey * right[1])
 
 
 def print_distances(found_objects, header, by_model=False):
     distances = {}
-    for cls, _, best, _, model in found_objects:
-        distances.setdefault((cls, model) if by_model else cls, []).append(best)
+    for found in found_objects:
+        key = (found.cls, found.model) if by_model else found.cls
+        distances.setdefault(key, []).append(found.best)
     print(header)
     width = max([len(f"{c} {m}") for c, m in distances] if by_model else [10])
     print(f"{'class model' if by_model else 'class':{width}} {'objects':>7} {'median cm':>9} "
@@ -90,10 +126,12 @@ def print_distances(found_objects, header, by_model=False):
 def print_losses(found_objects, header):
     kinds = ["<10cm", "10-20cm", "20-50cm", "other class", "nothing"]
     counts = {}
-    for cls, cut, best, other, _ in found_objects:
+    for found in found_objects:
+        best = found.best
         kind = (kinds[0] if best < 0.1 else kinds[1] if best < 0.2 else
-                kinds[3] if other else kinds[2] if best < 0.5 else kinds[4])
-        row = counts.setdefault((cls, "cut" if cut else "whole"), dict.fromkeys(kinds, 0))
+                kinds[3] if found.other else kinds[2] if best < 0.5 else kinds[4])
+        row = counts.setdefault((found.cls, "cut" if found.cut else "whole"),
+                                dict.fromkeys(kinds, 0))
         row[kind] += 1
     print(header + "; where each object ends up (other class: only another class within 20 cm)")
     print(f"{'class':10} {'':5} {'objects':>7} " + " ".join(f"{k:>12}" for k in kinds))
@@ -101,6 +139,21 @@ def print_losses(found_objects, header):
         n = sum(row.values())
         print(f"{cls:10} {cut:5} {n:7d} " +
               " ".join(f"{row[k]:5d} ({row[k] / n:4.0%})" for k in kinds))
+
+
+def print_bias(found_objects, header):
+    errors = {}
+    for found in found_objects:
+        if found.forward is not None:
+            errors.setdefault((found.cls, found.side), []).append((found.forward, found.right))
+    print(header + f"; signed error of the nearest detection of the class within "
+          f"{BIAS_SEARCH_M * 100:.0f} cm (cm; forward: + farther, right: + the image's right)")
+    print(f"{'class':10} {'cut by':10} {'objects':>7} {'forward':>8} {'right':>8} {'distance':>8}")
+    for (cls, side), pairs in sorted(errors.items()):
+        median = lambda values: statistics.median(values) * 100
+        print(f"{cls:10} {side:10} {len(pairs):7d} {median([f for f, _ in pairs]):8.1f} "
+              f"{median([r for _, r in pairs]):8.1f} "
+              f"{median([math.hypot(f, r) for f, r in pairs]):8.1f}")
 
 
 def main():
@@ -115,6 +168,8 @@ def main():
     parser.add_argument("--losses", action="store_true", help="where each object ends up, cut or whole")
     parser.add_argument("--by-model", action="store_true",
                         help="distances per CAD model instead of per class")
+    parser.add_argument("--bias", action="store_true",
+                        help="median signed error by the image side that cuts the object")
     args = parser.parse_args()
     found_objects, names = [], []
     for spec in args.db:
@@ -128,6 +183,8 @@ def main():
     header = f"{'; '.join(names)}: objects seen >= {args.min_visibility:.0%} within {args.max_range} m"
     if args.losses:
         print_losses(found_objects, header)
+    elif args.bias:
+        print_bias(found_objects, header)
     else:
         print_distances(found_objects, header, args.by_model)
 

@@ -4,7 +4,9 @@ Run by ctest (python/furnidet) with PYTHONPATH at the build tree's python/
 folder and FURN_WORKBENCH naming the CLI binary.
 """
 import json
+import math
 import os
+import sqlite3
 import subprocess
 import sys
 import tempfile
@@ -198,6 +200,47 @@ class FurnidetTest(unittest.TestCase):
             done = subprocess.run([sys.executable, tool, bad], capture_output=True, text=True)
             self.assertNotEqual(done.returncode, 0)
             self.assertIn(rule, done.stderr)
+
+    def test_centre_error_bias_reports_a_known_shift(self):
+        # A copy of the dataset whose run has one detection per labelled
+        # object, 4 cm to the camera's right of it: every row of --bias must
+        # say forward 0, right +4 cm.
+        tool = os.path.join(os.path.dirname(__file__), "..", "..", "tools", "centre_error.py")
+        out = workbench("evaluate", "--model", self.model, "--db", self.db, "--split", "all")
+        run = int(out.split()[1].rstrip(":"))
+        shifted = os.path.join(self.dir, "shifted.db")
+        db = sqlite3.connect(shifted)
+        with sqlite3.connect(self.db) as source:  # its write-ahead log too
+            source.backup(db)
+        db.execute("DELETE FROM run_detections WHERE run_id = ?", (run,))
+        frames = [r[0] for r in db.execute(
+            "SELECT DISTINCT frame_id FROM run_frames WHERE run_id = ?", (run,))]
+        placed = 0
+        for frame in frames:
+            room, pose = db.execute("SELECT room_id, world_from_camera FROM frames WHERE id = ?",
+                                    (frame,)).fetchone()
+            m = [float(v) for v in pose.split()]
+            norm = math.hypot(m[0], m[4])
+            rx, ry = m[0] / norm, m[4] / norm
+            for cls, x, y in db.execute(
+                    "SELECT o.class, o.reference_x, o.reference_y FROM objects o JOIN frame_objects f "
+                    "ON f.instance_id = o.instance_id AND f.frame_id = ? WHERE o.room_id = ? AND "
+                    "o.class != ''", (frame, room)).fetchall():
+                db.execute("INSERT INTO run_detections VALUES (?, ?, ?, ?, ?, 0, 0, '', 1, 1, 1, 1)",
+                           (run, frame, cls, x + 0.04 * rx, y + 0.04 * ry))
+                placed += 1
+        db.commit()
+        db.close()
+        self.assertGreater(placed, 0)
+        done = subprocess.run([sys.executable, tool, f"{shifted}:{run}", "--bias",
+                               "--min-visibility", "0"], capture_output=True, text=True)
+        self.assertEqual(done.returncode, 0, done.stderr)
+        rows = done.stdout.splitlines()[2:]
+        self.assertGreater(len(rows), 0, done.stdout)
+        for line in rows:
+            *_, objects, forward, right, distance = line.split()
+            self.assertGreater(int(objects), 0, line)
+            self.assertEqual((float(forward), float(right), float(distance)), (0.0, 4.0, 4.0), line)
 
     def test_detection_releases_the_gil(self):
         frame = self.dataset.frame(self.dataset.frame_ids()[0])
