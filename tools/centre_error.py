@@ -35,8 +35,10 @@ import sys
 # An object of the ground truth and where its class's nearest detection is:
 # distance (inf: none within --search), the signed error (m) along the
 # camera's horizontal forward and right (None: no detection within 0.5 m).
-Found = collections.namedtuple(
-    "Found", "cls cut side best other model forward right")
+class Found(collections.namedtuple("Found", "cls side best other model forward right")):
+    @property
+    def cut(self):  # the image cuts the object on any side
+        return self.side != "whole"
 
 BIAS_SEARCH_M = 0.5
 
@@ -97,11 +99,12 @@ def objects_of(db, runs, args):
                 own = next((n for n in near if n[1] == cls), None)
                 best = own[0] if own else math.inf
                 other = next((c for d, c, _, _ in near if c != cls and d < 0.2), "")
-                ex, ey = (own[2] - x, own[3] - y) if own and best <= BIAS_SEARCH_M else (None, None)
-                yield Found(cls, side != "whole", side, best if best <= args.search else math.inf,
-                            other, model,
-                            None if ex is None else ex * forward[0] + ey * forward[1],
-                            None if ex is None else ex * right[0] + ey * right[1])
+                along = across = None
+                if own and best <= BIAS_SEARCH_M:
+                    ex, ey = own[2] - x, own[3] - y
+                    along, across = ex * forward[0] + ey * forward[1], ex * right[0] + ey * right[1]
+                yield Found(cls, side, best if best <= args.search else math.inf, other, model,
+                            along, across)
 
 
 def print_distances(found_objects, header, by_model=False):
