@@ -1,5 +1,6 @@
 #include "core/learned/vote_net_training.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "core/error.h"
@@ -87,6 +88,30 @@ VoteNetLoss VoteNetOptimizer::Step(const TrainingBatch& batch, double learning_r
   impl_->adam->step();
   net.net->eval();
   return loss;
+}
+
+VoteNetWeightAverage::VoteNetWeightAverage(const VoteNet& net, double decay)
+    : average_(VoteNet::Deserialize(net.Serialize(), "the network's weights")), decay_(decay) {
+  Require(decay >= 0 && decay < 1, "a weight average's decay must be in [0, 1)");
+}
+
+void VoteNetWeightAverage::Update(const VoteNet& net) {
+  Require(!net.empty() && net.Parameters() == average_.Parameters(),
+          "a weight average follows the network it was made from");
+  ++updates_;
+  const double decay = std::min(decay_, (1.0 + updates_) / (10.0 + updates_));
+  torch::NoGradGuard no_grad;
+  const auto average = VoteNetAccess::Of(average_).net->named_parameters();
+  for (const auto& item : VoteNetAccess::Of(net).net->named_parameters())
+    average[item.key()].mul_(decay).add_(item.value(), 1 - decay);
+  const auto average_buffers = VoteNetAccess::Of(average_).net->named_buffers();
+  for (const auto& item : VoteNetAccess::Of(net).net->named_buffers()) {
+    torch::Tensor mine = average_buffers[item.key()];
+    if (mine.is_floating_point())
+      mine.mul_(decay).add_(item.value(), 1 - decay);
+    else
+      mine.copy_(item.value());  // batch norm's step count
+  }
 }
 
 VoteNetLoss EvaluateVoteNetLoss(const VoteNet& net,

@@ -63,6 +63,30 @@ class VoteNetOptimizer {
   std::unique_ptr<Impl> impl_;
 };
 
+// The exponential moving average of a network's weights over its training
+// steps (Polyak averaging, as in YOLO's and timm's model EMA): after step t,
+// average = d x average + (1 - d) x weights, with d = min(decay, (1 + t) /
+// (10 + t)) so that the first steps are not held back by the random start.
+// Batch norm's running statistics are averaged alike. The average of the
+// last ~1 / (1 - decay) steps sits nearer the middle of the loss's valley
+// than any one step does (docs/learned-voting.md, "weight averaging").
+class VoteNetWeightAverage {
+ public:
+  // Starts as a copy of `net`; decay in [0, 1).
+  VoteNetWeightAverage(const VoteNet& net, double decay);
+  // After each step of `net` (the network the average was made from).
+  void Update(const VoteNet& net);
+  const VoteNet& average() const { return average_; }
+  // The average, moved out (the object is spent).
+  VoteNet Take() { return std::move(average_); }
+  int64_t updates() const { return updates_; }
+
+ private:
+  VoteNet average_;
+  double decay_ = 0;
+  int64_t updates_ = 0;
+};
+
 // The loss of a batch without a step (evaluation mode).
 VoteNetLoss EvaluateVoteNetLoss(const VoteNet& net,
                                 const TrainingBatch& batch,

@@ -13,10 +13,12 @@
 #include <set>
 
 #include "core/error.h"
+#include "core/learned/vote_net_training.h"
 #include "db/sqlite.h"
 #include "scenes/catalog.h"
 #include "tests/scenes/vote_net_only_map.h"
 #include "tests/test_util.h"
+#include "workbench/pipelines/train.h"
 #include "workbench/pipelines/train_vote_net.h"
 
 namespace furn {
@@ -490,6 +492,82 @@ TEST(VoteNet, SameSeedAndThreadsSameWeights) {
   for (size_t i = 0; i < x.values.size(); ++i)
     worst = std::max(worst, static_cast<double>(std::abs(x.values[i] - y.values[i])));
   EXPECT_LT(worst, 1e-3);
+}
+
+double LargestDifference(const BevOutput& x, const BevOutput& y) {
+  double worst = 0;
+  for (size_t i = 0; i < x.values.size(); ++i)
+    worst = std::max(worst, static_cast<double>(std::abs(x.values[i] - y.values[i])));
+  return worst;
+}
+
+// The weight average's arithmetic, seen through the networks' outputs: at
+// decay 0 it becomes the network it follows (weights and batch norm's
+// running statistics: the followed network was trained, so its statistics
+// are not the fresh ones); following the network it started from leaves it
+// as it was.
+TEST(VoteNetWeightAverage, DecayZeroTakesTheNetworkAndAFixedPointStays) {
+  const std::vector<BevSample> rooms = Rooms(3);
+  VoteNetTrainingOptions options = SmallTraining();
+  options.epochs = 3;
+  VoteNetTrainingSummary summary;
+  const VoteNet trained = TrainVoteNetOnSamples(rooms, {}, options, &summary);
+  const VoteNet fresh = VoteNet::Create(options.net, 7);
+  const BevImage& image = rooms[0].image;
+  ASSERT_GT(LargestDifference(fresh.Predict(image), trained.Predict(image)), 1e-2);
+
+  VoteNetWeightAverage taking(fresh, 0.0);
+  taking.Update(trained);
+  EXPECT_EQ(taking.updates(), 1);
+  EXPECT_LT(LargestDifference(taking.average().Predict(image), trained.Predict(image)), 1e-6);
+
+  VoteNetWeightAverage staying(trained, 0.999);
+  for (int i = 0; i < 5; ++i) staying.Update(trained);
+  EXPECT_LT(LargestDifference(staying.average().Predict(image), trained.Predict(image)), 1e-5);
+
+  // Half way (decay 0.5, but the first update's is 2 / 11): neither network.
+  VoteNetWeightAverage between(fresh, 0.5);
+  between.Update(trained);
+  EXPECT_GT(LargestDifference(between.average().Predict(image), trained.Predict(image)), 1e-3);
+  EXPECT_GT(LargestDifference(between.average().Predict(image), fresh.Predict(image)), 1e-3);
+
+  EXPECT_THROW({ VoteNetWeightAverage refused(fresh, 1.0); }, InputError);
+  VoteNetOptions wider = options.net;
+  wider.width = 16;
+  EXPECT_THROW(taking.Update(VoteNet::Create(wider, 7)), InputError);
+}
+
+// Training with a weight average: the steps are the plain training's (its
+// last weights are the plain network's bytes), the network returned is the
+// average (other bytes, the same on a second run), each epoch reports both
+// validation figures, and the options are checked.
+TEST(VoteNetWeightAverage, TrainingKeepsTheAverageAndTheLastWeightsOnRequest) {
+  const std::vector<BevSample> rooms = Rooms(3);
+  VoteNetTrainingOptions options = SmallTraining();
+  options.epochs = 3;
+  VoteNetTrainingSummary plain_summary;
+  const std::string plain =
+      TrainVoteNetOnSamples(rooms, rooms, options, &plain_summary).Serialize();
+  EXPECT_TRUE(plain_summary.last_weights.empty());
+  EXPECT_TRUE(std::isnan(plain_summary.epochs.back().last_weights_map));
+
+  options.weight_average = 0.9;
+  options.keep_last_weights = true;
+  VoteNetTrainingSummary a, b;
+  const std::string averaged = TrainVoteNetOnSamples(rooms, rooms, options, &a).Serialize();
+  EXPECT_EQ(a.last_weights, plain) << "averaging must not change the steps";
+  EXPECT_NE(averaged, plain);
+  EXPECT_EQ(TrainVoteNetOnSamples(rooms, rooms, options, &b).Serialize(), averaged);
+  ASSERT_EQ(a.epochs.size(), 3u);
+  EXPECT_DOUBLE_EQ(a.epochs.back().last_weights_map, plain_summary.epochs.back().validation_map);
+  EXPECT_NE(a.epochs.back().validation_loss, plain_summary.epochs.back().validation_loss);
+
+  options.weight_average = 1.0;
+  EXPECT_THROW(options.Check(), InputError);
+  options.weight_average = 0;
+  EXPECT_THROW(options.Check(), InputError) << "the last weights without an average";
+  EXPECT_EQ(LastWeightsModelPath("out/model.fcm"), "out/model.last.fcm");
+  EXPECT_EQ(LastWeightsModelPath("model"), "model.last.fcm");
 }
 
 // A class map's vote-net-only tables and sideboards (here six added to the

@@ -149,6 +149,15 @@ void AddVoteNetFlags(CLI::App* app, VoteNetFlags* flags) {
       ->capture_default_str();
   app->add_option("--vote-lr", o.learning_rate, "Vote network: peak learning rate (Adam)")
       ->capture_default_str();
+  app->add_option("--vote-average",
+                  o.weight_average,
+                  "Vote network: keep the exponential moving average of its weights over the "
+                  "steps with this decay (e.g. 0.999; 0: the last step's weights)")
+      ->capture_default_str();
+  app->add_flag("--vote-keep-last-weights",
+                o.keep_last_weights,
+                "Vote network: with --vote-average, also write the last step's weights as "
+                "<model>.last.fcm (to measure the average against them)");
   app->add_option("--vote-range",
                   o.net.range_m,
                   "Vote network: the scan's points within this distance of the sensor are "

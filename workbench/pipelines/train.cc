@@ -86,6 +86,14 @@ std::vector<TrainingView> ScanModel(const CadModel& model,
   return views;
 }
 
+std::string LastWeightsModelPath(const std::string& model_path) {
+  const std::string suffix = ".fcm";
+  const bool fcm =
+      model_path.size() > suffix.size() &&
+      model_path.compare(model_path.size() - suffix.size(), suffix.size(), suffix) == 0;
+  return (fcm ? model_path.substr(0, model_path.size() - suffix.size()) : model_path) + ".last.fcm";
+}
+
 TrainSummary TrainFromCatalog(const Catalog& catalog,
                               const ScanOptions& scan,
                               const TrainerOptions& trainer,
@@ -139,6 +147,12 @@ TrainSummary TrainFromCatalog(const Catalog& catalog,
     model.operating_point = summary.vote_net_training.operating_point;
   }
   SaveTrainedModel(model, out_path);
+  if (vote_net != nullptr && !summary.vote_net_training.last_weights.empty()) {
+    TrainedModel last = model;
+    last.vote_net = summary.vote_net_training.last_weights;
+    last.operating_point = summary.vote_net_training.last_operating_point;
+    SaveTrainedModel(last, LastWeightsModelPath(out_path));
+  }
   summary.train_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   summary.models = static_cast<int>(ids.size());
   summary.views = static_cast<int>(views.size());

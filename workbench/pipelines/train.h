@@ -50,6 +50,11 @@ TrainSummary TrainFromCatalog(const Catalog& catalog,
                               const std::string& scorer = "",
                               const VoteNetTrainingOptions* vote_net = nullptr);
 
+// Where `train --vote-keep-last-weights` writes the model with the vote
+// network's last step's weights beside the averaged one: model.fcm ->
+// model.last.fcm.
+std::string LastWeightsModelPath(const std::string& model_path);
+
 // `model info`: what a model file holds, as text.
 std::string DescribeTrainedModel(const TrainedModel& model);
 // The operating point's lines of `model info`: each class's threshold and

@@ -180,6 +180,10 @@ void VoteNetTrainingOptions::Check() const {
   Require(min_visibility >= 0 && min_visibility <= 1, "vote-net min visibility must be in 0..1");
   Require(validation_share >= 0 && validation_share < 1,
           "vote-net validation share must be in [0, 1)");
+  Require(weight_average >= 0 && weight_average < 1,
+          "vote-net weight average " + std::to_string(weight_average) + " must be in [0, 1)");
+  Require(!keep_last_weights || weight_average > 0,
+          "the last weights are kept only beside a weight average (--vote-average)");
   Require(shape_variety >= 0 && shape_variety <= 1000,
           "vote-net shape variety " + std::to_string(shape_variety) + " must be in 0..1000");
   Require(rooms_cache.empty() || (!keep_rooms && room_shards.empty()),
@@ -227,6 +231,7 @@ std::string VoteNetTrainingOptions::Json() const {
       {"rooms_content", nlohmann::json::parse(TrainingRooms(*this, "", {}).ContentJson())}};
   // Only when used: keys of models trained before the option stay valid.
   if (shape_variety > 0) json["shape_variety"] = shape_variety;
+  if (weight_average > 0) json["weight_average"] = weight_average;
   if (shape_variety > 0 && shape_sizes != ShapeSizes::kCatalog)
     json["shape_sizes"] = EnumName(shape_sizes);
   if (!net.coder.dense_votes) json["coder"]["dense_votes"] = false;
@@ -268,6 +273,44 @@ void ReadBevSamples(const std::string& db_path,
   progress.Finish();
 }
 
+namespace {
+
+// The epoch's validation figures of `kept` (the network training returns),
+// and of the last step's weights where they differ.
+void ValidateEpoch(const VoteNet& kept,
+                   const VoteNet* last,
+                   const std::vector<BevSample>& validation,
+                   const VoteNetTrainingOptions& options,
+                   VoteNetEpoch* record) {
+  record->last_weights_map = std::nan("");
+  if (validation.empty()) return;
+  record->validation_terms = ValidationLoss(kept, validation, options);
+  record->validation_loss = record->validation_terms.Total();
+  record->validation_map = ValidationMeanAp(kept, validation);
+  if (last != nullptr) record->last_weights_map = ValidationMeanAp(*last, validation);
+}
+
+void PrintEpoch(const VoteNetEpoch& record, int epochs, bool validated) {
+  std::string last;
+  if (!std::isnan(record.last_weights_map)) {
+    char text[64];
+    std::snprintf(text, sizeof(text), " (last weights %.3f)", record.last_weights_map);
+    last = text;
+  }
+  std::fprintf(stderr,
+               "vote net: epoch %d/%d: training loss %.3f, validation loss %.3f, "
+               "validation mAP@10cm %.3f%s (%.0f s)\n",
+               record.epoch,
+               epochs,
+               record.train_loss,
+               record.validation_loss,
+               validated ? record.validation_map : std::nan(""),
+               last.c_str(),
+               record.seconds);
+}
+
+}  // namespace
+
 VoteNet TrainVoteNetOnSamples(const std::vector<BevSample>& training,
                               const std::vector<BevSample>& validation,
                               const VoteNetTrainingOptions& options,
@@ -278,6 +321,8 @@ VoteNet TrainVoteNetOnSamples(const std::vector<BevSample>& training,
   SetTorchThreads(options.threads);
   VoteNet net = VoteNet::Create(options.net, options.seed);
   VoteNetOptimizer optimizer(&net, options.loss);
+  std::optional<VoteNetWeightAverage> average;
+  if (options.weight_average > 0) average.emplace(net, options.weight_average);
   summary->parameters = net.Parameters();
   summary->frames = static_cast<int>(training.size());
   summary->validation_frames = static_cast<int>(validation.size());
@@ -305,6 +350,7 @@ VoteNet TrainVoteNetOnSamples(const std::vector<BevSample>& training,
       const VoteNetLoss loss =
           optimizer.Step(MakeTrainingBatch(training, indices, mirror, options.net.coder),
                          CosineLearningRate(step, total_steps, options.learning_rate));
+      if (average) average->Update(net);
       loss_sum += loss.Total();
       ++step;
       char note[64];
@@ -315,29 +361,21 @@ VoteNet TrainVoteNetOnSamples(const std::vector<BevSample>& training,
     VoteNetEpoch record;
     record.epoch = epoch + 1;
     record.train_loss = loss_sum / steps_per_epoch;
-    if (!validation.empty()) {
-      record.validation_terms = ValidationLoss(net, validation, options);
-      record.validation_loss = record.validation_terms.Total();
-      record.validation_map = ValidationMeanAp(net, validation);
-    }
+    ValidateEpoch(average ? average->average() : net,
+                  average && options.keep_last_weights ? &net : nullptr,
+                  validation,
+                  options,
+                  &record);
     record.seconds = Seconds(epoch_start);
     summary->epochs.push_back(record);
-    if (!options.quiet) {
-      std::fprintf(stderr,
-                   "vote net: epoch %d/%d: training loss %.3f, validation loss %.3f, "
-                   "validation mAP@10cm %.3f (%.0f s)\n",
-                   record.epoch,
-                   options.epochs,
-                   record.train_loss,
-                   record.validation_loss,
-                   validation.empty() ? std::nan("") : record.validation_map,
-                   record.seconds);
-    }
+    if (!options.quiet) PrintEpoch(record, options.epochs, !validation.empty());
   }
   progress.Finish();
   summary->train_s = Seconds(start);
   SetTorchThreads(previous_threads);
-  return net;
+  if (!average) return net;
+  if (options.keep_last_weights) summary->last_weights = net.Serialize();
+  return average->Take();
 }
 
 OperatingPoint VoteNetOperatingPoint(const VoteNet& net, const std::vector<BevSample>& validation) {
@@ -417,6 +455,10 @@ std::string TrainVoteNet(const Catalog& catalog,
   summary->raster_s = Seconds(start);
   const VoteNet net = TrainVoteNetOnSamples(training, validation, options, summary);
   if (!validation.empty()) summary->operating_point = VoteNetOperatingPoint(net, validation);
+  if (!validation.empty() && !summary->last_weights.empty()) {
+    summary->last_operating_point = VoteNetOperatingPoint(
+        VoteNet::Deserialize(summary->last_weights, "the last weights"), validation);
+  }
   if (!options.keep_rooms && options.rooms_cache.empty()) RemoveDatabaseFiles(rooms_db);
   if (!options.curve_png.empty()) {
     std::vector<TrainingCurvePoint> curve;

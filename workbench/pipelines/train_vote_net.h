@@ -50,6 +50,14 @@ struct VoteNetTrainingOptions {
   // the loss ignores the heat around them (BevCoderOptions::ignore_radius_cells).
   double min_visibility = 0.15;
   double validation_share = 0.1;  // of the rooms, for the per-epoch validation loss
+  // The network kept is the exponential moving average of its weights over
+  // the steps with this decay (VoteNetWeightAverage); 0: the last step's
+  // weights.
+  double weight_average = 0;
+  // With weight_average: the last step's weights too
+  // (VoteNetTrainingSummary::last_weights), for measuring the average
+  // against them on one training run.
+  bool keep_last_weights = false;
   VoteNetOptions net;  // with net.coder: what the targets are; net.range_m: the points rasterised
   VoteNetLossWeights loss;  // the loss terms' weights
   // Of the training rooms (evaluation-only entries never placed); sizes
@@ -87,6 +95,9 @@ struct VoteNetEpoch {
   double train_loss = 0, validation_loss = 0;
   VoteNetLoss validation_terms;
   double validation_map = 0;  // mAP@10cm of the decoded maxima (NaN: no objects)
+  // With a weight average, validation_map is the average's and this the
+  // last step's weights' (else NaN).
+  double last_weights_map = 0;
   double seconds = 0;
 };
 
@@ -100,6 +111,10 @@ struct VoteNetTrainingSummary {
   double generate_s = 0, raster_s = 0, train_s = 0;
   // Chosen on the validation frames (VoteNetOperatingPoint); empty without.
   OperatingPoint operating_point;
+  // With keep_last_weights: the last step's network (VoteNet::Serialize) and
+  // its operating point; else empty.
+  std::string last_weights;
+  OperatingPoint last_operating_point;
 };
 
 // Trains on samples already made (tests, tools); `validation` may be empty.
