@@ -1,10 +1,12 @@
 // The vote network's training curve (issue 30): training and validation loss
 // per epoch (left axis, log scale) and validation mAP@10cm (right axis), as
-// a PNG drawn by gnuplot.
+// a PNG drawn by gnuplot; with a weight average also the last step's
+// weights' validation mAP@10cm.
 //
 //   WriteTrainingCurvePng({{1, 12.0, 9.5, 0.21}, ...}, "model.vote_net.png");
 #pragma once
 
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -14,6 +16,9 @@ struct TrainingCurvePoint {
   int epoch = 0;
   double train_loss = 0, validation_loss = 0;
   double validation_map = 0;  // NaN: not measured
+  // With a weight average: the last step's weights' validation mAP@10cm
+  // (validation_map is the average's); NaN: not measured.
+  double last_weights_map = std::nan("");
 };
 
 // Throws InputError when gnuplot fails or the file cannot be written.

@@ -8,6 +8,7 @@
 #include "core/file_util.h"
 #include "reports/confusion.h"
 #include "reports/run_report.h"
+#include "reports/training_curve.h"
 #include "tests/test_util.h"
 
 namespace furn {
@@ -61,6 +62,36 @@ TEST(Confusion, RowsAndColumnsMayDifferButNotTheirCounts) {
   });
   EXPECT_NE(error.find("needs 1 rows of 2 counts"), std::string::npos) << error;
   EXPECT_FALSE(std::filesystem::exists(dir + "/bad.png"));
+}
+
+// Pixels of gnuplot's fourth default colour (orange, #e69f00): the last
+// weights' validation curve.
+int OrangePixels(const cv::Mat& image) {
+  int count = 0;
+  for (int r = 0; r < image.rows; ++r) {
+    for (int c = 0; c < image.cols; ++c) {
+      const cv::Vec3b bgr = image.at<cv::Vec3b>(r, c);
+      count += bgr[2] > 200 && bgr[1] > 130 && bgr[1] < 185 && bgr[0] < 60;
+    }
+  }
+  return count;
+}
+
+// The training curve draws the last weights' validation mAP only where a
+// weight average measured it.
+TEST(TrainingCurve, LastWeightsAreACurveOfTheirOwn) {
+  const std::string dir = testing::ScratchDir();
+  std::vector<TrainingCurvePoint> points = {{1, 3.0, 2.5, 0.25}, {2, 2.0, 1.8, 0.40}};
+  WriteTrainingCurvePng(points, "plain", dir + "/plain.png");
+  points[0].last_weights_map = 0.20;
+  points[1].last_weights_map = 0.38;
+  WriteTrainingCurvePng(points, "averaged", dir + "/averaged.png");
+  const cv::Mat plain = cv::imread(dir + "/plain.png"),
+                averaged = cv::imread(dir + "/averaged.png");
+  ASSERT_FALSE(plain.empty());
+  ASSERT_FALSE(averaged.empty());
+  EXPECT_EQ(OrangePixels(plain), 0);
+  EXPECT_GT(OrangePixels(averaged), 100);
 }
 
 TEST(Tables, AnApCarriesTheObjectsItWasMeasuredOn) {

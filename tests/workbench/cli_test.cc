@@ -278,6 +278,32 @@ TEST(Cli, RoomsCacheIsNotCombinedWithKeepRooms) {
   EXPECT_FALSE(std::filesystem::exists(dir + "/rooms"));
 }
 
+// The weight average's flags: a decay outside [0, 1) and the last weights
+// without an average are one line each, before anything is trained; the
+// flags of the three groups (rooms, network, schedule) all reach the options.
+TEST(Cli, WeightAverageFlagsAreChecked) {
+  const std::string dir = testing::ScratchDir();
+  const std::string train = "train --catalog procedural:2 --out " + dir + "/m.fcm ";
+  const testing::CommandResult decay = RunWorkbench(train + "--vote-average 1");
+  EXPECT_EQ(decay.exit_code, 1);
+  EXPECT_EQ(CountErrorLines(decay.output), 1u) << decay.output;
+  EXPECT_NE(decay.output.find("vote-net weight average 1.000000 must be in [0, 1)"),
+            std::string::npos)
+      << decay.output;
+  const testing::CommandResult last = RunWorkbench(train + "--vote-keep-last-weights");
+  EXPECT_EQ(last.exit_code, 1);
+  EXPECT_NE(last.output.find("the last weights are kept only beside a weight average"),
+            std::string::npos)
+      << last.output;
+  const testing::CommandResult groups = RunWorkbench(
+      train + "--vote-rooms 0 --vote-width 8 --vote-dense --vote-epochs 2 --vote-average 0.5");
+  EXPECT_EQ(groups.exit_code, 1);
+  EXPECT_NE(groups.output.find("vote-net rooms 0 must be in 1..100000"), std::string::npos)
+      << groups.output;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/m.fcm"));
+  EXPECT_FALSE(std::filesystem::exists(dir + "/m.last.fcm"));
+}
+
 TEST(CatalogCommands, ListingCountsClassesAndLoadsModels) {
   const Catalog catalog = OpenCatalog("procedural:5");
   ListCatalogOptions options;

@@ -123,45 +123,14 @@ std::optional<int> ParseCommandLine(CLI::App* app, int argc, char** argv) {
   return std::nullopt;
 }
 
-void AddVoteNetFlags(CLI::App* app, VoteNetFlags* flags) {
-  app->add_flag("--vote-net,!--no-vote-net",
-                flags->enabled,
-                "Train the learned vote map (generated rooms, a CNN) into the model (the "
-                "default); --no-vote-net: the codebook alone");
-  VoteNetTrainingOptions& o = flags->options;
+namespace {
+
+// The vote network's training rooms: how many, what is in them, where they are kept.
+void AddVoteNetRoomFlags(CLI::App* app, VoteNetTrainingOptions* options) {
+  VoteNetTrainingOptions& o = *options;
   app->add_option("--vote-rooms", o.rooms, "Vote network: generated training rooms")
       ->capture_default_str();
-  app->add_option("--vote-epochs", o.epochs, "Vote network: passes over the frames")
-      ->capture_default_str();
-  app->add_option("--vote-threads", o.threads, "Vote network: torch threads while training")
-      ->capture_default_str();
-  app->add_option("--vote-seed", o.seed, "Vote network: seed of rooms, weights and batches")
-      ->capture_default_str();
   app->add_option("--vote-frames", o.frames_per_room, "Vote network: frames per training room")
-      ->capture_default_str();
-  app->add_option("--vote-width", o.net.width, "Vote network: channels of its first level")
-      ->capture_default_str();
-  app->add_option("--vote-levels",
-                  o.net.levels,
-                  "Vote network: halvings of its encoder (receptive field; stored in the model)")
-      ->capture_default_str();
-  app->add_option("--vote-batch", o.batch_size, "Vote network: frames per training step")
-      ->capture_default_str();
-  app->add_option("--vote-lr", o.learning_rate, "Vote network: peak learning rate (Adam)")
-      ->capture_default_str();
-  app->add_option("--vote-average",
-                  o.weight_average,
-                  "Vote network: keep the exponential moving average of its weights over the "
-                  "steps with this decay (e.g. 0.999; 0: the last step's weights)")
-      ->capture_default_str();
-  app->add_flag("--vote-keep-last-weights",
-                o.keep_last_weights,
-                "Vote network: with --vote-average, also write the last step's weights as "
-                "<model>.last.fcm (to measure the average against them)");
-  app->add_option("--vote-range",
-                  o.net.range_m,
-                  "Vote network: the scan's points within this distance of the sensor are "
-                  "rasterised (m; stored in the model, detection uses the same)")
       ->capture_default_str();
   app->add_option("--vote-size-jitter",
                   o.room.size_jitter,
@@ -178,23 +147,6 @@ void AddVoteNetFlags(CLI::App* app, VoteNetFlags* flags) {
                 &o.shape_sizes,
                 "Vote network: the varied models' sizes: the catalog's range, or real (widened "
                 "to the class's usual sizes, a fifth of the tables under a cloth)");
-  app->add_option("--vote-centre-radius",
-                  o.net.coder.centre_radius_cells,
-                  "Vote network: the cells within this distance of a piece's centre cell "
-                  "regress its box as the centre cell does (cells, 0..10; 0: the centre cell "
-                  "alone; without --vote-dense)")
-      ->capture_default_str();
-  app->add_flag_callback(
-      "--vote-dense",
-      [&o] { o.net.coder = BevCoderOptions::Dense(); },
-      "Vote network: dense votes (every cell of a piece votes for its centre, decoded by the "
-      "votes' mean shift; fixed heat width, ignore regions) instead of the centre cell alone");
-  app->add_flag_callback(
-      "--vote-edges",
-      [&o] { o.net.coder.edge_votes = true; },
-      "Vote network: edge votes (every cell of a piece regresses its distances to the four "
-      "sides of the piece's box; detection centres tables, sideboards and sofas between the "
-      "sides their cells place)");
   app->add_flag("--keep-rooms",
                 o.keep_rooms,
                 "Keep the vote network's training rooms (<model>.rooms.db) for reuse");
@@ -203,6 +155,75 @@ void AddVoteNetFlags(CLI::App* app, VoteNetFlags* flags) {
                   "Vote network: keep the training rooms in this directory by what decides "
                   "them (catalog, held-out models, seed, room count, sensor) and reuse them in "
                   "any later training of the same rooms, e.g. another network on one fold");
+}
+
+// The vote network itself and its targets (stored with the weights).
+void AddVoteNetNetworkFlags(CLI::App* app, VoteNetTrainingOptions* options) {
+  VoteNetTrainingOptions& o = *options;
+  app->add_option("--vote-width", o.net.width, "Vote network: channels of its first level")
+      ->capture_default_str();
+  app->add_option("--vote-levels",
+                  o.net.levels,
+                  "Vote network: halvings of its encoder (receptive field; stored in the model)")
+      ->capture_default_str();
+  app->add_option("--vote-range",
+                  o.net.range_m,
+                  "Vote network: the scan's points within this distance of the sensor are "
+                  "rasterised (m; stored in the model, detection uses the same)")
+      ->capture_default_str();
+  app->add_option("--vote-centre-radius",
+                  o.net.coder.centre_radius_cells,
+                  "Vote network: the cells within this distance of a piece's centre cell "
+                  "regress its box as the centre cell does (cells, 0..10; 0: the centre cell "
+                  "alone; without --vote-dense)")
+      ->capture_default_str();
+  app->add_flag_callback(
+      "--vote-dense",
+      [options] { options->net.coder = BevCoderOptions::Dense(); },
+      "Vote network: dense votes (every cell of a piece votes for its centre, decoded by the "
+      "votes' mean shift; fixed heat width, ignore regions) instead of the centre cell alone");
+  app->add_flag_callback(
+      "--vote-edges",
+      [options] { options->net.coder.edge_votes = true; },
+      "Vote network: edge votes (every cell of a piece regresses its distances to the four "
+      "sides of the piece's box; detection centres tables, sideboards and sofas between the "
+      "sides their cells place)");
+}
+
+// How the vote network is trained: epochs, batches, rate, the weights kept, seed, threads.
+void AddVoteNetScheduleFlags(CLI::App* app, VoteNetTrainingOptions* options) {
+  VoteNetTrainingOptions& o = *options;
+  app->add_option("--vote-epochs", o.epochs, "Vote network: passes over the frames")
+      ->capture_default_str();
+  app->add_option("--vote-batch", o.batch_size, "Vote network: frames per training step")
+      ->capture_default_str();
+  app->add_option("--vote-lr", o.learning_rate, "Vote network: peak learning rate (Adam)")
+      ->capture_default_str();
+  app->add_option("--vote-average",
+                  o.weight_average,
+                  "Vote network: keep the exponential moving average of its weights over the "
+                  "steps with this decay (e.g. 0.999; 0: the last step's weights)")
+      ->capture_default_str();
+  app->add_flag("--vote-keep-last-weights",
+                o.keep_last_weights,
+                "Vote network: with --vote-average, also write the last step's weights as "
+                "<model>.last.fcm (to measure the average against them)");
+  app->add_option("--vote-seed", o.seed, "Vote network: seed of rooms, weights and batches")
+      ->capture_default_str();
+  app->add_option("--vote-threads", o.threads, "Vote network: torch threads while training")
+      ->capture_default_str();
+}
+
+}  // namespace
+
+void AddVoteNetFlags(CLI::App* app, VoteNetFlags* flags) {
+  app->add_flag("--vote-net,!--no-vote-net",
+                flags->enabled,
+                "Train the learned vote map (generated rooms, a CNN) into the model (the "
+                "default); --no-vote-net: the codebook alone");
+  AddVoteNetRoomFlags(app, &flags->options);
+  AddVoteNetNetworkFlags(app, &flags->options);
+  AddVoteNetScheduleFlags(app, &flags->options);
 }
 
 const VoteNetTrainingOptions* VoteNetFlags::Resolve(bool quiet) {

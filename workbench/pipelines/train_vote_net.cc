@@ -466,7 +466,8 @@ std::string TrainVoteNet(const Catalog& catalog,
       curve.push_back({e.epoch,
                        e.train_loss,
                        e.validation_loss,
-                       validation.empty() ? std::nan("") : e.validation_map});
+                       validation.empty() ? std::nan("") : e.validation_map,
+                       e.last_weights_map});
     WriteTrainingCurvePng(curve,
                           "vote network: " + std::to_string(summary->frames) + " frames of " +
                               std::to_string(summary->rooms) + " rooms",
