@@ -76,6 +76,21 @@ BENCHMARK(BM_VoteNetTrainStep)
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 
+// One update of the weight average (--vote-average) after a step, on the
+// default network: its cost beside BM_VoteNetTrainStep's. Arg: torch threads.
+void BM_VoteNetWeightAverageUpdate(benchmark::State& state) {
+  SetTorchThreads(static_cast<int>(state.range(0)));
+  const VoteNet net = VoteNet::Create(VoteNetOptions{}, 1);
+  VoteNetWeightAverage average(net, 0.999);
+  for (auto _ : state) average.Update(net);
+  state.counters["parameters"] = static_cast<double>(net.Parameters());
+}
+BENCHMARK(BM_VoteNetWeightAverageUpdate)
+    ->Arg(1)
+    ->ArgName("threads")
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+
 void BM_VoteNetPredict(benchmark::State& state) {
   VoteNetOptions options;
   options.width = static_cast<int>(state.range(0));
