@@ -469,6 +469,13 @@ TEST(VoteNet, CentreRadiusIsStoredAndFormatSevenReadsAsTheCentreCell) {
   }
 }
 
+double LargestDifference(const BevOutput& x, const BevOutput& y) {
+  double worst = 0;
+  for (size_t i = 0; i < x.values.size(); ++i)
+    worst = std::max(worst, static_cast<double>(std::abs(x.values[i] - y.values[i])));
+  return worst;
+}
+
 TEST(VoteNet, SameSeedAndThreadsSameWeights) {
   const std::vector<BevSample> rooms = Rooms(3);
   VoteNetTrainingOptions options = SmallTraining();
@@ -487,18 +494,7 @@ TEST(VoteNet, SameSeedAndThreadsSameWeights) {
   VoteNetTrainingSummary d_summary;
   const VoteNet two = TrainVoteNetOnSamples(rooms, {}, options, &d_summary);
   const VoteNet one = VoteNet::Deserialize(a, "a");
-  const BevOutput x = one.Predict(rooms[0].image), y = two.Predict(rooms[0].image);
-  double worst = 0;
-  for (size_t i = 0; i < x.values.size(); ++i)
-    worst = std::max(worst, static_cast<double>(std::abs(x.values[i] - y.values[i])));
-  EXPECT_LT(worst, 1e-3);
-}
-
-double LargestDifference(const BevOutput& x, const BevOutput& y) {
-  double worst = 0;
-  for (size_t i = 0; i < x.values.size(); ++i)
-    worst = std::max(worst, static_cast<double>(std::abs(x.values[i] - y.values[i])));
-  return worst;
+  EXPECT_LT(LargestDifference(one.Predict(rooms[0].image), two.Predict(rooms[0].image)), 1e-3);
 }
 
 // The weight average's arithmetic, seen through the networks' outputs: at

@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <filesystem>
 #include <map>
 #include <sstream>
 
@@ -87,11 +88,9 @@ std::vector<TrainingView> ScanModel(const CadModel& model,
 }
 
 std::string LastWeightsModelPath(const std::string& model_path) {
-  const std::string suffix = ".fcm";
-  const bool fcm =
-      model_path.size() > suffix.size() &&
-      model_path.compare(model_path.size() - suffix.size(), suffix.size(), suffix) == 0;
-  return (fcm ? model_path.substr(0, model_path.size() - suffix.size()) : model_path) + ".last.fcm";
+  std::filesystem::path path(model_path);
+  if (path.extension() == ".fcm") path.replace_extension();
+  return path.string() + ".last.fcm";
 }
 
 TrainSummary TrainFromCatalog(const Catalog& catalog,
