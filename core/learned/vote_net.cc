@@ -19,9 +19,12 @@ constexpr char kMagic[8] = {'F', 'U', 'R', 'N', 'V', 'N', 'E', 'T'};
 // in the header (issue 37); 2: dense votes and membership. Versions 2 and 3
 // hold the weights as a TorchScript archive, whose loading can run code: not
 // read (nor is 1, whose channels mean something else).
-// 8: the centre cells' radius (before: the centre cell alone); 7: edge votes
-// (before: none); 6: the U-Net's levels (before: 3); 5: the range (4: 3 m).
-constexpr uint32_t kVersion = 8;
+// 9: an ensemble's member count before the weight records (before: one
+// network); 8: the centre cells' radius (before: the centre cell alone); 7:
+// edge votes (before: none); 6: the U-Net's levels (before: 3); 5: the range
+// (4: 3 m).
+constexpr uint32_t kVersion = 9;
+constexpr uint32_t kFirstEnsembleVersion = 9;
 constexpr uint32_t kOldestVersion = 4;  // the first format of weight records
 constexpr uint32_t kFirstArchiveVersion = 2;
 
@@ -112,6 +115,64 @@ void TakeTensor(const std::string& bytes,
   Require(tensor.is_contiguous(), "a vote network tensor is not contiguous");
   std::memcpy(tensor.data_ptr(), bytes.data() + *at, data_bytes);
   *at += data_bytes;
+}
+
+// The options as this format's header stores them (after magic and version).
+std::string HeaderBytes(const VoteNetOptions& o) {
+  std::string out;
+  Put(&out, o.grid.cell_m);
+  Put(&out, static_cast<int32_t>(o.grid.rows));
+  Put(&out, static_cast<int32_t>(o.grid.cols));
+  Put(&out, o.grid.floor_band_m);
+  Put(&out, static_cast<int32_t>(o.width));
+  Put(&out, static_cast<int32_t>(o.coder.dense_votes ? 1 : 0));
+  Put(&out, o.coder.heat_sigma_cells);
+  Put(&out, o.coder.vote_margin_m);
+  Put(&out, o.coder.ignore_radius_cells);
+  Put(&out, o.range_m);
+  Put(&out, static_cast<int32_t>(o.levels));
+  Put(&out, static_cast<int32_t>(o.coder.edge_votes ? 1 : 0));
+  Put(&out, o.coder.centre_radius_cells);
+  return out;
+}
+
+// One member's weight records: their count, then each.
+void PutMember(std::string* out, const UNet& net) {
+  const auto tensors = NamedTensors(net);
+  Put(out, static_cast<uint32_t>(tensors.size()));
+  for (const auto& [name, tensor] : tensors) PutTensor(out, name, tensor);
+}
+
+// One member's weight records into `net` (built from the header), checked
+// record by record before its data is read, and finite.
+void TakeMember(const std::string& bytes, size_t* at, const std::string& what, const UNet& net) {
+  const auto tensors = NamedTensors(net);
+  const uint32_t count = Take<uint32_t>(bytes, at, what);
+  Require(count == tensors.size(),
+          what + ": vote network is corrupt (" + std::to_string(count) +
+              " weight records; the network its header describes has " +
+              std::to_string(tensors.size()) + ")");
+  for (const auto& [name, tensor] : tensors) TakeTensor(bytes, at, what, name, tensor);
+  for (const auto& [name, tensor] : tensors) {
+    if (tensor.is_floating_point())
+      Require(torch::isfinite(tensor).all().item<bool>(),
+              what + ": vote network is corrupt (weight " + name + " is not finite)");
+  }
+}
+
+// A mirrored image's answer in the image's frame: columns reversed, the
+// column offset negated and, with edge votes, the column sides swapped.
+// The yaw channels are left as they are (their mirror depends on the class).
+torch::Tensor TurnedBack(const torch::Tensor& mirrored, bool edge_votes) {
+  namespace ch = bev_channels;
+  torch::Tensor back = mirrored.flip({2});
+  back.select(0, ch::kOffset[1]).neg_();
+  if (edge_votes) {
+    const torch::Tensor col_min = back.select(0, ch::kEdges[2]).clone();
+    back.select(0, ch::kEdges[2]).copy_(back.select(0, ch::kEdges[3]));
+    back.select(0, ch::kEdges[3]).copy_(col_min);
+  }
+  return back;
 }
 
 // The FURNVNET magic and the format version after it; `at` moves past both.
@@ -335,6 +396,9 @@ int64_t VoteNet::Parameters() const {
   if (impl_ == nullptr) return 0;
   int64_t count = 0;
   for (const torch::Tensor& p : impl_->net->parameters()) count += p.numel();
+  for (const UNet& partner : impl_->partners) {
+    for (const torch::Tensor& p : partner->parameters()) count += p.numel();
+  }
   return count;
 }
 
@@ -342,23 +406,10 @@ std::string VoteNet::Serialize() const {
   Require(impl_ != nullptr, "an empty vote network cannot be saved");
   std::string out(kMagic, sizeof(kMagic));
   Put(&out, kVersion);
-  const VoteNetOptions& o = impl_->options;
-  Put(&out, o.grid.cell_m);
-  Put(&out, static_cast<int32_t>(o.grid.rows));
-  Put(&out, static_cast<int32_t>(o.grid.cols));
-  Put(&out, o.grid.floor_band_m);
-  Put(&out, static_cast<int32_t>(o.width));
-  Put(&out, static_cast<int32_t>(o.coder.dense_votes ? 1 : 0));
-  Put(&out, o.coder.heat_sigma_cells);
-  Put(&out, o.coder.vote_margin_m);
-  Put(&out, o.coder.ignore_radius_cells);
-  Put(&out, o.range_m);
-  Put(&out, static_cast<int32_t>(o.levels));
-  Put(&out, static_cast<int32_t>(o.coder.edge_votes ? 1 : 0));
-  Put(&out, o.coder.centre_radius_cells);
-  const auto tensors = NamedTensors(impl_->net);
-  Put(&out, static_cast<uint32_t>(tensors.size()));
-  for (const auto& [name, tensor] : tensors) PutTensor(&out, name, tensor);
+  out += HeaderBytes(impl_->options);
+  Put(&out, static_cast<uint32_t>(Members()));
+  PutMember(&out, impl_->net);
+  for (const UNet& partner : impl_->partners) PutMember(&out, partner);
   return out;
 }
 
@@ -373,55 +424,86 @@ VoteNet VoteNet::Deserialize(const std::string& bytes, const std::string& what) 
           what + ": vote network format " + std::to_string(version) + " is not this build's (" +
               std::to_string(kVersion) + "): train the model again with this build");
   const VoteNetOptions options = ReadVoteNetHeader(bytes, &at, what, version);
+  const uint32_t members = version >= kFirstEnsembleVersion ? Take<uint32_t>(bytes, &at, what) : 1;
+  Require(members >= 1 && members <= static_cast<uint32_t>(kMaxMembers),
+          what + ": vote network is corrupt (" + std::to_string(members) +
+              " ensemble members; 1.." + std::to_string(kMaxMembers) + " are readable)");
   VoteNet net = Create(options, 0);
-  const auto tensors = NamedTensors(net.impl_->net);
-  const uint32_t count = Take<uint32_t>(bytes, &at, what);
-  Require(count == tensors.size(),
-          what + ": vote network is corrupt (" + std::to_string(count) +
-              " weight records; the network its header describes has " +
-              std::to_string(tensors.size()) + ")");
-  for (const auto& [name, tensor] : tensors) TakeTensor(bytes, &at, what, name, tensor);
-  Require(at == bytes.size(), what + ": vote network is corrupt (bytes after its last weight)");
-  for (const auto& [name, tensor] : tensors) {
-    if (tensor.is_floating_point())
-      Require(torch::isfinite(tensor).all().item<bool>(),
-              what + ": vote network is corrupt (weight " + name + " is not finite)");
+  TakeMember(bytes, &at, what, net.impl_->net);
+  // Each further member is built only once the one before has been read
+  // whole: a header's count alone allocates nothing.
+  for (uint32_t m = 1; m < members; ++m) {
+    Require(at < bytes.size(), what + ": vote network is truncated (member " +
+                                   std::to_string(m + 1) + " of " + std::to_string(members) + ")");
+    net.impl_->partners.push_back(
+        UNet(kBevChannels, options.width, options.coder.Channels(), options.levels));
+    TakeMember(bytes, &at, what, net.impl_->partners.back());
+    net.impl_->partners.back()->eval();
   }
+  Require(at == bytes.size(), what + ": vote network is corrupt (bytes after its last weight)");
   net.impl_->net->eval();
   return net;
+}
+
+VoteNet VoteNet::Ensemble(std::vector<VoteNet> members, const std::string& what) {
+  Require(!members.empty() && members.size() <= static_cast<size_t>(kMaxMembers),
+          what + ": an ensemble has 1.." + std::to_string(kMaxMembers) + " members, not " +
+              std::to_string(members.size()));
+  for (size_t m = 0; m < members.size(); ++m) {
+    Require(!members[m].empty() && members[m].Members() == 1,
+            what + ": ensemble member " + std::to_string(m + 1) +
+                " must be a single network (not empty, not an ensemble)");
+    Require(HeaderBytes(members[m].options()) == HeaderBytes(members[0].options()),
+            what + ": ensemble member " + std::to_string(m + 1) +
+                " differs from member 1 in grid, width, levels, range or encoding");
+  }
+  VoteNet ensemble = std::move(members[0]);
+  for (size_t m = 1; m < members.size(); ++m)
+    ensemble.impl_->partners.push_back(members[m].impl_->net);
+  return ensemble;
+}
+
+int VoteNet::Members() const {
+  return impl_ == nullptr ? 0 : 1 + static_cast<int>(impl_->partners.size());
 }
 
 BevOutput VoteNet::Predict(const BevImage& image, bool mirror_average) const {
   Require(impl_ != nullptr, "an empty vote network cannot predict");
   torch::NoGradGuard no_grad;
   namespace ch = bev_channels;
-  torch::Tensor input = ImageTensor({&image}, impl_->options.grid);  // 1 x C x rows x cols
-  // The mirrored image (columns reversed, as BevImage::Mirrored) as a second
-  // sample of the same batch.
-  if (mirror_average) input = torch::cat({input, input.flip({3})}, 0);
-  torch::Tensor outputs = impl_->net.ptr()->forward(input);
-  outputs.slice(1, ch::kHeat.first, ch::kHeat.end()).sigmoid_();
-  outputs.slice(1, ch::kMembership.first, ch::kMembership.end()).sigmoid_();
-  torch::Tensor output = outputs[0];
-  if (mirror_average) {
-    // The mirror's answer turned back: columns reversed, the column offset
-    // negated. Heat, membership, offset and footprint are averaged; the yaw
-    // stays the image's own (its mirror depends on the class's symmetry).
-    // With edge votes the column sides swap and are averaged too.
-    torch::Tensor back = outputs[1].flip({2});
-    back.select(0, ch::kOffset[1]).neg_();
+  const torch::Tensor input = ImageTensor({&image}, impl_->options.grid);  // 1 x C x rows x cols
+  // The mirrored image: columns reversed, as BevImage::Mirrored.
+  const torch::Tensor mirrored = mirror_average ? input.flip({3}) : torch::Tensor();
+  const int members = Members();
+  const int views = mirror_average ? 2 : 1;
+  const int passes = std::max(members, views);
+  // Pass k is member k mod M on view k mod views; a member's views go in one
+  // batch (one network with the mirror: the image and its mirror together).
+  std::vector<torch::Tensor> answers(passes);
+  for (int m = 0; m < members; ++m) {
+    std::vector<torch::Tensor> batch;
+    for (int k = m; k < passes; k += members) batch.push_back(k % views == 0 ? input : mirrored);
+    const UNet& net = m == 0 ? impl_->net : impl_->partners[m - 1];
+    torch::Tensor out = net.ptr()->forward(batch.size() == 1 ? batch[0] : torch::cat(batch, 0));
+    out.slice(1, ch::kHeat.first, ch::kHeat.end()).sigmoid_();
+    out.slice(1, ch::kMembership.first, ch::kMembership.end()).sigmoid_();
+    for (int k = m, i = 0; k < passes; k += members, ++i) answers[k] = out[i];
+  }
+  // Heat, membership, offset and footprint (and edge distances) are
+  // averaged over the passes, each mirror's answer turned back first; the
+  // yaw stays the first pass's.
+  torch::Tensor output = answers[0];
+  if (passes > 1) {
     std::vector<BevSlice> averaged = {ch::kHeat, ch::kMembership, ch::kOffset, ch::kLogSize};
-    if (impl_->options.coder.edge_votes) {
-      const torch::Tensor col_min = back.select(0, ch::kEdges[2]).clone();
-      back.select(0, ch::kEdges[2]).copy_(back.select(0, ch::kEdges[3]));
-      back.select(0, ch::kEdges[3]).copy_(col_min);
-      averaged.push_back(ch::kEdges);
+    if (impl_->options.coder.edge_votes) averaged.push_back(ch::kEdges);
+    for (int k = 1; k < passes; ++k) {
+      const torch::Tensor answer =
+          k % views == 0 ? answers[k] : TurnedBack(answers[k], impl_->options.coder.edge_votes);
+      for (const BevSlice& slice : averaged)
+        output.slice(0, slice.first, slice.end()).add_(answer.slice(0, slice.first, slice.end()));
     }
-    for (const BevSlice& slice : averaged) {
-      output.slice(0, slice.first, slice.end())
-          .add_(back.slice(0, slice.first, slice.end()))
-          .mul_(0.5);
-    }
+    for (const BevSlice& slice : averaged)
+      output.slice(0, slice.first, slice.end()).mul_(1.0 / passes);
   }
   output = output.contiguous();
   BevOutput out;

@@ -53,6 +53,12 @@ class VoteNet {
 
   // Fresh weights from `seed` (torch's generator, seeded here).
   static VoteNet Create(const VoteNetOptions& options, uint64_t seed);
+  // An ensemble of the members (at least one, at most kMaxMembers, each a
+  // single network of the same options; `what` names them in errors): Predict
+  // averages their answers. Members of one training's rooms with their own
+  // weights are VoteNetTrainingOptions::member's.
+  static VoteNet Ensemble(std::vector<VoteNet> members, const std::string& what);
+  static constexpr int kMaxMembers = 8;
   // The bytes of Serialize; throws InputError naming `what` for bytes that are
   // not a vote network of this build's format (damaged, foreign, other sizes).
   static VoteNet Deserialize(const std::string& bytes, const std::string& what);
@@ -60,12 +66,18 @@ class VoteNet {
 
   bool empty() const { return impl_ == nullptr; }
   const VoteNetOptions& options() const;
-  int64_t Parameters() const;
+  int64_t Parameters() const;  // of every member
+  int Members() const;          // 1 for a single network, 0 for an empty one
 
   // Inference (evaluation mode), on the calling thread's torch thread count.
   // mirror_average: the image and its mirror (BevImage::Mirrored) in one
   // batch, the mirror's heat, membership, offset and footprint turned back
   // and averaged with the image's (test-time augmentation; twice the work).
+  // An ensemble of M members makes max(M, views) passes, pass k member
+  // k mod M on view k mod views (views: the image, and with mirror_average
+  // its mirror), and averages them the same way: two members with the mirror
+  // cost what one network with it does, member 1 answering the mirror. The
+  // yaw is always the first pass's (member 0 on the image).
   BevOutput Predict(const BevImage& image, bool mirror_average = false) const;
 
   struct Impl;  // vote_net_module.h: torch's module, for the learned library's own files

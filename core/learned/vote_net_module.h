@@ -40,7 +40,10 @@ TORCH_MODULE(UNet);
 
 struct VoteNet::Impl {
   VoteNetOptions options;
-  UNet net{nullptr};
+  UNet net{nullptr};  // the network training steps (an ensemble's first member)
+  // An ensemble's further members (VoteNet::Ensemble), each of `options`;
+  // empty for one network. Only Predict and the file use them.
+  std::vector<UNet> partners;
 };
 
 // The learned library's access to a network's module.

@@ -62,6 +62,8 @@ struct VoteNetOptimizer::Impl {
 VoteNetOptimizer::VoteNetOptimizer(VoteNet* net, const VoteNetLossWeights& weights)
     : impl_(std::make_unique<Impl>()) {
   Require(net != nullptr && !net->empty(), "an empty vote network cannot train");
+  Require(net->Members() == 1,
+          "an ensemble of vote networks cannot train: train its members (VoteNet::Ensemble)");
   weights.Check();
   impl_->net = &VoteNetAccess::Of(*net);
   impl_->weights = weights;

@@ -408,5 +408,45 @@ TEST(Cli, TrainWithItsTrainingRoomsAsTasksWritesTheOneProcessModel) {
       << codebook.output;
 }
 
+// `train --vote-member 1` trains another network of the same rooms;
+// `model ensemble` combines the members' vote networks into member 1's model
+// (the operating point chosen again on the training rooms when given), and
+// `model info` says so. A model without a vote network is refused by name,
+// nothing written; one member alone is a usage error.
+TEST(Cli, ModelEnsembleCombinesMembersOfOneTraining) {
+  const std::string dir = testing::ScratchDir();
+  const std::string train =
+      "train --catalog procedural:4 --vocab kmeans --words 20 --azimuths 6 --vote-rooms 8 "
+      "--vote-frames 2 --vote-epochs 1 --vote-threads 1 --quiet --out ";
+  ASSERT_EQ(RunWorkbench(train + dir + "/m0.fcm --keep-rooms").exit_code, 0);
+  ASSERT_EQ(RunWorkbench(train + dir + "/m1.fcm --vote-member 1").exit_code, 0);
+  EXPECT_NE(ReadFileBytes(dir + "/m0.fcm"), ReadFileBytes(dir + "/m1.fcm"));
+  const RunResult combined =
+      RunWorkbench("model ensemble " + dir + "/m0.fcm " + dir + "/m1.fcm --out " + dir +
+                   "/pair.fcm --training-rooms " + dir + "/m0.fcm.rooms.db");
+  ASSERT_EQ(combined.exit_code, 0) << combined.output;
+  EXPECT_NE(combined.output.find("an ensemble of 2 vote networks; operating point chosen on"),
+            std::string::npos)
+      << combined.output;
+  const RunResult info = RunWorkbench("model info " + dir + "/pair.fcm");
+  ASSERT_EQ(info.exit_code, 0) << info.output;
+  EXPECT_NE(info.output.find("vote net:    an ensemble of 2 U-Nets"), std::string::npos)
+      << info.output;
+  EXPECT_NE(info.output.find("validation frames of the training rooms"), std::string::npos)
+      << info.output;
+
+  ASSERT_EQ(RunWorkbench(train + dir + "/cb.fcm --no-vote-net").exit_code, 0);
+  const RunResult codebook = RunWorkbench("model ensemble " + dir + "/m0.fcm " + dir +
+                                          "/cb.fcm --out " + dir + "/bad.fcm");
+  EXPECT_EQ(codebook.exit_code, 1);
+  EXPECT_EQ(CountErrorLines(codebook.output), 1u) << codebook.output;
+  EXPECT_NE(codebook.output.find("cb.fcm: has no vote network to combine"), std::string::npos)
+      << codebook.output;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/bad.fcm"));
+  EXPECT_EQ(RunWorkbench("model ensemble " + dir + "/m0.fcm --out " + dir + "/bad.fcm").exit_code,
+            2);
+  EXPECT_FALSE(std::filesystem::exists(dir + "/bad.fcm"));
+}
+
 }  // namespace
 }  // namespace furn

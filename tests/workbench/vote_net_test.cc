@@ -233,6 +233,12 @@ TEST(VoteNet, BytesRoundTripAndDamageIsOneLine) {
   EXPECT_NE(error_of(garbled_weights).find("vote network is corrupt"), std::string::npos);
 }
 
+// Where format 9's member count sits (the header's end), and the bytes from
+// a header field at `at` to the weight records: what an older format
+// without that field (and all after it) lacks.
+constexpr size_t kMembersAt = 92;
+constexpr size_t kHeaderTailFrom(size_t at) { return kMembersAt + sizeof(uint32_t) - at; }
+
 // The weights are plain tensor records (issue 39): a record is checked
 // against the network the header describes before anything is read or
 // allocated; a TorchScript archive (formats 2 and 3) is never loaded.
@@ -245,10 +251,10 @@ TEST(VoteNet, WeightRecordsAreCheckedBeforeTheyAreRead) {
     return testing::ErrorOf([&] { VoteNet::Deserialize(damaged, "shared.fcm"); });
   };
   // Header: magic 8, version 4, cell 8, rows 4, cols 4, band 8, width 4,
-  // dense 4, three doubles 24, range 8, levels 4, edges 4, centre radius 8:
-  // the record count at 92, the first record at 96 (name size 4, "e1.conv1.weight" 15, type
-  // 1, dims 4, then the sizes).
-  constexpr size_t kCount = 92, kFirst = 96;
+  // dense 4, three doubles 24, range 8, levels 4, edges 4, centre radius 8;
+  // the member count at 92, the record count at 96, the first record at 100
+  // (name size 4, "e1.conv1.weight" 15, type 1, dims 4, then the sizes).
+  constexpr size_t kCount = kMembersAt + 4, kFirst = kMembersAt + 8;
   const std::string first_name = "e1.conv1.weight";
   ASSERT_EQ(bytes.substr(kFirst + 4, first_name.size()), first_name);
   const size_t dims_at = kFirst + 4 + first_name.size() + 1 + 4;
@@ -308,7 +314,7 @@ TEST(VoteNet, RangeIsStoredAndFormatFourReadsAsThreeMetres) {
   std::memcpy(&stored, &bytes[kRangeAt], sizeof(stored));
   ASSERT_EQ(stored, 3.3);
   std::string format4 =
-      bytes.substr(0, kRangeAt) + bytes.substr(kRangeAt + 2 * sizeof(double) + 2 * sizeof(int32_t));
+      bytes.substr(0, kRangeAt) + bytes.substr(kRangeAt + kHeaderTailFrom(kRangeAt));
   const uint32_t four = 4;
   std::memcpy(&format4[8], &four, sizeof(four));
   const VoteNet old = VoteNet::Deserialize(format4, "old.fcm");
@@ -352,7 +358,7 @@ TEST(VoteNet, LevelsAreStoredAndFormatFiveReadsAsThree) {
   std::memcpy(&stored, &three_bytes[kLevelsAt], sizeof(stored));
   ASSERT_EQ(stored, 3);
   std::string format5 = three_bytes.substr(0, kLevelsAt) +
-                        three_bytes.substr(kLevelsAt + 2 * sizeof(int32_t) + sizeof(double));
+                        three_bytes.substr(kLevelsAt + kHeaderTailFrom(kLevelsAt));
   const uint32_t five = 5;
   std::memcpy(&format5[8], &five, sizeof(five));
   const VoteNet old = VoteNet::Deserialize(format5, "old.fcm");
@@ -425,7 +431,7 @@ TEST(VoteNet, EdgeVotesAreStoredTrainedAndMirrored) {
   plain.coder.edge_votes = false;
   const std::string plain_bytes = VoteNet::Create(plain, 1).Serialize();
   std::string format6 = plain_bytes.substr(0, kEdgesAt) +
-                        plain_bytes.substr(kEdgesAt + sizeof(int32_t) + sizeof(double));
+                        plain_bytes.substr(kEdgesAt + kHeaderTailFrom(kEdgesAt));
   const uint32_t six = 6;
   std::memcpy(&format6[8], &six, sizeof(six));
   const VoteNet old = VoteNet::Deserialize(format6, "old.fcm");
@@ -455,7 +461,7 @@ TEST(VoteNet, CentreRadiusIsStoredAndFormatSevenReadsAsTheCentreCell) {
   ASSERT_EQ(stored, 1.5);
   options.coder.centre_radius_cells = 0;
   const std::string plain = VoteNet::Create(options, 1).Serialize();
-  std::string format7 = plain.substr(0, kRadiusAt) + plain.substr(kRadiusAt + sizeof(double));
+  std::string format7 = plain.substr(0, kRadiusAt) + plain.substr(kRadiusAt + kHeaderTailFrom(kRadiusAt));
   const uint32_t seven = 7;
   std::memcpy(&format7[8], &seven, sizeof(seven));
   const VoteNet old = VoteNet::Deserialize(format7, "old.fcm");
@@ -564,6 +570,134 @@ TEST(VoteNetWeightAverage, TrainingKeepsTheAverageAndTheLastWeightsOnRequest) {
   EXPECT_THROW(options.Check(), InputError) << "the last weights without an average";
   EXPECT_EQ(LastWeightsModelPath("out/model.fcm"), "out/model.last.fcm");
   EXPECT_EQ(LastWeightsModelPath("model"), "model.last.fcm");
+}
+
+// An ensemble member (VoteNetTrainingOptions::member) trains on the same
+// rooms with its own weights and batches; member 0 is the plain training.
+TEST(VoteNetEnsemble, MembersAreTheirOwnTrainingsOfTheSameRooms) {
+  const std::vector<BevSample> rooms = Rooms(2);
+  VoteNetTrainingOptions options = SmallTraining();
+  options.epochs = 2;
+  VoteNetTrainingSummary summary;
+  const std::string plain = TrainVoteNetOnSamples(rooms, {}, options, &summary).Serialize();
+  EXPECT_EQ(options.WeightSeed(), options.seed);
+  options.member = 1;
+  const std::string member = TrainVoteNetOnSamples(rooms, {}, options, &summary).Serialize();
+  EXPECT_NE(member, plain);
+  EXPECT_EQ(TrainVoteNetOnSamples(rooms, {}, options, &summary).Serialize(), member);
+  EXPECT_NE(options.WeightSeed(), options.seed + 1) << "member 1 must not be seed + 1's plain";
+  VoteNetTrainingOptions plain_options = SmallTraining();
+  EXPECT_EQ(plain_options.Json().find("member"), std::string::npos) << "keys of old models hold";
+  EXPECT_NE(options.Json(), plain_options.Json());
+  options.member = -1;
+  EXPECT_THROW(options.Check(), InputError);
+}
+
+// An ensemble's Predict: without the mirror, every channel but the yaw is
+// the members' mean on the image; with it, member 1 answers the mirror, so
+// two members cost one network's two passes; an ensemble of a network with
+// itself is that network's mirror average. The file keeps every member.
+TEST(VoteNetEnsemble, AveragesItsMembersAndIsStoredWhole) {
+  SetTorchThreads(1);
+  VoteNetOptions options;
+  options.grid = SmallGrid();
+  options.width = 4;
+  const VoteNet a = VoteNet::Create(options, 1), b = VoteNet::Create(options, 2);
+  auto copy = [](const VoteNet& net) { return VoteNet::Deserialize(net.Serialize(), "copy"); };
+  std::vector<VoteNet> members;
+  members.push_back(copy(a));
+  members.push_back(copy(b));
+  const VoteNet ensemble = VoteNet::Ensemble(std::move(members), "pair.fcm");
+  EXPECT_EQ(ensemble.Members(), 2);
+  EXPECT_EQ(ensemble.Parameters(), 2 * a.Parameters());
+
+  const BevImage image = Rooms(1)[0].image;
+  const BevOutput own_a = a.Predict(image), own_b = b.Predict(image);
+  const BevOutput mirror_b = b.Predict(image.Mirrored());
+  const BevOutput plain = ensemble.Predict(image), mirrored = ensemble.Predict(image, true);
+  namespace ch = bev_channels;
+  const int cols = image.spec.cols;
+  for (int r = 0; r < image.spec.rows; r += 2) {
+    for (int c = 0; c < cols; c += 2) {
+      for (int k = 0; k < ch::kCount; ++k) {
+        const bool yaw = k >= ch::kYaw.first && k < ch::kYaw.end();
+        const double sign = k == ch::kOffset[1] ? -1 : 1;
+        const double both = yaw ? own_a.At(k, r, c) : (own_a.At(k, r, c) + own_b.At(k, r, c)) / 2;
+        ASSERT_NEAR(plain.At(k, r, c), both, 1e-5) << "channel " << k;
+        const double turned =
+            yaw ? own_a.At(k, r, c)
+                : (own_a.At(k, r, c) + sign * mirror_b.At(k, r, cols - 1 - c)) / 2;
+        ASSERT_NEAR(mirrored.At(k, r, c), turned, 1e-5) << "channel " << k;
+      }
+    }
+  }
+  EXPECT_GT(LargestDifference(plain, own_a), 1e-3);
+
+  std::vector<VoteNet> twins;
+  twins.push_back(copy(a));
+  twins.push_back(copy(a));
+  EXPECT_LT(LargestDifference(VoteNet::Ensemble(std::move(twins), "twins").Predict(image, true),
+                              a.Predict(image, true)),
+            1e-5);
+
+  const std::string bytes = ensemble.Serialize();
+  const VoteNet loaded = VoteNet::Deserialize(bytes, "pair.fcm");
+  EXPECT_EQ(loaded.Members(), 2);
+  EXPECT_EQ(loaded.Serialize(), bytes);
+  EXPECT_EQ(loaded.Predict(image, true).values, mirrored.values);
+  EXPECT_EQ(VoteNet::Deserialize(a.Serialize(), "one").Members(), 1);
+}
+
+// What cannot be an ensemble is refused by name, in one line: members of
+// other options, an ensemble inside one, none; a file's member count outside
+// 1..8 or members missing; and an ensemble does not train.
+TEST(VoteNetEnsemble, BadMembersAndCountsAreRefused) {
+  VoteNetOptions options;
+  options.grid = SmallGrid();
+  options.width = 4;
+  VoteNetOptions wider = options;
+  wider.width = 8;
+  auto error_of = [](auto&& make) { return testing::ErrorOf(make); };
+  EXPECT_NE(error_of([&] {
+              std::vector<VoteNet> members;
+              members.push_back(VoteNet::Create(options, 1));
+              members.push_back(VoteNet::Create(wider, 2));
+              VoteNet::Ensemble(std::move(members), "mixed.fcm");
+            }).find("mixed.fcm: ensemble member 2 differs from member 1"),
+            std::string::npos);
+  EXPECT_NE(error_of([&] { VoteNet::Ensemble({}, "none.fcm"); }).find("1..8 members, not 0"),
+            std::string::npos);
+  std::vector<VoteNet> pair;
+  pair.push_back(VoteNet::Create(options, 1));
+  pair.push_back(VoteNet::Create(options, 2));
+  VoteNet ensemble = VoteNet::Ensemble(std::move(pair), "pair");
+  const std::string bytes = ensemble.Serialize();
+  EXPECT_NE(error_of([&] {
+              std::vector<VoteNet> nested;
+              nested.push_back(VoteNet::Deserialize(bytes, "pair"));
+              VoteNet::Ensemble(std::move(nested), "nested.fcm");
+            }).find("must be a single network"),
+            std::string::npos);
+  EXPECT_NE(error_of([&] { VoteNetOptimizer optimizer(&ensemble, {}); })
+                .find("an ensemble of vote networks cannot train"),
+            std::string::npos);
+  for (uint32_t bad : {0u, 9u, 1u << 31}) {
+    const std::string message = ErrorWithHeaderField(bytes, kMembersAt, bad);
+    EXPECT_NE(message.find("shared.fcm: vote network is corrupt (" + std::to_string(bad) +
+                           " ensemble members; 1..8 are readable)"),
+              std::string::npos)
+        << message;
+  }
+  // A single network's bytes claiming eight members: the second is missing.
+  const std::string one = VoteNet::Create(options, 1).Serialize();
+  const std::string message = ErrorWithHeaderField(one, kMembersAt, uint32_t{8});
+  EXPECT_NE(message.find("shared.fcm: vote network is truncated (member 2 of 8)"),
+            std::string::npos)
+      << message;
+  EXPECT_EQ(message.find('\n'), std::string::npos);
+  const std::string cut = testing::ErrorOf(
+      [&] { VoteNet::Deserialize(bytes.substr(0, bytes.size() - 10), "cut.fcm"); });
+  EXPECT_NE(cut.find("cut.fcm: vote network is truncated"), std::string::npos) << cut;
 }
 
 // A class map's vote-net-only tables and sideboards (here six added to the

@@ -210,6 +210,11 @@ void AddVoteNetScheduleFlags(CLI::App* app, VoteNetTrainingOptions* options) {
                 "<model>.last.fcm (to measure the average against them)");
   app->add_option("--vote-seed", o.seed, "Vote network: seed of rooms, weights and batches")
       ->capture_default_str();
+  app->add_option("--vote-member",
+                  o.member,
+                  "Vote network: train member K of an ensemble (its own weights and batches, "
+                  "the same rooms; 0: the plain network); combine with 'model ensemble'")
+      ->capture_default_str();
   app->add_option("--vote-threads", o.threads, "Vote network: torch threads while training")
       ->capture_default_str();
 }

@@ -303,8 +303,34 @@ int RunEvalParts(int argc, char** argv) {
   return 0;
 }
 
+namespace {
+
+// `model ensemble`: member 1's model with every member's vote network; all
+// files are read and checked before anything is written.
+int WriteEnsembleModel(const std::vector<std::string>& paths,
+                       const std::string& rooms_path,
+                       const std::string& out) {
+  TrainedModel model = LoadTrainedModel(paths[0]);
+  std::vector<VoteNet> members;
+  for (size_t m = 0; m < paths.size(); ++m) {
+    const TrainedModel member = m == 0 ? model : LoadTrainedModel(paths[m]);
+    Require(!member.vote_net.empty(), paths[m] + ": has no vote network to combine");
+    members.push_back(VoteNet::Deserialize(member.vote_net, paths[m]));
+  }
+  model.vote_net = VoteNet::Ensemble(std::move(members), out).Serialize();
+  if (!rooms_path.empty()) model.operating_point = VoteNetOperatingPointOnRooms(model, out, rooms_path);
+  SaveTrainedModel(model, out);
+  std::cout << out << ": an ensemble of " << paths.size() << " vote networks; operating point "
+            << (rooms_path.empty() ? "member 1's (choose the ensemble's with --training-rooms)"
+                                   : "chosen on " + rooms_path)
+            << "\n";
+  return 0;
+}
+
+}  // namespace
+
 int RunModel(int argc, char** argv) {
-  CLI::App app{"Describe or upgrade a trained model file", "workbench model"};
+  CLI::App app{"Describe, upgrade or combine trained model files", "workbench model"};
   app.require_subcommand(1);
   std::string path, out;
   CLI::App* info = app.add_subcommand("info", "What the model file holds");
@@ -342,7 +368,22 @@ int RunModel(int argc, char** argv) {
   operating->add_option("--out", out, "Where to write the model (may be the same file)")
       ->required();
   DetectorFlags detector_flags(operating);
+  std::vector<std::string> member_paths;
+  CLI::App* ensemble = app.add_subcommand(
+      "ensemble",
+      "Combine the vote networks of models trained on the same rooms with their own weights "
+      "('train --vote-member K') into one model whose detection averages them");
+  ensemble->add_option("models", member_paths, "Model files (.fcm): member 1 first")
+      ->required()
+      ->expected(2, VoteNet::kMaxMembers);
+  ensemble->add_option("--out", out, "Where to write the combined model")->required();
+  std::string ensemble_rooms;
+  ensemble->add_option("--training-rooms",
+                       ensemble_rooms,
+                       "The members' training rooms: choose the ensemble's operating point on "
+                       "their validation frames (else member 1's is kept)");
   if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
+  if (ensemble->parsed()) return WriteEnsembleModel(member_paths, ensemble_rooms, out);
   if (operating->parsed()) {
     Require(!db_path.empty() || !rooms_path.empty(),
             "model operating-point needs --db or --training-rooms");

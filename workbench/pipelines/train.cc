@@ -216,7 +216,10 @@ std::string DescribeTrainedModel(const TrainedModel& model) {
   } else {
     const VoteNet net = VoteNet::Deserialize(model.vote_net, "the model's vote network");
     const BevGridSpec& grid = net.options().grid;
-    out << "vote net:    U-Net, " << net.options().levels << " halvings, " << net.Parameters()
+    out << "vote net:    "
+        << (net.Members() > 1 ? "an ensemble of " + std::to_string(net.Members()) + " U-Nets"
+                              : std::string("U-Net"))
+        << ", " << net.options().levels << " halvings, " << net.Parameters()
         << " parameters, width " << net.options().width << "; BEV grid " << grid.rows << " x "
         << grid.cols << " cells of " << grid.cell_m << " m, points within " << net.options().range_m
         << " m (" << model.vote_net.size() / 1024

@@ -184,6 +184,8 @@ void VoteNetTrainingOptions::Check() const {
           "vote-net weight average " + std::to_string(weight_average) + " must be in [0, 1)");
   Require(!keep_last_weights || weight_average > 0,
           "the last weights are kept only beside a weight average (--vote-average)");
+  Require(member >= 0 && member <= 1000,
+          "vote-net ensemble member " + std::to_string(member) + " must be in 0..1000");
   Require(shape_variety >= 0 && shape_variety <= 1000,
           "vote-net shape variety " + std::to_string(shape_variety) + " must be in 0..1000");
   Require(rooms_cache.empty() || (!keep_rooms && room_shards.empty()),
@@ -232,6 +234,7 @@ std::string VoteNetTrainingOptions::Json() const {
   // Only when used: keys of models trained before the option stay valid.
   if (shape_variety > 0) json["shape_variety"] = shape_variety;
   if (weight_average > 0) json["weight_average"] = weight_average;
+  if (member > 0) json["member"] = member;
   if (shape_variety > 0 && shape_sizes != ShapeSizes::kCatalog)
     json["shape_sizes"] = EnumName(shape_sizes);
   if (!net.coder.dense_votes) json["coder"]["dense_votes"] = false;
@@ -242,6 +245,12 @@ std::string VoteNetTrainingOptions::Json() const {
     json["loss"]["edges"] = loss.edges;
   }
   return json.dump();
+}
+
+uint64_t VoteNetTrainingOptions::WeightSeed() const {
+  // A large odd step (the golden ratio's, as splitmix64 uses) so that the
+  // members of seed s and of seed s + 1 do not meet.
+  return seed + static_cast<uint64_t>(member) * 0x9E3779B97F4A7C15ULL;
 }
 
 void ReadBevSamples(const std::string& db_path,
@@ -319,7 +328,7 @@ VoteNet TrainVoteNetOnSamples(const std::vector<BevSample>& training,
   Require(!training.empty(), "the vote network has no training frames");
   const int previous_threads = TorchThreads();
   SetTorchThreads(options.threads);
-  VoteNet net = VoteNet::Create(options.net, options.seed);
+  VoteNet net = VoteNet::Create(options.net, options.WeightSeed());
   VoteNetOptimizer optimizer(&net, options.loss);
   std::optional<VoteNetWeightAverage> average;
   if (options.weight_average > 0) average.emplace(net, options.weight_average);
@@ -329,7 +338,7 @@ VoteNet TrainVoteNetOnSamples(const std::vector<BevSample>& training,
   for (const BevSample& sample : training) {
     for (const BevObject& object : sample.objects) summary->objects += object.target;
   }
-  std::mt19937_64 random(options.seed * 7919 + 17);
+  std::mt19937_64 random(options.WeightSeed() * 7919 + 17);
   const size_t steps_per_epoch = (training.size() + options.batch_size - 1) / options.batch_size;
   const size_t total_steps = steps_per_epoch * options.epochs;
   Progress progress("train vote net", total_steps, "steps");

@@ -40,6 +40,10 @@ struct VoteNetTrainingOptions {
   int rooms = 2400;  // generated training rooms
   int frames_per_room = 4;
   uint64_t seed = 1;  // rooms, weights, batches, augmentation
+  // An ensemble's member: member k > 0 draws its own weights, batches and
+  // augmentation (WeightSeed) from the same rooms as member 0, which is the
+  // plain training (VoteNet::Ensemble combines members).
+  int member = 0;
   int epochs = 10;
   // Batch 8 at peak rate 0.004 measured better than 16 at 0.002 for the same
   // frames (seen-model rooms, mAP@10cm 0.27 against 0.17): more steps.
@@ -89,6 +93,8 @@ struct VoteNetTrainingOptions {
   void Check() const;
   // Everything that decides the weights, as JSON (for caches).
   std::string Json() const;
+  // The seed of the weights, batches and augmentation: `seed` for member 0.
+  uint64_t WeightSeed() const;
 };
 
 struct VoteNetEpoch {
