@@ -433,8 +433,9 @@ VoteNet VoteNet::Deserialize(const std::string& bytes, const std::string& what) 
   // Each further member is built only once the one before has been read
   // whole: a header's count alone allocates nothing.
   for (uint32_t m = 1; m < members; ++m) {
-    Require(at < bytes.size(), what + ": vote network is truncated (member " +
-                                   std::to_string(m + 1) + " of " + std::to_string(members) + ")");
+    Require(at < bytes.size(),
+            what + ": vote network is truncated (member " + std::to_string(m + 1) + " of " +
+                std::to_string(members) + ")");
     net.impl_->partners.push_back(
         UNet(kBevChannels, options.width, options.coder.Channels(), options.levels));
     TakeMember(bytes, &at, what, net.impl_->partners.back());

@@ -67,7 +67,7 @@ class VoteNet {
   bool empty() const { return impl_ == nullptr; }
   const VoteNetOptions& options() const;
   int64_t Parameters() const;  // of every member
-  int Members() const;          // 1 for a single network, 0 for an empty one
+  int Members() const;         // 1 for a single network, 0 for an empty one
 
   // Inference (evaluation mode), on the calling thread's torch thread count.
   // mirror_average: the image and its mirror (BevImage::Mirrored) in one

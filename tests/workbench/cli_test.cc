@@ -295,6 +295,10 @@ TEST(Cli, WeightAverageFlagsAreChecked) {
   EXPECT_NE(last.output.find("the last weights are kept only beside a weight average"),
             std::string::npos)
       << last.output;
+  const testing::CommandResult ensemble = RunWorkbench(train + "--vote-ensemble 9");
+  EXPECT_EQ(ensemble.exit_code, 1);
+  EXPECT_NE(ensemble.output.find("vote-net ensemble 9 must be in 1..8 networks"), std::string::npos)
+      << ensemble.output;
   const testing::CommandResult groups = RunWorkbench(
       train + "--vote-rooms 0 --vote-width 8 --vote-dense --vote-epochs 2 --vote-average 0.5");
   EXPECT_EQ(groups.exit_code, 1);

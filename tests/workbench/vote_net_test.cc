@@ -357,8 +357,8 @@ TEST(VoteNet, LevelsAreStoredAndFormatFiveReadsAsThree) {
   int32_t stored = 0;
   std::memcpy(&stored, &three_bytes[kLevelsAt], sizeof(stored));
   ASSERT_EQ(stored, 3);
-  std::string format5 = three_bytes.substr(0, kLevelsAt) +
-                        three_bytes.substr(kLevelsAt + kHeaderTailFrom(kLevelsAt));
+  std::string format5 =
+      three_bytes.substr(0, kLevelsAt) + three_bytes.substr(kLevelsAt + kHeaderTailFrom(kLevelsAt));
   const uint32_t five = 5;
   std::memcpy(&format5[8], &five, sizeof(five));
   const VoteNet old = VoteNet::Deserialize(format5, "old.fcm");
@@ -430,8 +430,8 @@ TEST(VoteNet, EdgeVotesAreStoredTrainedAndMirrored) {
   VoteNetOptions plain = options.net;
   plain.coder.edge_votes = false;
   const std::string plain_bytes = VoteNet::Create(plain, 1).Serialize();
-  std::string format6 = plain_bytes.substr(0, kEdgesAt) +
-                        plain_bytes.substr(kEdgesAt + kHeaderTailFrom(kEdgesAt));
+  std::string format6 =
+      plain_bytes.substr(0, kEdgesAt) + plain_bytes.substr(kEdgesAt + kHeaderTailFrom(kEdgesAt));
   const uint32_t six = 6;
   std::memcpy(&format6[8], &six, sizeof(six));
   const VoteNet old = VoteNet::Deserialize(format6, "old.fcm");
@@ -461,7 +461,8 @@ TEST(VoteNet, CentreRadiusIsStoredAndFormatSevenReadsAsTheCentreCell) {
   ASSERT_EQ(stored, 1.5);
   options.coder.centre_radius_cells = 0;
   const std::string plain = VoteNet::Create(options, 1).Serialize();
-  std::string format7 = plain.substr(0, kRadiusAt) + plain.substr(kRadiusAt + kHeaderTailFrom(kRadiusAt));
+  std::string format7 =
+      plain.substr(0, kRadiusAt) + plain.substr(kRadiusAt + kHeaderTailFrom(kRadiusAt));
   const uint32_t seven = 7;
   std::memcpy(&format7[8], &seven, sizeof(seven));
   const VoteNet old = VoteNet::Deserialize(format7, "old.fcm");
@@ -591,6 +592,31 @@ TEST(VoteNetEnsemble, MembersAreTheirOwnTrainingsOfTheSameRooms) {
   EXPECT_NE(options.Json(), plain_options.Json());
   options.member = -1;
   EXPECT_THROW(options.Check(), InputError);
+
+  // `--vote-ensemble 2`: members 0 and 1 of these rooms, combined; the
+  // summary holds each member's validation figure and the ensemble's.
+  options.member = 0;
+  options.ensemble = 2;
+  VoteNetTrainingSummary ensemble_summary;
+  const VoteNet ensemble = TrainVoteNetEnsemble(rooms, rooms, options, &ensemble_summary);
+  EXPECT_EQ(ensemble.Members(), 2);
+  std::vector<VoteNet> by_hand;
+  by_hand.push_back(VoteNet::Deserialize(plain, "member 0"));
+  by_hand.push_back(VoteNet::Deserialize(member, "member 1"));
+  EXPECT_EQ(ensemble.Serialize(), VoteNet::Ensemble(std::move(by_hand), "pair").Serialize());
+  ASSERT_EQ(ensemble_summary.member_validation_maps.size(), 1u);
+  EXPECT_FALSE(std::isnan(ensemble_summary.ensemble_validation_map));
+  EXPECT_EQ(ensemble_summary.parameters, ensemble.Parameters());
+  EXPECT_NE(options.Json().find("\"ensemble\":2"), std::string::npos);
+  for (int bad : {0, 9}) {
+    options.ensemble = bad;
+    EXPECT_THROW(options.Check(), InputError) << bad;
+  }
+  options.ensemble = 2;
+  options.weight_average = 0.9;
+  options.keep_last_weights = true;
+  EXPECT_NE(testing::ErrorOf([&] { options.Check(); }).find("not beside an ensemble"),
+            std::string::npos);
 }
 
 // An ensemble's Predict: without the mirror, every channel but the yaw is
@@ -678,8 +704,9 @@ TEST(VoteNetEnsemble, BadMembersAndCountsAreRefused) {
               VoteNet::Ensemble(std::move(nested), "nested.fcm");
             }).find("must be a single network"),
             std::string::npos);
-  EXPECT_NE(error_of([&] { VoteNetOptimizer optimizer(&ensemble, {}); })
-                .find("an ensemble of vote networks cannot train"),
+  EXPECT_NE(error_of([&] {
+              VoteNetOptimizer optimizer(&ensemble, {});
+            }).find("an ensemble of vote networks cannot train"),
             std::string::npos);
   for (uint32_t bad : {0u, 9u, 1u << 31}) {
     const std::string message = ErrorWithHeaderField(bytes, kMembersAt, bad);

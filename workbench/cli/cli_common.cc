@@ -215,6 +215,11 @@ void AddVoteNetScheduleFlags(CLI::App* app, VoteNetTrainingOptions* options) {
                   "Vote network: train member K of an ensemble (its own weights and batches, "
                   "the same rooms; 0: the plain network); combine with 'model ensemble'")
       ->capture_default_str();
+  app->add_option("--vote-ensemble",
+                  o.ensemble,
+                  "Vote network: train this many networks on the same rooms (each its own "
+                  "weights; the training time times N) and average them in detection")
+      ->capture_default_str();
   app->add_option("--vote-threads", o.threads, "Vote network: torch threads while training")
       ->capture_default_str();
 }

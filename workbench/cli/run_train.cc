@@ -1,4 +1,5 @@
 #include <CLI/CLI.hpp>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
@@ -61,6 +62,14 @@ void PrintTrainSummary(const std::string& out,
         v.raster_s,
         v.train_s,
         v.epochs.empty() ? 0.0 : v.epochs.back().validation_loss);
+    if (!v.member_validation_maps.empty()) {
+      std::printf("  vote net: an ensemble of %zu networks, validation mAP@10cm %.3f (members %.3f",
+                  v.member_validation_maps.size() + 1,
+                  v.ensemble_validation_map,
+                  v.epochs.empty() ? std::nan("") : v.epochs.back().validation_map);
+      for (double map : v.member_validation_maps) std::printf(", %.3f", map);
+      std::printf(")\n");
+    }
     if (v.vote_net_only_models > 0)
       std::printf("  vote net rooms also place the class map's %d vote-net-only models\n",
                   v.vote_net_only_models);
@@ -318,7 +327,8 @@ int WriteEnsembleModel(const std::vector<std::string>& paths,
     members.push_back(VoteNet::Deserialize(member.vote_net, paths[m]));
   }
   model.vote_net = VoteNet::Ensemble(std::move(members), out).Serialize();
-  if (!rooms_path.empty()) model.operating_point = VoteNetOperatingPointOnRooms(model, out, rooms_path);
+  if (!rooms_path.empty())
+    model.operating_point = VoteNetOperatingPointOnRooms(model, out, rooms_path);
   SaveTrainedModel(model, out);
   std::cout << out << ": an ensemble of " << paths.size() << " vote networks; operating point "
             << (rooms_path.empty() ? "member 1's (choose the ensemble's with --training-rooms)"

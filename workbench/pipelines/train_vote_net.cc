@@ -186,6 +186,11 @@ void VoteNetTrainingOptions::Check() const {
           "the last weights are kept only beside a weight average (--vote-average)");
   Require(member >= 0 && member <= 1000,
           "vote-net ensemble member " + std::to_string(member) + " must be in 0..1000");
+  Require(ensemble >= 1 && ensemble <= VoteNet::kMaxMembers,
+          "vote-net ensemble " + std::to_string(ensemble) + " must be in 1.." +
+              std::to_string(VoteNet::kMaxMembers) + " networks");
+  Require(!keep_last_weights || ensemble == 1,
+          "the last weights are kept for one network, not beside an ensemble");
   Require(shape_variety >= 0 && shape_variety <= 1000,
           "vote-net shape variety " + std::to_string(shape_variety) + " must be in 0..1000");
   Require(rooms_cache.empty() || (!keep_rooms && room_shards.empty()),
@@ -235,6 +240,7 @@ std::string VoteNetTrainingOptions::Json() const {
   if (shape_variety > 0) json["shape_variety"] = shape_variety;
   if (weight_average > 0) json["weight_average"] = weight_average;
   if (member > 0) json["member"] = member;
+  if (ensemble > 1) json["ensemble"] = ensemble;
   if (shape_variety > 0 && shape_sizes != ShapeSizes::kCatalog)
     json["shape_sizes"] = EnumName(shape_sizes);
   if (!net.coder.dense_votes) json["coder"]["dense_votes"] = false;
@@ -387,6 +393,40 @@ VoteNet TrainVoteNetOnSamples(const std::vector<BevSample>& training,
   return average->Take();
 }
 
+VoteNet TrainVoteNetEnsemble(const std::vector<BevSample>& training,
+                             const std::vector<BevSample>& validation,
+                             const VoteNetTrainingOptions& options,
+                             VoteNetTrainingSummary* summary) {
+  summary->ensemble_validation_map = std::nan("");
+  VoteNet first = TrainVoteNetOnSamples(training, validation, options, summary);
+  if (options.ensemble == 1) return first;
+  std::vector<VoteNet> members;
+  members.push_back(std::move(first));
+  for (int m = 1; m < options.ensemble; ++m) {
+    VoteNetTrainingOptions member = options;
+    member.member = options.member + m;
+    member.ensemble = 1;
+    member.curve_png.clear();
+    if (!options.quiet)
+      std::fprintf(stderr, "vote net: ensemble member %d of %d\n", m + 1, options.ensemble);
+    VoteNetTrainingSummary member_summary;
+    members.push_back(TrainVoteNetOnSamples(training, validation, member, &member_summary));
+    summary->train_s += member_summary.train_s;
+    summary->member_validation_maps.push_back(member_summary.epochs.back().validation_map);
+  }
+  VoteNet ensemble = VoteNet::Ensemble(std::move(members), "the vote network's ensemble");
+  summary->parameters = ensemble.Parameters();
+  if (!validation.empty()) {
+    summary->ensemble_validation_map = ValidationMeanAp(ensemble, validation);
+    if (!options.quiet)
+      std::fprintf(stderr,
+                   "vote net: the ensemble of %d: validation mAP@10cm %.3f\n",
+                   options.ensemble,
+                   summary->ensemble_validation_map);
+  }
+  return ensemble;
+}
+
 OperatingPoint VoteNetOperatingPoint(const VoteNet& net, const std::vector<BevSample>& validation) {
   Require(!validation.empty(), "an operating point needs validation frames");
   const std::vector<FrameOutcome> frames =
@@ -462,7 +502,7 @@ std::string TrainVoteNet(const Catalog& catalog,
   ReadBevSamples(summary->rooms_path, options, &training, &validation);
   cached.reset();
   summary->raster_s = Seconds(start);
-  const VoteNet net = TrainVoteNetOnSamples(training, validation, options, summary);
+  const VoteNet net = TrainVoteNetEnsemble(training, validation, options, summary);
   if (!validation.empty()) summary->operating_point = VoteNetOperatingPoint(net, validation);
   if (!validation.empty() && !summary->last_weights.empty()) {
     summary->last_operating_point = VoteNetOperatingPoint(

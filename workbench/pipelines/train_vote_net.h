@@ -44,6 +44,11 @@ struct VoteNetTrainingOptions {
   // augmentation (WeightSeed) from the same rooms as member 0, which is the
   // plain training (VoteNet::Ensemble combines members).
   int member = 0;
+  // Networks trained on the rooms, members member .. member + ensemble - 1,
+  // combined into one (VoteNet::Ensemble): detection averages them. Each
+  // costs one network's training; with the mirror average two cost what one
+  // does at detection (member 2 answers the mirror).
+  int ensemble = 1;
   int epochs = 10;
   // Batch 8 at peak rate 0.004 measured better than 16 at 0.002 for the same
   // frames (seen-model rooms, mAP@10cm 0.27 against 0.17): more steps.
@@ -122,6 +127,11 @@ struct VoteNetTrainingSummary {
   // its operating point; else empty.
   std::string last_weights;
   OperatingPoint last_operating_point;
+  // An ensemble's members after the first: validation mAP@10cm of each
+  // after its last epoch (`epochs` are the first member's); and the
+  // ensemble's own (NaN: one network or no validation frames).
+  std::vector<double> member_validation_maps;
+  double ensemble_validation_map = 0;
 };
 
 // Trains on samples already made (tests, tools); `validation` may be empty.
@@ -129,6 +139,14 @@ VoteNet TrainVoteNetOnSamples(const std::vector<BevSample>& training,
                               const std::vector<BevSample>& validation,
                               const VoteNetTrainingOptions& options,
                               VoteNetTrainingSummary* summary);
+
+// TrainVoteNetOnSamples for options.ensemble networks (members
+// options.member onwards) on the same samples, combined; one network when
+// options.ensemble is 1. `summary->epochs` are the first member's.
+VoteNet TrainVoteNetEnsemble(const std::vector<BevSample>& training,
+                             const std::vector<BevSample>& validation,
+                             const VoteNetTrainingOptions& options,
+                             VoteNetTrainingSummary* summary);
 
 // Per class, the heat of best F1 (matched at kOperatingMatchM) of the
 // network's maxima, decoded as the detector does by default, on
