@@ -269,11 +269,16 @@ void ReadBevSamples(const std::string& db_path,
   const int every = options.validation_share > 0 && rooms.size() > 1
                         ? std::max(2, static_cast<int>(std::lround(1 / options.validation_share)))
                         : 0;
-  Progress progress("rasterise", rooms.size(), "rooms");
+  auto destination = [&](size_t k) {
+    return every > 0 && static_cast<int>(k % every) == every - 1 ? validation : training;
+  };
+  size_t to_read = 0;
+  for (size_t k = 0; k < rooms.size(); ++k) to_read += destination(k) != nullptr;
+  Progress progress("rasterise", to_read, "rooms");
   for (size_t k = 0; k < rooms.size(); ++k) {
+    std::vector<BevSample>* out = destination(k);
+    if (out == nullptr) continue;  // the caller wants the other share only
     const RoomRecord room = db.ReadRoom(rooms[k], /*with_images=*/true);
-    std::vector<BevSample>* out =
-        every > 0 && static_cast<int>(k % every) == every - 1 ? validation : training;
     for (const FrameRecord& frame : room.frames) {
       const DetectionInput input =
           DetectionInputOf(frame, db_path + " frame " + std::to_string(frame.id));
@@ -449,8 +454,8 @@ OperatingPoint VoteNetOperatingPointOnRooms(const TrainedModel& model,
   const VoteNet net = VoteNet::Deserialize(model.vote_net, model_path);
   VoteNetTrainingOptions rooms;
   rooms.net = net.options();
-  std::vector<BevSample> training, validation;
-  ReadBevSamples(rooms_path, rooms, &training, &validation);
+  std::vector<BevSample> validation;
+  ReadBevSamples(rooms_path, rooms, nullptr, &validation);  // the validation rooms alone
   Require(!validation.empty(), rooms_path + ": has no validation room (every 10th room)");
   return VoteNetOperatingPoint(net, validation);
 }

@@ -180,7 +180,9 @@ int GenerateTrainingRoomsShard(const Catalog& catalog,
                                const std::string& out);
 
 // The frames of a dataset database as samples (noisy depth; objects seen at
-// least min_visibility), split by room into training and validation.
+// least min_visibility), split by room into training and validation; a null
+// `training` or `validation` leaves its rooms unread (an operating point
+// needs the validation rooms alone).
 void ReadBevSamples(const std::string& db_path,
                     const VoteNetTrainingOptions& options,
                     std::vector<BevSample>* training,
