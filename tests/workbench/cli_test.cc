@@ -450,6 +450,11 @@ TEST(Cli, ModelEnsembleCombinesMembersOfOneTraining) {
   EXPECT_NE(codebook.output.find("cb.fcm: has no vote network to combine"), std::string::npos)
       << codebook.output;
   EXPECT_FALSE(std::filesystem::exists(dir + "/bad.fcm"));
+  const RunResult nested = RunWorkbench("model ensemble " + dir + "/pair.fcm " + dir +
+                                        "/m1.fcm --out " + dir + "/bad.fcm");
+  EXPECT_EQ(nested.exit_code, 1);
+  EXPECT_NE(nested.output.find("pair.fcm: is an ensemble already"), std::string::npos)
+      << nested.output;
   EXPECT_EQ(RunWorkbench("model ensemble " + dir + "/m0.fcm --out " + dir + "/bad.fcm").exit_code,
             2);
   EXPECT_FALSE(std::filesystem::exists(dir + "/bad.fcm"));

@@ -3,6 +3,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <optional>
 #include <set>
 #include <tuple>
 
@@ -314,28 +315,94 @@ int RunEvalParts(int argc, char** argv) {
 
 namespace {
 
+// `model operating-point`: per class the score of best F1, chosen on a
+// dataset's frames (the full detector) or the model's own training rooms.
+struct OperatingPointCommand {
+  CLI::App* app = nullptr;
+  std::string path, out, db_path, split = "val", rooms_path;
+  EvaluateCommandOptions evaluate;
+  std::optional<DetectorFlags> detector_flags;
+
+  void Add(CLI::App* parent) {
+    app = parent->add_subcommand(
+        "operating-point",
+        "Choose the model's operating point (per class, the score of best F1 at 20 cm) on a "
+        "dataset's frames, and write the model with it");
+    app->add_option("model", path, "Model file (.fcm)")->required();
+    auto* db_flag = app->add_option(
+        "--db", db_path, "Dataset database (generated or imported real frames): the full detector");
+    auto* rooms_flag = app->add_option(
+        "--training-rooms",
+        rooms_path,
+        "The model's own training rooms (<model>.rooms.db of 'train --keep-rooms'): the "
+        "network's maxima on their validation frames, as train chooses it");
+    db_flag->excludes(rooms_flag);
+    rooms_flag->excludes(db_flag);
+    app->add_option("--split", split, "train, val, test or all")->capture_default_str();
+    app->add_option("--max-frames", evaluate.max_frames, "Frames (0: the whole split)")
+        ->capture_default_str();
+    app->add_option("--out", out, "Where to write the model (may be the same file)")->required();
+    detector_flags.emplace(app);
+  }
+
+  int Run() {
+    Require(!db_path.empty() || !rooms_path.empty(),
+            "model operating-point needs --db or --training-rooms");
+    evaluate.split = ParseSplit(split, "--split");
+    evaluate.detector = detector_flags->Resolve();
+    TrainedModel model = LoadTrainedModel(path);  // a bad model fails before detection runs
+    model.operating_point = rooms_path.empty()
+                                ? ChooseOperatingPointOn(model, db_path, evaluate)
+                                : VoteNetOperatingPointOnRooms(model, path, rooms_path);
+    SaveTrainedModel(model, out);
+    std::cout << out << ": " << DescribeOperatingPoint(model.operating_point);
+    return 0;
+  }
+};
+
 // `model ensemble`: member 1's model with every member's vote network; all
 // files are read and checked before anything is written.
-int WriteEnsembleModel(const std::vector<std::string>& paths,
-                       const std::string& rooms_path,
-                       const std::string& out) {
-  TrainedModel model = LoadTrainedModel(paths[0]);
-  std::vector<VoteNet> members;
-  for (size_t m = 0; m < paths.size(); ++m) {
-    const TrainedModel member = m == 0 ? model : LoadTrainedModel(paths[m]);
-    Require(!member.vote_net.empty(), paths[m] + ": has no vote network to combine");
-    members.push_back(VoteNet::Deserialize(member.vote_net, paths[m]));
+struct EnsembleCommand {
+  CLI::App* app = nullptr;
+  std::vector<std::string> paths;
+  std::string out, rooms_path;
+
+  void Add(CLI::App* parent) {
+    app = parent->add_subcommand(
+        "ensemble",
+        "Combine the vote networks of models trained on the same rooms with their own weights "
+        "('train --vote-member K') into one model whose detection averages them");
+    app->add_option("models", paths, "Model files (.fcm): member 1 first")
+        ->required()
+        ->expected(2, VoteNet::kMaxMembers);
+    app->add_option("--out", out, "Where to write the combined model")->required();
+    app->add_option("--training-rooms",
+                    rooms_path,
+                    "The members' training rooms: choose the ensemble's operating point on their "
+                    "validation frames (else member 1's is kept)");
   }
-  model.vote_net = VoteNet::Ensemble(std::move(members), out).Serialize();
-  if (!rooms_path.empty())
-    model.operating_point = VoteNetOperatingPointOnRooms(model, out, rooms_path);
-  SaveTrainedModel(model, out);
-  std::cout << out << ": an ensemble of " << paths.size() << " vote networks; operating point "
-            << (rooms_path.empty() ? "member 1's (choose the ensemble's with --training-rooms)"
-                                   : "chosen on " + rooms_path)
-            << "\n";
-  return 0;
-}
+
+  int Run() const {
+    TrainedModel model = LoadTrainedModel(paths[0]);
+    std::vector<VoteNet> members;
+    for (size_t m = 0; m < paths.size(); ++m) {
+      const TrainedModel member = m == 0 ? model : LoadTrainedModel(paths[m]);
+      Require(!member.vote_net.empty(), paths[m] + ": has no vote network to combine");
+      members.push_back(VoteNet::Deserialize(member.vote_net, paths[m]));
+      Require(members.back().Members() == 1,
+              paths[m] + ": is an ensemble already (combine its members' own files)");
+    }
+    model.vote_net = VoteNet::Ensemble(std::move(members), out).Serialize();
+    if (!rooms_path.empty())
+      model.operating_point = VoteNetOperatingPointOnRooms(model, out, rooms_path);
+    SaveTrainedModel(model, out);
+    std::cout << out << ": an ensemble of " << paths.size() << " vote networks; operating point "
+              << (rooms_path.empty() ? "member 1's (choose the ensemble's with --training-rooms)"
+                                     : "chosen on " + rooms_path)
+              << "\n";
+    return 0;
+  }
+};
 
 }  // namespace
 
@@ -355,58 +422,13 @@ int RunModel(int argc, char** argv) {
                     "Convert a vote network stored as a TorchScript archive (model files before "
                     "issue 39) to plain tensors. Opening such an archive runs any code it holds: "
                     "only for model files you made yourself");
-  CLI::App* operating = app.add_subcommand(
-      "operating-point",
-      "Choose the model's operating point (per class, the score of best F1 at 20 cm) on a "
-      "dataset's frames, and write the model with it");
-  operating->add_option("model", path, "Model file (.fcm)")->required();
-  std::string db_path, split = "val";
-  EvaluateCommandOptions evaluate;
-  std::string rooms_path;
-  auto* db_flag = operating->add_option(
-      "--db", db_path, "Dataset database (generated or imported real frames): the full detector");
-  auto* rooms_flag = operating->add_option(
-      "--training-rooms",
-      rooms_path,
-      "The model's own training rooms (<model>.rooms.db of 'train --keep-rooms'): the network's "
-      "maxima on their validation frames, as train chooses it");
-  db_flag->excludes(rooms_flag);
-  rooms_flag->excludes(db_flag);
-  operating->add_option("--split", split, "train, val, test or all")->capture_default_str();
-  operating->add_option("--max-frames", evaluate.max_frames, "Frames (0: the whole split)")
-      ->capture_default_str();
-  operating->add_option("--out", out, "Where to write the model (may be the same file)")
-      ->required();
-  DetectorFlags detector_flags(operating);
-  std::vector<std::string> member_paths;
-  CLI::App* ensemble = app.add_subcommand(
-      "ensemble",
-      "Combine the vote networks of models trained on the same rooms with their own weights "
-      "('train --vote-member K') into one model whose detection averages them");
-  ensemble->add_option("models", member_paths, "Model files (.fcm): member 1 first")
-      ->required()
-      ->expected(2, VoteNet::kMaxMembers);
-  ensemble->add_option("--out", out, "Where to write the combined model")->required();
-  std::string ensemble_rooms;
-  ensemble->add_option("--training-rooms",
-                       ensemble_rooms,
-                       "The members' training rooms: choose the ensemble's operating point on "
-                       "their validation frames (else member 1's is kept)");
+  OperatingPointCommand operating;
+  operating.Add(&app);
+  EnsembleCommand ensemble;
+  ensemble.Add(&app);
   if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
-  if (ensemble->parsed()) return WriteEnsembleModel(member_paths, ensemble_rooms, out);
-  if (operating->parsed()) {
-    Require(!db_path.empty() || !rooms_path.empty(),
-            "model operating-point needs --db or --training-rooms");
-    evaluate.split = ParseSplit(split, "--split");
-    evaluate.detector = detector_flags.Resolve();
-    TrainedModel model = LoadTrainedModel(path);  // a bad model fails before detection runs
-    model.operating_point = rooms_path.empty()
-                                ? ChooseOperatingPointOn(model, db_path, evaluate)
-                                : VoteNetOperatingPointOnRooms(model, path, rooms_path);
-    SaveTrainedModel(model, out);
-    std::cout << out << ": " << DescribeOperatingPoint(model.operating_point);
-    return 0;
-  }
+  if (ensemble.app->parsed()) return ensemble.Run();
+  if (operating.app->parsed()) return operating.Run();
   if (upgrade->parsed()) {
     TrainedModel model =
         trust_torchscript ? LoadTrainedModelUnchecked(path) : LoadTrainedModel(path);
