@@ -1,5 +1,4 @@
 #include <CLI/CLI.hpp>
-#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
@@ -63,13 +62,16 @@ void PrintTrainSummary(const std::string& out,
         v.raster_s,
         v.train_s,
         v.epochs.empty() ? 0.0 : v.epochs.back().validation_loss);
-    if (!v.member_validation_maps.empty()) {
+    if (!v.member_validation_maps.empty() && v.validation_frames > 0) {
       std::printf("  vote net: an ensemble of %zu networks, validation mAP@10cm %.3f (members %.3f",
                   v.member_validation_maps.size() + 1,
                   v.ensemble_validation_map,
-                  v.epochs.empty() ? std::nan("") : v.epochs.back().validation_map);
+                  v.epochs.back().validation_map);
       for (double map : v.member_validation_maps) std::printf(", %.3f", map);
       std::printf(")\n");
+    } else if (!v.member_validation_maps.empty()) {
+      std::printf("  vote net: an ensemble of %zu networks (no validation rooms)\n",
+                  v.member_validation_maps.size() + 1);
     }
     if (v.vote_net_only_models > 0)
       std::printf("  vote net rooms also place the class map's %d vote-net-only models\n",
@@ -386,9 +388,9 @@ struct EnsembleCommand {
     TrainedModel model = LoadTrainedModel(paths[0]);
     std::vector<VoteNet> members;
     for (size_t m = 0; m < paths.size(); ++m) {
-      const TrainedModel member = m == 0 ? model : LoadTrainedModel(paths[m]);
-      Require(!member.vote_net.empty(), paths[m] + ": has no vote network to combine");
-      members.push_back(VoteNet::Deserialize(member.vote_net, paths[m]));
+      const std::string vote_net = m == 0 ? model.vote_net : LoadTrainedModel(paths[m]).vote_net;
+      Require(!vote_net.empty(), paths[m] + ": has no vote network to combine");
+      members.push_back(VoteNet::Deserialize(vote_net, paths[m]));
       Require(members.back().Members() == 1,
               paths[m] + ": is an ensemble already (combine its members' own files)");
     }

@@ -402,7 +402,6 @@ VoteNet TrainVoteNetEnsemble(const std::vector<BevSample>& training,
                              const std::vector<BevSample>& validation,
                              const VoteNetTrainingOptions& options,
                              VoteNetTrainingSummary* summary) {
-  summary->ensemble_validation_map = std::nan("");
   VoteNet first = TrainVoteNetOnSamples(training, validation, options, summary);
   if (options.ensemble == 1) return first;
   std::vector<VoteNet> members;

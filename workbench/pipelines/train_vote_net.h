@@ -13,6 +13,7 @@
 #pragma once
 
 #include <cstdint>
+#include <limits>
 #include <set>
 #include <string>
 #include <vector>
@@ -133,7 +134,7 @@ struct VoteNetTrainingSummary {
   // after its last epoch (`epochs` are the first member's); and the
   // ensemble's own (NaN: one network or no validation frames).
   std::vector<double> member_validation_maps;
-  double ensemble_validation_map = 0;
+  double ensemble_validation_map = std::numeric_limits<double>::quiet_NaN();
 };
 
 // Trains on samples already made (tests, tools); `validation` may be empty.
