@@ -175,6 +175,12 @@ torch::Tensor TurnedBack(const torch::Tensor& mirrored, bool edge_votes) {
   return back;
 }
 
+// The U-Net `options` describe (fresh weights from torch's generator); every
+// member of an ensemble is built by it.
+UNet NetworkOf(const VoteNetOptions& options) {
+  return UNet(kBevChannels, options.width, options.coder.Channels(), options.levels);
+}
+
 // The FURNVNET magic and the format version after it; `at` moves past both.
 uint32_t ReadMagicAndVersion(const std::string& bytes, size_t* at, const std::string& what) {
   Require(bytes.size() >= sizeof(kMagic) && std::memcmp(bytes.data(), kMagic, sizeof(kMagic)) == 0,
@@ -382,7 +388,7 @@ VoteNet VoteNet::Create(const VoteNetOptions& options, uint64_t seed) {
   VoteNet net;
   net.impl_ = std::make_unique<Impl>();
   net.impl_->options = options;
-  net.impl_->net = UNet(kBevChannels, options.width, options.coder.Channels(), options.levels);
+  net.impl_->net = NetworkOf(options);
   net.impl_->net->eval();
   return net;
 }
@@ -436,8 +442,7 @@ VoteNet VoteNet::Deserialize(const std::string& bytes, const std::string& what) 
     Require(at < bytes.size(),
             what + ": vote network is truncated (member " + std::to_string(m + 1) + " of " +
                 std::to_string(members) + ")");
-    net.impl_->partners.push_back(
-        UNet(kBevChannels, options.width, options.coder.Channels(), options.levels));
+    net.impl_->partners.push_back(NetworkOf(options));
     TakeMember(bytes, &at, what, net.impl_->partners.back());
     net.impl_->partners.back()->eval();
   }
