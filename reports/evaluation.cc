@@ -566,7 +566,7 @@ void AddLatency(const std::vector<FrameOutcome>& frames, Metrics* m) {
 
 RoleOf RoleFor(const EvaluationOptions& options) {
   return [&options](const TruthObject& t) {
-    if (t.visibility <= 0) return Role::kAbsent;
+    if (t.visibility <= 0) return t.seen_by_fused_frames ? Role::kIgnore : Role::kAbsent;
     return t.visibility >= options.min_visibility && t.in_view >= options.min_in_view &&
                    t.distance_m <= options.max_distance_m
                ? Role::kTarget

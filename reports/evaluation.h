@@ -42,6 +42,10 @@ struct TruthObject {
   // the frame). `visibility` counts only the pixels in the frame; a long
   // table cut by the image's side is "fully visible" there but half in view.
   double in_view = 1;
+  // Fused frames (evaluate --fuse-room-frames): not in this frame's view but
+  // seen by another frame fused into its scan, so a detection of it is
+  // neither found nor false ("ignore"); unfused, such an object is absent.
+  bool seen_by_fused_frames = false;
 };
 
 struct ScoredDetection {

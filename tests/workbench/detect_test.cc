@@ -16,6 +16,7 @@
 #include "core/error.h"
 #include "core/file_util.h"
 #include "core/progress.h"
+#include "core/scan_fusion.h"
 #include "renderers/embree_caster.h"
 #include "renderers/kinect_simulator.h"
 #include "scenes/room_composer.h"
@@ -73,10 +74,11 @@ class DetectTest : public ::testing::Test {
     bool target = true;
   };
 
-  // A 6 x 6 m room with the pieces, seen from (0, -2.6, 1.8) looking along +y,
-  // pitched down 33 degrees.
+  // A 6 x 6 m room with the pieces, seen from (x, -2.6, 1.8) looking along
+  // +y, pitched down 33 degrees (x = 0 unless given).
   static DetectionInput Render(const std::vector<Placement>& placements,
-                               const std::vector<CadModel>& extra_meshes = {}) {
+                               const std::vector<CadModel>& extra_meshes = {},
+                               double camera_x = 0) {
     RoomLayout layout;
     layout.width_m = 6;
     layout.depth_m = 6;
@@ -107,8 +109,9 @@ class DetectTest : public ::testing::Test {
     }
     const Scene scene = BuildRoomScene(layout, meshes);
     const double pitch = 33 * M_PI / 180;
-    const Eigen::Isometry3d world_from_camera = LookAlong(
-        Eigen::Vector3d(0, -2.6, 1.8), Eigen::Vector3d(0, std::cos(pitch), -std::sin(pitch)));
+    const Eigen::Isometry3d world_from_camera =
+        LookAlong(Eigen::Vector3d(camera_x, -2.6, 1.8),
+                  Eigen::Vector3d(0, std::cos(pitch), -std::sin(pitch)));
     EmbreeCaster caster;
     const KinectCapture capture = CaptureKinect(
         &caster, scene, CameraIntrinsics::KinectV1(), world_from_camera, KinectNoiseOptions{}, 7);
@@ -631,6 +634,56 @@ TEST_F(DetectTest, WorldFrameAndFloorAlignedCloudsGiveTheCameraFrameDetections) 
   const LoadedScan world = LoadScan(source);
   EXPECT_FALSE(world.input.world_from_camera.has_value());
   expect_same(world, estimated.detections[0], 0.03, "--world-from-camera");
+}
+
+// Two posed scans of one room (issue 37): a chair out of the first camera's
+// view is found in the two fused, where the second camera saw it, and in the
+// world where it stands; the command line fuses world-frame clouds alike.
+TEST_F(DetectTest, FusedScansFindWhatOneScanDoesNotSee) {
+  const std::string chair = ModelOf(FurnitureClass::kChair, 1);
+  const std::vector<Placement> room = {{chair, 0.2, 0.1, 30}, {chair, 2.0, -0.6, 200}};
+  const DetectionInput first = Render(room), second = Render(room, {}, 2.0);
+  auto chairs_near = [](const DetectionResult& result, double x, double y) {
+    int n = 0;
+    for (const Detection& d : result.detections)
+      n += d.furniture_class == FurnitureClass::kChair && std::hypot(d.x - x, d.y - y) < 0.1;
+    return n;
+  };
+  const DetectionResult alone = detector_->Detect(first);
+  EXPECT_EQ(chairs_near(alone, 0.2, 0.1), 1) << Describe(alone);
+  EXPECT_EQ(chairs_near(alone, 2.0, -0.6), 0) << Describe(alone);
+  const DetectionInput fused = FuseScans({second, first}, 1);
+  const DetectionResult both = detector_->Detect(fused);
+  EXPECT_EQ(chairs_near(both, 0.2, 0.1), 1) << Describe(both);
+  EXPECT_EQ(chairs_near(both, 2.0, -0.6), 1) << Describe(both);
+  EXPECT_EQ(both.detections.size(), 2u) << Describe(both);
+
+  // The command: world-frame clouds, each with its pose in VIEWPOINT.
+  const std::string dir = testing::ScratchDir();
+  testing::WriteText(dir + "/second.pcd", WorldPcd(second, false, *second.world_from_camera));
+  testing::WriteText(dir + "/first.pcd", WorldPcd(first, false, *first.world_from_camera));
+  const std::string detect = std::string(FURN_WORKBENCH_BINARY) + " detect --model " +
+                             *model_path_ + " --max-range 4 --quiet ";
+  const testing::CommandResult run =
+      testing::RunCommand(detect + dir + "/second.pcd " + dir +
+                          "/first.pcd --floor-aligned --fuse --out " + dir + "/fused.json");
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  const nlohmann::json json = nlohmann::json::parse(ReadFileBytes(dir + "/fused.json"));
+  EXPECT_NE(json["input"].get<std::string>().find("2 scans fused"), std::string::npos);
+  ASSERT_EQ(json["detections"].size(), 2u) << json.dump();
+  for (const nlohmann::json& d : json["detections"]) EXPECT_EQ(d["class"], "chair");
+  // Bad uses: one line each, exit code 1, nothing written.
+  auto refused = [&](const std::string& arguments, const std::string& expected) {
+    const testing::CommandResult bad =
+        testing::RunCommand(detect + arguments + " --out " + dir + "/bad.json");
+    EXPECT_EQ(bad.exit_code, 1) << arguments << "\n" << bad.output;
+    EXPECT_NE(bad.output.find(expected), std::string::npos) << bad.output;
+    EXPECT_FALSE(std::filesystem::exists(dir + "/bad.json")) << arguments;
+  };
+  refused(dir + "/first.pcd --floor-aligned --fuse", "--fuse needs two or more scans");
+  refused(dir + "/second.pcd " + dir + "/first.pcd --fuse",  // no floor-aligned pose
+          "second.pcd: --fuse needs every scan's pose");
+  refused("--cloud " + dir + "/first.pcd --fuse", "--fuse needs two or more scans");
 }
 
 TEST_F(DetectTest, BatchOverGlobsTumListsAndBopFoldersGivesJsonLines) {

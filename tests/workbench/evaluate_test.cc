@@ -328,6 +328,105 @@ void SeenModelsAreThoseTheModelWasTrainedOn(const SmallDatasetAndModel& data) {
   EXPECT_FALSE(unseen.count("cad_identified"));  // no true model to identify
 }
 
+// A frame's finite points.
+size_t FinitePoints(const DetectionInput& input) {
+  return static_cast<size_t>(std::count_if(input.points.begin(),
+                                           input.points.end(),
+                                           [](const Eigen::Vector3f& p) { return p.allFinite(); }));
+}
+
+// The run's detections as text, in order (score and place to the bit).
+std::string DetectionsOfRun(const std::string& db, int64_t run_id) {
+  Database database(db, Database::Mode::kReadOnly);
+  Statement rows(&database,
+                 "SELECT frame_id, class, x, y, score FROM run_detections WHERE run_id = ? "
+                 "ORDER BY rowid");
+  rows.Bind(1, run_id);
+  std::string text;
+  while (rows.Step()) {
+    char line[160];
+    std::snprintf(line,
+                  sizeof(line),
+                  "%lld %s %a %a %a\n",
+                  static_cast<long long>(rows.ColumnInt(0)),
+                  rows.ColumnText(1).c_str(),
+                  rows.ColumnDouble(2),
+                  rows.ColumnDouble(3),
+                  rows.ColumnDouble(4));
+    text += line;
+  }
+  return text;
+}
+
+// Issue 37: each frame with its room's other frames fused in, seen from its
+// own camera; the pose error is the same on every run; bad spreads are one
+// line and store nothing; detect shows a fused frame.
+void FusedRoomFramesAreOneInputAndAStoredOption(const SmallDatasetAndModel& data) {
+  const std::string db = data.CopyOfDataset("fused");
+  {
+    DatasetDb dataset(db, DatasetDb::Mode::kReadOnly);
+    const RoomRecord room = dataset.ReadRoom(dataset.RoomIds().at(0), /*with_images=*/true);
+    ASSERT_EQ(room.frames.size(), 2u);
+    const FrameRecord& frame = room.frames[1];
+    const DetectionInput plain = RoomFrameInput(room, frame, FrameFusion{}, false, db);
+    EXPECT_EQ(plain.width, 640);
+    FrameFusion fusion;
+    fusion.room_frames = true;
+    const DetectionInput fused = RoomFrameInput(room, frame, fusion, false, db);
+    EXPECT_EQ(fused.width, 0);
+    EXPECT_EQ(fused.points.size(),
+              FinitePoints(plain) + FinitePoints(DetectionInputOf(room.frames[0], "frame 0")));
+    EXPECT_TRUE(fused.world_from_camera->isApprox(frame.world_from_camera));
+    fusion.pose_noise_m = 0.05;
+    fusion.pose_noise_deg = 2;
+    const DetectionInput noisy = RoomFrameInput(room, frame, fusion, false, db);
+    ASSERT_EQ(noisy.points.size(), fused.points.size());
+    EXPECT_NE(noisy.points.front(), fused.points.front());  // the frame itself comes last ...
+    EXPECT_EQ(noisy.points.back(), fused.points.back());    // ... and keeps its pose
+    EXPECT_EQ(RoomFrameInput(room, frame, fusion, false, db).points, noisy.points);
+    EXPECT_NE(testing::ErrorOf([&] {
+                RoomFrameInput(room, frame, fusion, true, db);
+              }).find("its floor is estimated"),
+              std::string::npos);
+  }
+  const std::string evaluate =
+      "evaluate --quiet --split all --model " + data.model + " --db " + db + " --fuse-room-frames";
+  ASSERT_EQ(Workbench(evaluate).exit_code, 0);
+  for (int k = 0; k < 2; ++k)
+    ASSERT_EQ(Workbench(evaluate + " --fuse-pose-noise 0.05,2").exit_code, 0);
+  {
+    DatasetDb dataset(db, DatasetDb::Mode::kReadOnly);
+    const std::vector<RunRecord> runs = dataset.Runs();
+    ASSERT_EQ(runs.size(), 3u);
+    const nlohmann::json stored = nlohmann::json::parse(runs[1].options_json).at("fusion");
+    EXPECT_TRUE(stored.at("room_frames").get<bool>());
+    EXPECT_EQ(stored.at("pose_noise_m").get<double>(), 0.05);
+    EXPECT_EQ(stored.at("pose_noise_deg").get<double>(), 2);
+    EXPECT_EQ(dataset.RunMetrics(runs[0].id).at("frames"), 4);
+    EXPECT_FALSE(DetectionsOfRun(db, runs[1].id).empty());
+    EXPECT_EQ(DetectionsOfRun(db, runs[1].id), DetectionsOfRun(db, runs[2].id));
+  }
+  for (const auto& [flags, expected] : std::vector<std::pair<std::string, std::string>>{
+           {"--fuse-room-frames --fuse-pose-noise 0.05", "'0.05' must be M,DEG"},
+           {"--fuse-room-frames --fuse-pose-noise 0.05,x", "'0.05,x' must be M,DEG"},
+           {"--fuse-room-frames --fuse-pose-noise=-1,2", "-1 m must be in 0..1 m"},
+           {"--fuse-room-frames --fuse-pose-noise 0,90", "90 degrees must be in 0..45"},
+           {"--fuse-pose-noise 0.02,1", "applies to fused frames"}}) {
+    const testing::CommandResult bad = Workbench("evaluate --quiet --split all --model " +
+                                                 data.model + " --db " + db + " " + flags);
+    EXPECT_NE(bad.exit_code, 0) << flags;
+    EXPECT_NE(bad.output.find(expected), std::string::npos) << flags << ": " << bad.output;
+    EXPECT_EQ(std::count(bad.output.begin(), bad.output.end(), '\n'), 1) << bad.output;
+  }
+  EXPECT_EQ(DatasetDb(db, DatasetDb::Mode::kReadOnly).Runs().size(), 3u);  // nothing stored
+  const testing::CommandResult shown =
+      Workbench("detect --quiet --model " + data.model + " --db " + db +
+                " --frame 1 --fuse --out " + data.dir + "/fused.json");
+  ASSERT_EQ(shown.exit_code, 0) << shown.output;
+  EXPECT_NE(ReadFileBytes(data.dir + "/fused.json").find("with its room's 1 other frames fused"),
+            std::string::npos);
+}
+
 TEST(Evaluate, EmptyFramesMissingDatasetsAndSeenModels) {
   SmallDatasetAndModel data;
   data.dir = testing::ScratchDir();
@@ -349,6 +448,10 @@ TEST(Evaluate, EmptyFramesMissingDatasetsAndSeenModels) {
   {
     SCOPED_TRACE("seen models");
     SeenModelsAreThoseTheModelWasTrainedOn(data);
+  }
+  {
+    SCOPED_TRACE("fused room frames");
+    FusedRoomFramesAreOneInputAndAStoredOption(data);
   }
 }
 

@@ -98,6 +98,12 @@ int RunDetect(int argc, char** argv) {
   app.add_option("--repeat", repeat, "Run N times and report median stage times (benchmark)")
       ->capture_default_str();
   DetectorFlags detector_flags(&app);
+  bool fuse = false;
+  app.add_flag("--fuse",
+               fuse,
+               "One detection in several scans at once, seen from the last one's camera: each "
+               "a world-frame cloud with its own pose (VIEWPOINT, --floor-aligned); with --db "
+               "and --frame, the frame with its room's other frames");
   app.add_flag("--quiet", quiet, "Print nothing but errors");
   if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
   Progress::SetQuiet(quiet);  // batches and bags show progress unless --quiet
@@ -114,12 +120,14 @@ int RunDetect(int argc, char** argv) {
   run.quiet = quiet;
   run.explain = explain;
   run.timings = timings;
+  run.fuse = fuse && !inputs.empty();
 
   if (!bag.bag_path.empty()) {
     Require(inputs.empty() && source.cloud_path.empty() && source.depth_path.empty() &&
                 source.db_path.empty(),
             "--bag takes no other scans (inputs, --cloud, --depth or --db)");
     Require(debug_dir.empty() && repeat == 1, "--debug-dir and --repeat apply to one scan");
+    Require(!fuse, "--fuse applies to scans and --db frames, not to --bag");
     bag.depth_scale = source.depth_scale;
     return DetectInBag(bag, out_bag, run);
   }
@@ -133,7 +141,12 @@ int RunDetect(int argc, char** argv) {
             "give scans as inputs or with --cloud/--depth/--db, not both");
     sources = ExpandScanInputs(
         inputs, source, app.count("--intrinsics") > 0, app.count("--depth-scale") > 0);
+    Require(!fuse || sources.size() >= 2,
+            "--fuse needs two or more scans (or --db with --frame: its room's frames)");
   } else {
+    Require(!fuse || !source.db_path.empty(),
+            "--fuse needs two or more scans as inputs, or --db with --frame");
+    source.fusion.room_frames = fuse;
     sources.push_back(source);
   }
   // One plain scan file, or --cloud/--depth/--db: one indented JSON; any

@@ -309,6 +309,20 @@ void AddMinInViewOption(CLI::App* app, EvaluationOptions* evaluation) {
       ->capture_default_str();
 }
 
+// --fuse-room-frames and --fuse-pose-noise, shared by evaluate and crossval.
+void AddFusionOptions(CLI::App* app, FrameFusion* fusion) {
+  app->add_flag("--fuse-room-frames",
+                fusion->room_frames,
+                "Detect each frame with the other frames of its room fused in (their known "
+                "poses), seen from its own camera; its ground truth unchanged (protocol E is one "
+                "frame: this measures what a posed sequence gives)");
+  app->add_option_function<std::string>(
+      "--fuse-pose-noise",
+      [fusion](const std::string& text) { ParsePoseNoise(text, fusion); },
+      "M,DEG: with --fuse-room-frames, the other frames' poses with a random error of sigma M "
+      "metres along and DEG degrees about each axis (odometry's); the same error every run");
+}
+
 }  // namespace
 
 int RunEvaluate(int argc, char** argv) {
@@ -320,6 +334,7 @@ int RunEvaluate(int argc, char** argv) {
   app.add_option("--db", db_path, "Dataset database")->required();
   app.add_option("--split", split, "train, val, test or all")->capture_default_str();
   AddMinInViewOption(&app, &options.evaluation);
+  AddFusionOptions(&app, &options.fusion);
   app.add_option("--max-frames", options.max_frames, "Evaluate at most N frames (0: all)")
       ->capture_default_str();
   app.add_option("--label", options.label, "Free text stored with the run");
@@ -431,6 +446,7 @@ int RunCrossval(int argc, char** argv) {
   std::string split = "all";
   app.add_option("--split", split, "train, val, test or all")->capture_default_str();
   AddMinInViewOption(&app, &options.evaluate.evaluation);
+  AddFusionOptions(&app, &options.evaluate.fusion);
   app.add_option("--max-frames", options.evaluate.max_frames, "At most N frames per fold (0: all)")
       ->capture_default_str();
   app.add_option("--label", options.evaluate.label, "Free text stored with the run");

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -11,7 +12,9 @@
 
 #include "core/error.h"
 #include "core/file_util.h"
+#include "core/random.h"
 #include "core/render_compare.h"
+#include "core/scan_fusion.h"
 #include "db/dataset_db.h"
 #include "workbench/formats/camera_file.h"
 #include "workbench/formats/depth_png.h"
@@ -67,6 +70,55 @@ CameraIntrinsics IntrinsicsOf(const FrameRecord& frame) {
   return {frame.width, frame.height, frame.fx, frame.fy, frame.cx, frame.cy};
 }
 
+void FrameFusion::Check() const {
+  auto spread = [](double value, double limit, const char* unit) {
+    char text[32];
+    std::snprintf(text, sizeof(text), "%g", value);
+    Require(std::isfinite(value) && value >= 0 && value <= limit,
+            std::string("--fuse-pose-noise: ") + text + " " + unit + " must be in 0.." +
+                std::to_string(static_cast<int>(limit)) + " " + unit);
+  };
+  spread(pose_noise_m, 1, "m");
+  spread(pose_noise_deg, 45, "degrees");
+  Require(room_frames || (pose_noise_m == 0 && pose_noise_deg == 0),
+          "--fuse-pose-noise applies to fused frames (--fuse-room-frames)");
+}
+
+nlohmann::json FrameFusion::Json() const {
+  if (!room_frames) return nullptr;
+  return nlohmann::ordered_json{
+      {"room_frames", true}, {"pose_noise_m", pose_noise_m}, {"pose_noise_deg", pose_noise_deg}};
+}
+
+FrameFusion FrameFusion::FromJson(const nlohmann::json& json, const std::string& what) {
+  FrameFusion fusion;
+  if (json.is_null()) return fusion;
+  try {
+    fusion.room_frames = json.at("room_frames").get<bool>();
+    fusion.pose_noise_m = json.at("pose_noise_m").get<double>();
+    fusion.pose_noise_deg = json.at("pose_noise_deg").get<double>();
+  } catch (const nlohmann::json::exception& e) {
+    throw InputError(what + ": fusion options: " + e.what());
+  }
+  fusion.Check();
+  return fusion;
+}
+
+void ParsePoseNoise(const std::string& text, FrameFusion* fusion) {
+  const size_t comma = text.find(',');
+  const std::string rule = "--fuse-pose-noise '" + text + "' must be M,DEG (e.g. 0.02,1)";
+  Require(comma != std::string::npos && text.find(',', comma + 1) == std::string::npos, rule);
+  try {
+    size_t used_m = 0, used_deg = 0;
+    const std::string m = text.substr(0, comma), deg = text.substr(comma + 1);
+    fusion->pose_noise_m = std::stod(m, &used_m);
+    fusion->pose_noise_deg = std::stod(deg, &used_deg);
+    Require(used_m == m.size() && used_deg == deg.size(), rule);
+  } catch (const std::logic_error&) {
+    throw InputError(rule);
+  }
+}
+
 DetectionInput DetectionInputOf(const FrameRecord& frame, const std::string& what) {
   const CameraIntrinsics camera = IntrinsicsOf(frame);
   camera.Check();
@@ -76,6 +128,59 @@ DetectionInput DetectionInputOf(const FrameRecord& frame, const std::string& wha
   input.height = frame.height;
   input.world_from_camera = frame.world_from_camera;
   return input;
+}
+
+DetectionInput RoomFrameInput(const RoomRecord& room,
+                              const FrameRecord& frame,
+                              const FrameFusion& fusion,
+                              bool estimated_pose,
+                              const std::string& db_path) {
+  auto what = [&](const FrameRecord& f) { return db_path + " frame " + std::to_string(f.id); };
+  DetectionInput input = DetectionInputOf(frame, what(frame));
+  if (!fusion.room_frames || room.frames.size() < 2) {
+    if (estimated_pose) input.world_from_camera.reset();
+    return input;
+  }
+  Require(!estimated_pose,
+          what(frame) + ": its floor is estimated, and fusing a room's frames needs their poses");
+  std::vector<DetectionInput> scans;
+  size_t reference = 0;
+  for (const FrameRecord& other : room.frames) {
+    if (other.id == frame.id) {
+      reference = scans.size();
+      scans.push_back(std::move(input));
+      continue;
+    }
+    scans.push_back(DetectionInputOf(other, what(other)));
+    if (fusion.pose_noise_m > 0 || fusion.pose_noise_deg > 0) {
+      FastRng rng(DeriveSeed(frame.seed, static_cast<uint64_t>(other.frame_index)));
+      scans.back().world_from_camera = PerturbedPose(*scans.back().world_from_camera,
+                                                     fusion.pose_noise_m,
+                                                     fusion.pose_noise_deg * M_PI / 180,
+                                                     rng);
+    }
+  }
+  return FuseScans(scans, reference);
+}
+
+LoadedScan FuseLoadedScans(const std::vector<LoadedScan>& scans) {
+  Require(!scans.empty(), "--fuse needs scans");
+  std::vector<DetectionInput> inputs;
+  std::string names;
+  for (const LoadedScan& scan : scans) {
+    Require(scan.input.world_from_camera.has_value() && !scan.label_from_camera,
+            scan.description +
+                ": --fuse needs every scan's pose in one floor-aligned frame (a world-frame "
+                "cloud with its VIEWPOINT and --floor-aligned, or --world-from-camera)");
+    inputs.push_back(scan.input);
+    names += (names.empty() ? "" : ", ") + scan.description;
+  }
+  LoadedScan fused = scans.back();
+  fused.input = FuseScans(inputs, inputs.size() - 1);
+  fused.ground_truth.clear();
+  fused.description = std::to_string(scans.size()) + " scans fused (" + names + "), seen from " +
+                      scans.back().description;
+  return fused;
 }
 
 namespace {
@@ -282,13 +387,15 @@ LoadedScan LoadDatasetFrame(const ScanSource& source) {
   LoadedScan scan;
   const std::string what = source.db_path + " frame " + std::to_string(frame->id);
   scan.camera = IntrinsicsOf(*frame);
-  scan.input = DetectionInputOf(*frame, what);
+  const std::optional<std::string> generation = db.GenerationOptions();
+  const bool estimated_pose =
+      generation && FramesWithEstimatedPose(*generation).count(frame->id) > 0;
+  scan.input = RoomFrameInput(room, *frame, source.fusion, estimated_pose, source.db_path);
   scan.description = what;
-  if (const std::optional<std::string> generation = db.GenerationOptions();
-      generation && FramesWithEstimatedPose(*generation).count(frame->id) > 0) {
-    scan.label_from_camera = frame->world_from_camera;
-    scan.input.world_from_camera.reset();
-  }
+  if (source.fusion.room_frames && room.frames.size() > 1)
+    scan.description +=
+        " with its room's " + std::to_string(room.frames.size() - 1) + " other frames fused";
+  if (estimated_pose) scan.label_from_camera = frame->world_from_camera;
   for (const ObjectRecord& object : room.objects) {
     double visibility = 0;  // an object the frame does not list is out of view
     for (const FrameObjectRecord& seen : frame->objects) {

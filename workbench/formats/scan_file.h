@@ -13,12 +13,35 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json_fwd.hpp>
+
 #include "core/detector.h"
 #include "db/dataset_db.h"
 #include "renderers/camera.h"
 #include "reports/detection_debug.h"
 
 namespace furn {
+
+// A dataset frame detected with the other frames of its room fused in
+// (issue 37; FuseScans): a table cut by one frame's side is often whole in
+// another. Their known poses may be given a random error, as odometry or
+// SLAM would have them, to measure what pose error costs.
+struct FrameFusion {
+  bool room_frames = false;
+  double pose_noise_m = 0;    // sigma of the error along each axis
+  double pose_noise_deg = 0;  // sigma of the rotation about each axis
+
+  // Throws InputError naming the value for a spread that is negative, not
+  // finite, or beyond 1 m / 45 degrees, or a spread without room_frames.
+  void Check() const;
+  // What the run stores: null when off, else {"room_frames", "pose_noise_m",
+  // "pose_noise_deg"}; and back (InputError naming `what`).
+  nlohmann::json Json() const;
+  static FrameFusion FromJson(const nlohmann::json& json, const std::string& what);
+};
+
+// "M,DEG" (--fuse-pose-noise) into the fusion's spreads; InputError otherwise.
+void ParsePoseNoise(const std::string& text, FrameFusion* fusion);
 
 struct ScanSource {
   std::string cloud_path;              // .pcd or .ply
@@ -31,6 +54,7 @@ struct ScanSource {
   double depth_scale = 0;
   std::string db_path;    // dataset database ...
   int64_t frame_id = -1;  // ... and one of its frames
+  FrameFusion fusion;     // ... detected with its room's other frames fused in
 
   // Clouds in a world frame rather than the camera's: the camera's pose in
   // it (ParsePose's text), else the PCD's VIEWPOINT. With floor_aligned the
@@ -71,6 +95,25 @@ void SetIntrinsics(const CameraIntrinsics& camera, FrameRecord* frame);
 // Detection input of a dataset frame: its noisy depth back-projected, with
 // its known pose. `what` names the frame in errors.
 DetectionInput DetectionInputOf(const FrameRecord& frame, const std::string& what);
+
+// What a dataset frame is detected in: DetectionInputOf, without its pose
+// when `estimated_pose` (the detector finds the floor); with
+// fusion.room_frames and other frames in the room, every frame of the room
+// in this frame's camera (FuseScans), the others' poses with the fusion's
+// random error (seeded by this frame's seed and the other's index: the same
+// input every time). Throws InputError naming the frame when fusion meets a
+// frame whose floor is estimated: fusion needs known poses.
+DetectionInput RoomFrameInput(const RoomRecord& room,
+                              const FrameRecord& frame,
+                              const FrameFusion& fusion,
+                              bool estimated_pose,
+                              const std::string& db_path);
+
+// Several scans with their own poses (world-frame clouds) as one: every
+// scan's points in the last one's camera (FuseScans); its camera, its pose
+// source and a description naming them all. Throws InputError naming the
+// first scan without a pose in a floor-aligned frame.
+LoadedScan FuseLoadedScans(const std::vector<LoadedScan>& scans);
 
 // "kinect1" or "fx,fy,cx,cy" for an image of width x height.
 CameraIntrinsics ParseIntrinsics(const std::string& text, int width, int height);

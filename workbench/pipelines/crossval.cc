@@ -264,6 +264,7 @@ int64_t WriteCrossvalRun(const std::string& db_path,
            : nlohmann::json()},
       {"detector", nlohmann::json::parse(DetectorOptionsJson(options.evaluate.detector))}};
   if (options.vote_net) stored["vote_net"] = nlohmann::json::parse(options.vote_net->Json());
+  if (options.evaluate.fusion.room_frames) stored["fusion"] = options.evaluate.fusion.Json();
   run.options_json = stored.dump();
   nlohmann::json per_fold = nlohmann::json::array();
   for (const CrossvalFold& fold : summary.per_fold) {

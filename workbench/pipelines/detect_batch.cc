@@ -164,11 +164,18 @@ bool IsBatch(const std::vector<std::string>& inputs, const std::vector<ScanSourc
 }
 
 int DetectScans(const std::vector<ScanSource>& sources, bool batch, const DetectRunOptions& run) {
-  Require(!batch || run.debug_dir.empty(), "--debug-dir applies to one scan");
-  Require(!batch || run.repeat == 1, "--repeat applies to one scan");
+  Require(!batch || run.fuse || run.debug_dir.empty(), "--debug-dir applies to one scan");
+  Require(!batch || run.fuse || run.repeat == 1, "--repeat applies to one scan");
   // One scan is checked before the model loads: a bad file fails fast.
   std::optional<LoadedScan> first;
-  if (!batch) first = LoadScan(sources.at(0));
+  if (run.fuse) {
+    std::vector<LoadedScan> scans;
+    for (const ScanSource& source : sources) scans.push_back(LoadScan(source));
+    first = FuseLoadedScans(scans);
+    batch = false;
+  } else if (!batch) {
+    first = LoadScan(sources.at(0));
+  }
   const auto load_start = std::chrono::steady_clock::now();
   const Detector detector(LoadTrainedModel(run.model_path), run.detector);
   const double load_ms =

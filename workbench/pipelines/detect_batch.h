@@ -4,6 +4,7 @@
 //               --repeat N for median stage times;
 //   a batch     one JSON line per scan, in input order; a scan that cannot
 //               be read gets a line with its error and the others go on;
+//   fused scans one detection in several posed scans at once (--fuse);
 //   a ROS bag   one JSON line per message of a topic, optionally the
 //               detections written back as markers (--out-bag).
 //
@@ -30,6 +31,9 @@ struct DetectRunOptions {
   bool quiet = false;     // nothing but errors
   bool explain = false;   // every hypothesis and its outcome on stderr
   bool timings = false;   // stage times and the model's load time on stderr
+  // Several scans with their own poses: one detection in all of them fused
+  // (FuseLoadedScans), seen from the last one's camera, as for one scan.
+  bool fuse = false;
 };
 
 // Whether `inputs` (the command's positional scans) expanded into `sources`

@@ -186,16 +186,28 @@ ModelFacts FactsOf(const TrainedModel& model) {
   return facts;
 }
 
-// The room's objects as the frame's ground truth.
+// How much of the object a frame sees (0: not listed, out of view).
+double VisibilityIn(const FrameRecord& frame, const ObjectRecord& object) {
+  for (const FrameObjectRecord& seen : frame.objects) {
+    if (seen.instance_id == object.instance_id) return seen.visibility;
+  }
+  return 0;
+}
+
+// The room's objects as the frame's ground truth; with fused frames, those
+// another frame of the room sees are marked (TruthObject::seen_by_fused_frames).
 std::vector<TruthObject> TruthOf(const RoomRecord& room,
                                  const FrameRecord& frame,
-                                 const ModelFacts& facts) {
+                                 const ModelFacts& facts,
+                                 const FrameFusion& fusion) {
   std::vector<TruthObject> truth;
   const Eigen::Vector3d eye = frame.world_from_camera.translation();
   for (const ObjectRecord& object : room.objects) {
-    double visibility = 0;
-    for (const FrameObjectRecord& seen : frame.objects) {
-      if (seen.instance_id == object.instance_id) visibility = seen.visibility;
+    const double visibility = VisibilityIn(frame, object);
+    bool seen_by_fused_frames = false;
+    for (const FrameRecord& other : room.frames) {
+      seen_by_fused_frames |=
+          fusion.room_frames && other.id != frame.id && VisibilityIn(other, object) > 0;
     }
     const Eigen::Vector3d reference(object.reference_x, object.reference_y, 0);
     truth.push_back({object.furniture_class,
@@ -209,7 +221,8 @@ std::vector<TruthObject> TruthOf(const RoomRecord& room,
                      object.width,
                      object.depth,
                      // Only a target's share counts (clutter is never one).
-                     object.furniture_class ? ShareInView(object, frame) : 1.0});
+                     object.furniture_class ? ShareInView(object, frame) : 1.0,
+                     seen_by_fused_frames});
   }
   return truth;
 }
@@ -290,19 +303,18 @@ EvaluatedFrame EvaluateFrame(const Detector& detector,
                              bool estimate_pose,
                              const ModelFacts& facts,
                              const std::string& db_path,
-                             bool collect_scorer_samples) {
-  DetectionInput input = DetectionInputOf(frame, db_path + " frame " + std::to_string(frame.id));
-  if (estimate_pose) input.world_from_camera.reset();
-  const DetectionResult result = detector.Detect(input);
+                             const EvaluateCommandOptions& options) {
+  const DetectionResult result =
+      detector.Detect(RoomFrameInput(room, frame, options.fusion, estimate_pose, db_path));
   Eigen::Isometry3d to_labels = Eigen::Isometry3d::Identity();
   if (estimate_pose && result.status == DetectionStatus::kDetected)
     to_labels = frame.world_from_camera * result.world_from_camera.inverse();
   EvaluatedFrame out;
   out.status = result.status;
   out.outcome.frame_id = frame.id;
-  out.outcome.truth = TruthOf(room, frame, facts);
+  out.outcome.truth = TruthOf(room, frame, facts, options.fusion);
   RecordDetections(result, frame, to_labels, facts, &out);
-  if (collect_scorer_samples) AddScorerSamples(result, frame, to_labels, &out);
+  if (options.collect_scorer_samples) AddScorerSamples(result, frame, to_labels, &out);
   return out;
 }
 
@@ -321,6 +333,7 @@ std::string StoredOptionsJson(const EvaluateCommandOptions& options,
   nlohmann::ordered_json point{{"match_m", evaluation.operating_point.match_m}};
   for (FurnitureClass c : kAllClasses) point[ClassName(c)] = evaluation.operating_point.MinScore(c);
   stored["operating_point"] = point;
+  if (options.fusion.room_frames) stored["fusion"] = options.fusion.Json();
   if (!options.extra_options_json.empty()) {
     const nlohmann::ordered_json extra = nlohmann::ordered_json::parse(options.extra_options_json);
     for (const auto& [key, value] : extra.items()) stored[key] = value;
@@ -334,6 +347,7 @@ namespace {
 
 void CheckEvaluateOptions(const EvaluateCommandOptions& options) {
   Require(options.max_frames >= 0, "max frames must be >= 0");
+  options.fusion.Check();
   Require(options.evaluation.min_in_view >= 0 && options.evaluation.min_in_view <= 1,
           "--min-in-view " + std::to_string(options.evaluation.min_in_view) + " must be in 0..1");
   Require(options.fold_count == 0 || (options.fold >= 0 && options.fold < options.fold_count),
@@ -397,13 +411,8 @@ std::vector<EvaluatedFrame> DetectFrames(DatasetDb& dataset,
     const FrameRecord& frame = room->frames[selection.frames[p].frame];
     // A frame with nothing in range (the camera against a wall, a dead
     // sensor) has no detections; its objects count as missed or ignored.
-    frames.push_back(EvaluateFrame(detector,
-                                   *room,
-                                   frame,
-                                   estimated_pose.count(frame.id) > 0,
-                                   facts,
-                                   db_path,
-                                   options.collect_scorer_samples));
+    frames.push_back(EvaluateFrame(
+        detector, *room, frame, estimated_pose.count(frame.id) > 0, facts, db_path, options));
     frames.back().position = p;
     progress.Advance();
   }
@@ -536,7 +545,7 @@ EvaluateSummary MergeEvaluation(const std::string& model_path,
     Require(slots[p].has_value() && slots[p]->outcome.frame_id == frame.id,
             shard_paths[p % shards] + ": lacks frame " + std::to_string(frame.id) + " (position " +
                 std::to_string(p) + "); rerun its task");
-    slots[p]->outcome.truth = TruthOf(selection.RoomAt(p), frame, facts);
+    slots[p]->outcome.truth = TruthOf(selection.RoomAt(p), frame, facts, options.fusion);
     frames.push_back(std::move(*slots[p]));
   }
   if (options.check_only) {
@@ -619,6 +628,10 @@ std::vector<GalleryFrame> WriteGallery(const std::string& db_path,
   DetectorOptions options = DetectorOptionsFromJson(run.options_json, db_path + " run options");
   options.all_candidates = !results.contains("confusion_layout");  // older runs: as counted
   const Detector detector(LoadTrainedModel(run.model_path), options);
+  // A run of fused frames is shown fused, as it was evaluated.
+  const FrameFusion fusion = FrameFusion::FromJson(
+      nlohmann::json::parse(run.options_json).value("fusion", nlohmann::json()),
+      db_path + " run " + std::to_string(run.id));
   WriteSceneLibrary((std::filesystem::path(out_dir) / "three").string());
   auto scene_of = [&](size_t k) {
     return k < errors.size() ? "../" + std::to_string(errors[k].frame_id) + "/scene.html"
@@ -628,6 +641,7 @@ std::vector<GalleryFrame> WriteGallery(const std::string& db_path,
     ScanSource source;
     source.db_path = db_path;
     source.frame_id = errors[k].frame_id;
+    source.fusion = fusion;
     const LoadedScan scan = LoadScan(source);
     const DetectionResult result = detector.Detect(scan.input, /*keep_debug=*/true);
     GalleryFrame g{errors[k].frame_id, errors[k].fp, errors[k].fn, "", {}};

@@ -21,6 +21,7 @@
 #include "db/dataset_db.h"  // RunRecord
 #include "reports/evaluation.h"
 #include "workbench/formats/options_file.h"  // DetectorOptionsJson, DetectorOptionsFromJson
+#include "workbench/formats/scan_file.h"     // FrameFusion
 
 namespace furn {
 
@@ -38,6 +39,10 @@ struct EvaluateCommandOptions {
   int fold_count = 0;
   DetectorOptions detector;
   EvaluationOptions evaluation;
+  // Each frame detected with the other frames of its room fused in (their
+  // known poses, optionally with a random error), seen from its own camera;
+  // its ground truth is unchanged. Off: protocol E is one frame.
+  FrameFusion fusion;
   // Keep every fitted hypothesis that passed the scorer's gates, labelled by
   // the ground truth, for training a hypothesis scorer.
   bool collect_scorer_samples = false;

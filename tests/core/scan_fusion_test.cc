@@ -1,0 +1,107 @@
+// Several posed scans as one detection input (core/scan_fusion.h), and the
+// random pose error that measures what fusion loses to odometry.
+#include "core/scan_fusion.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+
+#include "core/random.h"
+#include "tests/test_util.h"
+
+namespace furn {
+namespace {
+
+Eigen::Isometry3d Pose(double x, double y, double z, double yaw) {
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.translation() = Eigen::Vector3d(x, y, z);
+  pose.linear() = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  return pose;
+}
+
+DetectionInput Scan(const Eigen::Isometry3d& pose, std::vector<Eigen::Vector3f> points) {
+  DetectionInput scan;
+  scan.points = std::move(points);
+  scan.world_from_camera = pose;
+  return scan;
+}
+
+TEST(ScanFusion, EveryScansPointsLandInTheReferenceCamerasFrame) {
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const Eigen::Isometry3d a = Pose(0, 0, 1.2, 0.3), b = Pose(2, -1, 1.0, -1.1);
+  DetectionInput first = Scan(a, {{0.1f, 0.2f, 2.0f}, {nan, nan, nan}});
+  first.width = 2;  // organised: 2 x 1
+  first.height = 1;
+  const DetectionInput second = Scan(b, {{-0.3f, 0.1f, 1.5f}, {0.0f, 0.0f, 3.0f}});
+  const DetectionInput fused = FuseScans({first, second}, 0);
+  ASSERT_EQ(fused.points.size(), 3u);  // the NaN is left out
+  EXPECT_EQ(fused.width, 0);           // unorganised
+  EXPECT_EQ(fused.height, 0);
+  ASSERT_TRUE(fused.world_from_camera.has_value());
+  EXPECT_TRUE(fused.world_from_camera->isApprox(a));
+  // Each point keeps its place in the world.
+  const std::vector<Eigen::Vector3f> world = {(a * first.points[0].cast<double>()).cast<float>(),
+                                              (b * second.points[0].cast<double>()).cast<float>(),
+                                              (b * second.points[1].cast<double>()).cast<float>()};
+  for (size_t k = 0; k < 3; ++k) {
+    const Eigen::Vector3d back = a * fused.points[k].cast<double>();
+    EXPECT_LT((back.cast<float>() - world[k]).norm(), 1e-5f) << k;
+  }
+  // Seen from the second camera instead: its own points stay as they were.
+  const DetectionInput from_second = FuseScans({first, second}, 1);
+  EXPECT_TRUE(from_second.world_from_camera->isApprox(b));
+  EXPECT_LT((from_second.points[1] - second.points[0]).norm(), 1e-5f);
+  // One scan is returned whole, organised as it was and without a pose check.
+  DetectionInput alone = first;
+  alone.world_from_camera.reset();
+  const DetectionInput same = FuseScans({alone}, 0);
+  EXPECT_EQ(same.points.size(), 2u);
+  EXPECT_EQ(same.width, 2);
+}
+
+TEST(ScanFusion, NoScansABadReferenceAndAScanWithoutPoseAreRefused) {
+  EXPECT_NE(testing::ErrorOf([] { FuseScans({}, 0); }).find("at least one scan"),
+            std::string::npos);
+  const DetectionInput posed = Scan(Pose(0, 0, 1, 0), {{0, 0, 1}});
+  EXPECT_NE(testing::ErrorOf([&] {
+              FuseScans({posed, posed}, 2);
+            }).find("reference scan 2 of 2 scans"),
+            std::string::npos);
+  DetectionInput bare = posed;
+  bare.world_from_camera.reset();
+  EXPECT_NE(testing::ErrorOf([&] {
+              FuseScans({posed, bare}, 0);
+            }).find("scan 2 of 2 has no pose"),
+            std::string::npos);
+}
+
+TEST(ScanFusion, PoseErrorHasTheAskedSpreadAndIsTheSameForASeed) {
+  const Eigen::Isometry3d pose = Pose(1, 2, 1.1, 0.7);
+  FastRng none(3);
+  EXPECT_TRUE(PerturbedPose(pose, 0, 0, none).isApprox(pose));
+  FastRng first(11), again(11), other(12);
+  const Eigen::Isometry3d a = PerturbedPose(pose, 0.05, 0.02, first);
+  EXPECT_TRUE(a.isApprox(PerturbedPose(pose, 0.05, 0.02, again)));
+  EXPECT_FALSE(a.isApprox(PerturbedPose(pose, 0.05, 0.02, other)));
+  // Over many draws: sigma per axis, a proper rotation of about sigma per axis.
+  FastRng rng(5);
+  double squared_m = 0, squared_rad = 0;
+  constexpr int kDraws = 4000;
+  for (int k = 0; k < kDraws; ++k) {
+    const Eigen::Isometry3d p = PerturbedPose(pose, 0.05, 0.02, rng);
+    EXPECT_NEAR(p.linear().determinant(), 1.0, 1e-9);
+    ASSERT_TRUE((p.linear() * p.linear().transpose()).isIdentity(1e-9));
+    squared_m += (p.translation() - pose.translation()).squaredNorm();
+    squared_rad += std::pow(Eigen::AngleAxisd(p.linear() * pose.linear().transpose()).angle(), 2);
+  }
+  EXPECT_NEAR(std::sqrt(squared_m / (3 * kDraws)), 0.05, 0.003);
+  EXPECT_NEAR(std::sqrt(squared_rad / (3 * kDraws)), 0.02, 0.0015);
+  EXPECT_NE(testing::ErrorOf([&] { PerturbedPose(pose, -0.1, 0, rng); }).find("spreads"),
+            std::string::npos);
+  EXPECT_NE(testing::ErrorOf([&] { PerturbedPose(pose, 0, std::nan(""), rng); }).find("spreads"),
+            std::string::npos);
+}
+
+}  // namespace
+}  // namespace furn
