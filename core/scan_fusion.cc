@@ -1,23 +1,169 @@
 #include "core/scan_fusion.h"
 
+#include <pcl/kdtree/kdtree_flann.h>
+#include <pcl/registration/gicp.h>
+
 #include <cmath>
+#include <limits>
+#include <optional>
 #include <string>
+#include <unordered_set>
 
 #include "core/error.h"
+#include "core/pcl_conversion.h"
 #include "core/random.h"
+#include "core/voxel_key.h"
 
 namespace furn {
+namespace {
 
-DetectionInput FuseScans(const std::vector<DetectionInput>& scans, size_t reference) {
+void RequireScans(const std::vector<DetectionInput>& scans, size_t reference) {
   Require(!scans.empty(), "scan fusion needs at least one scan");
   Require(reference < scans.size(),
           "scan fusion: reference scan " + std::to_string(reference) + " of " +
               std::to_string(scans.size()) + " scans");
-  if (scans.size() == 1) return scans.front();
+}
+
+void RequirePoses(const std::vector<DetectionInput>& scans) {
   for (size_t k = 0; k < scans.size(); ++k)
     Require(scans[k].world_from_camera.has_value(),
             "scan fusion: scan " + std::to_string(k + 1) + " of " + std::to_string(scans.size()) +
                 " has no pose (every scan needs its camera's pose in one floor-aligned frame)");
+}
+
+// The scan's finite points within range of its sensor, in the world frame,
+// one per voxel (the first in scan order: the same cloud every time).
+std::vector<Eigen::Vector3f> ThinnedWorldPoints(const DetectionInput& scan,
+                                                const ScanRegistrationOptions& options) {
+  const Eigen::Isometry3f world_from_camera = scan.world_from_camera->cast<float>();
+  const float range = static_cast<float>(options.max_range_m);
+  std::unordered_set<uint64_t> taken;
+  std::vector<Eigen::Vector3f> kept;
+  for (const Eigen::Vector3f& p : scan.points) {
+    if (!p.allFinite() || p.norm() > range) continue;
+    const Eigen::Vector3f world = world_from_camera * p;
+    if (taken.insert(VoxelKey(world, options.voxel_m)).second) kept.push_back(world);
+  }
+  return kept;
+}
+
+struct Pairing {
+  double rms_m = std::numeric_limits<double>::quiet_NaN();
+  int paired = 0;
+};
+
+// How near `points` moved by `motion` lie to the tree's: the root mean
+// square of the nearest distances within `reach`.
+Pairing PairingOf(const pcl::KdTreeFLANN<pcl::PointXYZ>& tree,
+                  const std::vector<Eigen::Vector3f>& points,
+                  const Eigen::Isometry3f& motion,
+                  double reach) {
+  std::vector<int> index(1);
+  std::vector<float> squared(1);
+  double sum = 0;
+  Pairing out;
+  for (const Eigen::Vector3f& p : points) {
+    const Eigen::Vector3f q = motion * p;
+    if (tree.nearestKSearch(pcl::PointXYZ(q.x(), q.y(), q.z()), 1, index, squared) < 1 ||
+        squared[0] > reach * reach)
+      continue;
+    sum += squared[0];
+    ++out.paired;
+  }
+  if (out.paired > 0) out.rms_m = std::sqrt(sum / out.paired);
+  return out;
+}
+
+// GICP's motion of `points` onto the tree's cloud, or nothing when it did not
+// converge, paired worse than `before`, or moved beyond the options' bounds.
+std::optional<Eigen::Isometry3f> Alignment(const pcl::PointCloud<pcl::PointXYZ>::Ptr& target,
+                                           const pcl::KdTreeFLANN<pcl::PointXYZ>& tree,
+                                           const std::vector<Eigen::Vector3f>& points,
+                                           const Pairing& before,
+                                           const ScanRegistrationOptions& options,
+                                           Pairing* after) {
+  // In double: PCL's float instantiation trips GCC 12's -Warray-bounds in
+  // Eigen's umeyama, and the sums of a room's points are better in double.
+  pcl::GeneralizedIterativeClosestPoint<pcl::PointXYZ, pcl::PointXYZ, double> gicp;
+  gicp.setInputSource(ToPclPoints(points));
+  gicp.setInputTarget(target);
+  gicp.setMaxCorrespondenceDistance(options.max_correspondence_m);
+  gicp.setMaximumIterations(options.iterations);
+  gicp.setTransformationEpsilon(1e-8);
+  pcl::PointCloud<pcl::PointXYZ> aligned;
+  gicp.align(aligned);
+  if (!gicp.hasConverged()) return std::nullopt;
+  const Eigen::Isometry3f motion(gicp.getFinalTransformation().cast<float>());
+  *after = PairingOf(tree, points, motion, options.max_correspondence_m);
+  const double turn_deg = Eigen::AngleAxisf(motion.linear()).angle() * 180 / M_PI;
+  if (!(after->rms_m < (1 - options.min_improvement) * before.rms_m) ||
+      after->paired < before.paired / 2 || motion.translation().norm() > options.max_shift_m ||
+      turn_deg > options.max_turn_deg)
+    return std::nullopt;
+  return motion;
+}
+
+}  // namespace
+
+void ScanRegistrationOptions::Check() const {
+  auto positive = [](double value, const char* name) {
+    Require(
+        std::isfinite(value) && value > 0,
+        std::string("scan registration: ") + name + " " + std::to_string(value) + " must be > 0");
+  };
+  positive(max_range_m, "max_range_m");
+  positive(max_correspondence_m, "max_correspondence_m");
+  positive(max_shift_m, "max_shift_m");
+  positive(max_turn_deg, "max_turn_deg");
+  Require(std::isfinite(voxel_m) && voxel_m >= 0.01 && voxel_m <= 0.5,
+          "scan registration: voxel_m " + std::to_string(voxel_m) + " must be in 0.01..0.5");
+  Require(std::isfinite(min_improvement) && min_improvement >= 0 && min_improvement < 1,
+          "scan registration: min_improvement " + std::to_string(min_improvement) +
+              " must be in [0, 1)");
+  Require(min_pairs >= 10,
+          "scan registration: min_pairs " + std::to_string(min_pairs) + " must be >= 10");
+  Require(iterations >= 1 && iterations <= 1000,
+          "scan registration: iterations " + std::to_string(iterations) + " must be in 1..1000");
+}
+
+std::vector<RegisteredPose> RegisterScans(const std::vector<DetectionInput>& scans,
+                                          size_t reference,
+                                          const ScanRegistrationOptions& options) {
+  options.Check();
+  RequireScans(scans, reference);
+  RequirePoses(scans);
+  const pcl::PointCloud<pcl::PointXYZ>::Ptr target =
+      ToPclPoints(ThinnedWorldPoints(scans[reference], options));
+  pcl::KdTreeFLANN<pcl::PointXYZ> tree;
+  if (!target->empty()) tree.setInputCloud(target);
+  constexpr int kFewest = 10;  // fewer points in the reference: nothing to align to
+  std::vector<RegisteredPose> out(scans.size());
+  for (size_t k = 0; k < scans.size(); ++k) {
+    RegisteredPose& pose = out[k];
+    pose.world_from_camera = *scans[k].world_from_camera;
+    if (k == reference || static_cast<int>(target->size()) < kFewest) continue;
+    const std::vector<Eigen::Vector3f> points = ThinnedWorldPoints(scans[k], options);
+    const Pairing before =
+        PairingOf(tree, points, Eigen::Isometry3f::Identity(), options.max_correspondence_m);
+    pose.rms_before_m = pose.rms_after_m = before.rms_m;
+    pose.paired = before.paired;
+    if (before.paired < options.min_pairs) continue;
+    Pairing after;
+    const std::optional<Eigen::Isometry3f> motion =
+        Alignment(target, tree, points, before, options, &after);
+    if (!motion) continue;
+    pose.world_from_camera = motion->cast<double>() * pose.world_from_camera;
+    pose.rms_after_m = after.rms_m;
+    pose.paired = after.paired;
+    pose.refined = true;
+  }
+  return out;
+}
+
+DetectionInput FuseScans(const std::vector<DetectionInput>& scans, size_t reference) {
+  RequireScans(scans, reference);
+  if (scans.size() == 1) return scans.front();
+  RequirePoses(scans);
   const Eigen::Isometry3d camera_from_world = scans[reference].world_from_camera->inverse();
   size_t total = 0;
   for (const DetectionInput& scan : scans) total += scan.points.size();

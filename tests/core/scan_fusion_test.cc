@@ -103,5 +103,93 @@ TEST(ScanFusion, PoseErrorHasTheAskedSpreadAndIsTheSameForASeed) {
             std::string::npos);
 }
 
+// A room corner (floor, two walls) with a box on the floor, sampled every
+// 2 cm: the points a registration can lock onto in all six directions.
+std::vector<Eigen::Vector3d> CornerWithBox() {
+  std::vector<Eigen::Vector3d> world;
+  for (double a = 0; a < 4; a += 0.02) {
+    for (double b = 0; b < 4; b += 0.02) world.emplace_back(a, b, 0);  // floor
+    for (double z = 0; z < 2.5; z += 0.02) {
+      world.emplace_back(0, a, z);  // wall x = 0
+      world.emplace_back(a, 4, z);  // wall y = 4
+    }
+  }
+  for (double a = 0; a < 0.8; a += 0.02) {
+    for (double b = 0; b < 0.8; b += 0.02) {
+      world.emplace_back(1.6 + a, 1.8 + b, 0.8);  // the box's top and two sides
+      world.emplace_back(1.6, 1.8 + a, b);
+      world.emplace_back(1.6 + a, 1.8, b);
+    }
+  }
+  return world;
+}
+
+// The points with x in [low, high) as a scan from `pose` (camera frame).
+DetectionInput ScanOf(const std::vector<Eigen::Vector3d>& world,
+                      const Eigen::Isometry3d& pose,
+                      double low,
+                      double high) {
+  DetectionInput scan;
+  const Eigen::Isometry3d camera_from_world = pose.inverse();
+  for (const Eigen::Vector3d& p : world)
+    if (p.x() >= low && p.x() < high) scan.points.push_back((camera_from_world * p).cast<float>());
+  scan.world_from_camera = pose;
+  return scan;
+}
+
+TEST(ScanRegistration, OdometrysErrorIsTakenOutAndAStrangerIsLeftAlone) {
+  const std::vector<Eigen::Vector3d> world = CornerWithBox();
+  const Eigen::Isometry3d a = Pose(3.2, 1.0, 1.4, 2.4), b = Pose(2.6, 0.6, 1.3, 1.9);
+  const DetectionInput first = ScanOf(world, a, 0, 3);
+  DetectionInput second = ScanOf(world, b, 0.8, 4);
+  // Odometry's error on the second pose: 3 cm and 2 degrees.
+  Eigen::Isometry3d off = b;
+  off.translation() += Eigen::Vector3d(0.02, -0.02, 0.01);
+  off.linear() = (Eigen::AngleAxisd(0.03, Eigen::Vector3d::UnitZ()) *
+                  Eigen::AngleAxisd(0.01, Eigen::Vector3d::UnitX()))
+                     .toRotationMatrix() *
+                 b.linear();
+  second.world_from_camera = off;
+  const std::vector<RegisteredPose> poses = RegisterScans({first, second}, 0, {});
+  ASSERT_EQ(poses.size(), 2u);
+  EXPECT_FALSE(poses[0].refined);
+  EXPECT_TRUE(poses[0].world_from_camera.isApprox(a));
+  ASSERT_TRUE(poses[1].refined);
+  EXPECT_LT((poses[1].world_from_camera.translation() - b.translation()).norm(), 0.01);
+  EXPECT_LT(Eigen::AngleAxisd(poses[1].world_from_camera.linear() * b.linear().transpose()).angle(),
+            0.3 * M_PI / 180);
+  EXPECT_LT(poses[1].rms_after_m, poses[1].rms_before_m);
+  EXPECT_GT(poses[1].paired, 1000);
+  // Registered again from its own result: the same poses (deterministic).
+  const std::vector<RegisteredPose> again = RegisterScans({first, second}, 0, {});
+  EXPECT_TRUE(again[1].world_from_camera.isApprox(poses[1].world_from_camera, 1e-12));
+
+  // A scan of somewhere else pairs with nothing: its pose stays.
+  DetectionInput stranger = second;
+  stranger.world_from_camera->translation() += Eigen::Vector3d(20, 0, 0);
+  const std::vector<RegisteredPose> alone = RegisterScans({first, stranger}, 0, {});
+  EXPECT_FALSE(alone[1].refined);
+  EXPECT_TRUE(alone[1].world_from_camera.isApprox(*stranger.world_from_camera));
+  EXPECT_EQ(alone[1].paired, 0);
+
+  ScanRegistrationOptions bad;
+  bad.voxel_m = 0;
+  EXPECT_NE(testing::ErrorOf([&] {
+              RegisterScans({first, second}, 0, bad);
+            }).find("voxel_m"),
+            std::string::npos);
+  bad = {};
+  bad.iterations = 0;
+  EXPECT_NE(testing::ErrorOf([&] { bad.Check(); }).find("iterations 0 must be in 1..1000"),
+            std::string::npos);
+  bad = {};
+  bad.min_pairs = 5;
+  EXPECT_NE(testing::ErrorOf([&] { bad.Check(); }).find("min_pairs 5 must be >= 10"),
+            std::string::npos);
+  bad = {};
+  bad.min_improvement = 1;
+  EXPECT_NE(testing::ErrorOf([&] { bad.Check(); }).find("min_improvement"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace furn

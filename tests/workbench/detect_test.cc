@@ -672,6 +672,12 @@ TEST_F(DetectTest, FusedScansFindWhatOneScanDoesNotSee) {
   EXPECT_NE(json["input"].get<std::string>().find("2 scans fused"), std::string::npos);
   ASSERT_EQ(json["detections"].size(), 2u) << json.dump();
   for (const nlohmann::json& d : json["detections"]) EXPECT_EQ(d["class"], "chair");
+  const testing::CommandResult registered = testing::RunCommand(
+      detect + dir + "/second.pcd " + dir + "/first.pcd --floor-aligned --fuse --fuse-register " +
+      "--out " + dir + "/registered.json");
+  ASSERT_EQ(registered.exit_code, 0) << registered.output;
+  EXPECT_EQ(nlohmann::json::parse(ReadFileBytes(dir + "/registered.json"))["detections"].size(),
+            2u);
   // Bad uses: one line each, exit code 1, nothing written.
   auto refused = [&](const std::string& arguments, const std::string& expected) {
     const testing::CommandResult bad =
@@ -684,6 +690,8 @@ TEST_F(DetectTest, FusedScansFindWhatOneScanDoesNotSee) {
   refused(dir + "/second.pcd " + dir + "/first.pcd --fuse",  // no floor-aligned pose
           "second.pcd: --fuse needs every scan's pose");
   refused("--cloud " + dir + "/first.pcd --fuse", "--fuse needs two or more scans");
+  refused(dir + "/second.pcd " + dir + "/first.pcd --floor-aligned --fuse-register",
+          "--fuse-register applies to --fuse");
 }
 
 TEST_F(DetectTest, BatchOverGlobsTumListsAndBopFoldersGivesJsonLines) {

@@ -104,6 +104,11 @@ int RunDetect(int argc, char** argv) {
                "One detection in several scans at once, seen from the last one's camera: each "
                "a world-frame cloud with its own pose (VIEWPOINT, --floor-aligned); with --db "
                "and --frame, the frame with its room's other frames");
+  bool fuse_register = false;
+  app.add_flag("--fuse-register",
+               fuse_register,
+               "With --fuse: refine the scans' poses against the last one's points first "
+               "(generalized ICP), for poses from odometry");
   app.add_flag("--quiet", quiet, "Print nothing but errors");
   if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
   Progress::SetQuiet(quiet);  // batches and bags show progress unless --quiet
@@ -121,6 +126,8 @@ int RunDetect(int argc, char** argv) {
   run.explain = explain;
   run.timings = timings;
   run.fuse = fuse && !inputs.empty();
+  run.fuse_register = fuse_register;
+  Require(!fuse_register || fuse, "--fuse-register applies to --fuse");
 
   if (!bag.bag_path.empty()) {
     Require(inputs.empty() && source.cloud_path.empty() && source.depth_path.empty() &&
@@ -147,6 +154,7 @@ int RunDetect(int argc, char** argv) {
     Require(!fuse || !source.db_path.empty(),
             "--fuse needs two or more scans as inputs, or --db with --frame");
     source.fusion.room_frames = fuse;
+    source.fusion.register_poses = fuse_register;
     sources.push_back(source);
   }
   // One plain scan file, or --cloud/--depth/--db: one indented JSON; any

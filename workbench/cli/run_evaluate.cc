@@ -321,6 +321,10 @@ void AddFusionOptions(CLI::App* app, FrameFusion* fusion) {
       [fusion](const std::string& text) { ParsePoseNoise(text, fusion); },
       "M,DEG: with --fuse-room-frames, the other frames' poses with a random error of sigma M "
       "metres along and DEG degrees about each axis (odometry's); the same error every run");
+  app->add_flag("--fuse-register",
+                fusion->register_poses,
+                "With --fuse-room-frames: refine the other frames' poses against the frame's "
+                "points first (generalized ICP), after any --fuse-pose-noise");
 }
 
 }  // namespace

@@ -82,12 +82,16 @@ void FrameFusion::Check() const {
   spread(pose_noise_deg, 45, "degrees");
   Require(room_frames || (pose_noise_m == 0 && pose_noise_deg == 0),
           "--fuse-pose-noise applies to fused frames (--fuse-room-frames)");
+  Require(room_frames || !register_poses,
+          "--fuse-register applies to fused frames (--fuse-room-frames)");
 }
 
 nlohmann::json FrameFusion::Json() const {
   if (!room_frames) return nullptr;
-  return nlohmann::ordered_json{
-      {"room_frames", true}, {"pose_noise_m", pose_noise_m}, {"pose_noise_deg", pose_noise_deg}};
+  return nlohmann::ordered_json{{"room_frames", true},
+                                {"pose_noise_m", pose_noise_m},
+                                {"pose_noise_deg", pose_noise_deg},
+                                {"register", register_poses}};
 }
 
 FrameFusion FrameFusion::FromJson(const nlohmann::json& json, const std::string& what) {
@@ -97,6 +101,7 @@ FrameFusion FrameFusion::FromJson(const nlohmann::json& json, const std::string&
     fusion.room_frames = json.at("room_frames").get<bool>();
     fusion.pose_noise_m = json.at("pose_noise_m").get<double>();
     fusion.pose_noise_deg = json.at("pose_noise_deg").get<double>();
+    fusion.register_poses = json.value("register", false);
   } catch (const nlohmann::json::exception& e) {
     throw InputError(what + ": fusion options: " + e.what());
   }
@@ -130,6 +135,19 @@ DetectionInput DetectionInputOf(const FrameRecord& frame, const std::string& wha
   return input;
 }
 
+namespace {
+
+// The scans with their poses refined against the reference's points.
+std::vector<DetectionInput> WithRegisteredPoses(std::vector<DetectionInput> scans,
+                                                size_t reference) {
+  const std::vector<RegisteredPose> poses =
+      RegisterScans(scans, reference, ScanRegistrationOptions{});
+  for (size_t k = 0; k < scans.size(); ++k) scans[k].world_from_camera = poses[k].world_from_camera;
+  return scans;
+}
+
+}  // namespace
+
 DetectionInput RoomFrameInput(const RoomRecord& room,
                               const FrameRecord& frame,
                               const FrameFusion& fusion,
@@ -160,10 +178,11 @@ DetectionInput RoomFrameInput(const RoomRecord& room,
                                                      rng);
     }
   }
-  return FuseScans(scans, reference);
+  return FuseScans(fusion.register_poses ? WithRegisteredPoses(scans, reference) : scans,
+                   reference);
 }
 
-LoadedScan FuseLoadedScans(const std::vector<LoadedScan>& scans) {
+LoadedScan FuseLoadedScans(const std::vector<LoadedScan>& scans, bool register_poses) {
   Require(!scans.empty(), "--fuse needs scans");
   std::vector<DetectionInput> inputs;
   std::string names;
@@ -176,7 +195,9 @@ LoadedScan FuseLoadedScans(const std::vector<LoadedScan>& scans) {
     names += (names.empty() ? "" : ", ") + scan.description;
   }
   LoadedScan fused = scans.back();
-  fused.input = FuseScans(inputs, inputs.size() - 1);
+  const size_t reference = inputs.size() - 1;
+  fused.input =
+      FuseScans(register_poses ? WithRegisteredPoses(inputs, reference) : inputs, reference);
   fused.ground_truth.clear();
   fused.description = std::to_string(scans.size()) + " scans fused (" + names + "), seen from " +
                       scans.back().description;

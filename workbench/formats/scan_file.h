@@ -30,12 +30,16 @@ struct FrameFusion {
   bool room_frames = false;
   double pose_noise_m = 0;    // sigma of the error along each axis
   double pose_noise_deg = 0;  // sigma of the rotation about each axis
+  // The other frames' poses refined against this frame's points first
+  // (RegisterScans), after the error is drawn.
+  bool register_poses = false;
 
   // Throws InputError naming the value for a spread that is negative, not
-  // finite, or beyond 1 m / 45 degrees, or a spread without room_frames.
+  // finite, or beyond 1 m / 45 degrees, or a spread or registration without
+  // room_frames.
   void Check() const;
   // What the run stores: null when off, else {"room_frames", "pose_noise_m",
-  // "pose_noise_deg"}; and back (InputError naming `what`).
+  // "pose_noise_deg", "register"}; and back (InputError naming `what`).
   nlohmann::json Json() const;
   static FrameFusion FromJson(const nlohmann::json& json, const std::string& what);
 };
@@ -110,10 +114,11 @@ DetectionInput RoomFrameInput(const RoomRecord& room,
                               const std::string& db_path);
 
 // Several scans with their own poses (world-frame clouds) as one: every
-// scan's points in the last one's camera (FuseScans); its camera, its pose
-// source and a description naming them all. Throws InputError naming the
-// first scan without a pose in a floor-aligned frame.
-LoadedScan FuseLoadedScans(const std::vector<LoadedScan>& scans);
+// scan's points in the last one's camera (FuseScans), their poses first
+// refined against it when `register_poses` (RegisterScans); its camera, its
+// pose source and a description naming them all. Throws InputError naming
+// the first scan without a pose in a floor-aligned frame.
+LoadedScan FuseLoadedScans(const std::vector<LoadedScan>& scans, bool register_poses);
 
 // "kinect1" or "fx,fy,cx,cy" for an image of width x height.
 CameraIntrinsics ParseIntrinsics(const std::string& text, int width, int height);

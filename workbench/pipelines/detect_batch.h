@@ -34,6 +34,7 @@ struct DetectRunOptions {
   // Several scans with their own poses: one detection in all of them fused
   // (FuseLoadedScans), seen from the last one's camera, as for one scan.
   bool fuse = false;
+  bool fuse_register = false;  // their poses refined against the last one's points first
 };
 
 // Whether `inputs` (the command's positional scans) expanded into `sources`
