@@ -128,6 +128,34 @@ class FurnidetTest(unittest.TestCase):
                                        world_from_camera=frame.world_from_camera)
         self.assertEqual(len(c.detections), len(a.detections))
 
+    def test_fused_halves_of_a_scan_are_the_scan(self):
+        frame = self.dataset.frame(self.dataset.frame_ids("test")[0])
+        depth, K = frame.depth, frame.K
+        v, u = np.mgrid[0:depth.shape[0], 0:depth.shape[1]]
+        z = np.where(depth > 0, depth, np.nan)
+        points = np.stack([(u - K[0, 2]) / K[0, 0] * z, (v - K[1, 2]) / K[1, 1] * z, z],
+                          axis=-1).reshape(-1, 3).astype(np.float32)
+        points = points[np.isfinite(points).all(axis=1)]
+        pose = frame.world_from_camera
+        whole = self.detector.detect_points(points, world_from_camera=pose)
+        half = len(points) // 2
+        fused = self.detector.detect_fused([(points[:half], pose), (points[half:], pose)])
+        self.assertEqual(fused.status, whole.status)
+        rf, rw = furnidet.records(fused.detections), furnidet.records(whole.detections)
+        self.assertEqual(list(rf.cls), list(rw.cls))
+        np.testing.assert_allclose(rf.x, rw.x, atol=1e-5)
+        np.testing.assert_allclose(rf.score, rw.score, atol=1e-6)
+        # Registration leaves poses that already agree as they are.
+        again = self.detector.detect_fused([(points[:half], pose), (points[half:], pose)],
+                                           register=True)
+        self.assertEqual(len(again.detections), len(whole.detections))
+        with self.assertRaisesRegex(ValueError, "has no pose"):
+            self.detector.detect_fused([(points, None), (points, pose)])
+        with self.assertRaisesRegex(ValueError, "at least one scan"):
+            self.detector.detect_fused([])
+        with self.assertRaisesRegex(ValueError, "pair"):
+            self.detector.detect_fused([(points,)])
+
     def test_records_and_unknown_pose(self):
         frame = self.dataset.frame(self.dataset.frame_ids()[1])
         result = self.detector.detect_depth(frame.depth, frame.K)  # the floor is found

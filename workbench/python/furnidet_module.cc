@@ -31,6 +31,7 @@
 #include "core/detector.h"
 #include "core/error.h"
 #include "core/furniture_class.h"
+#include "core/scan_fusion.h"
 #include "core/trainer.h"
 #include "db/dataset_db.h"
 #include "db/sqlite.h"
@@ -378,6 +379,35 @@ class PyDetector {
 
   // Camera-frame points, (N, 3) or organised (H, W, 3), metres; NaN: none.
   PyResult DetectPoints(const py::array& points, const py::object& world_from_camera) const {
+    return Run(InputOfPoints(points, world_from_camera));
+  }
+
+  // Several (points, world_from_camera) scans as one (FuseScans), seen from
+  // the last one's camera; their poses refined first when `register_poses`.
+  PyResult DetectFused(const py::list& scans, bool register_poses) const {
+    std::vector<DetectionInput> inputs;
+    for (const py::handle& scan : scans) {
+      const py::tuple pair = py::reinterpret_borrow<py::object>(scan).cast<py::tuple>();
+      if (pair.size() != 2)
+        throw InputError("each scan must be a (points, world_from_camera) pair");
+      inputs.push_back(InputOfPoints(pair[0].cast<py::array>(), pair[1]));
+    }
+    if (inputs.empty()) throw InputError("detect_fused needs at least one scan");
+    const size_t reference = inputs.size() - 1;
+    if (register_poses && inputs.size() > 1) {
+      const std::vector<RegisteredPose> poses =
+          RegisterScans(inputs, reference, ScanRegistrationOptions{});
+      for (size_t k = 0; k < inputs.size(); ++k)
+        inputs[k].world_from_camera = poses[k].world_from_camera;
+    }
+    return Run(FuseScans(inputs, reference));
+  }
+
+  std::vector<std::string> ModelNames() const { return detector_.model().model_names; }
+
+ private:
+  static DetectionInput InputOfPoints(const py::array& points,
+                                      const py::object& world_from_camera) {
     const auto xyz = py::array_t<float, py::array::c_style | py::array::forcecast>::ensure(points);
     if (!xyz) throw InputError("points must hold numbers");
     DetectionInput input;
@@ -399,12 +429,9 @@ class PyDetector {
     if (!world_from_camera.is_none()) {
       input.world_from_camera = IsometryFromArray(world_from_camera, "world_from_camera");
     }
-    return Run(input);
+    return input;
   }
 
-  std::vector<std::string> ModelNames() const { return detector_.model().model_names; }
-
- private:
   PyResult Run(const DetectionInput& input) const {
     py::gil_scoped_release release;
     PyResult out;
@@ -602,6 +629,13 @@ PYBIND11_MODULE(_furnidet, m) {
            py::arg("points"),
            py::arg("world_from_camera") = py::none(),
            "Detect in camera-frame points, (N, 3) or organised (H, W, 3), metres.")
+      .def("detect_fused",
+           &PyDetector::DetectFused,
+           py::arg("scans"),
+           py::arg("register") = false,
+           "Detect in several posed scans at once: a list of (points, world_from_camera) pairs, "
+           "seen from the last one's camera; register=True refines their poses first "
+           "(generalized ICP).")
       .def_property_readonly("model_names", &PyDetector::ModelNames);
 
   m.def("evaluate",
