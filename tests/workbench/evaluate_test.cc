@@ -423,6 +423,13 @@ void FusedRoomFramesAreOneInputAndAStoredOption(const SmallDatasetAndModel& data
     EXPECT_EQ(std::count(bad.output.begin(), bad.output.end(), '\n'), 1) << bad.output;
   }
   EXPECT_EQ(DatasetDb(db, DatasetDb::Mode::kReadOnly).Runs().size(), 3u);  // nothing stored
+  // crossval refuses it before training a fold.
+  const testing::CommandResult crossval = Workbench("crossval --quiet --db " + db + " --work-dir " +
+                                                    data.dir + "/folds --fuse-register");
+  EXPECT_NE(crossval.exit_code, 0);
+  EXPECT_NE(crossval.output.find("--fuse-register applies to fused frames"), std::string::npos)
+      << crossval.output;
+  EXPECT_FALSE(std::filesystem::exists(data.dir + "/folds"));
   const testing::CommandResult shown =
       Workbench("detect --quiet --model " + data.model + " --db " + db +
                 " --frame 1 --fuse --out " + data.dir + "/fused.json");

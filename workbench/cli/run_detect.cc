@@ -67,6 +67,42 @@ void AddBagFlags(CLI::App* app_pointer, BagScanOptions* bag_pointer, std::string
                  "on /furnidet/detections");
 }
 
+// Several posed scans detected at once (--fuse), their poses refined first.
+void AddFuseFlags(CLI::App* app, bool* fuse, bool* fuse_register) {
+  app->add_flag("--fuse",
+                *fuse,
+                "One detection in several scans at once, seen from the last one's camera: each "
+                "a world-frame cloud with its own pose (VIEWPOINT, --floor-aligned); with --db "
+                "and --frame, the frame with its room's other frames");
+  app->add_flag("--fuse-register",
+                *fuse_register,
+                "With --fuse: refine the scans' poses against the last one's points first "
+                "(generalized ICP), for poses from odometry");
+}
+
+// The scans: the positional inputs, or the one of --cloud/--depth/--db
+// (with --fuse, a --db frame brings its room's frames).
+std::vector<ScanSource> ScanSourcesOf(const CLI::App& app,
+                                      const std::vector<std::string>& inputs,
+                                      ScanSource source,
+                                      bool fuse,
+                                      bool fuse_register) {
+  if (inputs.empty()) {
+    Require(!fuse || !source.db_path.empty(),
+            "--fuse needs two or more scans as inputs, or --db with --frame");
+    source.fusion.room_frames = fuse;
+    source.fusion.register_poses = fuse_register;
+    return {source};
+  }
+  Require(source.cloud_path.empty() && source.depth_path.empty() && source.db_path.empty(),
+          "give scans as inputs or with --cloud/--depth/--db, not both");
+  std::vector<ScanSource> sources = ExpandScanInputs(
+      inputs, source, app.count("--intrinsics") > 0, app.count("--depth-scale") > 0);
+  Require(!fuse || sources.size() >= 2,
+          "--fuse needs two or more scans (or --db with --frame: its room's frames)");
+  return sources;
+}
+
 }  // namespace
 
 int RunDetect(int argc, char** argv) {
@@ -98,17 +134,8 @@ int RunDetect(int argc, char** argv) {
   app.add_option("--repeat", repeat, "Run N times and report median stage times (benchmark)")
       ->capture_default_str();
   DetectorFlags detector_flags(&app);
-  bool fuse = false;
-  app.add_flag("--fuse",
-               fuse,
-               "One detection in several scans at once, seen from the last one's camera: each "
-               "a world-frame cloud with its own pose (VIEWPOINT, --floor-aligned); with --db "
-               "and --frame, the frame with its room's other frames");
-  bool fuse_register = false;
-  app.add_flag("--fuse-register",
-               fuse_register,
-               "With --fuse: refine the scans' poses against the last one's points first "
-               "(generalized ICP), for poses from odometry");
+  bool fuse = false, fuse_register = false;
+  AddFuseFlags(&app, &fuse, &fuse_register);
   app.add_flag("--quiet", quiet, "Print nothing but errors");
   if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
   Progress::SetQuiet(quiet);  // batches and bags show progress unless --quiet
@@ -141,22 +168,7 @@ int RunDetect(int argc, char** argv) {
   Require(out_bag.empty() && bag.topic.empty() && bag.camera_info_topic.empty(),
           "--topic, --camera-info and --out-bag apply to --bag");
 
-  // The scans: the positional inputs, or the one of --cloud/--depth/--db.
-  std::vector<ScanSource> sources;
-  if (!inputs.empty()) {
-    Require(source.cloud_path.empty() && source.depth_path.empty() && source.db_path.empty(),
-            "give scans as inputs or with --cloud/--depth/--db, not both");
-    sources = ExpandScanInputs(
-        inputs, source, app.count("--intrinsics") > 0, app.count("--depth-scale") > 0);
-    Require(!fuse || sources.size() >= 2,
-            "--fuse needs two or more scans (or --db with --frame: its room's frames)");
-  } else {
-    Require(!fuse || !source.db_path.empty(),
-            "--fuse needs two or more scans as inputs, or --db with --frame");
-    source.fusion.room_frames = fuse;
-    source.fusion.register_poses = fuse_register;
-    sources.push_back(source);
-  }
+  const std::vector<ScanSource> sources = ScanSourcesOf(app, inputs, source, fuse, fuse_register);
   // One plain scan file, or --cloud/--depth/--db: one indented JSON; any
   // other inputs (several, a glob, a list, a folder): JSON lines.
   return DetectScans(sources, IsBatch(inputs, sources), run);

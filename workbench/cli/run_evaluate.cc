@@ -376,6 +376,7 @@ int RunEvaluate(int argc, char** argv) {
   if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
   ApplyGlobalFlags(catalog_flags);  // --quiet: no progress bar
   cluster.Check();
+  options.fusion.Check();  // before an array job is submitted
   Require(shard.empty() == options.shard_out.empty(), "--shard i/N and --shard-out go together");
   Require(shard.empty() || merge.empty(), "--shard and --merge-shards do not go together");
   Require(!(compare_vocab && (cluster.Active() || !shard.empty() || !merge.empty())),
@@ -470,6 +471,7 @@ int RunCrossval(int argc, char** argv) {
   if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
   ApplyGlobalFlags(catalog_flags);
   cluster.Check();
+  options.evaluate.fusion.Check();  // before any fold is trained
   if (cluster.Active()) {
     Require(app.count("--train-fold") == 0, "--train-fold and --shards do not go together");
     return RunArrayJob(cluster, CrossvalArrayJob(cluster, db_path, argc, argv));
