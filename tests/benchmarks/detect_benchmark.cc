@@ -3,7 +3,10 @@
 // verification, suppression) over frames of a generated dataset, with the
 // model the main job trains. Target (SPEC.md §13): median <= 100 ms on
 // 2 cores. Reports the median total and per-stage medians as counters.
-// BM_DetectRealFrame does the same over the real scans of data/real/.
+// BM_DetectRealFrame does the same over the real scans of data/real/;
+// BM_DetectFusedFrame over the same frames each fused with its room's
+// other frames (detect --fuse), BM_RegisterRoomFrames times the registration
+// of those room-mates (--fuse-register) with odometry-like pose error.
 //
 //   bash tools/quickstart.sh main      # makes out/model.fcm and out/synth.db
 //   build/tests/benchmarks/detect_benchmark
@@ -16,6 +19,8 @@
 #include <map>
 
 #include "core/detector.h"
+#include "core/random.h"
+#include "core/scan_fusion.h"
 #include "db/dataset_db.h"
 #include "workbench/formats/scan_file.h"
 #include "workbench/pipelines/import_real.h"
@@ -49,36 +54,104 @@ void DetectInTurn(const Detector& detector,
   for (const auto& [stage, ms] : stages) state.counters[stage + "_ms"] = Median(ms);
 }
 
-void BM_DetectFrame(benchmark::State& state) {
-  const std::string model_path = FromEnv("FURN_BENCH_MODEL", FURN_SOURCE_DIR "/out/model.fcm");
-  const std::string db_path = FromEnv("FURN_BENCH_DB", FURN_SOURCE_DIR "/out/synth.db");
-  if (!std::filesystem::exists(model_path) || !std::filesystem::exists(db_path)) {
-    state.SkipWithError(("needs " + model_path + " and " + db_path +
-                         " (run the main job, or set FURN_BENCH_MODEL / FURN_BENCH_DB)")
-                            .c_str());
-    return;
+// The model and dataset the benchmarks read, or a skip naming them.
+bool FindModelAndDataset(benchmark::State& state, std::string* model_path, std::string* db_path) {
+  *model_path = FromEnv("FURN_BENCH_MODEL", FURN_SOURCE_DIR "/out/model.fcm");
+  *db_path = FromEnv("FURN_BENCH_DB", FURN_SOURCE_DIR "/out/synth.db");
+  if (std::filesystem::exists(*model_path) && std::filesystem::exists(*db_path)) return true;
+  state.SkipWithError(("needs " + *model_path + " and " + *db_path +
+                       " (run the main job, or set FURN_BENCH_MODEL / FURN_BENCH_DB)")
+                          .c_str());
+  return false;
+}
+
+// Every 3rd frame of the dataset (up to 27; every frame index of the rooms
+// is represented), loaded once as `detect --db` loads it (with `fusion`).
+std::vector<LoadedScan> EveryThirdFrame(const std::string& db_path, const FrameFusion& fusion) {
+  std::vector<LoadedScan> scans;
+  DatasetDb db(db_path, DatasetDb::Mode::kReadOnly);
+  for (int64_t room : db.RoomIds()) {
+    for (const FrameRecord& frame : db.ReadRoom(room, false).frames) {
+      if (frame.id % 3 != 0 || scans.size() >= 27) continue;
+      ScanSource source;
+      source.db_path = db_path;
+      source.frame_id = frame.id;
+      source.fusion = fusion;
+      scans.push_back(LoadScan(source));
+    }
   }
+  return scans;
+}
+
+void BM_DetectFrame(benchmark::State& state) {
+  std::string model_path, db_path;
+  if (!FindModelAndDataset(state, &model_path, &db_path)) return;
   DetectorOptions options;
   options.torch_threads = static_cast<int>(state.range(0));  // the learned path's network
   options.learned_mirror_average = state.range(1) != 0;
   const Detector detector(LoadTrainedModel(model_path), options);
-  // Every 3rd frame of the dataset (up to 27; every frame index of the
-  // rooms is represented), loaded once.
-  std::vector<LoadedScan> scans;
+  DetectInTurn(detector, EveryThirdFrame(db_path, FrameFusion{}), state);
+}
+
+// The same frames, each with its room's other frames fused in (exact poses),
+// with the defaults (one torch thread, the mirror average).
+void BM_DetectFusedFrame(benchmark::State& state) {
+  std::string model_path, db_path;
+  if (!FindModelAndDataset(state, &model_path, &db_path)) return;
+  const Detector detector(LoadTrainedModel(model_path), DetectorOptions{});
+  FrameFusion fusion;
+  fusion.room_frames = true;
+  DetectInTurn(detector, EveryThirdFrame(db_path, fusion), state);
+}
+BENCHMARK(BM_DetectFusedFrame)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(27);
+
+// Registering each selected frame's room-mates against it (RegisterScans,
+// the default options), their poses off by 2 cm / 1 degree per axis as
+// `evaluate --fuse-pose-noise 0.02,1` draws them; the share of poses refined
+// as a counter.
+void BM_RegisterRoomFrames(benchmark::State& state) {
+  std::string model_path, db_path;
+  if (!FindModelAndDataset(state, &model_path, &db_path)) return;
+  struct Room {
+    std::vector<DetectionInput> scans;
+    size_t reference = 0;
+  };
+  std::vector<Room> rooms;
   {
     DatasetDb db(db_path, DatasetDb::Mode::kReadOnly);
-    for (int64_t room : db.RoomIds()) {
-      for (const FrameRecord& frame : db.ReadRoom(room, false).frames) {
-        if (frame.id % 3 != 0 || scans.size() >= 27) continue;
-        ScanSource source;
-        source.db_path = db_path;
-        source.frame_id = frame.id;
-        scans.push_back(LoadScan(source));
+    for (int64_t id : db.RoomIds()) {
+      const RoomRecord room = db.ReadRoom(id, /*with_images=*/true);
+      for (const FrameRecord& frame : room.frames) {
+        if (frame.id % 3 != 0 || rooms.size() >= 27 || room.frames.size() < 2) continue;
+        Room r;
+        for (const FrameRecord& other : room.frames) {
+          if (other.id == frame.id) r.reference = r.scans.size();
+          r.scans.push_back(DetectionInputOf(other, "frame"));
+          if (other.id == frame.id) continue;
+          FastRng rng(DeriveSeed(frame.seed, static_cast<uint64_t>(other.frame_index)));
+          r.scans.back().world_from_camera =
+              PerturbedPose(*r.scans.back().world_from_camera, 0.02, M_PI / 180, rng);
+        }
+        rooms.push_back(std::move(r));
       }
     }
   }
-  DetectInTurn(detector, scans, state);
+  size_t next = 0;
+  int refined = 0, registered = 0;
+  for (auto _ : state) {
+    const Room& room = rooms[next++ % rooms.size()];
+    const std::vector<RegisteredPose> poses =
+        RegisterScans(room.scans, room.reference, ScanRegistrationOptions{});
+    for (size_t k = 0; k < poses.size(); ++k) {
+      if (k == room.reference) continue;
+      ++registered;
+      refined += poses[k].refined;
+    }
+  }
+  state.counters["frames"] = static_cast<double>(rooms.size());
+  state.counters["refined_share"] = registered > 0 ? static_cast<double>(refined) / registered : 0;
 }
+BENCHMARK(BM_RegisterRoomFrames)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(27);
 // Args: the network's torch threads and --mirror-average (learned voting;
 // the codebook path ignores both).
 BENCHMARK(BM_DetectFrame)
