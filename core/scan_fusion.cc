@@ -160,6 +160,14 @@ std::vector<RegisteredPose> RegisterScans(const std::vector<DetectionInput>& sca
   return out;
 }
 
+std::vector<DetectionInput> WithRegisteredPoses(std::vector<DetectionInput> scans,
+                                                size_t reference,
+                                                const ScanRegistrationOptions& options) {
+  const std::vector<RegisteredPose> poses = RegisterScans(scans, reference, options);
+  for (size_t k = 0; k < scans.size(); ++k) scans[k].world_from_camera = poses[k].world_from_camera;
+  return scans;
+}
+
 DetectionInput FuseScans(const std::vector<DetectionInput>& scans, size_t reference) {
   RequireScans(scans, reference);
   if (scans.size() == 1) return scans.front();

@@ -66,6 +66,12 @@ std::vector<RegisteredPose> RegisterScans(const std::vector<DetectionInput>& sca
                                           size_t reference,
                                           const ScanRegistrationOptions& options);
 
+// The scans with their poses as RegisterScans refines them (what fusion with
+// registration fuses).
+std::vector<DetectionInput> WithRegisteredPoses(std::vector<DetectionInput> scans,
+                                                size_t reference,
+                                                const ScanRegistrationOptions& options);
+
 // Every scan's finite points in the camera frame of scans[reference], as one
 // unorganised cloud with that scan's pose: detection sees the place from the
 // reference camera (its grid, its range, its view for `in_view`) with the

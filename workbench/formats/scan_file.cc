@@ -135,19 +135,6 @@ DetectionInput DetectionInputOf(const FrameRecord& frame, const std::string& wha
   return input;
 }
 
-namespace {
-
-// The scans with their poses refined against the reference's points.
-std::vector<DetectionInput> WithRegisteredPoses(std::vector<DetectionInput> scans,
-                                                size_t reference) {
-  const std::vector<RegisteredPose> poses =
-      RegisterScans(scans, reference, ScanRegistrationOptions{});
-  for (size_t k = 0; k < scans.size(); ++k) scans[k].world_from_camera = poses[k].world_from_camera;
-  return scans;
-}
-
-}  // namespace
-
 DetectionInput RoomFrameInput(const RoomRecord& room,
                               const FrameRecord& frame,
                               const FrameFusion& fusion,
@@ -178,7 +165,9 @@ DetectionInput RoomFrameInput(const RoomRecord& room,
                                                      rng);
     }
   }
-  return FuseScans(fusion.register_poses ? WithRegisteredPoses(scans, reference) : scans,
+  return FuseScans(fusion.register_poses
+                       ? WithRegisteredPoses(scans, reference, ScanRegistrationOptions{})
+                       : scans,
                    reference);
 }
 
@@ -196,8 +185,9 @@ LoadedScan FuseLoadedScans(const std::vector<LoadedScan>& scans, bool register_p
   }
   LoadedScan fused = scans.back();
   const size_t reference = inputs.size() - 1;
-  fused.input =
-      FuseScans(register_poses ? WithRegisteredPoses(inputs, reference) : inputs, reference);
+  fused.input = FuseScans(
+      register_poses ? WithRegisteredPoses(inputs, reference, ScanRegistrationOptions{}) : inputs,
+      reference);
   fused.ground_truth.clear();
   fused.description = std::to_string(scans.size()) + " scans fused (" + names + "), seen from " +
                       scans.back().description;

@@ -394,12 +394,8 @@ class PyDetector {
     }
     if (inputs.empty()) throw InputError("detect_fused needs at least one scan");
     const size_t reference = inputs.size() - 1;
-    if (register_poses && inputs.size() > 1) {
-      const std::vector<RegisteredPose> poses =
-          RegisterScans(inputs, reference, ScanRegistrationOptions{});
-      for (size_t k = 0; k < inputs.size(); ++k)
-        inputs[k].world_from_camera = poses[k].world_from_camera;
-    }
+    if (register_poses && inputs.size() > 1)
+      inputs = WithRegisteredPoses(std::move(inputs), reference, ScanRegistrationOptions{});
     return Run(FuseScans(inputs, reference));
   }
 
