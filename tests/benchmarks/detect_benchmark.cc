@@ -19,7 +19,6 @@
 #include <map>
 
 #include "core/detector.h"
-#include "core/random.h"
 #include "core/scan_fusion.h"
 #include "db/dataset_db.h"
 #include "workbench/formats/scan_file.h"
@@ -123,15 +122,12 @@ void BM_RegisterRoomFrames(benchmark::State& state) {
       const RoomRecord room = db.ReadRoom(id, /*with_images=*/true);
       for (const FrameRecord& frame : room.frames) {
         if (frame.id % 3 != 0 || rooms.size() >= 27 || room.frames.size() < 2) continue;
+        FrameFusion fusion;  // the error `evaluate --fuse-pose-noise 0.02,1` draws
+        fusion.room_frames = true;
+        fusion.pose_noise_m = 0.02;
+        fusion.pose_noise_deg = 1;
         Room r;
-        for (const FrameRecord& other : room.frames) {
-          if (other.id == frame.id) r.reference = r.scans.size();
-          r.scans.push_back(DetectionInputOf(other, "frame"));
-          if (other.id == frame.id) continue;
-          FastRng rng(DeriveSeed(frame.seed, static_cast<uint64_t>(other.frame_index)));
-          r.scans.back().world_from_camera =
-              PerturbedPose(*r.scans.back().world_from_camera, 0.02, M_PI / 180, rng);
-        }
+        r.scans = RoomScans(room, frame, fusion, db_path, &r.reference);
         rooms.push_back(std::move(r));
       }
     }

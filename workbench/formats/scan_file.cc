@@ -135,40 +135,43 @@ DetectionInput DetectionInputOf(const FrameRecord& frame, const std::string& wha
   return input;
 }
 
+std::vector<DetectionInput> RoomScans(const RoomRecord& room,
+                                      const FrameRecord& frame,
+                                      const FrameFusion& fusion,
+                                      const std::string& db_path,
+                                      size_t* reference) {
+  std::vector<DetectionInput> scans;
+  for (const FrameRecord& other : room.frames) {
+    if (other.id == frame.id) *reference = scans.size();
+    scans.push_back(DetectionInputOf(other, db_path + " frame " + std::to_string(other.id)));
+    if (other.id == frame.id || (fusion.pose_noise_m == 0 && fusion.pose_noise_deg == 0)) continue;
+    FastRng rng(DeriveSeed(frame.seed, static_cast<uint64_t>(other.frame_index)));
+    scans.back().world_from_camera = PerturbedPose(*scans.back().world_from_camera,
+                                                   fusion.pose_noise_m,
+                                                   fusion.pose_noise_deg * M_PI / 180,
+                                                   rng);
+  }
+  return scans;
+}
+
 DetectionInput RoomFrameInput(const RoomRecord& room,
                               const FrameRecord& frame,
                               const FrameFusion& fusion,
                               bool estimated_pose,
                               const std::string& db_path) {
-  auto what = [&](const FrameRecord& f) { return db_path + " frame " + std::to_string(f.id); };
-  DetectionInput input = DetectionInputOf(frame, what(frame));
+  const std::string what = db_path + " frame " + std::to_string(frame.id);
   if (!fusion.room_frames || room.frames.size() < 2) {
+    DetectionInput input = DetectionInputOf(frame, what);
     if (estimated_pose) input.world_from_camera.reset();
     return input;
   }
   Require(!estimated_pose,
-          what(frame) + ": its floor is estimated, and fusing a room's frames needs their poses");
-  std::vector<DetectionInput> scans;
+          what + ": its floor is estimated, and fusing a room's frames needs their poses");
   size_t reference = 0;
-  for (const FrameRecord& other : room.frames) {
-    if (other.id == frame.id) {
-      reference = scans.size();
-      scans.push_back(std::move(input));
-      continue;
-    }
-    scans.push_back(DetectionInputOf(other, what(other)));
-    if (fusion.pose_noise_m > 0 || fusion.pose_noise_deg > 0) {
-      FastRng rng(DeriveSeed(frame.seed, static_cast<uint64_t>(other.frame_index)));
-      scans.back().world_from_camera = PerturbedPose(*scans.back().world_from_camera,
-                                                     fusion.pose_noise_m,
-                                                     fusion.pose_noise_deg * M_PI / 180,
-                                                     rng);
-    }
-  }
-  return FuseScans(fusion.register_poses
-                       ? WithRegisteredPoses(scans, reference, ScanRegistrationOptions{})
-                       : scans,
-                   reference);
+  std::vector<DetectionInput> scans = RoomScans(room, frame, fusion, db_path, &reference);
+  if (fusion.register_poses)
+    scans = WithRegisteredPoses(std::move(scans), reference, ScanRegistrationOptions{});
+  return FuseScans(scans, reference);
 }
 
 LoadedScan FuseLoadedScans(const std::vector<LoadedScan>& scans, bool register_poses) {
@@ -185,9 +188,9 @@ LoadedScan FuseLoadedScans(const std::vector<LoadedScan>& scans, bool register_p
   }
   LoadedScan fused = scans.back();
   const size_t reference = inputs.size() - 1;
-  fused.input = FuseScans(
-      register_poses ? WithRegisteredPoses(inputs, reference, ScanRegistrationOptions{}) : inputs,
-      reference);
+  if (register_poses)
+    inputs = WithRegisteredPoses(std::move(inputs), reference, ScanRegistrationOptions{});
+  fused.input = FuseScans(inputs, reference);
   fused.ground_truth.clear();
   fused.description = std::to_string(scans.size()) + " scans fused (" + names + "), seen from " +
                       scans.back().description;

@@ -100,12 +100,21 @@ void SetIntrinsics(const CameraIntrinsics& camera, FrameRecord* frame);
 // its known pose. `what` names the frame in errors.
 DetectionInput DetectionInputOf(const FrameRecord& frame, const std::string& what);
 
+// Every frame of `frame`'s room as a scan (DetectionInputOf), the others'
+// poses with the fusion's random error (seeded by this frame's seed and the
+// other's index: the same scans every time); `reference` is set to this
+// frame's place among them.
+std::vector<DetectionInput> RoomScans(const RoomRecord& room,
+                                      const FrameRecord& frame,
+                                      const FrameFusion& fusion,
+                                      const std::string& db_path,
+                                      size_t* reference);
+
 // What a dataset frame is detected in: DetectionInputOf, without its pose
 // when `estimated_pose` (the detector finds the floor); with
 // fusion.room_frames and other frames in the room, every frame of the room
-// in this frame's camera (FuseScans), the others' poses with the fusion's
-// random error (seeded by this frame's seed and the other's index: the same
-// input every time). Throws InputError naming the frame when fusion meets a
+// in this frame's camera (RoomScans, then FuseScans; registered first with
+// fusion.register_poses). Throws InputError naming the frame when fusion meets a
 // frame whose floor is estimated: fusion needs known poses.
 DetectionInput RoomFrameInput(const RoomRecord& room,
                               const FrameRecord& frame,
