@@ -1,6 +1,7 @@
 // The rooms cache (issue 37): a training of the same rooms reuses them and
 // trains the same network byte for byte; a file another generator made is
-// made again; one training of the same rooms at a time.
+// made again; one training of the same rooms at a time. Fused training
+// frames are rasterised with their room-mates.
 #include <gtest/gtest.h>
 
 #include <atomic>
@@ -167,6 +168,63 @@ TEST(RoomsCache, OneUserOfTheSameRoomsAtATime) {
   }
   second.join();
   EXPECT_TRUE(second_in.load());
+}
+
+// Fused training frames (issue 37): with share 1 every frame is rasterised
+// with its room-mates' points and targets the objects any of them sees; with
+// share 0.5 each frame is one or the other, the same on every read; share 0
+// is the frames alone and leaves the training's key as it was.
+TEST(FusedTraining, FramesAreSeenWithTheirRoomMatesOnRequest) {
+  Progress::SetQuiet(true);
+  const std::string dir = testing::ScratchDir();
+  GenerateOptions generate = TwoRooms();
+  generate.room.frames_per_room = 4;
+  GenerateDataset(OpenCatalog(generate.catalog_spec), generate, dir + "/rooms.db");
+  VoteNetTrainingOptions alone = TinyTraining();
+  alone.frames_per_room = 4;
+  alone.validation_share = 0;
+  VoteNetTrainingOptions fused = alone, half = alone;
+  fused.fused_share = 1;
+  half.fused_share = 0.5;
+  std::vector<BevSample> single, all_fused, mixed, mixed_again;
+  ReadBevSamples(dir + "/rooms.db", alone, &single, nullptr);
+  ReadBevSamples(dir + "/rooms.db", fused, &all_fused, nullptr);
+  ReadBevSamples(dir + "/rooms.db", half, &mixed, nullptr);
+  ReadBevSamples(dir + "/rooms.db", half, &mixed_again, nullptr);
+  ASSERT_EQ(single.size(), 8u);
+  ASSERT_EQ(all_fused.size(), 8u);
+  ASSERT_EQ(mixed.size(), 8u);
+  auto points = [](const BevSample& sample) {  // the count channels' sum
+    double sum = 0;
+    const int cells = sample.image.spec.rows * sample.image.spec.cols;
+    for (int i = 0; i < kBevTopChannel * cells; ++i) sum += sample.image.values[i];
+    return sum;
+  };
+  int more_points = 0, more_objects = 0, fused_frames = 0;
+  for (size_t k = 0; k < single.size(); ++k) {
+    EXPECT_GE(points(all_fused[k]), points(single[k]) - 1e-3) << "frame " << k;
+    more_points += points(all_fused[k]) > points(single[k]) + 1;
+    EXPECT_GE(all_fused[k].objects.size(), single[k].objects.size()) << "frame " << k;
+    more_objects += all_fused[k].objects.size() > single[k].objects.size();
+    const bool is_fused = mixed[k].image.values == all_fused[k].image.values;
+    EXPECT_TRUE(is_fused || mixed[k].image.values == single[k].image.values) << "frame " << k;
+    EXPECT_EQ(mixed[k].objects.size(), (is_fused ? all_fused : single)[k].objects.size());
+    EXPECT_EQ(mixed[k].image.values, mixed_again[k].image.values) << "frame " << k;
+    fused_frames += is_fused;
+  }
+  EXPECT_GT(more_points, 4) << "room-mates add points to most frames";
+  EXPECT_GT(more_objects, 0) << "some object is seen by a room-mate only";
+  EXPECT_GT(fused_frames, 0);
+  EXPECT_LT(fused_frames, 8);
+
+  EXPECT_EQ(alone.Json().find("fused_share"), std::string::npos) << "older keys stay valid";
+  EXPECT_NE(half.Json(), alone.Json());
+  VoteNetTrainingOptions bad = alone;
+  bad.fused_share = 1.5;
+  EXPECT_NE(testing::ErrorOf([&] { bad.Check(); }).find("fused share 1.5"), std::string::npos);
+  bad.fused_share = 0.5;
+  bad.frames_per_room = 1;
+  EXPECT_NE(testing::ErrorOf([&] { bad.Check(); }).find("two or more frames"), std::string::npos);
 }
 
 }  // namespace

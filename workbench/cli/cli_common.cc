@@ -142,6 +142,11 @@ void AddVoteNetRoomFlags(CLI::App* app, VoteNetTrainingOptions* options) {
                   "trestle; doors, drawers, shelves) mixed into the training rooms, sized within "
                   "the catalog's range (0: none)")
       ->capture_default_str();
+  app->add_option("--vote-fused-share",
+                  o.fused_share,
+                  "Vote network: the share of training frames seen with their room's other "
+                  "frames fused in, as 'detect --fuse' sees a place (0..1; 0: each frame alone)")
+      ->capture_default_str();
   AddEnumOption(app,
                 "--vote-shape-sizes",
                 &o.shape_sizes,

@@ -11,6 +11,8 @@
 
 #include "core/error.h"
 #include "core/progress.h"
+#include "core/random.h"
+#include "core/scan_fusion.h"
 #include "db/dataset_db.h"
 #include "reports/evaluation.h"
 #include "reports/training_curve.h"
@@ -27,18 +29,21 @@ double Seconds(std::chrono::steady_clock::time_point since) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
 }
 
-// The labelled objects of one frame in view, with their visibility:
+// The labelled objects the frames see, with the best of their visibilities:
 // targets when seen at least min_visibility, else objects the loss ignores
 // around.
-void AddObjectsOfFrame(const RoomRecord& room,
-                       const FrameRecord& frame,
-                       double min_visibility,
-                       BevSample* sample) {
+void AddObjectsSeenBy(const RoomRecord& room,
+                      const std::vector<const FrameRecord*>& frames,
+                      double min_visibility,
+                      BevSample* sample) {
   for (const ObjectRecord& object : room.objects) {
     if (!object.furniture_class) continue;
     double visibility = 0;
-    for (const FrameObjectRecord& seen : frame.objects) {
-      if (seen.instance_id == object.instance_id) visibility = seen.visibility;
+    for (const FrameRecord* frame : frames) {
+      for (const FrameObjectRecord& seen : frame->objects) {
+        if (seen.instance_id == object.instance_id)
+          visibility = std::max(visibility, seen.visibility);
+      }
     }
     if (visibility <= 0) continue;
     sample->objects.push_back({*object.furniture_class,
@@ -191,6 +196,10 @@ void VoteNetTrainingOptions::Check() const {
               std::to_string(VoteNet::kMaxMembers) + " networks");
   Require(!keep_last_weights || ensemble == 1,
           "the last weights are kept for one network, not beside an ensemble");
+  Require(fused_share >= 0 && fused_share <= 1,
+          "vote-net fused share " + std::to_string(fused_share) + " must be in 0..1");
+  Require(fused_share == 0 || frames_per_room > 1,
+          "vote-net fused frames need two or more frames per training room (--vote-frames)");
   Require(shape_variety >= 0 && shape_variety <= 1000,
           "vote-net shape variety " + std::to_string(shape_variety) + " must be in 0..1000");
   Require(rooms_cache.empty() || (!keep_rooms && room_shards.empty()),
@@ -239,6 +248,7 @@ std::string VoteNetTrainingOptions::Json() const {
   // Only when used: keys of models trained before the option stay valid.
   if (shape_variety > 0) json["shape_variety"] = shape_variety;
   if (weight_average > 0) json["weight_average"] = weight_average;
+  if (fused_share > 0) json["fused_share"] = fused_share;
   if (member > 0) json["member"] = member;
   if (ensemble > 1) json["ensemble"] = ensemble;
   if (shape_variety > 0 && shape_sizes != ShapeSizes::kCatalog)
@@ -257,6 +267,13 @@ uint64_t VoteNetTrainingOptions::WeightSeed() const {
   // A large odd step (the golden ratio's, as splitmix64 uses) so that the
   // members of seed s and of seed s + 1 do not meet.
   return seed + static_cast<uint64_t>(member) * 0x9E3779B97F4A7C15ULL;
+}
+
+bool VoteNetTrainingOptions::FusesFrame(int64_t frame_id) const {
+  if (fused_share <= 0) return false;
+  if (fused_share >= 1) return true;
+  FastRng rng(seed ^ (static_cast<uint64_t>(frame_id) * 0xD1B54A32D192ED03ULL));
+  return rng.Uniform01() < fused_share;
 }
 
 void ReadBevSamples(const std::string& db_path,
@@ -279,13 +296,24 @@ void ReadBevSamples(const std::string& db_path,
     std::vector<BevSample>* out = destination(k);
     if (out == nullptr) continue;  // the caller wants the other share only
     const RoomRecord room = db.ReadRoom(rooms[k], /*with_images=*/true);
+    std::vector<DetectionInput> scans;
+    std::vector<const FrameRecord*> room_frames;
     for (const FrameRecord& frame : room.frames) {
-      const DetectionInput input =
-          DetectionInputOf(frame, db_path + " frame " + std::to_string(frame.id));
+      scans.push_back(DetectionInputOf(frame, db_path + " frame " + std::to_string(frame.id)));
+      room_frames.push_back(&frame);
+    }
+    for (size_t f = 0; f < room.frames.size(); ++f) {
+      const FrameRecord& frame = room.frames[f];
+      const bool fused = options.FusesFrame(frame.id);
       BevSample sample;
-      sample.image = RasteriseScan(
-          input.points, frame.world_from_camera, options.net.range_m, options.net.grid);
-      AddObjectsOfFrame(room, frame, options.min_visibility, &sample);
+      sample.image = RasteriseScan(fused ? FuseScans(scans, f).points : scans[f].points,
+                                   frame.world_from_camera,
+                                   options.net.range_m,
+                                   options.net.grid);
+      AddObjectsSeenBy(room,
+                       fused ? room_frames : std::vector<const FrameRecord*>{&frame},
+                       options.min_visibility,
+                       &sample);
       out->push_back(std::move(sample));
     }
     progress.Advance();

@@ -83,6 +83,13 @@ struct VoteNetTrainingOptions {
   // Procedural tables and sideboards per class (scenes/procedural_shapes.h)
   // added to the training rooms' catalog, never to evaluation; 0: none.
   int shape_variety = 0;
+  // The share of the frames (training and validation alike) rasterised with
+  // their room's other frames fused in (FuseScans, seen from the frame's own
+  // camera, exact poses), as `detect --fuse` and `evaluate
+  // --fuse-room-frames` see a place; their targets are the objects any of
+  // the fused frames sees. 0: every frame alone (the default); 1: every
+  // frame fused. Which frames: drawn from `seed` and the frame's id.
+  double fused_share = 0;
   // Their sizes: the catalog's range, or widened to the class's usual sizes
   // with cloths on a share of the tables (scenes/procedural_shapes.h).
   ShapeSizes shape_sizes = ShapeSizes::kCatalog;
@@ -103,6 +110,8 @@ struct VoteNetTrainingOptions {
   std::string Json() const;
   // The seed of the weights, batches and augmentation: `seed` for member 0.
   uint64_t WeightSeed() const;
+  // Whether the frame of this id is rasterised fused (fused_share).
+  bool FusesFrame(int64_t frame_id) const;
 };
 
 struct VoteNetEpoch {
@@ -183,9 +192,9 @@ int GenerateTrainingRoomsShard(const Catalog& catalog,
                                const std::string& out);
 
 // The frames of a dataset database as samples (noisy depth; objects seen at
-// least min_visibility), split by room into training and validation; a null
-// `training` or `validation` leaves its rooms unread (an operating point
-// needs the validation rooms alone).
+// least min_visibility; a share fused with their room-mates, fused_share), split by room into
+// training and validation; a null `training` or `validation` leaves its rooms unread (an operating
+// point needs the validation rooms alone).
 void ReadBevSamples(const std::string& db_path,
                     const VoteNetTrainingOptions& options,
                     std::vector<BevSample>* training,
