@@ -1,7 +1,12 @@
 #include "core/scan_fusion.h"
 
+#include <pcl/features/normal_3d.h>
 #include <pcl/kdtree/kdtree_flann.h>
 #include <pcl/registration/gicp.h>
+#include <pcl/registration/icp.h>
+#include <pcl/registration/transformation_estimation_point_to_plane.h>
+#include <pcl/registration/warp_point_rigid_3d.h>
+#include <pcl/search/kdtree.h>
 
 #include <cmath>
 #include <limits>
@@ -74,14 +79,60 @@ Pairing PairingOf(const pcl::KdTreeFLANN<pcl::PointXYZ>& tree,
   return out;
 }
 
-// GICP's motion of `points` onto the tree's cloud, or nothing when it did not
-// converge, paired worse than `before`, or moved beyond the options' bounds.
-std::optional<Eigen::Isometry3f> Alignment(const pcl::PointCloud<pcl::PointXYZ>::Ptr& target,
-                                           const pcl::KdTreeFLANN<pcl::PointXYZ>& tree,
-                                           const std::vector<Eigen::Vector3f>& points,
-                                           const Pairing& before,
-                                           const ScanRegistrationOptions& options,
-                                           Pairing* after) {
+// The points with their surface normals (within 3.5 voxels); points without
+// enough neighbours for a normal are left out.
+pcl::PointCloud<pcl::PointNormal>::Ptr WithNormals(const pcl::PointCloud<pcl::PointXYZ>::Ptr& cloud,
+                                                   double voxel_m) {
+  pcl::NormalEstimation<pcl::PointXYZ, pcl::Normal> estimate;
+  estimate.setInputCloud(cloud);
+  estimate.setSearchMethod(pcl::make_shared<pcl::search::KdTree<pcl::PointXYZ>>());
+  estimate.setRadiusSearch(3.5 * voxel_m);
+  pcl::PointCloud<pcl::Normal> normals;
+  estimate.compute(normals);
+  auto out = pcl::make_shared<pcl::PointCloud<pcl::PointNormal>>();
+  for (size_t k = 0; k < cloud->size(); ++k) {
+    const pcl::Normal& n = normals[k];
+    if (!std::isfinite(n.normal_x) || !std::isfinite(n.normal_y) || !std::isfinite(n.normal_z))
+      continue;
+    pcl::PointNormal point;
+    point.x = (*cloud)[k].x;
+    point.y = (*cloud)[k].y;
+    point.z = (*cloud)[k].z;
+    point.normal_x = n.normal_x;
+    point.normal_y = n.normal_y;
+    point.normal_z = n.normal_z;
+    out->push_back(point);
+  }
+  return out;
+}
+
+// The motion of `points` onto `target` in x, y and yaw: point-to-plane ICP
+// whose step is solved by Levenberg-Marquardt over PCL's three-parameter warp.
+std::optional<Eigen::Matrix4d> PlanarMotion(const pcl::PointCloud<pcl::PointXYZ>::Ptr& target,
+                                            const std::vector<Eigen::Vector3f>& points,
+                                            const ScanRegistrationOptions& options) {
+  using Point = pcl::PointNormal;
+  auto estimation = pcl::make_shared<
+      pcl::registration::TransformationEstimationPointToPlane<Point, Point, double>>();
+  estimation->setWarpFunction(
+      pcl::make_shared<pcl::registration::WarpPointRigid3D<Point, Point, double>>());
+  pcl::IterativeClosestPointWithNormals<Point, Point, double> icp;
+  icp.setTransformationEstimation(estimation);
+  icp.setInputSource(WithNormals(ToPclPoints(points), options.voxel_m));
+  icp.setInputTarget(WithNormals(target, options.voxel_m));
+  icp.setMaxCorrespondenceDistance(options.max_correspondence_m);
+  icp.setMaximumIterations(options.iterations);
+  icp.setTransformationEpsilon(1e-8);
+  pcl::PointCloud<Point> aligned;
+  icp.align(aligned);
+  if (!icp.hasConverged()) return std::nullopt;
+  return icp.getFinalTransformation();
+}
+
+// All six degrees of freedom by GICP.
+std::optional<Eigen::Matrix4d> FullMotion(const pcl::PointCloud<pcl::PointXYZ>::Ptr& target,
+                                          const std::vector<Eigen::Vector3f>& points,
+                                          const ScanRegistrationOptions& options) {
   // In double: PCL's float instantiation trips GCC 12's -Warray-bounds in
   // Eigen's umeyama, and the sums of a room's points are better in double.
   pcl::GeneralizedIterativeClosestPoint<pcl::PointXYZ, pcl::PointXYZ, double> gicp;
@@ -93,7 +144,22 @@ std::optional<Eigen::Isometry3f> Alignment(const pcl::PointCloud<pcl::PointXYZ>:
   pcl::PointCloud<pcl::PointXYZ> aligned;
   gicp.align(aligned);
   if (!gicp.hasConverged()) return std::nullopt;
-  const Eigen::Isometry3f motion(gicp.getFinalTransformation().cast<float>());
+  return gicp.getFinalTransformation();
+}
+
+// The motion of `points` onto the tree's cloud (planar or full, as the
+// options say), or nothing when it did not converge, paired worse than
+// `before`, or moved beyond the options' bounds.
+std::optional<Eigen::Isometry3f> Alignment(const pcl::PointCloud<pcl::PointXYZ>::Ptr& target,
+                                           const pcl::KdTreeFLANN<pcl::PointXYZ>& tree,
+                                           const std::vector<Eigen::Vector3f>& points,
+                                           const Pairing& before,
+                                           const ScanRegistrationOptions& options,
+                                           Pairing* after) {
+  const std::optional<Eigen::Matrix4d> found =
+      options.planar ? PlanarMotion(target, points, options) : FullMotion(target, points, options);
+  if (!found || !found->allFinite()) return std::nullopt;
+  const Eigen::Isometry3f motion(found->cast<float>());
   *after = PairingOf(tree, points, motion, options.max_correspondence_m);
   const double turn_deg = Eigen::AngleAxisf(motion.linear()).angle() * 180 / M_PI;
   if (!(after->rms_m < (1 - options.min_improvement) * before.rms_m) ||
@@ -187,17 +253,16 @@ DetectionInput FuseScans(const std::vector<DetectionInput>& scans, size_t refere
   return fused;
 }
 
-Eigen::Isometry3d PerturbedPose(const Eigen::Isometry3d& pose,
-                                double sigma_m,
-                                double sigma_rad,
-                                FastRng& rng) {
+Eigen::Isometry3d PerturbedPose(
+    const Eigen::Isometry3d& pose, double sigma_m, double sigma_rad, FastRng& rng, bool planar) {
   Require(sigma_m >= 0 && std::isfinite(sigma_m) && sigma_rad >= 0 && std::isfinite(sigma_rad),
           "pose error: the spreads must be finite and >= 0");
   // Drawn in a fixed order, so a seed gives one error on every platform.
-  const double tx = sigma_m * rng.Normal(), ty = sigma_m * rng.Normal(),
-               tz = sigma_m * rng.Normal();
-  const double rx = sigma_rad * rng.Normal(), ry = sigma_rad * rng.Normal(),
-               rz = sigma_rad * rng.Normal();
+  const double tx = sigma_m * rng.Normal(), ty = sigma_m * rng.Normal();
+  double tz = sigma_m * rng.Normal();
+  double rx = sigma_rad * rng.Normal(), ry = sigma_rad * rng.Normal();
+  const double rz = sigma_rad * rng.Normal();
+  if (planar) tz = rx = ry = 0;
   const Eigen::Matrix3d turn = (Eigen::AngleAxisd(rz, Eigen::Vector3d::UnitZ()) *
                                 Eigen::AngleAxisd(ry, Eigen::Vector3d::UnitY()) *
                                 Eigen::AngleAxisd(rx, Eigen::Vector3d::UnitX()))

@@ -40,6 +40,11 @@ struct ScanRegistrationOptions {
   // A correction larger than these is refused (the given pose stays): a
   // repetitive room can pull a scan onto the wrong wall.
   double max_shift_m = 0.5, max_turn_deg = 15;
+  // Corrections in x, y and yaw only (point-to-plane ICP of the floor-aligned
+  // clouds, PCL's WarpPointRigid3D), for scans whose height, roll and pitch
+  // are right: a ground robot's odometry on a fitted floor. Else all six
+  // degrees of freedom (GICP).
+  bool planar = false;
 
   // Throws InputError naming the field and its rule.
   void Check() const;
@@ -83,10 +88,12 @@ DetectionInput FuseScans(const std::vector<DetectionInput>& scans, size_t refere
 // `pose` with a random rigid error, as odometry or SLAM would give it: a
 // translation of N(0, sigma_m) along each world axis and rotations of
 // N(0, sigma_rad) about each, applied in the world frame about the camera's
-// centre. For measuring how fusion degrades with pose error.
+// centre; `planar`: along x and y and about z only (the same draws, the
+// others left out). For measuring how fusion degrades with pose error.
 Eigen::Isometry3d PerturbedPose(const Eigen::Isometry3d& pose,
                                 double sigma_m,
                                 double sigma_rad,
-                                FastRng& rng);
+                                FastRng& rng,
+                                bool planar = false);
 
 }  // namespace furn

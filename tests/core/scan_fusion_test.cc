@@ -101,6 +101,15 @@ TEST(ScanFusion, PoseErrorHasTheAskedSpreadAndIsTheSameForASeed) {
             std::string::npos);
   EXPECT_NE(testing::ErrorOf([&] { PerturbedPose(pose, 0, std::nan(""), rng); }).find("spreads"),
             std::string::npos);
+
+  // Planar: the same draws along x and y and about z, height and tilt kept.
+  FastRng full_rng(21), planar_rng(21);
+  const Eigen::Isometry3d full = PerturbedPose(pose, 0.05, 0.02, full_rng);
+  const Eigen::Isometry3d planar = PerturbedPose(pose, 0.05, 0.02, planar_rng, true);
+  EXPECT_EQ(planar.translation().head<2>(), full.translation().head<2>());
+  EXPECT_EQ(planar.translation().z(), pose.translation().z());
+  EXPECT_TRUE(planar.linear().row(2).isApprox(pose.linear().row(2), 1e-12));
+  EXPECT_GT(Eigen::AngleAxisd(planar.linear() * pose.linear().transpose()).angle(), 1e-4);
 }
 
 // A room corner (floor, two walls) with a box on the floor, sampled every
@@ -171,6 +180,26 @@ TEST(ScanRegistration, OdometrysErrorIsTakenOutAndAStrangerIsLeftAlone) {
   EXPECT_FALSE(alone[1].refined);
   EXPECT_TRUE(alone[1].world_from_camera.isApprox(*stranger.world_from_camera));
   EXPECT_EQ(alone[1].paired, 0);
+
+  // Planar registration (a ground robot's odometry: x, y and yaw off) takes
+  // the error out too, and leaves height, roll and pitch exactly as given.
+  Eigen::Isometry3d drifted = b;
+  drifted.translation() += Eigen::Vector3d(0.03, -0.02, 0);
+  drifted.linear() =
+      Eigen::AngleAxisd(0.035, Eigen::Vector3d::UnitZ()).toRotationMatrix() * b.linear();
+  second.world_from_camera = drifted;
+  ScanRegistrationOptions planar;
+  planar.planar = true;
+  const std::vector<RegisteredPose> level = RegisterScans({first, second}, 0, planar);
+  ASSERT_TRUE(level[1].refined);
+  const Eigen::Isometry3d& found = level[1].world_from_camera;
+  EXPECT_LT((found.translation() - b.translation()).norm(), 0.01);
+  EXPECT_LT(Eigen::AngleAxisd(found.linear() * b.linear().transpose()).angle(), 0.3 * M_PI / 180);
+  EXPECT_NEAR(found.translation().z(), drifted.translation().z(), 1e-6);
+  EXPECT_TRUE(found.linear().row(2).isApprox(drifted.linear().row(2), 1e-6));
+  EXPECT_LT(level[1].rms_after_m, level[1].rms_before_m);
+  EXPECT_TRUE(
+      RegisterScans({first, second}, 0, planar)[1].world_from_camera.isApprox(found, 1e-12));
 
   ScanRegistrationOptions bad;
   bad.voxel_m = 0;

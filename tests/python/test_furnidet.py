@@ -149,6 +149,11 @@ class FurnidetTest(unittest.TestCase):
         again = self.detector.detect_fused([(points[:half], pose), (points[half:], pose)],
                                            register=True)
         self.assertEqual(len(again.detections), len(whole.detections))
+        level = self.detector.detect_fused([(points[:half], pose), (points[half:], pose)],
+                                           register=True, planar=True)
+        self.assertEqual(len(level.detections), len(whole.detections))
+        with self.assertRaisesRegex(ValueError, "planar=True applies to register=True"):
+            self.detector.detect_fused([(points, pose), (points, pose)], planar=True)
         with self.assertRaisesRegex(ValueError, "has no pose"):
             self.detector.detect_fused([(points, None), (points, pose)])
         with self.assertRaisesRegex(ValueError, "at least one scan"):

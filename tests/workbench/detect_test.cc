@@ -678,6 +678,11 @@ TEST_F(DetectTest, FusedScansFindWhatOneScanDoesNotSee) {
   ASSERT_EQ(registered.exit_code, 0) << registered.output;
   EXPECT_EQ(nlohmann::json::parse(ReadFileBytes(dir + "/registered.json"))["detections"].size(),
             2u);
+  const testing::CommandResult level = testing::RunCommand(
+      detect + dir + "/second.pcd " + dir + "/first.pcd --floor-aligned --fuse --fuse-register " +
+      "--fuse-planar --out " + dir + "/level.json");
+  ASSERT_EQ(level.exit_code, 0) << level.output;
+  EXPECT_EQ(nlohmann::json::parse(ReadFileBytes(dir + "/level.json"))["detections"].size(), 2u);
   // Bad uses: one line each, exit code 1, nothing written.
   auto refused = [&](const std::string& arguments, const std::string& expected) {
     const testing::CommandResult bad =
@@ -692,6 +697,8 @@ TEST_F(DetectTest, FusedScansFindWhatOneScanDoesNotSee) {
   refused("--cloud " + dir + "/first.pcd --fuse", "--fuse needs two or more scans");
   refused(dir + "/second.pcd " + dir + "/first.pcd --floor-aligned --fuse-register",
           "--fuse-register applies to --fuse");
+  refused(dir + "/second.pcd " + dir + "/first.pcd --floor-aligned --fuse --fuse-planar",
+          "--fuse-planar applies to --fuse-register");
 }
 
 TEST_F(DetectTest, BatchOverGlobsTumListsAndBopFoldersGivesJsonLines) {

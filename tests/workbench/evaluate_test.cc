@@ -384,6 +384,14 @@ void FusedRoomFramesAreOneInputAndAStoredOption(const SmallDatasetAndModel& data
     EXPECT_NE(noisy.points.front(), fused.points.front());  // the frame itself comes last ...
     EXPECT_EQ(noisy.points.back(), fused.points.back());    // ... and keeps its pose
     EXPECT_EQ(RoomFrameInput(room, frame, fusion, false, db).points, noisy.points);
+    // A planar error moves the other frame's points along the floor only.
+    fusion.planar_noise = true;
+    const DetectionInput level = RoomFrameInput(room, frame, fusion, false, db);
+    const Eigen::Vector3f world_level = frame.world_from_camera.cast<float>() * level.points[0];
+    const Eigen::Vector3f world_exact = frame.world_from_camera.cast<float>() * fused.points[0];
+    EXPECT_GT((world_level - world_exact).head<2>().norm(), 1e-3);
+    EXPECT_NEAR(world_level.z(), world_exact.z(), 1e-4);
+    fusion.planar_noise = false;
     EXPECT_NE(testing::ErrorOf([&] {
                 RoomFrameInput(room, frame, fusion, true, db);
               }).find("its floor is estimated"),
@@ -394,10 +402,13 @@ void FusedRoomFramesAreOneInputAndAStoredOption(const SmallDatasetAndModel& data
   ASSERT_EQ(Workbench(evaluate).exit_code, 0);
   for (int k = 0; k < 2; ++k)  // the error drawn and registered away alike every time
     ASSERT_EQ(Workbench(evaluate + " --fuse-pose-noise 0.05,2 --fuse-register").exit_code, 0);
+  ASSERT_EQ(Workbench(evaluate + " --fuse-pose-noise 0.03,2,planar --fuse-register --fuse-planar")
+                .exit_code,
+            0);
   {
     DatasetDb dataset(db, DatasetDb::Mode::kReadOnly);
     const std::vector<RunRecord> runs = dataset.Runs();
-    ASSERT_EQ(runs.size(), 3u);
+    ASSERT_EQ(runs.size(), 4u);
     const nlohmann::json stored = nlohmann::json::parse(runs[1].options_json).at("fusion");
     EXPECT_TRUE(stored.at("room_frames").get<bool>());
     EXPECT_EQ(stored.at("pose_noise_m").get<double>(), 0.05);
@@ -408,10 +419,17 @@ void FusedRoomFramesAreOneInputAndAStoredOption(const SmallDatasetAndModel& data
     EXPECT_EQ(dataset.RunMetrics(runs[0].id).at("frames"), 4);
     EXPECT_FALSE(DetectionsOfRun(db, runs[1].id).empty());
     EXPECT_EQ(DetectionsOfRun(db, runs[1].id), DetectionsOfRun(db, runs[2].id));
+    EXPECT_FALSE(stored.contains("planar")) << "runs stored before planar read the same";
+    const nlohmann::json level = nlohmann::json::parse(runs[3].options_json).at("fusion");
+    EXPECT_TRUE(level.at("planar_noise").get<bool>());
+    EXPECT_TRUE(level.at("planar").get<bool>());
+    EXPECT_EQ(FrameFusion::FromJson(level, "run 4").Json(), level);
   }
   for (const auto& [flags, expected] : std::vector<std::pair<std::string, std::string>>{
            {"--fuse-room-frames --fuse-pose-noise 0.05", "'0.05' must be M,DEG"},
            {"--fuse-room-frames --fuse-pose-noise 0.05,x", "'0.05,x' must be M,DEG"},
+           {"--fuse-room-frames --fuse-pose-noise 0.05,2,level", "must be M,DEG or M,DEG,planar"},
+           {"--fuse-room-frames --fuse-planar", "--fuse-planar applies to --fuse-register"},
            {"--fuse-room-frames --fuse-pose-noise=-1,2", "-1 m must be in 0..1 m"},
            {"--fuse-room-frames --fuse-pose-noise 0,90", "90 degrees must be in 0..45"},
            {"--fuse-pose-noise 0.02,1", "applies to fused frames"},
@@ -422,7 +440,7 @@ void FusedRoomFramesAreOneInputAndAStoredOption(const SmallDatasetAndModel& data
     EXPECT_NE(bad.output.find(expected), std::string::npos) << flags << ": " << bad.output;
     EXPECT_EQ(std::count(bad.output.begin(), bad.output.end(), '\n'), 1) << bad.output;
   }
-  EXPECT_EQ(DatasetDb(db, DatasetDb::Mode::kReadOnly).Runs().size(), 3u);  // nothing stored
+  EXPECT_EQ(DatasetDb(db, DatasetDb::Mode::kReadOnly).Runs().size(), 4u);  // nothing stored
   // crossval refuses it before training a fold.
   const testing::CommandResult crossval = Workbench("crossval --quiet --db " + db + " --work-dir " +
                                                     data.dir + "/folds --fuse-register");

@@ -68,16 +68,20 @@ void AddBagFlags(CLI::App* app_pointer, BagScanOptions* bag_pointer, std::string
 }
 
 // Several posed scans detected at once (--fuse), their poses refined first.
-void AddFuseFlags(CLI::App* app, bool* fuse, bool* fuse_register) {
+void AddFuseFlags(CLI::App* app, bool* fuse, FrameFusion* fusion) {
   app->add_flag("--fuse",
                 *fuse,
                 "One detection in several scans at once, seen from the last one's camera: each "
                 "a world-frame cloud with its own pose (VIEWPOINT, --floor-aligned); with --db "
                 "and --frame, the frame with its room's other frames");
   app->add_flag("--fuse-register",
-                *fuse_register,
+                fusion->register_poses,
                 "With --fuse: refine the scans' poses against the last one's points first "
                 "(generalized ICP), for poses from odometry");
+  app->add_flag("--fuse-planar",
+                fusion->planar,
+                "With --fuse-register: correct the poses in x, y and yaw only (point-to-plane "
+                "ICP), for floor-aligned poses of a ground robot");
 }
 
 // The scans: the positional inputs, or the one of --cloud/--depth/--db
@@ -86,12 +90,12 @@ std::vector<ScanSource> ScanSourcesOf(const CLI::App& app,
                                       const std::vector<std::string>& inputs,
                                       ScanSource source,
                                       bool fuse,
-                                      bool fuse_register) {
+                                      const FrameFusion& fusion) {
   if (inputs.empty()) {
     Require(!fuse || !source.db_path.empty(),
             "--fuse needs two or more scans as inputs, or --db with --frame");
+    source.fusion = fusion;
     source.fusion.room_frames = fuse;
-    source.fusion.register_poses = fuse_register;
     return {source};
   }
   Require(source.cloud_path.empty() && source.depth_path.empty() && source.db_path.empty(),
@@ -134,8 +138,9 @@ int RunDetect(int argc, char** argv) {
   app.add_option("--repeat", repeat, "Run N times and report median stage times (benchmark)")
       ->capture_default_str();
   DetectorFlags detector_flags(&app);
-  bool fuse = false, fuse_register = false;
-  AddFuseFlags(&app, &fuse, &fuse_register);
+  bool fuse = false;
+  FrameFusion fusion;  // registration only: --fuse decides what is fused
+  AddFuseFlags(&app, &fuse, &fusion);
   app.add_flag("--quiet", quiet, "Print nothing but errors");
   if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
   Progress::SetQuiet(quiet);  // batches and bags show progress unless --quiet
@@ -153,8 +158,9 @@ int RunDetect(int argc, char** argv) {
   run.explain = explain;
   run.timings = timings;
   run.fuse = fuse && !inputs.empty();
-  run.fuse_register = fuse_register;
-  Require(!fuse_register || fuse, "--fuse-register applies to --fuse");
+  run.fuse_registration = fusion.Registration();
+  Require(!fusion.register_poses || fuse, "--fuse-register applies to --fuse");
+  Require(!fusion.planar || fusion.register_poses, "--fuse-planar applies to --fuse-register");
 
   if (!bag.bag_path.empty()) {
     Require(inputs.empty() && source.cloud_path.empty() && source.depth_path.empty() &&
@@ -168,7 +174,7 @@ int RunDetect(int argc, char** argv) {
   Require(out_bag.empty() && bag.topic.empty() && bag.camera_info_topic.empty(),
           "--topic, --camera-info and --out-bag apply to --bag");
 
-  const std::vector<ScanSource> sources = ScanSourcesOf(app, inputs, source, fuse, fuse_register);
+  const std::vector<ScanSource> sources = ScanSourcesOf(app, inputs, source, fuse, fusion);
   // One plain scan file, or --cloud/--depth/--db: one indented JSON; any
   // other inputs (several, a glob, a list, a folder): JSON lines.
   return DetectScans(sources, IsBatch(inputs, sources), run);

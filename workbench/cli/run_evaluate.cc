@@ -319,12 +319,17 @@ void AddFusionOptions(CLI::App* app, FrameFusion* fusion) {
   app->add_option_function<std::string>(
       "--fuse-pose-noise",
       [fusion](const std::string& text) { ParsePoseNoise(text, fusion); },
-      "M,DEG: with --fuse-room-frames, the other frames' poses with a random error of sigma M "
-      "metres along and DEG degrees about each axis (odometry's); the same error every run");
+      "M,DEG[,planar]: with --fuse-room-frames, the other frames' poses with a random error "
+      "of sigma M metres along and DEG degrees about each axis (odometry's; planar: along x "
+      "and y and about z only); the same error every run");
   app->add_flag("--fuse-register",
                 fusion->register_poses,
                 "With --fuse-room-frames: refine the other frames' poses against the frame's "
                 "points first (generalized ICP), after any --fuse-pose-noise");
+  app->add_flag("--fuse-planar",
+                fusion->planar,
+                "With --fuse-register: correct the poses in x, y and yaw only (point-to-plane "
+                "ICP), for floor-aligned poses of a ground robot");
 }
 
 }  // namespace

@@ -84,14 +84,26 @@ void FrameFusion::Check() const {
           "--fuse-pose-noise applies to fused frames (--fuse-room-frames)");
   Require(room_frames || !register_poses,
           "--fuse-register applies to fused frames (--fuse-room-frames)");
+  Require(register_poses || !planar, "--fuse-planar applies to --fuse-register");
+}
+
+std::optional<ScanRegistrationOptions> FrameFusion::Registration() const {
+  if (!register_poses) return std::nullopt;
+  ScanRegistrationOptions options;
+  options.planar = planar;
+  return options;
 }
 
 nlohmann::json FrameFusion::Json() const {
   if (!room_frames) return nullptr;
-  return nlohmann::ordered_json{{"room_frames", true},
-                                {"pose_noise_m", pose_noise_m},
-                                {"pose_noise_deg", pose_noise_deg},
-                                {"register", register_poses}};
+  nlohmann::ordered_json json{{"room_frames", true},
+                              {"pose_noise_m", pose_noise_m},
+                              {"pose_noise_deg", pose_noise_deg},
+                              {"register", register_poses}};
+  // Only when set: runs stored before they existed read the same.
+  if (planar_noise) json["planar_noise"] = true;
+  if (planar) json["planar"] = true;
+  return json;
 }
 
 FrameFusion FrameFusion::FromJson(const nlohmann::json& json, const std::string& what) {
@@ -102,6 +114,8 @@ FrameFusion FrameFusion::FromJson(const nlohmann::json& json, const std::string&
     fusion.pose_noise_m = json.at("pose_noise_m").get<double>();
     fusion.pose_noise_deg = json.at("pose_noise_deg").get<double>();
     fusion.register_poses = json.value("register", false);
+    fusion.planar_noise = json.value("planar_noise", false);
+    fusion.planar = json.value("planar", false);
   } catch (const nlohmann::json::exception& e) {
     throw InputError(what + ": fusion options: " + e.what());
   }
@@ -110,18 +124,25 @@ FrameFusion FrameFusion::FromJson(const nlohmann::json& json, const std::string&
 }
 
 void ParsePoseNoise(const std::string& text, FrameFusion* fusion) {
-  const size_t comma = text.find(',');
-  const std::string rule = "--fuse-pose-noise '" + text + "' must be M,DEG (e.g. 0.02,1)";
-  Require(comma != std::string::npos && text.find(',', comma + 1) == std::string::npos, rule);
+  const std::string rule =
+      "--fuse-pose-noise '" + text + "' must be M,DEG or M,DEG,planar (e.g. 0.02,1)";
+  std::vector<std::string> fields(1);
+  for (char c : text) {
+    if (c == ',')
+      fields.emplace_back();
+    else
+      fields.back() += c;
+  }
+  Require(fields.size() == 2 || (fields.size() == 3 && fields[2] == "planar"), rule);
   try {
     size_t used_m = 0, used_deg = 0;
-    const std::string m = text.substr(0, comma), deg = text.substr(comma + 1);
-    fusion->pose_noise_m = std::stod(m, &used_m);
-    fusion->pose_noise_deg = std::stod(deg, &used_deg);
-    Require(used_m == m.size() && used_deg == deg.size(), rule);
+    fusion->pose_noise_m = std::stod(fields[0], &used_m);
+    fusion->pose_noise_deg = std::stod(fields[1], &used_deg);
+    Require(used_m == fields[0].size() && used_deg == fields[1].size(), rule);
   } catch (const std::logic_error&) {
     throw InputError(rule);
   }
+  fusion->planar_noise = fields.size() == 3;
 }
 
 DetectionInput DetectionInputOf(const FrameRecord& frame, const std::string& what) {
@@ -149,7 +170,8 @@ std::vector<DetectionInput> RoomScans(const RoomRecord& room,
     scans.back().world_from_camera = PerturbedPose(*scans.back().world_from_camera,
                                                    fusion.pose_noise_m,
                                                    fusion.pose_noise_deg * M_PI / 180,
-                                                   rng);
+                                                   rng,
+                                                   fusion.planar_noise);
   }
   return scans;
 }
@@ -169,12 +191,13 @@ DetectionInput RoomFrameInput(const RoomRecord& room,
           what + ": its floor is estimated, and fusing a room's frames needs their poses");
   size_t reference = 0;
   std::vector<DetectionInput> scans = RoomScans(room, frame, fusion, db_path, &reference);
-  if (fusion.register_poses)
-    scans = WithRegisteredPoses(std::move(scans), reference, ScanRegistrationOptions{});
+  if (const std::optional<ScanRegistrationOptions> registration = fusion.Registration())
+    scans = WithRegisteredPoses(std::move(scans), reference, *registration);
   return FuseScans(scans, reference);
 }
 
-LoadedScan FuseLoadedScans(const std::vector<LoadedScan>& scans, bool register_poses) {
+LoadedScan FuseLoadedScans(const std::vector<LoadedScan>& scans,
+                           const std::optional<ScanRegistrationOptions>& registration) {
   Require(!scans.empty(), "--fuse needs scans");
   std::vector<DetectionInput> inputs;
   std::string names;
@@ -188,8 +211,7 @@ LoadedScan FuseLoadedScans(const std::vector<LoadedScan>& scans, bool register_p
   }
   LoadedScan fused = scans.back();
   const size_t reference = inputs.size() - 1;
-  if (register_poses)
-    inputs = WithRegisteredPoses(std::move(inputs), reference, ScanRegistrationOptions{});
+  if (registration) inputs = WithRegisteredPoses(std::move(inputs), reference, *registration);
   fused.input = FuseScans(inputs, reference);
   fused.ground_truth.clear();
   fused.description = std::to_string(scans.size()) + " scans fused (" + names + "), seen from " +

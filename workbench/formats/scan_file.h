@@ -16,6 +16,7 @@
 #include <nlohmann/json_fwd.hpp>
 
 #include "core/detector.h"
+#include "core/scan_fusion.h"
 #include "db/dataset_db.h"
 #include "renderers/camera.h"
 #include "reports/detection_debug.h"
@@ -33,18 +34,27 @@ struct FrameFusion {
   // The other frames' poses refined against this frame's points first
   // (RegisterScans), after the error is drawn.
   bool register_poses = false;
+  // The error along x and y and about z only (a ground robot's odometry on
+  // a fitted floor: height, roll and pitch right).
+  bool planar_noise = false;
+  // Registration corrects x, y and yaw only (ScanRegistrationOptions::planar).
+  bool planar = false;
 
   // Throws InputError naming the value for a spread that is negative, not
-  // finite, or beyond 1 m / 45 degrees, or a spread or registration without
-  // room_frames.
+  // finite, or beyond 1 m / 45 degrees, a spread or registration without
+  // room_frames, or planar without registration.
   void Check() const;
+  // How registration refines the poses; nothing without register_poses.
+  std::optional<ScanRegistrationOptions> Registration() const;
   // What the run stores: null when off, else {"room_frames", "pose_noise_m",
-  // "pose_noise_deg", "register"}; and back (InputError naming `what`).
+  // "pose_noise_deg", "register"}, with "planar_noise" and "planar" when
+  // set; and back (InputError naming `what`).
   nlohmann::json Json() const;
   static FrameFusion FromJson(const nlohmann::json& json, const std::string& what);
 };
 
-// "M,DEG" (--fuse-pose-noise) into the fusion's spreads; InputError otherwise.
+// "M,DEG" or "M,DEG,planar" (--fuse-pose-noise) into the fusion's spreads;
+// InputError otherwise.
 void ParsePoseNoise(const std::string& text, FrameFusion* fusion);
 
 struct ScanSource {
@@ -124,10 +134,11 @@ DetectionInput RoomFrameInput(const RoomRecord& room,
 
 // Several scans with their own poses (world-frame clouds) as one: every
 // scan's points in the last one's camera (FuseScans), their poses first
-// refined against it when `register_poses` (RegisterScans); its camera, its
-// pose source and a description naming them all. Throws InputError naming
-// the first scan without a pose in a floor-aligned frame.
-LoadedScan FuseLoadedScans(const std::vector<LoadedScan>& scans, bool register_poses);
+// refined against it by `registration` when given (RegisterScans); its
+// camera, its pose source and a description naming them all. Throws
+// InputError naming the first scan without a pose in a floor-aligned frame.
+LoadedScan FuseLoadedScans(const std::vector<LoadedScan>& scans,
+                           const std::optional<ScanRegistrationOptions>& registration);
 
 // "kinect1" or "fx,fy,cx,cy" for an image of width x height.
 CameraIntrinsics ParseIntrinsics(const std::string& text, int width, int height);

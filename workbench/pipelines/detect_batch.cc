@@ -171,7 +171,7 @@ int DetectScans(const std::vector<ScanSource>& sources, bool batch, const Detect
   if (run.fuse) {
     std::vector<LoadedScan> scans;
     for (const ScanSource& source : sources) scans.push_back(LoadScan(source));
-    first = FuseLoadedScans(scans, run.fuse_register);
+    first = FuseLoadedScans(scans, run.fuse_registration);
     batch = false;
   } else if (!batch) {
     first = LoadScan(sources.at(0));

@@ -34,7 +34,8 @@ struct DetectRunOptions {
   // Several scans with their own poses: one detection in all of them fused
   // (FuseLoadedScans), seen from the last one's camera, as for one scan.
   bool fuse = false;
-  bool fuse_register = false;  // their poses refined against the last one's points first
+  // Their poses refined against the last one's points first; nothing: as given.
+  std::optional<ScanRegistrationOptions> fuse_registration;
 };
 
 // Whether `inputs` (the command's positional scans) expanded into `sources`

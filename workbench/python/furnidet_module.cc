@@ -383,8 +383,9 @@ class PyDetector {
   }
 
   // Several (points, world_from_camera) scans as one (FuseScans), seen from
-  // the last one's camera; their poses refined first when `register_poses`.
-  PyResult DetectFused(const py::list& scans, bool register_poses) const {
+  // the last one's camera; their poses refined first when `register_poses`
+  // (in x, y and yaw only when `planar`).
+  PyResult DetectFused(const py::list& scans, bool register_poses, bool planar) const {
     std::vector<DetectionInput> inputs;
     for (const py::handle& scan : scans) {
       const py::tuple pair = py::reinterpret_borrow<py::object>(scan).cast<py::tuple>();
@@ -394,8 +395,12 @@ class PyDetector {
     }
     if (inputs.empty()) throw InputError("detect_fused needs at least one scan");
     const size_t reference = inputs.size() - 1;
-    if (register_poses && inputs.size() > 1)
-      inputs = WithRegisteredPoses(std::move(inputs), reference, ScanRegistrationOptions{});
+    if (planar && !register_poses) throw InputError("planar=True applies to register=True");
+    if (register_poses && inputs.size() > 1) {
+      ScanRegistrationOptions registration;
+      registration.planar = planar;
+      inputs = WithRegisteredPoses(std::move(inputs), reference, registration);
+    }
     return Run(FuseScans(inputs, reference));
   }
 
@@ -629,9 +634,10 @@ PYBIND11_MODULE(_furnidet, m) {
            &PyDetector::DetectFused,
            py::arg("scans"),
            py::arg("register") = false,
+           py::arg("planar") = false,
            "Detect in several posed scans at once: a list of (points, world_from_camera) pairs, "
            "seen from the last one's camera; register=True refines their poses first "
-           "(generalized ICP).")
+           "(generalized ICP; with planar=True in x, y and yaw only, point-to-plane ICP).")
       .def_property_readonly("model_names", &PyDetector::ModelNames);
 
   m.def("evaluate",
