@@ -107,7 +107,9 @@ BENCHMARK(BM_DetectFusedFrame)->Unit(benchmark::kMillisecond)->UseRealTime()->It
 // Registering each selected frame's room-mates against it (RegisterScans,
 // the default options), their poses off by 2 cm / 1 degree per axis as
 // `evaluate --fuse-pose-noise 0.02,1` draws them; the share of poses refined
-// as a counter.
+// as a counter. Arg planar 1: the error along x and y and about z only, and
+// registration in x, y and yaw (`--fuse-pose-noise 0.02,1,planar
+// --fuse-planar`).
 void BM_RegisterRoomFrames(benchmark::State& state) {
   std::string model_path, db_path;
   if (!FindModelAndDataset(state, &model_path, &db_path)) return;
@@ -126,18 +128,21 @@ void BM_RegisterRoomFrames(benchmark::State& state) {
         fusion.room_frames = true;
         fusion.pose_noise_m = 0.02;
         fusion.pose_noise_deg = 1;
+        fusion.planar_noise = state.range(0) != 0;
         Room r;
         r.scans = RoomScans(room, frame, fusion, db_path, &r.reference);
         rooms.push_back(std::move(r));
       }
     }
   }
+  ScanRegistrationOptions registration;
+  registration.planar = state.range(0) != 0;
   size_t next = 0;
   int refined = 0, registered = 0;
   for (auto _ : state) {
     const Room& room = rooms[next++ % rooms.size()];
     const std::vector<RegisteredPose> poses =
-        RegisterScans(room.scans, room.reference, ScanRegistrationOptions{});
+        RegisterScans(room.scans, room.reference, registration);
     for (size_t k = 0; k < poses.size(); ++k) {
       if (k == room.reference) continue;
       ++registered;
@@ -147,7 +152,13 @@ void BM_RegisterRoomFrames(benchmark::State& state) {
   state.counters["frames"] = static_cast<double>(rooms.size());
   state.counters["refined_share"] = registered > 0 ? static_cast<double>(refined) / registered : 0;
 }
-BENCHMARK(BM_RegisterRoomFrames)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(27);
+BENCHMARK(BM_RegisterRoomFrames)
+    ->Arg(0)
+    ->Arg(1)
+    ->ArgName("planar")
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->Iterations(27);
 // Args: the network's torch threads and --mirror-average (learned voting;
 // the codebook path ignores both).
 BENCHMARK(BM_DetectFrame)
