@@ -1,6 +1,8 @@
 #include "core/scan_fusion.h"
 
+#include <pcl/common/io.h>
 #include <pcl/features/normal_3d.h>
+#include <pcl/filters/filter.h>
 #include <pcl/kdtree/kdtree_flann.h>
 #include <pcl/registration/gicp.h>
 #include <pcl/registration/icp.h>
@@ -94,26 +96,18 @@ pcl::PointCloud<pcl::PointNormal>::Ptr WithNormals(const pcl::PointCloud<pcl::Po
   estimate.setRadiusSearch(3.5 * voxel_m);
   pcl::PointCloud<pcl::Normal> normals;
   estimate.compute(normals);
+  pcl::PointCloud<pcl::PointNormal> joined;
+  pcl::concatenateFields(*cloud, normals, joined);
   auto out = pcl::make_shared<pcl::PointCloud<pcl::PointNormal>>();
-  for (size_t k = 0; k < cloud->size(); ++k) {
-    const pcl::Normal& n = normals[k];
-    if (!std::isfinite(n.normal_x) || !std::isfinite(n.normal_y) || !std::isfinite(n.normal_z))
-      continue;
-    pcl::PointNormal point;
-    point.x = (*cloud)[k].x;
-    point.y = (*cloud)[k].y;
-    point.z = (*cloud)[k].z;
-    point.normal_x = n.normal_x;
-    point.normal_y = n.normal_y;
-    point.normal_z = n.normal_z;
-    out->push_back(point);
-  }
+  pcl::Indices kept;
+  pcl::removeNaNNormalsFromPointCloud(joined, *out, kept);
   return out;
 }
 
-// The motion of `points` onto `target` in x, y and yaw: point-to-plane ICP
-// whose step is solved by Levenberg-Marquardt over PCL's three-parameter warp.
-std::optional<Eigen::Matrix4d> PlanarMotion(const pcl::PointCloud<pcl::PointXYZ>::Ptr& target,
+// The motion of `points` onto `target` (with its normals) in x, y and yaw:
+// point-to-plane ICP whose step is solved by Levenberg-Marquardt over PCL's
+// three-parameter warp.
+std::optional<Eigen::Matrix4d> PlanarMotion(const pcl::PointCloud<pcl::PointNormal>::Ptr& target,
                                             const std::vector<Eigen::Vector3f>& points,
                                             const ScanRegistrationOptions& options) {
   using Point = pcl::PointNormal;
@@ -124,7 +118,7 @@ std::optional<Eigen::Matrix4d> PlanarMotion(const pcl::PointCloud<pcl::PointXYZ>
   pcl::IterativeClosestPointWithNormals<Point, Point, double> icp;
   icp.setTransformationEstimation(estimation);
   icp.setInputSource(WithNormals(ToPclPoints(points), options.voxel_m));
-  icp.setInputTarget(WithNormals(target, options.voxel_m));
+  icp.setInputTarget(target);
   icp.setMaxCorrespondenceDistance(options.max_correspondence_m);
   icp.setMaximumIterations(options.iterations);
   icp.setTransformationEpsilon(1e-8);
@@ -153,16 +147,20 @@ std::optional<Eigen::Matrix4d> FullMotion(const pcl::PointCloud<pcl::PointXYZ>::
 }
 
 // The motion of `points` onto the tree's cloud (planar or full, as the
-// options say), or nothing when it did not converge, paired worse than
-// `before`, or moved beyond the options' bounds.
-std::optional<Eigen::Isometry3f> Alignment(const pcl::PointCloud<pcl::PointXYZ>::Ptr& target,
-                                           const pcl::KdTreeFLANN<pcl::PointXYZ>& tree,
-                                           const std::vector<Eigen::Vector3f>& points,
-                                           const Pairing& before,
-                                           const ScanRegistrationOptions& options,
-                                           Pairing* after) {
-  const std::optional<Eigen::Matrix4d> found =
-      options.planar ? PlanarMotion(target, points, options) : FullMotion(target, points, options);
+// options say; planar needs the target's normals), or nothing when it did
+// not converge, paired worse than `before`, or moved beyond the options'
+// bounds.
+std::optional<Eigen::Isometry3f> Alignment(
+    const pcl::PointCloud<pcl::PointXYZ>::Ptr& target,
+    const pcl::PointCloud<pcl::PointNormal>::Ptr& target_normals,
+    const pcl::KdTreeFLANN<pcl::PointXYZ>& tree,
+    const std::vector<Eigen::Vector3f>& points,
+    const Pairing& before,
+    const ScanRegistrationOptions& options,
+    Pairing* after) {
+  const std::optional<Eigen::Matrix4d> found = options.planar
+                                                   ? PlanarMotion(target_normals, points, options)
+                                                   : FullMotion(target, points, options);
   if (!found || !found->allFinite()) return std::nullopt;
   const Eigen::Isometry3f motion(found->cast<float>());
   *after = PairingOf(tree, points, motion, options.max_correspondence_m);
@@ -207,6 +205,9 @@ std::vector<RegisteredPose> RegisterScans(const std::vector<DetectionInput>& sca
       ToPclPoints(ThinnedWorldPoints(scans[reference], options));
   pcl::KdTreeFLANN<pcl::PointXYZ> tree;
   if (!target->empty()) tree.setInputCloud(target);
+  // The reference's normals, once for every scan aligned to it (planar only).
+  const pcl::PointCloud<pcl::PointNormal>::Ptr target_normals =
+      options.planar && !target->empty() ? WithNormals(target, options.voxel_m) : nullptr;
   constexpr int kFewest = 10;  // fewer points in the reference: nothing to align to
   std::vector<RegisteredPose> out(scans.size());
   for (size_t k = 0; k < scans.size(); ++k) {
@@ -221,7 +222,7 @@ std::vector<RegisteredPose> RegisterScans(const std::vector<DetectionInput>& sca
     if (before.paired < options.min_pairs) continue;
     Pairing after;
     const std::optional<Eigen::Isometry3f> motion =
-        Alignment(target, tree, points, before, options, &after);
+        Alignment(target, target_normals, tree, points, before, options, &after);
     if (!motion) continue;
     pose.world_from_camera = motion->cast<double>() * pose.world_from_camera;
     pose.rms_after_m = after.rms_m;
