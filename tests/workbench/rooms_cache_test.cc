@@ -14,6 +14,7 @@
 #include "core/progress.h"
 #include "db/sqlite.h"
 #include "tests/test_util.h"
+#include "workbench/formats/scan_file.h"
 #include "workbench/pipelines/rooms_cache.h"
 #include "workbench/pipelines/train_vote_net.h"
 
@@ -225,6 +226,53 @@ TEST(FusedTraining, FramesAreSeenWithTheirRoomMatesOnRequest) {
   bad.fused_share = 0.5;
   bad.frames_per_room = 1;
   EXPECT_NE(testing::ErrorOf([&] { bad.Check(); }).find("two or more frames"), std::string::npos);
+}
+
+// Fused training frames with odometry's pose error: the room-mates' points
+// move, the frame's own and the targets do not, the same on every read.
+TEST(FusedTraining, RoomMatesCanCarryAPoseError) {
+  Progress::SetQuiet(true);
+  const std::string dir = testing::ScratchDir();
+  GenerateOptions generate = TwoRooms();
+  generate.room.frames_per_room = 4;
+  GenerateDataset(OpenCatalog(generate.catalog_spec), generate, dir + "/rooms.db");
+  VoteNetTrainingOptions exact = TinyTraining();
+  exact.frames_per_room = 4;
+  exact.validation_share = 0;
+  exact.fused_share = 1;
+  VoteNetTrainingOptions noisy = exact;
+  noisy.fused_pose_noise_m = 0.05;
+  noisy.fused_pose_noise_deg = 2;
+  std::vector<BevSample> sharp, blurred, blurred_again;
+  ReadBevSamples(dir + "/rooms.db", exact, &sharp, nullptr);
+  ReadBevSamples(dir + "/rooms.db", noisy, &blurred, nullptr);
+  ReadBevSamples(dir + "/rooms.db", noisy, &blurred_again, nullptr);
+  ASSERT_EQ(sharp.size(), 8u);
+  ASSERT_EQ(blurred.size(), 8u);
+  int moved = 0;
+  for (size_t k = 0; k < sharp.size(); ++k) {
+    moved += blurred[k].image.values != sharp[k].image.values;
+    EXPECT_EQ(blurred[k].image.values, blurred_again[k].image.values) << "frame " << k;
+    ASSERT_EQ(blurred[k].objects.size(), sharp[k].objects.size()) << "frame " << k;
+    for (size_t i = 0; i < sharp[k].objects.size(); ++i)
+      EXPECT_EQ(blurred[k].objects[i].centre, sharp[k].objects[i].centre) << "frame " << k;
+  }
+  EXPECT_EQ(moved, 8) << "every fused frame's room-mates moved";
+
+  EXPECT_EQ(exact.Json().find("fused_pose_noise"), std::string::npos) << "older keys stay valid";
+  EXPECT_NE(noisy.Json(), exact.Json());
+  VoteNetTrainingOptions bad = noisy;
+  bad.fused_share = 0;
+  EXPECT_NE(testing::ErrorOf([&] { bad.Check(); }).find("needs fused frames"), std::string::npos);
+  bad = noisy;
+  bad.fused_pose_noise_m = 2;
+  const std::string error = testing::ErrorOf([&] { bad.Check(); });
+  EXPECT_NE(error.find("fused pose noise 2"), std::string::npos) << error;
+  FrameFusion parsed;
+  EXPECT_NE(testing::ErrorOf([&] {
+              ParsePoseNoise("0.02", &parsed, "--vote-fused-pose-noise");
+            }).find("--vote-fused-pose-noise '0.02' must be"),
+            std::string::npos);
 }
 
 }  // namespace

@@ -9,6 +9,7 @@
 
 #include "core/progress.h"
 #include "workbench/cli/enum_option.h"
+#include "workbench/formats/scan_file.h"
 
 namespace furn {
 
@@ -147,6 +148,18 @@ void AddVoteNetRoomFlags(CLI::App* app, VoteNetTrainingOptions* options) {
                   "Vote network: the share of training frames seen with their room's other "
                   "frames fused in, as 'detect --fuse' sees a place (0..1; 0: each frame alone)")
       ->capture_default_str();
+  app->add_option_function<std::string>(
+      "--vote-fused-pose-noise",
+      [options](const std::string& text) {
+        FrameFusion fusion;
+        ParsePoseNoise(text, &fusion, "--vote-fused-pose-noise");
+        options->fused_pose_noise_m = fusion.pose_noise_m;
+        options->fused_pose_noise_deg = fusion.pose_noise_deg;
+        options->fused_planar_noise = fusion.planar_noise;
+      },
+      "M,DEG[,planar]: with --vote-fused-share, the fused frames' room-mates with a random "
+      "pose error of sigma M metres along and DEG degrees about each axis (planar: along x "
+      "and y and about z only), as '--fuse-pose-noise' draws it; default exact poses");
   AddEnumOption(app,
                 "--vote-shape-sizes",
                 &o.shape_sizes,

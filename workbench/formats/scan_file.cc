@@ -123,9 +123,8 @@ FrameFusion FrameFusion::FromJson(const nlohmann::json& json, const std::string&
   return fusion;
 }
 
-void ParsePoseNoise(const std::string& text, FrameFusion* fusion) {
-  const std::string rule =
-      "--fuse-pose-noise '" + text + "' must be M,DEG or M,DEG,planar (e.g. 0.02,1)";
+void ParsePoseNoise(const std::string& text, FrameFusion* fusion, const std::string& flag) {
+  const std::string rule = flag + " '" + text + "' must be M,DEG or M,DEG,planar (e.g. 0.02,1)";
   std::vector<std::string> fields(1);
   for (char c : text) {
     if (c == ',')
@@ -165,15 +164,30 @@ std::vector<DetectionInput> RoomScans(const RoomRecord& room,
   for (const FrameRecord& other : room.frames) {
     if (other.id == frame.id) *reference = scans.size();
     scans.push_back(DetectionInputOf(other, db_path + " frame " + std::to_string(other.id)));
-    if (other.id == frame.id || (fusion.pose_noise_m == 0 && fusion.pose_noise_deg == 0)) continue;
-    FastRng rng(DeriveSeed(frame.seed, static_cast<uint64_t>(other.frame_index)));
-    scans.back().world_from_camera = PerturbedPose(*scans.back().world_from_camera,
-                                                   fusion.pose_noise_m,
-                                                   fusion.pose_noise_deg * M_PI / 180,
-                                                   rng,
-                                                   fusion.planar_noise);
   }
+  PerturbRoomMates(room, *reference, fusion, &scans);
   return scans;
+}
+
+void PerturbRoomMates(const RoomRecord& room,
+                      size_t reference,
+                      const FrameFusion& fusion,
+                      std::vector<DetectionInput>* scans) {
+  if (fusion.pose_noise_m == 0 && fusion.pose_noise_deg == 0) return;
+  Require(scans->size() == room.frames.size() && reference < scans->size(),
+          "room " + std::to_string(room.id) + ": " + std::to_string(scans->size()) +
+              " scans for its " + std::to_string(room.frames.size()) + " frames");
+  for (size_t i = 0; i < scans->size(); ++i) {
+    if (i == reference) continue;
+    FastRng rng(
+        DeriveSeed(room.frames[reference].seed, static_cast<uint64_t>(room.frames[i].frame_index)));
+    DetectionInput& scan = (*scans)[i];
+    scan.world_from_camera = PerturbedPose(*scan.world_from_camera,
+                                           fusion.pose_noise_m,
+                                           fusion.pose_noise_deg * M_PI / 180,
+                                           rng,
+                                           fusion.planar_noise);
+  }
 }
 
 DetectionInput RoomFrameInput(const RoomRecord& room,

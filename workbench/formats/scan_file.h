@@ -53,9 +53,11 @@ struct FrameFusion {
   static FrameFusion FromJson(const nlohmann::json& json, const std::string& what);
 };
 
-// "M,DEG" or "M,DEG,planar" (--fuse-pose-noise) into the fusion's spreads;
-// InputError otherwise.
-void ParsePoseNoise(const std::string& text, FrameFusion* fusion);
+// "M,DEG" or "M,DEG,planar" (the value of `flag`) into the fusion's
+// spreads; InputError naming the flag otherwise.
+void ParsePoseNoise(const std::string& text,
+                    FrameFusion* fusion,
+                    const std::string& flag = "--fuse-pose-noise");
 
 struct ScanSource {
   std::string cloud_path;              // .pcd or .ply
@@ -110,10 +112,18 @@ void SetIntrinsics(const CameraIntrinsics& camera, FrameRecord* frame);
 // its known pose. `what` names the frame in errors.
 DetectionInput DetectionInputOf(const FrameRecord& frame, const std::string& what);
 
+// The room's scans (one per frame of `room`, in its order) with every pose
+// but scans[reference]'s given the fusion's random error, seeded by the
+// reference frame's seed and the other's index: the same error every time.
+// Nothing changes without an error.
+void PerturbRoomMates(const RoomRecord& room,
+                      size_t reference,
+                      const FrameFusion& fusion,
+                      std::vector<DetectionInput>* scans);
+
 // Every frame of `frame`'s room as a scan (DetectionInputOf), the others'
-// poses with the fusion's random error (seeded by this frame's seed and the
-// other's index: the same scans every time); `reference` is set to this
-// frame's place among them.
+// poses with the fusion's random error (PerturbRoomMates); `reference` is
+// set to this frame's place among them.
 std::vector<DetectionInput> RoomScans(const RoomRecord& room,
                                       const FrameRecord& frame,
                                       const FrameFusion& fusion,

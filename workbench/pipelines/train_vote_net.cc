@@ -200,6 +200,15 @@ void VoteNetTrainingOptions::Check() const {
           "vote-net fused share " + std::to_string(fused_share) + " must be in 0..1");
   Require(fused_share == 0 || frames_per_room > 1,
           "vote-net fused frames need two or more frames per training room (--vote-frames)");
+  Require((fused_pose_noise_m == 0 && fused_pose_noise_deg == 0) || fused_share > 0,
+          "a vote-net fused pose error needs fused frames (--vote-fused-share)");
+  Require(
+      std::isfinite(fused_pose_noise_m) && fused_pose_noise_m >= 0 && fused_pose_noise_m <= 1,
+      "vote-net fused pose noise " + std::to_string(fused_pose_noise_m) + " m must be in 0..1 m");
+  Require(std::isfinite(fused_pose_noise_deg) && fused_pose_noise_deg >= 0 &&
+              fused_pose_noise_deg <= 45,
+          "vote-net fused pose noise " + std::to_string(fused_pose_noise_deg) +
+              " degrees must be in 0..45 degrees");
   Require(shape_variety >= 0 && shape_variety <= 1000,
           "vote-net shape variety " + std::to_string(shape_variety) + " must be in 0..1000");
   Require(rooms_cache.empty() || (!keep_rooms && room_shards.empty()),
@@ -249,6 +258,9 @@ std::string VoteNetTrainingOptions::Json() const {
   if (shape_variety > 0) json["shape_variety"] = shape_variety;
   if (weight_average > 0) json["weight_average"] = weight_average;
   if (fused_share > 0) json["fused_share"] = fused_share;
+  if (fused_pose_noise_m > 0 || fused_pose_noise_deg > 0)
+    json["fused_pose_noise"] = {
+        {"m", fused_pose_noise_m}, {"deg", fused_pose_noise_deg}, {"planar", fused_planar_noise}};
   if (member > 0) json["member"] = member;
   if (ensemble > 1) json["ensemble"] = ensemble;
   if (shape_variety > 0 && shape_sizes != ShapeSizes::kCatalog)
@@ -274,6 +286,15 @@ bool VoteNetTrainingOptions::FusesFrame(int64_t frame_id) const {
   if (fused_share >= 1) return true;
   FastRng rng(seed ^ (static_cast<uint64_t>(frame_id) * 0xD1B54A32D192ED03ULL));
   return rng.Uniform01() < fused_share;
+}
+
+FrameFusion VoteNetTrainingOptions::FusedFrames() const {
+  FrameFusion fusion;
+  fusion.room_frames = true;
+  fusion.pose_noise_m = fused_pose_noise_m;
+  fusion.pose_noise_deg = fused_pose_noise_deg;
+  fusion.planar_noise = fused_planar_noise;
+  return fusion;
 }
 
 void ReadBevSamples(const std::string& db_path,
@@ -305,8 +326,13 @@ void ReadBevSamples(const std::string& db_path,
     for (size_t f = 0; f < room.frames.size(); ++f) {
       const FrameRecord& frame = room.frames[f];
       const bool fused = options.FusesFrame(frame.id);
+      std::vector<DetectionInput> mates;  // the room's scans as this frame fuses them
+      if (fused) {
+        mates = scans;
+        PerturbRoomMates(room, f, options.FusedFrames(), &mates);
+      }
       BevSample sample;
-      sample.image = RasteriseScan(fused ? FuseScans(scans, f).points : scans[f].points,
+      sample.image = RasteriseScan(fused ? FuseScans(mates, f).points : scans[f].points,
                                    frame.world_from_camera,
                                    options.net.range_m,
                                    options.net.grid);

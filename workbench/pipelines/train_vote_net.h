@@ -29,6 +29,8 @@
 
 namespace furn {
 
+struct FrameFusion;  // workbench/formats/scan_file.h
+
 struct VoteNetTrainingOptions {
   // 2400 rooms x 4 frames, 10 epochs: twice the steps of 1200 x 10 (itself
   // 600 x 20's steps over twice the rooms: +0.025 mAP@10cm over seven paired
@@ -90,6 +92,13 @@ struct VoteNetTrainingOptions {
   // the fused frames sees. 0: every frame alone (the default); 1: every
   // frame fused. Which frames: drawn from `seed` and the frame's id.
   double fused_share = 0;
+  // The fused frames' room-mates with a random pose error, as odometry
+  // gives them (PerturbedPose: sigma metres along and degrees about each
+  // axis; planar: along x and y and about z only; drawn as `evaluate
+  // --fuse-pose-noise` draws it); 0: exact poses.
+  double fused_pose_noise_m = 0;
+  double fused_pose_noise_deg = 0;
+  bool fused_planar_noise = false;
   // Their sizes: the catalog's range, or widened to the class's usual sizes
   // with cloths on a share of the tables (scenes/procedural_shapes.h).
   ShapeSizes shape_sizes = ShapeSizes::kCatalog;
@@ -112,6 +121,8 @@ struct VoteNetTrainingOptions {
   uint64_t WeightSeed() const;
   // Whether the frame of this id is rasterised fused (fused_share).
   bool FusesFrame(int64_t frame_id) const;
+  // The fusion the fused frames get (exact poses unless a pose error is set).
+  FrameFusion FusedFrames() const;
 };
 
 struct VoteNetEpoch {
