@@ -171,19 +171,30 @@ TEST(RoomsCache, OneUserOfTheSameRoomsAtATime) {
   EXPECT_TRUE(second_in.load());
 }
 
+// Two rooms of four frames each, for fused training frames.
+void WriteFourFrameRooms(const std::string& db_path) {
+  Progress::SetQuiet(true);
+  GenerateOptions generate = TwoRooms();
+  generate.room.frames_per_room = 4;
+  GenerateDataset(OpenCatalog(generate.catalog_spec), generate, db_path);
+}
+
+// Their training, every room a training room.
+VoteNetTrainingOptions FourFrameTraining() {
+  VoteNetTrainingOptions training = TinyTraining();
+  training.frames_per_room = 4;
+  training.validation_share = 0;
+  return training;
+}
+
 // Fused training frames (issue 37): with share 1 every frame is rasterised
 // with its room-mates' points and targets the objects any of them sees; with
 // share 0.5 each frame is one or the other, the same on every read; share 0
 // is the frames alone and leaves the training's key as it was.
 TEST(FusedTraining, FramesAreSeenWithTheirRoomMatesOnRequest) {
-  Progress::SetQuiet(true);
   const std::string dir = testing::ScratchDir();
-  GenerateOptions generate = TwoRooms();
-  generate.room.frames_per_room = 4;
-  GenerateDataset(OpenCatalog(generate.catalog_spec), generate, dir + "/rooms.db");
-  VoteNetTrainingOptions alone = TinyTraining();
-  alone.frames_per_room = 4;
-  alone.validation_share = 0;
+  WriteFourFrameRooms(dir + "/rooms.db");
+  const VoteNetTrainingOptions alone = FourFrameTraining();
   VoteNetTrainingOptions fused = alone, half = alone;
   fused.fused_share = 1;
   half.fused_share = 0.5;
@@ -231,14 +242,9 @@ TEST(FusedTraining, FramesAreSeenWithTheirRoomMatesOnRequest) {
 // Fused training frames with odometry's pose error: the room-mates' points
 // move, the frame's own and the targets do not, the same on every read.
 TEST(FusedTraining, RoomMatesCanCarryAPoseError) {
-  Progress::SetQuiet(true);
   const std::string dir = testing::ScratchDir();
-  GenerateOptions generate = TwoRooms();
-  generate.room.frames_per_room = 4;
-  GenerateDataset(OpenCatalog(generate.catalog_spec), generate, dir + "/rooms.db");
-  VoteNetTrainingOptions exact = TinyTraining();
-  exact.frames_per_room = 4;
-  exact.validation_share = 0;
+  WriteFourFrameRooms(dir + "/rooms.db");
+  VoteNetTrainingOptions exact = FourFrameTraining();
   exact.fused_share = 1;
   VoteNetTrainingOptions noisy = exact;
   noisy.fused_pose_noise_m = 0.05;
