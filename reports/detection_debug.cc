@@ -215,6 +215,23 @@ std::pair<std::optional<FurnitureClass>, float> HeatAt(const DetectionDebug& deb
   return best;
 }
 
+// The hypotheses, the detected ones first (their labels are placed first).
+std::vector<const DetectionDebug::Hypothesis*> DetectedFirst(const DetectionDebug& debug) {
+  std::vector<const DetectionDebug::Hypothesis*> ordered;
+  for (const DetectionDebug::Hypothesis& h : debug.hypotheses) ordered.push_back(&h);
+  std::stable_partition(ordered.begin(), ordered.end(), [](const DetectionDebug::Hypothesis* h) {
+    return h->outcome == HypothesisOutcome::kDetected;
+  });
+  return ordered;
+}
+
+// How many labels a figure left out for want of room, for its caption.
+std::string LeftOut(const LabelLayout& labels) {
+  return labels.left_out() == 0
+             ? std::string()
+             : ", " + std::to_string(labels.left_out()) + " unlabelled (no room)";
+}
+
 // The learned path, from the camera: each point in the colour of the class
 // whose heat is strongest under it (brighter: hotter), and every maximum on
 // the floor, ringed (thick: detected) and labelled with its heat and fate.
@@ -229,7 +246,9 @@ void WriteHeatPng(const DebugInput& in) {
     }
     view.Dot(p, ClassColour(furniture_class) * (0.3 + 0.7 * std::sqrt(std::min(heat, 1.0f))));
   }
-  for (const DetectionDebug::Hypothesis& h : in.debug().hypotheses) {
+  LabelLayout labels(&view.image());
+  for (const DetectionDebug::Hypothesis* hypothesis : DetectedFirst(in.debug())) {
+    const DetectionDebug::Hypothesis& h = *hypothesis;
     const auto at = view.Pixel(Eigen::Vector3f(h.x, h.y, 0));
     if (!at) continue;
     const bool detected = h.outcome == HypothesisOutcome::kDetected;
@@ -245,11 +264,11 @@ void WriteHeatPng(const DebugInput& in) {
                     ClassName(h.furniture_class),
                     DetectionDebug::Describe(h).c_str());
     }
-    DrawLabel(&view.image(), text, *at + cv::Point(9, 4), colour, detected ? 0.42 : 0.34);
+    labels.Draw(text, *at + cv::Point(9, 4), colour, detected ? 0.42 : 0.34);
   }
   Caption(&view.image(),
-          "learned heat under the points (brighter: hotter); " +
-              std::to_string(in.debug().hypotheses.size()) + " maxima ringed");
+          "learned heat (brighter: hotter), " + std::to_string(in.debug().hypotheses.size()) +
+              " maxima ringed" + LeftOut(labels));
   WritePngAtomically(view.image(), in.Path("heat.png"));
 }
 
@@ -282,6 +301,7 @@ void WriteFittedPng(const DebugInput& in) {
     for (const Eigen::Vector3f& p : in.debug().fitted_points[d]) view.Dot(p, colour);
   }
   const int tried = DrawTriedFits(in, &view);
+  LabelLayout labels(&view.image());
   for (const Detection& d : in.result.detections) {
     const DetectionBox box = BoxOf(d, in.model);
     const PlanarPose pose{d.x, d.y, d.yaw};
@@ -290,7 +310,7 @@ void WriteFittedPng(const DebugInput& in) {
     if (const auto at = view.Pixel(pose.Apply(Eigen::Vector3f(0, 0, box.high.z())))) {
       char text[96];
       std::snprintf(text, sizeof(text), "%s %.2f", ClassName(d.furniture_class), d.score);
-      DrawLabel(&view.image(), text, *at + cv::Point(-30, -6), colour);
+      labels.Draw(text, *at + cv::Point(-30, -6), colour);
     }
   }
   Caption(
@@ -298,7 +318,7 @@ void WriteFittedPng(const DebugInput& in) {
       std::to_string(in.result.detections.size()) +
           (in.result.detections.size() == 1 ? " detection: 3-D box" : " detections: 3-D boxes") +
           (in.debug().fitted_points.empty() ? "" : " and fitted models") + "; " +
-          std::to_string(tried) + " fits tried (grey footprints)");
+          std::to_string(tried) + " fits tried (grey footprints)" + LeftOut(labels));
   WritePngAtomically(view.image(), in.Path("fitted.png"));
 }
 
@@ -347,7 +367,9 @@ void WriteVotesPng(const DebugInput& in, const DetectionDebug::VoteGrid& grid) {
   }
   cv::circle(heat, at(in.sensor().x(), in.sensor().y()), 5, cv::Scalar(255, 255, 255), cv::FILLED);
   int maxima = 0;
-  for (const DetectionDebug::Hypothesis& h : in.debug().hypotheses) {
+  LabelLayout labels(&heat);
+  for (const DetectionDebug::Hypothesis* hypothesis : DetectedFirst(in.debug())) {
+    const DetectionDebug::Hypothesis& h = *hypothesis;
     if (h.furniture_class != grid.furniture_class) continue;
     ++maxima;
     const bool detected = h.outcome == HypothesisOutcome::kDetected;
@@ -356,7 +378,7 @@ void WriteVotesPng(const DebugInput& in, const DetectionDebug::VoteGrid& grid) {
     char text[96];
     std::snprintf(
         text, sizeof(text), "%.3g %s", h.vote_weight, DetectionDebug::Describe(h).c_str());
-    DrawLabel(&heat, text, at(h.x, h.y) + cv::Point(10, 4), colour, 0.38);
+    labels.Draw(text, at(h.x, h.y) + cv::Point(10, 4), colour, 0.38);
   }
   char caption[160];
   std::snprintf(caption,
@@ -367,7 +389,7 @@ void WriteVotesPng(const DebugInput& in, const DetectionDebug::VoteGrid& grid) {
                 high,
                 grid.threshold,
                 maxima);
-  Caption(&heat, caption);
+  Caption(&heat, caption + LeftOut(labels));
   WritePngAtomically(heat,
                      in.Path(std::string("votes_") + ClassName(grid.furniture_class) + ".png"));
 }
@@ -403,20 +425,23 @@ void WriteTopDownPng(const DebugInput& in) {
                   !g.furniture_class ? cv::Scalar(110, 110, 110) : cv::Scalar(255, 255, 255),
                   1);
   }
+  LabelLayout labels(&top.image());
   for (const Detection& d : in.result.detections) {
     const DetectionBox box = BoxOf(d, in.model);
     const cv::Scalar colour = ClassColour(d.furniture_class);
     top.Footprint(PlanarPose{d.x, d.y, d.yaw}, box.low.head<2>(), box.high.head<2>(), colour, 2);
     char text[64];
     std::snprintf(text, sizeof(text), "%s %.2f", ClassName(d.furniture_class), d.score);
-    DrawLabel(&top.image(), text, top.At(d.x, d.y) + cv::Point(6, -6), colour, 0.4);
+    labels.Draw(text, top.At(d.x, d.y) + cv::Point(6, -6), colour, 0.4);
   }
   // Only a labelled frame has truth to show (a real scan given to detect has none).
   Caption(
       &top.image(),
       in.ground_truth.empty()
-          ? "top-down, world frame (1 m grid): detections (class colour), sensor (white dot)"
-          : "top-down, world frame (1 m grid): detections (class colour), ground truth (white)");
+          ? "top-down, world frame (1 m grid): detections (class colour), sensor (white dot)" +
+                LeftOut(labels)
+          : "top-down, world frame (1 m grid): detections (class colour), ground truth (white)" +
+                LeftOut(labels));
   WritePngAtomically(top.image(), in.Path("topdown.png"));
 }
 

@@ -39,16 +39,54 @@ cv::Scalar ClassColour(std::optional<FurnitureClass> furniture_class) {
   return cv::Scalar(rgb[2], rgb[1], rgb[0]);  // OpenCV's BGR
 }
 
-void DrawLabel(
-    cv::Mat* image, const std::string& text, cv::Point at, const cv::Scalar& colour, double scale) {
-  // Kept inside the image: a label at an edge moves in rather than being cut.
+namespace {
+
+// Where a label's text starts and the box it covers (outline included),
+// kept inside the image: a label at an edge moves in rather than being cut.
+std::pair<cv::Point, cv::Rect> LabelPlace(const cv::Mat& image,
+                                          const std::string& text,
+                                          cv::Point at,
+                                          double scale) {
   int baseline = 0;
   const cv::Size size = cv::getTextSize(text, cv::FONT_HERSHEY_SIMPLEX, scale, 3, &baseline);
-  at.x = std::max(2, std::min(at.x, image->cols - size.width - 2));
-  at.y = std::max(size.height + 2, std::min(at.y, image->rows - baseline - 2));
+  at.x = std::max(2, std::min(at.x, image.cols - size.width - 2));
+  at.y = std::max(size.height + 2, std::min(at.y, image.rows - baseline - 2));
+  return {at,
+          cv::Rect(at.x - 1, at.y - size.height - 1, size.width + 2, size.height + baseline + 2)};
+}
+
+void PutLabel(
+    cv::Mat* image, const std::string& text, cv::Point at, const cv::Scalar& colour, double scale) {
   cv::putText(
       *image, text, at, cv::FONT_HERSHEY_SIMPLEX, scale, cv::Scalar(0, 0, 0), 3, cv::LINE_AA);
   cv::putText(*image, text, at, cv::FONT_HERSHEY_SIMPLEX, scale, colour, 1, cv::LINE_AA);
+}
+
+}  // namespace
+
+void DrawLabel(
+    cv::Mat* image, const std::string& text, cv::Point at, const cv::Scalar& colour, double scale) {
+  PutLabel(image, text, LabelPlace(*image, text, at, scale).first, colour, scale);
+}
+
+bool LabelLayout::Draw(const std::string& text,
+                       cv::Point at,
+                       const cv::Scalar& colour,
+                       double scale) {
+  const int line = LabelPlace(*image_, text, at, scale).second.height;
+  for (int step = 0; step <= 2 * kMaxShift; ++step) {
+    // 0, +1, -1, +2, -2, ... lines
+    const int lines = (step + 1) / 2 * (step % 2 == 1 ? 1 : -1);
+    const auto [start, box] = LabelPlace(*image_, text, at + cv::Point(0, lines * line), scale);
+    const bool free = std::none_of(
+        placed_.begin(), placed_.end(), [&](const cv::Rect& r) { return (r & box).area() > 0; });
+    if (!free) continue;
+    placed_.push_back(box);
+    PutLabel(image_, text, start, colour, scale);
+    return true;
+  }
+  ++left_out_;
+  return false;
 }
 
 }  // namespace furn

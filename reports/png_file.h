@@ -6,6 +6,7 @@
 #include <opencv2/core/mat.hpp>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "core/furniture_class.h"
 
@@ -22,5 +23,24 @@ void DrawLabel(cv::Mat* image,
                cv::Point at,
                const cv::Scalar& colour,
                double scale = 0.4);
+
+// Labels of one figure that do not cover each other: a label that would
+// overlap one already drawn moves down, then up, by a line at a time (at
+// most kMaxShift lines); one with no free place within that is left out
+// and counted. Draw the labels that matter most first.
+class LabelLayout {
+ public:
+  static constexpr int kMaxShift = 4;
+
+  explicit LabelLayout(cv::Mat* image) : image_(image) {}
+  // Whether the label was drawn.
+  bool Draw(const std::string& text, cv::Point at, const cv::Scalar& colour, double scale = 0.4);
+  int left_out() const { return left_out_; }
+
+ private:
+  cv::Mat* image_;
+  std::vector<cv::Rect> placed_;
+  int left_out_ = 0;
+};
 
 }  // namespace furn
