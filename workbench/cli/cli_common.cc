@@ -124,6 +124,13 @@ std::optional<int> ParseCommandLine(CLI::App* app, int argc, char** argv) {
   return std::nullopt;
 }
 
+void AddFusePlanarFlag(CLI::App* app, bool* planar) {
+  app->add_flag("--fuse-planar",
+                *planar,
+                "With --fuse-register: correct the poses in x, y and yaw only (point-to-plane "
+                "ICP), for floor-aligned poses of a ground robot");
+}
+
 namespace {
 
 // The vote network's training rooms: how many, what is in them, where they are kept.

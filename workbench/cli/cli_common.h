@@ -37,6 +37,9 @@ struct VoteNetFlags {
 };
 void AddVoteNetFlags(CLI::App* app, VoteNetFlags* flags);
 
+// --fuse-planar (detect, evaluate, crossval): registration in x, y and yaw only.
+void AddFusePlanarFlag(CLI::App* app, bool* planar);
+
 // Parses the command line. Returns the exit code when the command should stop
 // here: 0 after --help, 2 for every usage mistake (CLI11 prints the message).
 std::optional<int> ParseCommandLine(CLI::App* app, int argc, char** argv);

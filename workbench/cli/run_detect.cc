@@ -78,10 +78,7 @@ void AddFuseFlags(CLI::App* app, bool* fuse, FrameFusion* fusion) {
                 fusion->register_poses,
                 "With --fuse: refine the scans' poses against the last one's points first "
                 "(generalized ICP), for poses from odometry");
-  app->add_flag("--fuse-planar",
-                fusion->planar,
-                "With --fuse-register: correct the poses in x, y and yaw only (point-to-plane "
-                "ICP), for floor-aligned poses of a ground robot");
+  AddFusePlanarFlag(app, &fusion->planar);
 }
 
 // The scans: the positional inputs, or the one of --cloud/--depth/--db

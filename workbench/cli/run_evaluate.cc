@@ -326,10 +326,7 @@ void AddFusionOptions(CLI::App* app, FrameFusion* fusion) {
                 fusion->register_poses,
                 "With --fuse-room-frames: refine the other frames' poses against the frame's "
                 "points first (generalized ICP), after any --fuse-pose-noise");
-  app->add_flag("--fuse-planar",
-                fusion->planar,
-                "With --fuse-register: correct the poses in x, y and yaw only (point-to-plane "
-                "ICP), for floor-aligned poses of a ground robot");
+  AddFusePlanarFlag(app, &fusion->planar);
 }
 
 }  // namespace

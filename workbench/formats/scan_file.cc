@@ -70,17 +70,21 @@ CameraIntrinsics IntrinsicsOf(const FrameRecord& frame) {
   return {frame.width, frame.height, frame.fx, frame.fy, frame.cx, frame.cy};
 }
 
-void FrameFusion::Check() const {
-  auto spread = [](double value, double limit, const char* unit) {
+void CheckPoseErrorSpreads(double sigma_m, double sigma_deg, const std::string& what) {
+  auto spread = [&what](double value, double limit, const char* unit) {
     char text[32];
     std::snprintf(text, sizeof(text), "%g", value);
     Require(std::isfinite(value) && value >= 0 && value <= limit,
-            std::string("--fuse-pose-noise: ") + text + " " + unit + " must be in 0.." +
+            what + " " + text + " " + unit + " must be in 0.." +
                 std::to_string(static_cast<int>(limit)) + " " + unit);
   };
-  spread(pose_noise_m, 1, "m");
-  spread(pose_noise_deg, 45, "degrees");
-  Require(room_frames || (pose_noise_m == 0 && pose_noise_deg == 0),
+  spread(sigma_m, 1, "m");
+  spread(sigma_deg, 45, "degrees");
+}
+
+void FrameFusion::Check() const {
+  CheckPoseErrorSpreads(pose_noise_m, pose_noise_deg, "--fuse-pose-noise:");
+  Require(room_frames || !HasPoseError(),
           "--fuse-pose-noise applies to fused frames (--fuse-room-frames)");
   Require(room_frames || !register_poses,
           "--fuse-register applies to fused frames (--fuse-room-frames)");
@@ -173,7 +177,7 @@ void PerturbRoomMates(const RoomRecord& room,
                       size_t reference,
                       const FrameFusion& fusion,
                       std::vector<DetectionInput>* scans) {
-  if (fusion.pose_noise_m == 0 && fusion.pose_noise_deg == 0) return;
+  if (!fusion.HasPoseError()) return;
   Require(scans->size() == room.frames.size() && reference < scans->size(),
           "room " + std::to_string(room.id) + ": " + std::to_string(scans->size()) +
               " scans for its " + std::to_string(room.frames.size()) + " frames");

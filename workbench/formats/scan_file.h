@@ -44,6 +44,8 @@ struct FrameFusion {
   // finite, or beyond 1 m / 45 degrees, a spread or registration without
   // room_frames, or planar without registration.
   void Check() const;
+  // Whether the other frames' poses get an error (either spread above 0).
+  bool HasPoseError() const { return pose_noise_m != 0 || pose_noise_deg != 0; }
   // How registration refines the poses; nothing without register_poses.
   std::optional<ScanRegistrationOptions> Registration() const;
   // What the run stores: null when off, else {"room_frames", "pose_noise_m",
@@ -52,6 +54,10 @@ struct FrameFusion {
   nlohmann::json Json() const;
   static FrameFusion FromJson(const nlohmann::json& json, const std::string& what);
 };
+
+// Throws InputError, "<what> <value> m must be in 0..1 m" (or degrees in
+// 0..45), for a pose error's spread that is negative, not finite or larger.
+void CheckPoseErrorSpreads(double sigma_m, double sigma_deg, const std::string& what);
 
 // "M,DEG" or "M,DEG,planar" (the value of `flag`) into the fusion's
 // spreads; InputError naming the flag otherwise.

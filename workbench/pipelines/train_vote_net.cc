@@ -200,15 +200,9 @@ void VoteNetTrainingOptions::Check() const {
           "vote-net fused share " + std::to_string(fused_share) + " must be in 0..1");
   Require(fused_share == 0 || frames_per_room > 1,
           "vote-net fused frames need two or more frames per training room (--vote-frames)");
-  Require((fused_pose_noise_m == 0 && fused_pose_noise_deg == 0) || fused_share > 0,
+  Require(!FusedFrames().HasPoseError() || fused_share > 0,
           "a vote-net fused pose error needs fused frames (--vote-fused-share)");
-  Require(
-      std::isfinite(fused_pose_noise_m) && fused_pose_noise_m >= 0 && fused_pose_noise_m <= 1,
-      "vote-net fused pose noise " + std::to_string(fused_pose_noise_m) + " m must be in 0..1 m");
-  Require(std::isfinite(fused_pose_noise_deg) && fused_pose_noise_deg >= 0 &&
-              fused_pose_noise_deg <= 45,
-          "vote-net fused pose noise " + std::to_string(fused_pose_noise_deg) +
-              " degrees must be in 0..45 degrees");
+  CheckPoseErrorSpreads(fused_pose_noise_m, fused_pose_noise_deg, "vote-net fused pose noise");
   Require(shape_variety >= 0 && shape_variety <= 1000,
           "vote-net shape variety " + std::to_string(shape_variety) + " must be in 0..1000");
   Require(rooms_cache.empty() || (!keep_rooms && room_shards.empty()),
@@ -258,7 +252,7 @@ std::string VoteNetTrainingOptions::Json() const {
   if (shape_variety > 0) json["shape_variety"] = shape_variety;
   if (weight_average > 0) json["weight_average"] = weight_average;
   if (fused_share > 0) json["fused_share"] = fused_share;
-  if (fused_pose_noise_m > 0 || fused_pose_noise_deg > 0)
+  if (FusedFrames().HasPoseError())
     json["fused_pose_noise"] = {
         {"m", fused_pose_noise_m}, {"deg", fused_pose_noise_deg}, {"planar", fused_planar_noise}};
   if (member > 0) json["member"] = member;
@@ -297,6 +291,22 @@ FrameFusion VoteNetTrainingOptions::FusedFrames() const {
   return fusion;
 }
 
+namespace {
+
+// The room's scans fused in the camera of scans[reference], the others'
+// poses with the fusion's error; copied only when there is an error.
+DetectionInput FusedScan(const std::vector<DetectionInput>& scans,
+                         const RoomRecord& room,
+                         size_t reference,
+                         const FrameFusion& fusion) {
+  if (!fusion.HasPoseError()) return FuseScans(scans, reference);
+  std::vector<DetectionInput> mates = scans;
+  PerturbRoomMates(room, reference, fusion, &mates);
+  return FuseScans(mates, reference);
+}
+
+}  // namespace
+
 void ReadBevSamples(const std::string& db_path,
                     const VoteNetTrainingOptions& options,
                     std::vector<BevSample>* training,
@@ -312,6 +322,7 @@ void ReadBevSamples(const std::string& db_path,
   };
   size_t to_read = 0;
   for (size_t k = 0; k < rooms.size(); ++k) to_read += destination(k) != nullptr;
+  const FrameFusion fusion = options.FusedFrames();
   Progress progress("rasterise", to_read, "rooms");
   for (size_t k = 0; k < rooms.size(); ++k) {
     std::vector<BevSample>* out = destination(k);
@@ -326,16 +337,12 @@ void ReadBevSamples(const std::string& db_path,
     for (size_t f = 0; f < room.frames.size(); ++f) {
       const FrameRecord& frame = room.frames[f];
       const bool fused = options.FusesFrame(frame.id);
-      std::vector<DetectionInput> mates;  // the room's scans as this frame fuses them
-      if (fused) {
-        mates = scans;
-        PerturbRoomMates(room, f, options.FusedFrames(), &mates);
-      }
       BevSample sample;
-      sample.image = RasteriseScan(fused ? FuseScans(mates, f).points : scans[f].points,
-                                   frame.world_from_camera,
-                                   options.net.range_m,
-                                   options.net.grid);
+      sample.image =
+          RasteriseScan(fused ? FusedScan(scans, room, f, fusion).points : scans[f].points,
+                        frame.world_from_camera,
+                        options.net.range_m,
+                        options.net.grid);
       AddObjectsSeenBy(room,
                        fused ? room_frames : std::vector<const FrameRecord*>{&frame},
                        options.min_visibility,
