@@ -20,11 +20,11 @@ namespace furn {
 namespace {
 
 constexpr char kMagic[8] = {'F', 'U', 'R', 'N', 'M', 'D', 'L', '\0'};
-constexpr uint32_t kFormatVersion = 9;  // 2: part-subset library and model shapes; 3: scorer;
-                                        // 4: render meshes; 5: the part index stored;
-                                        // 6: an XXH3-64 checksum of the payload at the end;
-                                        // 7: the VFH size component flag; 8: vote network;
-                                        // 9: the operating point
+constexpr uint32_t kFormatVersion = 10;  // 2: part-subset library and model shapes; 3: scorer;
+                                         // 4: render meshes; 5: the part index stored;
+                                         // 6: an XXH3-64 checksum of the payload at the end;
+                                         // 7: the VFH size component flag; 8: vote network;
+                                         // 9: the operating point; 10: the vote network's input
 constexpr uint32_t kOldestReadable = 2;
 constexpr size_t kHeaderBytes = 12;  // magic and version, outside the checksum
 
@@ -416,6 +416,13 @@ void WriteOperatingPoint(const OperatingPoint& point, Writer* w) {
   }
 }
 
+void WriteVoteNetInput(const VoteNetInput& input, Writer* w) {
+  w->F64(input.recorded ? input.fused_share : -1);  // -1: an upgraded older file's unknown
+  w->F64(input.pose_noise_m);
+  w->F64(input.pose_noise_deg);
+  w->I32(input.planar ? 1 : 0);
+}
+
 }  // namespace
 
 void SaveTrainedModel(const TrainedModel& model, const std::string& path) {
@@ -483,6 +490,7 @@ void SaveTrainedModel(const TrainedModel& model, const std::string& path) {
   w.I32(model.options.part_subsets.vfh_size_component ? 1 : 0);
   w.String(model.vote_net);
   WriteOperatingPoint(model.operating_point, &w);
+  WriteVoteNetInput(model.vote_net_input, &w);
   const std::string& bytes = w.bytes();
   const uint64_t checksum = XXH3_64bits(bytes.data() + kHeaderBytes, bytes.size() - kHeaderBytes);
   w.Bytes(&checksum, sizeof(checksum));
@@ -631,6 +639,26 @@ OperatingPoint ReadOperatingPoint(Reader* r, const std::string& path) {
   return point;
 }
 
+// Within the ranges `train` accepts (train_vote_net.cc's checks).
+VoteNetInput ReadVoteNetInput(Reader* r, const std::string& path) {
+  const std::string corrupt = path + ": model file is corrupt (the vote network's training input ";
+  VoteNetInput input;
+  input.fused_share = r->F64();
+  input.pose_noise_m = r->F64();
+  input.pose_noise_deg = r->F64();
+  const int32_t planar = r->I32();
+  input.recorded = input.fused_share != -1;
+  if (!input.recorded) input.fused_share = 0;
+  Require(input.fused_share >= 0 && input.fused_share <= 1,
+          corrupt + "fused share is not in 0..1)");
+  Require(input.pose_noise_m >= 0 && input.pose_noise_m <= 1 && input.pose_noise_deg >= 0 &&
+              input.pose_noise_deg <= 45,
+          corrupt + "pose error is not in 0..1 m, 0..45 deg)");
+  Require(planar == 0 || planar == 1, corrupt + "planar flag is neither 0 nor 1)");
+  input.planar = planar == 1;
+  return input;
+}
+
 // The magic, the format version, and (version 6 on) the checksum over the
 // payload, checked before anything is parsed; returns the version.
 uint32_t ReadHeader(const MappedFile& file, const std::string& path, Reader* r) {
@@ -695,6 +723,7 @@ TrainedModel LoadTrainedModelUnchecked(const std::string& path) {
   }
   if (version >= 8) model.vote_net = r.String(1u << 28);
   if (version >= 9) model.operating_point = ReadOperatingPoint(&r, path);
+  model.vote_net_input = version >= 10 ? ReadVoteNetInput(&r, path) : VoteNetInput{};
   Require(r.AtEnd(), path + ": model file has trailing bytes (corrupt)");
   model.options.Check();
   CheckIndices(model, path);

@@ -109,6 +109,23 @@ struct PartSubsetEntry {
   int model_index = 0;
 };
 
+// What input the vote network was trained on (model format 10): single
+// frames, or a share of its frames fused with their room-mates' scans, those
+// off by a random pose error (`train --vote-fused-share`,
+// `--vote-fused-pose-noise`). Detection warns when it is given the other kind
+// (docs/detection.md: a network trained on single frames loses on fused
+// input with odometry's poses; one trained fused loses single frames'
+// tables). Not recorded in a model file older than format 10.
+struct VoteNetInput {
+  bool recorded = false;
+  double fused_share = 0;  // 0: single frames only
+  double pose_noise_m = 0, pose_noise_deg = 0;
+  bool planar = false;  // the error in x, y and yaw only
+
+  bool Fused() const { return recorded && fused_share > 0; }
+  bool SingleFrames() const { return recorded && fused_share == 0; }
+};
+
 struct TrainedModel {
   TrainerOptions options;
   std::vector<std::string> model_names;
@@ -136,6 +153,9 @@ struct TrainedModel {
   // F1 on validation frames when the model was trained, or by `model
   // operating-point`; empty in a model file older than format 9.
   OperatingPoint operating_point;
+  // Recorded with the vote network (format 10); codebook models keep the
+  // default (single frames).
+  VoteNetInput vote_net_input{true};
 };
 
 // The vertex-clustering cell of TrainedModel::render_meshes (m).

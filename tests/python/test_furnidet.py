@@ -129,6 +129,7 @@ class FurnidetTest(unittest.TestCase):
         self.assertEqual(len(c.detections), len(a.detections))
 
     def test_fused_halves_of_a_scan_are_the_scan(self):
+        self.assertIsNone(self.detector.vote_net_input)  # a codebook model
         frame = self.dataset.frame(self.dataset.frame_ids("test")[0])
         depth, K = frame.depth, frame.K
         v, u = np.mgrid[0:depth.shape[0], 0:depth.shape[1]]

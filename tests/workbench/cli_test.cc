@@ -437,6 +437,7 @@ TEST(Cli, ModelEnsembleCombinesMembersOfOneTraining) {
   ASSERT_EQ(info.exit_code, 0) << info.output;
   EXPECT_NE(info.output.find("vote net:    an ensemble of 2 U-Nets"), std::string::npos)
       << info.output;
+  EXPECT_NE(info.output.find("vote net input: single frames"), std::string::npos) << info.output;
   const RunResult kept = RunWorkbench("model ensemble " + dir + "/m0.fcm " + dir +
                                       "/m1.fcm --out " + dir + "/kept.fcm");
   ASSERT_EQ(kept.exit_code, 0) << kept.output;
@@ -450,6 +451,29 @@ TEST(Cli, ModelEnsembleCombinesMembersOfOneTraining) {
   EXPECT_NE(codebook.output.find("cb.fcm: has no vote network to combine"), std::string::npos)
       << codebook.output;
   EXPECT_FALSE(std::filesystem::exists(dir + "/bad.fcm"));
+  // A member trained on other input (here: fused frames) is no member.
+  ASSERT_EQ(
+      RunWorkbench(train + dir + "/fused.fcm --vote-member 1 --vote-fused-share 0.5").exit_code, 0);
+  const RunResult fused = RunWorkbench("model ensemble " + dir + "/m0.fcm " + dir +
+                                       "/fused.fcm --out " + dir + "/bad.fcm");
+  EXPECT_EQ(fused.exit_code, 1);
+  EXPECT_NE(fused.output.find("fused.fcm: its vote network was trained on fused frames in 50 % "
+                              "of its training, exact poses, "),
+            std::string::npos)
+      << fused.output;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/bad.fcm"));
+  // Detection says when a network meets the other kind of input.
+  const RunResult single = RunWorkbench("detect --model " + dir + "/fused.fcm --db " + dir +
+                                        "/m0.fcm.rooms.db --frame 1");
+  EXPECT_NE(single.output.find("note: " + dir +
+                               "/fused.fcm: its vote network was trained for "
+                               "fused scans"),
+            std::string::npos)
+      << single.output;
+  const RunResult fused_input = RunWorkbench("detect --model " + dir + "/m0.fcm --db " + dir +
+                                             "/m0.fcm.rooms.db --frame 1 --fuse");
+  EXPECT_NE(fused_input.output.find("trained on single frames; for fused scans"), std::string::npos)
+      << fused_input.output;
   const RunResult nested = RunWorkbench("model ensemble " + dir + "/pair.fcm " + dir +
                                         "/m1.fcm --out " + dir + "/bad.fcm");
   EXPECT_EQ(nested.exit_code, 1);

@@ -175,10 +175,10 @@ TEST(Train, BadModelFilesAreRejected) {
         << "byte " << at;
   }
   std::string newer = bytes;
-  newer[8] = 10;  // format version
+  newer[8] = 11;  // format version
   testing::WriteText(dir + "/newer.fcm", newer);
   EXPECT_NE(
-      testing::ErrorOf([&] { LoadTrainedModel(dir + "/newer.fcm"); }).find("format version 10"),
+      testing::ErrorOf([&] { LoadTrainedModel(dir + "/newer.fcm"); }).find("format version 11"),
       std::string::npos);
 }
 
@@ -388,6 +388,56 @@ TEST(Train, VoteNetIsStoredUsedAndItsRoomsHoldNoHeldOutModel) {
               every.detections.size());
     options.class_min_score[0] = 1.5;
     EXPECT_NE(testing::ErrorOf([&] { options.Check(); }).find("operating point of chair"),
+              std::string::npos);
+  }
+  {  // What the network was trained on: recorded, read back, described, and
+     // a note when detection gives it the other kind of input.
+    EXPECT_TRUE(model.vote_net_input.SingleFrames());
+    EXPECT_NE(DescribeTrainedModel(model).find("vote net input: single frames"), std::string::npos);
+    EXPECT_NE(VoteNetInputNote(model, "m.fcm", true)
+                  .find("m.fcm: its vote network was trained "
+                        "on single frames"),
+              std::string::npos);
+    EXPECT_EQ(VoteNetInputNote(model, "m.fcm", false), "");
+    TrainedModel fused = model;
+    fused.vote_net_input.fused_share = 0.5;
+    fused.vote_net_input.pose_noise_m = 0.02;
+    fused.vote_net_input.pose_noise_deg = 1;
+    SaveTrainedModel(fused, dir + "/fused.fcm");
+    const TrainedModel loaded = LoadTrainedModel(dir + "/fused.fcm");
+    EXPECT_TRUE(loaded.vote_net_input.Fused());
+    EXPECT_EQ(loaded.vote_net_input.pose_noise_m, 0.02);
+    EXPECT_NE(DescribeTrainedModel(loaded).find(
+                  "vote net input: fused frames in 50 % of its training, their room-mates off by "
+                  "2 cm / 1 deg"),
+              std::string::npos);
+    EXPECT_NE(VoteNetInputNote(loaded, "f.fcm", false).find("trained for fused scans"),
+              std::string::npos);
+    EXPECT_EQ(VoteNetInputNote(loaded, "f.fcm", true), "");
+    // An older file upgraded (format 9 and before recorded nothing) stays unknown.
+    TrainedModel unknown = model;
+    unknown.vote_net_input = VoteNetInput{};
+    SaveTrainedModel(unknown, dir + "/unknown.fcm");
+    const TrainedModel reread = LoadTrainedModel(dir + "/unknown.fcm");
+    EXPECT_FALSE(reread.vote_net_input.recorded);
+    EXPECT_NE(DescribeTrainedModel(reread).find("vote net input: not recorded"), std::string::npos);
+    EXPECT_EQ(VoteNetInputNote(reread, "u.fcm", true), "");
+    TrainedModel codebook_only = loaded;
+    codebook_only.vote_net.clear();
+    EXPECT_EQ(VoteNetInputNote(codebook_only, "c.fcm", false), "");
+    // Out of range under a valid checksum: one line naming the file and field.
+    fused.vote_net_input.fused_share = 2;
+    SaveTrainedModel(fused, dir + "/share.fcm");
+    EXPECT_NE(testing::ErrorOf([&] { LoadTrainedModel(dir + "/share.fcm"); })
+                  .find("share.fcm: model file is corrupt (the vote network's training input "
+                        "fused share is not in 0..1)"),
+              std::string::npos);
+    fused.vote_net_input.fused_share = 0.5;
+    fused.vote_net_input.pose_noise_deg = std::nan("");
+    SaveTrainedModel(fused, dir + "/noise.fcm");
+    EXPECT_NE(testing::ErrorOf([&] {
+                LoadTrainedModel(dir + "/noise.fcm");
+              }).find("pose error is not in 0..1 m, 0..45 deg"),
               std::string::npos);
   }
   DetectorOptions codebook;

@@ -15,6 +15,7 @@
 #include "reports/detection_debug.h"
 #include "workbench/formats/detection_output.h"
 #include "workbench/formats/ros2_bag.h"
+#include "workbench/pipelines/train.h"
 
 namespace furn {
 namespace {
@@ -152,6 +153,14 @@ std::string BagLine(const BagScan& scan, const DetectionResult& result, const Tr
   return place_text.substr(0, place_text.size() - 1) + "," + line.substr(1);
 }
 
+// A note on stderr when the model's vote network was trained on the other
+// kind of input (VoteNetInputNote); nothing under --quiet.
+void NoteVoteNetInput(const Detector& detector, const DetectRunOptions& run, bool fused_input) {
+  if (run.quiet) return;
+  const std::string note = VoteNetInputNote(detector.model(), run.model_path, fused_input);
+  if (!note.empty()) std::fprintf(stderr, "note: %s\n", note.c_str());
+}
+
 }  // namespace
 
 bool IsBatch(const std::vector<std::string>& inputs, const std::vector<ScanSource>& sources) {
@@ -182,6 +191,12 @@ int DetectScans(const std::vector<ScanSource>& sources, bool batch, const Detect
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - load_start)
           .count();
   if (run.timings) std::fprintf(stderr, "model loaded in %.0f ms\n", load_ms);
+  // Fused: several scans (--fuse), or a dataset frame with its room's frames.
+  const bool fused_input =
+      run.fuse || std::any_of(sources.begin(), sources.end(), [](const ScanSource& source) {
+        return source.fusion.room_frames;
+      });
+  NoteVoteNetInput(detector, run, fused_input);
   return batch ? DetectBatch(sources, detector, load_ms, run)
                : DetectOneScan(*first, detector, run);
 }
@@ -194,6 +209,7 @@ int DetectInBag(const BagScanOptions& bag,
   Require(std::filesystem::exists(bag.bag_path, ec), bag.bag_path + ": does not exist");
   if (!std::filesystem::is_directory(bag.bag_path, ec)) RequireRegularFile(bag.bag_path);
   const Detector detector(LoadTrainedModel(run.model_path), run.detector);
+  NoteVoteNetInput(detector, run, /*fused_input=*/false);
   std::unique_ptr<DetectionBagSink> markers;
   if (!out_bag.empty()) markers = OpenDetectionBag(bag.bag_path, out_bag, bag.world_frame);
   std::string lines;

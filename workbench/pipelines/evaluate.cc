@@ -27,6 +27,7 @@
 #include "workbench/formats/real_labels.h"
 #include "workbench/formats/scan_file.h"
 #include "workbench/pipelines/evaluated_frame.h"
+#include "workbench/pipelines/train.h"
 
 namespace furn {
 namespace {
@@ -492,6 +493,8 @@ EvaluateSummary EvaluateModel(const std::string& model_path,
   const std::string model_hash = HashOf(ReadFileBytes(model_path));
   TrainedModel model = LoadTrainedModel(model_path);
   const EvaluateCommandOptions options = WithOperatingPoint(command_options, model);
+  const std::string note = VoteNetInputNote(model, model_path, options.fusion.room_frames);
+  if (!note.empty() && !shard) std::fprintf(stderr, "note: %s\n", note.c_str());
   const Detector detector(std::move(model), options.detector);
   const FrameSelection selection = SelectFrames(dataset, db_path, options);
   std::vector<EvaluatedFrame> frames = DetectFrames(dataset, db_path, detector, selection, options);

@@ -405,6 +405,19 @@ class PyDetector {
   }
 
   std::vector<std::string> ModelNames() const { return detector_.model().model_names; }
+  // What the vote network was trained on (TrainedModel::vote_net_input), None
+  // for a codebook model or a model file older than format 10.
+  py::object VoteNetInput() const {
+    const TrainedModel& model = detector_.model();
+    const furn::VoteNetInput& input = model.vote_net_input;
+    if (model.vote_net.empty() || !input.recorded) return py::none();
+    py::dict out;
+    out["fused_share"] = input.fused_share;
+    out["pose_noise_m"] = input.pose_noise_m;
+    out["pose_noise_deg"] = input.pose_noise_deg;
+    out["planar"] = input.planar;
+    return std::move(out);
+  }
 
  private:
   static DetectionInput InputOfPoints(const py::array& points,
@@ -638,7 +651,14 @@ PYBIND11_MODULE(_furnidet, m) {
            "Detect in several posed scans at once: a list of (points, world_from_camera) pairs, "
            "seen from the last one's camera; register=True refines their poses first "
            "(generalized ICP; with planar=True in x, y and yaw only, point-to-plane ICP).")
-      .def_property_readonly("model_names", &PyDetector::ModelNames);
+      .def_property_readonly("model_names", &PyDetector::ModelNames)
+      .def_property_readonly(
+          "vote_net_input",
+          &PyDetector::VoteNetInput,
+          "What the vote network was trained on: {'fused_share', 'pose_noise_m', "
+          "'pose_noise_deg', 'planar'} (fused_share 0: single frames), or None (a codebook "
+          "model, or a model file older than format 10). detect_fused detects best with a "
+          "model trained fused (docs/detection.md).");
 
   m.def("evaluate",
         &EvaluateFromPython,
