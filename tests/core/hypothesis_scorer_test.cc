@@ -103,9 +103,9 @@ TEST(HypothesisScorer, SameSamplesSameBytesAndTheBytesRoundTrip) {
   EXPECT_TRUE(LoadTrainedModel(path).scorer.empty());
   // A version-2 file (before scorers: no trailing scorer string) still loads.
   std::string v2 = ReadFileBytes(path);
-  // No dimensions, scorer, meshes, VFH flag, vote net, operating point (8 + 4 + 5 x 36 bytes)
-  // or checksum.
-  v2.resize(v2.size() - 28 - 192);
+  // No dimensions, scorer, meshes, VFH flag, vote net, operating point (8 + 4 + 5 x 36 bytes),
+  // vote net input (3 x 8 + 4 bytes) or checksum.
+  v2.resize(v2.size() - 28 - 192 - 28);
   const uint32_t version = 2;
   std::memcpy(&v2[8], &version, sizeof(version));  // after the 8-byte magic
   WriteFileAtomically(path, v2);
