@@ -388,15 +388,16 @@ struct EnsembleCommand {
     TrainedModel model = LoadTrainedModel(paths[0]);
     std::vector<VoteNet> members;
     for (size_t m = 0; m < paths.size(); ++m) {
-      const TrainedModel member = m == 0 ? TrainedModel{} : LoadTrainedModel(paths[m]);
-      const std::string& vote_net = m == 0 ? model.vote_net : member.vote_net;
-      Require(!vote_net.empty(), paths[m] + ": has no vote network to combine");
-      const VoteNetInput& input = m == 0 ? model.vote_net_input : member.vote_net_input;
-      Require(DescribeVoteNetInput(input) == DescribeVoteNetInput(model.vote_net_input),
-              paths[m] + ": its vote network was trained on " + DescribeVoteNetInput(input) + ", " +
-                  paths[0] + "'s on " + DescribeVoteNetInput(model.vote_net_input) +
-                  " (members of one ensemble share their training)");
-      members.push_back(VoteNet::Deserialize(vote_net, paths[m]));
+      std::optional<TrainedModel> loaded;
+      if (m > 0) loaded = LoadTrainedModel(paths[m]);
+      const TrainedModel& member = m == 0 ? model : *loaded;
+      Require(!member.vote_net.empty(), paths[m] + ": has no vote network to combine");
+      const std::string input = DescribeVoteNetInput(member.vote_net_input);
+      const std::string first_input = DescribeVoteNetInput(model.vote_net_input);
+      Require(input == first_input,
+              paths[m] + ": its vote network was trained on " + input + ", " + paths[0] + "'s on " +
+                  first_input + " (members of one ensemble share their training)");
+      members.push_back(VoteNet::Deserialize(member.vote_net, paths[m]));
       Require(members.back().Members() == 1,
               paths[m] + ": is an ensemble already (combine its members' own files)");
     }
