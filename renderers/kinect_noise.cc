@@ -185,30 +185,40 @@ DepthFrame ApplyKinectNoise(const DepthFrame& ideal,
 void KinectNoiseModel::Apply(const DepthFrame& ideal,
                              const CameraIntrinsics& camera,
                              uint64_t seed,
-                             DepthFrame* noisy_frame) {
-  const KinectNoiseOptions& options = options_;
+                             DepthFrame* noisy) {
   camera.Check();
-  if (!SameCamera(camera, rays_camera_) || unit_rays_.empty()) {
-    unit_rays_.resize(static_cast<size_t>(camera.width) * camera.height);
-    for (int v = 0; v < camera.height; ++v) {
-      for (int u = 0; u < camera.width; ++u) {
-        unit_rays_[static_cast<size_t>(v) * camera.width + u] =
-            camera.RayThroughPixel(u, v).normalized();
-      }
-    }
-    rays_camera_ = camera;
-  }
   Require(ideal.width == camera.width && ideal.height == camera.height,
           "depth frame " + std::to_string(ideal.width) + "x" + std::to_string(ideal.height) +
               " does not match the camera " + std::to_string(camera.width) + "x" +
               std::to_string(camera.height));
   Require(ideal.normals.size() == ideal.depth.size(),
           "the sensor model needs normals: render with set_compute_normals(true)");
+  CacheUnitRays(camera);
+  MarkReturns(ideal, camera, seed);
+  if (options_.quantization) {
+    TabulateQuantisation(camera.fx * options_.baseline_m / options_.disparity_step_px);
+  }
+  Resample(ideal, camera, seed, noisy);
+}
+
+void KinectNoiseModel::CacheUnitRays(const CameraIntrinsics& camera) {
+  if (SameCamera(camera, rays_camera_) && !unit_rays_.empty()) return;
+  unit_rays_.resize(static_cast<size_t>(camera.width) * camera.height);
+  for (int v = 0; v < camera.height; ++v) {
+    for (int u = 0; u < camera.width; ++u) {
+      unit_rays_[static_cast<size_t>(v) * camera.width + u] =
+          camera.RayThroughPixel(u, v).normalized();
+    }
+  }
+  rays_camera_ = camera;
+}
+
+void KinectNoiseModel::MarkReturns(const DepthFrame& ideal,
+                                   const CameraIntrinsics& camera,
+                                   uint64_t seed) {
+  const KinectNoiseOptions& options = options_;
   const int width = ideal.width, height = ideal.height;
   const size_t count = ideal.depth.size();
-
-  // Stages 1-3 on the ideal image: which pixels return at all, and the cosine
-  // of their incidence angle.
   returns_.assign(count, 0);
   incidence_cosine_.assign(count, 1.0f);
   if (options.projector_shadow) {
@@ -219,7 +229,7 @@ void KinectNoiseModel::Apply(const DepthFrame& ideal,
   const float min_cosine = static_cast<float>(std::cos(options.max_incidence_deg * M_PI / 180));
   const float edge_jump = static_cast<float>(options.edge_jump_m);
   // Raw pointers: the compiler cannot keep vector members in registers across
-  // the stores of the loops below.
+  // the stores of the loop below.
   const float* const depth = ideal.depth.data();
   const Eigen::Vector3f* const normals = ideal.normals.data();
   const Eigen::Vector3f* const rays = unit_rays_.data();
@@ -245,8 +255,25 @@ void KinectNoiseModel::Apply(const DepthFrame& ideal,
       returns[i] = keep;
     }
   });
+}
 
-  // Stages 4-6: resample at jittered positions, add axial noise, quantise.
+void KinectNoiseModel::TabulateQuantisation(double steps_per_metre) {
+  if (steps_per_metre == steps_per_metre_) return;
+  // Down to 5 cm of depth; nearer (more steps) is computed as it comes.
+  depth_of_steps_.resize(static_cast<size_t>(steps_per_metre / 0.05) + 2);
+  depth_of_steps_[0] = 0;
+  for (size_t n = 1; n < depth_of_steps_.size(); ++n)
+    depth_of_steps_[n] = steps_per_metre / static_cast<double>(n);
+  steps_per_metre_ = steps_per_metre;
+}
+
+void KinectNoiseModel::Resample(const DepthFrame& ideal,
+                                const CameraIntrinsics& camera,
+                                uint64_t seed,
+                                DepthFrame* noisy_frame) const {
+  const KinectNoiseOptions& options = options_;
+  const int width = ideal.width, height = ideal.height;
+  const size_t count = ideal.depth.size();
   // A depth sensor measures no normals: the noisy frame has depth and ids only.
   DepthFrame& noisy = *noisy_frame;
   noisy.width = width;
@@ -254,19 +281,13 @@ void KinectNoiseModel::Apply(const DepthFrame& ideal,
   noisy.depth.assign(count, 0.0f);
   noisy.instance_ids.assign(count, 0);
   noisy.normals.clear();
-  const double disparity_scale = camera.fx * options.baseline_m;
-  const double steps_per_metre = disparity_scale / options.disparity_step_px;  // steps = this / z
-  if (options.quantization && steps_per_metre != steps_per_metre_) {
-    // Down to 5 cm of depth; nearer (more steps) is computed as it comes.
-    depth_of_steps_.resize(static_cast<size_t>(steps_per_metre / 0.05) + 2);
-    depth_of_steps_[0] = 0;
-    for (size_t n = 1; n < depth_of_steps_.size(); ++n)
-      depth_of_steps_[n] = steps_per_metre / static_cast<double>(n);
-    steps_per_metre_ = steps_per_metre;
-  }
+  const double steps_per_metre = camera.fx * options.baseline_m / options.disparity_step_px;
   const size_t tabulated_steps = depth_of_steps_.size();
   const LateralOffsetTable& lateral = LateralOffsets();
   const AxialAngleTable& axial_angle = AxialAngles();
+  const float* const depth = ideal.depth.data();
+  const float* const cosines = incidence_cosine_.data();
+  const uint8_t* const returns = returns_.data();
   const double* const depth_of_steps = depth_of_steps_.data();
   const uint16_t* const ideal_ids = ideal.instance_ids.data();
   float* const noisy_depth = noisy.depth.data();

@@ -84,6 +84,19 @@ class KinectNoiseModel {
   const KinectNoiseOptions& options() const { return options_; }
 
  private:
+  // The unit ray through every pixel of `camera`, kept while the camera stays.
+  void CacheUnitRays(const CameraIntrinsics& camera);
+  // Stages 1-3 on the ideal image: which pixels return at all (returns_), and
+  // the cosine of their incidence angle (incidence_cosine_).
+  void MarkReturns(const DepthFrame& ideal, const CameraIntrinsics& camera, uint64_t seed);
+  // depth_of_steps_ for a camera of `steps_per_metre` disparity steps at 1 m.
+  void TabulateQuantisation(double steps_per_metre);
+  // Stages 4-6: resample at jittered positions, add axial noise, quantise.
+  void Resample(const DepthFrame& ideal,
+                const CameraIntrinsics& camera,
+                uint64_t seed,
+                DepthFrame* noisy) const;
+
   const KinectNoiseOptions options_;
   std::vector<uint8_t> shadow_;
   std::vector<uint8_t> returns_;

@@ -33,7 +33,7 @@ echo "== dataset: summary and contact sheet"
 echo "== crossval: protocol E, leave-models-out (3 folds of the CAD models; each fold's detector is"
 echo "   trained without the fold's models and evaluated on rooms of the fold's models only)."
 echo "   The learned detector (the default): a vote network per fold, at a budget this job can"
-echo "   afford (${FURN_PE_VOTE_ROOMS:-150} rooms x ${FURN_PE_VOTE_EPOCHS:-10} epochs; the default model trains 600 x 20)"
+echo "   afford (${FURN_PE_VOTE_ROOMS:-150} rooms x ${FURN_PE_VOTE_EPOCHS:-10} epochs; the default model trains 2400 x 10)"
 stage_start=$SECONDS
 "$workbench" generate --catalog default --rooms "${FURN_CROSSVAL_ROOMS:-45}" --frames 4 --seed 2 \
   --model-folds 3 --quiet --out "$out_dir/crossval.db"
