@@ -201,5 +201,51 @@ TEST(MeshEntries, BadMetadataGivesOneLineNamingTheEntry) {
   }
 }
 
+// The legacy VTK reader's own checks (scenes/vtk_mesh.cc): each damaged
+// section is one line naming the file and the rule, before VTK reads a word;
+// attributes after the cells are dropped and the triangles still load.
+TEST(MeshEntries, DamagedVtkSectionsAreRefusedInOneLine) {
+  const std::string dir = testing::ScratchDir();
+  const std::string head = "# vtk DataFile Version 3.0\nt\nASCII\nDATASET POLYDATA\n";
+  const std::string points = "POINTS 3 float\n0 0 0 1 0 0 0 1 0\n";
+  testing::WriteText(dir + "/attributes.vtk",
+                     head + points + "POLYGONS 1 4\n3 0 1 2\nPOINT_DATA 3\nNORMALS n float\n");
+  EXPECT_EQ(LoadMeshFile(dir + "/attributes.vtk").mesh.triangles.size(), 1u);
+  struct Case {
+    std::string body, expected;
+  };
+  const Case cases[] = {
+      {"BINARY\nDATASET POLYDATA\n", "only ASCII VTK legacy files are read"},
+      {"ASCII\nDATASET POLYDATA\nPOINTS 3 float\n0 0 " + std::string(80, '1') + "\n",
+       "a word of 80 characters (at most 64)"},
+      {"ASCII\nDATASET POLYDATA\nPOINTS 99 float\n0 0 0\n",
+       "the POINTS count 99 is more than the file can hold"},
+      {"ASCII\nDATASET POLYDATA\nPOINTS 1 int\n0 0 0\n", "POINTS of type 'int'"},
+      {"ASCII\nDATASET POLYDATA\nPOINTS 1 float\n0 nan 0\n", "coordinate 'nan' is not a finite"},
+      {"ASCII\nDATASET POLYDATA\nPOLYGONS 1 4\n3 0 1 2\n", "POLYGONS before POINTS"},
+      {"ASCII\nDATASET POLYDATA\n" + points + "POLYGONS 1 4\n3 0 1 7\n",
+       "a point index 7 is more than the file can hold"},
+      {"ASCII\nDATASET POLYDATA\n" + points + "POLYGONS 5 4\n3 0 1 2\n",
+       "POLYGONS declares 5 cells in 4 numbers"},
+      {"ASCII\nDATASET POLYDATA\n" + points + "POLYGONS 2 4\n3 0 1 2\n",
+       "POLYGONS runs past its declared size"},
+      {"ASCII\nDATASET POLYDATA\n" + points + "POLYGONS 1 5\n3 0 1 2 0\n",
+       "POLYGONS holds 5 numbers, its cells another count"},
+      {"ASCII\nDATASET POLYDATA\n" + points + "POLYGONS 1 2\nOFFSETS vtktypeint64\n0 3\n",
+       "the VTK 5 cell layout"},
+      {"ASCII\nDATASET POLYDATA\n" + points + "CELLS 1 4\n3 0 1 2\n", "unknown section 'CELLS'"},
+      {"ASCII\nDATASET POLYDATA\n" + points + points, "two POINTS sections"},
+      {"ASCII\nDATASET POLYDATA\n" + points + "POLYGONS 1", "the file ends where a cell list size"},
+  };
+  for (const Case& c : cases) {
+    const std::string path = dir + "/bad.vtk";
+    testing::WriteText(path, "# vtk DataFile Version 3.0\nt\n" + c.body);
+    const std::string error = ErrorOf([&] { LoadMeshFile(path); });
+    EXPECT_NE(error.find(path), std::string::npos) << error;
+    EXPECT_NE(error.find(c.expected), std::string::npos) << c.expected << " | " << error;
+    EXPECT_EQ(error.find('\n'), std::string::npos) << error;
+  }
+}
+
 }  // namespace
 }  // namespace furn
