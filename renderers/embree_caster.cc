@@ -60,6 +60,86 @@ void SetInactiveLane(int k, Ray16* ray) {
   ray->flags[k] = 0;
 }
 
+// The primary rays of a camera in packets of 4 x 4 pixels (neighbouring rays
+// traverse the same nodes). The ray through (u, v) is (x_u, y_v, 1) in the
+// camera frame (z = 1: the hit distance t is the optical-axis depth); in the
+// world it is x_u R.col(0) + y_v R.col(1) + R.col(2), of which the column and
+// row parts are tabulated.
+struct PrimaryRays {
+  static constexpr int kTile = 4;
+  PrimaryRays(const CameraIntrinsics& camera, const Eigen::Matrix3f& rotation)
+      : tiles_x((camera.width + kTile - 1) / kTile),
+        tiles_y((camera.height + kTile - 1) / kTile),
+        ray_x(tiles_x * kTile),
+        ray_y(tiles_y * kTile),
+        column_part(ray_x.size()),
+        row_part(ray_y.size()) {
+    for (size_t u = 0; u < ray_x.size(); ++u) {
+      ray_x[u] = camera.RayThroughPixel(u, 0).x();
+      column_part[u] = ray_x[u] * rotation.col(0);
+    }
+    for (size_t v = 0; v < ray_y.size(); ++v) {
+      ray_y[v] = camera.RayThroughPixel(0, v).y();
+      row_part[v] = ray_y[v] * rotation.col(1) + rotation.col(2);
+    }
+  }
+  // The pixel of lane k of the packet of a tile.
+  static int U(int tile_column, int k) { return tile_column * kTile + k % kTile; }
+  static int V(int tile_row, int k) { return tile_row * kTile + k / kTile; }
+
+  const int tiles_x, tiles_y;
+  std::vector<float> ray_x, ray_y;
+  std::vector<Eigen::Vector3f> column_part, row_part;
+};
+
+// A packet whose every lane starts at `origin`: Embree writes only tfar and
+// the hit, so the rest is set once per packet.
+void StartPackets(const Eigen::Vector3f& origin, RTCRayHit16* packet) {
+  for (int k = 0; k < kPacket; ++k) {
+    packet->ray.org_x[k] = origin.x();
+    packet->ray.org_y[k] = origin.y();
+    packet->ray.org_z[k] = origin.z();
+    packet->ray.tnear[k] = 0.0f;
+    packet->ray.time[k] = 0.0f;
+    packet->ray.mask[k] = 0xFFFFFFFFu;
+    packet->ray.id[k] = static_cast<unsigned>(k);
+    packet->ray.flags[k] = 0;
+  }
+}
+
+// What a packet's hits put into the frame: depth, id and (with
+// `camera_from_object_normals`) the normal facing the camera.
+struct HitWriter {
+  const PrimaryRays& rays;
+  const std::vector<uint16_t>& id_of_geometry;
+  const std::vector<Eigen::Matrix3f>* camera_from_object_normals;  // null: no normals
+  DepthFrame* frame;
+
+  void Write(const RTCRayHit16& packet, int k, int u, int v) const {
+    const size_t index = frame->Index(u, v);
+    if (packet.hit.geomID[k] == RTC_INVALID_GEOMETRY_ID) {
+      frame->depth[index] = 0;
+      frame->instance_ids[index] = kNoObjectId;
+      if (camera_from_object_normals) frame->normals[index].setZero();
+      return;
+    }
+    // An instance hit is named by instID, a top-level triangle by geomID.
+    const unsigned geometry = packet.hit.instID[0][k] != RTC_INVALID_GEOMETRY_ID
+                                  ? packet.hit.instID[0][k]
+                                  : packet.hit.geomID[k];
+    frame->depth[index] = packet.ray.tfar[k];
+    frame->instance_ids[index] = id_of_geometry[geometry];
+    if (!camera_from_object_normals) return;
+    // Embree reports the object-space normal of an instance hit.
+    Eigen::Vector3f normal =
+        (*camera_from_object_normals)[geometry] *
+        Eigen::Vector3f(packet.hit.Ng_x[k], packet.hit.Ng_y[k], packet.hit.Ng_z[k]);
+    normal.normalize();
+    if (normal.dot(Eigen::Vector3f(rays.ray_x[u], rays.ray_y[v], 1.0f)) > 0) normal = -normal;
+    frame->normals[index] = normal;
+  }
+};
+
 // Meshes this small go into a scene's top level as world-space triangles.
 constexpr size_t kMaxFlatTriangles = 64;
 
@@ -205,59 +285,31 @@ void EmbreeCaster::RenderInto(const Scene& scene,
                               DepthFrame* out) {
   CheckRenderRequest(scene, camera, world_from_camera, &impl_->bounds_cache);
   SetScene(scene);
-  DepthFrame& frame = *out;
-  frame.Reshape(camera.width, camera.height);  // every pixel is written below
-  if (!compute_normals()) frame.normals.clear();
-  const bool normals = compute_normals();
+  out->Reshape(camera.width, camera.height);  // every pixel is written below
+  if (!compute_normals()) out->normals.clear();
   const Eigen::Matrix3f rotation = world_from_camera.linear().cast<float>();
   const Eigen::Vector3f origin = world_from_camera.translation().cast<float>();
   RTCScene rtc_scene = impl_->scene;
-  const std::vector<uint16_t>& id_of_geometry = impl_->id_of_geometry;
   std::vector<Eigen::Matrix3f> camera_from_object_normals;
-  if (normals) {
+  if (compute_normals()) {
     for (const Eigen::Matrix3f& world_from_object : impl_->world_from_object_normals)
       camera_from_object_normals.push_back(rotation.transpose() * world_from_object);
   }
-
-  // Packets of 4 x 4 pixels: neighbouring rays traverse the same nodes.
-  constexpr int kTile = 4;
-  const int tiles_x = (camera.width + kTile - 1) / kTile;
-  const int tiles_y = (camera.height + kTile - 1) / kTile;
-  // The ray through (u, v) is (x_u, y_v, 1) in the camera frame (z = 1: the hit
-  // distance t is the optical-axis depth); in the world it is x_u R.col(0) +
-  // y_v R.col(1) + R.col(2), of which the column and row parts are tabulated.
-  std::vector<float> ray_x(tiles_x * kTile), ray_y(tiles_y * kTile);
-  std::vector<Eigen::Vector3f> column_part(ray_x.size()), row_part(ray_y.size());
-  for (size_t u = 0; u < ray_x.size(); ++u) {
-    ray_x[u] = camera.RayThroughPixel(u, 0).x();
-    column_part[u] = ray_x[u] * rotation.col(0);
-  }
-  for (size_t v = 0; v < ray_y.size(); ++v) {
-    ray_y[v] = camera.RayThroughPixel(0, v).y();
-    row_part[v] = ray_y[v] * rotation.col(1) + rotation.col(2);
-  }
-  ParallelFor(0, tiles_y, [&](int tile_row) {
+  const PrimaryRays rays(camera, rotation);
+  const HitWriter writer{
+      rays, impl_->id_of_geometry, compute_normals() ? &camera_from_object_normals : nullptr, out};
+  ParallelFor(0, rays.tiles_y, [&](int tile_row) {
     RTCIntersectContext context;
     rtcInitIntersectContext(&context);
     context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
     alignas(64) RTCRayHit16 packet{};  // every lane defined; see SetInactiveLane
     alignas(64) int valid[kPacket] = {};
-    // Embree writes only tfar and the hit: the rest is set once.
-    for (int k = 0; k < kPacket; ++k) {
-      packet.ray.org_x[k] = origin.x();
-      packet.ray.org_y[k] = origin.y();
-      packet.ray.org_z[k] = origin.z();
-      packet.ray.tnear[k] = 0.0f;
-      packet.ray.time[k] = 0.0f;
-      packet.ray.mask[k] = 0xFFFFFFFFu;
-      packet.ray.id[k] = static_cast<unsigned>(k);
-      packet.ray.flags[k] = 0;
-    }
-    for (int tile_column = 0; tile_column < tiles_x; ++tile_column) {
+    StartPackets(origin, &packet);
+    for (int tile_column = 0; tile_column < rays.tiles_x; ++tile_column) {
       for (int k = 0; k < kPacket; ++k) {
-        const int u = tile_column * kTile + k % kTile, v = tile_row * kTile + k / kTile;
+        const int u = PrimaryRays::U(tile_column, k), v = PrimaryRays::V(tile_row, k);
         valid[k] = u < camera.width && v < camera.height ? -1 : 0;
-        const Eigen::Vector3f direction = column_part[u] + row_part[v];
+        const Eigen::Vector3f direction = rays.column_part[u] + rays.row_part[v];
         packet.ray.dir_x[k] = direction.x();
         packet.ray.dir_y[k] = direction.y();
         packet.ray.dir_z[k] = direction.z();
@@ -267,29 +319,8 @@ void EmbreeCaster::RenderInto(const Scene& scene,
       }
       rtcIntersect16(valid, rtc_scene, &context, &packet);
       for (int k = 0; k < kPacket; ++k) {
-        if (!valid[k]) continue;
-        const int u = tile_column * kTile + k % kTile, v = tile_row * kTile + k / kTile;
-        const size_t index = frame.Index(u, v);
-        if (packet.hit.geomID[k] == RTC_INVALID_GEOMETRY_ID) {
-          frame.depth[index] = 0;
-          frame.instance_ids[index] = kNoObjectId;
-          if (normals) frame.normals[index].setZero();
-          continue;
-        }
-        // An instance hit is named by instID, a top-level triangle by geomID.
-        const unsigned geometry = packet.hit.instID[0][k] != RTC_INVALID_GEOMETRY_ID
-                                      ? packet.hit.instID[0][k]
-                                      : packet.hit.geomID[k];
-        frame.depth[index] = packet.ray.tfar[k];
-        frame.instance_ids[index] = id_of_geometry[geometry];
-        if (!normals) continue;
-        // Embree reports the object-space normal of an instance hit.
-        Eigen::Vector3f normal =
-            camera_from_object_normals[geometry] *
-            Eigen::Vector3f(packet.hit.Ng_x[k], packet.hit.Ng_y[k], packet.hit.Ng_z[k]);
-        normal.normalize();
-        if (normal.dot(Eigen::Vector3f(ray_x[u], ray_y[v], 1.0f)) > 0) normal = -normal;
-        frame.normals[index] = normal;
+        if (valid[k])
+          writer.Write(packet, k, PrimaryRays::U(tile_column, k), PrimaryRays::V(tile_row, k));
       }
     }
   });
