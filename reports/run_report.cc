@@ -299,9 +299,14 @@ std::string PageHead(const std::string& title, const RunRecord& run) {
        << "<tr><th>commit</th><td>" << HtmlEscape(run.git_commit)
        << (run.git_dirty ? " (dirty)" : "") << "</td></tr>"
        << "<tr><th>split</th><td>" << HtmlEscape(EnumName(run.split)) << "</td></tr>"
-       << "<tr><th>model</th><td>" << HtmlEscape(run.model_path) << " · "
-       << HtmlEscape(run.model_hash) << "</td></tr>"
-       << "<tr><th>dataset hash</th><td>" << HtmlEscape(run.dataset_hash) << "</td></tr>"
+       << "<tr><th>model</th><td>" << HtmlEscape(run.model_path)
+       << (run.model_hash.empty() ? "" : " · " + HtmlEscape(run.model_hash))
+       << "</td></tr>"
+       // A leave-models-out run spans its folds' runs, each with its own model
+       // and subset of the dataset: no one hash to show.
+       << "<tr><th>dataset hash</th><td>"
+       << (run.dataset_hash.empty() ? "– (one per fold run)" : HtmlEscape(run.dataset_hash))
+       << "</td></tr>"
        << "<tr><th>label</th><td>" << HtmlEscape(run.label) << "</td></tr></table>\n";
   return html.str();
 }

@@ -109,6 +109,9 @@ TEST(Crossval, LeaveModelsOutFoldsAreTrainedEvaluatedAggregatedAndGated) {
   const std::string html = ReadFileBytes(dir + "/report/index.html");
   EXPECT_NE(html.find("Protocol E"), std::string::npos);
   EXPECT_NE(html.find("fold-2/index.html"), std::string::npos);
+  // The summary run has no model or dataset hash of its own: said, not left blank.
+  EXPECT_NE(html.find("<td>– (one per fold run)</td>"), std::string::npos);
+  EXPECT_EQ(html.find(" · </td>"), std::string::npos);
   EXPECT_GT(ReadFileBytes(dir + "/report/folds_ap.png").size(), 1000u);
   EXPECT_TRUE(std::filesystem::exists(dir + "/report/fold-0/pr_detection.png"));
   EXPECT_NE(html.find("fixed gates"), std::string::npos);
