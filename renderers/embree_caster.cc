@@ -140,6 +140,43 @@ struct HitWriter {
   }
 };
 
+// Lane k of an occlusion packet: a ray from `origin` along `direction`.
+void SetOcclusionLane(int k,
+                      const Eigen::Vector3f& origin,
+                      const Eigen::Vector3f& direction,
+                      RTCRay16* packet) {
+  packet->org_x[k] = origin.x();
+  packet->org_y[k] = origin.y();
+  packet->org_z[k] = origin.z();
+  packet->dir_x[k] = direction.x();
+  packet->dir_y[k] = direction.y();
+  packet->dir_z[k] = direction.z();
+  packet->tnear[k] = 0.0f;
+  packet->tfar[k] = std::numeric_limits<float>::infinity();
+  packet->time[k] = 0.0f;
+  packet->mask[k] = 0xFFFFFFFFu;
+  packet->id[k] = static_cast<unsigned>(k);
+  packet->flags[k] = 0;
+}
+
+// The coverage of an image region from the coverage of each of its rows.
+EmbreeCaster::Coverage MergedRows(const std::vector<EmbreeCaster::Coverage>& rows) {
+  EmbreeCaster::Coverage total;
+  for (const EmbreeCaster::Coverage& row : rows) {
+    if (row.pixels == 0) continue;
+    if (total.pixels == 0) {
+      total.box = row.box;
+    } else {
+      total.box = {std::min(total.box[0], row.box[0]),
+                   std::min(total.box[1], row.box[1]),
+                   std::max(total.box[2], row.box[2]),
+                   std::max(total.box[3], row.box[3])};
+    }
+    total.pixels += row.pixels;
+  }
+  return total;
+}
+
 // Meshes this small go into a scene's top level as world-space triangles.
 constexpr size_t kMaxFlatTriangles = 64;
 
@@ -335,8 +372,7 @@ EmbreeCaster::Coverage EmbreeCaster::CoverageIn(const Scene& scene,
   SetScene(scene);
   const int u0 = std::max(0, region[0]), v0 = std::max(0, region[1]);
   const int u1 = std::min(camera.width - 1, region[2]), v1 = std::min(camera.height - 1, region[3]);
-  Coverage total;
-  if (u1 < u0 || v1 < v0) return total;
+  if (u1 < u0 || v1 < v0) return Coverage();
   const Eigen::Matrix3f rotation = world_from_camera.linear().cast<float>();
   const Eigen::Vector3f origin = world_from_camera.translation().cast<float>();
   std::vector<Coverage> rows(v1 - v0 + 1);
@@ -383,35 +419,12 @@ EmbreeCaster::Coverage EmbreeCaster::CoverageIn(const Scene& scene,
       const int k = rays++;
       columns[k] = u;
       valid[k] = -1;
-      packet.org_x[k] = origin.x();
-      packet.org_y[k] = origin.y();
-      packet.org_z[k] = origin.z();
-      packet.dir_x[k] = direction.x();
-      packet.dir_y[k] = direction.y();
-      packet.dir_z[k] = direction.z();
-      packet.tnear[k] = 0.0f;
-      packet.tfar[k] = std::numeric_limits<float>::infinity();
-      packet.time[k] = 0.0f;
-      packet.mask[k] = 0xFFFFFFFFu;
-      packet.id[k] = static_cast<unsigned>(k);
-      packet.flags[k] = 0;
+      SetOcclusionLane(k, origin, direction, &packet);
       if (rays == kPacket) cast();
     }
     if (rays > 0) cast();
   });
-  for (const Coverage& row : rows) {
-    if (row.pixels == 0) continue;
-    if (total.pixels == 0) {
-      total.box = row.box;
-    } else {
-      total.box = {std::min(total.box[0], row.box[0]),
-                   std::min(total.box[1], row.box[1]),
-                   std::max(total.box[2], row.box[2]),
-                   std::max(total.box[3], row.box[3])};
-    }
-    total.pixels += row.pixels;
-  }
-  return total;
+  return MergedRows(rows);
 }
 
 }  // namespace furn
