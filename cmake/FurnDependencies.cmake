@@ -49,6 +49,12 @@ pkg_check_modules(XXHASH IMPORTED_TARGET libxxhash)
 if(NOT XXHASH_FOUND)
   furn_missing(xxhash libxxhash-dev)
 endif()
+# Report figures are drawn in-process by PLplot's cairo driver (no plotting
+# program is fed a script); the driver is a runtime plug-in of its own package.
+pkg_check_modules(PLPLOT IMPORTED_TARGET plplot)
+if(NOT PLPLOT_FOUND)
+  furn_missing(PLplot libplplot-dev)
+endif()
 pkg_check_modules(LIBDEFLATE IMPORTED_TARGET libdeflate)
 if(NOT LIBDEFLATE_FOUND)
   furn_missing(libdeflate libdeflate-dev)

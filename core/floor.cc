@@ -21,7 +21,8 @@ namespace furn {
 void FloorOptions::Check() const {
   Require(distance_m >= 0.002 && distance_m <= 0.2,
           "floor distance " + std::to_string(distance_m) + " m must be in 0.002..0.2");
-  Require(iterations >= 10, "floor RANSAC iterations must be >= 10");
+  Require(iterations >= 10 && iterations <= 100000,
+          "floor RANSAC iterations " + std::to_string(iterations) + " must be in 10..100000");
   Require(max_tilt_deg >= 1 && max_tilt_deg <= 89, "floor max tilt must be in 1..89 degrees");
   Require(min_fraction > 0 && min_fraction < 1, "floor min fraction must be in (0, 1)");
   Require(min_camera_height_m >= 0, "floor min camera height must be >= 0");

@@ -39,12 +39,17 @@ PlanarPose PoseFromPair(const Eigen::Vector3f& scene, const Eigen::Vector3f& mod
 }
 
 void FitOptions::Check() const {
-  Require(iterations >= 1, "fit iterations must be >= 1");
+  // Upper bounds: the work of a fit scales with them (an options file from
+  // someone else could ask for days).
+  Require(iterations >= 1 && iterations <= kMaxFitIterations,
+          "fit iterations " + std::to_string(iterations) + " must be in 1.." +
+              std::to_string(kMaxFitIterations));
   Require(height_tolerance_m > 0 && height_tolerance_m < 1,
           "fit height tolerance must be in (0, 1) m");
   Require(inlier_m > 0 && inlier_m < 1, "fit inlier distance must be in (0, 1) m");
   Require(max_offset_m > 0, "fit max offset must be > 0");
-  Require(refine_iterations >= 0, "fit refine iterations must be >= 0");
+  Require(refine_iterations >= 0 && refine_iterations <= 100,
+          "fit refine iterations " + std::to_string(refine_iterations) + " must be in 0..100");
   Require(above_m >= 0 && above_m <= 2, "fit above_m must be in 0..2 m");
 }
 

@@ -52,12 +52,16 @@ class PlanarTransform {
 // The pose that rotates `model` by `yaw` and puts it on `scene` (t = s - R m).
 PlanarPose PoseFromPair(const Eigen::Vector3f& scene, const Eigen::Vector3f& model, double yaw);
 
+// RANSAC draws a fit may make: 33 times the default (a fit's time grows
+// with them; an options file from someone else could ask for days).
+inline constexpr int kMaxFitIterations = 20000;
+
 struct FitOptions {
-  int iterations = 600;              // RANSAC draws (>= 1)
+  int iterations = 600;              // RANSAC draws (1..kMaxFitIterations)
   double height_tolerance_m = 0.01;  // |s.z - m.z| of a drawn pair (m, > 0)
   double inlier_m = 0.03;            // a scene point is covered within this of the model (m, > 0)
   double max_offset_m = 0.5;         // poses whose origin is farther from the hint are skipped
-  int refine_iterations = 6;         // ICP iterations after RANSAC (>= 0)
+  int refine_iterations = 6;         // ICP iterations after RANSAC (0..100)
   double above_m = 0.4;  // the box whose points a fit must explain reaches this far above it
 
   void Check() const;

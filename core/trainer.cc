@@ -13,6 +13,7 @@
 
 #include "core/error.h"
 #include "core/file_util.h"
+#include "core/text.h"
 #include "core/parallel.h"
 #include "core/voxel_key.h"
 
@@ -499,7 +500,35 @@ void SaveTrainedModel(const TrainedModel& model, const std::string& path) {
 
 namespace {
 
-Vocabulary ReadVocabulary(Reader* r) {
+// A vocabulary's state as training makes it: a known kind, centres or
+// weight rows of one length (the features' count), a bias per weight row.
+void CheckVocabularyState(const Vocabulary::State& state,
+                          const std::vector<Eigen::VectorXd>& weight_rows,
+                          const std::string& path) {
+  const std::string corrupt = path + ": model file is corrupt (the vocabulary's ";
+  Require(state.kind == VocabularyKind::kKMeans || state.kind == VocabularyKind::kRim,
+          corrupt + "kind " + std::to_string(static_cast<int>(state.kind)) +
+              " is neither 0 (k-means) nor 1 (RIM))");
+  for (const Eigen::VectorXd& centre : state.centres)
+    Require(centre.size() == kSgfCount && centre.allFinite(),
+            corrupt + "centres are not " + std::to_string(kSgfCount) + " finite numbers each)");
+  for (const Eigen::VectorXd& row : weight_rows)
+    Require(row.size() == kSgfCount && row.allFinite(),
+            corrupt + "weight rows are not " + std::to_string(kSgfCount) +
+                " finite numbers each)");
+  Require(state.biases.size() == static_cast<Eigen::Index>(weight_rows.size()) &&
+              state.biases.allFinite(),
+          corrupt + "biases do not match its weight rows)");
+  Require(std::isfinite(state.min_probability) && state.min_probability >= 0 &&
+              state.min_probability <= 1,
+          corrupt + "least probability is not in 0..1)");
+  const int words = static_cast<int>(std::max(state.centres.size(), weight_rows.size()));
+  Require(state.activated_words >= 0 && state.activated_words <= std::max(words, 1) &&
+              state.used_words >= 0 && state.used_words <= words,
+          corrupt + "word counts exceed its words)");
+}
+
+Vocabulary ReadVocabulary(Reader* r, const std::string& path) {
   Vocabulary::State state;
   state.kind = static_cast<VocabularyKind>(r->I32());
   state.activated_words = r->I32();
@@ -510,9 +539,10 @@ Vocabulary ReadVocabulary(Reader* r) {
   const uint32_t rows = r->Count(100000);
   std::vector<Eigen::VectorXd> weight_rows;
   for (uint32_t i = 0; i < rows; ++i) weight_rows.push_back(r->Vector());
+  state.biases = r->Vector();
+  CheckVocabularyState(state, weight_rows, path);
   state.weights.resize(rows, rows > 0 ? weight_rows[0].size() : 0);
   for (uint32_t i = 0; i < rows; ++i) state.weights.row(i) = weight_rows[i].transpose();
-  state.biases = r->Vector();
   return Vocabulary::FromState(state);
 }
 
@@ -530,9 +560,32 @@ std::vector<ShapeEntry> ReadShapeEntries(Reader* r) {
   return shape;
 }
 
-void ReadModelShapes(Reader* r, std::vector<ModelShape>* shapes) {
+// A model shape's points are a piece of furniture in its own frame: finite,
+// within kMaxShapeExtentM of its origin, and the stored bounds
+// exactly their bounding box (the fitter sizes its grids by them).
+constexpr float kMaxShapeExtentM = 20;
+
+void CheckModelShape(const ModelShape& shape, size_t index, const std::string& path) {
+  const std::string corrupt =
+      path + ": model file is corrupt (model shape " + std::to_string(index) + "'s ";
+  Eigen::Vector3f low = Eigen::Vector3f::Zero(), high = Eigen::Vector3f::Zero();
+  for (size_t i = 0; i < shape.points.size(); ++i) {
+    const Eigen::Vector3f& p = shape.points[i];
+    Require(p.allFinite() && p.cwiseAbs().maxCoeff() <= kMaxShapeExtentM,
+            corrupt + "point " + std::to_string(i) + " is not finite within " +
+                std::to_string(static_cast<int>(kMaxShapeExtentM)) + " m)");
+    low = i == 0 ? p : low.cwiseMin(p);
+    high = i == 0 ? p : high.cwiseMax(p);
+  }
+  Require(shape.low.allFinite() && shape.high.allFinite() && shape.low == low &&
+              shape.high == high,
+          corrupt + "bounds are not its points' bounding box)");
+}
+
+void ReadModelShapes(Reader* r, std::vector<ModelShape>* shapes, const std::string& path) {
   std::vector<float> interleaved;
-  for (ModelShape& shape : *shapes) {
+  for (size_t k = 0; k < shapes->size(); ++k) {
+    ModelShape& shape = (*shapes)[k];
     shape.points.resize(r->Count(1u << 26, 24));
     shape.normals.resize(shape.points.size());
     interleaved.resize(6 * shape.points.size());
@@ -543,6 +596,7 @@ void ReadModelShapes(Reader* r, std::vector<ModelShape>* shapes) {
     }
     shape.low = ReadVector3(r);
     shape.high = ReadVector3(r);
+    CheckModelShape(shape, k, path);
   }
 }
 
@@ -623,6 +677,7 @@ OperatingPoint ReadOperatingPoint(Reader* r, const std::string& path) {
   point.match_m = r->F64();
   Require(point.match_m > 0 && point.match_m <= 2, corrupt + "match distance is not in (0, 2] m)");
   point.chosen_on = r->String(4096);
+  Require(IsValidUtf8(point.chosen_on), corrupt + "note of where it was chosen is not UTF-8)");
   for (ClassOperatingPoint& c : point.classes) {
     c.min_score = r->F64();
     c.precision = r->F64();
@@ -655,6 +710,9 @@ VoteNetInput ReadVoteNetInput(Reader* r, const std::string& path) {
               input.pose_noise_deg <= 45,
           corrupt + "pose error is not in 0..1 m, 0..45 deg)");
   Require(planar == 0 || planar == 1, corrupt + "planar flag is neither 0 nor 1)");
+  Require(input.fused_share > 0 || (input.pose_noise_m == 0 && input.pose_noise_deg == 0 &&
+                                    planar == 0),
+          corrupt + "pose error is recorded without fused frames)");
   input.planar = planar == 1;
   return input;
 }
@@ -704,14 +762,17 @@ TrainedModel LoadTrainedModelUnchecked(const std::string& path) {
   for (uint32_t i = 0; i < models; ++i) {
     model.model_names.push_back(r.String());
     model.model_classes.push_back(static_cast<FurnitureClass>(r.I32()));
+    Require(IsValidUtf8(model.model_names.back()),
+            path + ": model file is corrupt (CAD model name " + std::to_string(i) + " '" +
+                PrintableText(model.model_names.back()) + "' is not valid UTF-8)");
   }
   r.Bytes(model.normalizer.low.data(), sizeof(double) * kSgfCount);
   r.Bytes(model.normalizer.high.data(), sizeof(double) * kSgfCount);
-  model.vocabulary = ReadVocabulary(&r);
+  model.vocabulary = ReadVocabulary(&r, path);
   model.training_segments = r.I32();
   model.shape = ReadShapeEntries(&r);
   model.model_shapes.resize(model.model_names.size());
-  ReadModelShapes(&r, &model.model_shapes);
+  ReadModelShapes(&r, &model.model_shapes, path);
   ReadPartIndex(&r, version, file.size(), path, &model);
   if (version >= 3) model.scorer = r.String(1u << 28);
   if (version >= 4) model.render_meshes = ReadRenderMeshes(&r, model.model_names.size(), path);
@@ -725,7 +786,11 @@ TrainedModel LoadTrainedModelUnchecked(const std::string& path) {
   if (version >= 9) model.operating_point = ReadOperatingPoint(&r, path);
   model.vote_net_input = version >= 10 ? ReadVoteNetInput(&r, path) : VoteNetInput{};
   Require(r.AtEnd(), path + ": model file has trailing bytes (corrupt)");
-  model.options.Check();
+  try {
+    model.options.Check();
+  } catch (const InputError& e) {
+    throw InputError(path + ": model file's trainer options are out of range (" + e.what() + ")");
+  }
   CheckIndices(model, path);
   return model;
 }

@@ -1,5 +1,7 @@
 #include "db/sqlite.h"
 
+#include <algorithm>
+
 #include <sqlite3.h>
 
 #include "core/error.h"
@@ -59,6 +61,13 @@ Database::Database(const std::string& path, Mode mode) : path_(path) {
 }
 
 Database::~Database() { sqlite3_close_v2(db_); }
+
+void Database::TreatAsUntrusted(int64_t max_value_bytes) {
+  Check(sqlite3_db_config(db_, SQLITE_DBCONFIG_DEFENSIVE, 1, nullptr), "defensive mode");
+  Check(sqlite3_db_config(db_, SQLITE_DBCONFIG_TRUSTED_SCHEMA, 0, nullptr), "untrusted schema");
+  const int64_t limit = std::clamp<int64_t>(max_value_bytes, 1, 0x7ffffffe);
+  sqlite3_limit(db_, SQLITE_LIMIT_LENGTH, static_cast<int>(limit));
+}
 
 void Database::Check(int code, const std::string& what) const {
   if (code == SQLITE_OK || code == SQLITE_ROW || code == SQLITE_DONE) return;

@@ -45,6 +45,11 @@ class Database {
 
   // Runs one or more statements without results.
   void Execute(const std::string& sql);
+  // For a file someone else wrote (a bag): defensive mode (no writes to the
+  // schema, no shadow tables), an untrusted schema (no functions with side
+  // effects in views, triggers or generated columns) and no string or BLOB
+  // longer than `max_value_bytes`, whatever a column computes.
+  void TreatAsUntrusted(int64_t max_value_bytes);
   int64_t LastInsertRowId() const;
   const std::string& path() const { return path_; }
   sqlite3* handle() { return db_; }

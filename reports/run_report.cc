@@ -10,6 +10,7 @@
 
 #include "core/error.h"
 #include "core/file_util.h"
+#include "reports/chart.h"
 #include "reports/confusion.h"
 #include "reports/evaluation.h"
 
@@ -45,28 +46,28 @@ void PlotCurves(const nlohmann::json& curves,
                 const std::string& title,
                 const std::map<std::string, double>& metrics,
                 const std::string& png_path) {
-  std::ostringstream script, plot;
-  script << "set terminal pngcairo noenhanced size 640,420 font 'sans,10'\n"
-         << "set title '" << title << "'\nset xlabel 'recall'\nset ylabel 'precision'\n"
-         << "set xrange [0:1]\nset yrange [0:1.02]\nset grid\nset key bottom left\n";
-  bool any = false;
+  Chart chart;
+  chart.title = title;
+  chart.x = MakeAxis("recall", 0, 1);
+  chart.y = MakeAxis("precision", 0, 1.02);
+  chart.empty_note = "no objects of these classes";
   const std::vector<FurnitureClass> classes = ReportedClasses(
       [&](FurnitureClass c) { return curves.contains(prefix + ClassName(c) + suffix); });
   for (FurnitureClass furniture_class : classes) {
     const std::string c = ClassName(furniture_class);
     const std::string name = prefix + c + suffix;
-    if (!curves.contains(name) || curves[name].empty()) continue;
-    script << "$" << c << " << EOD\n";
-    for (const auto& p : curves[name])
-      script << p[0].get<double>() << " " << p[1].get<double>() << "\n";
-    script << "EOD\n";
-    plot << (any ? ", " : "plot ") << "$" << c << " using 1:2 with linespoints pt 7 ps 0.5 title '"
-         << c << " (" << Number(ClassObjectCount(metrics, furniture_class), 0) << " objects)'";
-    any = true;
+    if (!curves.contains(name) || !curves[name].is_array() || curves[name].empty()) continue;
+    ChartSeries series =
+        MakeSeries(c + " (" + Number(ClassObjectCount(metrics, furniture_class), 0) + " objects)",
+                   ChartStyle::kLinesPoints,
+                   ChartPalette(chart.series.size()));
+    for (const auto& p : curves[name]) {
+      series.x.push_back(p.at(0).get<double>());
+      series.y.push_back(p.at(1).get<double>());
+    }
+    chart.series.push_back(series);
   }
-  if (!any) plot << "plot 2 title 'no objects of these classes'";
-  script << plot.str() << "\n";
-  RunGnuplot(script.str(), png_path);
+  WriteChartPng(chart, png_path);
 }
 
 // The page's head, style and provenance table.
@@ -119,24 +120,6 @@ std::string ImageCheckHtml() {
          "});\n</script>\n";
 }
 
-void RunGnuplot(const std::string& script, const std::string& png_path) {
-  const std::string temporary = png_path + ".partial";
-  const std::string command = "gnuplot > /dev/null 2>&1";
-  FILE* pipe = popen(command.c_str(), "w");
-  Require(pipe != nullptr, png_path + ": cannot start gnuplot (apt install gnuplot-nox)");
-  const std::string full = "set output '" + temporary + "'\n" + script + "\nunset output\n";
-  std::fwrite(full.data(), 1, full.size(), pipe);
-  const int status = pclose(pipe);
-  std::error_code error;
-  if (status != 0 || !std::filesystem::exists(temporary)) {
-    std::filesystem::remove(temporary, error);
-    throw InputError(png_path + ": gnuplot failed (exit status " + std::to_string(status) +
-                     "; is gnuplot-nox installed?)");
-  }
-  std::filesystem::rename(temporary, png_path, error);
-  Require(!error, png_path + ": cannot write (" + error.message() + ")");
-}
-
 namespace {
 
 struct HistoryRow {
@@ -164,39 +147,29 @@ std::vector<std::string> HistorySeriesNames(const std::vector<HistoryRow>& rows)
   return names;
 }
 
-// The gnuplot script of one metric over the runs, a line per series.
-std::string HistoryPlotScript(const std::vector<HistoryRow>& rows, const std::string& metric) {
-  const char* colours[] = {"#aa3377", "#4477aa", "#228833", "#ccbb44", "#66ccee", "#ee6677"};
+// One metric over the runs, a line per series.
+Chart HistoryChart(const std::vector<HistoryRow>& rows, const std::string& metric) {
+  Chart chart;
+  chart.width = 560;
+  chart.height = 340;
+  chart.title = metric + " by run";
+  chart.x.label = "run (in the order they started)";
+  chart.x.tick_step = static_cast<double>(std::max<size_t>(1, rows.size() / 10));
+  chart.legend = LegendPlace::kBelow;
+  chart.empty_note = "no run has this metric";
   const std::vector<std::string> names = HistorySeriesNames(rows);
-  std::ostringstream script;
-  script << "set terminal pngcairo noenhanced size 560,340 font 'sans,10'\nset title '" << metric
-         << " by run'\nset xlabel 'run (in the order they started)'\nset grid\n"
-         << "set key outside bottom center horizontal\nset offsets graph 0.04, graph 0.04, "
-         << "graph 0.08, graph 0.08\nset xtics " << std::max<size_t>(1, rows.size() / 10)
-         << "\nset mxtics 1\n";
-  std::vector<std::string> series;
   for (size_t s = 0; s < names.size(); ++s) {
-    std::ostringstream points;
+    ChartSeries series = MakeSeries(names[s], ChartStyle::kLinesPoints, ChartPalette(s));
     for (size_t k = 0; k < rows.size(); ++k) {
       if (HistorySeries(rows[k]) != names[s]) continue;
       const auto it = rows[k].metrics->find(metric);
-      if (it != rows[k].metrics->end() && std::isfinite(it->second))
-        points << k + 1 << " " << it->second << "\n";
+      if (it == rows[k].metrics->end() || !std::isfinite(it->second)) continue;
+      series.x.push_back(static_cast<double>(k + 1));
+      series.y.push_back(it->second);
     }
-    if (points.str().empty()) continue;
-    script << "$d" << s << " << EOD\n" << points.str() << "EOD\n";
-    std::string name = names[s];
-    std::replace(name.begin(), name.end(), '\'', ' ');
-    series.push_back("$d" + std::to_string(s) + " using 1:2 with linespoints pt 7 lc rgb '" +
-                     colours[s % 6] + "' title '" + name + "'");
+    if (!series.x.empty()) chart.series.push_back(series);
   }
-  if (series.empty()) {  // an empty frame with the words (gnuplot refuses to plot nothing)
-    script << "set label 'no run has this metric' at graph 0.3,0.5\nset xrange [0:1]\n"
-           << "set yrange [0:1]\nplot -1 notitle\n";
-  }
-  for (size_t k = 0; k < series.size(); ++k)
-    script << (k == 0 ? "plot " : ", ") << series[k] << (k + 1 == series.size() ? "\n" : "");
-  return script.str();
+  return chart;
 }
 
 // The table of every metric of every run, a row per run.
@@ -251,7 +224,7 @@ void WriteHistoryReport(const std::vector<HistoryDataset>& datasets, const std::
                                             MetricId::Plain(PlainMetric::kXyErrorMean).Name(),
                                             MetricId::Plain(PlainMetric::kLatencyP50).Name()};
   for (size_t p = 0; p < plotted.size(); ++p) {
-    RunGnuplot(HistoryPlotScript(rows, plotted[p]), path("history_" + std::to_string(p) + ".png"));
+    WriteChartPng(HistoryChart(rows, plotted[p]), path("history_" + std::to_string(p) + ".png"));
   }
   std::ostringstream html;
   html << "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>furnidet "
@@ -373,21 +346,26 @@ std::string ReliabilityHtml(const nlohmann::json& bins,
     html << "<p>No detections, so no calibration to show.</p>\n";
     return html.str();
   }
-  std::ostringstream script;
-  script << "set terminal pngcairo noenhanced size 520,420 font 'sans,10'\n"
-         << "set title 'true-positive share against mean score per bin (" << total
-         << " detections)'\nset xlabel 'mean score in bin'\nset ylabel 'true positives'\n"
-         << "set xrange [0:1]\nset yrange [0:1]\nset size square\nset grid\nset key top left\n"
-         << "$r << EOD\n";
+  Chart chart;
+  chart.width = 520;
+  chart.height = 420;
+  chart.title = "true-positive share against mean score per bin (" + std::to_string(total) +
+                " detections)";
+  chart.x = MakeAxis("mean score in bin", 0, 1);
+  chart.y = MakeAxis("true positives", 0, 1);
+  chart.legend = LegendPlace::kTopLeft;
+  ChartSeries diagonal = MakeSeries(
+      "perfectly calibrated", ChartStyle::kDashedLines, ChartColour{0x88, 0x88, 0x88}, {0, 1}, {0, 1});
+  ChartSeries points = MakeSeries("bins", ChartStyle::kLinesPoints, ChartColour{0xcc, 0x33, 0x11});
   for (const nlohmann::json& bin : bins) {
     const int n = bin[2].get<int>();
     if (n == 0) continue;
-    script << bin[4].get<double>() / n << " " << bin[3].get<double>() / n << " " << n << "\n";
+    points.x.push_back(bin[4].get<double>() / n);
+    points.y.push_back(bin[3].get<double>() / n);
+    points.labels.push_back(std::to_string(n));
   }
-  script << "EOD\nplot x with lines dt 2 lc rgb '#888888' title 'perfectly calibrated', "
-         << "$r using 1:2 with linespoints pt 7 lc rgb '#cc3311' title 'bins', "
-         << "$r using 1:2:(sprintf('%d', $3)) with labels offset 0,1 notitle\n";
-  RunGnuplot(script.str(), png_path);
+  chart.series = {diagonal, points};
+  WriteChartPng(chart, png_path);
   html << "<p>Expected calibration error " << Number(calibration_error)
        << " (detection-weighted |true-positive share &minus; mean score|). A learned scorer's "
           "probabilities should lie on the diagonal; the fixed-gate ranking score is not a "
@@ -420,28 +398,28 @@ const double kDistances[] = {0.05, 0.10, 0.20};
 void PlotFoldAp(const nlohmann::json& folds,
                 const std::vector<FurnitureClass>& classes,
                 const std::string& png_path) {
-  std::ostringstream script;
-  script << "set terminal pngcairo noenhanced size 760,380 font 'sans,10'\n"
-         << "set title 'leave-models-out: AP@10cm per class, one bar per fold (0 = none found, "
-         << "gap = no such object)'\nset style data histograms\nset style histogram cluster "
-         << "gap 1\nset style fill solid 0.8 border -1\nset yrange [0:1.05]\nset grid ytics\n"
-         << "set ylabel 'AP@10cm'\nset key outside right\n$ap << EOD\n";
-  for (FurnitureClass c : classes) {
-    script << ClassName(c);
-    for (const nlohmann::json& fold : folds) {
-      const double ap = JsonMetric(fold["metrics"], MetricId::ClassAp(c, 0.10));
-      script << " " << (std::isfinite(ap) ? std::to_string(ap) : "NaN");
-    }
-    script << "\n";
-  }
-  script << "EOD\nplot ";
+  Chart chart;
+  chart.width = 760;
+  chart.height = 380;
+  chart.title = "leave-models-out: AP@10cm per class, one bar per fold (0 = none found, gap = no "
+                "such object)";
+  chart.y = MakeAxis("AP@10cm", 0, 1.05);
+  chart.legend = LegendPlace::kRight;
+  chart.empty_note = "no folds";
+  for (size_t c = 0; c < classes.size(); ++c)
+    chart.x.ticks.emplace_back(static_cast<double>(c), ClassName(classes[c]));
+  const double width = 0.8 / static_cast<double>(std::max<size_t>(1, folds.size()));
   for (size_t k = 0; k < folds.size(); ++k) {
-    script << (k ? ", " : "") << "$ap using " << k + 2 << (k ? "" : ":xtic(1)") << " title 'fold "
-           << k << "'";
+    ChartSeries bars = MakeSeries("fold " + std::to_string(k), ChartStyle::kBars, ChartPalette(k));
+    bars.bar_width = width;
+    for (size_t c = 0; c < classes.size(); ++c) {
+      bars.x.push_back(static_cast<double>(c) - 0.4 + width * (static_cast<double>(k) + 0.5));
+      bars.y.push_back(JsonMetric(folds[k]["metrics"], MetricId::ClassAp(classes[c], 0.10)));
+    }
+    chart.series.push_back(bars);
   }
-  if (folds.empty()) script << "2 title 'no folds'";
-  script << "\n";
-  RunGnuplot(script.str(), png_path);
+  if (chart.series.empty()) chart.x.ticks.clear();
+  WriteChartPng(chart, png_path);
 }
 
 // One row of the folds table: what it held out, its size, mAP and APs.
@@ -588,15 +566,25 @@ namespace {
 
 // Latency histogram (10 ms bins).
 void PlotLatency(const std::vector<double>& frame_ms, const std::string& png_path) {
-  std::ostringstream script;
-  script << "set terminal pngcairo noenhanced size 640,360 font 'sans,10'\n"
-         << "set title 'detection time per frame (" << frame_ms.size() << " frames)'\n"
-         << "set xlabel 'ms'\nset ylabel 'frames'\nset style fill solid 0.6\nset boxwidth 9\n"
-         << "set grid ytics\n$t << EOD\n";
-  for (double ms : frame_ms) script << ms << "\n";
-  script << "EOD\nbin(x) = 10 * floor(x / 10) + 5\n"
-         << "plot $t using (bin($1)):(1.0) smooth frequency with boxes lc rgb '#4477aa' notitle\n";
-  RunGnuplot(script.str(), png_path);
+  Chart chart;
+  chart.width = 640;
+  chart.height = 360;
+  chart.title = "detection time per frame (" + std::to_string(frame_ms.size()) + " frames)";
+  chart.x.label = "ms";
+  chart.y.label = "frames";
+  chart.y.min = 0;
+  std::map<int64_t, int> bins;  // 10 ms bins by their lower edge / 10
+  for (double ms : frame_ms) {
+    if (std::isfinite(ms) && ms >= 0 && ms < 1e9) ++bins[static_cast<int64_t>(ms / 10)];
+  }
+  ChartSeries bars = MakeSeries("", ChartStyle::kBars, ChartPalette(0));
+  bars.bar_width = 9;
+  for (const auto& [bin, count] : bins) {
+    bars.x.push_back(10.0 * static_cast<double>(bin) + 5);
+    bars.y.push_back(count);
+  }
+  chart.series.push_back(bars);
+  WriteChartPng(chart, png_path);
 }
 
 // Confusion at the operating point, 10 cm: rows the true class (background:

@@ -3,7 +3,7 @@
 // tables, PR curves of protocols A and B, the confusion matrix, the latency
 // histogram, the options used, and a gallery of the frames with the most
 // errors (their detection debug PNGs, made by the caller). Plots are drawn
-// by gnuplot (pngcairo terminal).
+// in-process (reports/chart.h): no text of a run becomes a program.
 //
 //   RunReportInput input{run, metrics, frame_ms, gallery};
 //   WriteRunReport(input, "report/");
@@ -32,7 +32,7 @@ struct RunReportInput {
 };
 
 // Writes index.html and the plots into `dir` (created). Throws InputError
-// when gnuplot is missing or fails, naming the plot.
+// naming the file when one cannot be written.
 void WriteRunReport(const RunReportInput& input, const std::string& dir);
 
 // The report of a leave-models-out run (protocol E, kind "crossval"): the
@@ -69,8 +69,5 @@ std::string ApWithObjects(double ap, double objects);
 // A paragraph and script that, once the page has loaded, say "images
 // loaded: N of M", for a headless browser's --dump-dom to check.
 std::string ImageCheckHtml();
-
-// Runs gnuplot on a script (data inline) that writes `png_path`.
-void RunGnuplot(const std::string& script, const std::string& png_path);
 
 }  // namespace furn

@@ -1,46 +1,43 @@
 #include "reports/training_curve.h"
 
 #include <cmath>
-#include <sstream>
 
-#include "reports/run_report.h"
+#include "reports/chart.h"
 
 namespace furn {
 
 void WriteTrainingCurvePng(const std::vector<TrainingCurvePoint>& points,
                            const std::string& title,
                            const std::string& png_path) {
-  std::ostringstream script;
-  script << "set terminal pngcairo noenhanced size 640,420 font 'sans,10'\n"
-         << "set title '" << title << "'\nset xlabel 'epoch'\nset ylabel 'loss'\n"
-         << "set logscale y\nset y2label 'validation mAP@10cm'\nset y2range [0:1]\n"
-         << "set ytics nomirror\nset y2tics 0.1\nset grid\nset key top center\n"
-         << "$curve << EOD\n";
+  Chart chart;
+  chart.title = title;
+  chart.x.label = "epoch";
+  chart.y.label = "loss";
+  chart.y.log = true;
+  chart.with_y2 = true;
+  chart.y2 = MakeAxis("validation mAP@10cm", 0, 1);
+  chart.y2.tick_step = 0.1;
+  chart.legend = LegendPlace::kTopRight;
+  ChartSeries train = MakeSeries("training loss", ChartStyle::kLinesPoints, ChartPalette(0));
+  ChartSeries validation = MakeSeries("validation loss", ChartStyle::kLinesPoints, ChartPalette(1));
+  ChartSeries map = MakeSeries("validation mAP@10cm", ChartStyle::kLinesPoints, ChartPalette(2));
+  ChartSeries last = MakeSeries("validation mAP@10cm (last weights)", ChartStyle::kDashedLines, ChartPalette(3));
+  map.right_axis = last.right_axis = true;
   bool any_map = false, any_last = false;
-  const auto value = [&script](double v) {
-    if (std::isfinite(v))
-      script << " " << v;
-    else
-      script << " NaN";
-  };
   for (const TrainingCurvePoint& p : points) {
-    script << p.epoch << " " << p.train_loss << " " << p.validation_loss;
-    value(p.validation_map);
-    value(p.last_weights_map);
-    script << "\n";
+    for (ChartSeries* s : {&train, &validation, &map, &last}) s->x.push_back(p.epoch);
+    train.y.push_back(p.train_loss);
+    validation.y.push_back(p.validation_loss);
+    map.y.push_back(p.validation_map);
+    last.y.push_back(p.last_weights_map);
     any_map |= std::isfinite(p.validation_map);
     any_last |= std::isfinite(p.last_weights_map);
   }
-  script << "EOD\nplot $curve using 1:2 with linespoints pt 7 ps 0.6 title 'training loss', "
-         << "$curve using 1:3 with linespoints pt 5 ps 0.6 title 'validation loss'";
-  if (any_map)
-    script << ", $curve using 1:4 axes x1y2 with linespoints pt 9 ps 0.8 title "
-           << (any_last ? "'validation mAP@10cm (weight average)'" : "'validation mAP@10cm'");
-  if (any_last)
-    script << ", $curve using 1:5 axes x1y2 with linespoints pt 8 ps 0.8 dt 2 title "
-              "'validation mAP@10cm (last weights)'";
-  script << "\n";
-  RunGnuplot(script.str(), png_path);
+  chart.series = {train, validation};
+  if (any_last) map.title = "validation mAP@10cm (weight average)";
+  if (any_map) chart.series.push_back(map);
+  if (any_last) chart.series.push_back(last);
+  WriteChartPng(chart, png_path);
 }
 
 }  // namespace furn

@@ -1,6 +1,6 @@
 // The vote network's training curve (issue 30): training and validation loss
 // per epoch (left axis, log scale) and validation mAP@10cm (right axis), as
-// a PNG drawn by gnuplot; with a weight average also the last step's
+// a PNG drawn in-process (reports/chart.h); with a weight average also the last step's
 // weights' validation mAP@10cm.
 //
 //   WriteTrainingCurvePng({{1, 12.0, 9.5, 0.21}, ...}, "model.vote_net.png");
@@ -21,7 +21,7 @@ struct TrainingCurvePoint {
   double last_weights_map = std::nan("");
 };
 
-// Throws InputError when gnuplot fails or the file cannot be written.
+// Throws InputError naming the file when it cannot be written.
 void WriteTrainingCurvePng(const std::vector<TrainingCurvePoint>& points,
                            const std::string& title,
                            const std::string& png_path);

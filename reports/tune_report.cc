@@ -8,6 +8,7 @@
 
 #include "core/error.h"
 #include "core/file_util.h"
+#include "reports/chart.h"
 #include "reports/evaluation.h"
 #include "reports/run_report.h"
 
@@ -47,47 +48,43 @@ void PlotEffect(const TuneReportInput& input, size_t parameter, const std::strin
     return static_cast<double>(std::lower_bound(labels.begin(), labels.end(), text) -
                                labels.begin());
   };
-  std::ostringstream script, others, base;
+  Chart chart;
+  chart.width = 520;
+  chart.height = 340;
+  chart.title = input.parameters[parameter];
+  chart.y.label = input.objective;
+  chart.legend = LegendPlace::kBelow;
+  chart.empty_note = "no trial has the objective";
+  if (!numeric) {
+    for (size_t k = 0; k < labels.size(); ++k) chart.x.ticks.emplace_back(k, labels[k]);
+  }
+  ChartSeries others = MakeSeries("trials", ChartStyle::kPoints, ChartPalette(0));
+  ChartSeries base = MakeSeries("base options", ChartStyle::kPoints, ChartPalette(1));
+  base.point_scale = 1.6;
   std::map<double, std::pair<double, int>> mean;  // x -> (sum, count)
   for (const TuneReportTrial& trial : input.trials) {
     const double y = MetricOrNan(trial.metrics, MetricId::Parse(input.objective));
     if (std::isnan(y)) continue;
     const double x = x_of(trial.values[parameter]);
-    (trial.index == 0 ? base : others) << x << " " << y << "\n";
+    ChartSeries& series = trial.index == 0 ? base : others;
+    series.x.push_back(x);
+    series.y.push_back(y);
     mean[x].first += y;
     ++mean[x].second;
   }
-  script << "set terminal pngcairo noenhanced size 520,340 font 'sans,10'\n"
-         << "set title '" << input.parameters[parameter] << "'\nset ylabel '" << input.objective
-         << "'\nset grid\nset key below\nset offsets graph 0.05, graph 0.05, graph 0.05, "
-         << "graph 0.05\n";
-  if (!numeric) {
-    script << "set xtics (";
-    for (size_t k = 0; k < labels.size(); ++k)
-      script << (k ? ", " : "") << "'" << labels[k] << "' " << k;
-    script << ")\n";
-  }
-  script << "$trials << EOD\n"
-         << others.str() << "EOD\n$base << EOD\n"
-         << base.str() << "EOD\n$mean << EOD\n";
-  for (const auto& [x, sum_count] : mean)
-    script << x << " " << sum_count.first / sum_count.second << "\n";
   // The mean line only where few values repeat often (grids, lists); random
   // draws of a range are (nearly) all different, and their means would zigzag.
-  const bool repeats = 2 * mean.size() <= input.trials.size();
-  std::vector<std::string> plots;
-  if (repeats)
-    plots.push_back("$mean using 1:2 with lines lw 2 lc rgb '#999999' title 'mean per value'");
-  if (!others.str().empty())
-    plots.push_back("$trials using 1:2 with points pt 7 ps 1 lc rgb '#4477aa' title 'trials'");
-  if (!base.str().empty())
-    plots.push_back(
-        "$base using 1:2 with points pt 9 ps 1.8 lc rgb '#ee6677' title 'base options'");
-  if (plots.empty()) plots.push_back("2 title 'no trial has the objective'");
-  script << "EOD\nplot ";
-  for (size_t k = 0; k < plots.size(); ++k) script << (k ? ", " : "") << plots[k];
-  script << "\n";
-  RunGnuplot(script.str(), png_path);
+  if (2 * mean.size() <= input.trials.size()) {
+    ChartSeries line = MakeSeries("mean per value", ChartStyle::kLines, ChartColour{0x99, 0x99, 0x99});
+    for (const auto& [x, sum_count] : mean) {
+      line.x.push_back(x);
+      line.y.push_back(sum_count.first / sum_count.second);
+    }
+    chart.series.push_back(line);
+  }
+  if (!others.x.empty()) chart.series.push_back(others);
+  if (!base.x.empty()) chart.series.push_back(base);
+  WriteChartPng(chart, png_path);
 }
 
 // The objective of each trial in the order they ran, and the best so far.
@@ -97,19 +94,26 @@ void PlotProgress(const TuneReportInput& input, const std::string& png_path) {
     by_index.emplace_back(trial.index,
                           MetricOrNan(trial.metrics, MetricId::Parse(input.objective)));
   std::sort(by_index.begin(), by_index.end());
-  std::ostringstream script;
-  script << "set terminal pngcairo noenhanced size 520,340 font 'sans,10'\n"
-         << "set title 'search progress, by trial'\nset ylabel '" << input.objective
-         << "'\nset grid\nset key below\nset format x '%.0f'\n"
-         << (input.trials.size() <= 25 ? "set xtics 1\n" : "") << "$d << EOD\n";
+  Chart chart;
+  chart.width = 520;
+  chart.height = 340;
+  chart.title = "search progress, by trial";
+  chart.x.label = "trial";
+  chart.y.label = input.objective;
+  chart.legend = LegendPlace::kBelow;
+  if (input.trials.size() <= 25) chart.x.tick_step = 1;
+  ChartSeries trials = MakeSeries("trial", ChartStyle::kPoints, ChartPalette(0));
+  ChartSeries best_so_far = MakeSeries("best so far", ChartStyle::kSteps, ChartPalette(2));
   double best = -1e300;
   for (const auto& [index, value] : by_index) {
     if (!std::isnan(value)) best = std::max(best, value);
-    script << index << " " << (std::isnan(value) ? 0 : value) << " " << best << "\n";
+    trials.x.push_back(index);
+    trials.y.push_back(std::isnan(value) ? 0 : value);
+    best_so_far.x.push_back(index);
+    best_so_far.y.push_back(best > -1e300 ? best : std::nan(""));
   }
-  script << "EOD\nplot $d using 1:2 with points pt 7 lc rgb '#4477aa' title 'trial', "
-         << "$d using 1:3 with steps lw 2 lc rgb '#228833' title 'best so far'\n";
-  RunGnuplot(script.str(), png_path);
+  chart.series = {trials, best_so_far};
+  WriteChartPng(chart, png_path);
 }
 
 // Rows of headline metrics, base and best side by side per split.

@@ -1,5 +1,5 @@
 // The report of a parameter search (`workbench tune`, SPEC.md §11): a
-// self-contained folder (index.html plus gnuplot PNGs) that ranks the trials
+// self-contained folder (index.html plus PNG charts) that ranks the trials
 // by the objective, plots the objective against each parameter's values and
 // over the trials, and shows the best trial next to the base options on the
 // validation and the test split.
@@ -38,7 +38,7 @@ struct TuneReportInput {
 };
 
 // Writes index.html and the plots into `dir` (created). Throws InputError
-// when gnuplot is missing or fails, naming the plot.
+// naming the file when one cannot be written.
 void WriteTuneReport(const TuneReportInput& input, const std::string& dir);
 
 }  // namespace furn

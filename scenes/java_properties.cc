@@ -3,50 +3,43 @@
 #include <cstdint>
 #include <vector>
 
+#include "core/text.h"
+
 namespace furn {
 namespace {
 
-bool IsValidUtf8(const std::string& text) {
-  size_t i = 0;
-  while (i < text.size()) {
-    const auto lead = static_cast<unsigned char>(text[i]);
-    int continuation_bytes;
-    if (lead < 0x80) {
-      continuation_bytes = 0;
-    } else if ((lead >> 5) == 0x6) {
-      continuation_bytes = 1;
-    } else if ((lead >> 4) == 0xE) {
-      continuation_bytes = 2;
-    } else if ((lead >> 3) == 0x1E) {
-      continuation_bytes = 3;
-    } else {
-      return false;
-    }
-    if (i + continuation_bytes >= text.size() && continuation_bytes > 0) return false;
-    for (int k = 1; k <= continuation_bytes; ++k) {
-      if ((static_cast<unsigned char>(text[i + k]) >> 6) != 0x2) return false;
-    }
-    i += continuation_bytes + 1;
-  }
-  return true;
+void AppendUtf8(uint32_t code_point, std::string* out) {
+  *out += Utf8FromCodePoint(static_cast<char32_t>(code_point));
 }
 
-void AppendUtf8(uint32_t code_point, std::string* out) {
-  if (code_point < 0x80) {
-    out->push_back(static_cast<char>(code_point));
-  } else if (code_point < 0x800) {
-    out->push_back(static_cast<char>(0xC0 | (code_point >> 6)));
-    out->push_back(static_cast<char>(0x80 | (code_point & 0x3F)));
-  } else if (code_point < 0x10000) {
-    out->push_back(static_cast<char>(0xE0 | (code_point >> 12)));
-    out->push_back(static_cast<char>(0x80 | ((code_point >> 6) & 0x3F)));
-    out->push_back(static_cast<char>(0x80 | (code_point & 0x3F)));
-  } else {
-    out->push_back(static_cast<char>(0xF0 | (code_point >> 18)));
-    out->push_back(static_cast<char>(0x80 | ((code_point >> 12) & 0x3F)));
-    out->push_back(static_cast<char>(0x80 | ((code_point >> 6) & 0x3F)));
-    out->push_back(static_cast<char>(0x80 | (code_point & 0x3F)));
+// The four hex digits of a \uXXXX escape at text[at..at+3], or -1.
+int64_t HexQuad(const std::string& text, size_t at) {
+  if (at + 4 > text.size() ||
+      text.substr(at, 4).find_first_not_of("0123456789abcdefABCDEF") != std::string::npos)
+    return -1;
+  return static_cast<int64_t>(std::stoul(text.substr(at, 4), nullptr, 16));
+}
+
+// A \uXXXX escape whose 'u' is at text[*i] (Java writes a code point above
+// U+FFFF as two, a UTF-16 surrogate pair: decoded as one code point; a lone
+// surrogate becomes U+FFFD). Advances *i past the digits read.
+void AppendUnicodeEscape(const std::string& text, size_t* i, std::string* out) {
+  const int64_t unit = HexQuad(text, *i + 1);
+  if (unit < 0) {
+    out->push_back('u');
+    return;
   }
+  *i += 4;
+  if (unit >= 0xD800 && unit <= 0xDBFF && *i + 2 < text.size() && text[*i + 1] == '\\' &&
+      text[*i + 2] == 'u') {
+    const int64_t low = HexQuad(text, *i + 3);
+    if (low >= 0xDC00 && low <= 0xDFFF) {
+      AppendUtf8(static_cast<uint32_t>(0x10000 + ((unit - 0xD800) << 10) + (low - 0xDC00)), out);
+      *i += 6;
+      return;
+    }
+  }
+  AppendUtf8(static_cast<uint32_t>(unit), out);  // a lone surrogate: U+FFFD
 }
 
 std::string Latin1ToUtf8(const std::string& text) {
@@ -116,13 +109,7 @@ std::string Unescape(const std::string& text) {
         out.push_back('\f');
         break;
       case 'u':
-        if (i + 4 < text.size() && text.substr(i + 1, 4).find_first_not_of(
-                                       "0123456789abcdefABCDEF") == std::string::npos) {
-          AppendUtf8(static_cast<uint32_t>(std::stoul(text.substr(i + 1, 4), nullptr, 16)), &out);
-          i += 4;
-        } else {
-          out.push_back('u');
-        }
+        AppendUnicodeEscape(text, &i, &out);
         break;
       default:
         out.push_back(c);

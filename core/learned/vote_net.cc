@@ -231,7 +231,8 @@ VoteNetOptions ReadVoteNetHeader(const std::string& bytes,
 std::string UpgradeTorchScriptVoteNet(const std::string& bytes, const std::string& what) {
   size_t at = 0;
   const uint32_t version = ReadMagicAndVersion(bytes, &at, what);
-  if (version == kVersion) return bytes;
+  // Current and plain-tensor formats go through the same checks as a load
+  // (finite weights, bounded grid): an upgrade never writes what a load refuses.
   if (version >= kOldestVersion) return VoteNet::Deserialize(bytes, what).Serialize();
   Require(version == kFirstArchiveVersion || version == kFirstArchiveVersion + 1,
           what + ": vote network format " + std::to_string(version) + " cannot be upgraded");
@@ -250,7 +251,9 @@ std::string UpgradeTorchScriptVoteNet(const std::string& bytes, const std::strin
     reason = reason.substr(0, reason.find('\n'));
     throw InputError(what + ": vote network weights are unreadable (" + reason + ")");
   }
-  return net.Serialize();
+  const std::string upgraded = net.Serialize();
+  VoteNet::Deserialize(upgraded, what);  // the archive's weights checked as a load checks them
+  return upgraded;
 }
 
 ConvBlockImpl::ConvBlockImpl(int in, int out)
@@ -375,6 +378,17 @@ void VoteNetOptions::Check() const {
   Require((grid.rows >> levels) >= 1 && (grid.cols >> levels) >= 1,
           "a BEV grid of " + std::to_string(grid.rows) + " x " + std::to_string(grid.cols) +
               " cells cannot be halved " + std::to_string(levels) + " times");
+  // The grid is what the range fills, no more: rows reach forward, columns
+  // to both sides, with a metre of slack (the default grid, 72 x 96 cells of
+  // 5 cm, is 3.6 x 4.8 m at a 3.6 m range). A network's cost grows with its
+  // cells, so a file cannot ask for a grid its range leaves empty.
+  const double forward_m = grid.rows * grid.cell_m, lateral_m = grid.cols * grid.cell_m;
+  Require(forward_m <= range_m + 1 && lateral_m <= 2 * range_m + 1 &&
+              static_cast<int64_t>(grid.rows) * grid.cols <= kMaxGridCells,
+          "a BEV grid of " + std::to_string(grid.rows) + " x " + std::to_string(grid.cols) +
+              " cells of " + std::to_string(grid.cell_m) + " m must reach at most the range " +
+              std::to_string(range_m) + " m + 1 m forward, twice it + 1 m across, and hold at "
+              "most " + std::to_string(kMaxGridCells) + " cells");
 }
 
 VoteNet::VoteNet() = default;

@@ -25,6 +25,9 @@
 
 namespace furn {
 
+// The most cells a vote network's grid may hold (the default holds 6912).
+inline constexpr int64_t kMaxGridCells = 65536;
+
 struct VoteNetOptions {
   BevGridSpec grid;
   int width = 16;  // channels of the first level; doubled per halving, capped at 4x

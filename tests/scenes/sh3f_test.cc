@@ -11,6 +11,8 @@
 #include <utility>
 #include <vector>
 
+#include "core/text.h"
+
 #include "core/error.h"
 #include "core/file_util.h"
 #include "scenes/catalog.h"
@@ -46,6 +48,18 @@ TEST(JavaProperties, Latin1IsConvertedToUtf8) {
   EXPECT_EQ(p.at("name"), "Caf\xC3\xA9");
   const auto q = ParseJavaProperties("name=Caf\xC3\xA9\n");  // already UTF-8
   EXPECT_EQ(q.at("name"), "Caf\xC3\xA9");
+}
+
+// Java writes a code point above U+FFFF as a UTF-16 surrogate pair of
+// escapes: one code point, valid UTF-8 (issue 68: it was decoded half by half
+// into CESU-8, which JSON output then refused). A lone half is U+FFFD.
+TEST(JavaProperties, SurrogatePairsAreOneCodePoint) {
+  const auto p = ParseJavaProperties(
+      "id=emoji/chair\\uD83D\\uDE00\nlone=a\\uD83Db\nlow=\\uDE00\n");
+  EXPECT_EQ(p.at("id"), "emoji/chair\U0001F600");
+  EXPECT_EQ(p.at("lone"), "a\xEF\xBF\xBD" "b");
+  EXPECT_EQ(p.at("low"), "\xEF\xBF\xBD");
+  for (const auto& [key, value] : p) EXPECT_TRUE(IsValidUtf8(value)) << key;
 }
 
 TEST(Sh3f, ReadsEntriesAndReportsBadOnes) {

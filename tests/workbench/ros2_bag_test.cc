@@ -4,6 +4,8 @@
 // messages refused with one line naming the bag, within their own size.
 // The comparison with the ROS 1 path is in rosbag_test (ROS builds only).
 #include <gtest/gtest.h>
+#include <unistd.h>
+#include <sys/wait.h>
 
 #include <cstring>
 #include <filesystem>
@@ -315,6 +317,127 @@ TEST_F(Ros2BagTest, HostileBagsAreRefusedByName) {
                          "UPDATE topics SET type = 'sensor_msgs/msg/Image' WHERE name = "
                          "'/cam/camera_info'"),
                  "/cam/camera_info");
+}
+
+// Issue 68: SQLite is hostile input. A message stored as TEXT (length()
+// stops at its first NUL), a data column computed by an expression (built-in
+// functions run even with an untrusted schema), a frame too big to detect:
+// each refused in one line before it costs memory.
+TEST_F(Ros2BagTest, SqliteCannotMakeUpMessagesOrHideTheirSize) {
+  const std::string bag = WriteBag("good", 1);
+  const std::string db3 = bag + "/good_0.db3";
+  BagScanOptions options;
+  options.topic = "/cam/image";
+  auto refused = [&](const std::string& path) {
+    options.bag_path = path;
+    try {
+      ForEachScanInBag(options, [](const BagScan&) {});
+    } catch (const InputError& e) {
+      EXPECT_EQ(std::string(e.what()).find('\n'), std::string::npos) << e.what();
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  auto damaged = [&](const std::string& name, const std::string& sql) {
+    const std::string copy = dir_ + "/" + name + ".db3";
+    fs::copy_file(db3, copy, fs::copy_options::overwrite_existing);
+    Database db(copy);
+    db.Execute("PRAGMA journal_mode = DELETE;" + sql);
+    return copy;
+  };
+  EXPECT_NE(refused(damaged("text", "UPDATE messages SET data = CAST(data AS TEXT)"))
+                .find("stored as text; rosbag2 stores messages as BLOB"),
+            std::string::npos);
+  const std::string generated = damaged(
+      "generated",
+      "ALTER TABLE messages RENAME TO m0; CREATE TABLE messages(id INTEGER PRIMARY KEY, "
+      "topic_id INTEGER NOT NULL, timestamp INTEGER NOT NULL, raw BLOB, data BLOB GENERATED "
+      "ALWAYS AS (raw || zeroblob(300000000)) VIRTUAL); INSERT INTO messages(id, topic_id, "
+      "timestamp, raw) SELECT id, topic_id, timestamp, data FROM m0; DROP TABLE m0");
+  EXPECT_NE(refused(generated).find("column 'data' of table 'messages' is generated or hidden"),
+            std::string::npos)
+      << refused(generated);
+  // Even a plain column cannot hand over a value longer than the cap.
+  Database plain(generated);
+  plain.TreatAsUntrusted(1000);
+  EXPECT_THROW(plain.Execute("SELECT zeroblob(2000)"), DbError);
+  // An image of 5000 x 4000 pixels: within 16384 a side, over the frame cap.
+  const std::string big = dir_ + "/big";
+  {
+    Ros2BagWriter writer(big);
+    RosCameraInfo info;
+    info.header = {1, "cam", 0};
+    info.width = 5000;
+    info.height = 4000;
+    info.k = {2, 0, 1, 0, 2, 1, 0, 0, 1};
+    RosImage image = SomeImage();
+    image.width = 5000;
+    image.height = 4000;
+    writer.Write("/cam/camera_info", kRos2CameraInfo, 1000000000, EncodeCameraInfo(info));
+    writer.Write("/cam/image", kRos2Image, 1000000000, EncodeImage(image));
+    writer.Finish();
+  }
+  EXPECT_NE(refused(big).find("at most 16777216 pixels"), std::string::npos) << refused(big);
+  // Compressed messages (metadata.yaml's compression_mode) are named as such.
+  const std::string metadata = bag + "/metadata.yaml";
+  std::string yaml = ReadFileBytes(metadata);
+  const std::string plain_mode = "compression_mode: \"\"";
+  ASSERT_NE(yaml.find(plain_mode), std::string::npos) << yaml;
+  yaml.replace(yaml.find(plain_mode), plain_mode.size(), "compression_mode: message");
+  testing::WriteText(metadata, yaml);
+  EXPECT_NE(refused(bag).find("compressed storage"), std::string::npos) << refused(bag);
+  EXPECT_NE(refused(bag).find("ros2 bag convert"), std::string::npos);
+}
+
+// A folder is replaced only when its content is a bag's: subfolders named
+// like a bag's files are user files (issue 68 deleted them).
+TEST_F(Ros2BagTest, OnlyABagRecognisedByContentIsReplaced) {
+  const std::string album = dir_ + "/album";
+  fs::create_directories(album + "/photos.db3");
+  testing::WriteText(album + "/photos.db3/holiday.jpg", "precious");
+  testing::WriteText(album + "/metadata.yaml", "x");
+  EXPECT_THROW(Ros2BagWriter{album}, InputError);
+  const std::string work = dir_ + "/work";
+  fs::create_directories(work + "/metadata.yaml");
+  testing::WriteText(work + "/metadata.yaml/thesis.tex", "chapter");
+  EXPECT_THROW(Ros2BagWriter{work}, InputError);
+  // A bag with a stranger's file beside its own.
+  const std::string bag = WriteBag("run", 1);
+  testing::WriteText(bag + "/notes.txt", "mine");
+  EXPECT_THROW(Ros2BagWriter{bag}, InputError);
+  fs::remove(bag + "/notes.txt");
+  // A .db3 that is not SQLite is not a bag's either.
+  testing::WriteText(bag + "/run_0.db3", "not SQLite");
+  EXPECT_THROW(Ros2BagWriter{bag}, InputError);
+  EXPECT_EQ(ReadFileBytes(album + "/photos.db3/holiday.jpg"), "precious");
+  EXPECT_EQ(ReadFileBytes(work + "/metadata.yaml/thesis.tex"), "chapter");
+  // A bag this writer made is replaced.
+  fs::remove_all(bag);
+  WriteBag("run", 1);
+  EXPECT_NO_THROW(WriteBag("run", 2));
+}
+
+// A killed writer's <out>.partial-<pid> goes on the next run; one of a live
+// process, or holding anything the writer does not make, stays.
+TEST_F(Ros2BagTest, ADeadWritersFolderIsCleanedUpOnTheNextRun) {
+  const pid_t child = fork();
+  if (child == 0) _exit(0);
+  ASSERT_GT(child, 0);
+  waitpid(child, nullptr, 0);  // a pid nobody runs under now
+  const std::string dead = dir_ + "/out.partial-" + std::to_string(child);
+  fs::create_directories(dead);
+  testing::WriteText(dead + "/out_0.db3", "half");
+  testing::WriteText(dead + "/out_0.db3-journal", "half");
+  const std::string alive = dir_ + "/out.partial-1";  // init runs
+  fs::create_directories(alive);
+  testing::WriteText(alive + "/out_0.db3", "half");
+  const std::string strange = dir_ + "/out.partial-999999999";
+  fs::create_directories(strange);
+  testing::WriteText(strange + "/holiday.jpg", "precious");
+  WriteBag("out", 1);
+  EXPECT_FALSE(fs::exists(dead));
+  EXPECT_TRUE(fs::exists(alive));
+  EXPECT_TRUE(fs::exists(strange + "/holiday.jpg"));
 }
 
 // Each detection's label says how much of its box is in view when the frame

@@ -3,11 +3,13 @@
 #include <algorithm>
 
 #include <CLI/CLI.hpp>
+#include <cstdio>
 #include <cstdlib>
 #include <memory>
 #include <sstream>
 
 #include "core/progress.h"
+#include "core/text.h"
 #include "workbench/cli/enum_option.h"
 #include "workbench/formats/scan_file.h"
 
@@ -119,7 +121,12 @@ std::optional<int> ParseCommandLine(CLI::App* app, int argc, char** argv) {
   try {
     app->parse(argc, argv);
   } catch (const CLI::ParseError& error) {
-    return app->exit(error) == 0 ? 0 : 2;
+    // --help and --version print as CLI11 prints them; a mistake is one
+    // line with the command's prefix, as every other error is.
+    if (error.get_exit_code() == 0) return app->exit(error);
+    std::fprintf(stderr, "%s: error: %s (see --help)\n", app->get_name().c_str(),
+                 PrintableText(error.what()).c_str());
+    return 2;
   }
   return std::nullopt;
 }

@@ -8,6 +8,7 @@
 #include <exception>
 
 #include "core/leak_suppressions.h"
+#include "core/text.h"
 #include "workbench/cli/commands.h"
 
 namespace {
@@ -63,10 +64,13 @@ int main(int argc, char** argv) {
     try {
       return command.run(argc - 1, argv + 1);
     } catch (const std::exception& error) {
-      std::fprintf(stderr, "workbench %s: error: %s\n", argv[1], error.what());
+      // One line whatever the message holds (names from files are data).
+      std::fprintf(stderr, "workbench %s: error: %s\n", argv[1], furn::PrintableText(error.what()).c_str());
       return 1;
     }
   }
-  std::fprintf(stderr, "workbench: unknown command '%s' (see workbench --help)\n", argv[1]);
+  std::fprintf(stderr,
+               "workbench: unknown command '%s' (see workbench --help)\n",
+               furn::PrintableText(argv[1]).c_str());
   return 2;
 }

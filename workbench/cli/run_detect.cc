@@ -68,7 +68,7 @@ void AddBagFlags(CLI::App* app_pointer, BagScanOptions* bag_pointer, std::string
 }
 
 // Several posed scans detected at once (--fuse), their poses refined first.
-void AddFuseFlags(CLI::App* app, bool* fuse, FrameFusion* fusion) {
+void AddFuseFlags(CLI::App* app, bool* fuse, FrameFusion* fusion, DetectRunOptions* run) {
   app->add_flag("--fuse",
                 *fuse,
                 "One detection in several scans at once, seen from the last one's camera: each "
@@ -79,6 +79,16 @@ void AddFuseFlags(CLI::App* app, bool* fuse, FrameFusion* fusion) {
                 "With --fuse: refine the scans' poses against the last one's points first "
                 "(generalized ICP), for poses from odometry");
   AddFusePlanarFlag(app, &fusion->planar);
+  app->add_option("--fuse-max-scans",
+                  run->fuse_max_scans,
+                  "With --fuse: the most scans fused (each is held in memory at once)")
+      ->check(CLI::Range(2, 100000))
+      ->capture_default_str();
+  app->add_option("--fuse-max-points",
+                  run->fuse_max_points,
+                  "With --fuse: the most points of all the fused scans together")
+      ->check(CLI::Range(int64_t{1}, int64_t{1} << 31))
+      ->capture_default_str();
 }
 
 // The scans: the positional inputs, or the one of --cloud/--depth/--db
@@ -137,7 +147,8 @@ int RunDetect(int argc, char** argv) {
   DetectorFlags detector_flags(&app);
   bool fuse = false;
   FrameFusion fusion;  // registration only: --fuse decides what is fused
-  AddFuseFlags(&app, &fuse, &fusion);
+  DetectRunOptions run;
+  AddFuseFlags(&app, &fuse, &fusion, &run);
   app.add_flag("--quiet", quiet, "Print nothing but errors");
   if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
   Progress::SetQuiet(quiet);  // batches and bags show progress unless --quiet
@@ -145,7 +156,6 @@ int RunDetect(int argc, char** argv) {
           "--repeat " + std::to_string(repeat) + " must be in 1..1000");
   Require(app.count("--frame") == 0 || !source.db_path.empty(),
           "--frame " + std::to_string(source.frame_id) + " applies to --db only");
-  DetectRunOptions run;
   run.model_path = model_path;
   run.detector = detector_flags.Resolve();
   run.out = out;

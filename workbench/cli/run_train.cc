@@ -228,6 +228,8 @@ int RunTrain(int argc, char** argv) {
   if (cluster.Active()) return RunArrayJob(cluster, TrainArrayJob(cluster, out, argc, argv));
   const TrainingOptions training =
       ResolveTrainingFlags(app, vocab, init, options_file, {trainer, scan});
+  // Every option is checked (Resolve) before the catalog opens (seconds of work).
+  const VoteNetTrainingOptions* vote_net_options = vote_net.Resolve(catalog_flags.quiet);
   const Catalog catalog = OpenCatalog(catalog_flags.spec, MakeOpenOptions(catalog_flags));
   for (const std::string& warning : catalog.warnings())
     std::fprintf(stderr, "warning: %s\n", warning.c_str());
@@ -237,7 +239,6 @@ int RunTrain(int argc, char** argv) {
     Require(!HypothesisScorer::Deserialize(scorer, scorer_file).empty(),
             scorer_file + ": holds no hypothesis scorer");
   }
-  const VoteNetTrainingOptions* vote_net_options = vote_net.Resolve(catalog_flags.quiet);
   if (!room_shards.shard.empty()) return GenerateRoomShard(catalog, *vote_net_options, room_shards);
   VoteNetTrainingOptions with_shards;
   if (!room_shards.from.empty()) {  // the final job of `train --shards`

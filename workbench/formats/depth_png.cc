@@ -145,6 +145,8 @@ cv::Mat Decode16(const std::vector<uint8_t>& bytes, const std::string& what) {
   png_set_read_fn(png, &reader, PngRead);
   png_set_user_limits(png, 16384, 16384);
   png_read_info(png, info);
+  if (uint64_t{png_get_image_width(png, info)} * png_get_image_height(png, info) > kMaxDepthPixels)
+    png_error(png, "more than 4096 x 4096 pixels (what one frame's detection may cost)");
   out->grey16 = png_get_color_type(png, info) == PNG_COLOR_TYPE_GRAY &&
                 png_get_bit_depth(png, info) == 16 &&
                 png_get_interlace_type(png, info) == PNG_INTERLACE_NONE;

@@ -16,6 +16,11 @@
 
 namespace furn {
 
+// The most pixels one depth frame may have (PNG, ROS image): a detection
+// costs some 70 bytes a pixel, so 4096 x 4096 (16.8 M, 55 Kinect v1 frames)
+// stays near 1 GB.
+inline constexpr uint64_t kMaxDepthPixels = uint64_t{1} << 24;
+
 // units_per_metre: 1000 for our data (mm), 5000 for TUM RGB-D.
 void WriteDepthPng(const DepthFrame& frame, const std::string& path, double units_per_metre = 1000);
 // Throws InputError when the file is not a single-channel 16-bit PNG.

@@ -286,6 +286,10 @@ ScanCloud ReadPointCloudFile(const std::string& path) {
     Require(origin.head<3>().allFinite() && orientation.coeffs().allFinite() &&
                 std::abs(orientation.norm() - 1) < 1e-3,
             path + ": VIEWPOINT must be x y z qw qx qy qz with a unit quaternion");
+    // A room's scans lie within metres of each other; a sensor 100 km away
+    // is a broken pose, not a scan to fuse (its points would be dropped).
+    Require(origin.head<3>().cwiseAbs().maxCoeff() <= 1e5,
+            path + ": VIEWPOINT x y z must be within 100 km of the origin");
     Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
     pose.linear() = orientation.cast<double>().normalized().toRotationMatrix();
     pose.translation() = origin.head<3>().cast<double>();

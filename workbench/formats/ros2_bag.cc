@@ -2,11 +2,15 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <signal.h>
 #include <unistd.h>
+
 #include <algorithm>
+#include <cerrno>
 #include <climits>
 #include <deque>
 #include <filesystem>
+#include <fstream>
 #include <map>
 #include <set>
 
@@ -38,6 +42,28 @@ int64_t SplitIndex(const fs::path& file) {
   }
 }
 
+constexpr const char* kConvertAdvice =
+    "convert with 'ros2 bag convert' to sqlite3 without compression";
+
+// A bag whose metadata.yaml says its files or messages are compressed
+// (rosbag2's compression_format / compression_mode) is refused as such.
+void RefuseCompressedBag(const std::string& folder) {
+  const fs::path metadata = fs::path(folder) / "metadata.yaml";
+  std::error_code ec;
+  if (!fs::is_regular_file(metadata, ec) || fs::file_size(metadata, ec) > (1u << 20) || ec) return;
+  std::string format, mode;
+  try {
+    const YAML::Node info = YAML::Load(ReadFileBytes(metadata.string()))["rosbag2_bagfile_information"];
+    if (info["compression_format"]) format = info["compression_format"].as<std::string>();
+    if (info["compression_mode"]) mode = info["compression_mode"].as<std::string>();
+  } catch (const std::exception&) {
+    return;  // the storage files decide
+  }
+  Require(format.empty() && (mode.empty() || mode == "none" || mode == "NONE"),
+          metadata.string() + ": compressed storage (" + format.substr(0, 16) + ", mode " +
+              mode.substr(0, 16) + ") is not read here; " + kConvertAdvice);
+}
+
 // The .db3 files of a bag, in split order.
 std::vector<std::string> BagFiles(const std::string& path) {
   std::error_code ec;
@@ -46,6 +72,7 @@ std::vector<std::string> BagFiles(const std::string& path) {
     Require(fs::exists(path, ec), path + ": does not exist");
     return {path};
   }
+  RefuseCompressedBag(path);
   std::vector<fs::path> files;
   bool other_storage = false;
   for (const fs::directory_entry& entry : fs::directory_iterator(path, ec)) {
@@ -56,8 +83,8 @@ std::vector<std::string> BagFiles(const std::string& path) {
   }
   Require(!ec, path + ": cannot list the bag folder (" + ec.message() + ")");
   Require(!files.empty(),
-          path + (other_storage ? ": MCAP or compressed storage is not read here; convert with "
-                                  "'ros2 bag convert' to sqlite3 without compression"
+          path + (other_storage ? std::string(": MCAP or compressed storage is not read here; ") +
+                                      kConvertAdvice
                                 : ": no .db3 file (a ROS 2 bag folder holds metadata.yaml and "
                                   "<name>_0.db3)"));
   std::sort(files.begin(), files.end(), [](const fs::path& a, const fs::path& b) {
@@ -76,14 +103,10 @@ struct Topic {
 class BagFile {
  public:
   explicit BagFile(const std::string& path) : path_(path), db_(Open(path)) {
-    // A hostile file may define its tables as views calling functions.
-    db_.Execute("PRAGMA trusted_schema = OFF");
-    for (const char* table : {"topics", "messages"}) {
-      Statement kind(&db_, "SELECT type FROM sqlite_master WHERE name = ?");
-      kind.Bind(1, std::string(table));
-      Require(kind.Step() && kind.ColumnText(0) == "table",
-              path + ": no '" + table + "' table: not a rosbag2 SQLite file");
-    }
+    // A hostile file may define its tables as views or its columns as
+    // expressions that make gigabytes out of a few bytes.
+    db_.TreatAsUntrusted(kMaxMessageBytes);
+    for (const char* table : {"topics", "messages"}) CheckPlainTable(table);
     Statement topics(&db_, "SELECT id, name, type, serialization_format FROM topics");
     while (topics.Step()) {
       Require(static_cast<int>(topics_.size()) < kMaxTopics,
@@ -117,8 +140,12 @@ class BagFile {
                const std::function<void(const Ros2Message&)>& each,
                int64_t limit = 0) {
     if (ids.empty()) return;
+    // length() of a BLOB is its bytes, read from the record without its
+    // content; of TEXT it counts characters to the first NUL, so a message
+    // stored as TEXT is refused rather than measured.
     Statement rows(&db_,
-                   "SELECT topic_id, timestamp, length(data), CASE WHEN length(data) <= " +
+                   "SELECT topic_id, timestamp, typeof(data), length(data), CASE WHEN "
+                   "typeof(data) = 'blob' AND length(data) <= " +
                        std::to_string(kMaxMessageBytes) +
                        " THEN data END FROM messages WHERE topic_id IN (" + List(ids) +
                        ") ORDER BY timestamp, id" +
@@ -129,14 +156,17 @@ class BagFile {
       message.topic = topic.name;
       message.type = topic.type;
       message.time_ns = rows.ColumnInt(1);
-      Require(rows.ColumnInt(2) <= kMaxMessageBytes,
-              path_ + " " + topic.name + " at " + SecondsText(message.time_ns) + ": a message of " +
-                  std::to_string(rows.ColumnInt(2)) + " bytes, more than " +
-                  std::to_string(kMaxMessageBytes));
+      const std::string where = path_ + " " + topic.name + " at " + SecondsText(message.time_ns);
+      Require(rows.ColumnText(2) == "blob",
+              where + ": the message is stored as " + rows.ColumnText(2).substr(0, 16) +
+                  "; rosbag2 stores messages as BLOB");
+      Require(rows.ColumnInt(3) <= kMaxMessageBytes,
+              where + ": a message of " + std::to_string(rows.ColumnInt(3)) +
+                  " bytes, more than " + std::to_string(kMaxMessageBytes));
       Require(topic.serialization == "cdr",
               path_ + " " + topic.name + ": serialization '" + topic.serialization.substr(0, 32) +
                   "' is not cdr");
-      message.data = rows.ColumnBlob(3);
+      message.data = rows.ColumnBlob(4);
       each(message);
     }
   }
@@ -147,6 +177,23 @@ class BagFile {
       return Database(path, Database::Mode::kReadOnly);
     } catch (const DbError& e) {
       throw InputError(std::string(e.what()));
+    }
+  }
+  // A table as rosbag2 makes it: a plain table (not a view, not a virtual
+  // table) whose columns are all stored (no generated or hidden column).
+  void CheckPlainTable(const std::string& table) {
+    Statement kind(&db_, "SELECT type, sql FROM sqlite_master WHERE name = ?");
+    kind.Bind(1, table);
+    Require(kind.Step() && kind.ColumnText(0) == "table",
+            path_ + ": no '" + table + "' table: not a rosbag2 SQLite file");
+    Require(kind.ColumnText(1).rfind("CREATE TABLE", 0) == 0,
+            path_ + ": table '" + table + "' is not a plain table (rosbag2 writes CREATE TABLE)");
+    Statement columns(&db_, "SELECT name, hidden FROM pragma_table_xinfo(?)");
+    columns.Bind(1, table);
+    while (columns.Step()) {
+      Require(columns.ColumnInt(1) == 0,
+              path_ + ": column '" + columns.ColumnText(0).substr(0, 64) + "' of table '" + table +
+                  "' is generated or hidden; a rosbag2 file stores its columns");
     }
   }
   static std::string List(const std::set<int64_t>& ids) {
@@ -291,15 +338,87 @@ struct BagSummary {
   int64_t first_ns = INT64_MAX, last_ns = INT64_MIN, messages = 0;
 };
 
-// A folder this writer may replace: one holding only a ROS 2 bag.
+constexpr uintmax_t kMaxMetadataBytes = 1u << 20;
+
+// Whether the file starts with `magic` (SQLite's or MCAP's).
+bool StartsWith(const fs::path& file, const std::string& magic) {
+  std::ifstream in(file, std::ios::binary);
+  std::string head(magic.size(), '\0');
+  in.read(head.data(), static_cast<std::streamsize>(head.size()));
+  return in && head == magic;
+}
+
+// The storage files metadata.yaml names; empty when it is not a readable
+// rosbag2 metadata file.
+std::set<std::string> NamedBagFiles(const fs::path& metadata) {
+  std::error_code ec;
+  if (!fs::is_regular_file(fs::symlink_status(metadata, ec)) ||
+      fs::file_size(metadata, ec) > kMaxMetadataBytes || ec)
+    return {};
+  std::set<std::string> names;
+  try {
+    const YAML::Node files =
+        YAML::Load(ReadFileBytes(metadata.string()))["rosbag2_bagfile_information"]
+                                                     ["relative_file_paths"];
+    if (!files.IsSequence()) return {};
+    for (const YAML::Node& file : files) names.insert(file.as<std::string>());
+  } catch (const std::exception&) {
+    return {};
+  }
+  return names;
+}
+
+// A folder this writer may replace: a ROS 2 bag recognised by its content —
+// a readable metadata.yaml and, beside it, only the regular .db3 or .mcap
+// files it names (with SQLite's or MCAP's signature) and a .db3's journal.
+// Names alone decide nothing: a subfolder called photos.db3 is not a bag's.
 bool IsBagFolder(const std::string& path) {
   std::error_code ec;
-  if (!fs::is_directory(path, ec)) return false;
+  if (!fs::is_directory(fs::symlink_status(path, ec))) return false;
+  const std::set<std::string> named = NamedBagFiles(fs::path(path) / "metadata.yaml");
+  if (named.empty()) return false;
   for (const fs::directory_entry& entry : fs::directory_iterator(path, ec)) {
     const std::string name = entry.path().filename().string();
-    if (name != "metadata.yaml" && entry.path().extension() != ".db3") return false;
+    if (!fs::is_regular_file(entry.symlink_status(ec))) return false;
+    if (name == "metadata.yaml") continue;
+    const bool journal = name.size() > 8 && name.substr(name.size() - 8) == "-journal" &&
+                         named.count(name.substr(0, name.size() - 8));
+    const std::string extension = entry.path().extension().string();
+    const bool storage =
+        named.count(name) &&
+        ((extension == ".db3" && StartsWith(entry.path(), std::string("SQLite format 3\0", 16))) ||
+         (extension == ".mcap" && StartsWith(entry.path(), "\x89MCAP0\r\n")));
+    if (!journal && !storage) return false;
   }
   return !ec;
+}
+
+// A writer's folder `<out>.partial-<pid>` left by a process that no longer
+// runs (killed mid-write): removed when it holds only what the writer makes.
+void RemoveDeadWritersFolders(const std::string& out) {
+  const fs::path target(out);
+  const std::string prefix = target.filename().string() + ".partial-";
+  const fs::path parent = target.has_parent_path() ? target.parent_path() : fs::path(".");
+  std::error_code ec;
+  for (const fs::directory_entry& entry : fs::directory_iterator(parent, ec)) {
+    const std::string name = entry.path().filename().string();
+    if (name.rfind(prefix, 0) != 0) continue;
+    const std::string pid_text = name.substr(prefix.size());
+    if (pid_text.empty() || pid_text.size() > 9 ||
+        pid_text.find_first_not_of("0123456789") != std::string::npos)
+      continue;
+    const pid_t pid = static_cast<pid_t>(std::stol(pid_text));
+    if (pid == getpid() || kill(pid, 0) == 0 || errno != ESRCH) continue;  // alive, or not ours
+    const std::string db3 = target.filename().string() + "_0.db3";
+    bool only_ours = fs::is_directory(entry.symlink_status(ec));
+    for (const fs::directory_entry& file : fs::directory_iterator(entry.path(), ec)) {
+      const std::string file_name = file.path().filename().string();
+      only_ours = only_ours && fs::is_regular_file(file.symlink_status(ec)) &&
+                  (file_name == "metadata.yaml" || file_name == db3 ||
+                   file_name == db3 + "-journal" || file_name.rfind("metadata.yaml.", 0) == 0);
+    }
+    if (only_ours) fs::remove_all(entry.path(), ec);
+  }
 }
 
 std::string MetadataYaml(const BagSummary& bag) {
@@ -358,6 +477,7 @@ Ros2BagWriter::Ros2BagWriter(const std::string& out) : impl_(std::make_unique<Im
   Require(!fs::exists(trimmed, ec) || IsBagFolder(trimmed),
           out + ": exists and is not a ROS 2 bag folder; a ROS 2 bag is written as a new folder");
   impl_->out = trimmed;
+  RemoveDeadWritersFolders(trimmed);
   impl_->partial = trimmed + ".partial-" + std::to_string(getpid());
   impl_->summary.file_name = fs::path(trimmed).filename().string() + "_0.db3";
   fs::remove_all(impl_->partial, ec);

@@ -34,14 +34,15 @@ void TfBuffer::Add(const RosTransform& t, bool is_static, const std::string& whe
   char text[160];
   std::snprintf(text,
                 sizeof(text),
-                " at %.3f: translation (%g, %g, %g), rotation of norm %g; it must be finite "
-                "with a unit quaternion",
+                " at %.3f: translation (%g, %g, %g), rotation of norm %g; it must be finite, "
+                "within 100 km, with a unit quaternion",
                 t.header.stamp,
                 p.x(),
                 p.y(),
                 p.z(),
                 norm);
-  Require(p.allFinite() && std::isfinite(norm) && std::abs(norm - 1) < 0.01,
+  Require(p.allFinite() && p.cwiseAbs().maxCoeff() <= 1e5 && std::isfinite(norm) &&
+              std::abs(norm - 1) < 0.01,
           where + ": transform " + StripSlash(t.header.frame_id).substr(0, 64) + " -> " +
               StripSlash(t.child_frame_id).substr(0, 64) + text);
   Edge& edge = edges_[StripSlash(t.child_frame_id)];
@@ -100,9 +101,11 @@ Eigen::Isometry3d TfBuffer::At(const Edge& edge, double time) {
 
 DepthFrame DepthOfImage(const RosImage& image, double depth_scale, const std::string& where) {
   const uint64_t width = image.width, height = image.height;
-  Require(width > 0 && height > 0 && width <= 16384 && height <= 16384,
+  Require(width > 0 && height > 0 && width <= 16384 && height <= 16384 &&
+              width * height <= kMaxDepthPixels,
           where + ": image size " + std::to_string(width) + "x" + std::to_string(height) +
-              " must be 1..16384 a side");
+              " must be 1..16384 a side and at most " + std::to_string(kMaxDepthPixels) +
+              " pixels (4096 x 4096: what one frame's detection may cost)");
   const bool is16 = image.encoding == "16UC1" || image.encoding == "mono16";
   const bool is32f = image.encoding == "32FC1";
   Require(is16 || is32f,

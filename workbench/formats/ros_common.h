@@ -19,6 +19,7 @@
 
 #include "core/detector.h"
 #include "db/dataset_db.h"
+#include "workbench/formats/depth_png.h"
 #include "workbench/formats/rosbag_io.h"
 
 namespace furn {

@@ -123,7 +123,12 @@ FrameFusion FrameFusion::FromJson(const nlohmann::json& json, const std::string&
   } catch (const nlohmann::json::exception& e) {
     throw InputError(what + ": fusion options: " + e.what());
   }
-  fusion.Check();
+  try {  // stored options name no flag: the file and its field do
+    CheckPoseErrorSpreads(fusion.pose_noise_m, fusion.pose_noise_deg, "pose_noise");
+    fusion.Check();
+  } catch (const InputError& e) {
+    throw InputError(what + ": stored fusion options out of range (" + e.what() + ")");
+  }
   return fusion;
 }
 
@@ -214,6 +219,8 @@ DetectionInput RoomFrameInput(const RoomRecord& room,
   return FuseScans(scans, reference);
 }
 
+constexpr double kMaxFusedSensorDistanceM = 50;
+
 LoadedScan FuseLoadedScans(const std::vector<LoadedScan>& scans,
                            const std::optional<ScanRegistrationOptions>& registration) {
   Require(!scans.empty(), "--fuse needs scans");
@@ -226,6 +233,16 @@ LoadedScan FuseLoadedScans(const std::vector<LoadedScan>& scans,
                 "cloud with its VIEWPOINT and --floor-aligned, or --world-from-camera)");
     inputs.push_back(scan.input);
     names += (names.empty() ? "" : ", ") + scan.description;
+  }
+  // Scans of one place: a sensor far from the last one's sees nothing the
+  // detection keeps (its points lie beyond the range and would be dropped).
+  const Eigen::Vector3d reference_sensor = scans.back().input.world_from_camera->translation();
+  for (const LoadedScan& scan : scans) {
+    const double apart = (scan.input.world_from_camera->translation() - reference_sensor).norm();
+    Require(apart <= kMaxFusedSensorDistanceM,
+            scan.description + ": --fuse: its sensor is " + std::to_string(apart) +
+                " m from the last scan's; fused scans must be of one place (within " +
+                std::to_string(static_cast<int>(kMaxFusedSensorDistanceM)) + " m)");
   }
   LoadedScan fused = scans.back();
   const size_t reference = inputs.size() - 1;

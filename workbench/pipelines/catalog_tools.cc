@@ -158,7 +158,7 @@ std::string CatalogListingToJson(const CatalogListing& listing) {
                         {"warnings", listing.warnings},
                         {"entries", entries},
                         {"failures", failures}};
-  return document.dump(2) + "\n";
+  return document.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
 }
 
 std::string DescribeModel(const CatalogEntry& entry, const CadModel& model, bool as_json) {
@@ -179,7 +179,7 @@ std::string DescribeModel(const CatalogEntry& entry, const CadModel& model, bool
         {"vertices", model.mesh.vertices.size()},
         {"surface_area_m2", SurfaceArea(model.mesh)},
         {"content_hash", model.content_hash}};
-    return document.dump(2) + "\n";
+    return document.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
   }
   std::ostringstream out;
   out << "id:            " << entry.id << "\n"
@@ -394,7 +394,7 @@ MeshFolderImport ImportMeshFolder(const MeshFolderImportOptions& options) {
             options.dir + ": two files give the id '" + mesh.id + "' (same folder and stem)");
   }
   const ordered_json map = {{"format", "furnidet-class-map"}, {"version", 2}, {"entries", entries}};
-  WriteFileAtomically(options.out, map.dump(1) + "\n");
+  WriteFileAtomically(options.out, map.dump(1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
   return import;
 }
 

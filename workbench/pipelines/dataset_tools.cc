@@ -118,7 +118,7 @@ std::string DatasetInfoJson(const DatasetInfo& info) {
       {"visibility_histogram", info.visibility_histogram},
       {"generation_options",
        nlohmann::json::parse(info.generation_options.empty() ? "null" : info.generation_options)}};
-  return json.dump(2) + "\n";
+  return json.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
 }
 
 void WriteDatasetPreview(const std::string& db_path, int max_frames, const std::string& png_path) {
@@ -359,7 +359,7 @@ int ExportDataset(const std::string& db_path,
     }
   }
   if (format == "png")
-    WriteFileAtomically((root / "frames.json").string(), png_index.dump(1) + "\n");
+    WriteFileAtomically((root / "frames.json").string(), png_index.dump(1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
   return written;
 }
 

@@ -178,8 +178,20 @@ int DetectScans(const std::vector<ScanSource>& sources, bool batch, const Detect
   // One scan is checked before the model loads: a bad file fails fast.
   std::optional<LoadedScan> first;
   if (run.fuse) {
+    Require(static_cast<int64_t>(sources.size()) <= run.fuse_max_scans,
+            "--fuse: " + std::to_string(sources.size()) + " scans, more than --fuse-max-scans " +
+                std::to_string(run.fuse_max_scans) +
+                " (every fused scan is held in memory; raise it to fuse more)");
     std::vector<LoadedScan> scans;
-    for (const ScanSource& source : sources) scans.push_back(LoadScan(source));
+    int64_t points = 0;
+    for (const ScanSource& source : sources) {
+      scans.push_back(LoadScan(source));
+      points += static_cast<int64_t>(scans.back().input.points.size());
+      Require(points <= run.fuse_max_points,
+              "--fuse: " + scans.back().description + " brings the fused points past " +
+                  "--fuse-max-points " + std::to_string(run.fuse_max_points) +
+                  " (every fused scan is held in memory; raise it to fuse more)");
+    }
     first = FuseLoadedScans(scans, run.fuse_registration);
     batch = false;
   } else if (!batch) {

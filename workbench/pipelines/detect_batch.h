@@ -36,6 +36,10 @@ struct DetectRunOptions {
   bool fuse = false;
   // Their poses refined against the last one's points first; nothing: as given.
   std::optional<ScanRegistrationOptions> fuse_registration;
+  // Every fused scan is held in memory at once: at most this many scans
+  // (refused before any is read) and points in all (refused while reading).
+  int fuse_max_scans = 64;
+  int64_t fuse_max_points = int64_t{1} << 25;  // 33.5 M: 109 Kinect v1 frames
 };
 
 // Whether `inputs` (the command's positional scans) expanded into `sources`

@@ -27,20 +27,22 @@
 #include "workbench/formats/real_labels.h"
 #include "workbench/formats/scan_file.h"
 #include "workbench/pipelines/evaluated_frame.h"
+#include "workbench/pipelines/run_program.h"
 #include "workbench/pipelines/train.h"
 
 namespace furn {
 namespace {
 
-std::string CommandOutput(const std::string& command) {
-  std::string output;
-  FILE* pipe = popen((command + " 2>/dev/null").c_str(), "r");
-  if (pipe == nullptr) return output;
-  char buffer[256];
-  while (std::fgets(buffer, sizeof(buffer), pipe) != nullptr) output += buffer;
-  if (pclose(pipe) != 0) return "";
-  while (!output.empty() && (output.back() == '\n' || output.back() == '\r')) output.pop_back();
-  return output;
+// What `git -C <source dir> args...` prints, without its trailing newline;
+// empty when git is missing or fails (not a checkout).
+std::string GitOutput(const std::vector<std::string>& args) {
+  std::vector<std::string> argv = {"git", "-C", FURN_SOURCE_DIR};
+  argv.insert(argv.end(), args.begin(), args.end());
+  ProgramResult git = RunProgram(argv, false);
+  if (git.exit_code != 0) return "";
+  while (!git.output.empty() && (git.output.back() == '\n' || git.output.back() == '\r'))
+    git.output.pop_back();
+  return git.output;
 }
 
 std::string UtcNow() {
@@ -104,10 +106,10 @@ RunRecord NewRunRecord(const std::string& kind, const std::string& label) {
   run.kind = kind;
   run.label = label;
   run.started = UtcNow();
-  run.git_commit = CommandOutput("git -C '" FURN_SOURCE_DIR "' rev-parse HEAD");
+  run.git_commit = GitOutput({"rev-parse", "HEAD"});
   if (run.git_commit.empty()) run.git_commit = "unknown";
   run.git_dirty =
-      !CommandOutput("git -C '" FURN_SOURCE_DIR "' status --porcelain --untracked-files=no")
+      !GitOutput({"status", "--porcelain", "--untracked-files=no"})
            .empty();
   return run;
 }
@@ -292,7 +294,7 @@ void RecordDetections(const DetectionResult& result,
       out->outcome.stage_ms[t.stage] = t.ms;
     }
   }
-  out->record = {frame.id, out->outcome.total_ms, timings.dump()};
+  out->record = {frame.id, out->outcome.total_ms, timings.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace)};
 }
 
 // Detection in one frame, its ground truth, and the records of the run.
@@ -339,7 +341,7 @@ std::string StoredOptionsJson(const EvaluateCommandOptions& options,
     const nlohmann::ordered_json extra = nlohmann::ordered_json::parse(options.extra_options_json);
     for (const auto& [key, value] : extra.items()) stored[key] = value;
   }
-  return stored.dump();
+  return stored.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
 }
 
 }  // namespace
@@ -457,7 +459,7 @@ EvaluateSummary StoreRun(DatasetDb& dataset,
   run.dataset_hash = selection.dataset_hash;
   run.split = options.split;
   run.options_json = StoredOptionsJson(options, evaluation);
-  run.results_json = CurvesJson(summary.result).dump();
+  run.results_json = CurvesJson(summary.result).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
   summary.run_id = dataset.WriteRun(run, summary.result.metrics, detections, frame_records);
   return summary;
 }
@@ -681,7 +683,33 @@ std::vector<GalleryFrame> WriteGallery(const std::string& db_path,
 
 }  // namespace
 
+namespace {
+
+void WriteReportForRunUnguarded(const std::string& db_path,
+                                int64_t run_id,
+                                const std::string& out_dir);
+
+}  // namespace
+
 void WriteReportForRun(const std::string& db_path, int64_t run_id, const std::string& out_dir) {
+  try {
+    WriteReportForRunUnguarded(db_path, run_id, out_dir);
+  } catch (const nlohmann::json::exception& e) {  // a run row written by someone else
+    std::string reason = e.what();  // "[json.exception.<kind>.<id>] <what>": the what
+    if (reason.rfind("[json.exception.", 0) == 0 && reason.find("] ") != std::string::npos)
+      reason = reason.substr(reason.find("] ") + 2);
+    throw InputError(db_path + ": run " + (run_id == 0 ? std::string("(the latest)")
+                                                          : std::to_string(run_id)) +
+                     ": its stored options or results are not the JSON evaluate stores (" +
+                     reason + ")");
+  }
+}
+
+namespace {
+
+void WriteReportForRunUnguarded(const std::string& db_path,
+                                int64_t run_id,
+                                const std::string& out_dir) {
   DatasetDb dataset(db_path, DatasetDb::Mode::kReadOnly);
   const std::vector<RunRecord> runs = dataset.Runs();
   Require(!runs.empty(), db_path + ": has no runs (run 'workbench evaluate' first)");
@@ -712,6 +740,8 @@ void WriteReportForRun(const std::string& db_path, int64_t run_id, const std::st
   input.gallery = WriteGallery(db_path, *run, out_dir);
   WriteRunReport(input, out_dir);
 }
+
+}  // namespace
 
 std::vector<Regression> FindRegressions(const std::map<std::string, double>& run,
                                         const std::map<std::string, double>& baseline,
@@ -769,7 +799,7 @@ void WriteBaselineFile(const std::string& path,
                               {"db", db_path},
                               {"metrics", metrics},
                               {"tolerances", nlohmann::json::object()}};
-  WriteFileAtomically(path, json.dump(2) + "\n");
+  WriteFileAtomically(path, json.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
 }
 
 }  // namespace furn

@@ -185,9 +185,9 @@ std::map<std::string, ExportedModel> ExportModels(DatasetDb& dataset,
                                                   {"class", model.furniture_class}};
     model.mesh = std::make_shared<TriangleMesh>(std::move(cad.mesh));
   }
-  WriteFileAtomically((root / "models" / "models_info.json").string(), models_info.dump(1) + "\n");
+  WriteFileAtomically((root / "models" / "models_info.json").string(), models_info.dump(1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
   WriteFileAtomically((root / "models" / "models_furnidet.json").string(),
-                      models_extra.dump(1) + "\n");
+                      models_extra.dump(1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
   return models;
 }
 
@@ -200,7 +200,7 @@ void WriteCameraJson(const FrameRecord& frame, const std::filesystem::path& root
                                    {"fy", frame.fy},
                                    {"height", frame.height},
                                    {"width", frame.width}}
-                              .dump(1) +
+                              .dump(1, ' ', false, nlohmann::json::error_handler_t::replace) +
                           "\n");
 }
 
@@ -255,12 +255,12 @@ class BopRoomWriter {
   }
 
   void Finish() const {
-    WriteFileAtomically((scene_dir_ / "scene_camera.json").string(), scene_camera_.dump(1) + "\n");
-    WriteFileAtomically((scene_dir_ / "scene_gt.json").string(), scene_gt_.dump(1) + "\n");
+    WriteFileAtomically((scene_dir_ / "scene_camera.json").string(), scene_camera_.dump(1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
+    WriteFileAtomically((scene_dir_ / "scene_gt.json").string(), scene_gt_.dump(1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
     WriteFileAtomically((scene_dir_ / "scene_gt_info.json").string(),
-                        scene_gt_info_.dump(1) + "\n");
+                        scene_gt_info_.dump(1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
     WriteFileAtomically((scene_dir_ / "scene_gt_furnidet.json").string(),
-                        scene_extra_.dump(1) + "\n");
+                        scene_extra_.dump(1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
   }
 
  private:

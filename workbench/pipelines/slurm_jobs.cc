@@ -1,8 +1,5 @@
 #include "workbench/pipelines/slurm_jobs.h"
 
-#include <fcntl.h>
-#include <spawn.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <array>
@@ -18,8 +15,7 @@
 #include "core/error.h"
 #include "core/file_util.h"
 #include "workbench/formats/json_text.h"
-
-extern char** environ;
+#include "workbench/pipelines/run_program.h"
 
 namespace furn {
 namespace {
@@ -39,41 +35,9 @@ std::string ReplaceTask(const std::string& text, int task) {
   return out;
 }
 
-// Runs a program with these arguments — no shell: nothing in them is ever
-// interpreted — and returns its standard output and error (at most
-// kMaxCapture bytes kept) and its exit code (127: not found).
-constexpr size_t kMaxCapture = 16u << 20;
-
 std::pair<std::string, int> Capture(const std::vector<std::string>& argv) {
-  int fds[2];
-  Require(pipe2(fds, O_CLOEXEC) == 0, "cannot run " + argv.front() + ": no pipe");
-  posix_spawn_file_actions_t actions;
-  posix_spawn_file_actions_init(&actions);
-  posix_spawn_file_actions_adddup2(&actions, fds[1], 1);
-  posix_spawn_file_actions_adddup2(&actions, fds[1], 2);
-  posix_spawn_file_actions_addclose(&actions, fds[0]);
-  posix_spawn_file_actions_addclose(&actions, fds[1]);
-  std::vector<char*> args;
-  for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
-  args.push_back(nullptr);
-  pid_t pid = 0;
-  const int spawned = posix_spawnp(&pid, args[0], &actions, nullptr, args.data(), environ);
-  posix_spawn_file_actions_destroy(&actions);
-  close(fds[1]);
-  std::string out;
-  std::array<char, 4096> buffer;
-  ssize_t n = 0;
-  while ((n = read(fds[0], buffer.data(), buffer.size())) != 0) {
-    if (n < 0 && errno == EINTR) continue;
-    if (n < 0) break;
-    if (out.size() < kMaxCapture) out.append(buffer.data(), static_cast<size_t>(n));
-  }
-  close(fds[0]);
-  if (spawned != 0) return {"", 127};
-  int status = 0;
-  while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
-  }
-  return {out, WIFEXITED(status) ? WEXITSTATUS(status) : 128};
+  ProgramResult result = RunProgram(argv);
+  return {std::move(result.output), result.exit_code};
 }
 
 // A Slurm job id as jobs.json may hold it: digits, or digits_digits (an

@@ -9,6 +9,7 @@
 #include "core/error.h"
 #include "core/hypothesis_scorer.h"
 #include "core/progress.h"
+#include "core/text.h"
 #include "core/random.h"
 #include "renderers/embree_caster.h"
 #include "renderers/kinect_noise.h"
@@ -276,7 +277,7 @@ std::string DescribeOperatingPoint(const OperatingPoint& point) {
   if (point.Empty()) return "operating point: none (every candidate is a detection)\n";
   std::ostringstream out;
   out << "operating point: least score per class, chosen for the best F1 at " << point.match_m * 100
-      << " cm on " << point.chosen_on << "\n";
+      << " cm on " << PrintableText(point.chosen_on) << "\n";
   for (FurnitureClass c : kAllClasses) {
     const ClassOperatingPoint& entry = point.classes[static_cast<size_t>(c)];
     if (entry.min_score < 0 && entry.targets == 0) continue;

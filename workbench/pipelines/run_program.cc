@@ -1,0 +1,68 @@
+#include "workbench/pipelines/run_program.h"
+
+#include <fcntl.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <array>
+#include <cerrno>
+
+#include "core/error.h"
+
+extern char** environ;
+
+namespace furn {
+namespace {
+
+// What the child reads and where its output goes.
+void SetChildFiles(posix_spawn_file_actions_t* actions, const int fds[2], bool with_stderr) {
+  posix_spawn_file_actions_addopen(actions, 0, "/dev/null", O_RDONLY, 0);
+  posix_spawn_file_actions_adddup2(actions, fds[1], 1);
+  if (with_stderr)
+    posix_spawn_file_actions_adddup2(actions, fds[1], 2);
+  else
+    posix_spawn_file_actions_addopen(actions, 2, "/dev/null", O_WRONLY, 0);
+  posix_spawn_file_actions_addclose(actions, fds[0]);
+  posix_spawn_file_actions_addclose(actions, fds[1]);
+}
+
+std::string ReadAll(int fd) {
+  std::string out;
+  std::array<char, 4096> buffer;
+  ssize_t n = 0;
+  while ((n = read(fd, buffer.data(), buffer.size())) != 0) {
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0) break;
+    if (out.size() < kMaxCapture) out.append(buffer.data(), static_cast<size_t>(n));
+  }
+  return out;
+}
+
+}  // namespace
+
+ProgramResult RunProgram(const std::vector<std::string>& argv, bool with_stderr) {
+  Require(!argv.empty(), "RunProgram needs a program");
+  int fds[2];
+  Require(pipe2(fds, O_CLOEXEC) == 0, "cannot run " + argv.front() + ": no pipe");
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  SetChildFiles(&actions, fds, with_stderr);
+  std::vector<char*> args;
+  for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+  args.push_back(nullptr);
+  pid_t pid = 0;
+  const int spawned = posix_spawnp(&pid, args[0], &actions, nullptr, args.data(), environ);
+  posix_spawn_file_actions_destroy(&actions);
+  close(fds[1]);
+  ProgramResult result{ReadAll(fds[0]), 0};
+  close(fds[0]);
+  if (spawned != 0) return {"", 127};
+  int status = 0;
+  while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+  }
+  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128;
+  return result;
+}
+
+}  // namespace furn
