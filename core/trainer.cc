@@ -522,10 +522,9 @@ void CheckVocabularyState(const Vocabulary::State& state,
   Require(std::isfinite(state.min_probability) && state.min_probability >= 0 &&
               state.min_probability <= 1,
           corrupt + "least probability is not in 0..1)");
-  const int words = static_cast<int>(std::max(state.centres.size(), weight_rows.size()));
-  Require(state.activated_words >= 0 && state.activated_words <= std::max(words, 1) &&
-              state.used_words >= 0 && state.used_words <= words,
-          corrupt + "word counts exceed its words)");
+  Require(state.activated_words >= 0 && state.activated_words <= 100000 &&
+              state.used_words >= 0 && state.used_words <= 100000,
+          corrupt + "word counts are not in 0..100000)");
 }
 
 Vocabulary ReadVocabulary(Reader* r, const std::string& path) {

@@ -189,7 +189,7 @@ void DrawSeries(const Chart& chart, const ChartSeries& s, PLINT ink, const Range
 void SetViewport(const Chart& chart, size_t legend_entries) {
   PLFLT left = 0.1, right = chart.with_y2 ? 0.88 : 0.96, bottom = 0.13, top = 0.9;
   if (chart.legend == LegendPlace::kBelow)
-    bottom += 0.055 * static_cast<double>((legend_entries + 2) / 3);
+    bottom += 0.06 + 0.055 * static_cast<double>((legend_entries + 2) / 3);
   if (chart.legend == LegendPlace::kRight) right = 0.7;
   plvpor(left, right, bottom, top);
 }
@@ -247,6 +247,20 @@ PLINT LegendPosition(LegendPlace place) {
   return PL_POSITION_BOTTOM | PL_POSITION_LEFT | PL_POSITION_INSIDE;
 }
 
+// A legend's text of at most kLegendCharacters code points (an ellipsis
+// ends a longer one), so that no entry runs off the page.
+constexpr size_t kLegendCharacters = 44;
+
+std::string Shortened(const std::string& text) {
+  const std::string valid = ValidUtf8(text);
+  size_t characters = 0;
+  for (size_t at = 0; at < valid.size(); ++at) {
+    if ((static_cast<unsigned char>(valid[at]) & 0xC0) == 0x80) continue;  // a continuation
+    if (++characters > kLegendCharacters) return valid.substr(0, at) + "\u2026";
+  }
+  return valid;
+}
+
 // The legend's entries: one per titled series, its ink, style and text.
 struct LegendEntries {
   std::vector<std::string> texts;
@@ -260,7 +274,7 @@ LegendEntries MakeLegend(const Chart& chart) {
   for (size_t k = 0; k < chart.series.size(); ++k) {
     const ChartSeries& s = chart.series[k];
     if (s.title.empty()) continue;
-    entries.texts.push_back(ChartText(s.title));
+    entries.texts.push_back(ChartText(Shortened(s.title)));
     PLINT option = PL_LEGEND_LINE;
     if (s.style == ChartStyle::kPoints) option = PL_LEGEND_SYMBOL;
     if (s.style == ChartStyle::kLinesPoints) option = PL_LEGEND_LINE | PL_LEGEND_SYMBOL;
@@ -291,7 +305,7 @@ void DrawLegend(const Chart& chart) {
   PLFLT width = 0, height = 0;
   plwind(0, 1, 0, 1);
   pllegend(&width, &height, PL_LEGEND_BACKGROUND | PL_LEGEND_BOUNDING_BOX | PL_LEGEND_ROW_MAJOR,
-           LegendPosition(chart.legend), 0.01, below ? 0.09 : 0.01, 0.06, kBackground, kGrey, 1,
+           LegendPosition(chart.legend), 0.01, below ? 0.15 : 0.01, 0.06, kBackground, kGrey, 1,
            rows, columns, n, e.options.data(), 0.8, 0.9, 1.8, 0, text_inks.data(), texts.data(),
            e.inks.data(), e.patterns.data(), e.scales.data(), e.widths.data(), e.inks.data(),
            e.styles.data(), e.widths.data(), e.inks.data(), e.scales.data(), e.ones.data(),

@@ -379,15 +379,18 @@ void VoteNetOptions::Check() const {
           "a BEV grid of " + std::to_string(grid.rows) + " x " + std::to_string(grid.cols) +
               " cells cannot be halved " + std::to_string(levels) + " times");
   // The grid is what the range fills, no more: rows reach forward, columns
-  // to both sides, with a metre of slack (the default grid, 72 x 96 cells of
-  // 5 cm, is 3.6 x 4.8 m at a 3.6 m range). A network's cost grows with its
-  // cells, so a file cannot ask for a grid its range leaves empty.
+  // to both sides, with a metre of slack; a range below the default grid's
+  // reach (72 x 96 cells of 5 cm: 3.6 x 4.8 m) keeps that grid. A network's
+  // cost grows with its cells, so a file cannot ask for a grid its range
+  // leaves empty.
+  const double reach_m = std::max(range_m, 3.6);
   const double forward_m = grid.rows * grid.cell_m, lateral_m = grid.cols * grid.cell_m;
-  Require(forward_m <= range_m + 1 && lateral_m <= 2 * range_m + 1 &&
+  Require(forward_m <= reach_m + 1 && lateral_m <= 2 * reach_m + 1 &&
               static_cast<int64_t>(grid.rows) * grid.cols <= kMaxGridCells,
           "a BEV grid of " + std::to_string(grid.rows) + " x " + std::to_string(grid.cols) +
-              " cells of " + std::to_string(grid.cell_m) + " m must reach at most the range " +
-              std::to_string(range_m) + " m + 1 m forward, twice it + 1 m across, and hold at "
+              " cells of " + std::to_string(grid.cell_m) + " m must reach at most the range (" +
+              std::to_string(range_m) + " m, at least 3.6) + 1 m forward, twice it + 1 m "
+              "across, and hold at "
               "most " + std::to_string(kMaxGridCells) + " cells");
 }
 

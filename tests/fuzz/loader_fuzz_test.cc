@@ -46,6 +46,7 @@
 #include "workbench/formats/camera_file.h"
 #include "workbench/formats/depth_png.h"
 #include "workbench/formats/point_cloud_file.h"
+#include "workbench/formats/ros2_bag.h"
 #include "workbench/formats/rosbag_io.h"
 #include "workbench/formats/scan_file.h"
 #include "workbench/pipelines/evaluated_frame.h"
@@ -412,6 +413,29 @@ TEST_F(LoaderFuzz, RosBags) {
           options.bag_path = path;
           options.topic = "/camera/depth/image_raw";
           ForEachBagScan(options, [](const BagScan&) {});
+        }},
+       dir_);
+}
+
+// ROS 2 bags' SQLite files (issue 68): a frame exported as rosbag2 writes
+// it, each mutant read as a bag.
+TEST_F(LoaderFuzz, Ros2Bags) {
+  ASSERT_NO_FATAL_FAILURE(GenerateSeedDataset(dir_ + "/seed.db"));
+  {
+    DatasetDb db(dir_ + "/seed.db", DatasetDb::Mode::kReadOnly);
+    const RoomRecord room = db.ReadRoom(db.RoomIds().at(0), /*with_images=*/true);
+    Ros2FrameWriter writer(dir_ + "/seed_ros2");
+    writer.Write(room, room.frames.at(0), "seed frame");
+    writer.Finish();
+  }
+  Fuzz({"ros2_bag",
+        "db3",
+        {ReadFileBytes(dir_ + "/seed_ros2/seed_ros2_0.db3")},
+        [](const std::string& path) {
+          BagScanOptions options;
+          options.bag_path = path;
+          options.topic = "/camera/depth/image_raw";
+          ForEachScanInBag(options, [](const BagScan&) {});
         }},
        dir_);
 }

@@ -376,6 +376,18 @@ TEST(VoteNet, LevelsAreStoredAndFormatFiveReadsAsThree) {
   options.grid.rows = 16;
   EXPECT_NE(testing::ErrorOf([&] { VoteNet::Create(options, 1); }).find("cannot be halved 5 times"),
             std::string::npos);
+  // The grid is tied to the range (issue 68: a file's 1024 x 1024 grid on the
+  // same weights cost 17 s a frame).
+  options.levels = 3;
+  options.grid.cell_m = 0.05;
+  options.grid.rows = options.grid.cols = 1024;
+  EXPECT_NE(testing::ErrorOf([&] { VoteNet::Create(options, 1); })
+                .find("must reach at most the range (3.6"),
+            std::string::npos);
+  options.grid.rows = 72;
+  options.grid.cols = 96;
+  options.range_m = 1;  // a shorter range keeps the default grid
+  EXPECT_NO_THROW(VoteNet::Create(options, 1));
 }
 
 // Edge votes are stored with the weights (format 7): four more output

@@ -151,7 +151,7 @@ class BagFile {
                        ") ORDER BY timestamp, id" +
                        (limit > 0 ? " LIMIT " + std::to_string(limit) : std::string()));
     Ros2Message message;
-    while (rows.Step()) {
+    while (Step(&rows)) {
       const Topic& topic = topics_.at(rows.ColumnInt(0));
       message.topic = topic.name;
       message.type = topic.type;
@@ -177,6 +177,17 @@ class BagFile {
       return Database(path, Database::Mode::kReadOnly);
     } catch (const DbError& e) {
       throw InputError(std::string(e.what()));
+    }
+  }
+  // The next row; a value past the length cap (SQLite's "too big", whatever
+  // the column computes or stores) is refused as the cap it breaks.
+  bool Step(Statement* rows) {
+    try {
+      return rows->Step();
+    } catch (const DbError& e) {
+      if (std::string(e.what()).find("too big") == std::string::npos) throw;
+      throw InputError(path_ + ": a message of more than " + std::to_string(kMaxMessageBytes) +
+                       " bytes (SQLite: string or blob too big)");
     }
   }
   // A table as rosbag2 makes it: a plain table (not a view, not a virtual
