@@ -103,7 +103,7 @@ std::string PrintableText(std::string_view text) {
     const char32_t code = DecodeOne(text, &at);
     if (!IsControl(code)) {
       out += code == kIllFormed ? Utf8FromCodePoint(kReplacement)
-                                  : std::string(text.substr(before, at - before));
+                                : std::string(text.substr(before, at - before));
       continue;
     }
     char escaped[16];

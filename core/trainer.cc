@@ -13,8 +13,8 @@
 
 #include "core/error.h"
 #include "core/file_util.h"
-#include "core/text.h"
 #include "core/parallel.h"
+#include "core/text.h"
 #include "core/voxel_key.h"
 
 namespace furn {
@@ -514,16 +514,15 @@ void CheckVocabularyState(const Vocabulary::State& state,
             corrupt + "centres are not " + std::to_string(kSgfCount) + " finite numbers each)");
   for (const Eigen::VectorXd& row : weight_rows)
     Require(row.size() == kSgfCount && row.allFinite(),
-            corrupt + "weight rows are not " + std::to_string(kSgfCount) +
-                " finite numbers each)");
+            corrupt + "weight rows are not " + std::to_string(kSgfCount) + " finite numbers each)");
   Require(state.biases.size() == static_cast<Eigen::Index>(weight_rows.size()) &&
               state.biases.allFinite(),
           corrupt + "biases do not match its weight rows)");
   Require(std::isfinite(state.min_probability) && state.min_probability >= 0 &&
               state.min_probability <= 1,
           corrupt + "least probability is not in 0..1)");
-  Require(state.activated_words >= 0 && state.activated_words <= 100000 &&
-              state.used_words >= 0 && state.used_words <= 100000,
+  Require(state.activated_words >= 0 && state.activated_words <= 100000 && state.used_words >= 0 &&
+              state.used_words <= 100000,
           corrupt + "word counts are not in 0..100000)");
 }
 
@@ -576,8 +575,7 @@ void CheckModelShape(const ModelShape& shape, size_t index, const std::string& p
     low = i == 0 ? p : low.cwiseMin(p);
     high = i == 0 ? p : high.cwiseMax(p);
   }
-  Require(shape.low.allFinite() && shape.high.allFinite() && shape.low == low &&
-              shape.high == high,
+  Require(shape.low.allFinite() && shape.high.allFinite() && shape.low == low && shape.high == high,
           corrupt + "bounds are not its points' bounding box)");
 }
 
@@ -709,8 +707,8 @@ VoteNetInput ReadVoteNetInput(Reader* r, const std::string& path) {
               input.pose_noise_deg <= 45,
           corrupt + "pose error is not in 0..1 m, 0..45 deg)");
   Require(planar == 0 || planar == 1, corrupt + "planar flag is neither 0 nor 1)");
-  Require(input.fused_share > 0 || (input.pose_noise_m == 0 && input.pose_noise_deg == 0 &&
-                                    planar == 0),
+  Require(input.fused_share > 0 ||
+              (input.pose_noise_m == 0 && input.pose_noise_deg == 0 && planar == 0),
           corrupt + "pose error is recorded without fused frames)");
   input.planar = planar == 1;
   return input;

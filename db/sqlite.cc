@@ -14,6 +14,12 @@ namespace {
 // not the query: read-only media, a full disk, another writer, damage.
 // Empty for the others.
 std::string PlainCause(int code) {
+  // A read-only open that meets a hot journal or WAL (a writer died mid-
+  // transaction) cannot roll it back: that is not a read-only file.
+  if (code == SQLITE_READONLY_ROLLBACK || code == SQLITE_READONLY_RECOVERY ||
+      code == SQLITE_READONLY_CANTINIT)
+    return "a writer stopped mid-transaction (a hot journal beside it); open it once with write "
+           "access to roll that back, or copy the file without its -journal / -wal";
   switch (code & 0xff) {
     case SQLITE_READONLY:
       return "cannot write: the file or its folder is read-only";

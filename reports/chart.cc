@@ -87,7 +87,7 @@ bool HasPoints(const Chart& chart) {
 // The series' points on the chart's scales, cut into runs at every NaN (a
 // line is not drawn across a missing value).
 std::vector<std::pair<std::vector<PLFLT>, std::vector<PLFLT>>> Runs(const Chart& chart,
-                                                                   const ChartSeries& s) {
+                                                                    const ChartSeries& s) {
   const ChartAxis& axis = s.right_axis ? chart.y2 : chart.y;
   std::vector<std::pair<std::vector<PLFLT>, std::vector<PLFLT>>> runs(1);
   for (size_t k = 0; k < std::min(s.x.size(), s.y.size()); ++k) {
@@ -148,7 +148,8 @@ void DrawPointLabels(const Chart& chart, const ChartSeries& s, const Range& y_wi
   for (size_t k = 0; k < std::min({s.x.size(), s.y.size(), s.labels.size()}); ++k) {
     const double sx = Scaled(chart.x, s.x[k]), sy = Scaled(axis, s.y[k]);
     if (std::isnan(sx) || std::isnan(sy)) continue;
-    plptex(sx, sy + 0.03 * (y_window.max - y_window.min), 1, 0, 0.5, ChartText(s.labels[k]).c_str());
+    plptex(
+        sx, sy + 0.03 * (y_window.max - y_window.min), 1, 0, 0.5, ChartText(s.labels[k]).c_str());
   }
 }
 
@@ -208,7 +209,8 @@ void DrawNamedTicks(const ChartAxis& axis, const Range& window) {
 void DrawFrame(const Chart& chart, const Windows& w) {
   const std::string x_numbers = chart.x.ticks.empty() ? "nst" : "";
   const std::string x_opt = "bc" + x_numbers + (chart.x.log ? "l" : "");
-  const std::string y_opt = std::string(chart.with_y2 ? "b" : "bc") + "nstv" + (chart.y.log ? "l" : "");
+  const std::string y_opt =
+      std::string(chart.with_y2 ? "b" : "bc") + "nstv" + (chart.y.log ? "l" : "");
   plwind(w.x.min, w.x.max, w.y.min, w.y.max);
   plcol0(kGrid);
   plbox("g", chart.x.tick_step, 0, "g", chart.y.tick_step, 0);
@@ -304,11 +306,36 @@ void DrawLegend(const Chart& chart) {
   std::vector<PLINT> text_inks(texts.size(), kBlack);
   PLFLT width = 0, height = 0;
   plwind(0, 1, 0, 1);
-  pllegend(&width, &height, PL_LEGEND_BACKGROUND | PL_LEGEND_BOUNDING_BOX | PL_LEGEND_ROW_MAJOR,
-           LegendPosition(chart.legend), 0.01, below ? 0.15 : 0.01, 0.06, kBackground, kGrey, 1,
-           rows, columns, n, e.options.data(), 0.8, 0.9, 1.8, 0, text_inks.data(), texts.data(),
-           e.inks.data(), e.patterns.data(), e.scales.data(), e.widths.data(), e.inks.data(),
-           e.styles.data(), e.widths.data(), e.inks.data(), e.scales.data(), e.ones.data(),
+  pllegend(&width,
+           &height,
+           PL_LEGEND_BACKGROUND | PL_LEGEND_BOUNDING_BOX | PL_LEGEND_ROW_MAJOR,
+           LegendPosition(chart.legend),
+           0.01,
+           below ? 0.15 : 0.01,
+           0.06,
+           kBackground,
+           kGrey,
+           1,
+           rows,
+           columns,
+           n,
+           e.options.data(),
+           0.8,
+           0.9,
+           1.8,
+           0,
+           text_inks.data(),
+           texts.data(),
+           e.inks.data(),
+           e.patterns.data(),
+           e.scales.data(),
+           e.widths.data(),
+           e.inks.data(),
+           e.styles.data(),
+           e.widths.data(),
+           e.inks.data(),
+           e.scales.data(),
+           e.ones.data(),
            e.symbols.data());
 }
 
@@ -391,8 +418,10 @@ void WriteChartPng(const Chart& chart, const std::string& png_path) {
   // PLplot keeps global state: one chart at a time.
   static std::mutex mutex;
   const std::lock_guard<std::mutex> lock(mutex);
-  Require(HasPngCairo(), png_path + ": PLplot's cairo driver is missing (apt install "
-                                    "plplot-driver-cairo)");
+  Require(HasPngCairo(),
+          png_path +
+              ": PLplot's cairo driver is missing (apt install "
+              "plplot-driver-cairo)");
   const std::string temporary = png_path + ".partial-" + std::to_string(getpid());
   // PLplot exits the process when it cannot open its output: open it first.
   std::FILE* probe = std::fopen(temporary.c_str(), "wb");

@@ -73,9 +73,7 @@ inline ChartSeries MakeSeries(std::string title,
   return series;
 }
 
-inline ChartAxis MakeAxis(std::string label,
-                          double min = std::nan(""),
-                          double max = std::nan("")) {
+inline ChartAxis MakeAxis(std::string label, double min = std::nan(""), double max = std::nan("")) {
   ChartAxis axis;
   axis.label = std::move(label);
   axis.min = min;

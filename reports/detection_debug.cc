@@ -471,7 +471,9 @@ void WriteHypothesesJson(const DebugInput& in) {
                           {"outcome", OutcomeName(h.outcome)},
                           {"outcome_text", DetectionDebug::Describe(h)}});
   }
-  WriteFileAtomically(in.Path("hypotheses.json"), hypotheses.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
+  WriteFileAtomically(
+      in.Path("hypotheses.json"),
+      hypotheses.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
 }
 
 }  // namespace

@@ -349,13 +349,16 @@ std::string ReliabilityHtml(const nlohmann::json& bins,
   Chart chart;
   chart.width = 520;
   chart.height = 420;
-  chart.title = "true-positive share against mean score per bin (" + std::to_string(total) +
-                " detections)";
+  chart.title =
+      "true-positive share against mean score per bin (" + std::to_string(total) + " detections)";
   chart.x = MakeAxis("mean score in bin", 0, 1);
   chart.y = MakeAxis("true positives", 0, 1);
   chart.legend = LegendPlace::kTopLeft;
-  ChartSeries diagonal = MakeSeries(
-      "perfectly calibrated", ChartStyle::kDashedLines, ChartColour{0x88, 0x88, 0x88}, {0, 1}, {0, 1});
+  ChartSeries diagonal = MakeSeries("perfectly calibrated",
+                                    ChartStyle::kDashedLines,
+                                    ChartColour{0x88, 0x88, 0x88},
+                                    {0, 1},
+                                    {0, 1});
   ChartSeries points = MakeSeries("bins", ChartStyle::kLinesPoints, ChartColour{0xcc, 0x33, 0x11});
   for (const nlohmann::json& bin : bins) {
     const int n = bin[2].get<int>();
@@ -401,8 +404,9 @@ void PlotFoldAp(const nlohmann::json& folds,
   Chart chart;
   chart.width = 760;
   chart.height = 380;
-  chart.title = "leave-models-out: AP@10cm per class, one bar per fold (0 = none found, gap = no "
-                "such object)";
+  chart.title =
+      "leave-models-out: AP@10cm per class, one bar per fold (0 = none found, gap = no "
+      "such object)";
   chart.y = MakeAxis("AP@10cm", 0, 1.05);
   chart.legend = LegendPlace::kRight;
   chart.empty_note = "no folds";

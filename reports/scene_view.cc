@@ -321,7 +321,10 @@ void WriteSceneView(const DetectionResult& result,
   if (links.library.empty()) WriteSceneLibrary((out / "three").string());
   // "</" or "<!--" inside a string would end the script early: each "<" as \u003c.
   const std::string data =
-      Replaced(SceneJson(result, model, camera, ground_truth, links).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace), "<", "\\u003c");
+      Replaced(SceneJson(result, model, camera, ground_truth, links)
+                   .dump(-1, ' ', false, nlohmann::json::error_handler_t::replace),
+               "<",
+               "\\u003c");
   WriteFileAtomically((out / "scene_data.js").string(), "window.FURN_SCENE = " + data + ";\n");
   std::string page = Replaced(kSceneHtml, "@TITLE@", HtmlEscape(links.title));
   page = Replaced(page, "@LIBRARY@", HtmlEscape(library));

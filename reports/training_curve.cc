@@ -21,7 +21,8 @@ void WriteTrainingCurvePng(const std::vector<TrainingCurvePoint>& points,
   ChartSeries train = MakeSeries("training loss", ChartStyle::kLinesPoints, ChartPalette(0));
   ChartSeries validation = MakeSeries("validation loss", ChartStyle::kLinesPoints, ChartPalette(1));
   ChartSeries map = MakeSeries("validation mAP@10cm", ChartStyle::kLinesPoints, ChartPalette(2));
-  ChartSeries last = MakeSeries("validation mAP@10cm (last weights)", ChartStyle::kDashedLines, ChartPalette(3));
+  ChartSeries last =
+      MakeSeries("validation mAP@10cm (last weights)", ChartStyle::kDashedLines, ChartPalette(3));
   map.right_axis = last.right_axis = true;
   bool any_map = false, any_last = false;
   for (const TrainingCurvePoint& p : points) {

@@ -75,7 +75,8 @@ void PlotEffect(const TuneReportInput& input, size_t parameter, const std::strin
   // The mean line only where few values repeat often (grids, lists); random
   // draws of a range are (nearly) all different, and their means would zigzag.
   if (2 * mean.size() <= input.trials.size()) {
-    ChartSeries line = MakeSeries("mean per value", ChartStyle::kLines, ChartColour{0x99, 0x99, 0x99});
+    ChartSeries line =
+        MakeSeries("mean per value", ChartStyle::kLines, ChartColour{0x99, 0x99, 0x99});
     for (const auto& [x, sum_count] : mean) {
       line.x.push_back(x);
       line.y.push_back(sum_count.first / sum_count.second);

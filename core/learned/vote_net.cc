@@ -389,9 +389,11 @@ void VoteNetOptions::Check() const {
               static_cast<int64_t>(grid.rows) * grid.cols <= kMaxGridCells,
           "a BEV grid of " + std::to_string(grid.rows) + " x " + std::to_string(grid.cols) +
               " cells of " + std::to_string(grid.cell_m) + " m must reach at most the range (" +
-              std::to_string(range_m) + " m, at least 3.6) + 1 m forward, twice it + 1 m "
+              std::to_string(range_m) +
+              " m, at least 3.6) + 1 m forward, twice it + 1 m "
               "across, and hold at "
-              "most " + std::to_string(kMaxGridCells) + " cells");
+              "most " +
+              std::to_string(kMaxGridCells) + " cells");
 }
 
 VoteNet::VoteNet() = default;

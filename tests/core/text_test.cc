@@ -16,7 +16,10 @@ TEST(Text, ValidUtf8IsRecognisedAndIllFormedIsNot) {
 }
 
 TEST(Text, IllFormedBytesBecomeReplacementCharacters) {
-  EXPECT_EQ(ValidUtf8("a\xFF" "b"), "a\xEF\xBF\xBD" "b");
+  EXPECT_EQ(ValidUtf8("a\xFF"
+                      "b"),
+            "a\xEF\xBF\xBD"
+            "b");
   std::string six_replacements;
   for (int k = 0; k < 6; ++k) six_replacements += "\xEF\xBF\xBD";
   EXPECT_EQ(ValidUtf8("\xED\xA0\xBD\xED\xB8\x80"), six_replacements);  // byte by byte

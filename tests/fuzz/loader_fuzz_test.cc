@@ -20,9 +20,11 @@
 // suite); FURN_FUZZ_SEED the seed (default 1). The slow suite runs 10^4.
 #include <gtest/gtest.h>
 #include <sys/resource.h>
+#include <xxhash.h>
 
 #include <chrono>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <functional>
 #include <random>
@@ -45,6 +47,7 @@
 #include "tests/test_util.h"
 #include "workbench/formats/camera_file.h"
 #include "workbench/formats/depth_png.h"
+#include "workbench/formats/options_file.h"
 #include "workbench/formats/point_cloud_file.h"
 #include "workbench/formats/ros2_bag.h"
 #include "workbench/formats/rosbag_io.h"
@@ -368,6 +371,54 @@ TEST_F(LoaderFuzz, ModelFiles) {
         "fcm",
         {ReadFileBytes(dir_ + "/seed.fcm")},
         [](const std::string& path) { LoadTrainedModel(path); }},
+       dir_);
+}
+
+// Model files past their checksum (issue 68): each mutant's checksum is made
+// right again, so the parser and then detection meet the mutated fields.
+TEST_F(LoaderFuzz, ModelFilesThroughDetection) {
+  ScanOptions scan;
+  scan.heights_m = {1.2};
+  scan.azimuths = 3;
+  TrainerOptions trainer;
+  trainer.vocabulary.kind = VocabularyKind::kKMeans;
+  trainer.vocabulary.words = 8;
+  TrainFromCatalog(OpenCatalog("procedural:2"), scan, trainer, dir_ + "/seed.fcm");
+  ASSERT_NO_FATAL_FAILURE(GenerateSeedDataset(dir_ + "/seed.db"));
+  DetectionInput frame;
+  {
+    DatasetDb db(dir_ + "/seed.db", DatasetDb::Mode::kReadOnly);
+    const RoomRecord room = db.ReadRoom(db.RoomIds().at(0), /*with_images=*/true);
+    frame = DetectionInputOf(room.frames.at(0), "seed frame");
+  }
+  Fuzz({"model_through_detection",
+        "fcm",
+        {ReadFileBytes(dir_ + "/seed.fcm")},
+        [&frame](const std::string& path) {
+          std::string bytes = ReadFileBytes(path);
+          constexpr size_t kHeader = 12;  // magic and version, outside the checksum
+          if (bytes.size() >= kHeader + 8) {
+            const uint64_t checksum =
+                XXH3_64bits(bytes.data() + kHeader, bytes.size() - kHeader - 8);
+            std::memcpy(&bytes[bytes.size() - 8], &checksum, sizeof(checksum));
+            WriteFileAtomically(path, bytes);
+          }
+          const Detector detector(LoadTrainedModel(path), DetectorOptions{});
+          detector.Detect(frame);
+        }},
+       dir_);
+}
+
+// Options files (issue 68): every detector option from a file someone else
+// wrote is bounded by its Check.
+TEST_F(LoaderFuzz, OptionsFiles) {
+  Fuzz({"options_file",
+        "json",
+        {OptionsFileJson(TrainingOptions{}, DetectorOptions{})},
+        [](const std::string& path) {
+          DetectorOptionsFromJson(ReadFileBytes(path), path).Check();
+          TrainingOptionsFromJson(ReadFileBytes(path), path);
+        }},
        dir_);
 }
 

@@ -54,10 +54,11 @@ TEST(JavaProperties, Latin1IsConvertedToUtf8) {
 // escapes: one code point, valid UTF-8 (issue 68: it was decoded half by half
 // into CESU-8, which JSON output then refused). A lone half is U+FFFD.
 TEST(JavaProperties, SurrogatePairsAreOneCodePoint) {
-  const auto p = ParseJavaProperties(
-      "id=emoji/chair\\uD83D\\uDE00\nlone=a\\uD83Db\nlow=\\uDE00\n");
+  const auto p = ParseJavaProperties("id=emoji/chair\\uD83D\\uDE00\nlone=a\\uD83Db\nlow=\\uDE00\n");
   EXPECT_EQ(p.at("id"), "emoji/chair\U0001F600");
-  EXPECT_EQ(p.at("lone"), "a\xEF\xBF\xBD" "b");
+  EXPECT_EQ(p.at("lone"),
+            "a\xEF\xBF\xBD"
+            "b");
   EXPECT_EQ(p.at("low"), "\xEF\xBF\xBD");
   for (const auto& [key, value] : p) EXPECT_TRUE(IsValidUtf8(value)) << key;
 }

@@ -32,10 +32,10 @@ class HostileTurn5 : public ::testing::Test {
     model_ = new std::string(*dir_ + "/model.fcm");
     db_ = new std::string(*dir_ + "/tiny.db");
     ASSERT_EQ(Run(std::string(testing::kTrainSmallCodebook) + *model_).exit_code, 0);
-    ASSERT_EQ(Run("generate --catalog procedural:4 --rooms 1 --frames 1 --seed 1 --quiet --out " +
-                  *db_)
-                  .exit_code,
-              0);
+    ASSERT_EQ(
+        Run("generate --catalog procedural:4 --rooms 1 --frames 1 --seed 1 --quiet --out " + *db_)
+            .exit_code,
+        0);
   }
   static void TearDownTestSuite() {
     delete dir_;
@@ -44,8 +44,7 @@ class HostileTurn5 : public ::testing::Test {
   }
 
   static testing::CommandResult Run(const std::string& arguments) {
-    return testing::RunCommand("cd '" + *dir_ + "' && " + FURN_WORKBENCH_BINARY + " " +
-                               arguments);
+    return testing::RunCommand("cd '" + *dir_ + "' && " + FURN_WORKBENCH_BINARY + " " + arguments);
   }
 
   // One line naming `name`, exit 1..123, within 10 s.
@@ -88,33 +87,27 @@ TEST_F(HostileTurn5, ModelShapesAreCheckedOnLoad) {
   const auto detect = [](const std::string& model) {
     return "detect --model " + model + " --db tiny.db --frame 0 --quiet";
   };
-  const std::string high = MutatedModel("shape_high", [](TrainedModel* m) {
-    m->model_shapes.at(0).high.z() = 1e6f;
-  });
+  const std::string high =
+      MutatedModel("shape_high", [](TrainedModel* m) { m->model_shapes.at(0).high.z() = 1e6f; });
   EXPECT_NE(ExpectOneLine(detect(high), high).find("bounds are not its points' bounding box"),
             std::string::npos);
-  const std::string nan = MutatedModel("shape_nan", [](TrainedModel* m) {
-    m->model_shapes.at(0).points.at(0).x() = std::nanf("");
-  });
+  const std::string nan = MutatedModel(
+      "shape_nan", [](TrainedModel* m) { m->model_shapes.at(0).points.at(0).x() = std::nanf(""); });
   EXPECT_NE(ExpectOneLine(detect(nan), nan).find("point 0 is not finite"), std::string::npos);
-  const std::string outside = MutatedModel("shape_outside", [](TrainedModel* m) {
-    m->model_shapes.at(0).points.back().z() += 10000;
-  });
+  const std::string outside = MutatedModel(
+      "shape_outside", [](TrainedModel* m) { m->model_shapes.at(0).points.back().z() += 10000; });
   ExpectOneLine(detect(outside), outside);
 }
 
 // model_name_bad_utf8, model_options_nan_voxel, model_chosen_on_ansi.
 TEST_F(HostileTurn5, ModelTextAndOptionsNameTheFile) {
-  const std::string bad_name = MutatedModel("bad_name", [](TrainedModel* m) {
-    m->model_names.at(0) = "chair\xFF\xFE";
-  });
+  const std::string bad_name =
+      MutatedModel("bad_name", [](TrainedModel* m) { m->model_names.at(0) = "chair\xFF\xFE"; });
   EXPECT_NE(ExpectOneLine("model info " + bad_name, bad_name).find("is not valid UTF-8"),
             std::string::npos);
-  const std::string voxel = MutatedModel("nan_voxel", [](TrainedModel* m) {
-    m->options.preprocess.voxel_size_m = std::nan("");
-  });
-  EXPECT_NE(ExpectOneLine("model info " + voxel, voxel).find("trainer options"),
-            std::string::npos);
+  const std::string voxel = MutatedModel(
+      "nan_voxel", [](TrainedModel* m) { m->options.preprocess.voxel_size_m = std::nan(""); });
+  EXPECT_NE(ExpectOneLine("model info " + voxel, voxel).find("trainer options"), std::string::npos);
   const std::string ansi = MutatedModel("ansi", [](TrainedModel* m) {
     m->operating_point.chosen_on = "frames\x1B[2J\nforged: line";
     for (ClassOperatingPoint& c : m->operating_point.classes) c.min_score = 0.5;
@@ -130,9 +123,9 @@ TEST_F(HostileTurn5, ModelTextAndOptionsNameTheFile) {
 TEST_F(HostileTurn5, OptionsFilesAreBounded) {
   const std::string iterations = *dir_ + "/iterations.json";
   testing::WriteText(iterations, R"({"detector": {"fit": {"iterations": 100000000}}})");
-  EXPECT_NE(ExpectOneLine("detect --model model.fcm --db tiny.db --frame 0 --quiet --options " +
-                              iterations,
-                          "fit iterations 100000000 must be in 1..20000")
+  EXPECT_NE(ExpectOneLine(
+                "detect --model model.fcm --db tiny.db --frame 0 --quiet --options " + iterations,
+                "fit iterations 100000000 must be in 1..20000")
                 .find("iterations.json"),
             std::string::npos);
   const std::string twice = *dir_ + "/twice.json";
@@ -192,8 +185,9 @@ TEST_F(HostileTurn5, RunRowsNeverBecomeAProgram) {
   ExpectOneLine("report --db runs.db --out rep", "runs.db: run");
   {
     Database runs(db, Database::Mode::kReadWriteExisting);
-    runs.Execute("UPDATE runs SET results_json = '{}', options_json = 'not json', "
-                 "model_path = 'gone.fcm'");
+    runs.Execute(
+        "UPDATE runs SET results_json = '{}', options_json = 'not json', "
+        "model_path = 'gone.fcm'");
   }
   ExpectOneLine("report --db runs.db --out rep", "runs.db: run");
 }

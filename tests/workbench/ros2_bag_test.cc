@@ -4,8 +4,8 @@
 // messages refused with one line naming the bag, within their own size.
 // The comparison with the ROS 1 path is in rosbag_test (ROS builds only).
 #include <gtest/gtest.h>
-#include <unistd.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <cstring>
 #include <filesystem>
@@ -357,6 +357,16 @@ TEST_F(Ros2BagTest, SqliteCannotMakeUpMessagesOrHideTheirSize) {
   EXPECT_NE(refused(generated).find("column 'data' of table 'messages' is generated or hidden"),
             std::string::npos)
       << refused(generated);
+  EXPECT_NE(refused(damaged("no_id",
+                            "ALTER TABLE messages RENAME TO m0; CREATE TABLE messages(topic_id "
+                            "INTEGER, timestamp INTEGER, data BLOB); INSERT INTO messages SELECT "
+                            "topic_id, timestamp, data FROM m0; DROP TABLE m0"))
+                .find("table 'messages' has no column 'id'"),
+            std::string::npos);
+  fs::create_symlink(dir_ + "/loop", dir_ + "/loop");
+  EXPECT_NE(refused(dir_ + "/loop").find("cannot read (Too many levels of symbolic links)"),
+            std::string::npos)
+      << refused(dir_ + "/loop");
   // Even a plain column cannot hand over a value longer than the cap.
   Database plain(generated);
   plain.TreatAsUntrusted(1000);

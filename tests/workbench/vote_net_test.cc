@@ -381,8 +381,9 @@ TEST(VoteNet, LevelsAreStoredAndFormatFiveReadsAsThree) {
   options.levels = 3;
   options.grid.cell_m = 0.05;
   options.grid.rows = options.grid.cols = 1024;
-  EXPECT_NE(testing::ErrorOf([&] { VoteNet::Create(options, 1); })
-                .find("must reach at most the range (3.6"),
+  EXPECT_NE(testing::ErrorOf([&] {
+              VoteNet::Create(options, 1);
+            }).find("must reach at most the range (3.6"),
             std::string::npos);
   options.grid.rows = 72;
   options.grid.cols = 96;

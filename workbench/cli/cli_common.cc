@@ -124,7 +124,9 @@ std::optional<int> ParseCommandLine(CLI::App* app, int argc, char** argv) {
     // --help and --version print as CLI11 prints them; a mistake is one
     // line with the command's prefix, as every other error is.
     if (error.get_exit_code() == 0) return app->exit(error);
-    std::fprintf(stderr, "%s: error: %s (see --help)\n", app->get_name().c_str(),
+    std::fprintf(stderr,
+                 "%s: error: %s (see --help)\n",
+                 app->get_name().c_str(),
                  PrintableText(error.what()).c_str());
     return 2;
   }

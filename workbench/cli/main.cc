@@ -65,7 +65,8 @@ int main(int argc, char** argv) {
       return command.run(argc - 1, argv + 1);
     } catch (const std::exception& error) {
       // One line whatever the message holds (names from files are data).
-      std::fprintf(stderr, "workbench %s: error: %s\n", argv[1], furn::PrintableText(error.what()).c_str());
+      std::fprintf(
+          stderr, "workbench %s: error: %s\n", argv[1], furn::PrintableText(error.what()).c_str());
       return 1;
     }
   }

@@ -86,11 +86,15 @@ std::string DetectionJson(const DetectionResult& result,
       {"segments", result.segments},
       {"detections", detections},
       {"timings_ms", timings}};
-  return (one_line ? json.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) : json.dump(2, ' ', false, nlohmann::json::error_handler_t::replace)) + "\n";
+  return (one_line ? json.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace)
+                   : json.dump(2, ' ', false, nlohmann::json::error_handler_t::replace)) +
+         "\n";
 }
 
 std::string ScanErrorJson(const std::string& input, const std::string& error) {
-  return nlohmann::ordered_json{{"input", input}, {"error", error}}.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
+  return nlohmann::ordered_json{{"input", input}, {"error", error}}.dump(
+             -1, ' ', false, nlohmann::json::error_handler_t::replace) +
+         "\n";
 }
 
 namespace {

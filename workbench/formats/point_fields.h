@@ -52,8 +52,10 @@ struct PackedPoints {
 };
 
 // Limit on width x height, so that a damaged header cannot ask for a huge
-// allocation (2^26: 30 times a 640 x 480 frame).
-inline constexpr uint64_t kMaxPackedPoints = uint64_t{1} << 26;
+// allocation and one cloud cannot cost more than a frame may (2^24, as a
+// depth image's kMaxDepthPixels: 55 times a 640 x 480 frame, some 1 GB to
+// detect in).
+inline constexpr uint64_t kMaxPackedPoints = uint64_t{1} << 24;
 
 // The layout of a PCL PCLPointCloud2 or a ROS sensor_msgs/PointCloud2 (the
 // two name their members alike); `cloud` must outlive the result.

@@ -53,7 +53,8 @@ void RefuseCompressedBag(const std::string& folder) {
   if (!fs::is_regular_file(metadata, ec) || fs::file_size(metadata, ec) > (1u << 20) || ec) return;
   std::string format, mode;
   try {
-    const YAML::Node info = YAML::Load(ReadFileBytes(metadata.string()))["rosbag2_bagfile_information"];
+    const YAML::Node info =
+        YAML::Load(ReadFileBytes(metadata.string()))["rosbag2_bagfile_information"];
     if (info["compression_format"]) format = info["compression_format"].as<std::string>();
     if (info["compression_mode"]) mode = info["compression_mode"].as<std::string>();
   } catch (const std::exception&) {
@@ -106,7 +107,8 @@ class BagFile {
     // A hostile file may define its tables as views or its columns as
     // expressions that make gigabytes out of a few bytes.
     db_.TreatAsUntrusted(kMaxMessageBytes);
-    for (const char* table : {"topics", "messages"}) CheckPlainTable(table);
+    CheckPlainTable("topics", {"id", "name", "type", "serialization_format"});
+    CheckPlainTable("messages", {"id", "topic_id", "timestamp", "data"});
     Statement topics(&db_, "SELECT id, name, type, serialization_format FROM topics");
     while (topics.Step()) {
       Require(static_cast<int>(topics_.size()) < kMaxTopics,
@@ -161,8 +163,8 @@ class BagFile {
               where + ": the message is stored as " + rows.ColumnText(2).substr(0, 16) +
                   "; rosbag2 stores messages as BLOB");
       Require(rows.ColumnInt(3) <= kMaxMessageBytes,
-              where + ": a message of " + std::to_string(rows.ColumnInt(3)) +
-                  " bytes, more than " + std::to_string(kMaxMessageBytes));
+              where + ": a message of " + std::to_string(rows.ColumnInt(3)) + " bytes, more than " +
+                  std::to_string(kMaxMessageBytes));
       Require(topic.serialization == "cdr",
               path_ + " " + topic.name + ": serialization '" + topic.serialization.substr(0, 32) +
                   "' is not cdr");
@@ -191,8 +193,8 @@ class BagFile {
     }
   }
   // A table as rosbag2 makes it: a plain table (not a view, not a virtual
-  // table) whose columns are all stored (no generated or hidden column).
-  void CheckPlainTable(const std::string& table) {
+  // table) with the `needed` columns, all stored (no generated or hidden one).
+  void CheckPlainTable(const std::string& table, const std::set<std::string>& needed) {
     Statement kind(&db_, "SELECT type, sql FROM sqlite_master WHERE name = ?");
     kind.Bind(1, table);
     Require(kind.Step() && kind.ColumnText(0) == "table",
@@ -201,11 +203,17 @@ class BagFile {
             path_ + ": table '" + table + "' is not a plain table (rosbag2 writes CREATE TABLE)");
     Statement columns(&db_, "SELECT name, hidden FROM pragma_table_xinfo(?)");
     columns.Bind(1, table);
+    std::set<std::string> missing = needed;
     while (columns.Step()) {
       Require(columns.ColumnInt(1) == 0,
               path_ + ": column '" + columns.ColumnText(0).substr(0, 64) + "' of table '" + table +
                   "' is generated or hidden; a rosbag2 file stores its columns");
+      missing.erase(columns.ColumnText(0));
     }
+    Require(missing.empty(),
+            path_ + ": table '" + table + "' has no column '" +
+                (missing.empty() ? std::string() : *missing.begin()) +
+                "': not a rosbag2 SQLite file");
   }
   static std::string List(const std::set<int64_t>& ids) {
     std::string list;
@@ -368,9 +376,8 @@ std::set<std::string> NamedBagFiles(const fs::path& metadata) {
     return {};
   std::set<std::string> names;
   try {
-    const YAML::Node files =
-        YAML::Load(ReadFileBytes(metadata.string()))["rosbag2_bagfile_information"]
-                                                     ["relative_file_paths"];
+    const YAML::Node files = YAML::Load(
+        ReadFileBytes(metadata.string()))["rosbag2_bagfile_information"]["relative_file_paths"];
     if (!files.IsSequence()) return {};
     for (const YAML::Node& file : files) names.insert(file.as<std::string>());
   } catch (const std::exception&) {
@@ -644,6 +651,10 @@ int Ros2FrameWriter::Finish() {
 
 int ForEachScanInBag(const BagScanOptions& options,
                      const std::function<void(const BagScan&)>& each) {
+  std::error_code ec;  // a symlink loop or an unreadable folder, named as such
+  if (fs::status(options.bag_path, ec).type() == fs::file_type::none || ec)
+    Require(ec == std::errc::no_such_file_or_directory || !ec,
+            options.bag_path + ": cannot read (" + ec.message() + ")");
   return IsRos2Bag(options.bag_path) ? ForEachRos2BagScan(options, each)
                                      : ForEachBagScan(options, each);
 }

@@ -394,7 +394,8 @@ MeshFolderImport ImportMeshFolder(const MeshFolderImportOptions& options) {
             options.dir + ": two files give the id '" + mesh.id + "' (same folder and stem)");
   }
   const ordered_json map = {{"format", "furnidet-class-map"}, {"version", 2}, {"entries", entries}};
-  WriteFileAtomically(options.out, map.dump(1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
+  WriteFileAtomically(options.out,
+                      map.dump(1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
   return import;
 }
 

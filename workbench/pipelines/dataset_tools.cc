@@ -359,7 +359,9 @@ int ExportDataset(const std::string& db_path,
     }
   }
   if (format == "png")
-    WriteFileAtomically((root / "frames.json").string(), png_index.dump(1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
+    WriteFileAtomically(
+        (root / "frames.json").string(),
+        png_index.dump(1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
   return written;
 }
 

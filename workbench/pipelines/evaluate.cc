@@ -108,9 +108,7 @@ RunRecord NewRunRecord(const std::string& kind, const std::string& label) {
   run.started = UtcNow();
   run.git_commit = GitOutput({"rev-parse", "HEAD"});
   if (run.git_commit.empty()) run.git_commit = "unknown";
-  run.git_dirty =
-      !GitOutput({"status", "--porcelain", "--untracked-files=no"})
-           .empty();
+  run.git_dirty = !GitOutput({"status", "--porcelain", "--untracked-files=no"}).empty();
   return run;
 }
 
@@ -294,7 +292,9 @@ void RecordDetections(const DetectionResult& result,
       out->outcome.stage_ms[t.stage] = t.ms;
     }
   }
-  out->record = {frame.id, out->outcome.total_ms, timings.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace)};
+  out->record = {frame.id,
+                 out->outcome.total_ms,
+                 timings.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace)};
 }
 
 // Detection in one frame, its ground truth, and the records of the run.
@@ -459,7 +459,8 @@ EvaluateSummary StoreRun(DatasetDb& dataset,
   run.dataset_hash = selection.dataset_hash;
   run.split = options.split;
   run.options_json = StoredOptionsJson(options, evaluation);
-  run.results_json = CurvesJson(summary.result).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+  run.results_json =
+      CurvesJson(summary.result).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
   summary.run_id = dataset.WriteRun(run, summary.result.metrics, detections, frame_records);
   return summary;
 }
@@ -695,13 +696,12 @@ void WriteReportForRun(const std::string& db_path, int64_t run_id, const std::st
   try {
     WriteReportForRunUnguarded(db_path, run_id, out_dir);
   } catch (const nlohmann::json::exception& e) {  // a run row written by someone else
-    std::string reason = e.what();  // "[json.exception.<kind>.<id>] <what>": the what
+    std::string reason = e.what();                // "[json.exception.<kind>.<id>] <what>": the what
     if (reason.rfind("[json.exception.", 0) == 0 && reason.find("] ") != std::string::npos)
       reason = reason.substr(reason.find("] ") + 2);
-    throw InputError(db_path + ": run " + (run_id == 0 ? std::string("(the latest)")
-                                                          : std::to_string(run_id)) +
-                     ": its stored options or results are not the JSON evaluate stores (" +
-                     reason + ")");
+    throw InputError(
+        db_path + ": run " + (run_id == 0 ? std::string("(the latest)") : std::to_string(run_id)) +
+        ": its stored options or results are not the JSON evaluate stores (" + reason + ")");
   }
 }
 
@@ -799,7 +799,8 @@ void WriteBaselineFile(const std::string& path,
                               {"db", db_path},
                               {"metrics", metrics},
                               {"tolerances", nlohmann::json::object()}};
-  WriteFileAtomically(path, json.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
+  WriteFileAtomically(path,
+                      json.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
 }
 
 }  // namespace furn

@@ -191,7 +191,8 @@ void WriteShardFile(const std::string& path,
   for (const EvaluatedFrame& frame : frames) json["frames"].push_back(FrameJson(frame));
   const std::filesystem::path parent = std::filesystem::path(path).parent_path();
   if (!parent.empty()) std::filesystem::create_directories(parent);
-  WriteFileAtomically(path, json.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
+  WriteFileAtomically(path,
+                      json.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
 }
 
 ShardFile ParseShardFile(const std::string& path) {

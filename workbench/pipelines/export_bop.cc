@@ -185,9 +185,12 @@ std::map<std::string, ExportedModel> ExportModels(DatasetDb& dataset,
                                                   {"class", model.furniture_class}};
     model.mesh = std::make_shared<TriangleMesh>(std::move(cad.mesh));
   }
-  WriteFileAtomically((root / "models" / "models_info.json").string(), models_info.dump(1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
-  WriteFileAtomically((root / "models" / "models_furnidet.json").string(),
-                      models_extra.dump(1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
+  WriteFileAtomically(
+      (root / "models" / "models_info.json").string(),
+      models_info.dump(1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
+  WriteFileAtomically(
+      (root / "models" / "models_furnidet.json").string(),
+      models_extra.dump(1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
   return models;
 }
 
@@ -255,12 +258,18 @@ class BopRoomWriter {
   }
 
   void Finish() const {
-    WriteFileAtomically((scene_dir_ / "scene_camera.json").string(), scene_camera_.dump(1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
-    WriteFileAtomically((scene_dir_ / "scene_gt.json").string(), scene_gt_.dump(1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
-    WriteFileAtomically((scene_dir_ / "scene_gt_info.json").string(),
-                        scene_gt_info_.dump(1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
-    WriteFileAtomically((scene_dir_ / "scene_gt_furnidet.json").string(),
-                        scene_extra_.dump(1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
+    WriteFileAtomically(
+        (scene_dir_ / "scene_camera.json").string(),
+        scene_camera_.dump(1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
+    WriteFileAtomically(
+        (scene_dir_ / "scene_gt.json").string(),
+        scene_gt_.dump(1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
+    WriteFileAtomically(
+        (scene_dir_ / "scene_gt_info.json").string(),
+        scene_gt_info_.dump(1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
+    WriteFileAtomically(
+        (scene_dir_ / "scene_gt_furnidet.json").string(),
+        scene_extra_.dump(1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
   }
 
  private:

@@ -9,8 +9,8 @@
 #include "core/error.h"
 #include "core/hypothesis_scorer.h"
 #include "core/progress.h"
-#include "core/text.h"
 #include "core/random.h"
+#include "core/text.h"
 #include "renderers/embree_caster.h"
 #include "renderers/kinect_noise.h"
 #include "reports/evaluation.h"                 // kOwnOperatingPointObjects
