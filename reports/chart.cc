@@ -185,13 +185,24 @@ void DrawSeries(const Chart& chart, const ChartSeries& s, PLINT ink, const Range
   if (!s.labels.empty()) DrawPointLabels(chart, s, y_window);
 }
 
+// Columns of a legend below the frame: as many as its longest text leaves
+// room for (three short ones, one long one).
+size_t LegendColumns(const std::vector<std::string>& texts) {
+  size_t longest = 0;
+  for (const std::string& text : texts) longest = std::max(longest, text.size());
+  const size_t columns = longest > 28 ? 1 : longest > 16 ? 2 : 3;
+  return std::max<size_t>(1, std::min(columns, texts.size()));
+}
+
 // The viewport (normalised page coordinates) leaves room for the legend
 // when it is drawn outside the frame.
-void SetViewport(const Chart& chart, size_t legend_entries) {
+void SetViewport(const Chart& chart, const std::vector<std::string>& legend_texts) {
   PLFLT left = 0.1, right = chart.with_y2 ? 0.88 : 0.96, bottom = 0.13, top = 0.9;
-  if (chart.legend == LegendPlace::kBelow)
-    bottom += 0.06 + 0.055 * static_cast<double>((legend_entries + 2) / 3);
-  if (chart.legend == LegendPlace::kRight) right = 0.7;
+  if (chart.legend == LegendPlace::kBelow && !legend_texts.empty()) {
+    const size_t columns = LegendColumns(legend_texts);
+    bottom = 0.12 + 0.045 * static_cast<double>((legend_texts.size() + columns - 1) / columns);
+  }
+  if (chart.legend == LegendPlace::kRight) right = 0.84;
   plvpor(left, right, bottom, top);
 }
 
@@ -218,9 +229,6 @@ void DrawFrame(const Chart& chart, const Windows& w) {
   plbox(x_opt.c_str(), chart.x.tick_step, 0, y_opt.c_str(), chart.y.tick_step, 0);
   if (!chart.x.ticks.empty()) DrawNamedTicks(chart.x, w.x);
   pllab(ChartText(chart.x.label).c_str(), ChartText(chart.y.label).c_str(), "");
-  plschr(0, 1.15 * kTextScale);
-  plmtex("t", 1.0, 0.5, 0.5, ChartText(chart.title).c_str());
-  plschr(0, kTextScale);
 }
 
 void DrawRightAxis(const Chart& chart, const Windows& w) {
@@ -301,17 +309,22 @@ void DrawLegend(const Chart& chart) {
   for (const std::string& text : e.texts) texts.push_back(text.c_str());
   const PLINT n = static_cast<PLINT>(texts.size());
   const bool below = chart.legend == LegendPlace::kBelow;
-  const PLINT columns = below ? std::min<PLINT>(n, 3) : 1;
+  const PLINT columns = below ? static_cast<PLINT>(LegendColumns(e.texts)) : 1;
   const PLINT rows = (n + columns - 1) / columns;
   std::vector<PLINT> text_inks(texts.size(), kBlack);
   PLFLT width = 0, height = 0;
+  // Below the frame, under the x axis' label: 10.5 % of the page down, in
+  // the viewport's units that pllegend takes.
+  PLFLT page_left = 0, page_right = 1, page_bottom = 0, page_top = 1;
+  plgvpd(&page_left, &page_right, &page_bottom, &page_top);
+  const PLFLT below_offset = 0.105 / std::max<PLFLT>(page_top - page_bottom, 0.1);
   plwind(0, 1, 0, 1);
   pllegend(&width,
            &height,
            PL_LEGEND_BACKGROUND | PL_LEGEND_BOUNDING_BOX | PL_LEGEND_ROW_MAJOR,
            LegendPosition(chart.legend),
            0.01,
-           below ? 0.15 : 0.01,
+           below ? below_offset : 0.01,
            0.06,
            kBackground,
            kGrey,
@@ -321,7 +334,7 @@ void DrawLegend(const Chart& chart) {
            n,
            e.options.data(),
            0.8,
-           0.9,
+           0.8,
            1.8,
            0,
            text_inks.data(),
@@ -366,7 +379,12 @@ bool HasPngCairo() {
 void DrawChart(const Chart& chart) {
   const Windows w = ChartWindows(chart);
   pladv(0);
-  SetViewport(chart, MakeLegend(chart).texts.size());
+  // The title centred on the page (a legend beside the frame would push it
+  // off the page's left edge if it were centred on the frame).
+  plvpor(0.02, 0.98, 0.1, 0.9);
+  plschr(0, 1.15 * kTextScale);
+  plmtex("t", 1.0, 0.5, 0.5, ChartText(chart.title).c_str());
+  SetViewport(chart, MakeLegend(chart).texts);
   plschr(0, kTextScale);
   DrawFrame(chart, w);
   if (!HasPoints(chart)) {
