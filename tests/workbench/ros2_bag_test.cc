@@ -211,6 +211,14 @@ class Ros2BagTest : public ::testing::Test {
     EXPECT_EQ(bag.Finish(), 1 + 2 * frames);
     return path;
   }
+  // A copy of the .db3 `db3` named `name`.db3 with `sql` run on it.
+  std::string Damaged(const std::string& db3, const std::string& name, const std::string& sql) {
+    const std::string copy = dir_ + "/" + name + ".db3";
+    fs::copy_file(db3, copy, fs::copy_options::overwrite_existing);
+    Database db(copy);
+    db.Execute("PRAGMA journal_mode = DELETE;" + sql);
+    return copy;
+  }
   std::string dir_;
 };
 
@@ -292,11 +300,7 @@ TEST_F(Ros2BagTest, HostileBagsAreRefusedByName) {
   options.topic = "/cam/image";
 
   auto damaged = [&](const std::string& name, const std::string& sql) {
-    const std::string copy = dir_ + "/" + name + ".db3";
-    fs::copy_file(db3, copy, fs::copy_options::overwrite_existing);
-    Database db(copy);
-    db.Execute("PRAGMA journal_mode = DELETE;" + sql);
-    return copy;
+    return Damaged(db3, name, sql);
   };
   expect_refused(damaged("no_messages", "DROP TABLE messages"), "no 'messages' table");
   expect_refused(damaged("view",
@@ -339,11 +343,7 @@ TEST_F(Ros2BagTest, SqliteCannotMakeUpMessagesOrHideTheirSize) {
     return std::string("accepted");
   };
   auto damaged = [&](const std::string& name, const std::string& sql) {
-    const std::string copy = dir_ + "/" + name + ".db3";
-    fs::copy_file(db3, copy, fs::copy_options::overwrite_existing);
-    Database db(copy);
-    db.Execute("PRAGMA journal_mode = DELETE;" + sql);
-    return copy;
+    return Damaged(db3, name, sql);
   };
   EXPECT_NE(refused(damaged("text", "UPDATE messages SET data = CAST(data AS TEXT)"))
                 .find("stored as text; rosbag2 stores messages as BLOB"),

@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <optional>
 #include <set>
 
 #include "core/error.h"
@@ -45,23 +46,37 @@ int64_t SplitIndex(const fs::path& file) {
 constexpr const char* kConvertAdvice =
     "convert with 'ros2 bag convert' to sqlite3 without compression";
 
+constexpr uintmax_t kMaxMetadataBytes = 1u << 20;
+
+// A bag folder's rosbag2_bagfile_information, or nothing when its
+// metadata.yaml is missing, not a regular file, over 1 MiB or not YAML.
+std::optional<YAML::Node> BagInformation(const std::string& folder) {
+  const fs::path metadata = fs::path(folder) / "metadata.yaml";
+  std::error_code ec;
+  if (!fs::is_regular_file(fs::symlink_status(metadata, ec)) ||
+      fs::file_size(metadata, ec) > kMaxMetadataBytes || ec)
+    return std::nullopt;
+  try {
+    return YAML::Load(ReadFileBytes(metadata.string()))["rosbag2_bagfile_information"];
+  } catch (const std::exception&) {
+    return std::nullopt;
+  }
+}
+
 // A bag whose metadata.yaml says its files or messages are compressed
 // (rosbag2's compression_format / compression_mode) is refused as such.
 void RefuseCompressedBag(const std::string& folder) {
-  const fs::path metadata = fs::path(folder) / "metadata.yaml";
-  std::error_code ec;
-  if (!fs::is_regular_file(metadata, ec) || fs::file_size(metadata, ec) > (1u << 20) || ec) return;
+  const std::optional<YAML::Node> info = BagInformation(folder);
+  if (!info) return;  // the storage files decide
   std::string format, mode;
   try {
-    const YAML::Node info =
-        YAML::Load(ReadFileBytes(metadata.string()))["rosbag2_bagfile_information"];
-    if (info["compression_format"]) format = info["compression_format"].as<std::string>();
-    if (info["compression_mode"]) mode = info["compression_mode"].as<std::string>();
+    if ((*info)["compression_format"]) format = (*info)["compression_format"].as<std::string>();
+    if ((*info)["compression_mode"]) mode = (*info)["compression_mode"].as<std::string>();
   } catch (const std::exception&) {
-    return;  // the storage files decide
+    return;
   }
   Require(format.empty() && (mode.empty() || mode == "none" || mode == "NONE"),
-          metadata.string() + ": compressed storage (" + format.substr(0, 16) + ", mode " +
+          (fs::path(folder) / "metadata.yaml").string() + ": compressed storage (" + format.substr(0, 16) + ", mode " +
               mode.substr(0, 16) + ") is not read here; " + kConvertAdvice);
 }
 
@@ -357,8 +372,6 @@ struct BagSummary {
   int64_t first_ns = INT64_MAX, last_ns = INT64_MIN, messages = 0;
 };
 
-constexpr uintmax_t kMaxMetadataBytes = 1u << 20;
-
 // Whether the file starts with `magic` (SQLite's or MCAP's).
 bool StartsWith(const fs::path& file, const std::string& magic) {
   std::ifstream in(file, std::ios::binary);
@@ -369,15 +382,12 @@ bool StartsWith(const fs::path& file, const std::string& magic) {
 
 // The storage files metadata.yaml names; empty when it is not a readable
 // rosbag2 metadata file.
-std::set<std::string> NamedBagFiles(const fs::path& metadata) {
-  std::error_code ec;
-  if (!fs::is_regular_file(fs::symlink_status(metadata, ec)) ||
-      fs::file_size(metadata, ec) > kMaxMetadataBytes || ec)
-    return {};
+std::set<std::string> NamedBagFiles(const std::string& folder) {
+  const std::optional<YAML::Node> info = BagInformation(folder);
+  if (!info) return {};
   std::set<std::string> names;
   try {
-    const YAML::Node files = YAML::Load(
-        ReadFileBytes(metadata.string()))["rosbag2_bagfile_information"]["relative_file_paths"];
+    const YAML::Node files = (*info)["relative_file_paths"];
     if (!files.IsSequence()) return {};
     for (const YAML::Node& file : files) names.insert(file.as<std::string>());
   } catch (const std::exception&) {
@@ -393,7 +403,7 @@ std::set<std::string> NamedBagFiles(const fs::path& metadata) {
 bool IsBagFolder(const std::string& path) {
   std::error_code ec;
   if (!fs::is_directory(fs::symlink_status(path, ec))) return false;
-  const std::set<std::string> named = NamedBagFiles(fs::path(path) / "metadata.yaml");
+  const std::set<std::string> named = NamedBagFiles(path);
   if (named.empty()) return false;
   for (const fs::directory_entry& entry : fs::directory_iterator(path, ec)) {
     const std::string name = entry.path().filename().string();
@@ -652,9 +662,9 @@ int Ros2FrameWriter::Finish() {
 int ForEachScanInBag(const BagScanOptions& options,
                      const std::function<void(const BagScan&)>& each) {
   std::error_code ec;  // a symlink loop or an unreadable folder, named as such
-  if (fs::status(options.bag_path, ec).type() == fs::file_type::none || ec)
-    Require(ec == std::errc::no_such_file_or_directory || !ec,
-            options.bag_path + ": cannot read (" + ec.message() + ")");
+  static_cast<void>(fs::status(options.bag_path, ec));
+  Require(!ec || ec == std::errc::no_such_file_or_directory,
+          options.bag_path + ": cannot read (" + ec.message() + ")");
   return IsRos2Bag(options.bag_path) ? ForEachRos2BagScan(options, each)
                                      : ForEachBagScan(options, each);
 }
