@@ -115,24 +115,17 @@ bool PlaceInWorld(const DetectionInput& input, const DetectorOptions& options, P
   // The floor is found among all points up to 6 m (or the detection range,
   // when larger): in a real room seen level the floor within detection
   // range may be a sliver, the rest of it a little farther.
-  constexpr float kFloorSearchRangeM = 6;
-  const float floor_range = std::max(kFloorSearchRangeM, static_cast<float>(options.max_range_m));
-  std::vector<Eigen::Vector3f> floor_points;
-  floor_points.reserve(input.points.size());
-  for (const Eigen::Vector3f& p : input.points) {
-    if (p.allFinite() && p.squaredNorm() > 0 && p.squaredNorm() <= floor_range * floor_range)
-      floor_points.push_back(p);
-  }
-  try {
-    scan->world_from_camera = FindFloor(floor_points, options.floor);
-  } catch (const InputError& error) {
+  const FloorEstimate floor =
+      EstimateFloor(input.points, options.floor, std::max(kFloorSearchRangeM, options.max_range_m));
+  if (!floor.found) {
     // Not the input's fault alone (the floor may be out of range or view):
     // a frame without detections, the reason in the message.
     scan->status = DetectionStatus::kNoFloor;
-    scan->message = std::string(error.what()) +
-                    "; give the pose (--world-from-camera, --floor-aligned) or raise --max-range";
+    scan->message =
+        floor.message + "; give the pose (--world-from-camera, --floor-aligned) or raise --max-range";
     return false;
   }
+  scan->world_from_camera = floor.world_from_camera;
   scan->floor_estimated = true;
   return true;
 }

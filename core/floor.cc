@@ -11,6 +11,7 @@
 #include <pcl/segmentation/sac_segmentation.h>
 
 #include <cmath>
+#include <cstdio>
 #include <optional>
 
 #include "core/error.h"
@@ -25,13 +26,11 @@ void FloorOptions::Check() const {
           "floor RANSAC iterations " + std::to_string(iterations) + " must be in 10..100000");
   Require(max_tilt_deg >= 1 && max_tilt_deg <= 89, "floor max tilt must be in 1..89 degrees");
   Require(min_fraction > 0 && min_fraction < 1, "floor min fraction must be in (0, 1)");
-  Require(min_camera_height_m >= 0, "floor min camera height must be >= 0");
+  Require(min_camera_height_m >= 0 && max_camera_height_m > min_camera_height_m,
+          "floor camera heights must be 0 <= min < max (m), not " +
+              std::to_string(min_camera_height_m) + " and " + std::to_string(max_camera_height_m));
 }
 
-namespace {
-
-// World frame of a floor plane n.p + d = 0 (n towards the camera): z = n,
-// x = camera forward projected on the floor, the camera at height d.
 Eigen::Isometry3d WorldOfFloor(const Eigen::Vector3d& normal, double offset) {
   const Eigen::Vector3d z = normal;
   Eigen::Vector3d x = Eigen::Vector3d::UnitZ() - z * z.z();
@@ -47,6 +46,11 @@ Eigen::Isometry3d WorldOfFloor(const Eigen::Vector3d& normal, double offset) {
   world_from_camera.translation() = Eigen::Vector3d(0, 0, offset);
   return world_from_camera;
 }
+
+namespace {
+
+// Planes RANSAC draws, one after another with the last one's points removed.
+constexpr int kPlaneAttempts = 6;
 
 // Planes found largest first by RANSAC among a fixed subsample; walls and
 // table tops are skipped by the axis test or by lying above other points.
@@ -67,10 +71,13 @@ class FloorSearch {
     ransac_.setInputCloud(cloud_);
   }
 
-  // A few planes among the `candidates` RANSAC may draw from.
+  // Planes among the `candidates` RANSAC may draw from, largest first; the
+  // first that can be the floor. (Taking the lowest of those that can was
+  // measured worse on NYU's real frames: planes of filled depth below the
+  // floor; docs/real-scans.md.)
   std::optional<Eigen::Isometry3d> Among(const std::vector<bool>& candidates) {
     std::vector<bool> removed(sample_.size(), false);
-    for (int attempt = 0; attempt < 4; ++attempt) {
+    for (int attempt = 0; attempt < kPlaneAttempts; ++attempt) {
       auto indices = pcl::make_shared<pcl::Indices>();
       for (size_t i = 0; i < sample_.size(); ++i) {
         if (!removed[i] && candidates[i]) indices->push_back(static_cast<int>(i));
@@ -91,19 +98,43 @@ class FloorSearch {
         normal = -normal;
         offset = -offset;
       }
-      // The plane's support among all sample points, not only the candidates.
-      size_t support = 0, below = 0;
-      for (const Eigen::Vector3f& p : sample_) {
-        const double distance = normal.dot(p.cast<double>()) + offset;
-        support += std::abs(distance) <= options_.distance_m;
-        below += distance < -3 * options_.distance_m;  // the floor has (almost) nothing below it
+      // A ceiling (or a plane at no mounting height) is set aside however
+      // large it is: the floor may be a sliver below a large ceiling.
+      if (IsBelowCamera(normal, offset)) {
+        const PlaneSupport plane = SupportOf(normal, offset);
+        // The floor holds a share of what lies below the camera's height.
+        if (plane.support < options_.min_fraction * plane.lower) break;
+        if (plane.below < 0.02 * sample_.size()) return WorldOfFloor(normal, offset);
       }
-      if (support < options_.min_fraction * sample_.size()) break;
-      if (offset >= options_.min_camera_height_m && below < 0.02 * sample_.size())
-        return WorldOfFloor(normal, offset);
       for (int i : inliers.indices) removed[i] = true;
     }
     return std::nullopt;
+  }
+
+  // A plane's support among all sample points (not only the candidates),
+  // the points below it (a floor has almost none) and those lower than the
+  // camera (the floor's share is of these).
+  struct PlaneSupport {
+    size_t support = 0, below = 0, lower = 0;
+  };
+  PlaneSupport SupportOf(const Eigen::Vector3d& normal, double offset) const {
+    PlaneSupport plane;
+    for (const Eigen::Vector3f& p : sample_) {
+      const double distance = normal.dot(p.cast<double>()) + offset;
+      plane.support += std::abs(distance) <= options_.distance_m;
+      plane.below += distance < -3 * options_.distance_m;
+      plane.lower += distance < offset;
+    }
+    return plane;
+  }
+
+  // A floor lies below the camera: its normal towards the camera points up
+  // (against the optical y) within the tilt, unlike a ceiling's, and the
+  // camera's height above it is a mounting height.
+  bool IsBelowCamera(const Eigen::Vector3d& normal, double offset) const {
+    const double cos_tilt = std::cos(options_.max_tilt_deg * M_PI / 180);
+    return -normal.y() >= cos_tilt && offset >= options_.min_camera_height_m &&
+           offset <= options_.max_camera_height_m;
   }
 
   // The sample points whose surface faces up (within the tilt).
@@ -151,10 +182,31 @@ Eigen::Isometry3d FindFloor(const std::vector<Eigen::Vector3f>& points_in_camera
   // A small floor among large walls (a real room seen level) is rarely drawn
   // by RANSAC; again among the points whose surface faces up.
   if (const auto floor = search.Among(search.FacingUp())) return *floor;
-  throw InputError("no floor found: no plane within " + std::to_string(options.max_tilt_deg) +
-                   " degrees of the camera's up direction holds " +
-                   std::to_string(static_cast<int>(100 * options.min_fraction)) +
-                   "% of the points with nothing below it");
+  char why[200];
+  std::snprintf(why, sizeof why,
+                "no floor found: no plane below the camera within %g degrees of its up direction "
+                "holds %g%% of the points lower than the camera with nothing below it",
+                options.max_tilt_deg, 100 * options.min_fraction);
+  throw InputError(why);
+}
+
+FloorEstimate EstimateFloor(const std::vector<Eigen::Vector3f>& points_in_camera,
+                            const FloorOptions& options,
+                            double search_range_m) {
+  const float range2 = static_cast<float>(search_range_m * search_range_m);
+  std::vector<Eigen::Vector3f> near;
+  near.reserve(points_in_camera.size());
+  for (const Eigen::Vector3f& p : points_in_camera) {
+    if (p.allFinite() && p.squaredNorm() > 0 && p.squaredNorm() <= range2) near.push_back(p);
+  }
+  FloorEstimate estimate;
+  try {
+    estimate.world_from_camera = FindFloor(near, options);
+    estimate.found = true;
+  } catch (const InputError& error) {
+    estimate.message = error.what();
+  }
+  return estimate;
 }
 
 }  // namespace furn

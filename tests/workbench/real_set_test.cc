@@ -124,7 +124,7 @@ TEST(RealSet, ReadsAScanAndRefusesBadFieldsWithOneLine) {
                                "\"floor_aligned\": true, \"world_from_camera\": \"1,2\""))
                 .find("'world_from_camera'"),
             std::string::npos);
-  EXPECT_NE(error_of(scan_with("\"chair\"", "\"sofa\"")).find("class 'sofa' must be"),
+  EXPECT_NE(error_of(scan_with("\"chair\"", "\"stool\"")).find("class 'stool' must be"),
             std::string::npos);
   EXPECT_NE(error_of(scan_with("\"CC0\"", "\"\"")).find("needs 'source' and 'licence'"),
             std::string::npos);

@@ -13,8 +13,10 @@
 #include "workbench/formats/depth_png.h"
 #include "workbench/formats/rosbag_io.h"
 #include "workbench/formats/scan_file.h"
+#include "workbench/pipelines/convert_nyu.h"
 #include "workbench/pipelines/dataset_tools.h"
 #include "workbench/pipelines/export_rosbag.h"
+#include "workbench/pipelines/floor_check.h"
 #include "workbench/pipelines/generate.h"
 #include "workbench/pipelines/import_real.h"
 #include "workbench/pipelines/sensor_noise.h"
@@ -178,12 +180,15 @@ namespace {
 // `workbench dataset`'s subcommands and their flags (bound in place: not
 // copied or moved once made).
 struct DatasetCommands {
-  CLI::App *info, *preview, *merge, *export_command, *import_real, *noise;
+  CLI::App *info, *preview, *merge, *export_command, *import_real, *noise, *convert_nyu, *floors;
   std::string db, out, format = "bop", export_split = "all", labels, sheets;
   std::vector<std::string> inputs;
   bool json = false, allow_partial = false, quiet = false;
   int max_frames = 12, noise_frames = 0;
   CatalogFlags export_catalog;  // where BOP export finds the dataset's catalog
+  NyuConvertOptions nyu;
+  FloorCheckOptions floor_check;
+  FloorOptions floor_options;  // the detector's defaults
 
   explicit DatasetCommands(CLI::App* app) {
     info = app->add_subcommand("info", "Counts per split and class, visibility histogram, size");
@@ -223,8 +228,59 @@ struct DatasetCommands {
         ->required();
     noise->add_flag("--json", json, "JSON instead of text");
     noise->add_option("--frames", noise_frames, "At most N frames (0: all)")->capture_default_str();
-    for (CLI::App* command : {info, preview, merge, export_command, import_real, noise})
+    AddConvertNyu(app);
+    AddFloors(app);
+    for (CLI::App* command :
+         {info, preview, merge, export_command, import_real, noise, convert_nyu, floors})
       command->add_flag("--quiet,-q", quiet, "No progress output");
+  }
+  void AddConvertNyu(CLI::App* app) {
+    convert_nyu = app->add_subcommand(
+        "convert-nyu",
+        "NYU Depth V2 labelled frames (official train split only) into a real set for "
+        "import-real: depth PNGs, floors and instances derived from the class masks");
+    convert_nyu->add_option("--source", nyu.source_dir,
+                            "Checkout holding data/nyu_depths, data/nyu_labels40, data/nyu_images "
+                            "(markshih91/refinenet_pytorch; tools/fetch_nyu.sh)")
+        ->required();
+    convert_nyu->add_option("--splits", nyu.splits_path, "NYU's splits.mat (trainNdxs, testNdxs)")
+        ->required();
+    convert_nyu->add_option("--out", nyu.out_dir, "New folder: labels.json, depth/, README.md")
+        ->required();
+    convert_nyu->add_option("--max-frames", nyu.max_frames,
+                            "At most N frames, spread over the split (0: all)")
+        ->capture_default_str();
+    convert_nyu->add_flag("--overlays", nyu.overlays,
+                          "Also an RGB overlay per frame with its floor and derived instances");
+    convert_nyu->add_option("--max-range", nyu.derive.max_range_m,
+                            "Instances farther than this (m, on the floor) are ignored")
+        ->capture_default_str();
+  }
+  void AddFloors(CLI::App* app) {
+    floors = app->add_subcommand(
+        "floors", "The detector's floor search against a dataset's true floors (real sets)");
+    floors->add_option("db", db, "Dataset database (an imported real set)")->required();
+    floors->add_flag("--json", json, "JSON instead of text");
+    floors->add_flag("--all-frames", floor_check.all_frames,
+                     "Also frames whose pose is known (generated datasets)");
+    floors->add_option("--frames", floor_check.max_frames, "At most N frames (0: all)")
+        ->capture_default_str();
+    floors->add_option("--max-angle", floor_check.max_angle_deg,
+                       "A floor is right within this tilt (degrees) ...")
+        ->capture_default_str();
+    floors->add_option("--max-height-error", floor_check.max_height_m,
+                       "... and this camera-height error (m)")
+        ->capture_default_str();
+    // The detector's floor options, to tune them (the same as detect's).
+    floors->add_option("--floor-distance", floor_options.distance_m,
+                       "Floor search: RANSAC inlier distance (m)")
+        ->capture_default_str();
+    floors->add_option("--floor-max-tilt", floor_options.max_tilt_deg,
+                       "Floor search: largest angle of the floor to the camera's up (deg)")
+        ->capture_default_str();
+    floors->add_option("--floor-min-fraction", floor_options.min_fraction,
+                       "Floor search: the floor's share of the points lower than the camera")
+        ->capture_default_str();
   }
   DatasetCommands(const DatasetCommands&) = delete;
   DatasetCommands& operator=(const DatasetCommands&) = delete;
@@ -252,7 +308,16 @@ int RunDataset(int argc, char** argv) {
   const DatasetCommands c(&app);
   if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
   Progress::SetQuiet(c.quiet);
-  if (c.noise->parsed()) {
+  if (c.convert_nyu->parsed()) {
+    const NyuConvertSummary summary = ConvertNyu(c.nyu);
+    std::cout << "wrote " << c.nyu.out_dir << ": " << summary.frames << " of "
+              << summary.train_frames << " train-split frames (" << summary.frames_left_out
+              << " left out without a trusted floor), " << summary.targets << " target and "
+              << summary.ignored << " ignored instances\n";
+  } else if (c.floors->parsed()) {
+    const FloorCheck check = CheckFloors(c.db, c.floor_options, c.floor_check);
+    std::cout << (c.json ? FloorCheckJson(check) : FloorCheckText(check));
+  } else if (c.noise->parsed()) {
     Require(c.noise_frames >= 0, "--frames must be >= 0");
     const SensorNoiseComparison comparison =
         CompareSensorNoise(NoiseFramesOf(c.db, c.noise_frames), KinectNoiseOptions{}, 1);

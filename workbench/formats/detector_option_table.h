@@ -66,6 +66,7 @@ void ForEachDetectorOption(Options* options, Visit&& visit) {
         o.floor.max_tilt_deg);
   visit(DetectorOptionInfo{"floor.min_fraction", "", ""}, o.floor.min_fraction);
   visit(DetectorOptionInfo{"floor.min_camera_height_m", "", ""}, o.floor.min_camera_height_m);
+  visit(DetectorOptionInfo{"floor.max_camera_height_m", "", ""}, o.floor.max_camera_height_m);
   visit(DetectorOptionInfo{"max_segment_extent_m", "", ""}, o.max_segment_extent_m);
   visit(DetectorOptionInfo{"cell_m", "", ""}, o.cell_m);
   visit(DetectorOptionInfo{"vote_sigma_m", "", ""}, o.vote_sigma_m);

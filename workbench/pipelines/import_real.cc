@@ -55,19 +55,12 @@ struct LoadedRealScan {
   bool pose_known;
 };
 
-// Every scan loads before anything is written: a bad one leaves no file.
-std::vector<LoadedRealScan> LoadRealScans(const RealSet& set) {
-  std::vector<LoadedRealScan> scans;
-  Progress progress("import-real", static_cast<int>(set.scans.size()), "scans");
-  for (const RealScan& scan : set.scans) {
-    LoadedScan loaded = LoadScan(scan.source);
-    const bool known = loaded.input.world_from_camera.has_value();
-    const Eigen::Isometry3d pose = known ? *loaded.input.world_from_camera : *scan.label_frame;
-    scans.push_back({&scan, std::move(loaded), pose, known});
-    progress.Advance();
-  }
-  progress.Finish();
-  return scans;
+// One scan loaded, with the camera's pose in the labels' frame.
+LoadedRealScan LoadRealScan(const RealScan& scan) {
+  LoadedScan loaded = LoadScan(scan.source);
+  const bool known = loaded.input.world_from_camera.has_value();
+  const Eigen::Isometry3d pose = known ? *loaded.input.world_from_camera : *scan.label_frame;
+  return {&scan, std::move(loaded), pose, known};
 }
 
 std::vector<ModelRecord> LabelModels(const RealSet& set) {
@@ -173,16 +166,19 @@ RealImportSummary ImportRealSet(const RealSet& set,
                                 const std::string& sheet_dir) {
   Require(!std::filesystem::exists(db_path),
           db_path + ": exists; import-real writes a new dataset (remove it first)");
-  const std::vector<LoadedRealScan> scans = LoadRealScans(set);
   const std::string temporary = db_path + ".partial";
   std::filesystem::remove(temporary);
   RealImportSummary summary;
   nlohmann::ordered_json frames = nlohmann::ordered_json::array();
+  // Scans load one at a time (a set of 800 Kinect frames would hold 3 GB of
+  // points at once) into a temporary file: a bad one leaves no dataset.
   try {
     DatasetDb db(temporary, DatasetDb::Mode::kReadWrite);
     db.WriteModels(LabelModels(set));
     int64_t room_id = 0;
-    for (const LoadedRealScan& entry : scans) {
+    Progress progress("import-real", set.scans.size(), "scans");
+    for (const RealScan& scan : set.scans) {
+      const LoadedRealScan entry = LoadRealScan(scan);
       ++room_id;
       std::vector<Eigen::Vector3f> in_label_frame;
       db.WriteRoom(RoomOfScan(entry, room_id, set.path, &in_label_frame));
@@ -198,7 +194,9 @@ RealImportSummary ImportRealSet(const RealSet& set,
                            (std::filesystem::path(sheet_dir) / (entry.scan->id + ".png")).string());
       }
       ++summary.frames;
+      progress.Advance();
     }
+    progress.Finish();
     db.SetGenerationOptions(nlohmann::ordered_json{
         {"kind", "real-set"},
         {"labels", set.path},
