@@ -159,6 +159,8 @@ class MetricId {
   // The class a per-class metric is about (none: over every class).
   std::optional<FurnitureClass> furniture_class() const { return class_; }
   Group group() const { return group_; }
+  // The match distance of an AP, operating-point or centre metric (m).
+  double distance_m() const { return centimetres_ / 100.0; }
   bool operator==(const MetricId& other) const { return Name() == other.Name(); }
 
  private:
