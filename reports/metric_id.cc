@@ -302,4 +302,13 @@ double MetricOrNan(const std::map<std::string, double>& metrics, const MetricId&
   return it == metrics.end() ? std::nan("") : it->second;
 }
 
+double OperatingMatchOf(const std::map<std::string, double>& metrics) {
+  for (const auto& [name, value] : metrics) {
+    const std::optional<MetricId> id = MetricId::TryParse(name);
+    if (id && id->kind() == MetricId::Kind::kOperating && id->group() == MetricId::Group::kValue)
+      return id->distance_m();
+  }
+  return kOperatingMatchM;
+}
+
 }  // namespace furn

@@ -179,5 +179,8 @@ class MetricId {
 // The metric's value, or NaN when a run lacks it (e.g. AP of a class that
 // had no objects).
 double MetricOrNan(const std::map<std::string, double>& metrics, const MetricId& id);
+// The match distance (m) a run's operating-point metrics were measured at
+// (evaluate --op-match), kOperatingMatchM when it has none.
+double OperatingMatchOf(const std::map<std::string, double>& metrics);
 
 }  // namespace furn

@@ -640,7 +640,7 @@ std::string SummaryHtml(const std::map<std::string, double>& m,
     html << "<tr><td>" << id.Name() << "</td><td>" << Number(MetricOrNan(m, id), count ? 0 : 3)
          << "</td></tr>";
   }
-  const double op = kOperatingMatchM;
+  const double op = OperatingMatchOf(m);
   for (OperatingMeasure measure : EnumValues<OperatingMeasure>()) {
     const MetricId id = MetricId::Operating(std::nullopt, measure, op);
     html << "<tr><td>" << id.Name() << " (at the operating point)</td><td>"

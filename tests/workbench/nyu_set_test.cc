@@ -303,6 +303,38 @@ TEST(ConvertNyu, InstancesCutByTheImageEdgeOrFarAreIgnored) {
   EXPECT_TRUE(reasons.count("beyond the range"));
 }
 
+TEST(ConvertNyu, DequantisingRemovesTheDepthStepsButNotTheEdges) {
+  // A plane sloping from 2 m to 3.5 m across the image, in 8-bit steps, with
+  // a box 1 m nearer in the middle.
+  cv::Mat steps(kNyuHeight, kNyuWidth, CV_8UC1);
+  std::vector<double> truth(kNyuWidth * kNyuHeight);
+  for (int v = 0; v < kNyuHeight; ++v) {
+    for (int u = 0; u < kNyuWidth; ++u) {
+      const bool box = std::abs(u - 320) < 60 && std::abs(v - 240) < 60;
+      const double depth = 2.0 + 1.5 * u / kNyuWidth - (box ? 1.0 : 0.0);
+      truth[v * kNyuWidth + u] = depth;
+      steps.at<uint8_t>(v, u) = static_cast<uint8_t>(depth / kNyuDepthStep);
+    }
+  }
+  auto rms = [&](int radius, bool edges_only) {
+    double squares = 0;
+    int n = 0;
+    for (int v = 10; v < kNyuHeight - 10; ++v) {
+      for (int u = 10; u < kNyuWidth - 10; ++u) {
+        const bool near_edge = std::abs(std::abs(u - 320) - 60) <= 3 && std::abs(v - 240) < 60;
+        if (edges_only != near_edge) continue;
+        const double e = DequantisedNyuDepth(steps, u, v, radius) - truth[v * kNyuWidth + u];
+        squares += e * e;
+        ++n;
+      }
+    }
+    return std::sqrt(squares / n);
+  };
+  EXPECT_GT(rms(0, false), 0.010);  // uniform over a 3.9 cm step: 1.1 cm
+  EXPECT_LT(rms(5, false), 0.005);
+  EXPECT_LT(rms(5, true), 0.03);    // the box's sides keep their depth
+}
+
 // --- The floor check --------------------------------------------------------
 
 TEST(FloorCheck, TheDetectorsFloorOnConvertedFramesAndNotTheCeiling) {

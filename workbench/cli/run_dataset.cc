@@ -252,6 +252,10 @@ struct DatasetCommands {
         ->capture_default_str();
     convert_nyu->add_flag("--overlays", nyu.overlays,
                           "Also an RGB overlay per frame with its floor and derived instances");
+    convert_nyu->add_option("--dequantise-radius", nyu.dequantise_radius,
+                            "Average each 8-bit depth step with its neighbours within one step "
+                            "in this radius (px; 0: off)")
+        ->capture_default_str();
     convert_nyu->add_option("--max-range", nyu.derive.max_range_m,
                             "Instances farther than this (m, on the floor) are ignored")
         ->capture_default_str();

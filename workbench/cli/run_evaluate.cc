@@ -38,17 +38,6 @@ std::vector<FurnitureClass> PrintedClasses(const std::map<std::string, double>& 
   return classes;
 }
 
-// The match distance the run's operating-point metrics were measured at
-// (--op-match), kOperatingMatchM when it has none.
-double OperatingMatchOf(const std::map<std::string, double>& m) {
-  for (const auto& [name, value] : m) {
-    const std::optional<MetricId> id = MetricId::TryParse(name);
-    if (id && id->kind() == MetricId::Kind::kOperating && id->group() == MetricId::Group::kValue)
-      return id->distance_m();
-  }
-  return kOperatingMatchM;
-}
-
 // The detections at the operating point, over every class.
 void PrintOperatingPoint(const std::map<std::string, double>& m, const char* indent) {
   const double op = OperatingMatchOf(m);

@@ -35,6 +35,9 @@ void NyuConvertOptions::Check() const {
           "convert-nyu: --source, --splits and --out are needed");
   Require(max_frames >= 0, "convert-nyu: --max-frames " + std::to_string(max_frames) +
                                " must be >= 0");
+  Require(dequantise_radius >= 0 && dequantise_radius <= 10,
+          "convert-nyu: --dequantise-radius " + std::to_string(dequantise_radius) +
+              " must be in 0..10 pixels");
   derive.Check();
 }
 
@@ -170,20 +173,35 @@ nlohmann::ordered_json ScanJson(const NyuFrameFiles& files, const NyuFrameLabels
           {"objects", objects}};
 }
 
-DepthFrame DepthOf(const cv::Mat& depth_8bit, std::vector<float>* metres) {
+}  // namespace
+
+float DequantisedNyuDepth(const cv::Mat& depth_8bit, int u, int v, int radius) {
+  const int centre = depth_8bit.at<uint8_t>(v, u);
+  if (centre == 0) return 0;  // below the first step: no depth there
+  int sum = 0, count = 0;
+  for (int y = std::max(0, v - radius); y <= std::min(depth_8bit.rows - 1, v + radius); ++y) {
+    for (int x = std::max(0, u - radius); x <= std::min(depth_8bit.cols - 1, u + radius); ++x) {
+      const int value = depth_8bit.at<uint8_t>(y, x);
+      if (value != 0 && std::abs(value - centre) <= 1) {
+        sum += value;
+        ++count;
+      }
+    }
+  }
+  return static_cast<float>((static_cast<double>(sum) / count + 0.5) * kNyuDepthStep);
+}
+
+namespace {
+
+DepthFrame DepthOf(const cv::Mat& depth_8bit, int radius, std::vector<float>* metres) {
   DepthFrame frame;
   frame.Resize(kNyuWidth, kNyuHeight);
   frame.normals.clear();
-  metres->assign(frame.depth.size(), 0.0f);
   for (int v = 0; v < kNyuHeight; ++v) {
-    for (int u = 0; u < kNyuWidth; ++u) {
-      const uint8_t value = depth_8bit.at<uint8_t>(v, u);
-      const size_t i = frame.Index(u, v);
-      // 0 is below the first step: no depth there.
-      (*metres)[i] = value == 0 ? 0.0f : static_cast<float>((value + 0.5) * kNyuDepthStep);
-      frame.depth[i] = (*metres)[i];
-    }
+    for (int u = 0; u < kNyuWidth; ++u)
+      frame.depth[frame.Index(u, v)] = DequantisedNyuDepth(depth_8bit, u, v, radius);
   }
+  *metres = frame.depth;
   return frame;
 }
 
@@ -255,7 +273,7 @@ void ConvertFrame(const NyuFrameFiles& files,
   const cv::Mat depth_8bit = ReadNyuPng(files.depth);
   const cv::Mat labels = ReadNyuPng(files.labels);
   std::vector<float> metres;
-  const DepthFrame depth = DepthOf(depth_8bit, &metres);
+  const DepthFrame depth = DepthOf(depth_8bit, options.dequantise_radius, &metres);
   const std::vector<uint8_t> label_values(labels.datastart, labels.dataend);
   const NyuFrameLabels derived = DeriveNyuLabels(metres, label_values, options.derive);
   if (options.overlays)

@@ -24,6 +24,10 @@
 #include <string>
 #include <vector>
 
+namespace cv {
+class Mat;
+}
+
 #include "core/furniture_class.h"
 
 namespace furn {
@@ -98,10 +102,18 @@ struct NyuConvertOptions {
   std::string out_dir;      // new folder: labels.json, depth/, README.md, overlays/ (optional)
   int max_frames = 0;       // at most this many (every k-th train frame); 0: all
   bool overlays = false;    // an RGB overlay PNG per frame with its derived instances
+  // The 8-bit depth's 3.9 cm steps make terraces of every surface (normals
+  // and segments of steps, not of furniture): each pixel takes the mean of
+  // the values within one step of its own in a (2r+1)^2 window (0: off).
+  int dequantise_radius = 5;
   NyuDeriveOptions derive;
 
   void Check() const;
 };
+
+// One pixel of the source's 8-bit depth in metres, de-quantised as above
+// (radius 0: the step's centre); 0 where the source has no depth.
+float DequantisedNyuDepth(const cv::Mat& depth_8bit, int u, int v, int radius);
 
 struct NyuConvertSummary {
   int train_frames = 0;          // in the split, held-out ranges removed
