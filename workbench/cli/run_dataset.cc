@@ -275,6 +275,10 @@ struct DatasetCommands {
     floors->add_option("--max-height-error", floor_check.max_height_m,
                        "... and this camera-height error (m)")
         ->capture_default_str();
+    floors->add_option("--search-range", floor_check.search_range_m,
+                       "Floor search among the points this near the camera (m; the detector "
+                       "uses this or its --max-range, whichever is larger)")
+        ->capture_default_str();
     // The detector's floor options, to tune them (the same as detect's).
     floors->add_option("--floor-distance", floor_options.distance_m,
                        "Floor search: RANSAC inlier distance (m)")
