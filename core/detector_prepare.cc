@@ -121,8 +121,8 @@ bool PlaceInWorld(const DetectionInput& input, const DetectorOptions& options, P
     // Not the input's fault alone (the floor may be out of range or view):
     // a frame without detections, the reason in the message.
     scan->status = DetectionStatus::kNoFloor;
-    scan->message =
-        floor.message + "; give the pose (--world-from-camera, --floor-aligned) or raise --max-range";
+    scan->message = floor.message +
+                    "; give the pose (--world-from-camera, --floor-aligned) or raise --max-range";
     return false;
   }
   scan->world_from_camera = floor.world_from_camera;

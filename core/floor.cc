@@ -183,10 +183,12 @@ Eigen::Isometry3d FindFloor(const std::vector<Eigen::Vector3f>& points_in_camera
   // by RANSAC; again among the points whose surface faces up.
   if (const auto floor = search.Among(search.FacingUp())) return *floor;
   char why[200];
-  std::snprintf(why, sizeof why,
+  std::snprintf(why,
+                sizeof why,
                 "no floor found: no plane below the camera within %g degrees of its up direction "
                 "holds %g%% of the points lower than the camera with nothing below it",
-                options.max_tilt_deg, 100 * options.min_fraction);
+                options.max_tilt_deg,
+                100 * options.min_fraction);
   throw InputError(why);
 }
 

@@ -62,8 +62,10 @@ std::string MatrixElement(const std::string& name, const std::vector<uint16_t>& 
 std::string Compressed(const std::string& element) {
   uLongf size = compressBound(element.size());
   std::string packed(size, '\0');
-  compress(reinterpret_cast<Bytef*>(packed.data()), &size,
-           reinterpret_cast<const Bytef*>(element.data()), element.size());
+  compress(reinterpret_cast<Bytef*>(packed.data()),
+           &size,
+           reinterpret_cast<const Bytef*>(element.data()),
+           element.size());
   packed.resize(size);
   std::string out;
   AppendU32(&out, 15);
@@ -78,7 +80,8 @@ std::string MatHeader() {
   return header;
 }
 
-std::string SplitFile(const std::vector<uint16_t>& train, const std::vector<uint16_t>& test,
+std::string SplitFile(const std::vector<uint16_t>& train,
+                      const std::vector<uint16_t>& test,
                       bool compressed = true) {
   const std::string a = MatrixElement("trainNdxs", train), b = MatrixElement("testNdxs", test);
   return MatHeader() + (compressed ? Compressed(a) + Compressed(b) : a + b);
@@ -98,8 +101,9 @@ TEST(MatFile, MalformedFilesAreNamedErrors) {
   const std::string good = SplitFile({3, 4}, {1});
   EXPECT_NE(testing::ErrorOf([] { ParseMatFile("hello", "s.mat"); }).find("not a MATLAB 5.0"),
             std::string::npos);
-  EXPECT_NE(testing::ErrorOf([&] { ParseMatFile(good.substr(0, good.size() - 9), "s.mat"); })
-                .find("s.mat: "),
+  EXPECT_NE(testing::ErrorOf([&] {
+              ParseMatFile(good.substr(0, good.size() - 9), "s.mat");
+            }).find("s.mat: "),
             std::string::npos);
   // Dimensions claiming more values than are stored.
   std::string plain = SplitFile({3, 4}, {1}, false);
@@ -155,7 +159,7 @@ struct Box {
 Eigen::Isometry3d CameraPose(double height, double pitch_deg) {
   const double t = pitch_deg * M_PI / 180;
   Eigen::Matrix3d rotation;
-  rotation.col(0) = Eigen::Vector3d(0, -1, 0);                      // right
+  rotation.col(0) = Eigen::Vector3d(0, -1, 0);                       // right
   rotation.col(1) = Eigen::Vector3d(-std::sin(t), 0, -std::cos(t));  // down
   rotation.col(2) = Eigen::Vector3d(std::cos(t), 0, -std::sin(t));   // forward
   Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
@@ -182,10 +186,13 @@ double HitBox(const Eigen::Vector3d& origin, const Eigen::Vector3d& ray, const B
 }
 
 // Writes frame `file_index` as the public repository stores it: mirrored,
-// 8-bit depth in steps of kNyuDepthStep, labels = NYU-40 id - 1 (unlabelled: 39, as the source stores it);
-// `ceiling_m` > 0 adds a ceiling plane at that height.
-void WriteNyuFrame(const std::string& source, int file_index, const Eigen::Isometry3d& pose,
-                   const std::vector<Box>& boxes, double ceiling_m = 0) {
+// 8-bit depth in steps of kNyuDepthStep, labels = NYU-40 id - 1 (unlabelled: 39, as the source
+// stores it); `ceiling_m` > 0 adds a ceiling plane at that height.
+void WriteNyuFrame(const std::string& source,
+                   int file_index,
+                   const Eigen::Isometry3d& pose,
+                   const std::vector<Box>& boxes,
+                   double ceiling_m = 0) {
   cv::Mat depth(kNyuHeight, kNyuWidth, CV_8UC1), labels(kNyuHeight, kNyuWidth, CV_8UC1);
   for (int v = 0; v < kNyuHeight; ++v) {
     for (int u = 0; u < kNyuWidth; ++u) {
@@ -214,8 +221,8 @@ void WriteNyuFrame(const std::string& source, int file_index, const Eigen::Isome
 }
 
 const std::vector<Box> kFurniture = {
-    {{2.0, -0.7, 0}, {2.45, -0.25, 0.9}, 5},   // a chair, 0.45 m square
-    {{2.2, 0.3, 0}, {3.0, 1.1, 0.75}, 7},      // a table, 0.8 m square
+    {{2.0, -0.7, 0}, {2.45, -0.25, 0.9}, 5},  // a chair, 0.45 m square
+    {{2.2, 0.3, 0}, {3.0, 1.1, 0.75}, 7},     // a table, 0.8 m square
 };
 
 TEST(ConvertNyu, ConvertsOnlyTheTrainSplitWithFloorsAndInstances) {
@@ -273,8 +280,7 @@ TEST(ConvertNyu, RefusesWhatTheRulesForbidAndWritesNothing) {
   options.splits_path = dir + "/ok.mat";
   EXPECT_NE(testing::ErrorOf([&] { ConvertNyu(options); }).find("0.png"), std::string::npos);
   EXPECT_FALSE(fs::exists(dir + "/out"));
-  EXPECT_TRUE(IsNyuHeldOut(1330) && IsNyuHeldOut(1350) && IsNyuHeldOut(1400) &&
-              IsNyuHeldOut(1420));
+  EXPECT_TRUE(IsNyuHeldOut(1330) && IsNyuHeldOut(1350) && IsNyuHeldOut(1400) && IsNyuHeldOut(1420));
   EXPECT_FALSE(IsNyuHeldOut(1329) || IsNyuHeldOut(1351) || IsNyuHeldOut(1421));
 }
 
@@ -283,16 +289,20 @@ TEST(ConvertNyu, InstancesCutByTheImageEdgeOrFarAreIgnored) {
   std::vector<uint8_t> labels(depth.size());
   const std::string dir = testing::ScratchDir();
   const Eigen::Isometry3d pose = CameraPose(1.3, 25);
-  WriteNyuFrame(dir, 0, pose,
-                {{{1.6, -1.6, 0}, {2.1, -1.0, 0.9}, 5},    // a chair at the image's right edge
+  WriteNyuFrame(dir,
+                0,
+                pose,
+                {{{1.6, -1.6, 0}, {2.1, -1.0, 0.9}, 5},     // a chair at the image's right edge
                  {{4.0, -0.2, 0}, {4.45, 0.25, 0.9}, 5}});  // a chair 4.2 m away
   cv::Mat d = cv::imread(dir + "/data/nyu_depths/0.png", cv::IMREAD_UNCHANGED);
   cv::Mat l = cv::imread(dir + "/data/nyu_labels40/0.png", cv::IMREAD_UNCHANGED);
   cv::flip(d, d, 1);
   cv::flip(l, l, 1);
-  for (size_t i = 0; i < depth.size(); ++i) {
-    depth[i] = d.data[i] == 0 ? 0.0f : static_cast<float>((d.data[i] + 0.5) * kNyuDepthStep);
-    labels[i] = l.data[i];
+  labels.assign(l.datastart, l.dataend);
+  const std::vector<uint8_t> steps(d.datastart, d.dataend);
+  for (int v = 0; v < kNyuHeight; ++v) {
+    for (int u = 0; u < kNyuWidth; ++u)
+      depth[v * kNyuWidth + u] = DequantisedNyuDepth(steps, u, v, 0);
   }
   const NyuFrameLabels frame = DeriveNyuLabels(depth, labels, NyuDeriveOptions{});
   ASSERT_TRUE(frame.usable) << frame.reason;
@@ -316,6 +326,7 @@ TEST(ConvertNyu, DequantisingRemovesTheDepthStepsButNotTheEdges) {
       steps.at<uint8_t>(v, u) = static_cast<uint8_t>(depth / kNyuDepthStep);
     }
   }
+  const std::vector<uint8_t> step_values(steps.datastart, steps.dataend);
   auto rms = [&](int radius, bool edges_only) {
     double squares = 0;
     int n = 0;
@@ -323,7 +334,7 @@ TEST(ConvertNyu, DequantisingRemovesTheDepthStepsButNotTheEdges) {
       for (int u = 10; u < kNyuWidth - 10; ++u) {
         const bool near_edge = std::abs(std::abs(u - 320) - 60) <= 3 && std::abs(v - 240) < 60;
         if (edges_only != near_edge) continue;
-        const double e = DequantisedNyuDepth(steps, u, v, radius) - truth[v * kNyuWidth + u];
+        const double e = DequantisedNyuDepth(step_values, u, v, radius) - truth[v * kNyuWidth + u];
         squares += e * e;
         ++n;
       }
@@ -332,7 +343,7 @@ TEST(ConvertNyu, DequantisingRemovesTheDepthStepsButNotTheEdges) {
   };
   EXPECT_GT(rms(0, false), 0.010);  // uniform over a 3.9 cm step: 1.1 cm
   EXPECT_LT(rms(5, false), 0.005);
-  EXPECT_LT(rms(5, true), 0.03);    // the box's sides keep their depth
+  EXPECT_LT(rms(5, true), 0.03);  // the box's sides keep their depth
 }
 
 // --- The floor check --------------------------------------------------------

@@ -239,25 +239,33 @@ struct DatasetCommands {
         "convert-nyu",
         "NYU Depth V2 labelled frames (official train split only) into a real set for "
         "import-real: depth PNGs, floors and instances derived from the class masks");
-    convert_nyu->add_option("--source", nyu.source_dir,
-                            "Checkout holding data/nyu_depths, data/nyu_labels40, data/nyu_images "
-                            "(markshih91/refinenet_pytorch; tools/fetch_nyu.sh)")
+    convert_nyu
+        ->add_option("--source",
+                     nyu.source_dir,
+                     "Checkout holding data/nyu_depths, data/nyu_labels40, data/nyu_images "
+                     "(markshih91/refinenet_pytorch; tools/fetch_nyu.sh)")
         ->required();
     convert_nyu->add_option("--splits", nyu.splits_path, "NYU's splits.mat (trainNdxs, testNdxs)")
         ->required();
     convert_nyu->add_option("--out", nyu.out_dir, "New folder: labels.json, depth/, README.md")
         ->required();
-    convert_nyu->add_option("--max-frames", nyu.max_frames,
-                            "At most N frames, spread over the split (0: all)")
+    convert_nyu
+        ->add_option(
+            "--max-frames", nyu.max_frames, "At most N frames, spread over the split (0: all)")
         ->capture_default_str();
-    convert_nyu->add_flag("--overlays", nyu.overlays,
+    convert_nyu->add_flag("--overlays",
+                          nyu.overlays,
                           "Also an RGB overlay per frame with its floor and derived instances");
-    convert_nyu->add_option("--dequantise-radius", nyu.dequantise_radius,
-                            "Average each 8-bit depth step with its neighbours within one step "
-                            "in this radius (px; 0: off)")
+    convert_nyu
+        ->add_option("--dequantise-radius",
+                     nyu.dequantise_radius,
+                     "Average each 8-bit depth step with its neighbours within one step "
+                     "in this radius (px; 0: off)")
         ->capture_default_str();
-    convert_nyu->add_option("--max-range", nyu.derive.max_range_m,
-                            "Instances farther than this (m, on the floor) are ignored")
+    convert_nyu
+        ->add_option("--max-range",
+                     nyu.derive.max_range_m,
+                     "Instances farther than this (m, on the floor) are ignored")
         ->capture_default_str();
   }
   void AddFloors(CLI::App* app) {
@@ -265,29 +273,41 @@ struct DatasetCommands {
         "floors", "The detector's floor search against a dataset's true floors (real sets)");
     floors->add_option("db", db, "Dataset database (an imported real set)")->required();
     floors->add_flag("--json", json, "JSON instead of text");
-    floors->add_flag("--all-frames", floor_check.all_frames,
+    floors->add_flag("--all-frames",
+                     floor_check.all_frames,
                      "Also frames whose pose is known (generated datasets)");
     floors->add_option("--frames", floor_check.max_frames, "At most N frames (0: all)")
         ->capture_default_str();
-    floors->add_option("--max-angle", floor_check.max_angle_deg,
-                       "A floor is right within this tilt (degrees) ...")
+    floors
+        ->add_option("--max-angle",
+                     floor_check.max_angle_deg,
+                     "A floor is right within this tilt (degrees) ...")
         ->capture_default_str();
-    floors->add_option("--max-height-error", floor_check.max_height_m,
-                       "... and this camera-height error (m)")
+    floors
+        ->add_option(
+            "--max-height-error", floor_check.max_height_m, "... and this camera-height error (m)")
         ->capture_default_str();
-    floors->add_option("--search-range", floor_check.search_range_m,
-                       "Floor search among the points this near the camera (m; the detector "
-                       "uses this or its --max-range, whichever is larger)")
+    floors
+        ->add_option("--search-range",
+                     floor_check.search_range_m,
+                     "Floor search among the points this near the camera (m; the detector "
+                     "uses this or its --max-range, whichever is larger)")
         ->capture_default_str();
     // The detector's floor options, to tune them (the same as detect's).
-    floors->add_option("--floor-distance", floor_options.distance_m,
-                       "Floor search: RANSAC inlier distance (m)")
+    floors
+        ->add_option("--floor-distance",
+                     floor_options.distance_m,
+                     "Floor search: RANSAC inlier distance (m)")
         ->capture_default_str();
-    floors->add_option("--floor-max-tilt", floor_options.max_tilt_deg,
-                       "Floor search: largest angle of the floor to the camera's up (deg)")
+    floors
+        ->add_option("--floor-max-tilt",
+                     floor_options.max_tilt_deg,
+                     "Floor search: largest angle of the floor to the camera's up (deg)")
         ->capture_default_str();
-    floors->add_option("--floor-min-fraction", floor_options.min_fraction,
-                       "Floor search: the floor's share of the points lower than the camera")
+    floors
+        ->add_option("--floor-min-fraction",
+                     floor_options.min_fraction,
+                     "Floor search: the floor's share of the points lower than the camera")
         ->capture_default_str();
   }
   DatasetCommands(const DatasetCommands&) = delete;

@@ -329,6 +329,23 @@ void AddFusionOptions(CLI::App* app, FrameFusion* fusion) {
   AddFusePlanarFlag(app, &fusion->planar);
 }
 
+// What a run covers and how it is scored: frames, label, operating-point
+// match distance and leave-models-out fold ("k/N" into `fold`).
+void AddRunOptions(CLI::App* app, EvaluateCommandOptions* options, std::string* fold) {
+  app->add_option("--max-frames", options->max_frames, "Evaluate at most N frames (0: all)")
+      ->capture_default_str();
+  app->add_option("--label", options->label, "Free text stored with the run");
+  app->add_option("--op-match",
+                  options->op_match_m,
+                  "Operating-point metrics: a detection this near (m) a true object of its class "
+                  "is true (0: the model's, 20 cm; real sets of visible-part centres: 0.5)")
+      ->capture_default_str();
+  app->add_option("--fold",
+                  *fold,
+                  "k/N: only the rooms of model fold k of N (a dataset generated with "
+                  "--model-folds N; what crossval evaluates fold k's model on)");
+}
+
 }  // namespace
 
 int RunEvaluate(int argc, char** argv) {
@@ -341,19 +358,8 @@ int RunEvaluate(int argc, char** argv) {
   app.add_option("--split", split, "train, val, test or all")->capture_default_str();
   AddMinInViewOption(&app, &options.evaluation);
   AddFusionOptions(&app, &options.fusion);
-  app.add_option("--max-frames", options.max_frames, "Evaluate at most N frames (0: all)")
-      ->capture_default_str();
-  app.add_option("--label", options.label, "Free text stored with the run");
-  app.add_option("--op-match",
-                 options.op_match_m,
-                 "Operating-point metrics: a detection this near (m) a true object of its class "
-                 "is true (0: the model's, 20 cm; real sets of visible-part centres: 0.5)")
-      ->capture_default_str();
   std::string fold;
-  app.add_option("--fold",
-                 fold,
-                 "k/N: only the rooms of model fold k of N (a dataset generated with "
-                 "--model-folds N; what crossval evaluates fold k's model on)");
+  AddRunOptions(&app, &options, &fold);
   DetectorFlags detector_flags(&app);
   bool compare_vocab = false;
   int seeds = 3;

@@ -168,16 +168,36 @@ std::vector<double> NumericValues(const MatElement& element, const std::string& 
                      " bytes are not a whole number of values");
   std::vector<double> values;
   switch (element.type) {
-    case kMiInt8: Append<int8_t>(element, &values); break;
-    case kMiUint8: Append<uint8_t>(element, &values); break;
-    case kMiInt16: Append<int16_t>(element, &values); break;
-    case kMiUint16: Append<uint16_t>(element, &values); break;
-    case kMiInt32: Append<int32_t>(element, &values); break;
-    case kMiUint32: Append<uint32_t>(element, &values); break;
-    case kMiSingle: Append<float>(element, &values); break;
-    case kMiDouble: Append<double>(element, &values); break;
-    case kMiInt64: Append<int64_t>(element, &values); break;
-    default: Append<uint64_t>(element, &values); break;
+    case kMiInt8:
+      Append<int8_t>(element, &values);
+      break;
+    case kMiUint8:
+      Append<uint8_t>(element, &values);
+      break;
+    case kMiInt16:
+      Append<int16_t>(element, &values);
+      break;
+    case kMiUint16:
+      Append<uint16_t>(element, &values);
+      break;
+    case kMiInt32:
+      Append<int32_t>(element, &values);
+      break;
+    case kMiUint32:
+      Append<uint32_t>(element, &values);
+      break;
+    case kMiSingle:
+      Append<float>(element, &values);
+      break;
+    case kMiDouble:
+      Append<double>(element, &values);
+      break;
+    case kMiInt64:
+      Append<int64_t>(element, &values);
+      break;
+    default:
+      Append<uint64_t>(element, &values);
+      break;
   }
   return values;
 }
@@ -197,7 +217,9 @@ std::vector<int64_t> Dimensions(const MatElement& element, const std::string& wh
 
 // A miMATRIX element: flags, dimensions, name, real part. Returns false for
 // the classes skipped (cells, structs, objects, text, sparse, complex).
-bool ReadMatrix(const MatElement& matrix, const std::string& what, std::string* name,
+bool ReadMatrix(const MatElement& matrix,
+                const std::string& what,
+                std::string* name,
                 MatArray* array) {
   MatReader reader(matrix.data, matrix.bytes, what);
   const MatElement flags = ReadElement(reader, true);
@@ -239,8 +261,9 @@ void AddMatrix(const MatElement& matrix, const std::string& what, MatArrays* arr
 
 MatArrays ParseMatFile(const std::string& bytes, const std::string& what) {
   if (bytes.size() < kHeaderBytes || bytes.compare(0, 10, "MATLAB 5.0") != 0)
-    throw InputError(what + ": not a MATLAB 5.0 MAT-file (a level-5 header is needed; "
-                            "-v7.3 files are HDF5: save with -v7)");
+    throw InputError(what +
+                     ": not a MATLAB 5.0 MAT-file (a level-5 header is needed; "
+                     "-v7.3 files are HDF5: save with -v7)");
   if (bytes[126] != 'I' || bytes[127] != 'M')
     throw InputError(what + ": a big-endian MAT-file; only little-endian files are read");
   MatReader reader(bytes.data() + kHeaderBytes, bytes.size() - kHeaderBytes, what);
@@ -265,8 +288,8 @@ MatArrays ReadMatFile(const std::string& path) {
   std::error_code error;
   const auto size = std::filesystem::file_size(path, error);
   if (!error && size > kMaxMatFileBytes)
-    throw InputError(path + ": a MAT-file of " + std::to_string(size >> 20) +
-                     " MiB; at most " + std::to_string(kMaxMatFileBytes >> 20) + " MiB are read");
+    throw InputError(path + ": a MAT-file of " + std::to_string(size >> 20) + " MiB; at most " +
+                     std::to_string(kMaxMatFileBytes >> 20) + " MiB are read");
   return ParseMatFile(ReadFileBytes(path), path);
 }
 

@@ -5,12 +5,12 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
-#include <set>
-#include <sstream>
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <set>
+#include <sstream>
 
 #include "core/error.h"
 #include "core/file_util.h"
@@ -33,8 +33,8 @@ bool IsNyuHeldOut(int labelled_index) {
 void NyuConvertOptions::Check() const {
   Require(!source_dir.empty() && !splits_path.empty() && !out_dir.empty(),
           "convert-nyu: --source, --splits and --out are needed");
-  Require(max_frames >= 0, "convert-nyu: --max-frames " + std::to_string(max_frames) +
-                               " must be >= 0");
+  Require(max_frames >= 0,
+          "convert-nyu: --max-frames " + std::to_string(max_frames) + " must be >= 0");
   Require(dequantise_radius >= 0 && dequantise_radius <= 10,
           "convert-nyu: --dequantise-radius " + std::to_string(dequantise_radius) +
               " must be in 0..10 pixels");
@@ -134,16 +134,15 @@ nlohmann::ordered_json ObjectJson(const NyuInstance& instance) {
                      std::to_string(instance.pixels) + " px, visible-part centre";
   if (!instance.ignored.empty()) note += "; ignored: " + instance.ignored;
   auto round3 = [](double v) { return std::round(v * 1000) / 1000; };
-  nlohmann::ordered_json object = {
-      {"class", ClassName(instance.furniture_class)},
-      {"x", round3(instance.x)},
-      {"y", round3(instance.y)},
-      {"yaw", nullptr},
-      {"size",
-       {round3(std::max(0.05, instance.size.x())),
-        round3(std::max(0.05, instance.size.y())),
-        round3(std::max(0.05, instance.size.z()))}},
-      {"note", note}};
+  nlohmann::ordered_json object = {{"class", ClassName(instance.furniture_class)},
+                                   {"x", round3(instance.x)},
+                                   {"y", round3(instance.y)},
+                                   {"yaw", nullptr},
+                                   {"size",
+                                    {round3(std::max(0.05, instance.size.x())),
+                                     round3(std::max(0.05, instance.size.y())),
+                                     round3(std::max(0.05, instance.size.z()))}},
+                                   {"note", note}};
   // Ignored: above 0 (an object in view: a detection on it is neither right
   // nor wrong) and below what an evaluation counts (0.25 by default).
   if (!instance.ignored.empty()) object["visibility"] = 0.1;
@@ -159,15 +158,17 @@ nlohmann::ordered_json ScanJson(const NyuFrameFiles& files, const NyuFrameLabels
   nlohmann::ordered_json objects = nlohmann::ordered_json::array();
   for (const NyuInstance& instance : labels.instances) objects.push_back(ObjectJson(instance));
   char intrinsics[96];
-  std::snprintf(intrinsics, sizeof intrinsics, "%.3f,%.3f,%.2f,%.2f", kNyuFx, kNyuFy, kNyuCx,
-                kNyuCy);
+  std::snprintf(
+      intrinsics, sizeof intrinsics, "%.3f,%.3f,%.2f,%.2f", kNyuFx, kNyuFy, kNyuCx, kNyuCy);
   return {{"id", ScanId(files.index)},
           {"depth", "depth/" + ScanId(files.index) + ".png"},
           {"intrinsics", intrinsics},
           {"depth_scale", 1000},
-          {"source", "NYU Depth V2 labelled frame " + std::to_string(files.index) +
-                         " (official train split), via markshih91/refinenet_pytorch data/"
-                         "nyu_depths/" + std::to_string(files.index - 1) + ".png"},
+          {"source",
+           "NYU Depth V2 labelled frame " + std::to_string(files.index) +
+               " (official train split), via markshih91/refinenet_pytorch data/"
+               "nyu_depths/" +
+               std::to_string(files.index - 1) + ".png"},
           {"licence", "NYU Depth V2: research use; not redistributed"},
           {"label_frame", frame},
           {"objects", objects}};
@@ -175,13 +176,13 @@ nlohmann::ordered_json ScanJson(const NyuFrameFiles& files, const NyuFrameLabels
 
 }  // namespace
 
-float DequantisedNyuDepth(const cv::Mat& depth_8bit, int u, int v, int radius) {
-  const int centre = depth_8bit.at<uint8_t>(v, u);
+float DequantisedNyuDepth(const std::vector<uint8_t>& steps, int u, int v, int radius) {
+  const int centre = steps[static_cast<size_t>(v) * kNyuWidth + u];
   if (centre == 0) return 0;  // below the first step: no depth there
   int sum = 0, count = 0;
-  for (int y = std::max(0, v - radius); y <= std::min(depth_8bit.rows - 1, v + radius); ++y) {
-    for (int x = std::max(0, u - radius); x <= std::min(depth_8bit.cols - 1, u + radius); ++x) {
-      const int value = depth_8bit.at<uint8_t>(y, x);
+  for (int y = std::max(0, v - radius); y <= std::min(kNyuHeight - 1, v + radius); ++y) {
+    for (int x = std::max(0, u - radius); x <= std::min(kNyuWidth - 1, u + radius); ++x) {
+      const int value = steps[static_cast<size_t>(y) * kNyuWidth + x];
       if (value != 0 && std::abs(value - centre) <= 1) {
         sum += value;
         ++count;
@@ -194,12 +195,13 @@ float DequantisedNyuDepth(const cv::Mat& depth_8bit, int u, int v, int radius) {
 namespace {
 
 DepthFrame DepthOf(const cv::Mat& depth_8bit, int radius, std::vector<float>* metres) {
+  const std::vector<uint8_t> steps(depth_8bit.datastart, depth_8bit.dataend);
   DepthFrame frame;
   frame.Resize(kNyuWidth, kNyuHeight);
   frame.normals.clear();
   for (int v = 0; v < kNyuHeight; ++v) {
     for (int u = 0; u < kNyuWidth; ++u)
-      frame.depth[frame.Index(u, v)] = DequantisedNyuDepth(depth_8bit, u, v, radius);
+      frame.depth[frame.Index(u, v)] = DequantisedNyuDepth(steps, u, v, radius);
   }
   *metres = frame.depth;
   return frame;
@@ -240,8 +242,8 @@ void WriteOverlay(const NyuFrameFiles& files,
     cv::drawContours(rgb, contours, -1, colour, instance.ignored.empty() ? 3 : 1);
     const cv::Rect box = cv::boundingRect(mask);
     char text[64];
-    std::snprintf(text, sizeof text, "%s %.1fm", ClassName(instance.furniture_class),
-                  instance.range_m);
+    std::snprintf(
+        text, sizeof text, "%s %.1fm", ClassName(instance.furniture_class), instance.range_m);
     cv::putText(rgb, text, box.tl() + cv::Point(2, 16), cv::FONT_HERSHEY_SIMPLEX, 0.5, colour, 2);
   }
   if (!cv::imwrite(path, rgb)) throw InputError(path + ": cannot write the overlay");
@@ -280,13 +282,7 @@ void ConvertFrame(const NyuFrameFiles& files,
     WriteOverlay(files, labels, derived, dir + "/overlays/" + ScanId(files.index) + ".png");
   if (!derived.usable) {
     ++summary->frames_left_out;
-    auto it = std::find_if(summary->left_out_reasons.begin(), summary->left_out_reasons.end(),
-                           [&](const auto& entry) { return entry.first == derived.reason; });
-    if (it == summary->left_out_reasons.end()) {
-      summary->left_out_reasons.emplace_back(derived.reason, 1);
-    } else {
-      ++it->second;
-    }
+    ++summary->left_out_reasons[derived.reason];
     return;
   }
   WriteDepthPng(depth, dir + "/depth/" + ScanId(files.index) + ".png");

@@ -20,13 +20,10 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <cstdint>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
-
-namespace cv {
-class Mat;
-}
 
 #include "core/furniture_class.h"
 
@@ -70,23 +67,23 @@ struct NyuDeriveOptions {
 // One derived instance: a footprint in the label frame (z up, floor at 0).
 struct NyuInstance {
   FurnitureClass furniture_class = FurnitureClass::kChair;
-  int nyu_class = 0;                 // NYU-40 id
-  double x = 0, y = 0;               // footprint centre of the visible part (m)
-  double yaw = 0;                    // of the footprint rectangle's long side (not the front)
+  int nyu_class = 0;    // NYU-40 id
+  double x = 0, y = 0;  // footprint centre of the visible part (m)
+  double yaw = 0;       // of the footprint rectangle's long side (not the front)
   Eigen::Vector3d size = Eigen::Vector3d::Zero();  // footprint sides and top height (m)
   int pixels = 0;
-  double range_m = 0;                // floor distance from the camera to the centre
-  std::string ignored;               // why it is not a target; empty for targets
-  std::vector<int> pixel_indices;    // row-major pixels of its mask
+  double range_m = 0;              // floor distance from the camera to the centre
+  std::string ignored;             // why it is not a target; empty for targets
+  std::vector<int> pixel_indices;  // row-major pixels of its mask
 };
 
 // A frame's derived labels, or why it has none.
 struct NyuFrameLabels {
   bool usable = false;
-  std::string reason;                // when not usable
+  std::string reason;  // when not usable
   Eigen::Isometry3d world_from_camera = Eigen::Isometry3d::Identity();
   int floor_pixels = 0;
-  double floor_rms_m = 0;            // of the floor pixels about the fitted plane
+  double floor_rms_m = 0;  // of the floor pixels about the fitted plane
   std::vector<NyuInstance> instances;
 };
 
@@ -111,15 +108,16 @@ struct NyuConvertOptions {
   void Check() const;
 };
 
-// One pixel of the source's 8-bit depth in metres, de-quantised as above
-// (radius 0: the step's centre); 0 where the source has no depth.
-float DequantisedNyuDepth(const cv::Mat& depth_8bit, int u, int v, int radius);
+// Pixel (u, v) of the source's 8-bit depth (`steps`, row-major, 640x480,
+// un-mirrored) in metres, de-quantised as above (radius 0: the step's
+// centre); 0 where the source has no depth.
+float DequantisedNyuDepth(const std::vector<uint8_t>& steps, int u, int v, int radius);
 
 struct NyuConvertSummary {
-  int train_frames = 0;          // in the split, held-out ranges removed
+  int train_frames = 0;  // in the split, held-out ranges removed
   int frames = 0, frames_left_out = 0;
-  int targets = 0, ignored = 0;  // instances
-  std::vector<std::pair<std::string, int>> left_out_reasons;
+  int targets = 0, ignored = 0;                 // instances
+  std::map<std::string, int> left_out_reasons;  // frames left out, by why
 };
 
 // Refuses an existing `out_dir`; writes it whole or not at all.

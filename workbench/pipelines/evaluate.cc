@@ -362,8 +362,9 @@ void CheckEvaluateOptions(const EvaluateCommandOptions& options) {
               std::to_string(options.shard_count) + ": i/N needs 0 <= i < N");
   Require(options.shard_count == 0 || !options.shard_out.empty(),
           "a shard of an evaluation needs the file to write it to");
-  Require(options.op_match_m >= 0 && options.op_match_m <= 2,
-          "--op-match " + std::to_string(options.op_match_m) + " must be in 0..2 m (0: the model's)");
+  Require(
+      options.op_match_m >= 0 && options.op_match_m <= 2,
+      "--op-match " + std::to_string(options.op_match_m) + " must be in 0..2 m (0: the model's)");
   Require(options.shard_count == 0 || !options.collect_scorer_samples,
           "a shard of an evaluation does not collect scorer samples");
 }

@@ -23,8 +23,10 @@ void FloorCheckOptions::Check() const {
 }
 
 int FloorCheck::Count(FloorOutcome outcome) const {
-  return static_cast<int>(std::count_if(
-      frames.begin(), frames.end(), [&](const FloorCheckFrame& f) { return f.outcome == outcome; }));
+  return static_cast<int>(
+      std::count_if(frames.begin(), frames.end(), [&](const FloorCheckFrame& f) {
+        return f.outcome == outcome;
+      }));
 }
 
 namespace {
@@ -72,8 +74,7 @@ FloorCheckFrame Compare(const FloorEstimate& found,
   const Eigen::Vector3d found_up = found.world_from_camera.linear().row(2).transpose();
   const double cosine = std::clamp(true_up.dot(found_up), -1.0, 1.0);
   frame.angle_deg = std::acos(cosine) * 180 / M_PI;
-  frame.height_error_m =
-      found.world_from_camera.translation().z() - truth.translation().z();
+  frame.height_error_m = found.world_from_camera.translation().z() - truth.translation().z();
   if (cosine < -0.5) {
     frame.outcome = FloorOutcome::kCeiling;
   } else if (cosine < 0.5) {
@@ -104,8 +105,9 @@ FloorCheck CheckFloors(const std::string& db_path,
   const std::map<int64_t, std::string> names = ScanNames(db.GenerationOptions().value_or(""));
   const std::vector<int64_t> frame_ids = FramesToCheck(db, options);
   Require(!frame_ids.empty(),
-          db_path + ": no frame whose floor the detector estimates (a generated dataset: "
-                    "give --all-frames)");
+          db_path +
+              ": no frame whose floor the detector estimates (a generated dataset: "
+              "give --all-frames)");
   FloorCheck check;
   Progress progress("floors", frame_ids.size(), "frames");
   for (int64_t frame_id : frame_ids) {
@@ -131,10 +133,16 @@ std::string FloorCheckText(const FloorCheck& check) {
   std::ostringstream text;
   const int n = static_cast<int>(check.frames.size());
   char line[160];
-  std::snprintf(line, sizeof line, "floors of %d frames: %d right (%.1f %%)", n,
-                check.Count(FloorOutcome::kRight), n ? 100.0 * check.Count(FloorOutcome::kRight) / n : 0.0);
+  std::snprintf(line,
+                sizeof line,
+                "floors of %d frames: %d right (%.1f %%)",
+                n,
+                check.Count(FloorOutcome::kRight),
+                n ? 100.0 * check.Count(FloorOutcome::kRight) / n : 0.0);
   text << line;
-  for (FloorOutcome outcome : {FloorOutcome::kNone, FloorOutcome::kCeiling, FloorOutcome::kWall,
+  for (FloorOutcome outcome : {FloorOutcome::kNone,
+                               FloorOutcome::kCeiling,
+                               FloorOutcome::kWall,
                                FloorOutcome::kOtherPlane}) {
     text << ", " << check.Count(outcome) << " " << EnumName(outcome);
   }
@@ -145,8 +153,11 @@ std::string FloorCheckText(const FloorCheck& check) {
       heights.push_back(std::abs(f.height_error_m));
     }
   }
-  std::snprintf(line, sizeof line, "\nright floors: median tilt error %.2f deg, median height error %.3f m\n",
-                Median(angles), Median(heights));
+  std::snprintf(line,
+                sizeof line,
+                "\nright floors: median tilt error %.2f deg, median height error %.3f m\n",
+                Median(angles),
+                Median(heights));
   text << line;
   for (const FloorCheckFrame& f : check.frames) {
     if (f.outcome == FloorOutcome::kRight) continue;
@@ -155,8 +166,8 @@ std::string FloorCheckText(const FloorCheck& check) {
     if (f.outcome == FloorOutcome::kNone) {
       text << f.message << "\n";
     } else {
-      std::snprintf(line, sizeof line, "tilt %.1f deg, height %+.2f m\n", f.angle_deg,
-                    f.height_error_m);
+      std::snprintf(
+          line, sizeof line, "tilt %.1f deg, height %+.2f m\n", f.angle_deg, f.height_error_m);
       text << line;
     }
   }

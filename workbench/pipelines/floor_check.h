@@ -35,19 +35,19 @@ struct FloorCheckOptions {
   double max_angle_deg = 5;    // a found floor is right within this tilt of the true one ...
   double max_height_m = 0.10;  // ... and this error of the camera's height
   double search_range_m = kFloorSearchRangeM;
-  bool all_frames = false;     // also frames whose pose is known (generated)
-  int max_frames = 0;          // 0: all
+  bool all_frames = false;  // also frames whose pose is known (generated)
+  int max_frames = 0;       // 0: all
 
   void Check() const;
 };
 
 struct FloorCheckFrame {
   int64_t frame_id = 0;
-  std::string name;              // the real scan's id, or "frame N"
+  std::string name;  // the real scan's id, or "frame N"
   FloorOutcome outcome = FloorOutcome::kNone;
-  double angle_deg = 0;          // between the found floor's up and the true up
-  double height_error_m = 0;     // found camera height - true height
-  std::string message;           // why none was found
+  double angle_deg = 0;       // between the found floor's up and the true up
+  double height_error_m = 0;  // found camera height - true height
+  std::string message;        // why none was found
 };
 
 struct FloorCheck {

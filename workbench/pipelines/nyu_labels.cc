@@ -22,8 +22,8 @@ constexpr int kNyuFloor = 2, kNyuFloorMat = 20;
 struct NyuGroup {
   std::array<int, 2> nyu_ids;  // 0: unused
   FurnitureClass furniture_class;
-  double max_length_m;      // pieces merge only while the merged footprint is shorter
-  const char* ignored;      // non-empty: never a target (a detection there is neither right nor wrong)
+  double max_length_m;  // pieces merge only while the merged footprint is shorter
+  const char* ignored;  // non-empty: never a target (a detection there is neither right nor wrong)
 };
 
 // Chairs include stools and office chairs; desks are tables; a dresser is a
@@ -34,7 +34,10 @@ constexpr NyuGroup kGroups[] = {
     {{6, 0}, FurnitureClass::kSofa, 3.5, ""},
     {{7, 14}, FurnitureClass::kTable, 3.0, ""},
     {{17, 0}, FurnitureClass::kSideboard, 3.0, ""},
-    {{3, 32}, FurnitureClass::kSideboard, 4.0, "a cabinet or night stand (not labelled as furniture)"},
+    {{3, 32},
+     FurnitureClass::kSideboard,
+     4.0,
+     "a cabinet or night stand (not labelled as furniture)"},
 };
 constexpr int kNoGroup = -1;
 
@@ -293,7 +296,8 @@ double BorderShare(const std::vector<int>& pixels, double band) {
 }
 
 // Why an instance is not a target, or "" when it is.
-std::string IgnoredBecause(const Piece& piece, const NyuInstance& instance,
+std::string IgnoredBecause(const Piece& piece,
+                           const NyuInstance& instance,
                            const NyuDeriveOptions& options) {
   if (kGroups[piece.group].ignored[0] != '\0') return kGroups[piece.group].ignored;
   if (instance.pixels < options.min_object_pixels) return "too few pixels";
