@@ -14,6 +14,8 @@ constexpr double kHalfPi = M_PI / 2;
 // Streams of DeriveSeed(seed, ...) for the two random stages, per row.
 constexpr uint64_t kDropoutStream = 0;
 constexpr uint64_t kNoiseStream = 1ull << 32;
+// The correlated fields' seeds: DeriveSeed(seed, kFieldStream + field).
+constexpr uint64_t kFieldStream = 2ull << 32;
 
 bool SameCamera(const CameraIntrinsics& a, const CameraIntrinsics& b) {
   return a.width == b.width && a.height == b.height && a.fx == b.fx && a.fy == b.fy &&
@@ -145,6 +147,51 @@ void KinectNoiseOptions::Check() const {
               " must be in [0, 1]");
   Require(disparity_step_px > 0 && disparity_step_px <= 1,
           "disparity_step_px " + std::to_string(disparity_step_px) + " must be in (0, 1]");
+  Require(std::isfinite(noise_scale) && noise_scale > 0 && noise_scale <= 10,
+          "noise_scale " + std::to_string(noise_scale) + " must be in (0, 10]");
+  Require(correlated_share >= 0 && correlated_share <= 1,
+          "correlated_share " + std::to_string(correlated_share) + " must be in [0, 1]");
+  Require(correlation_radius_px >= 1 && correlation_radius_px <= 16,
+          "correlation_radius_px " + std::to_string(correlation_radius_px) + " must be in 1..16");
+}
+
+void CorrelatedNormalField(int width,
+                           int height,
+                           int radius,
+                           uint64_t seed,
+                           std::vector<float>* field,
+                           std::vector<float>* scratch) {
+  Require(width > 0 && height > 0 && radius >= 0,
+          "a correlated field needs a positive size and a radius >= 0");
+  const int window = 2 * radius + 1;
+  const int padded_width = width + 2 * radius, padded_height = height + 2 * radius;
+  // Per padded row, the sums of `window` independent normals ending at each column.
+  scratch->assign(static_cast<size_t>(padded_height) * width, 0.0f);
+  float* const sums = scratch->data();
+  ParallelFor(0, padded_height, [&](int y) {
+    FastRng rng(DeriveSeed(seed, static_cast<uint64_t>(y)));
+    std::vector<double> white(static_cast<size_t>(padded_width));
+    for (double& w : white) w = rng.Normal();
+    double sum = 0;
+    for (int k = 0; k < window; ++k) sum += white[k];
+    float* out = sums + static_cast<size_t>(y) * width;
+    out[0] = static_cast<float>(sum);
+    for (int x = 1; x < width; ++x) {
+      sum += white[x + window - 1] - white[x - 1];
+      out[x] = static_cast<float>(sum);
+    }
+  });
+  field->assign(static_cast<size_t>(width) * height, 0.0f);
+  float* const values = field->data();
+  const float norm = 1.0f / static_cast<float>(window);
+  ParallelFor(0, height, [&](int v) {
+    float* out = values + static_cast<size_t>(v) * width;
+    for (int k = 0; k < window; ++k) {
+      const float* in = sums + static_cast<size_t>(v + k) * width;
+      for (int u = 0; u < width; ++u) out[u] += in[u];
+    }
+    for (int u = 0; u < width; ++u) out[u] *= norm;
+  });
 }
 
 inline double AxialSigma(double z, double theta) {
@@ -198,7 +245,30 @@ void KinectNoiseModel::Apply(const DepthFrame& ideal,
   if (options_.quantization) {
     TabulateQuantisation(camera.fx * options_.baseline_m / options_.disparity_step_px);
   }
+  MakeCorrelatedFields(ideal.width, ideal.height, seed);
   Resample(ideal, camera, seed, noisy);
+}
+
+void KinectNoiseModel::MakeCorrelatedFields(int width, int height, uint64_t seed) {
+  if (options_.correlated_share <= 0) return;
+  const int radius = options_.correlation_radius_px;
+  if (options_.axial_noise)
+    CorrelatedNormalField(
+        width, height, radius, DeriveSeed(seed, kFieldStream), &axial_field_, &field_scratch_);
+  if (options_.lateral_noise) {
+    CorrelatedNormalField(width,
+                          height,
+                          radius,
+                          DeriveSeed(seed, kFieldStream + 1),
+                          &lateral_u_field_,
+                          &field_scratch_);
+    CorrelatedNormalField(width,
+                          height,
+                          radius,
+                          DeriveSeed(seed, kFieldStream + 2),
+                          &lateral_v_field_,
+                          &field_scratch_);
+  }
 }
 
 void KinectNoiseModel::CacheUnitRays(const CameraIntrinsics& camera) {
@@ -292,16 +362,37 @@ void KinectNoiseModel::Resample(const DepthFrame& ideal,
   const uint16_t* const ideal_ids = ideal.instance_ids.data();
   float* const noisy_depth = noisy.depth.data();
   uint16_t* const noisy_ids = noisy.instance_ids.data();
+  // The published model per pixel through its tables; scaled or partly
+  // correlated noise computes each draw (white and field parts of unit
+  // variance, weighted to keep sigma).
+  const bool shaped = options.noise_scale != 1.0 || options.correlated_share > 0;
+  const double white_weight = std::sqrt(1 - options.correlated_share);
+  const double field_weight = std::sqrt(options.correlated_share);
+  const bool fields = options.correlated_share > 0;
+  const float* const axial_field = fields && options.axial_noise ? axial_field_.data() : nullptr;
+  const float* const u_field = fields && options.lateral_noise ? lateral_u_field_.data() : nullptr;
+  const float* const v_field = fields && options.lateral_noise ? lateral_v_field_.data() : nullptr;
+  const float min_cosine = static_cast<float>(std::cos(88 * M_PI / 180));
   ParallelFor(0, height, [&](int v) {
     FastRng rng(DeriveSeed(seed, kNoiseStream + v));
     const size_t row = static_cast<size_t>(v) * width;
+    // A unit-variance draw for pixel i: white, or white and field mixed.
+    auto unit = [&](const float* field, size_t i) {
+      const double white = rng.Normal();
+      return field == nullptr ? white : white_weight * white + field_weight * field[i];
+    };
     for (int u = 0; u < width; ++u) {
       int su = u, sv = v;
-      if (options.lateral_noise) {
+      if (options.lateral_noise && !shaped) {
         int du, dv;
         lateral.Draw(cosines[row + u], rng.Next(), &du, &dv);
         su += du;
         sv += dv;
+      } else if (options.lateral_noise) {
+        const double sigma = options.noise_scale *
+                             LateralNoiseSigmaPx(std::acos(std::max(cosines[row + u], min_cosine)));
+        su += static_cast<int>(std::lround(sigma * unit(u_field, row + u)));
+        sv += static_cast<int>(std::lround(sigma * unit(v_field, row + u)));
       }
       if (su < 0 || sv < 0 || su >= width || sv >= height) continue;
       const size_t source = static_cast<size_t>(sv) * width + su;
@@ -312,7 +403,8 @@ void KinectNoiseModel::Resample(const DepthFrame& ideal,
         double sigma = 0.0012 + 0.0019 * (z - 0.4) * (z - 0.4);
         const float angle_factor = axial_angle.Factor(cosines[source]);
         if (angle_factor > 0) sigma += 0.0001 / std::sqrt(z) * angle_factor;
-        z += sigma * rng.Normal();
+        z += shaped ? options.noise_scale * sigma * unit(axial_field, row + u)
+                    : sigma * rng.Normal();
       }
       if (options.quantization) {
         // Disparity is positive: adding 0.5 and truncating rounds (libm's round is slow).

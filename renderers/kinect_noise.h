@@ -16,6 +16,9 @@
 //  5. axial noise (same paper): sigma_z = 0.0012 + 0.0019*(z - 0.4)^2 m, plus
 //     0.0001/sqrt(z) * theta^2/(pi/2 - theta)^2 above 60 degrees;
 //  6. disparity quantisation: d = fx*b/z rounded to 1/8 px, z' = fx*b/d.
+//  Both noises may be scaled (noise_scale) and partly spatially correlated
+//  (correlated_share over a window of correlation_radius_px): the fit to
+//  real frames of `dataset noise --fit` sets them.
 //
 //   KinectNoiseOptions options;          // published defaults, all effects on
 //   DepthFrame noisy = ApplyKinectNoise(ideal, CameraIntrinsics::KinectV1(),
@@ -48,6 +51,15 @@ struct KinectNoiseOptions {
 
   bool lateral_noise = true;
   bool axial_noise = true;
+  // Both noises' sigma times this (> 0): the published model is measured per
+  // pixel on planes; a fit to real frames (`dataset noise --fit`) may scale it.
+  double noise_scale = 1.0;
+  // Real disparity is matched over windows (9 x 9 on a Kinect v1), so its
+  // error is spatially correlated: a share of the axial and lateral noise's
+  // variance (0: per pixel, the published model) comes from fields of unit
+  // variance that are box means over (2 correlation_radius_px + 1)^2 pixels.
+  double correlated_share = 0.0;  // 0..1
+  int correlation_radius_px = 4;  // 1..16
 
   bool quantization = true;
   double disparity_step_px = 0.125;  // disparity resolution (px, > 0)
@@ -97,7 +109,12 @@ class KinectNoiseModel {
                 uint64_t seed,
                 DepthFrame* noisy) const;
 
+  // The correlated fields (correlated_share > 0) for this frame's seed: one
+  // for the axial noise, two for the lateral offsets, each width x height.
+  void MakeCorrelatedFields(int width, int height, uint64_t seed);
+
   const KinectNoiseOptions options_;
+  std::vector<float> axial_field_, lateral_u_field_, lateral_v_field_, field_scratch_;
   std::vector<uint8_t> shadow_;
   std::vector<uint8_t> returns_;
   std::vector<float> incidence_cosine_;
@@ -108,6 +125,18 @@ class KinectNoiseModel {
   std::vector<double> depth_of_steps_;
   double steps_per_metre_ = 0;
 };
+
+// A width x height field of unit-variance normal values correlated over
+// (2 radius + 1)^2 windows: each value is the sum of independent normals over
+// its window (drawn on a grid padded by radius, so every value has a whole
+// window) over 2 radius + 1. Rows are seeded by DeriveSeed(seed, row): the
+// same field on any thread count. `scratch` is working memory.
+void CorrelatedNormalField(int width,
+                           int height,
+                           int radius,
+                           uint64_t seed,
+                           std::vector<float>* field,
+                           std::vector<float>* scratch);
 
 // One-off convenience form of KinectNoiseModel::Apply.
 DepthFrame ApplyKinectNoise(const DepthFrame& ideal,

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <string>
+#include <type_traits>
 
 #include "core/error.h"
 #include "core/learned/vote_net_loss_torch.h"
@@ -114,6 +116,102 @@ void VoteNetWeightAverage::Update(const VoteNet& net) {
     else
       mine.copy_(item.value());  // batch norm's step count
   }
+}
+
+namespace {
+
+std::vector<torch::nn::BatchNorm2dImpl*> BatchNorms(UNet net) {
+  std::vector<torch::nn::BatchNorm2dImpl*> norms;
+  for (const std::shared_ptr<torch::nn::Module>& module : net->modules(/*include_self=*/false))
+    if (auto* norm = dynamic_cast<torch::nn::BatchNorm2dImpl*>(module.get())) norms.push_back(norm);
+  return norms;
+}
+
+// One member's statistics re-estimated on `images`, blended with its own;
+// adds each channel's |mean shift| / old sd and log variance ratio to the
+// sums.
+void AdaptMember(UNet net,
+                 const std::vector<const BevImage*>& images,
+                 const BevGridSpec& spec,
+                 int batch_size,
+                 double blend,
+                 double* shift_sum,
+                 double* log_ratio_sum,
+                 int64_t* channels) {
+  const std::vector<torch::nn::BatchNorm2dImpl*> norms = BatchNorms(net);
+  std::vector<torch::Tensor> old_mean, old_var, old_batches;
+  // torch's optional (c10's, std's in newer releases): empty is the cumulative average.
+  using Momentum = std::decay_t<decltype(torch::nn::BatchNormOptions(1).momentum())>;
+  std::vector<Momentum> momentum;
+  for (torch::nn::BatchNorm2dImpl* norm : norms) {
+    old_mean.push_back(norm->running_mean.clone());
+    old_var.push_back(norm->running_var.clone());
+    old_batches.push_back(norm->num_batches_tracked.clone());
+    momentum.push_back(norm->options.momentum());
+    norm->reset_running_stats();
+    norm->options.momentum(Momentum());
+  }
+  torch::NoGradGuard no_grad;
+  net->train();
+  for (size_t first = 0; first < images.size(); first += batch_size) {
+    const size_t last = std::min(images.size(), first + batch_size);
+    const std::vector<const BevImage*> batch(images.begin() + first, images.begin() + last);
+    net->forward(ImageTensor(batch, spec));
+  }
+  net->eval();
+  for (size_t i = 0; i < norms.size(); ++i) {
+    torch::nn::BatchNorm2dImpl& norm = *norms[i];
+    norm.running_mean.mul_(blend).add_(old_mean[i], 1 - blend);
+    norm.running_var.mul_(blend).add_(old_var[i], 1 - blend);
+    norm.options.momentum(momentum[i]);
+    norm.num_batches_tracked.copy_(old_batches[i]);  // a count, not a statistic: kept
+    const double eps = norm.options.eps();
+    const torch::Tensor old_sd = (old_var[i] + eps).sqrt();
+    *shift_sum += ((norm.running_mean - old_mean[i]).abs() / old_sd).sum().item<double>();
+    *log_ratio_sum += ((norm.running_var + eps) / (old_var[i] + eps)).log().sum().item<double>();
+    *channels += norm.running_mean.numel();
+  }
+}
+
+}  // namespace
+
+NormalisationShift AdaptNormalisation(VoteNet* net,
+                                      const std::vector<const BevImage*>& images,
+                                      int batch_size,
+                                      double blend) {
+  Require(net != nullptr && !net->empty(), "an empty vote network has no statistics to adapt");
+  Require(!images.empty(), "adapting a vote network's statistics needs at least one image");
+  Require(batch_size >= 2,
+          "adapting a vote network's statistics needs batches of at least 2 images (got " +
+              std::to_string(batch_size) + ")");
+  Require(blend >= 0 && blend <= 1,
+          "the blend of adapted statistics must be in [0, 1] (got " + std::to_string(blend) + ")");
+  VoteNet::Impl& impl = VoteNetAccess::Of(*net);
+  for (const BevImage* image : images)  // before any statistic is touched
+    Require(image != nullptr && image->spec == impl.options.grid,
+            "a BEV image's grid differs from the vote network's (rasterise with its spec)");
+  std::vector<UNet> members{impl.net};
+  members.insert(members.end(), impl.partners.begin(), impl.partners.end());
+  NormalisationShift shift;
+  shift.images = static_cast<int64_t>(images.size());
+  double shift_sum = 0, log_ratio_sum = 0;
+  int64_t channels = 0;
+  for (UNet& member : members) {
+    AdaptMember(member,
+                images,
+                impl.options.grid,
+                batch_size,
+                blend,
+                &shift_sum,
+                &log_ratio_sum,
+                &channels);
+    shift.layers += static_cast<int>(BatchNorms(member).size());
+  }
+  if (channels > 0) {
+    shift.mean_shift_sd = shift_sum / channels;
+    shift.variance_ratio = std::exp(log_ratio_sum / channels);
+  }
+  return shift;
 }
 
 VoteNetLoss EvaluateVoteNetLoss(const VoteNet& net,

@@ -89,6 +89,30 @@ class VoteNetWeightAverage {
   int64_t updates_ = 0;
 };
 
+// Feature-statistics alignment (AdaBN: Li, Wang, Shi, Hou, Liu 2016,
+// "Revisiting batch normalization for practical domain adaptation"): every
+// batch normalisation's running mean and variance, in every member,
+// re-estimated on `images` (a user's own scans; no labels) in batches of
+// `batch_size`, in the given order, as the cumulative average over the
+// batches; the weights stay. blend in [0, 1] mixes them: blend x the images'
+// statistics + (1 - blend) x the network's (1: the images' alone, 0: nothing
+// changes). Deterministic for the same images, order, batch and torch
+// threads. Throws InputError for no images or a grid other than the
+// network's.
+struct NormalisationShift {
+  int layers = 0;      // batch normalisations re-estimated (every member's)
+  int64_t images = 0;  // images they were re-estimated on
+  // Over every channel of every layer: mean |new mean - old mean| in units
+  // of the old standard deviation, and the geometric mean of new / old
+  // variance (1: unchanged).
+  double mean_shift_sd = 0;
+  double variance_ratio = 1;
+};
+NormalisationShift AdaptNormalisation(VoteNet* net,
+                                      const std::vector<const BevImage*>& images,
+                                      int batch_size,
+                                      double blend);
+
 // The loss of a batch without a step (evaluation mode).
 VoteNetLoss EvaluateVoteNetLoss(const VoteNet& net,
                                 const TrainingBatch& batch,

@@ -229,10 +229,84 @@ TEST(KinectNoise, BadOptionsAndMismatchedFramesAreRejected) {
   rejects([](KinectNoiseOptions* o) { o->max_incidence_deg = 120; });
   rejects([](KinectNoiseOptions* o) { o->edge_dropout_probability = 1.5; });
   rejects([](KinectNoiseOptions* o) { o->disparity_step_px = 0; });
+  rejects([](KinectNoiseOptions* o) { o->noise_scale = 0; });
+  rejects([](KinectNoiseOptions* o) { o->correlated_share = -0.1; });
+  rejects([](KinectNoiseOptions* o) { o->correlation_radius_px = 0; });
   CameraIntrinsics smaller = camera;
   smaller.width = 320;
   smaller.cx = 159.5;
   EXPECT_THROW(ApplyKinectNoise(wall, smaller, KinectNoiseOptions{}, 1), InputError);
+}
+
+// The correlated field: unit variance everywhere (each value has a whole
+// window), neighbours within a window correlated as the shared share of
+// the window ((w - lag) / w along a row), none beyond it; the same seed the
+// same field.
+TEST(KinectNoise, CorrelatedFieldHasUnitVarianceAndItsWindowsCorrelation) {
+  std::vector<float> field, scratch, again;
+  const int width = 320, height = 240, radius = 4, window = 2 * radius + 1;
+  CorrelatedNormalField(width, height, radius, 5, &field, &scratch);
+  CorrelatedNormalField(width, height, radius, 5, &again, &scratch);
+  EXPECT_EQ(field, again);
+  double sum = 0, squares = 0;
+  for (float x : field) sum += x, squares += static_cast<double>(x) * x;
+  const double n = static_cast<double>(field.size());
+  EXPECT_NEAR(sum / n, 0.0, 0.05);
+  EXPECT_NEAR(squares / n, 1.0, 0.08);
+  auto correlation = [&](int lag) {
+    double product = 0;
+    int64_t pairs = 0;
+    for (int v = 0; v < height; ++v) {
+      for (int u = 0; u + lag < width; ++u) {
+        product += static_cast<double>(field[v * width + u]) * field[v * width + u + lag];
+        ++pairs;
+      }
+    }
+    return product / pairs;
+  };
+  EXPECT_NEAR(correlation(1), (window - 1.0) / window, 0.05);
+  EXPECT_NEAR(correlation(4), (window - 4.0) / window, 0.05);
+  EXPECT_NEAR(correlation(window), 0.0, 0.04);
+}
+
+// noise_scale scales the axial sigma; a correlated share keeps each pixel's
+// sigma but leaves little against the pixel's neighbours (a wall's pixels
+// move together), and the same seed gives the same bytes.
+TEST(KinectNoise, ScaledAndCorrelatedAxialNoise) {
+  const CameraIntrinsics camera = CameraIntrinsics::KinectV1();
+  const DepthFrame wall = WallFrame(2.0);
+  KinectNoiseOptions options = AllOff();
+  options.axial_noise = true;
+  auto errors = [&](const KinectNoiseOptions& o, double* neighbour_sd) {
+    const DepthFrame noisy = ApplyKinectNoise(wall, camera, o, 3);
+    std::vector<float> error, difference;
+    for (int v = 100; v < 380; ++v) {
+      for (int u = 100; u < 540; ++u) {
+        const size_t i = static_cast<size_t>(v) * camera.width + u;
+        error.push_back(static_cast<float>(noisy.depth[i] - wall.depth[i] + 1));  // > 0 for StdDev
+        difference.push_back(static_cast<float>(noisy.depth[i] - noisy.depth[i + 1] -
+                                                wall.depth[i] + wall.depth[i + 1] + 1));
+      }
+    }
+    *neighbour_sd = StdDev(difference);
+    return StdDev(error);
+  };
+  double white_neighbours = 0, half_neighbours = 0, correlated_neighbours = 0;
+  const double white = errors(options, &white_neighbours);
+  KinectNoiseOptions half = options;
+  half.noise_scale = 0.5;
+  EXPECT_NEAR(errors(half, &half_neighbours) / white, 0.5, 0.03);
+  KinectNoiseOptions correlated = options;
+  correlated.correlated_share = 0.9;
+  const double correlated_sd = errors(correlated, &correlated_neighbours);
+  EXPECT_NEAR(correlated_sd / white, 1.0, 0.1);
+  // White: the difference of two pixels has sqrt(2) sigma; 90 % correlated
+  // over 9 x 9: sqrt(2 (0.1 + 0.9 / 9)) sigma, about 0.63.
+  EXPECT_NEAR(white_neighbours / white, std::sqrt(2.0), 0.05);
+  EXPECT_LT(correlated_neighbours / correlated_sd, 0.75);
+  const DepthFrame a = ApplyKinectNoise(wall, camera, correlated, 9);
+  const DepthFrame b = ApplyKinectNoise(wall, camera, correlated, 9);
+  EXPECT_EQ(std::memcmp(a.depth.data(), b.depth.data(), a.depth.size() * 4), 0);
 }
 
 }  // namespace

@@ -484,5 +484,63 @@ TEST(Cli, ModelEnsembleCombinesMembersOfOneTraining) {
   EXPECT_FALSE(std::filesystem::exists(dir + "/bad.fcm"));
 }
 
+// `adapt` (issue 69): a learned model's batch normalisation statistics
+// re-estimated on scans without labels: a dataset's frames, scan files (the
+// floor found) or both; the same seed gives the same bytes, the adapted
+// model detects. A codebook model, no scans, too few usable scans and bad
+// values are one line each, exit 1, nothing written.
+TEST(Cli, AdaptReestimatesTheStatisticsOnUnlabelledScans) {
+  const std::string dir = testing::ScratchDir();
+  const std::string train =
+      "train --catalog procedural:4 --vocab kmeans --words 20 --azimuths 6 --vote-rooms 8 "
+      "--vote-frames 2 --vote-epochs 1 --vote-threads 1 --quiet --out ";
+  ASSERT_EQ(RunWorkbench(train + dir + "/m.fcm").exit_code, 0);
+  ASSERT_EQ(RunWorkbench("generate --catalog procedural:4 --rooms 3 --frames 2 --seed 11 --quiet "
+                         "--out " +
+                         dir + "/scans.db")
+                .exit_code,
+            0);
+  const std::string adapt = "adapt --model " + dir + "/m.fcm --batch 2 ";
+  const RunResult db = RunWorkbench(adapt + "--db " + dir + "/scans.db --out " + dir + "/a.fcm");
+  ASSERT_EQ(db.exit_code, 0) << db.output;
+  EXPECT_NE(db.output.find("batch normalisations re-estimated on 6 of 6 scans"), std::string::npos)
+      << db.output;
+  EXPECT_NE(db.output.find("operating point: the model's"), std::string::npos) << db.output;
+  EXPECT_NE(ReadFileBytes(dir + "/a.fcm"), ReadFileBytes(dir + "/m.fcm"));
+  ASSERT_EQ(RunWorkbench(adapt + "--db " + dir + "/scans.db --out " + dir + "/b.fcm").exit_code, 0);
+  EXPECT_EQ(ReadFileBytes(dir + "/a.fcm"), ReadFileBytes(dir + "/b.fcm"));
+  const RunResult other =
+      RunWorkbench(adapt + "--db " + dir + "/scans.db --seed 2 --out " + dir + "/c.fcm --quiet");
+  ASSERT_EQ(other.exit_code, 0) << other.output;
+  EXPECT_TRUE(other.output.empty()) << other.output;
+  const RunResult files =
+      RunWorkbench(adapt + FURN_SOURCE_DIR "/data/real/pcl/capture000?.pcd --db " + dir +
+                   "/scans.db --out " + dir + "/d.fcm");
+  ASSERT_EQ(files.exit_code, 0) << files.output;
+  EXPECT_NE(files.output.find("scans (blend 1.00"), std::string::npos) << files.output;
+  const RunResult detect =
+      RunWorkbench("detect --model " + dir +
+                   "/a.fcm --cloud " FURN_SOURCE_DIR "/data/real/pcl/office1.pcd --quiet");
+  EXPECT_EQ(detect.exit_code, 0) << detect.output;
+
+  ASSERT_EQ(RunWorkbench(train + dir + "/cb.fcm --no-vote-net").exit_code, 0);
+  const std::vector<std::pair<std::string, std::string>> bad = {
+      {"adapt --model " + dir + "/cb.fcm --db " + dir + "/scans.db",
+       "has no vote network to adapt"},
+      {adapt, "adapt needs scans: --db, scan files or --bag"},
+      {adapt + "--db " + dir + "/scans.db --blend 2", "--blend must be in [0, 1] (got 2"},
+      {adapt + "--db " + dir + "/scans.db --max-frames 1", "fewer than one batch of 2"},
+      {adapt + "--db " + dir + "/missing.db", "missing.db"},
+      {adapt + "--db " + dir + "/scans.db --split sideways", "--split 'sideways' must be"},
+  };
+  for (const auto& [arguments, message] : bad) {
+    const RunResult result = RunWorkbench(arguments + " --out " + dir + "/bad.fcm");
+    EXPECT_EQ(result.exit_code, 1) << arguments;
+    EXPECT_EQ(CountErrorLines(result.output), 1u) << result.output;
+    EXPECT_NE(result.output.find(message), std::string::npos) << result.output;
+    EXPECT_FALSE(std::filesystem::exists(dir + "/bad.fcm")) << arguments;
+  }
+}
+
 }  // namespace
 }  // namespace furn

@@ -741,6 +741,110 @@ TEST(VoteNetEnsemble, BadMembersAndCountsAreRefused) {
   EXPECT_NE(cut.find("cut.fcm: vote network is truncated"), std::string::npos) << cut;
 }
 
+// The images with every value scaled: a sensor that sees the same rooms
+// with a sparser return (the cells' point counts and heights' weights all
+// lower), the kind of shift batch normalisation statistics absorb.
+std::vector<BevSample> Scaled(std::vector<BevSample> rooms, float scale) {
+  for (BevSample& room : rooms)
+    for (float& value : room.image.values) value *= scale;
+  return rooms;
+}
+
+std::vector<const BevImage*> ImagesOf(const std::vector<BevSample>& rooms) {
+  std::vector<const BevImage*> images;
+  for (const BevSample& room : rooms) images.push_back(&room.image);
+  return images;
+}
+
+// The mean over the rooms' objects of |heat of `net` on `shown` - heat of
+// `reference_net` on the rooms as trained|, at each object's centre cell.
+double HeatError(const VoteNet& net,
+                 const std::vector<BevSample>& shown,
+                 const VoteNet& reference_net,
+                 const std::vector<BevSample>& rooms) {
+  double error = 0;
+  int objects = 0;
+  for (size_t i = 0; i < rooms.size(); ++i) {
+    const BevOutput out = net.Predict(shown[i].image);
+    const BevOutput reference = reference_net.Predict(rooms[i].image);
+    for (const BevObject& object : rooms[i].objects) {
+      const Eigen::Vector2d cell = rooms[i].image.frame.CellOf(object.centre, rooms[i].image.spec);
+      const int k = static_cast<int>(object.furniture_class);
+      const int row = static_cast<int>(cell.x()), col = static_cast<int>(cell.y());
+      error += std::abs(out.At(k, row, col) - reference.At(k, row, col));
+      ++objects;
+    }
+  }
+  return error / objects;
+}
+
+// AdaBN (issue 69): on the same rooms seen by a sparser sensor (every value
+// x 0.4) the trained network's heat at the objects drifts; its statistics
+// re-estimated on those images (no label) bring it back near the heat it
+// gives the rooms it was trained on. blend 0 changes no byte; the same images
+// in the same order give the same bytes; blend 0.5 lands between.
+TEST(VoteNetAdaptation, StatisticsReestimatedOnShiftedImagesRestoreTheHeat) {
+  SetTorchThreads(1);
+  const std::vector<BevSample> rooms = Rooms(8);
+  VoteNetTrainingSummary summary;
+  VoteNetTrainingOptions training = SmallTraining();
+  training.epochs = 60;
+  const VoteNet trained = TrainVoteNetOnSamples(rooms, rooms, training, &summary);
+  const std::vector<BevSample> sparse = Scaled(rooms, 0.4f);
+  const std::string bytes = trained.Serialize();
+
+  VoteNet kept = VoteNet::Deserialize(bytes, "kept");
+  const NormalisationShift none = AdaptNormalisation(&kept, ImagesOf(sparse), 4, 0.0);
+  EXPECT_TRUE(kept.Serialize() == bytes) << "blend 0 changed the network";
+  EXPECT_EQ(none.mean_shift_sd, 0.0);
+  EXPECT_NEAR(none.variance_ratio, 1.0, 1e-9);
+  EXPECT_GT(none.layers, 10);
+  EXPECT_EQ(none.images, 8);
+
+  VoteNet adapted = VoteNet::Deserialize(bytes, "adapted");
+  const NormalisationShift full = AdaptNormalisation(&adapted, ImagesOf(sparse), 4, 1.0);
+  EXPECT_LT(full.variance_ratio, 1.0) << "a sparser image has less variance";
+  const double drift = HeatError(trained, sparse, trained, rooms);
+  const double restored = HeatError(adapted, sparse, trained, rooms);
+  std::printf("heat error at the objects: unadapted %.3f, adapted %.3f\n", drift, restored);
+  EXPECT_GT(drift, 0.1);
+  EXPECT_LT(restored, drift / 2);
+
+  VoteNet again = VoteNet::Deserialize(bytes, "again");
+  AdaptNormalisation(&again, ImagesOf(sparse), 4, 1.0);
+  EXPECT_TRUE(again.Serialize() == adapted.Serialize()) << "the same images gave other bytes";
+  VoteNet half = VoteNet::Deserialize(bytes, "half");
+  const NormalisationShift halfway = AdaptNormalisation(&half, ImagesOf(sparse), 4, 0.5);
+  EXPECT_GT(halfway.variance_ratio, full.variance_ratio);
+  EXPECT_LT(halfway.variance_ratio, 1.0);
+}
+
+TEST(VoteNetAdaptation, BadArgumentsAreOneLine) {
+  VoteNetOptions options;
+  options.grid = SmallGrid();
+  options.width = 4;
+  VoteNet net = VoteNet::Create(options, 1);
+  const std::vector<BevSample> rooms = Rooms(2);
+  EXPECT_NE(
+      testing::ErrorOf([&] { AdaptNormalisation(&net, {}, 4, 1); }).find("at least one image"),
+      std::string::npos);
+  EXPECT_NE(testing::ErrorOf([&] {
+              AdaptNormalisation(&net, ImagesOf(rooms), 1, 1);
+            }).find("batches of at least 2 images (got 1)"),
+            std::string::npos);
+  EXPECT_NE(testing::ErrorOf([&] {
+              AdaptNormalisation(&net, ImagesOf(rooms), 4, 1.5);
+            }).find("must be in [0, 1]"),
+            std::string::npos);
+  BevGridSpec other = SmallGrid();
+  other.rows = 40;
+  const BevSample wrong = SyntheticRoom(3, other);
+  EXPECT_NE(testing::ErrorOf([&] {
+              AdaptNormalisation(&net, {&wrong.image, &wrong.image}, 2, 1);
+            }).find("grid differs from the vote network's"),
+            std::string::npos);
+}
+
 // A class map's vote-net-only tables and sideboards (here six added to the
 // default map) are placed in the vote network's training rooms (and only
 // there: the composer's test in class_map_test.cc), and the summary counts

@@ -12,6 +12,7 @@
 #include "core/text.h"
 #include "workbench/cli/enum_option.h"
 #include "workbench/formats/scan_file.h"
+#include "workbench/formats/sensor_file.h"
 
 namespace furn {
 
@@ -266,12 +267,17 @@ void AddVoteNetFlags(CLI::App* app, VoteNetFlags* flags) {
                 "Train the learned vote map (generated rooms, a CNN) into the model (the "
                 "default); --no-vote-net: the codebook alone");
   AddVoteNetRoomFlags(app, &flags->options);
+  app->add_option("--vote-sensor",
+                  flags->sensor_file,
+                  "Vote network: render its training rooms with this sensor file's Kinect model "
+                  "(dataset noise --fit --out; default: the published model)");
   AddVoteNetNetworkFlags(app, &flags->options);
   AddVoteNetScheduleFlags(app, &flags->options);
 }
 
 const VoteNetTrainingOptions* VoteNetFlags::Resolve(bool quiet) {
   if (!enabled) return nullptr;
+  if (!sensor_file.empty()) options.sensor = ReadSensorFile(sensor_file);
   options.quiet = quiet;
   options.Check();
   return &options;

@@ -32,6 +32,7 @@ CatalogOpenOptions MakeOpenOptions(const CatalogFlags& flags);
 struct VoteNetFlags {
   bool enabled = true;
   VoteNetTrainingOptions options;
+  std::string sensor_file;  // --vote-sensor: options.sensor read from it
   // The options, or null with --no-vote-net; quiet follows --quiet.
   const VoteNetTrainingOptions* Resolve(bool quiet);
 };

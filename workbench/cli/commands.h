@@ -19,6 +19,7 @@ int RunRegress(int argc, char** argv);
 int RunReport(int argc, char** argv);
 int RunHistory(int argc, char** argv);
 int RunTune(int argc, char** argv);
+int RunAdapt(int argc, char** argv);
 int RunJobs(int argc, char** argv);
 
 }  // namespace furn

@@ -38,6 +38,9 @@ constexpr Command kCommands[] = {
     {"report", furn::RunReport, "HTML and PNG report of an evaluation run"},
     {"history", furn::RunHistory, "every metric across runs and commits, plots and a table"},
     {"tune", furn::RunTune, "search training and detection options; trials stored as runs"},
+    {"adapt",
+     furn::RunAdapt,
+     "fit a model's vote network to your own sensor from unlabelled scans (AdaBN)"},
     {"jobs", furn::RunJobs, "state of a Slurm array job's folder (status), or wait for it"},
 };
 

@@ -13,6 +13,7 @@
 #include "workbench/formats/depth_png.h"
 #include "workbench/formats/rosbag_io.h"
 #include "workbench/formats/scan_file.h"
+#include "workbench/formats/sensor_file.h"
 #include "workbench/pipelines/convert_nyu.h"
 #include "workbench/pipelines/dataset_tools.h"
 #include "workbench/pipelines/export_rosbag.h"
@@ -129,10 +130,16 @@ int RunGenerate(int argc, char** argv) {
                  options.clutter_catalog_specs,
                  "Add this catalog's unclassified entries as clutter (repeatable; a class map, "
                  "'default' or a .sh3f, whose every entry counts as unclassified)");
+  std::string sensor_file;
+  app.add_option("--sensor",
+                 sensor_file,
+                 "Sensor file (dataset noise --fit --out): the Kinect noise the frames get "
+                 "(default: the published model)");
   ClusterFlags cluster;
   AddClusterFlags(&app, &cluster);
   if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
   ApplyGlobalFlags(catalog_flags);
+  if (!sensor_file.empty()) options.noise = ReadSensorFile(sensor_file);
   cluster.Check();
   if (cluster.Active()) {
     Require(app.count("--shard") == 0, "--shard i/N and --shards N do not go together");
@@ -181,9 +188,9 @@ namespace {
 // copied or moved once made).
 struct DatasetCommands {
   CLI::App *info, *preview, *merge, *export_command, *import_real, *noise, *convert_nyu, *floors;
-  std::string db, out, format = "bop", export_split = "all", labels, sheets;
+  std::string db, out, format = "bop", export_split = "all", labels, sheets, sensor_file;
   std::vector<std::string> inputs;
-  bool json = false, allow_partial = false, quiet = false;
+  bool json = false, allow_partial = false, quiet = false, fit = false;
   int max_frames = 12, noise_frames = 0;
   CatalogFlags export_catalog;  // where BOP export finds the dataset's catalog
   NyuConvertOptions nyu;
@@ -228,6 +235,15 @@ struct DatasetCommands {
         ->required();
     noise->add_flag("--json", json, "JSON instead of text");
     noise->add_option("--frames", noise_frames, "At most N frames (0: all)")->capture_default_str();
+    noise->add_option("--sensor",
+                      sensor_file,
+                      "Compare this sensor file's model (default: the "
+                      "published one)");
+    noise->add_flag("--fit",
+                    fit,
+                    "Fit the model's noise scale and correlated share to the frames (from "
+                    "--sensor's model or the published one)");
+    noise->add_option("--out", out, "With --fit: write the fitted model as a sensor file");
     AddConvertNyu(app);
     AddFloors(app);
     for (CLI::App* command :
@@ -328,6 +344,38 @@ void RunExport(const DatasetCommands& c) {
   std::cout << "wrote " << frames << " frames to " << c.out << " (" << c.format << ")\n";
 }
 
+// `dataset noise`: the comparison, or with --fit the fitted model (and its
+// sensor file).
+void RunNoise(const DatasetCommands& c) {
+  Require(c.noise_frames >= 0, "--frames must be >= 0");
+  Require(c.out.empty() || c.fit, "--out applies to --fit");
+  const KinectNoiseOptions sensor =
+      c.sensor_file.empty() ? KinectNoiseOptions{} : ReadSensorFile(c.sensor_file);
+  const std::vector<NoiseFrame> frames = NoiseFramesOf(c.db, c.noise_frames);
+  if (!c.fit) {
+    const SensorNoiseComparison comparison = CompareSensorNoise(frames, sensor, 1);
+    std::cout << (c.json ? SensorNoiseJson(comparison) : SensorNoiseText(comparison));
+    return;
+  }
+  const SensorFit fit = FitSensorNoise(frames, sensor, 1);
+  const std::string fitted_on = c.db + ", " + std::to_string(fit.after.frames) + " frames";
+  if (!c.out.empty()) WriteFileAtomically(c.out, SensorFileJson(fit.options, fitted_on, fit.error));
+  if (c.json) {
+    std::cout << SensorFitJson(fit);
+    return;
+  }
+  std::printf("before (%s):\n%s",
+              c.sensor_file.empty() ? "the published model" : c.sensor_file.c_str(),
+              SensorNoiseText(fit.before).c_str());
+  std::printf("fitted over %d models: noise_scale %.2f, correlated_share %.2f (radius %d px):\n%s",
+              fit.candidates,
+              fit.options.noise_scale,
+              fit.options.correlated_share,
+              fit.options.correlation_radius_px,
+              SensorNoiseText(fit.after).c_str());
+  if (!c.out.empty()) std::printf("wrote %s\n", c.out.c_str());
+}
+
 }  // namespace
 
 int RunDataset(int argc, char** argv) {
@@ -346,10 +394,7 @@ int RunDataset(int argc, char** argv) {
     const FloorCheck check = CheckFloors(c.db, c.floor_options, c.floor_check);
     std::cout << (c.json ? FloorCheckJson(check) : FloorCheckText(check));
   } else if (c.noise->parsed()) {
-    Require(c.noise_frames >= 0, "--frames must be >= 0");
-    const SensorNoiseComparison comparison =
-        CompareSensorNoise(NoiseFramesOf(c.db, c.noise_frames), KinectNoiseOptions{}, 1);
-    std::cout << (c.json ? SensorNoiseJson(comparison) : SensorNoiseText(comparison));
+    RunNoise(c);
   } else if (c.import_real->parsed()) {
     const RealImportSummary summary = ImportRealSet(ReadRealSet(c.labels), c.out, c.sheets);
     std::cout << "wrote " << c.out << ": " << summary.frames << " real scans, " << summary.objects

@@ -461,6 +461,12 @@ std::string GenerateOptions::ContentJson() const {
   if (!excluded_models.empty()) json["excluded_models"] = excluded_models;
   if (room.size_jitter > 0) json["room"]["size_jitter"] = room.size_jitter;
   if (room.include_vote_net_only) json["room"]["include_vote_net_only"] = true;
+  // The fitted sensor's fields (issue 69) only when set, likewise.
+  if (noise.noise_scale != 1.0) json["noise"]["noise_scale"] = noise.noise_scale;
+  if (noise.correlated_share > 0) {
+    json["noise"]["correlated_share"] = noise.correlated_share;
+    json["noise"]["correlation_radius_px"] = noise.correlation_radius_px;
+  }
   return json.dump();
 }
 

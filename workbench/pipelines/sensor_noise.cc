@@ -10,10 +10,14 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <sstream>
+#include <utility>
 
+#include "core/error.h"
 #include "core/pcl_conversion.h"
+#include "core/progress.h"
 #include "db/dataset_db.h"
 #include "workbench/formats/depth_png.h"
 #include "workbench/formats/scan_file.h"
@@ -216,20 +220,26 @@ DepthFrame IdealFrame(const FramePlanes& f,
 }
 
 // Residual against a local plane: the pixel's depth minus the least-squares
-// z = a + b du + c dv over its 7x7 window on the same plane. Real and
-// simulated depths get the same estimator, which a slightly misfitted global
-// plane or a bowed wall does not bias.
+// z = a + b du + c dv over its (2 radius + 1)^2 window on the same plane
+// (at least `min_count` other pixels). Real and simulated depths get the
+// same estimator, which a slightly misfitted global plane or a bowed wall
+// does not bias. At radius 3 (7 x 7) the window is within the sensor's own
+// matching window and takes up most of its correlated error; at radius 7
+// (15 x 15) it does not, so the two residuals' ratio tells how much of the
+// error is correlated.
 bool LocalResidual(const DepthFrame& frame,
                    const std::vector<int>& plane_of_pixel,
                    size_t i,
+                   int radius,
                    double* residual) {
   const int u0 = static_cast<int>(i % frame.width), v0 = static_cast<int>(i / frame.width);
-  if (u0 < 3 || v0 < 3 || u0 + 3 >= frame.width || v0 + 3 >= frame.height) return false;
+  if (u0 < radius || v0 < radius || u0 + radius >= frame.width || v0 + radius >= frame.height)
+    return false;
   Eigen::Matrix3d normal_matrix = Eigen::Matrix3d::Zero();
   Eigen::Vector3d right_side = Eigen::Vector3d::Zero();
   int count = 0;
-  for (int dv = -3; dv <= 3; ++dv) {
-    for (int du = -3; du <= 3; ++du) {
+  for (int dv = -radius; dv <= radius; ++dv) {
+    for (int du = -radius; du <= radius; ++du) {
       if (du == 0 && dv == 0) continue;  // the centre is what is tested
       const size_t j = static_cast<size_t>(v0 + dv) * frame.width + (u0 + du);
       if (plane_of_pixel[j] != plane_of_pixel[i] || frame.depth[j] <= 0) continue;
@@ -239,11 +249,74 @@ bool LocalResidual(const DepthFrame& frame,
       ++count;
     }
   }
-  if (count < 30) return false;
+  const int window = (2 * radius + 1) * (2 * radius + 1) - 1;
+  if (count < window * 5 / 8) return false;
   const Eigen::Vector3d fit = normal_matrix.ldlt().solve(right_side);
   *residual = frame.depth[i] - fit.x();
   return true;
 }
+
+constexpr int kLocalRadius = 3, kBroadRadius = 7;
+
+// Per plane, summed-area tables of its returned pixels' count and depth:
+// where a window holds the plane's pixels only, all of them returned, the
+// least-squares plane's value at the centre is the neighbours' mean (the
+// window is symmetric), found in O(1); other windows take LocalResidual.
+class PlaneWindowSums {
+ public:
+  PlaneWindowSums(const DepthFrame& frame, const std::vector<int>& plane_of_pixel, int planes)
+      : width_(frame.width + 1), height_(frame.height + 1) {
+    count_.assign(static_cast<size_t>(planes), std::vector<double>(width_ * height_, 0.0));
+    depth_ = count_;
+    for (int k = 0; k < planes; ++k) {
+      for (int v = 0; v < frame.height; ++v) {
+        double row_count = 0, row_depth = 0;
+        for (int u = 0; u < frame.width; ++u) {
+          const size_t i = static_cast<size_t>(v) * frame.width + u;
+          if (plane_of_pixel[i] == k && frame.depth[i] > 0) {
+            row_count += 1;
+            row_depth += frame.depth[i];
+          }
+          const size_t at = Index(u + 1, v + 1);
+          count_[k][at] = count_[k][Index(u + 1, v)] + row_count;
+          depth_[k][at] = depth_[k][Index(u + 1, v)] + row_depth;
+        }
+      }
+    }
+  }
+
+  // Whether pixel i's window lies inside the image, all of it plane k's
+  // returned pixels.
+  bool Complete(const DepthFrame& frame, size_t i, int k, int radius) const {
+    const int u = static_cast<int>(i % frame.width), v = static_cast<int>(i / frame.width);
+    if (k < 0 || u < radius || v < radius || u + radius >= frame.width ||
+        v + radius >= frame.height)
+      return false;
+    return Box(count_[k], u, v, radius) == (2 * radius + 1) * (2 * radius + 1);
+  }
+
+  // The residual of pixel i (plane k, returned) against its complete window,
+  // or false when the window is not complete.
+  bool Residual(const DepthFrame& frame, size_t i, int k, int radius, double* residual) const {
+    if (!Complete(frame, i, k, radius)) return false;
+    const int u = static_cast<int>(i % frame.width), v = static_cast<int>(i / frame.width);
+    const int window = (2 * radius + 1) * (2 * radius + 1);
+    const double neighbours = Box(depth_[k], u, v, radius) - frame.depth[i];
+    *residual = frame.depth[i] - neighbours / (window - 1);
+    return true;
+  }
+
+ private:
+  size_t Index(int u, int v) const { return static_cast<size_t>(v) * width_ + u; }
+  double Box(const std::vector<double>& table, int u, int v, int radius) const {
+    const int u0 = u - radius, v0 = v - radius, u1 = u + radius + 1, v1 = v + radius + 1;
+    return table[Index(u1, v1)] - table[Index(u0, v1)] - table[Index(u1, v0)] +
+           table[Index(u0, v0)];
+  }
+
+  size_t width_, height_;
+  std::vector<std::vector<double>> count_, depth_;
+};
 
 // The frame's points within [kLowM, kHighM).
 FramePlanes PointsInRange(const DepthFrame& depth, const CameraIntrinsics& camera) {
@@ -262,91 +335,281 @@ FramePlanes PointsInRange(const DepthFrame& depth, const CameraIntrinsics& camer
 
 }  // namespace
 
-SensorNoiseComparison CompareSensorNoise(const std::vector<NoiseFrame>& frames,
-                                         const KinectNoiseOptions& options,
-                                         uint64_t seed) {
-  const int bin_count = static_cast<int>(std::round((kHighM - kLowM) / kBinM));
-  std::vector<std::vector<double>> real(bin_count), simulated(bin_count);
-  SensorNoiseComparison result;
-  KinectNoiseModel model(options);
+namespace {
+
+int BinCount() { return static_cast<int>(std::round((kHighM - kLowM) / kBinM)); }
+
+int BinOf(double z) { return std::min(BinCount() - 1, static_cast<int>((z - kLowM) / kBinM)); }
+
+}  // namespace
+
+// One frame with its planes found: the ideal frame the model is run on and
+// each plane pixel's depth.
+struct SensorNoiseBench::PlaneFrame {
+  DepthFrame ideal;
+  CameraIntrinsics camera;
+  std::vector<int> plane_of_pixel;
+  std::vector<double> plane_depth;
+  int planes = 0;
+  // Pixels whose 15 x 15 window is all on their plane: where missing depth
+  // is counted (at a plane's border the bench's ideal frame ends, and the
+  // model's jitter and edge dropout would meet nothing there).
+  std::vector<char> interior;
+};
+
+// Per bin, the residuals (local, broad) and the plane pixels with and
+// without a return.
+struct SensorNoiseBench::Samples {
+  std::vector<std::vector<double>> local, broad;
+  std::vector<int64_t> plane_pixels, missing;
+  Samples()
+      : local(BinCount()), broad(BinCount()), plane_pixels(BinCount(), 0), missing(BinCount(), 0) {}
+
+  void Add(const DepthFrame& depth, const PlaneFrame& f) {
+    const PlaneWindowSums sums(depth, f.plane_of_pixel, f.planes);
+    auto residual_of = [&](size_t i, int radius, double* residual) {
+      return sums.Residual(depth, i, f.plane_of_pixel[i], radius, residual) ||
+             LocalResidual(depth, f.plane_of_pixel, i, radius, residual);
+    };
+    for (size_t i = 0; i < depth.depth.size(); ++i) {
+      const double z = f.plane_depth[i];
+      if (z < kLowM || z >= kHighM) continue;
+      const int bin = BinOf(z);
+      if (f.interior[i]) {
+        ++plane_pixels[bin];
+        missing[bin] += depth.depth[i] <= 0;
+      }
+      if (depth.depth[i] <= 0) continue;
+      double residual = 0;
+      if (residual_of(i, kLocalRadius, &residual) && std::abs(residual) <= Band(z))
+        local[bin].push_back(residual);
+      if (residual_of(i, kBroadRadius, &residual) && std::abs(residual) <= Band(z))
+        broad[bin].push_back(residual);
+    }
+  }
+};
+
+SensorNoiseBench::SensorNoiseBench(const std::vector<NoiseFrame>& frames)
+    : real_(std::make_unique<Samples>()) {
   pcl::console::setVerbosityLevel(pcl::console::L_ALWAYS);
-  for (size_t frame = 0; frame < frames.size(); ++frame) {
-    const DepthFrame& depth = frames[frame].depth;
-    const CameraIntrinsics& camera = frames[frame].camera;
-    FramePlanes f = PointsInRange(depth, camera);
+  for (const NoiseFrame& frame : frames) {
+    const DepthFrame& depth = frame.depth;
+    FramePlanes f = PointsInRange(depth, frame.camera);
     if (f.points.size() < 1000) continue;
     FindPlanes(&f);
     if (f.planes.empty()) continue;
     FillDropouts(depth, &f.plane_of_pixel);
-    ++result.frames;
-    result.planes += static_cast<int>(f.planes.size());
-    std::vector<double> plane_depth;
-    const DepthFrame ideal = IdealFrame(f, depth, camera, &plane_depth);
-    DepthFrame noisy;
-    model.Apply(ideal, camera, seed + frame, &noisy);
-    for (size_t i = 0; i < depth.depth.size(); ++i) {
-      const double z = plane_depth[i];
-      if (z < kLowM || z >= kHighM) continue;
-      const int bin = std::min(bin_count - 1, static_cast<int>((z - kLowM) / kBinM));
-      double residual = 0;
-      if (depth.depth[i] > 0 && LocalResidual(depth, f.plane_of_pixel, i, &residual) &&
-          std::abs(residual) <= Band(z))
-        real[bin].push_back(residual);
-      if (noisy.depth[i] > 0 && LocalResidual(noisy, f.plane_of_pixel, i, &residual) &&
-          std::abs(residual) <= Band(z))
-        simulated[bin].push_back(residual);
-    }
+    planes_ += static_cast<int>(f.planes.size());
+    PlaneFrame plane_frame;
+    plane_frame.camera = frame.camera;
+    plane_frame.planes = static_cast<int>(f.planes.size());
+    plane_frame.ideal = IdealFrame(f, depth, frame.camera, &plane_frame.plane_depth);
+    plane_frame.plane_of_pixel = std::move(f.plane_of_pixel);
+    const PlaneWindowSums ideal_sums(
+        plane_frame.ideal, plane_frame.plane_of_pixel, plane_frame.planes);
+    plane_frame.interior.assign(depth.depth.size(), 0);
+    for (size_t i = 0; i < depth.depth.size(); ++i)
+      plane_frame.interior[i] =
+          ideal_sums.Complete(plane_frame.ideal, i, plane_frame.plane_of_pixel[i], kBroadRadius);
+    real_->Add(depth, plane_frame);
+    frames_.push_back(std::move(plane_frame));
   }
-  for (int b = 0; b < bin_count; ++b) {
+}
+
+SensorNoiseBench::~SensorNoiseBench() = default;
+
+int SensorNoiseBench::frames() const { return static_cast<int>(frames_.size()); }
+
+SensorNoiseComparison SensorNoiseBench::Compare(const KinectNoiseOptions& options,
+                                                uint64_t seed) const {
+  KinectNoiseModel model(options);
+  Samples simulated;
+  DepthFrame noisy;
+  for (size_t frame = 0; frame < frames_.size(); ++frame) {
+    model.Apply(frames_[frame].ideal, frames_[frame].camera, seed + frame, &noisy);
+    simulated.Add(noisy, frames_[frame]);
+  }
+  SensorNoiseComparison result;
+  result.frames = static_cast<int>(frames_.size());
+  result.planes = planes_;
+  auto share = [](int64_t part, int64_t whole) {
+    return whole > 0 ? static_cast<double>(part) / whole : std::nan("");
+  };
+  for (int b = 0; b < BinCount(); ++b) {
     NoiseBin bin;
     bin.low_m = kLowM + b * kBinM;
     bin.high_m = bin.low_m + kBinM;
-    bin.real_pixels = static_cast<int64_t>(real[b].size());
-    bin.simulated_pixels = static_cast<int64_t>(simulated[b].size());
-    bin.real_sigma_m = RobustSigma(real[b]);
-    bin.simulated_sigma_m = RobustSigma(simulated[b]);
+    bin.real_pixels = static_cast<int64_t>(real_->local[b].size());
+    bin.simulated_pixels = static_cast<int64_t>(simulated.local[b].size());
+    bin.real_sigma_m = RobustSigma(real_->local[b]);
+    bin.simulated_sigma_m = RobustSigma(simulated.local[b]);
+    bin.real_broad_sigma_m = RobustSigma(real_->broad[b]);
+    bin.simulated_broad_sigma_m = RobustSigma(simulated.broad[b]);
+    bin.real_missing_share = share(real_->missing[b], real_->plane_pixels[b]);
+    bin.simulated_missing_share = share(simulated.missing[b], simulated.plane_pixels[b]);
     result.bins.push_back(bin);
   }
   return result;
 }
 
+SensorNoiseComparison CompareSensorNoise(const std::vector<NoiseFrame>& frames,
+                                         const KinectNoiseOptions& options,
+                                         uint64_t seed) {
+  return SensorNoiseBench(frames).Compare(options, seed);
+}
+
+double SensorFitError(const SensorNoiseComparison& c) {
+  double error = 0, weight = 0;
+  for (const NoiseBin& bin : c.bins) {
+    if (bin.real_pixels < kMinFitPixels || bin.simulated_pixels < kMinFitPixels) continue;
+    const double w = std::log(static_cast<double>(std::min(bin.real_pixels, bin.simulated_pixels)));
+    for (const auto& [simulated, real] :
+         {std::pair{bin.simulated_sigma_m, bin.real_sigma_m},
+          std::pair{bin.simulated_broad_sigma_m, bin.real_broad_sigma_m}}) {
+      if (!(simulated > 0 && real > 0)) continue;
+      const double log_ratio = std::log(simulated / real);
+      error += w * log_ratio * log_ratio;
+      weight += w;
+    }
+  }
+  return weight > 0 ? std::sqrt(error / weight) : std::nan("");
+}
+
+namespace {
+
+// The weighted mean of log(model sigma / real sigma) over the fitted bins:
+// how much louder the model is (0: as loud).
+double MeanLogRatio(const SensorNoiseComparison& c) {
+  double sum = 0, weight = 0;
+  for (const NoiseBin& bin : c.bins) {
+    if (bin.real_pixels < kMinFitPixels || bin.simulated_pixels < kMinFitPixels) continue;
+    const double w = std::log(static_cast<double>(std::min(bin.real_pixels, bin.simulated_pixels)));
+    for (const auto& [simulated, real] :
+         {std::pair{bin.simulated_sigma_m, bin.real_sigma_m},
+          std::pair{bin.simulated_broad_sigma_m, bin.real_broad_sigma_m}}) {
+      if (!(simulated > 0 && real > 0)) continue;
+      sum += w * std::log(simulated / real);
+      weight += w;
+    }
+  }
+  return weight > 0 ? sum / weight : 0;
+}
+
+}  // namespace
+
+SensorFit FitSensorNoise(const std::vector<NoiseFrame>& frames,
+                         const KinectNoiseOptions& base,
+                         uint64_t seed) {
+  const SensorNoiseBench bench(frames);
+  Require(bench.frames() > 0, "no frame has a plane of 5 % of its pixels to fit the sensor on");
+  SensorFit fit;
+  fit.options = base;
+  fit.before = bench.Compare(base, seed);
+  fit.before_error = SensorFitError(fit.before);
+  fit.error = std::numeric_limits<double>::infinity();
+  Progress progress("sensor fit", kFitRadii.size() * kFitShares.size() * kFitScaleSteps, "models");
+  for (int radius : kFitRadii) {
+    for (double share : kFitShares) {
+      // The sigmas grow about in proportion to the scale (quantisation
+      // aside): each step scales by the remaining mean ratio.
+      KinectNoiseOptions candidate = base;
+      candidate.correlation_radius_px = radius;
+      candidate.correlated_share = share;
+      candidate.noise_scale = 1.0;
+      for (int step = 0; step < kFitScaleSteps; ++step) {
+        const SensorNoiseComparison c = bench.Compare(candidate, seed);
+        const double error = SensorFitError(c);
+        ++fit.candidates;
+        if (error < fit.error) {  // ties keep the earlier model
+          fit.error = error;
+          fit.options = candidate;
+          fit.after = c;
+        }
+        candidate.noise_scale =
+            std::clamp(candidate.noise_scale * std::exp(-MeanLogRatio(c)), 0.05, 10.0);
+        progress.Advance();
+      }
+    }
+  }
+  progress.Finish();
+  Require(std::isfinite(fit.error),
+          "no depth bin has " + std::to_string(kMinFitPixels) +
+              " plane pixels in both the frames and the model to fit the sensor on");
+  return fit;
+}
+
 std::string SensorNoiseText(const SensorNoiseComparison& c) {
   std::ostringstream text;
   text << c.frames << " frames, " << c.planes
-       << " planes (floor and walls): depth noise, robust sigma in mm\n"
-       << "  depth m     real (pixels)        model (pixels)     model/real\n";
-  char line[160];
+       << " planes (floor and walls): depth noise, robust sigma in mm against a 7x7 and a "
+          "15x15 local plane; plane pixels without a return\n"
+       << "  depth m   real 7x7 15x15 (pixels)      model 7x7 15x15 (pixels)   model/real 7x7 "
+          "15x15   missing real model\n";
+  char line[200];
   for (const NoiseBin& bin : c.bins) {
     if (bin.real_pixels == 0 && bin.simulated_pixels == 0) continue;
     std::snprintf(line,
                   sizeof(line),
-                  "  %.1f-%.1f   %6.1f (%8lld)   %6.1f (%8lld)   %5.2f\n",
+                  "  %.1f-%.1f   %6.1f %6.1f (%8lld)   %6.1f %6.1f (%8lld)   %5.2f %5.2f   "
+                  "%5.1f %% %5.1f %%\n",
                   bin.low_m,
                   bin.high_m,
                   1000 * bin.real_sigma_m,
+                  1000 * bin.real_broad_sigma_m,
                   static_cast<long long>(bin.real_pixels),
                   1000 * bin.simulated_sigma_m,
+                  1000 * bin.simulated_broad_sigma_m,
                   static_cast<long long>(bin.simulated_pixels),
-                  bin.simulated_sigma_m / bin.real_sigma_m);
+                  bin.simulated_sigma_m / bin.real_sigma_m,
+                  bin.simulated_broad_sigma_m / bin.real_broad_sigma_m,
+                  100 * bin.real_missing_share,
+                  100 * bin.simulated_missing_share);
     text << line;
   }
-  return text.str();
+  char fit[96];
+  std::snprintf(fit, sizeof fit, "  fit error (rms log sigma ratio): %.3f\n", SensorFitError(c));
+  return text.str() + fit;
 }
 
-std::string SensorNoiseJson(const SensorNoiseComparison& c) {
+namespace {
+
+nlohmann::ordered_json BinsJson(const SensorNoiseComparison& c) {
   nlohmann::ordered_json bins = nlohmann::ordered_json::array();
+  auto number = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); };
   for (const NoiseBin& bin : c.bins) {
-    auto number = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); };
     bins.push_back({{"low_m", bin.low_m},
                     {"high_m", bin.high_m},
                     {"real_pixels", bin.real_pixels},
                     {"real_sigma_m", number(bin.real_sigma_m)},
+                    {"real_broad_sigma_m", number(bin.real_broad_sigma_m)},
+                    {"real_missing_share", number(bin.real_missing_share)},
                     {"simulated_pixels", bin.simulated_pixels},
-                    {"simulated_sigma_m", number(bin.simulated_sigma_m)}});
+                    {"simulated_sigma_m", number(bin.simulated_sigma_m)},
+                    {"simulated_broad_sigma_m", number(bin.simulated_broad_sigma_m)},
+                    {"simulated_missing_share", number(bin.simulated_missing_share)}});
   }
-  return nlohmann::ordered_json{{"frames", c.frames}, {"planes", c.planes}, {"bins", bins}}.dump(
-             2) +
-         "\n";
+  return nlohmann::ordered_json{{"frames", c.frames},
+                                {"planes", c.planes},
+                                {"fit_error", number(SensorFitError(c))},
+                                {"bins", bins}};
+}
+
+}  // namespace
+
+std::string SensorNoiseJson(const SensorNoiseComparison& c) { return BinsJson(c).dump(2) + "\n"; }
+
+std::string SensorFitJson(const SensorFit& fit) {
+  const nlohmann::ordered_json json{
+      {"options",
+       {{"noise_scale", fit.options.noise_scale},
+        {"correlated_share", fit.options.correlated_share},
+        {"correlation_radius_px", fit.options.correlation_radius_px}}},
+      {"candidates", fit.candidates},
+      {"before_error", fit.before_error},
+      {"error", fit.error},
+      {"before", BinsJson(fit.before)},
+      {"after", BinsJson(fit.after)}};
+  return json.dump(2) + "\n";
 }
 
 std::vector<NoiseFrame> NoiseFramesOf(const std::string& db_path, int max_frames) {

@@ -150,6 +150,7 @@ GenerateOptions TrainingRooms(const VoteNetTrainingOptions& options,
   generate.room.include_evaluation_only = false;
   generate.room.include_vote_net_only = true;
   generate.excluded_models = held_out;
+  generate.noise = options.sensor;
   return generate;
 }
 

@@ -23,6 +23,7 @@
 #include "core/learned/vote_net_training.h"
 #include "core/operating_point.h"
 #include "core/trainer.h"
+#include "renderers/kinect_noise.h"
 #include "scenes/catalog.h"
 #include "scenes/procedural_shapes.h"
 #include "scenes/room_composer.h"
@@ -82,6 +83,10 @@ struct VoteNetTrainingOptions {
     jittered.size_jitter = 0.2;
     return jittered;
   }();
+  // The Kinect model the training rooms are rendered with (issue 69): the
+  // published one, or a fit to real frames (`dataset noise --fit`,
+  // `train --vote-sensor FILE`).
+  KinectNoiseOptions sensor;
   // Procedural tables and sideboards per class (scenes/procedural_shapes.h)
   // added to the training rooms' catalog, never to evaluation; 0: none.
   int shape_variety = 0;
