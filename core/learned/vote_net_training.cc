@@ -129,15 +129,15 @@ std::vector<torch::nn::BatchNorm2dImpl*> BatchNorms(UNet net) {
 
 // One member's statistics re-estimated on `images`, blended with its own;
 // adds each channel's |mean shift| / old sd and log variance ratio to the
-// sums.
-void AdaptMember(UNet net,
-                 const std::vector<const BevImage*>& images,
-                 const BevGridSpec& spec,
-                 int batch_size,
-                 double blend,
-                 double* shift_sum,
-                 double* log_ratio_sum,
-                 int64_t* channels) {
+// sums and returns the member's batch normalisations.
+int AdaptMember(UNet net,
+                const std::vector<const BevImage*>& images,
+                const BevGridSpec& spec,
+                int batch_size,
+                double blend,
+                double* shift_sum,
+                double* log_ratio_sum,
+                int64_t* channels) {
   const std::vector<torch::nn::BatchNorm2dImpl*> norms = BatchNorms(net);
   std::vector<torch::Tensor> old_mean, old_var, old_batches;
   // torch's optional (c10's, std's in newer releases): empty is the cumulative average.
@@ -171,6 +171,7 @@ void AdaptMember(UNet net,
     *log_ratio_sum += ((norm.running_var + eps) / (old_var[i] + eps)).log().sum().item<double>();
     *channels += norm.running_mean.numel();
   }
+  return static_cast<int>(norms.size());
 }
 
 }  // namespace
@@ -196,17 +197,15 @@ NormalisationShift AdaptNormalisation(VoteNet* net,
   shift.images = static_cast<int64_t>(images.size());
   double shift_sum = 0, log_ratio_sum = 0;
   int64_t channels = 0;
-  for (UNet& member : members) {
-    AdaptMember(member,
-                images,
-                impl.options.grid,
-                batch_size,
-                blend,
-                &shift_sum,
-                &log_ratio_sum,
-                &channels);
-    shift.layers += static_cast<int>(BatchNorms(member).size());
-  }
+  for (UNet& member : members)
+    shift.layers += AdaptMember(member,
+                                images,
+                                impl.options.grid,
+                                batch_size,
+                                blend,
+                                &shift_sum,
+                                &log_ratio_sum,
+                                &channels);
   if (channels > 0) {
     shift.mean_shift_sd = shift_sum / channels;
     shift.variance_ratio = std::exp(log_ratio_sum / channels);

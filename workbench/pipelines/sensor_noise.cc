@@ -458,44 +458,45 @@ SensorNoiseComparison CompareSensorNoise(const std::vector<NoiseFrame>& frames,
   return SensorNoiseBench(frames).Compare(options, seed);
 }
 
-double SensorFitError(const SensorNoiseComparison& c) {
-  double error = 0, weight = 0;
+namespace {
+
+// Calls visit(weight, log(model sigma / real sigma)) for the 7x7 and 15x15
+// sigmas of every bin with kMinFitPixels in both, weighted by the log of the
+// pixels.
+template <typename Visit>
+void ForEachFittedRatio(const SensorNoiseComparison& c, Visit&& visit) {
   for (const NoiseBin& bin : c.bins) {
     if (bin.real_pixels < kMinFitPixels || bin.simulated_pixels < kMinFitPixels) continue;
     const double w = std::log(static_cast<double>(std::min(bin.real_pixels, bin.simulated_pixels)));
     for (const auto& [simulated, real] :
          {std::pair{bin.simulated_sigma_m, bin.real_sigma_m},
           std::pair{bin.simulated_broad_sigma_m, bin.real_broad_sigma_m}}) {
-      if (!(simulated > 0 && real > 0)) continue;
-      const double log_ratio = std::log(simulated / real);
-      error += w * log_ratio * log_ratio;
-      weight += w;
+      if (simulated > 0 && real > 0) visit(w, std::log(simulated / real));
     }
   }
-  return weight > 0 ? std::sqrt(error / weight) : std::nan("");
 }
-
-namespace {
 
 // The weighted mean of log(model sigma / real sigma) over the fitted bins:
 // how much louder the model is (0: as loud).
 double MeanLogRatio(const SensorNoiseComparison& c) {
   double sum = 0, weight = 0;
-  for (const NoiseBin& bin : c.bins) {
-    if (bin.real_pixels < kMinFitPixels || bin.simulated_pixels < kMinFitPixels) continue;
-    const double w = std::log(static_cast<double>(std::min(bin.real_pixels, bin.simulated_pixels)));
-    for (const auto& [simulated, real] :
-         {std::pair{bin.simulated_sigma_m, bin.real_sigma_m},
-          std::pair{bin.simulated_broad_sigma_m, bin.real_broad_sigma_m}}) {
-      if (!(simulated > 0 && real > 0)) continue;
-      sum += w * std::log(simulated / real);
-      weight += w;
-    }
-  }
+  ForEachFittedRatio(c, [&](double w, double log_ratio) {
+    sum += w * log_ratio;
+    weight += w;
+  });
   return weight > 0 ? sum / weight : 0;
 }
 
 }  // namespace
+
+double SensorFitError(const SensorNoiseComparison& c) {
+  double error = 0, weight = 0;
+  ForEachFittedRatio(c, [&](double w, double log_ratio) {
+    error += w * log_ratio * log_ratio;
+    weight += w;
+  });
+  return weight > 0 ? std::sqrt(error / weight) : std::nan("");
+}
 
 SensorFit FitSensorNoise(const std::vector<NoiseFrame>& frames,
                          const KinectNoiseOptions& base,
