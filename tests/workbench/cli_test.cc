@@ -534,7 +534,7 @@ TEST(Cli, AdaptReestimatesTheStatisticsOnUnlabelledScans) {
       {adapt + "--db " + dir + "/scans.db --split sideways", "--split 'sideways' must be"},
   };
   for (const auto& [arguments, message] : bad) {
-    const RunResult result = RunWorkbench(arguments + " --out " + dir + "/bad.fcm");
+    const RunResult result = RunWorkbench(arguments + " --quiet --out " + dir + "/bad.fcm");
     EXPECT_EQ(result.exit_code, 1) << arguments;
     EXPECT_EQ(CountErrorLines(result.output), 1u) << result.output;
     EXPECT_NE(result.output.find(message), std::string::npos) << result.output;
