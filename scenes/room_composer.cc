@@ -152,6 +152,47 @@ bool PlaceAgainstWall(const ComposerCatalog::Item& item,
   return false;
 }
 
+// Small clutter on the tops of a share of the tables and sideboards: one to
+// three pieces each, inside the top's footprint, not overlapping each other.
+constexpr double kSurfaceItemSideM = 0.5;
+void PlaceOnSurfaces(const ComposerCatalog& catalog, double share, RoomLayout* room, Rng* rng) {
+  std::vector<const ComposerCatalog::Item*> small;
+  for (const ComposerCatalog::Item& item : catalog.clutter) {
+    if (item.size_m.maxCoeff() <= kSurfaceItemSideM) small.push_back(&item);
+  }
+  if (small.empty()) return;
+  const size_t pieces = room->objects.size();  // the tops of these only
+  for (size_t i = 0; i < pieces; ++i) {
+    const PlacedObject surface = room->objects[i];  // a copy: the vector grows below
+    if (surface.furniture_class != FurnitureClass::kTable &&
+        surface.furniture_class != FurnitureClass::kSideboard) {
+      continue;
+    }
+    if (!rng->Bernoulli(share)) continue;
+    const size_t wanted = static_cast<size_t>(rng->UniformInt(1, 3));
+    std::vector<PlacedObject> on_top;
+    for (int attempt = 0; attempt < kPlacementAttempts && on_top.size() < wanted; ++attempt) {
+      const ComposerCatalog::Item& item =
+          *small[rng->UniformInt(0, static_cast<int64_t>(small.size()) - 1)];
+      // Any yaw keeps the piece within its footprint's circumscribed circle.
+      const double radius = item.size_m.head<2>().norm() / 2 + 0.02;
+      const double hx = surface.size_m.x() / 2 - radius, hy = surface.size_m.y() / 2 - radius;
+      if (hx <= 0 || hy <= 0) continue;
+      const Eigen::Vector2d place =
+          Eigen::Vector2d(surface.x, surface.y) +
+          Eigen::Rotation2Dd(surface.yaw) *
+              Eigen::Vector2d(rng->Uniform(-hx, hx), rng->Uniform(-hy, hy));
+      PlacedObject object = MakeObject(item, place.x(), place.y(), rng->Uniform(0, 2 * M_PI));
+      object.z = surface.size_m.z();
+      const bool free = std::none_of(on_top.begin(), on_top.end(), [&](const PlacedObject& other) {
+        return FootprintsOverlap(object, other, 0.02);
+      });
+      if (free) on_top.push_back(object);
+    }
+    room->objects.insert(room->objects.end(), on_top.begin(), on_top.end());
+  }
+}
+
 // A table with chairs at its sides, facing it. Returns how many pieces it placed.
 int PlaceDiningGroup(const ComposerCatalog& catalog,
                      const SizeJitter& jitter,
@@ -256,6 +297,10 @@ void RoomOptions::Check() const {
           "camera heights must satisfy 0 < min <= max < wall height");
   Require(min_pitch_deg >= -30 && max_pitch_deg >= min_pitch_deg && max_pitch_deg <= 80,
           "camera pitch must satisfy -30 <= min <= max <= 80 degrees");
+  Require(max_clutter_side_m >= 0.3 && max_clutter_side_m <= 4,
+          "max_clutter_side_m " + std::to_string(max_clutter_side_m) + " must be in [0.3, 4]");
+  Require(surface_clutter >= 0 && surface_clutter <= 1,
+          "surface_clutter " + std::to_string(surface_clutter) + " must be in [0, 1]");
   Require(size_jitter >= 0 && size_jitter <= 0.5,
           "size_jitter " + std::to_string(size_jitter) + " must be in [0, 0.5]");
 }
@@ -271,8 +316,9 @@ ComposerCatalog ComposerCatalog::From(const Catalog& catalog, const RoomOptions&
       continue;
     }
     const Eigen::Vector3d& s = item.size_m;
-    const bool plausible = !entry.door_or_window && s.x() >= 0.1 && s.y() >= 0.1 && s.x() <= 1.6 &&
-                           s.y() <= 1.6 && s.z() >= 0.05 && s.z() <= 2.0;
+    const double side = room.max_clutter_side_m;
+    const bool plausible = !entry.door_or_window && s.x() >= 0.1 && s.y() >= 0.1 && s.x() <= side &&
+                           s.y() <= side && s.z() >= 0.05 && s.z() <= 2.0;
     if (plausible) result.clutter.push_back(item);
   }
   return result;
@@ -365,6 +411,7 @@ RoomLayout ComposeRoom(const ComposerCatalog& catalog,
       }
     }
   }
+  if (options.surface_clutter > 0) PlaceOnSurfaces(catalog, options.surface_clutter, &room, &rng);
   room.objects.erase(room.objects.begin());  // the camera zone
   uint16_t next_id = kFirstObjectId;
   for (PlacedObject& object : room.objects) object.instance_id = next_id++;

@@ -33,6 +33,15 @@ struct RoomOptions {
   int max_furniture = 9;
   int min_clutter = 1;  // pieces from outside the class map
   int max_clutter = 4;
+  // The clutter entries' longest footprint side (m): 1.6 keeps beds, long
+  // shelves and kitchen runs out; real rooms have them beside the furniture
+  // (issue 69).
+  double max_clutter_side_m = 1.6;
+  // The share of tables and sideboards that carry one to three small clutter
+  // pieces on their top (footprint sides and height up to 0.5 m: lamps,
+  // plants, boxes), as real ones do (issue 69); 0: none, and no random draws,
+  // so rooms made before the option stay the same.
+  double surface_clutter = 0;
   double clearance_m = 0.05;   // free gap between footprints (m)
   double wall_height_m = 2.6;  // (m)
   int frames_per_room = 4;     // camera poses per room (1..64)
@@ -63,7 +72,8 @@ struct ComposerCatalog {
   std::vector<Item> furniture;  // class-mapped
   std::vector<Item> clutter;    // plausible distractors outside the class map
 
-  // Clutter: not a door or window, 0.1..1.6 m footprint sides, 0.05..2.0 m tall.
+  // Clutter: not a door or window, footprint sides 0.1 m .. the room options'
+  // max_clutter_side_m, 0.05..2.0 m tall.
   // The room options' include_* flags decide which class-mapped entries are
   // furniture (evaluation-only: yes by default; vote-net-only: no).
   static ComposerCatalog From(const Catalog& catalog, const RoomOptions& room = RoomOptions{});
@@ -75,12 +85,13 @@ struct PlacedObject {
   std::string model_id;
   std::optional<FurnitureClass> furniture_class;  // set for detection targets
   uint16_t instance_id = 0;
-  double x = 0, y = 0, yaw = 0;  // pose of the model frame (base on the floor, z = 0)
+  double x = 0, y = 0, yaw = 0;  // pose of the model frame (base on the floor, z = 0) ...
+  double z = 0;                  // ... or on the top of another piece (surface clutter)
   Eigen::Vector3d size_m = Eigen::Vector3d::Zero();
   Eigen::Vector3d scale = Eigen::Vector3d::Ones();  // of the model's mesh (size jitter)
 
   bool IsTarget() const { return furniture_class.has_value(); }
-  Eigen::Isometry3d WorldFromObject() const { return PoseXYZYaw(x, y, 0, yaw); }
+  Eigen::Isometry3d WorldFromObject() const { return PoseXYZYaw(x, y, z, yaw); }
 };
 
 struct RoomLayout {

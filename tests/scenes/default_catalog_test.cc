@@ -8,6 +8,7 @@
 
 #include "scenes/catalog.h"
 #include "scenes/model_folds.h"
+#include "scenes/room_composer.h"
 #include "tests/scenes/vote_net_only_map.h"
 #include "tests/test_util.h"
 
@@ -86,6 +87,21 @@ TEST_F(DefaultCatalog, VoteNetOnlyEntriesLeaveProtocolEFoldsAsTheyWere) {
         << "fold seed " << seed;
     EXPECT_EQ(with_them.fold_of_model.size() + vote_net_only, with_extras.Classified().size());
   }
+}
+
+// The clutter a room may hold (issue 69): a longer footprint side lets the
+// catalogs' beds, long shelves and kitchen runs in beside the furniture.
+TEST_F(DefaultCatalog, ALongerClutterSideLetsBedsIn) {
+  RoomOptions room;
+  const ComposerCatalog usual = ComposerCatalog::From(*catalog_, room);
+  room.max_clutter_side_m = 2.4;
+  const ComposerCatalog wider = ComposerCatalog::From(*catalog_, room);
+  EXPECT_EQ(wider.furniture.size(), usual.furniture.size());
+  int long_pieces = 0;
+  for (const ComposerCatalog::Item& item : wider.clutter)
+    long_pieces += item.size_m.head<2>().maxCoeff() > 1.6;
+  EXPECT_EQ(wider.clutter.size(), usual.clutter.size() + long_pieces);
+  EXPECT_GE(long_pieces, 5);
 }
 
 }  // namespace

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <map>
 #include <memory>
+#include <vector>
 
 #include "core/error.h"
 #include "scenes/catalog.h"
@@ -159,6 +160,56 @@ TEST(RoomComposer, SizeJitterResizesPiecesWithinTheirClassAndTheMeshFollows) {
   EXPECT_GT(resized, 50);
   EXPECT_GT(anisotropic, 50);
   options.size_jitter = 0.6;
+  EXPECT_THROW(ComposeRoom(catalog, options, 1), InputError);
+}
+
+// Surface clutter (issue 69): small pieces on the tops of tables and
+// sideboards, at the top's height, inside its footprint, not overlapping each
+// other; the pieces on the floor are those of the room without it.
+TEST(RoomComposer, SurfaceClutterSitsOnTheTopsOfTablesAndSideboards) {
+  const ComposerCatalog catalog = ProceduralComposerCatalog();
+  RoomOptions plain_options, options;
+  options.surface_clutter = 1;
+  int on_top = 0;
+  for (uint64_t seed = 1; seed <= 30; ++seed) {
+    const RoomLayout plain = ComposeRoom(catalog, plain_options, seed);
+    const RoomLayout room = ComposeRoom(catalog, options, seed);
+    std::vector<const PlacedObject*> floor_pieces, surface_pieces;
+    for (const PlacedObject& object : room.objects)
+      (object.z > 0 ? surface_pieces : floor_pieces).push_back(&object);
+    ASSERT_EQ(floor_pieces.size(), plain.objects.size()) << "seed " << seed;
+    for (size_t k = 0; k < floor_pieces.size(); ++k) {
+      EXPECT_EQ(floor_pieces[k]->model_id, plain.objects[k].model_id);
+      EXPECT_EQ(floor_pieces[k]->x, plain.objects[k].x);
+    }
+    for (const PlacedObject* piece : surface_pieces) {
+      ++on_top;
+      EXPECT_FALSE(piece->IsTarget());
+      EXPECT_EQ(piece->model_id, "clutter/box") << "only pieces up to 0.5 m go on tops";
+      const PlacedObject* under = nullptr;
+      for (const PlacedObject* floor_piece : floor_pieces) {
+        const Eigen::Vector2d local =
+            Eigen::Rotation2Dd(-floor_piece->yaw) *
+            Eigen::Vector2d(piece->x - floor_piece->x, piece->y - floor_piece->y);
+        if (std::abs(local.x()) < floor_piece->size_m.x() / 2 &&
+            std::abs(local.y()) < floor_piece->size_m.y() / 2)
+          under = floor_piece;
+      }
+      ASSERT_NE(under, nullptr) << "seed " << seed;
+      EXPECT_TRUE(under->furniture_class == FurnitureClass::kTable ||
+                  under->furniture_class == FurnitureClass::kSideboard);
+      EXPECT_DOUBLE_EQ(piece->z, under->size_m.z());
+      EXPECT_DOUBLE_EQ(piece->WorldFromObject().translation().z(), under->size_m.z());
+      for (const PlacedObject* other : surface_pieces) {
+        if (other != piece) EXPECT_FALSE(FootprintsOverlap(*piece, *other, 0.01));
+      }
+    }
+  }
+  EXPECT_GT(on_top, 20);
+  options.surface_clutter = 1.5;
+  EXPECT_THROW(ComposeRoom(catalog, options, 1), InputError);
+  options = RoomOptions{};
+  options.max_clutter_side_m = 0.1;
   EXPECT_THROW(ComposeRoom(catalog, options, 1), InputError);
 }
 

@@ -154,6 +154,20 @@ void AddVoteNetRoomFlags(CLI::App* app, VoteNetTrainingOptions* options) {
                   o.room.size_jitter,
                   "Vote network: per-side size jitter of the training rooms' furniture (0..0.5)")
       ->capture_default_str();
+  app->add_option("--vote-max-clutter",
+                  o.room.max_clutter,
+                  "Vote network: most clutter pieces per training room (at least one; issue 69)")
+      ->capture_default_str();
+  app->add_option("--vote-clutter-side",
+                  o.room.max_clutter_side_m,
+                  "Vote network: longest footprint side of the training rooms' clutter (m; "
+                  "larger lets beds, long shelves and kitchen runs in)")
+      ->capture_default_str();
+  app->add_option("--vote-surface-clutter",
+                  o.room.surface_clutter,
+                  "Vote network: share of the training rooms' tables and sideboards with small "
+                  "clutter on top (0..1)")
+      ->capture_default_str();
   app->add_option("--vote-shape-variety",
                   o.shape_variety,
                   "Vote network: procedural tables and sideboards per class (four-leg, pedestal, "

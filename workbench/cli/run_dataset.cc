@@ -119,6 +119,16 @@ int RunGenerate(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--max-clutter", options.room.max_clutter, "Most clutter pieces per room")
       ->capture_default_str();
+  app.add_option("--max-clutter-side",
+                 options.room.max_clutter_side_m,
+                 "Longest footprint side of a clutter entry (m; larger lets beds, long shelves "
+                 "and kitchen runs in)")
+      ->capture_default_str();
+  app.add_option("--surface-clutter",
+                 options.room.surface_clutter,
+                 "Share of the tables and sideboards with one to three small clutter pieces on "
+                 "top (0..1)")
+      ->capture_default_str();
   app.add_option("--model-folds",
                  options.model_folds,
                  "Leave-models-out rooms: K folds of the class-mapped models, room k's targets "

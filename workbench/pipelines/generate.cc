@@ -235,6 +235,7 @@ class RoomGenerator {
     object.furniture_class = placed.furniture_class;
     object.x = placed.x;
     object.y = placed.y;
+    object.z = placed.z;
     object.yaw = placed.yaw;
     object.reference_x = placed.x;  // the model origin is the footprint centre
     object.reference_y = placed.y;
@@ -460,6 +461,9 @@ std::string GenerateOptions::ContentJson() const {
   if (!clutter_catalog_specs.empty()) json["clutter_catalogs"] = clutter_catalog_specs;
   if (!excluded_models.empty()) json["excluded_models"] = excluded_models;
   if (room.size_jitter > 0) json["room"]["size_jitter"] = room.size_jitter;
+  if (room.max_clutter_side_m != RoomOptions{}.max_clutter_side_m)
+    json["room"]["max_clutter_side_m"] = room.max_clutter_side_m;
+  if (room.surface_clutter > 0) json["room"]["surface_clutter"] = room.surface_clutter;
   if (room.include_vote_net_only) json["room"]["include_vote_net_only"] = true;
   // The fitted sensor's fields (issue 69) only when set, likewise.
   if (noise.noise_scale != 1.0) json["noise"]["noise_scale"] = noise.noise_scale;
