@@ -201,7 +201,8 @@ TEST(RoomComposer, SurfaceClutterSitsOnTheTopsOfTablesAndSideboards) {
       EXPECT_DOUBLE_EQ(piece->z, under->size_m.z());
       EXPECT_DOUBLE_EQ(piece->WorldFromObject().translation().z(), under->size_m.z());
       for (const PlacedObject* other : surface_pieces) {
-        if (other != piece) EXPECT_FALSE(FootprintsOverlap(*piece, *other, 0.01));
+        if (other == piece) continue;
+        EXPECT_FALSE(FootprintsOverlap(*piece, *other, 0.01));
       }
     }
   }
