@@ -9,7 +9,6 @@
 #include <pcl/sample_consensus/model_types.h>
 #include <pcl/search/kdtree.h>
 #include <pcl/segmentation/sac_segmentation.h>
-#include <Eigen/Eigenvalues>
 
 #include <cmath>
 #include <cstdio>
@@ -27,8 +26,6 @@ void FloorOptions::Check() const {
           "floor RANSAC iterations " + std::to_string(iterations) + " must be in 10..100000");
   Require(max_tilt_deg >= 1 && max_tilt_deg <= 89, "floor max tilt must be in 1..89 degrees");
   Require(min_fraction > 0 && min_fraction < 1, "floor min fraction must be in (0, 1)");
-  Require(refine_iterations >= 0 && refine_iterations <= 10,
-          "floor refine iterations " + std::to_string(refine_iterations) + " must be in 0..10");
   Require(min_camera_height_m >= 0 && max_camera_height_m > min_camera_height_m,
           "floor camera heights must be 0 <= min < max (m), not " +
               std::to_string(min_camera_height_m) + " and " + std::to_string(max_camera_height_m));
@@ -107,45 +104,11 @@ class FloorSearch {
         const PlaneSupport plane = SupportOf(normal, offset);
         // The floor holds a share of what lies below the camera's height.
         if (plane.support < options_.min_fraction * plane.lower) break;
-        if (plane.below < 0.02 * sample_.size()) {
-          if (options_.refine_iterations > 0) Refine(&normal, &offset);
-          return WorldOfFloor(normal, offset);
-        }
+        if (plane.below < 0.02 * sample_.size()) return WorldOfFloor(normal, offset);
       }
       for (int i : inliers.indices) removed[i] = true;
     }
     return std::nullopt;
-  }
-
-  // The accepted plane refit by least squares to the sample points within a
-  // band that widens with depth as a Kinect's error does (the RANSAC band at
-  // 1 m, times the depth squared beyond): RANSAC's narrow band holds only the
-  // part of a slightly bent far floor (real depth is not flat there) that it
-  // happened to draw, so its tilt follows that part.
-  void Refine(Eigen::Vector3d* normal, double* offset) const {
-    for (int iteration = 0; iteration < options_.refine_iterations; ++iteration) {
-      Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-      Eigen::Matrix3d outer = Eigen::Matrix3d::Zero();
-      double count = 0;
-      for (const Eigen::Vector3f& p : sample_) {
-        const Eigen::Vector3d q = p.cast<double>();
-        const double band = options_.distance_m * std::max(1.0, q.squaredNorm());
-        if (std::abs(normal->dot(q) + *offset) > band) continue;
-        sum += q;
-        outer += q * q.transpose();
-        ++count;
-      }
-      if (count < 3) return;
-      const Eigen::Vector3d centroid = sum / count;
-      const Eigen::Matrix3d covariance = outer / count - centroid * centroid.transpose();
-      const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(covariance);
-      Eigen::Vector3d refined = solver.eigenvectors().col(0);
-      if (refined.dot(*normal) < 0) refined = -refined;
-      const double refined_offset = -refined.dot(centroid);
-      if (!IsBelowCamera(refined, refined_offset)) return;
-      *normal = refined;
-      *offset = refined_offset;
-    }
   }
 
   // A plane's support among all sample points (not only the candidates),

@@ -26,9 +26,6 @@ struct FloorOptions {
   double min_fraction = 0.01;        // the floor's share of the points lower than the camera (0..1)
   double min_camera_height_m = 0.2;  // a floor closer to the camera than this is rejected ...
   double max_camera_height_m = 3.0;  // ... and one farther below it (m): no sensor mount is higher
-  // Least-squares refits of the accepted plane within a band widening with
-  // depth (0: RANSAC's own plane, its inliers' least squares).
-  int refine_iterations = 0;
 
   void Check() const;
 };

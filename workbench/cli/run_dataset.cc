@@ -335,12 +335,6 @@ struct DatasetCommands {
                      floor_options.min_fraction,
                      "Floor search: the floor's share of the points lower than the camera")
         ->capture_default_str();
-    floors
-        ->add_option("--floor-refine",
-                     floor_options.refine_iterations,
-                     "Floor search: least-squares refits of the plane found, in a band widening "
-                     "with depth (0: none)")
-        ->capture_default_str();
   }
   DatasetCommands(const DatasetCommands&) = delete;
   DatasetCommands& operator=(const DatasetCommands&) = delete;
