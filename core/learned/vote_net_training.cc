@@ -26,8 +26,43 @@ BevSample MirroredSample(const BevSample& sample) {
   for (const BevObject& object : sample.objects)
     mirrored.objects.push_back(MirroredObject(object, sample.image.frame));
   mirrored.visibility = sample.visibility;
+  mirrored.background_known = sample.background_known;
   return mirrored;
 }
+
+namespace {
+
+// The targets' cell weights kept only near the targets' footprints
+// (BevSample::background_known false).
+void KeepWeightNearTargets(const std::vector<BevObject>& objects,
+                           const BevImage& image,
+                           BevTargets* targets) {
+  const BevGridSpec& spec = image.spec;
+  std::vector<char> near(static_cast<size_t>(spec.rows) * spec.cols, 0);
+  for (const BevObject& object : objects) {
+    if (!object.target) continue;
+    const Eigen::Vector2d cell = image.frame.CellOf(object.centre, spec);
+    const double reach =
+        0.5 * std::hypot(object.width, object.depth) / spec.cell_m + kUnknownBackgroundReachCells;
+    for (int r = 0; r < spec.rows; ++r) {
+      for (int c = 0; c < spec.cols; ++c) {
+        if (std::hypot(r + 0.5 - cell.x(), c + 0.5 - cell.y()) <= reach)
+          near[static_cast<size_t>(r) * spec.cols + c] = 1;
+      }
+    }
+  }
+  for (size_t i = 0; i < near.size(); ++i) {
+    if (!near[i]) targets->weight[i] = 0;
+  }
+}
+
+BevTargets SampleTargets(const BevSample& sample, const BevCoderOptions& coder) {
+  BevTargets targets = EncodeBevTargets(sample.objects, sample.image, coder);
+  if (!sample.background_known) KeepWeightNearTargets(sample.objects, sample.image, &targets);
+  return targets;
+}
+
+}  // namespace
 
 TrainingBatch MakeTrainingBatch(const std::vector<BevSample>& samples,
                                 const std::vector<size_t>& indices,
@@ -40,10 +75,10 @@ TrainingBatch MakeTrainingBatch(const std::vector<BevSample>& samples,
     const BevSample& sample = samples.at(indices[i]);
     if (mirror.empty() || !mirror[i]) {
       batch.images.push_back(sample.image);
-      batch.targets.push_back(EncodeBevTargets(sample.objects, sample.image, coder));
+      batch.targets.push_back(SampleTargets(sample, coder));
     } else {
       BevSample mirrored = MirroredSample(sample);
-      batch.targets.push_back(EncodeBevTargets(mirrored.objects, mirrored.image, coder));
+      batch.targets.push_back(SampleTargets(mirrored, coder));
       batch.images.push_back(std::move(mirrored.image));
     }
   }

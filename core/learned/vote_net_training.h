@@ -27,7 +27,16 @@ struct BevSample {
   // Per object, the share of it in view (as evaluation counts visibility);
   // empty: unknown (every target counts as fully seen).
   std::vector<double> visibility;
+  // Whether the cells away from every object are known background (a
+  // labelled frame). False (a pseudo-labelled scan, whose unfound furniture
+  // is unknown): only the cells within kUnknownBackgroundReachCells of a
+  // target's footprint train; the rest neither reward nor punish.
+  bool background_known = true;
 };
+
+// How far around a target's footprint (cells) a sample with unknown
+// background still trains: its own cells and a margin of background.
+inline constexpr int kUnknownBackgroundReachCells = 4;
 
 // The sample mirrored left-right in its grid (image and objects).
 BevSample MirroredSample(const BevSample& sample);

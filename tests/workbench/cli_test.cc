@@ -486,15 +486,15 @@ TEST(Cli, ModelEnsembleCombinesMembersOfOneTraining) {
 
 // `adapt` (issue 69): a learned model's batch normalisation statistics
 // re-estimated on scans without labels: a dataset's frames, scan files (the
-// floor found) or both; the same seed gives the same bytes, the adapted
-// model detects. A codebook model, no scans, too few usable scans and bad
+// floor found) or both; or self-training on them; the same seed gives the
+// same bytes, the adapted model detects. A codebook model, no scans, too few usable scans and bad
 // values are one line each, exit 1, nothing written.
 TEST(Cli, AdaptReestimatesTheStatisticsOnUnlabelledScans) {
   const std::string dir = testing::ScratchDir();
   const std::string train =
-      "train --catalog procedural:4 --vocab kmeans --words 20 --azimuths 6 --vote-rooms 8 "
+      "train --catalog procedural:4 --vocab kmeans --words 20 --azimuths 6 --vote-rooms 10 "
       "--vote-frames 2 --vote-epochs 1 --vote-threads 1 --quiet --out ";
-  ASSERT_EQ(RunWorkbench(train + dir + "/m.fcm").exit_code, 0);
+  ASSERT_EQ(RunWorkbench(train + dir + "/m.fcm --keep-rooms").exit_code, 0);
   ASSERT_EQ(RunWorkbench("generate --catalog procedural:4 --rooms 3 --frames 2 --seed 11 --quiet "
                          "--out " +
                          dir + "/scans.db")
@@ -523,8 +523,35 @@ TEST(Cli, AdaptReestimatesTheStatisticsOnUnlabelledScans) {
                    "/a.fcm --cloud " FURN_SOURCE_DIR "/data/real/pcl/office1.pcd --quiet");
   EXPECT_EQ(detect.exit_code, 0) << detect.output;
 
+  // Self-training: pseudo-labels on the scans, fine-tuned beside the model's
+  // own training rooms, the operating point chosen again on their
+  // validation room; the same seed gives the same bytes.
+  const std::string self = adapt + "--db " + dir + "/scans.db --method self-training --rooms " +
+                           dir + "/m.fcm.rooms.db ";
+  const RunResult tuned = RunWorkbench(self + "--epochs 1 --out " + dir + "/s1.fcm");
+  ASSERT_EQ(tuned.exit_code, 0) << tuned.output;
+  EXPECT_NE(tuned.output.find("fine-tuned on 6 of 6 scans with"), std::string::npos)
+      << tuned.output;
+  EXPECT_NE(tuned.output.find("(after self-training) (no label of the scans was read)"),
+            std::string::npos)
+      << tuned.output;
+  ASSERT_EQ(RunWorkbench(self + "--epochs 1 --out " + dir + "/s2.fcm --quiet").exit_code, 0);
+  EXPECT_EQ(ReadFileBytes(dir + "/s1.fcm"), ReadFileBytes(dir + "/s2.fcm"));
+  EXPECT_NE(ReadFileBytes(dir + "/s1.fcm"), ReadFileBytes(dir + "/m.fcm"));
+  EXPECT_EQ(RunWorkbench("detect --model " + dir +
+                         "/s1.fcm --cloud " FURN_SOURCE_DIR "/data/real/pcl/office1.pcd --quiet")
+                .exit_code,
+            0);
+
   ASSERT_EQ(RunWorkbench(train + dir + "/cb.fcm --no-vote-net").exit_code, 0);
+  const std::string scans = adapt + "--db " + dir + "/scans.db ";
   const std::vector<std::pair<std::string, std::string>> bad = {
+      {scans + "--method self-training", "--method self-training needs --rooms"},
+      {scans + "--rooms " + dir + "/m.fcm.rooms.db", "--rooms applies to --method self-training"},
+      {scans + "--method sideways", "'sideways'"},
+      {self + "--epochs 0", "--epochs must be in 1..100 (got 0)"},
+      {self + "--pseudo-share 0", "--pseudo-share must be in (0, 4]"},
+      {scans + "--method self-training --rooms " + dir + "/missing.db", "missing.db"},
       {"adapt --model " + dir + "/cb.fcm --db " + dir + "/scans.db",
        "has no vote network to adapt"},
       {adapt, "adapt needs scans: --db, scan files or --bag"},

@@ -379,6 +379,15 @@ void PrintEpoch(const VoteNetEpoch& record, int epochs, bool validated) {
     std::snprintf(text, sizeof(text), " (last weights %.3f)", record.last_weights_map);
     last = text;
   }
+  if (!validated) {
+    std::fprintf(stderr,
+                 "vote net: epoch %d/%d: training loss %.3f (%.0f s)\n",
+                 record.epoch,
+                 epochs,
+                 record.train_loss,
+                 record.seconds);
+    return;
+  }
   std::fprintf(stderr,
                "vote net: epoch %d/%d: training loss %.3f, validation loss %.3f, "
                "validation mAP@10cm %.3f%s (%.0f s)\n",
@@ -386,7 +395,7 @@ void PrintEpoch(const VoteNetEpoch& record, int epochs, bool validated) {
                epochs,
                record.train_loss,
                record.validation_loss,
-               validated ? record.validation_map : std::nan(""),
+               record.validation_map,
                last.c_str(),
                record.seconds);
 }
@@ -396,12 +405,18 @@ void PrintEpoch(const VoteNetEpoch& record, int epochs, bool validated) {
 VoteNet TrainVoteNetOnSamples(const std::vector<BevSample>& training,
                               const std::vector<BevSample>& validation,
                               const VoteNetTrainingOptions& options,
-                              VoteNetTrainingSummary* summary) {
+                              VoteNetTrainingSummary* summary,
+                              const VoteNet* tune_from) {
   options.Check();
   Require(!training.empty(), "the vote network has no training frames");
+  Require(tune_from == nullptr ||
+              (tune_from->Members() == 1 && tune_from->options().grid == options.net.grid),
+          "fine-tuning needs one network (not an ensemble) of the training options' grid");
   const int previous_threads = TorchThreads();
   SetTorchThreads(options.threads);
-  VoteNet net = VoteNet::Create(options.net, options.WeightSeed());
+  VoteNet net = tune_from != nullptr
+                    ? VoteNet::Deserialize(tune_from->Serialize(), "the network to tune")
+                    : VoteNet::Create(options.net, options.WeightSeed());
   VoteNetOptimizer optimizer(&net, options.loss);
   std::optional<VoteNetWeightAverage> average;
   if (options.weight_average > 0) average.emplace(net, options.weight_average);

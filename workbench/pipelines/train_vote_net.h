@@ -163,10 +163,14 @@ struct VoteNetTrainingSummary {
 };
 
 // Trains on samples already made (tests, tools); `validation` may be empty.
+// With `tune_from` (one network of options.net's grid and coder) its weights are
+// trained on (fine-tuning, as `adapt --self-train` does) instead of fresh
+// ones; `tune_from` itself is not changed.
 VoteNet TrainVoteNetOnSamples(const std::vector<BevSample>& training,
                               const std::vector<BevSample>& validation,
                               const VoteNetTrainingOptions& options,
-                              VoteNetTrainingSummary* summary);
+                              VoteNetTrainingSummary* summary,
+                              const VoteNet* tune_from = nullptr);
 
 // TrainVoteNetOnSamples for options.ensemble networks (members
 // options.member onwards) on the same samples, combined; one network when
