@@ -1,6 +1,7 @@
 #include "core/learned/vote_net_training.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <string>
 #include <type_traits>
@@ -94,7 +95,20 @@ struct VoteNetOptimizer::Impl {
   VoteNet::Impl* net = nullptr;
   VoteNetLossWeights weights;
   std::unique_ptr<torch::optim::Adam> adam;
+  VoteNetStepTimes times;
 };
+
+namespace {
+
+// Seconds since `since`, and `since` moved to now.
+double Lap(std::chrono::steady_clock::time_point* since) {
+  const auto now = std::chrono::steady_clock::now();
+  const double seconds = std::chrono::duration<double>(now - *since).count();
+  *since = now;
+  return seconds;
+}
+
+}  // namespace
 
 VoteNetOptimizer::VoteNetOptimizer(VoteNet* net, const VoteNetLossWeights& weights)
     : impl_(std::make_unique<Impl>()) {
@@ -117,17 +131,26 @@ VoteNetLoss VoteNetOptimizer::Step(const TrainingBatch& batch, double learning_r
   for (auto& group : impl_->adam->param_groups())
     static_cast<torch::optim::AdamOptions&>(group.options()).lr(learning_rate);
   net.net->train();
+  VoteNetStepTimes& times = impl_->times;
+  auto lap = std::chrono::steady_clock::now();
   const torch::Tensor input = ImageTensor(Pointers(batch.images), net.options.grid);
   const TargetTensors targets = TargetTensorsOf(Pointers(batch.targets), net.options.grid);
+  times.tensors_s += Lap(&lap);
   impl_->adam->zero_grad();
   const torch::Tensor output = net.net->forward(input);
   torch::Tensor total;
   const VoteNetLoss loss = VoteNetLossOf(output, targets, impl_->weights, &total);
+  times.forward_s += Lap(&lap);
   total.backward();
+  times.backward_s += Lap(&lap);
   impl_->adam->step();
   net.net->eval();
+  times.update_s += Lap(&lap);
+  ++times.steps;
   return loss;
 }
+
+const VoteNetStepTimes& VoteNetOptimizer::times() const { return impl_->times; }
 
 VoteNetWeightAverage::VoteNetWeightAverage(const VoteNet& net, double decay)
     : average_(VoteNet::Deserialize(net.Serialize(), "the network's weights")), decay_(decay) {

@@ -56,6 +56,15 @@ TrainingBatch MakeTrainingBatch(const std::vector<BevSample>& samples,
 // Cosine decay from `peak` at step 0 to floor_share x peak at the last step.
 double CosineLearningRate(size_t step, size_t total_steps, double peak, double floor_share = 0.05);
 
+// Where a training step's time goes (seconds, summed over the steps):
+// the batch's images and targets into tensors, the forward pass with the
+// loss, the backward pass, and Adam's update.
+struct VoteNetStepTimes {
+  double tensors_s = 0, forward_s = 0, backward_s = 0, update_s = 0;
+  int64_t steps = 0;
+  double Total() const { return tensors_s + forward_s + backward_s + update_s; }
+};
+
 // Adam on a network; the network stays in evaluation mode between steps.
 class VoteNetOptimizer {
  public:
@@ -66,6 +75,8 @@ class VoteNetOptimizer {
 
   // One step on the batch at `learning_rate`; returns the loss before it.
   VoteNetLoss Step(const TrainingBatch& batch, double learning_rate);
+  // The steps' times so far.
+  const VoteNetStepTimes& times() const;
 
  private:
   struct Impl;

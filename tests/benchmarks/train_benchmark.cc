@@ -1,18 +1,23 @@
 // Training on the default catalog (procedural without the package): virtual
 // scans, segmentation and features, part subsets and VFH, vocabulary (RIM),
 // shape model, saving. Target (SPEC.md §13): <= 120 s on 2 cores. One run;
-// the counters give each stage's seconds.
+// the counters give each stage's seconds. The vote network: its training
+// step, inference, and where its training's time goes by stage
+// (BM_VoteNetTrainingStages).
 //
 //   build/tests/benchmarks/train_benchmark
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <random>
 
 #include "core/learned/vote_net.h"
 #include "core/learned/vote_net_training.h"
 #include "core/progress.h"
+#include "db/dataset_db.h"
 #include "workbench/pipelines/train.h"
+#include "workbench/pipelines/train_vote_net.h"
 
 namespace furn {
 namespace {
@@ -106,6 +111,70 @@ BENCHMARK(BM_VoteNetPredict)
     ->ArgNames({"width", "threads"})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
+
+// Where the vote network's training time goes (issue 70): `train`'s vote
+// net path at the default budget's shapes (the default catalog, grid,
+// network, batch, 4 frames per room, one epoch, torch's default 2 threads)
+// on `rooms` rooms, each stage per unit (ms per room generated, per frame
+// read and rasterised, per training frame and epoch for the step's parts,
+// per validation frame and epoch), and the default budget (2400 rooms x 10
+// epochs) projected from them in seconds (default_budget_s, each stage's
+// share in *_share).
+void BM_VoteNetTrainingStages(benchmark::State& state) {
+  Progress::SetQuiet(true);
+  const Catalog catalog = OpenCatalog("default");
+  const std::string path =
+      (std::filesystem::temp_directory_path() / "furn_train_benchmark_rooms.db").string();
+  VoteNetTrainingOptions options;
+  options.rooms = static_cast<int>(state.range(0));
+  options.epochs = 1;
+  options.quiet = true;
+  VoteNetTrainingSummary summary;
+  for (auto _ : state) {
+    state.PauseTiming();
+    RemoveDatabaseFiles(path);
+    summary = VoteNetTrainingSummary{};
+    state.ResumeTiming();
+    TrainVoteNet(catalog, {}, options, path, &summary);
+  }
+  RemoveDatabaseFiles(path);
+  const VoteNetStageTimes& t = summary.stages;
+  const double rooms = summary.rooms, frames = summary.frames + summary.validation_frames;
+  const double train = summary.frames, validation = std::max(1, summary.validation_frames);
+  const VoteNetTrainingOptions budget;  // the default's rooms and epochs
+  const double scale_rooms = budget.rooms / rooms;
+  const std::vector<std::pair<std::string, double>> projected = {
+      {"generate", t.generate_s * scale_rooms},
+      {"read", t.read_s * scale_rooms},
+      {"raster", t.raster_s * scale_rooms},
+      {"batch", t.batch_s * scale_rooms * budget.epochs},
+      {"tensors", t.tensors_s * scale_rooms * budget.epochs},
+      {"forward", t.forward_s * scale_rooms * budget.epochs},
+      {"backward", t.backward_s * scale_rooms * budget.epochs},
+      {"adam", t.update_s * scale_rooms * budget.epochs},
+      {"validation", t.validation_s * scale_rooms * budget.epochs},
+      {"operating_point", t.operating_point_s * scale_rooms},
+  };
+  double total = 0;
+  for (const auto& [name, seconds] : projected) total += seconds;
+  state.counters["generate_ms_per_room"] = 1000 * t.generate_s / rooms;
+  state.counters["read_ms_per_frame"] = 1000 * t.read_s / frames;
+  state.counters["raster_ms_per_frame"] = 1000 * t.raster_s / frames;
+  state.counters["batch_ms_per_frame"] = 1000 * t.batch_s / train;
+  state.counters["tensors_ms_per_frame"] = 1000 * t.tensors_s / train;
+  state.counters["forward_ms_per_frame"] = 1000 * t.forward_s / train;
+  state.counters["backward_ms_per_frame"] = 1000 * t.backward_s / train;
+  state.counters["adam_ms_per_frame"] = 1000 * t.update_s / train;
+  state.counters["validation_ms_per_frame"] = 1000 * t.validation_s / validation;
+  state.counters["default_budget_s"] = total;
+  for (const auto& [name, seconds] : projected) state.counters[name + "_share"] = seconds / total;
+}
+BENCHMARK(BM_VoteNetTrainingStages)
+    ->Arg(40)
+    ->ArgName("rooms")
+    ->Unit(benchmark::kSecond)
+    ->UseRealTime()
+    ->Iterations(1);
 
 }  // namespace
 }  // namespace furn

@@ -62,6 +62,7 @@ void PrintTrainSummary(const std::string& out,
         v.raster_s,
         v.train_s,
         v.epochs.empty() ? 0.0 : v.epochs.back().validation_loss);
+    std::printf("  vote net stages (s): %s\n", v.stages.Text().c_str());
     if (!v.member_validation_maps.empty() && v.validation_frames > 0) {
       std::printf("  vote net: an ensemble of %zu networks, validation mAP@10cm %.3f (members %.3f",
                   v.member_validation_maps.size() + 1,

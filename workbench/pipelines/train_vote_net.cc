@@ -308,10 +308,52 @@ DetectionInput FusedScan(const std::vector<DetectionInput>& scans,
 
 }  // namespace
 
+void VoteNetStageTimes::Add(const VoteNetStepTimes& step) {
+  tensors_s += step.tensors_s;
+  forward_s += step.forward_s;
+  backward_s += step.backward_s;
+  update_s += step.update_s;
+  steps += step.steps;
+}
+
+void VoteNetStageTimes::AddTrainingOf(const VoteNetStageTimes& member) {
+  batch_s += member.batch_s;
+  tensors_s += member.tensors_s;
+  forward_s += member.forward_s;
+  backward_s += member.backward_s;
+  update_s += member.update_s;
+  average_s += member.average_s;
+  validation_s += member.validation_s;
+  steps += member.steps;
+}
+
+std::string VoteNetStageTimes::Text() const {
+  char text[512];
+  std::snprintf(text,
+                sizeof text,
+                "generate %.1f, read %.1f, rasterise %.1f, batches %.1f, tensors %.1f, forward "
+                "%.1f, backward %.1f, Adam %.1f, average %.1f, validation %.1f, operating point "
+                "%.1f (%lld steps)",
+                generate_s,
+                read_s,
+                raster_s,
+                batch_s,
+                tensors_s,
+                forward_s,
+                backward_s,
+                update_s,
+                average_s,
+                validation_s,
+                operating_point_s,
+                static_cast<long long>(steps));
+  return text;
+}
+
 void ReadBevSamples(const std::string& db_path,
                     const VoteNetTrainingOptions& options,
                     std::vector<BevSample>* training,
-                    std::vector<BevSample>* validation) {
+                    std::vector<BevSample>* validation,
+                    VoteNetStageTimes* stages) {
   DatasetDb db(db_path, DatasetDb::Mode::kReadOnly);
   const std::vector<int64_t> rooms = db.RoomIds();
   // Every k-th room validates (none when the share is 0 or there is one room).
@@ -328,6 +370,7 @@ void ReadBevSamples(const std::string& db_path,
   for (size_t k = 0; k < rooms.size(); ++k) {
     std::vector<BevSample>* out = destination(k);
     if (out == nullptr) continue;  // the caller wants the other share only
+    const auto read_start = std::chrono::steady_clock::now();
     const RoomRecord room = db.ReadRoom(rooms[k], /*with_images=*/true);
     std::vector<DetectionInput> scans;
     std::vector<const FrameRecord*> room_frames;
@@ -335,6 +378,9 @@ void ReadBevSamples(const std::string& db_path,
       scans.push_back(DetectionInputOf(frame, db_path + " frame " + std::to_string(frame.id)));
       room_frames.push_back(&frame);
     }
+    const auto raster_start = std::chrono::steady_clock::now();
+    if (stages != nullptr)
+      stages->read_s += std::chrono::duration<double>(raster_start - read_start).count();
     for (size_t f = 0; f < room.frames.size(); ++f) {
       const FrameRecord& frame = room.frames[f];
       const bool fused = options.FusesFrame(frame.id);
@@ -350,6 +396,7 @@ void ReadBevSamples(const std::string& db_path,
                        &sample);
       out->push_back(std::move(sample));
     }
+    if (stages != nullptr) stages->raster_s += Seconds(raster_start);
     progress.Advance();
   }
   progress.Finish();
@@ -444,10 +491,14 @@ VoteNet TrainVoteNetOnSamples(const std::vector<BevSample>& training,
           order.begin() + std::min(order.size(), first + options.batch_size));
       std::vector<char> mirror(indices.size());
       for (char& m : mirror) m = static_cast<char>(random() & 1);
+      auto lap = std::chrono::steady_clock::now();
+      const TrainingBatch batch = MakeTrainingBatch(training, indices, mirror, options.net.coder);
+      summary->stages.batch_s += Seconds(lap);
       const VoteNetLoss loss =
-          optimizer.Step(MakeTrainingBatch(training, indices, mirror, options.net.coder),
-                         CosineLearningRate(step, total_steps, options.learning_rate));
+          optimizer.Step(batch, CosineLearningRate(step, total_steps, options.learning_rate));
+      lap = std::chrono::steady_clock::now();
       if (average) average->Update(net);
+      summary->stages.average_s += Seconds(lap);
       loss_sum += loss.Total();
       ++step;
       char note[64];
@@ -458,17 +509,20 @@ VoteNet TrainVoteNetOnSamples(const std::vector<BevSample>& training,
     VoteNetEpoch record;
     record.epoch = epoch + 1;
     record.train_loss = loss_sum / steps_per_epoch;
+    const auto validation_start = std::chrono::steady_clock::now();
     ValidateEpoch(average ? average->average() : net,
                   average && options.keep_last_weights ? &net : nullptr,
                   validation,
                   options,
                   &record);
+    summary->stages.validation_s += Seconds(validation_start);
     record.seconds = Seconds(epoch_start);
     summary->epochs.push_back(record);
     if (!options.quiet) PrintEpoch(record, options.epochs, !validation.empty());
   }
   progress.Finish();
   summary->train_s = Seconds(start);
+  summary->stages.Add(optimizer.times());
   SetTorchThreads(previous_threads);
   if (!average) return net;
   if (options.keep_last_weights) summary->last_weights = net.Serialize();
@@ -493,6 +547,7 @@ VoteNet TrainVoteNetEnsemble(const std::vector<BevSample>& training,
     VoteNetTrainingSummary member_summary;
     members.push_back(TrainVoteNetOnSamples(training, validation, member, &member_summary));
     summary->train_s += member_summary.train_s;
+    summary->stages.AddTrainingOf(member_summary.stages);
     summary->member_validation_maps.push_back(member_summary.epochs.back().validation_map);
   }
   VoteNet ensemble = VoteNet::Ensemble(std::move(members), "the vote network's ensemble");
@@ -578,13 +633,16 @@ std::string TrainVoteNet(const Catalog& catalog,
       GenerateDataset(training_catalog, generate, summary->rooms_path);
   summary->rooms = generated.rooms_in_shard;
   summary->generate_s = Seconds(start);
+  summary->stages.generate_s = summary->generate_s;
   start = std::chrono::steady_clock::now();
   std::vector<BevSample> training, validation;
-  ReadBevSamples(summary->rooms_path, options, &training, &validation);
+  ReadBevSamples(summary->rooms_path, options, &training, &validation, &summary->stages);
   cached.reset();
   summary->raster_s = Seconds(start);
   const VoteNet net = TrainVoteNetEnsemble(training, validation, options, summary);
+  start = std::chrono::steady_clock::now();
   if (!validation.empty()) summary->operating_point = VoteNetOperatingPoint(net, validation);
+  summary->stages.operating_point_s = Seconds(start);
   if (!validation.empty() && !summary->last_weights.empty()) {
     summary->last_operating_point = VoteNetOperatingPoint(
         VoteNet::Deserialize(summary->last_weights, "the last weights"), validation);

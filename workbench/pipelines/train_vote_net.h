@@ -141,6 +141,25 @@ struct VoteNetEpoch {
   double seconds = 0;
 };
 
+// Where the vote network's training time goes (issue 70), seconds: the
+// rooms generated (or merged), read back from their database (rows, depth
+// PNGs decoded, points), rasterised; then per step the batch made (targets
+// encoded, mirrored), turned into tensors, the forward pass with the loss,
+// the backward pass, Adam's update and the weight average; per epoch the
+// validation (loss and the decoded maxima's mAP); at the end the operating
+// point chosen.
+struct VoteNetStageTimes {
+  double generate_s = 0, read_s = 0, raster_s = 0;
+  double batch_s = 0, tensors_s = 0, forward_s = 0, backward_s = 0, update_s = 0, average_s = 0;
+  double validation_s = 0, operating_point_s = 0;
+  int64_t steps = 0;
+  void Add(const VoteNetStepTimes& step);
+  // Another network's training stages (an ensemble's member: batches to validation).
+  void AddTrainingOf(const VoteNetStageTimes& member);
+  // "generate 1.0, read 2.0, ..." (seconds), for the stage-time line.
+  std::string Text() const;
+};
+
 struct VoteNetTrainingSummary {
   int rooms = 0, frames = 0, objects = 0, validation_frames = 0;
   int rooms_reused = 0;          // of `rooms`, found in the rooms cache
@@ -149,6 +168,7 @@ struct VoteNetTrainingSummary {
   int64_t parameters = 0;
   std::vector<VoteNetEpoch> epochs;
   double generate_s = 0, raster_s = 0, train_s = 0;
+  VoteNetStageTimes stages;  // the same time, by stage (raster_s = stages' read + raster)
   // Chosen on the validation frames (VoteNetOperatingPoint); empty without.
   OperatingPoint operating_point;
   // With keep_last_weights: the last step's network (VoteNet::Serialize) and
@@ -215,9 +235,11 @@ int GenerateTrainingRoomsShard(const Catalog& catalog,
 // least min_visibility; a share fused with their room-mates, fused_share), split by room into
 // training and validation; a null `training` or `validation` leaves its rooms unread (an operating
 // point needs the validation rooms alone).
+// With `stages`, adds the time reading the rooms and rasterising them.
 void ReadBevSamples(const std::string& db_path,
                     const VoteNetTrainingOptions& options,
                     std::vector<BevSample>* training,
-                    std::vector<BevSample>* validation);
+                    std::vector<BevSample>* validation,
+                    VoteNetStageTimes* stages = nullptr);
 
 }  // namespace furn
