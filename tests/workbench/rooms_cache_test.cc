@@ -46,6 +46,33 @@ size_t FilesIn(const std::string& dir, const std::string& extension) {
   return count;
 }
 
+// Where the training's time goes (issue 70): every stage is timed, the
+// steps counted, and the step's parts lie within the training's time.
+TEST(RoomsCache, TheTrainingsStagesAreTimed) {
+  Progress::SetQuiet(true);
+  const std::string dir = testing::ScratchDir();
+  const Catalog catalog = OpenCatalog("procedural:2");
+  const VoteNetTrainingOptions options = TinyTraining();
+  VoteNetTrainingSummary summary;
+  TrainVoteNet(catalog, {}, options, dir + "/rooms.db", &summary);
+  const VoteNetStageTimes& t = summary.stages;
+  EXPECT_GT(t.generate_s, 0);
+  EXPECT_GT(t.read_s, 0);
+  EXPECT_GT(t.raster_s, 0);
+  EXPECT_LE(t.read_s + t.raster_s, summary.raster_s + 1e-6);
+  const int64_t steps_per_epoch = (summary.frames + options.batch_size - 1) / options.batch_size;
+  EXPECT_EQ(t.steps, steps_per_epoch * options.epochs);
+  EXPECT_GT(t.batch_s, 0);
+  EXPECT_GT(t.tensors_s, 0);
+  EXPECT_GT(t.forward_s, 0);
+  EXPECT_GT(t.backward_s, 0);
+  EXPECT_GT(t.update_s, 0);
+  EXPECT_LE(t.batch_s + t.tensors_s + t.forward_s + t.backward_s + t.update_s + t.average_s +
+                t.validation_s,
+            summary.train_s + 1e-6);
+  EXPECT_NE(t.Text().find("forward"), std::string::npos) << t.Text();
+}
+
 TEST(RoomsCache, SameRoomsAreReusedAndTrainTheSameNetwork) {
   Progress::SetQuiet(true);
   const std::string dir = testing::ScratchDir();
