@@ -11,6 +11,7 @@ namespace furn {
 namespace {
 
 bool g_quiet = false;
+double g_log_interval_s = 60;
 
 std::string FormatSeconds(double seconds) {
   char text[32];
@@ -26,6 +27,8 @@ std::string FormatSeconds(double seconds) {
 }  // namespace
 
 void Progress::SetQuiet(bool quiet) { g_quiet = quiet; }
+
+void Progress::SetLogInterval(double seconds) { g_log_interval_s = seconds; }
 
 Progress::Progress(std::string label, size_t total, std::string unit)
     : label_(std::move(label)),
@@ -92,10 +95,14 @@ void Progress::Draw(bool final_line) {
     return;
   }
   const int decile = static_cast<int>(fraction * 10);
-  if (!final_line && decile == last_logged_decile_) return;
+  const bool interval_passed =
+      std::chrono::duration<double>(now - last_draw_).count() >= g_log_interval_s &&
+      done_ != last_logged_done_;
+  if (!final_line && decile == last_logged_decile_ && !interval_passed) return;
   if (final_line && done_ == last_logged_done_) return;
   last_logged_decile_ = decile;
   last_logged_done_ = done_;
+  last_draw_ = now;
   std::fprintf(stderr,
                "%s: %zu/%zu %s (%.0f%%), %.1f %s/s%s, elapsed %s, ETA %s\n",
                label_.c_str(),

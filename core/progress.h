@@ -1,5 +1,6 @@
 // Progress of long work on stderr: a redrawn bar with rate and ETA on a
-// terminal, plain log lines (about one per 10 %) otherwise, nothing when quiet.
+// terminal, plain log lines otherwise (one per 10 %, and one at least every
+// minute of long work), nothing when quiet.
 //
 //   Progress progress("import", entries.size(), "models");
 //   for (...) { ...; progress.Advance(); }
@@ -26,6 +27,8 @@ class Progress {
 
   // Set once by the CLI (--quiet); applies to every Progress.
   static void SetQuiet(bool quiet);
+  // The longest time between two log lines (seconds; 60 unless set, for tests).
+  static void SetLogInterval(double seconds);
 
  private:
   void Draw(bool final_line);

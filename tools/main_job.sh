@@ -9,7 +9,9 @@
 # train the default model (vocabulary, shape model, the scorer protocol E
 # learnt, the vote network and its operating point), evaluate detection on the test split (a run in the
 # dataset, and its HTML report), tune the learned detector's options, and detect
-# in one frame. Prints the time of the long stages.
+# in one frame. Prints the time of the long stages; every stage longer than a
+# minute shows its progress (a bar on a terminal, a line at least every minute
+# in a log).
 set -euo pipefail
 repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build_dir="${1:-$repo/build}"
@@ -38,13 +40,13 @@ stage_start=$SECONDS
 "$workbench" generate --catalog default --rooms "${FURN_CROSSVAL_ROOMS:-45}" --frames 4 --seed 2 \
   --model-folds 3 --quiet --out "$out_dir/crossval.db"
 "$workbench" crossval --db "$out_dir/crossval.db" --work-dir "$out_dir/crossval_models" \
-  --vote-rooms "${FURN_PE_VOTE_ROOMS:-150}" --vote-epochs "${FURN_PE_VOTE_EPOCHS:-10}" --quiet \
+  --vote-rooms "${FURN_PE_VOTE_ROOMS:-150}" --vote-epochs "${FURN_PE_VOTE_EPOCHS:-10}" \
   | tee "$out_dir/crossval.txt"
 "$workbench" report --db "$out_dir/crossval.db" --out "$out_dir/crossval_report"
 echo "== crossval: the codebook (the paper's path, with a hypothesis scorer learnt per fold from"
 echo "   the other folds' rooms) on the same folds"
 "$workbench" crossval --no-vote-net --db "$out_dir/crossval.db" \
-  --work-dir "$out_dir/crossval_codebook" --quiet | tee "$out_dir/crossval_codebook.txt"
+  --work-dir "$out_dir/crossval_codebook" | tee "$out_dir/crossval_codebook.txt"
 "$workbench" report --db "$out_dir/crossval.db" --out "$out_dir/crossval_codebook_report"
 echo "   (protocol E took $((SECONDS - stage_start)) s)"
 echo "== train: part vocabulary and shape model from virtual scans of the catalog, with the"
@@ -52,7 +54,7 @@ echo "   hypothesis scorer crossval learnt from every fold, and the learned vote
 echo "   trained on rooms generated from the catalog; detection votes with it)"
 stage_start=$SECONDS
 "$workbench" train --catalog default --scorer "$out_dir/crossval_codebook/scorer.yml" \
-  --out "$out_dir/model.fcm" --quiet
+  --out "$out_dir/model.fcm"
 echo "   (training took $((SECONDS - stage_start)) s)"
 "$workbench" model info "$out_dir/model.fcm"
 echo "== evaluate: detection over the test split, stored as a run; then its report"
@@ -63,7 +65,7 @@ echo "== tune: the learned detector's options on the val split (the model's vote
 echo "   data/tune_learned_space.json: least heat, suppression, maxima per class, the fit), best"
 echo "   checked on test"
 "$workbench" tune --catalog default --db "$out_dir/synth.db" --strategy grid --trials 8 \
-  --model "$out_dir/model.fcm" --work-dir "$out_dir/tune_work" --out "$out_dir/tune" --quiet
+  --model "$out_dir/model.fcm" --work-dir "$out_dir/tune_work" --out "$out_dir/tune"
 echo "== real scans: the labelled real set (data/real), evaluated as a run of its own, its report;"
 echo "   the sensor model's noise against the real frames; history of synthetic and real runs"
 labels="$repo/data/real/labels.json"

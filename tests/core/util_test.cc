@@ -3,18 +3,55 @@
 
 #include <unistd.h>
 
+#include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <set>
+#include <thread>
 
 #include "core/error.h"
 #include "core/file_util.h"
 #include "core/furniture_class.h"
+#include "core/progress.h"
 #include "core/random.h"
 #include "tests/test_util.h"
 
 namespace furn {
 namespace {
+
+// Progress in a log (stderr not a terminal): a line per 10 %, and one at
+// least every interval of slow work (issue 70: a line a minute), none when
+// quiet.
+size_t LinesLogged(size_t total, size_t steps, double interval_s, int sleep_ms) {
+  Progress::SetLogInterval(interval_s);
+  ::testing::internal::CaptureStderr();
+  {
+    Progress progress("work", total, "items");
+    for (size_t i = 0; i < steps; ++i) {
+      if (sleep_ms > 0) std::this_thread::sleep_for(std::chrono::milliseconds(sleep_ms));
+      progress.Advance();
+    }
+    progress.Finish();
+  }
+  const std::string text = ::testing::internal::GetCapturedStderr();
+  Progress::SetLogInterval(60);
+  return static_cast<size_t>(std::count(text.begin(), text.end(), '\n'));
+}
+
+TEST(Progress, LogLinesEveryTenthAndAtLeastEveryInterval) {
+  if (isatty(2)) GTEST_SKIP() << "stderr is a terminal: the bar is drawn instead";
+  EXPECT_EQ(LinesLogged(1000, 1000, 60, 0), 11u) << "0 %, 10 % ... 100 %";
+  // 30 slow steps (>= 5 ms each) within the first tenth of 1000: the first
+  // and last line alone, or a line per 20 ms (at most one per 4 steps).
+  EXPECT_EQ(LinesLogged(1000, 30, 60, 5), 2u);
+  const size_t slow = LinesLogged(1000, 30, 0.02, 5);
+  EXPECT_GE(slow, 6u);
+  EXPECT_LE(slow, 31u);
+  Progress::SetQuiet(true);
+  EXPECT_EQ(LinesLogged(1000, 30, 0.02, 5), 0u);
+  Progress::SetQuiet(false);
+}
 
 TEST(Random, SameSeedSameSequenceAndKnownValues) {
   Rng a(42), b(42);

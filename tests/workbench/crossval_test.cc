@@ -167,5 +167,28 @@ TEST(Crossval, DatasetsWithoutFoldsAndImpossibleFoldsAreClearErrors) {
       << other.output;
 }
 
+// A learned protocol E at a budget below the default model's says so beside
+// its figure (issue 70), with the default budget's measured figure.
+TEST(Crossval, ALearnedRunBelowTheDefaultBudgetSaysHowFarItIs) {
+  const std::string dir = testing::ScratchDir();
+  const std::string db = dir + "/folds.db";
+  ASSERT_EQ(Workbench("generate --catalog procedural:4 --rooms 3 --frames 1 --seed 5 "
+                      "--model-folds 3 --quiet --out " +
+                      db)
+                .exit_code,
+            0);
+  const testing::CommandResult run = Workbench(
+      "crossval --vote-rooms 3 --vote-frames 1 --vote-epochs 1 --vote-threads 1 "
+      "--quiet --db " +
+      db + " --work-dir " + dir + "/models");
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_NE(run.output.find("fold networks at 3 rooms x 1 epochs, not the default model's 2400 x "
+                            "10: mAP@10cm"),
+            std::string::npos)
+      << run.output;
+  EXPECT_NE(run.output.find("0.552 at the default budget (nine fold networks;"), std::string::npos)
+      << run.output;
+}
+
 }  // namespace
 }  // namespace furn

@@ -39,6 +39,12 @@ TEST(Crossval, DISABLED_LearnedVotingBeatsTheCodebookOnTheSameFolds) {
       "crossval --vote-rooms 60 --vote-epochs 20 --vote-batch 8 --vote-lr 4e-3 --quiet --db " + db +
       " --work-dir " + dir + "/learned");
   ASSERT_EQ(learned.exit_code, 0) << learned.output;
+  // Its budget beside the default model's, in the same line as its figure.
+  EXPECT_NE(learned.output.find(
+                "fold networks at 60 rooms x 20 epochs, not the default model's 2400 x 10: "
+                "mAP@10cm"),
+            std::string::npos)
+      << learned.output;
   DatasetDb dataset(db, DatasetDb::Mode::kReadOnly);
   std::vector<double> map;
   for (const RunRecord& run : dataset.Runs()) {
