@@ -30,6 +30,13 @@ furn_find_package(ZLIB zlib1g-dev)
 furn_find_package(PNG libpng-dev)
 # The learned vote map (core/vote_net.cc): PyTorch's C++ library, CPU.
 furn_find_package(Torch libtorch-dev)
+# Data-parallel training (issue 70): torch's c10d process groups over Gloo;
+# Debian's libtorch has them built in, its headers include Gloo's.
+find_path(GLOO_INCLUDE_DIR gloo/context.h)
+find_library(GLOO_LIBRARY gloo)
+if(NOT GLOO_INCLUDE_DIR OR NOT GLOO_LIBRARY)
+  furn_missing(Gloo libgloo-dev)
+endif()
 
 find_package(PkgConfig QUIET)
 if(NOT PkgConfig_FOUND)

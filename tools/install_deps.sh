@@ -8,7 +8,7 @@ packages=(
   libceres-dev libsqlite3-dev libgtest-dev libgmock-dev libbenchmark-dev
   nlohmann-json3-dev libcli11-dev libzip-dev zlib1g-dev libxxhash-dev libdeflate-dev
   libyaml-cpp-dev libpng-dev libplplot-dev plplot-driver-cairo fonts-dejavu-core chromium libjs-three sweethome3d-furniture valgrind
-  python3-dev pybind11-dev python3-numpy python3-matplotlib libtorch-dev
+  python3-dev pybind11-dev python3-numpy python3-matplotlib libtorch-dev libgloo-dev
   slurm-wlm munge
   librosbag-dev libsensor-msgs-dev libvisualization-msgs-dev libtf2-msgs-dev libgeometry-msgs-dev
 )

@@ -96,6 +96,7 @@ struct VoteNetOptimizer::Impl {
   VoteNetLossWeights weights;
   std::unique_ptr<torch::optim::Adam> adam;
   VoteNetStepTimes times;
+  DataParallelGroup* group = nullptr;
 };
 
 namespace {
@@ -124,30 +125,112 @@ VoteNetOptimizer::VoteNetOptimizer(VoteNet* net, const VoteNetLossWeights& weigh
 
 VoteNetOptimizer::~VoteNetOptimizer() = default;
 
+namespace {
+
+std::vector<double> NormaliserValues(const LossNormalisers& n) {
+  return {n.positives, n.voting_cells, n.cells, n.edge_cells};
+}
+
+LossNormalisers NormalisersOf(const std::vector<double>& v) { return {v[0], v[1], v[2], v[3]}; }
+
+std::vector<double> LossValues(const VoteNetLoss& loss) {
+  return {loss.heat, loss.offset, loss.size, loss.yaw, loss.membership, loss.edges};
+}
+
+VoteNetLoss LossOf(const std::vector<double>& v) { return {v[0], v[1], v[2], v[3], v[4], v[5]}; }
+
+// Every parameter's gradient summed over the group (a parameter this rank's
+// part left without one counts as zero), in one flat all-reduce.
+void SumGradients(torch::nn::Module& module, DataParallelGroup* group) {
+  std::vector<torch::Tensor> parameters = module.parameters();
+  std::vector<torch::Tensor> parts;
+  for (const torch::Tensor& p : parameters)
+    parts.push_back(p.grad().defined() ? p.grad().reshape(-1) : torch::zeros({p.numel()}));
+  torch::Tensor flat = torch::cat(parts).contiguous();
+  group->SumFloats(flat.data_ptr<float>(), static_cast<size_t>(flat.numel()));
+  int64_t at = 0;
+  for (torch::Tensor& p : parameters) {
+    p.mutable_grad() = flat.slice(0, at, at + p.numel()).view_as(p).clone();
+    at += p.numel();
+  }
+}
+
+}  // namespace
+
 VoteNetLoss VoteNetOptimizer::Step(const TrainingBatch& batch, double learning_rate) {
-  Require(!batch.images.empty() && batch.images.size() == batch.targets.size(),
+  DataParallelGroup* group = impl_->group;
+  Require(batch.images.size() == batch.targets.size() && (group || !batch.images.empty()),
           "a training batch needs one target per image");
   VoteNet::Impl& net = *impl_->net;
-  for (auto& group : impl_->adam->param_groups())
-    static_cast<torch::optim::AdamOptions&>(group.options()).lr(learning_rate);
+  for (auto& param_group : impl_->adam->param_groups())
+    static_cast<torch::optim::AdamOptions&>(param_group.options()).lr(learning_rate);
   net.net->train();
   VoteNetStepTimes& times = impl_->times;
   auto lap = std::chrono::steady_clock::now();
-  const torch::Tensor input = ImageTensor(Pointers(batch.images), net.options.grid);
-  const TargetTensors targets = TargetTensorsOf(Pointers(batch.targets), net.options.grid);
-  times.tensors_s += Lap(&lap);
   impl_->adam->zero_grad();
-  const torch::Tensor output = net.net->forward(input);
-  torch::Tensor total;
-  const VoteNetLoss loss = VoteNetLossOf(output, targets, impl_->weights, &total);
-  times.forward_s += Lap(&lap);
-  total.backward();
+  VoteNetLoss loss;
+  if (!batch.images.empty()) {
+    const torch::Tensor input = ImageTensor(Pointers(batch.images), net.options.grid);
+    const TargetTensors targets = TargetTensorsOf(Pointers(batch.targets), net.options.grid);
+    std::vector<double> normalisers = NormaliserValues(LossNormalisersOf(targets));
+    if (group) group->SumDoubles(&normalisers);
+    const LossNormalisers whole = NormalisersOf(normalisers);
+    times.tensors_s += Lap(&lap);
+    const torch::Tensor output = net.net->forward(input);
+    torch::Tensor total;
+    loss = VoteNetLossOf(output, targets, impl_->weights, &total, &whole);
+    times.forward_s += Lap(&lap);
+    total.backward();
+  } else {  // this rank holds none of the batch: it adds nothing
+    std::vector<double> normalisers(4, 0.0);
+    group->SumDoubles(&normalisers);
+  }
+  if (group) {
+    SumGradients(*net.net, group);
+    std::vector<double> terms = LossValues(loss);
+    group->SumDoubles(&terms);
+    loss = LossOf(terms);
+  }
   times.backward_s += Lap(&lap);
   impl_->adam->step();
   net.net->eval();
   times.update_s += Lap(&lap);
   ++times.steps;
   return loss;
+}
+
+void VoteNetOptimizer::JoinGroup(DataParallelGroup* group) {
+  impl_->group = group != nullptr && group->world() > 1 ? group : nullptr;
+}
+
+void AverageBuffersOverGroup(VoteNet* net, DataParallelGroup* group) {
+  if (group == nullptr || group->world() < 2) return;
+  torch::NoGradGuard no_grad;
+  std::vector<torch::Tensor> buffers;
+  // The step counts (integers; a rank whose part of a batch was empty did
+  // not count it): rank 0's.
+  std::vector<double> counts;
+  for (const torch::Tensor& b : VoteNetAccess::Of(*net).net->buffers()) {
+    if (b.is_floating_point())
+      buffers.push_back(b);
+    else
+      counts.push_back(group->rank() == 0 ? static_cast<double>(b.item<int64_t>()) : 0.0);
+  }
+  group->SumDoubles(&counts);
+  size_t count = 0;
+  for (torch::Tensor b : VoteNetAccess::Of(*net).net->buffers()) {
+    if (!b.is_floating_point()) b.fill_(static_cast<int64_t>(counts[count++]));
+  }
+  std::vector<torch::Tensor> parts;
+  for (const torch::Tensor& b : buffers) parts.push_back(b.reshape(-1).to(torch::kFloat32));
+  torch::Tensor flat = torch::cat(parts).contiguous();
+  group->SumFloats(flat.data_ptr<float>(), static_cast<size_t>(flat.numel()));
+  flat.div_(group->world());
+  int64_t at = 0;
+  for (torch::Tensor& b : buffers) {
+    b.copy_(flat.slice(0, at, at + b.numel()).view_as(b));
+    at += b.numel();
+  }
 }
 
 const VoteNetStepTimes& VoteNetOptimizer::times() const { return impl_->times; }

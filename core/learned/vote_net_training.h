@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "core/learned/bev_box_coder.h"
+#include "core/learned/data_parallel.h"
 #include "core/learned/vote_net.h"
 #include "core/learned/vote_net_loss.h"
 
@@ -74,7 +75,13 @@ class VoteNetOptimizer {
   VoteNetOptimizer& operator=(const VoteNetOptimizer&) = delete;
 
   // One step on the batch at `learning_rate`; returns the loss before it.
+  // In a group, the batch is this rank's part of the group's batch (it may
+  // be empty) and the loss returned is the whole batch's.
   VoteNetLoss Step(const TrainingBatch& batch, double learning_rate);
+  // Data-parallel training (data_parallel.h): every step's normalisers,
+  // gradients and loss are summed over the group's ranks, which then take
+  // the same step. The group outlives the optimiser.
+  void JoinGroup(DataParallelGroup* group);
   // The steps' times so far.
   const VoteNetStepTimes& times() const;
 
@@ -82,6 +89,11 @@ class VoteNetOptimizer {
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };
+
+// The batch normalisations' running statistics (every floating buffer) of
+// the group's copies of one network averaged over its ranks, in place: each
+// rank normalised its own part of every batch.
+void AverageBuffersOverGroup(VoteNet* net, DataParallelGroup* group);
 
 // The exponential moving average of a network's weights over its training
 // steps (Polyak averaging, as in YOLO's and timm's model EMA): after step t,

@@ -13,6 +13,41 @@
 
 namespace furn {
 
+namespace {
+
+// The flags of --method self-training.
+void AddSelfTrainingFlags(CLI::App* app, AdaptOptions* options) {
+  app->add_option("--rooms",
+                  options->rooms_db,
+                  "Self-training: generated rooms of the model's training catalog only (e.g. "
+                  "train --keep-rooms' <model>.rooms.db)");
+  app->add_option("--rooms-share", options->rooms_share, "Self-training: generated frames per scan")
+      ->capture_default_str();
+  app->add_option("--epochs", options->epochs, "Self-training: epochs of fine-tuning")
+      ->capture_default_str();
+  app->add_option("--learning-rate", options->learning_rate, "Self-training: peak learning rate")
+      ->capture_default_str();
+  app->add_option(
+         "--pseudo-share",
+         options->pseudo.heat_share,
+         "Self-training: a pseudo-target's heat, as a share of its class's operating point")
+      ->capture_default_str();
+  app->add_option("--mirror-match",
+                  options->pseudo.mirror_match_m,
+                  "Self-training: the mirror's maximum this near (m) confirms a pseudo-target")
+      ->capture_default_str();
+  app->add_option("--ignore-heat",
+                  options->pseudo.ignore_min_heat,
+                  "Self-training: other maxima at least this hot are ignored, not background")
+      ->capture_default_str();
+  app->add_flag("--scans-background",
+                options->scans_background_known,
+                "Self-training: a scan's cells away from its pseudo-targets train as background "
+                "(default: unknown, only the pseudo-targets' surroundings train)");
+}
+
+}  // namespace
+
 int RunAdapt(int argc, char** argv) {
   CLI::App app{
       "Adapt a model's vote network to your sensor and rooms from your own scans, without "
@@ -59,32 +94,7 @@ int RunAdapt(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--method", method, "normalisation (AdaBN) or self-training")
       ->capture_default_str();
-  app.add_option("--rooms",
-                 options.rooms_db,
-                 "Self-training: generated rooms of the model's training catalog only (e.g. "
-                 "train --keep-rooms' <model>.rooms.db)");
-  app.add_option("--rooms-share", options.rooms_share, "Self-training: generated frames per scan")
-      ->capture_default_str();
-  app.add_option("--epochs", options.epochs, "Self-training: epochs of fine-tuning")
-      ->capture_default_str();
-  app.add_option("--learning-rate", options.learning_rate, "Self-training: peak learning rate")
-      ->capture_default_str();
-  app.add_option("--pseudo-share",
-                 options.pseudo.heat_share,
-                 "Self-training: a pseudo-target's heat, as a share of its class's operating point")
-      ->capture_default_str();
-  app.add_option("--mirror-match",
-                 options.pseudo.mirror_match_m,
-                 "Self-training: the mirror's maximum this near (m) confirms a pseudo-target")
-      ->capture_default_str();
-  app.add_option("--ignore-heat",
-                 options.pseudo.ignore_min_heat,
-                 "Self-training: other maxima at least this hot are ignored, not background")
-      ->capture_default_str();
-  app.add_flag("--scans-background",
-               options.scans_background_known,
-               "Self-training: a scan's cells away from its pseudo-targets train as background "
-               "(default: unknown, only the pseudo-targets' surroundings train)");
+  AddSelfTrainingFlags(&app, &options);
   DetectorFlags detector_flags(&app, {"--seed"});
   app.add_flag("--quiet", options.quiet, "Print nothing but errors");
   if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;

@@ -87,6 +87,59 @@ void PrintTrainSummary(const std::string& out,
 }
 
 // The vote network's training rooms made by the tasks of `train --shards`.
+// Data-parallel training of the vote network on this machine (issue 70):
+// --vote-workers N; the workers' own (hidden) flags, which rank 0 appends to
+// the command it starts them with.
+struct VoteWorkerFlags {
+  int workers = 1;
+  int rank = 0, of = 1;
+  std::string store, rooms;
+
+  void Add(CLI::App* app) {
+    app->add_option("--vote-workers",
+                    workers,
+                    "Train the vote network in N processes of this machine together (data-"
+                    "parallel, gradients summed every step; each uses --vote-threads, 1 unless "
+                    "given)")
+        ->capture_default_str();
+    app->add_option("--vote-worker-rank", rank)->group("");
+    app->add_option("--vote-worker-of", of)->group("");
+    app->add_option("--vote-worker-store", store)->group("");
+    app->add_option("--vote-worker-rooms", rooms)->group("");
+  }
+  bool IsWorker() const { return rank > 0 || !store.empty(); }
+
+  // A worker's options: the group's, and one process each.
+  VoteNetTrainingOptions Worker(const VoteNetTrainingOptions& vote_net) const {
+    Require(rank > 0 && !store.empty() && !rooms.empty(),
+            "--vote-worker-rank, --vote-worker-store and --vote-worker-rooms go together");
+    VoteNetTrainingOptions options = vote_net;
+    options.workers = 1;
+    options.worker_command.clear();
+    options.data_parallel.rank = rank;
+    options.data_parallel.world = of;
+    options.data_parallel.store_path = store;
+    options.quiet = true;
+    return options;
+  }
+
+  // Rank 0's options: the workers and the command that starts them (this
+  // program with the same arguments).
+  VoteNetTrainingOptions Leader(const VoteNetTrainingOptions& vote_net,
+                                bool threads_given,
+                                int argc,
+                                char** argv) const {
+    VoteNetTrainingOptions options = vote_net;
+    options.workers = workers;
+    if (workers < 2) return options;
+    if (!threads_given) options.threads = 1;
+    options.worker_command = {std::filesystem::read_symlink("/proc/self/exe").string()};
+    for (int i = 0; i < argc; ++i) options.worker_command.push_back(argv[i]);
+    options.worker_command.push_back("--quiet");
+    return options;
+  }
+};
+
 struct RoomShardFlags {
   std::string shard, out;         // a task: --vote-rooms-shard i/N --vote-rooms-out FILE
   std::vector<std::string> from;  // the final job: --vote-rooms-from FILE...
@@ -221,6 +274,8 @@ int RunTrain(int argc, char** argv) {
                  "flags above apply on top when given");
   RoomShardFlags room_shards;
   room_shards.Add(&app);
+  VoteWorkerFlags workers;
+  workers.Add(&app);
   ClusterFlags cluster;
   AddClusterFlags(&app, &cluster);
   if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
@@ -231,6 +286,19 @@ int RunTrain(int argc, char** argv) {
       ResolveTrainingFlags(app, vocab, init, options_file, {trainer, scan});
   // Every option is checked (Resolve) before the catalog opens (seconds of work).
   const VoteNetTrainingOptions* vote_net_options = vote_net.Resolve(catalog_flags.quiet);
+  if (workers.IsWorker()) {
+    Require(vote_net_options != nullptr, "a vote-net worker trains a vote network");
+    TrainVoteNetWorker(workers.Worker(*vote_net_options), workers.rooms);
+    return 0;
+  }
+  VoteNetTrainingOptions led;
+  if (workers.workers != 1) {
+    Require(vote_net_options != nullptr,
+            "--vote-workers trains the vote network: not with --no-vote-net");
+    led = workers.Leader(*vote_net_options, app.count("--vote-threads") > 0, argc, argv);
+    led.Check();
+    vote_net_options = &led;
+  }
   const Catalog catalog = OpenCatalog(catalog_flags.spec, MakeOpenOptions(catalog_flags));
   for (const std::string& warning : catalog.warnings())
     std::fprintf(stderr, "warning: %s\n", warning.c_str());

@@ -7,6 +7,7 @@
 
 #include <array>
 #include <cerrno>
+#include <csignal>
 
 #include "core/error.h"
 
@@ -63,6 +64,48 @@ ProgramResult RunProgram(const std::vector<std::string>& argv, bool with_stderr)
   }
   result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128;
   return result;
+}
+
+namespace {
+
+int Reap(pid_t pid) {
+  int status = 0;
+  while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+  }
+  return WIFEXITED(status) ? WEXITSTATUS(status) : 128;
+}
+
+}  // namespace
+
+RunningProgram::RunningProgram(const std::vector<std::string>& argv, const std::string& log_path) {
+  Require(!argv.empty(), "RunningProgram needs a program");
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_addopen(&actions, 0, "/dev/null", O_RDONLY, 0);
+  posix_spawn_file_actions_addopen(
+      &actions, 1, log_path.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
+  posix_spawn_file_actions_adddup2(&actions, 1, 2);
+  std::vector<char*> args;
+  for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+  args.push_back(nullptr);
+  pid_t pid = 0;
+  const int spawned = posix_spawn(&pid, args[0], &actions, nullptr, args.data(), environ);
+  posix_spawn_file_actions_destroy(&actions);
+  Require(spawned == 0, "cannot start " + argv.front() + " (log " + log_path + ")");
+  pid_ = pid;
+}
+
+RunningProgram::~RunningProgram() {
+  if (pid_ < 0) return;
+  kill(pid_, SIGTERM);
+  Reap(pid_);
+}
+
+int RunningProgram::Wait() {
+  Require(pid_ >= 0, "a program is waited for once");
+  const int code = Reap(pid_);
+  pid_ = -1;
+  return code;
 }
 
 }  // namespace furn

@@ -23,4 +23,21 @@ constexpr size_t kMaxCapture = 16u << 20;
 // no pipe can be made.
 ProgramResult RunProgram(const std::vector<std::string>& argv, bool with_stderr = true);
 
+// A program started and left running, its output (and error) appended to
+// `log_path`: e.g. the other ranks of a data-parallel training. Not waited
+// for, it is stopped (SIGTERM) and reaped when the object goes. Throws
+// InputError when it cannot be started or the log not opened.
+class RunningProgram {
+ public:
+  RunningProgram(const std::vector<std::string>& argv, const std::string& log_path);
+  ~RunningProgram();
+  RunningProgram(const RunningProgram&) = delete;
+  RunningProgram& operator=(const RunningProgram&) = delete;
+  // Its exit code (128: killed by a signal).
+  int Wait();
+
+ private:
+  int pid_ = -1;
+};
+
 }  // namespace furn

@@ -21,6 +21,7 @@
 #include "workbench/pipelines/dataset_tools.h"  // MergeDatasets
 #include "workbench/pipelines/generate.h"
 #include "workbench/pipelines/rooms_cache.h"
+#include "workbench/pipelines/run_program.h"
 
 namespace furn {
 namespace {
@@ -173,6 +174,63 @@ Catalog TrainingCatalog(const Catalog& catalog,
 
 }  // namespace
 
+namespace {
+
+// Rank 0 of a local data-parallel training (options.workers > 1): the other
+// ranks started as processes of their own (their output in
+// <rooms>.worker-R.log), the group joined; Finish waits for them and fails
+// when one did. Nothing when options.workers is 1.
+class LocalGroup {
+ public:
+  LocalGroup(const VoteNetTrainingOptions& options, const std::string& rooms_path) {
+    if (options.workers < 2) return;
+    DataParallelOptions parallel;
+    parallel.world = options.workers;
+    parallel.store_path = rooms_path + ".group";
+    std::filesystem::remove(parallel.store_path);
+    for (int rank = 1; rank < options.workers; ++rank) {
+      std::vector<std::string> argv = options.worker_command;
+      for (const std::string& flag : {std::string("--vote-worker-rank"),
+                                      std::to_string(rank),
+                                      std::string("--vote-worker-of"),
+                                      std::to_string(options.workers),
+                                      std::string("--vote-worker-store"),
+                                      parallel.store_path,
+                                      std::string("--vote-worker-rooms"),
+                                      rooms_path})
+        argv.push_back(flag);
+      logs_.push_back(rooms_path + ".worker-" + std::to_string(rank) + ".log");
+      workers_.push_back(std::make_unique<RunningProgram>(argv, logs_.back()));
+    }
+    group_ = std::make_unique<DataParallelGroup>(parallel);
+    store_ = parallel.store_path;
+  }
+  ~LocalGroup() {
+    if (!store_.empty()) std::filesystem::remove(store_);
+  }
+
+  DataParallelGroup* group() { return group_.get(); }
+
+  void Finish() {
+    for (size_t i = 0; i < workers_.size(); ++i) {
+      const int code = workers_[i]->Wait();
+      Require(code == 0,
+              "data-parallel worker " + std::to_string(i + 1) + " failed (exit " +
+                  std::to_string(code) + "; its log: " + logs_[i] + ")");
+      std::filesystem::remove(logs_[i]);
+    }
+    workers_.clear();
+  }
+
+ private:
+  std::vector<std::unique_ptr<RunningProgram>> workers_;
+  std::vector<std::string> logs_;
+  std::unique_ptr<DataParallelGroup> group_;
+  std::string store_;
+};
+
+}  // namespace
+
 void VoteNetTrainingOptions::Check() const {
   Require(rooms >= 1 && rooms <= 100000,
           "vote-net rooms " + std::to_string(rooms) + " must be in 1..100000");
@@ -212,6 +270,13 @@ void VoteNetTrainingOptions::Check() const {
   Require(rooms_cache.empty() || !std::filesystem::exists(rooms_cache) ||
               std::filesystem::is_directory(rooms_cache),
           "--rooms-cache " + rooms_cache + " must be a directory (or not exist yet)");
+  Require(workers >= 1 && workers <= 64,
+          "vote-net workers " + std::to_string(workers) + " must be in 1..64");
+  Require(workers == 1 || !worker_command.empty(), "vote-net workers need a command to start");
+  Require(workers == 1 || ensemble == 1,
+          "vote-net workers train one network, not an ensemble (--vote-ensemble)");
+  Require(workers == 1 || !data_parallel.Active(), "a vote-net worker starts no workers");
+  data_parallel.Check();
   net.Check();
   loss.Check();
   room.Check();
@@ -353,8 +418,13 @@ void ReadBevSamples(const std::string& db_path,
                     const VoteNetTrainingOptions& options,
                     std::vector<BevSample>* training,
                     std::vector<BevSample>* validation,
-                    VoteNetStageTimes* stages) {
+                    VoteNetStageTimes* stages,
+                    SampleShare* share) {
   DatasetDb db(db_path, DatasetDb::Mode::kReadOnly);
+  const int rank = share != nullptr && share->group != nullptr ? share->group->rank() : 0;
+  const int world = share != nullptr && share->group != nullptr ? share->group->world() : 1;
+  if (share != nullptr) *share = SampleShare{share->group, 0, {}};
+  size_t training_rooms = 0;
   const std::vector<int64_t> rooms = db.RoomIds();
   // Every k-th room validates (none when the share is 0 or there is one room).
   const int every = options.validation_share > 0 && rooms.size() > 1
@@ -370,6 +440,16 @@ void ReadBevSamples(const std::string& db_path,
   for (size_t k = 0; k < rooms.size(); ++k) {
     std::vector<BevSample>* out = destination(k);
     if (out == nullptr) continue;  // the caller wants the other share only
+    const bool mine =
+        out == training ? static_cast<int>(training_rooms++ % world) == rank : rank == 0;
+    if (!mine) {  // another rank's room: only where its frames lie in the set
+      if (out == training && share != nullptr) {
+        const size_t frames = db.ReadRoom(rooms[k], /*with_images=*/false).frames.size();
+        share->local_of.insert(share->local_of.end(), frames, -1);
+      }
+      progress.Advance();
+      continue;
+    }
     const auto read_start = std::chrono::steady_clock::now();
     const RoomRecord room = db.ReadRoom(rooms[k], /*with_images=*/true);
     std::vector<DetectionInput> scans;
@@ -394,15 +474,45 @@ void ReadBevSamples(const std::string& db_path,
                        fused ? room_frames : std::vector<const FrameRecord*>{&frame},
                        options.min_visibility,
                        &sample);
+      if (out == training && share != nullptr)
+        share->local_of.push_back(static_cast<int64_t>(training->size()));
       out->push_back(std::move(sample));
     }
     if (stages != nullptr) stages->raster_s += Seconds(raster_start);
     progress.Advance();
   }
   progress.Finish();
+  if (share != nullptr) share->total = share->local_of.size();
 }
 
 namespace {
+
+// The training frames' targets (over the group's ranks' frames).
+int CountTargets(const std::vector<BevSample>& training, DataParallelGroup* group) {
+  std::vector<double> count{0};
+  for (const BevSample& sample : training) {
+    for (const BevObject& object : sample.objects) count[0] += object.target;
+  }
+  if (group != nullptr) group->SumDoubles(&count);
+  return static_cast<int>(count[0]);
+}
+
+// A batch of the whole set's frames cut to those this rank holds, as indices
+// into its own samples.
+void KeepLocalPart(const SampleShare& share,
+                   std::vector<size_t>* indices,
+                   std::vector<char>* mirror) {
+  std::vector<size_t> local;
+  std::vector<char> local_mirror;
+  for (size_t i = 0; i < indices->size(); ++i) {
+    const int64_t at = share.local_of[(*indices)[i]];
+    if (at < 0) continue;
+    local.push_back(static_cast<size_t>(at));
+    local_mirror.push_back((*mirror)[i]);
+  }
+  *indices = std::move(local);
+  *mirror = std::move(local_mirror);
+}
 
 // The epoch's validation figures of `kept` (the network training returns),
 // and of the last step's weights where they differ.
@@ -453,9 +563,14 @@ VoteNet TrainVoteNetOnSamples(const std::vector<BevSample>& training,
                               const std::vector<BevSample>& validation,
                               const VoteNetTrainingOptions& options,
                               VoteNetTrainingSummary* summary,
-                              const VoteNet* tune_from) {
+                              const VoteNet* tune_from,
+                              const SampleShare* share) {
   options.Check();
-  Require(!training.empty(), "the vote network has no training frames");
+  const size_t total = share != nullptr ? share->total : training.size();
+  Require(total > 0, "the vote network has no training frames");
+  Require(share == nullptr || share->local_of.size() == total,
+          "a data-parallel share names every frame of the set");
+  DataParallelGroup* group = share != nullptr ? share->group : nullptr;
   Require(tune_from == nullptr ||
               (tune_from->Members() == 1 && tune_from->options().grid == options.net.grid),
           "fine-tuning needs one network (not an ensemble) of the training options' grid");
@@ -465,19 +580,18 @@ VoteNet TrainVoteNetOnSamples(const std::vector<BevSample>& training,
                     ? VoteNet::Deserialize(tune_from->Serialize(), "the network to tune")
                     : VoteNet::Create(options.net, options.WeightSeed());
   VoteNetOptimizer optimizer(&net, options.loss);
+  optimizer.JoinGroup(group);
   std::optional<VoteNetWeightAverage> average;
   if (options.weight_average > 0) average.emplace(net, options.weight_average);
   summary->parameters = net.Parameters();
-  summary->frames = static_cast<int>(training.size());
+  summary->frames = static_cast<int>(total);
   summary->validation_frames = static_cast<int>(validation.size());
-  for (const BevSample& sample : training) {
-    for (const BevObject& object : sample.objects) summary->objects += object.target;
-  }
+  summary->objects = CountTargets(training, group);
   std::mt19937_64 random(options.WeightSeed() * 7919 + 17);
-  const size_t steps_per_epoch = (training.size() + options.batch_size - 1) / options.batch_size;
+  const size_t steps_per_epoch = (total + options.batch_size - 1) / options.batch_size;
   const size_t total_steps = steps_per_epoch * options.epochs;
   Progress progress("train vote net", total_steps, "steps");
-  std::vector<size_t> order(training.size());
+  std::vector<size_t> order(total);
   size_t step = 0;
   const auto start = std::chrono::steady_clock::now();
   for (int epoch = 0; epoch < options.epochs; ++epoch) {
@@ -492,6 +606,7 @@ VoteNet TrainVoteNetOnSamples(const std::vector<BevSample>& training,
       std::vector<char> mirror(indices.size());
       for (char& m : mirror) m = static_cast<char>(random() & 1);
       auto lap = std::chrono::steady_clock::now();
+      if (share != nullptr) KeepLocalPart(*share, &indices, &mirror);
       const TrainingBatch batch = MakeTrainingBatch(training, indices, mirror, options.net.coder);
       summary->stages.batch_s += Seconds(lap);
       const VoteNetLoss loss =
@@ -506,6 +621,7 @@ VoteNet TrainVoteNetOnSamples(const std::vector<BevSample>& training,
       progress.SetNote(note);
       progress.Advance();
     }
+    AverageBuffersOverGroup(&net, group);
     VoteNetEpoch record;
     record.epoch = epoch + 1;
     record.train_loss = loss_sum / steps_per_epoch;
@@ -635,11 +751,21 @@ std::string TrainVoteNet(const Catalog& catalog,
   summary->generate_s = Seconds(start);
   summary->stages.generate_s = summary->generate_s;
   start = std::chrono::steady_clock::now();
+  LocalGroup group(options, summary->rooms_path);
   std::vector<BevSample> training, validation;
-  ReadBevSamples(summary->rooms_path, options, &training, &validation, &summary->stages);
+  SampleShare share{group.group(), 0, {}};
+  ReadBevSamples(summary->rooms_path,
+                 options,
+                 &training,
+                 &validation,
+                 &summary->stages,
+                 share.group ? &share : nullptr);
   cached.reset();
   summary->raster_s = Seconds(start);
-  const VoteNet net = TrainVoteNetEnsemble(training, validation, options, summary);
+  const VoteNet net =
+      share.group ? TrainVoteNetOnSamples(training, validation, options, summary, nullptr, &share)
+                  : TrainVoteNetEnsemble(training, validation, options, summary);
+  group.Finish();
   start = std::chrono::steady_clock::now();
   if (!validation.empty()) summary->operating_point = VoteNetOperatingPoint(net, validation);
   summary->stages.operating_point_s = Seconds(start);
@@ -662,6 +788,18 @@ std::string TrainVoteNet(const Catalog& catalog,
                           options.curve_png);
   }
   return net.Serialize();
+}
+
+void TrainVoteNetWorker(const VoteNetTrainingOptions& options, const std::string& rooms_path) {
+  options.Check();
+  Require(options.data_parallel.Active() && options.data_parallel.rank > 0,
+          "a vote-net worker has a rank above 0 of two or more");
+  DataParallelGroup group(options.data_parallel);
+  SampleShare share{&group, 0, {}};
+  std::vector<BevSample> training, validation;
+  ReadBevSamples(rooms_path, options, &training, &validation, nullptr, &share);
+  VoteNetTrainingSummary summary;
+  TrainVoteNetOnSamples(training, validation, options, &summary, nullptr, &share);
 }
 
 int GenerateTrainingRoomsShard(const Catalog& catalog,

@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "core/learned/bev_box_coder.h"
+#include "core/learned/data_parallel.h"
 #include "core/learned/vote_net.h"
 #include "core/learned/vote_net_training.h"
 #include "core/operating_point.h"
@@ -117,6 +118,17 @@ struct VoteNetTrainingOptions {
   // of generating the rooms here; empty: generated here.
   std::vector<std::string> room_shards;
   std::string curve_png;  // the training curve (loss, validation mAP); empty: none
+  // Data-parallel training (issue 70): `workers` processes of this machine
+  // train the network together, each rasterising and training on its share
+  // of the rooms, the gradients summed every step (c10d over Gloo:
+  // core/learned/data_parallel.h). This process is rank 0 and starts the
+  // others with worker_command (the program and its arguments; their rank,
+  // the group's size, store and the rooms are appended as --vote-worker-*
+  // flags) once the rooms are made. 1: one process.
+  int workers = 1;
+  std::vector<std::string> worker_command;
+  // In a worker process: its rank, the group's size and store.
+  DataParallelOptions data_parallel;
   bool quiet = false;
 
   void Check() const;
@@ -182,6 +194,17 @@ struct VoteNetTrainingSummary {
   double ensemble_validation_map = std::numeric_limits<double>::quiet_NaN();
 };
 
+// A data-parallel rank's part of the training frames (issue 70): the whole
+// set's size and, per frame of the whole set in its order, the index of this
+// rank's copy among its training samples (-1: another rank holds it). Every
+// rank draws the whole set's batches from the same seed, and trains on the
+// frames of each batch it holds, in `group`.
+struct SampleShare {
+  DataParallelGroup* group = nullptr;
+  size_t total = 0;
+  std::vector<int64_t> local_of;
+};
+
 // Trains on samples already made (tests, tools); `validation` may be empty.
 // With `tune_from` (one network of options.net's grid and coder) its weights are
 // trained on (fine-tuning, as `adapt --self-train` does) instead of fresh
@@ -190,7 +213,8 @@ VoteNet TrainVoteNetOnSamples(const std::vector<BevSample>& training,
                               const std::vector<BevSample>& validation,
                               const VoteNetTrainingOptions& options,
                               VoteNetTrainingSummary* summary,
-                              const VoteNet* tune_from = nullptr);
+                              const VoteNet* tune_from = nullptr,
+                              const SampleShare* share = nullptr);
 
 // TrainVoteNetOnSamples for options.ensemble networks (members
 // options.member onwards) on the same samples, combined; one network when
@@ -222,6 +246,11 @@ std::string TrainVoteNet(const Catalog& catalog,
                          const std::string& rooms_db,
                          VoteNetTrainingSummary* summary);
 
+// What a data-parallel worker process (rank > 0 of options.data_parallel)
+// does: joins the group, rasterises its share of the rooms in `rooms_path`
+// and trains with the others; rank 0 (TrainVoteNet) keeps the network.
+void TrainVoteNetWorker(const VoteNetTrainingOptions& options, const std::string& rooms_path);
+
 // Shard i/N of the training rooms TrainVoteNet generates, into `out`: what
 // each task of `train --shards N` does. Returns the rooms written.
 int GenerateTrainingRoomsShard(const Catalog& catalog,
@@ -236,10 +265,14 @@ int GenerateTrainingRoomsShard(const Catalog& catalog,
 // training and validation; a null `training` or `validation` leaves its rooms unread (an operating
 // point needs the validation rooms alone).
 // With `stages`, adds the time reading the rooms and rasterising them.
+// With `share` (its group set): only this rank's training rooms (every
+// world-th, from its rank) are rasterised, and the share says where each
+// frame of the whole set is; the validation rooms are rank 0's alone.
 void ReadBevSamples(const std::string& db_path,
                     const VoteNetTrainingOptions& options,
                     std::vector<BevSample>* training,
                     std::vector<BevSample>* validation,
-                    VoteNetStageTimes* stages = nullptr);
+                    VoteNetStageTimes* stages = nullptr,
+                    SampleShare* share = nullptr);
 
 }  // namespace furn
