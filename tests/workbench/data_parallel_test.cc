@@ -8,6 +8,8 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <atomic>
+#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <thread>
@@ -19,6 +21,7 @@
 #include "db/dataset_db.h"
 #include "tests/test_util.h"
 #include "workbench/pipelines/generate.h"
+#include "workbench/pipelines/run_program.h"
 #include "workbench/pipelines/train_vote_net.h"
 
 namespace furn {
@@ -188,6 +191,35 @@ TEST(DataParallel, TrainWithTwoWorkerProcesses) {
       Workbench(train + dir + "/bad.fcm --vote-workers 2 --vote-ensemble 2");
   EXPECT_NE(ensemble.output.find("not an ensemble"), std::string::npos) << ensemble.output;
   EXPECT_FALSE(std::filesystem::exists(dir + "/bad.fcm"));
+}
+
+// What lets rank 0 stop at once when a worker dies: a program that fails is
+// reported (once, by its index); one that succeeds is not; Poll and Wait
+// agree on the exit code.
+TEST(DataParallel, AWatchReportsTheWorkerThatFailed) {
+  const std::string log = testing::ScratchDir() + "/programs.log";
+  RunningProgram fine({"/bin/true"}, log), broken({"/bin/false"}, log);
+  std::atomic<int> reported{-1}, calls{0};
+  {
+    ProgramWatch watch(
+        {&fine, &broken},
+        [&](size_t i) {
+          reported = static_cast<int>(i);
+          ++calls;
+        },
+        0.01);
+    for (int i = 0; i < 500 && calls == 0; ++i)
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  EXPECT_EQ(reported, 1);
+  EXPECT_EQ(calls, 1);
+  EXPECT_EQ(broken.Poll(), std::optional<int>(1));
+  EXPECT_EQ(broken.Wait(), 1);
+  EXPECT_EQ(fine.Wait(), 0);
+  RunningProgram running({"/bin/sleep", "30"}, log);
+  EXPECT_FALSE(running.Poll().has_value());
+  running.Stop();
+  EXPECT_EQ(running.Wait(), 128) << "stopped by a signal";
 }
 
 }  // namespace

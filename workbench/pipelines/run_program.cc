@@ -7,6 +7,7 @@
 
 #include <array>
 #include <cerrno>
+#include <chrono>
 #include <csignal>
 
 #include "core/error.h"
@@ -95,17 +96,57 @@ RunningProgram::RunningProgram(const std::vector<std::string>& argv, const std::
   pid_ = pid;
 }
 
-RunningProgram::~RunningProgram() {
+RunningProgram::~RunningProgram() { Stop(); }
+
+void RunningProgram::Stop() {
   if (pid_ < 0) return;
   kill(pid_, SIGTERM);
-  Reap(pid_);
+  exit_code_ = Reap(pid_);
+  pid_ = -1;
 }
 
 int RunningProgram::Wait() {
-  Require(pid_ >= 0, "a program is waited for once");
-  const int code = Reap(pid_);
+  if (pid_ >= 0) {
+    exit_code_ = Reap(pid_);
+    pid_ = -1;
+  }
+  return *exit_code_;
+}
+
+std::optional<int> RunningProgram::Poll() {
+  if (pid_ < 0) return exit_code_;
+  int status = 0;
+  const pid_t done = waitpid(pid_, &status, WNOHANG);
+  if (done != pid_) return std::nullopt;
+  exit_code_ = WIFEXITED(status) ? WEXITSTATUS(status) : 128;
   pid_ = -1;
-  return code;
+  return exit_code_;
+}
+
+ProgramWatch::ProgramWatch(std::vector<RunningProgram*> programs,
+                           std::function<void(size_t)> failed,
+                           double period_s)
+    : programs_(std::move(programs)), failed_(std::move(failed)) {
+  const auto period = std::chrono::milliseconds(static_cast<int64_t>(period_s * 1000));
+  thread_ = std::thread([this, period] {
+    while (!stop_) {
+      for (size_t i = 0; i < programs_.size(); ++i) {
+        const std::optional<int> code = programs_[i]->Poll();
+        if (code && *code != 0) {
+          failed_(i);
+          return;
+        }
+      }
+      std::this_thread::sleep_for(period);
+    }
+  });
+}
+
+ProgramWatch::~ProgramWatch() { Stop(); }
+
+void ProgramWatch::Stop() {
+  stop_ = true;
+  if (thread_.joinable()) thread_.join();
 }
 
 }  // namespace furn

@@ -6,7 +6,11 @@
 //   if (git.exit_code == 0) commit = git.output;
 #pragma once
 
+#include <atomic>
+#include <functional>
+#include <optional>
 #include <string>
+#include <thread>
 #include <vector>
 
 namespace furn {
@@ -35,9 +39,37 @@ class RunningProgram {
   RunningProgram& operator=(const RunningProgram&) = delete;
   // Its exit code (128: killed by a signal).
   int Wait();
+  // Its exit code when it has ended, without waiting; empty while it runs.
+  std::optional<int> Poll();
+  // Stops it (SIGTERM) and reaps it.
+  void Stop();
 
  private:
   int pid_ = -1;
+  std::optional<int> exit_code_;
+};
+
+// Watches running programs from a thread of its own (every `period_s`):
+// the first that ends with a non-zero exit code is handed to `failed` (its
+// index), once, on that thread; e.g. rank 0 of a data-parallel training
+// stops at once when a worker dies instead of waiting for the group's
+// timeout. Stopped (joined) by Stop or the destructor; the programs outlive
+// the watch.
+class ProgramWatch {
+ public:
+  ProgramWatch(std::vector<RunningProgram*> programs,
+               std::function<void(size_t)> failed,
+               double period_s = 0.5);
+  ~ProgramWatch();
+  ProgramWatch(const ProgramWatch&) = delete;
+  ProgramWatch& operator=(const ProgramWatch&) = delete;
+  void Stop();
+
+ private:
+  std::vector<RunningProgram*> programs_;
+  std::function<void(size_t)> failed_;
+  std::atomic<bool> stop_{false};
+  std::thread thread_;
 };
 
 }  // namespace furn

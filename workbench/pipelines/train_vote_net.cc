@@ -4,10 +4,13 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <random>
+#include <stdexcept>
+#include <thread>
 
 #include "core/error.h"
 #include "core/progress.h"
@@ -179,7 +182,8 @@ namespace {
 // Rank 0 of a local data-parallel training (options.workers > 1): the other
 // ranks started as processes of their own (their output in
 // <rooms>.worker-R.log), the group joined; Finish waits for them and fails
-// when one did. Nothing when options.workers is 1.
+// when one did, and a worker that dies before that ends this process at
+// once (ProgramWatch). Nothing when options.workers is 1.
 class LocalGroup {
  public:
   LocalGroup(const VoteNetTrainingOptions& options, const std::string& rooms_path) {
@@ -202,8 +206,11 @@ class LocalGroup {
       logs_.push_back(rooms_path + ".worker-" + std::to_string(rank) + ".log");
       workers_.push_back(std::make_unique<RunningProgram>(argv, logs_.back()));
     }
-    group_ = std::make_unique<DataParallelGroup>(parallel);
     store_ = parallel.store_path;
+    std::vector<RunningProgram*> watched;
+    for (const auto& worker : workers_) watched.push_back(worker.get());
+    watch_ = std::make_unique<ProgramWatch>(watched, [this](size_t i) { WorkerFailed(i); });
+    group_ = std::make_unique<DataParallelGroup>(parallel);
   }
   ~LocalGroup() {
     if (!store_.empty()) std::filesystem::remove(store_);
@@ -212,6 +219,7 @@ class LocalGroup {
   DataParallelGroup* group() { return group_.get(); }
 
   void Finish() {
+    if (watch_) watch_->Stop();
     for (size_t i = 0; i < workers_.size(); ++i) {
       const int code = workers_[i]->Wait();
       Require(code == 0,
@@ -222,11 +230,44 @@ class LocalGroup {
     workers_.clear();
   }
 
+  // On the watch's thread, while this rank may be blocked in the group: a
+  // worker that died fails the training at once (the group would only time
+  // out), the others stopped, nothing written.
+  // What the group lost, when this rank's training failed in it: a worker
+  // that died, by its exit code and log. Rethrows `e` otherwise.
+  [[noreturn]] void Explain(const std::runtime_error& e) const {
+    if (watch_) watch_->Stop();
+    for (size_t i = 0; i < workers_.size(); ++i) {
+      std::optional<int> code;
+      for (int tries = 0; tries < 20 && !code; ++tries) {  // a worker's end is seen within 1 s
+        code = workers_[i]->Poll();
+        if (!code) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+      }
+      if (code && *code != 0)
+        throw std::runtime_error("data-parallel worker " + std::to_string(i + 1) +
+                                 " failed (exit " + std::to_string(*code) +
+                                 "; its log: " + logs_[i] + ")");
+    }
+    throw e;
+  }
+
  private:
+  [[noreturn]] void WorkerFailed(size_t i) {
+    std::fprintf(stderr,
+                 "workbench: error: data-parallel worker %zu failed (exit %d; its log: %s)\n",
+                 i + 1,
+                 workers_[i]->Poll().value_or(128),
+                 logs_[i].c_str());
+    for (const auto& worker : workers_) worker->Stop();
+    std::filesystem::remove(store_);
+    std::_Exit(1);
+  }
+
   std::vector<std::unique_ptr<RunningProgram>> workers_;
   std::vector<std::string> logs_;
-  std::unique_ptr<DataParallelGroup> group_;
   std::string store_;
+  std::unique_ptr<ProgramWatch> watch_;
+  std::unique_ptr<DataParallelGroup> group_;
 };
 
 }  // namespace
@@ -762,9 +803,14 @@ std::string TrainVoteNet(const Catalog& catalog,
                  share.group ? &share : nullptr);
   cached.reset();
   summary->raster_s = Seconds(start);
-  const VoteNet net =
-      share.group ? TrainVoteNetOnSamples(training, validation, options, summary, nullptr, &share)
-                  : TrainVoteNetEnsemble(training, validation, options, summary);
+  VoteNet net;
+  try {
+    net = share.group
+              ? TrainVoteNetOnSamples(training, validation, options, summary, nullptr, &share)
+              : TrainVoteNetEnsemble(training, validation, options, summary);
+  } catch (const std::runtime_error& e) {
+    group.Explain(e);
+  }
   group.Finish();
   start = std::chrono::steady_clock::now();
   if (!validation.empty()) summary->operating_point = VoteNetOperatingPoint(net, validation);
