@@ -748,6 +748,25 @@ OperatingPoint VoteNetOperatingPointOnRooms(const TrainedModel& model,
   return VoteNetOperatingPoint(net, validation);
 }
 
+namespace {
+
+// The training curve (loss, validation mAP per epoch) as a PNG.
+void WriteCurve(const VoteNetTrainingSummary& summary, bool validated, const std::string& png) {
+  std::vector<TrainingCurvePoint> curve;
+  for (const VoteNetEpoch& e : summary.epochs)
+    curve.push_back({e.epoch,
+                     e.train_loss,
+                     e.validation_loss,
+                     validated ? e.validation_map : std::nan(""),
+                     e.last_weights_map});
+  WriteTrainingCurvePng(curve,
+                        "vote network: " + std::to_string(summary.frames) + " frames of " +
+                            std::to_string(summary.rooms) + " rooms",
+                        png);
+}
+
+}  // namespace
+
 std::string TrainVoteNet(const Catalog& catalog,
                          const std::set<std::string>& held_out,
                          const VoteNetTrainingOptions& options,
@@ -820,19 +839,7 @@ std::string TrainVoteNet(const Catalog& catalog,
         VoteNet::Deserialize(summary->last_weights, "the last weights"), validation);
   }
   if (!options.keep_rooms && options.rooms_cache.empty()) RemoveDatabaseFiles(rooms_db);
-  if (!options.curve_png.empty()) {
-    std::vector<TrainingCurvePoint> curve;
-    for (const VoteNetEpoch& e : summary->epochs)
-      curve.push_back({e.epoch,
-                       e.train_loss,
-                       e.validation_loss,
-                       validation.empty() ? std::nan("") : e.validation_map,
-                       e.last_weights_map});
-    WriteTrainingCurvePng(curve,
-                          "vote network: " + std::to_string(summary->frames) + " frames of " +
-                              std::to_string(summary->rooms) + " rooms",
-                          options.curve_png);
-  }
+  if (!options.curve_png.empty()) WriteCurve(*summary, !validation.empty(), options.curve_png);
   return net.Serialize();
 }
 
