@@ -13,6 +13,7 @@
 namespace furn {
 
 struct DataParallelGroup::Impl {
+  c10::intrusive_ptr<c10d::FileStore> store;
   c10::intrusive_ptr<c10d::ProcessGroupGloo> group;
 };
 
@@ -62,14 +63,14 @@ DataParallelGroup::DataParallelGroup(const DataParallelOptions& options)
   options.Check();
   if (!options.Active()) return;
   try {
-    auto store = c10::make_intrusive<c10d::FileStore>(options.store_path, options.world);
+    impl_->store = c10::make_intrusive<c10d::FileStore>(options.store_path, options.world);
     const auto timeout = std::chrono::milliseconds(static_cast<int64_t>(options.timeout_s * 1000));
-    store->setTimeout(timeout);
+    impl_->store->setTimeout(timeout);
     auto gloo = c10d::ProcessGroupGloo::Options::create();
     gloo->timeout = timeout;
     gloo->devices.push_back(Device(options));
-    impl_->group =
-        c10::make_intrusive<c10d::ProcessGroupGloo>(store, options.rank, options.world, gloo);
+    impl_->group = c10::make_intrusive<c10d::ProcessGroupGloo>(
+        impl_->store, options.rank, options.world, gloo);
   } catch (const std::exception& e) {
     GroupFailed(options, e);
   }
@@ -90,6 +91,21 @@ void DataParallelGroup::SumFloats(float* values, size_t count) {
   Sum(impl_->group.get(),
       torch::from_blob(values, {static_cast<int64_t>(count)}, torch::kFloat32),
       options_);
+}
+
+std::string DataParallelGroup::Broadcast(const std::string& key, const std::string& value) {
+  if (!options_.Active()) return value;
+  const std::string stored = "furn/" + key;
+  try {
+    if (options_.rank == 0) {
+      impl_->store->set(stored, std::vector<uint8_t>(value.begin(), value.end()));
+      return value;
+    }
+    const std::vector<uint8_t> bytes = impl_->store->get(stored);
+    return std::string(bytes.begin(), bytes.end());
+  } catch (const std::exception& e) {
+    GroupFailed(options_, e);
+  }
 }
 
 }  // namespace furn

@@ -53,6 +53,10 @@ class DataParallelGroup {
   // Sums over the ranks, in place; every rank calls with as many values.
   void SumDoubles(std::vector<double>* values);
   void SumFloats(float* values, size_t count);
+  // Rank 0's `value` under `key`, on every rank: rank 0 stores it and gets
+  // it back, the others wait for it (within the timeout). What tells the
+  // ranks of a Slurm job where rank 0 put the training rooms.
+  std::string Broadcast(const std::string& key, const std::string& value);
 
  private:
   struct Impl;

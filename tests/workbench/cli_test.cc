@@ -412,6 +412,48 @@ TEST(Cli, TrainWithItsTrainingRoomsAsTasksWritesTheOneProcessModel) {
       << codebook.output;
 }
 
+// Issue 70 without a cluster: `train --vote-workers 2 --emit-only` writes a
+// rooms task and a final job of two tasks (srun); run by a stand-in srun
+// that starts the command twice with SLURM_PROCID 0 and 1, as Slurm would,
+// they train the same bytes as two local processes.
+TEST(Cli, TrainAsTwoSlurmTasksWritesTheLocalWorkersModel) {
+  const std::string dir = testing::ScratchDir();
+  const std::string train =
+      "train --catalog procedural:4 --vocab kmeans --words 20 --azimuths 6 --vote-rooms 6 "
+      "--vote-frames 2 --vote-epochs 1 --vote-threads 1 --quiet --out ";
+  ASSERT_EQ(RunWorkbench(train + dir + "/local.fcm --vote-workers 2").exit_code, 0);
+  const std::string job = dir + "/job";
+  const RunResult emit = RunWorkbench(
+      train + dir + "/slurm.fcm --vote-workers 2 --nodes 2 --emit-only --job-dir " + job);
+  ASSERT_EQ(emit.exit_code, 0) << emit.output;
+  const std::string script = ReadFileBytes(job + "/final.sbatch");
+  EXPECT_NE(script.find("#SBATCH --ntasks=2\n#SBATCH --nodes=2\n"), std::string::npos) << script;
+  EXPECT_NE(script.find("srun --kill-on-bad-exit=1 "), std::string::npos) << script;
+  EXPECT_EQ(script.find("--nodes 2"), std::string::npos) << "the tasks get no --nodes";
+  const std::string bin = dir + "/bin";
+  std::filesystem::create_directories(bin);
+  WriteFileAtomically(bin + "/srun",
+                      "#!/bin/bash\nshift\n"
+                      "SLURM_PROCID=0 SLURM_NTASKS=2 SLURM_JOB_ID=7 \"$@\" & zero=$!\n"
+                      "SLURM_PROCID=1 SLURM_NTASKS=2 SLURM_JOB_ID=7 \"$@\"; one=$?\n"
+                      "wait $zero; [ $? -eq 0 ] && [ $one -eq 0 ]\n");
+  std::filesystem::permissions(bin + "/srun", std::filesystem::perms::owner_all);
+  const RunResult task = testing::RunCommand("SLURM_ARRAY_TASK_ID=0 bash " + job + "/task.sbatch");
+  ASSERT_EQ(task.exit_code, 0) << task.output;
+  const RunResult final_step =
+      testing::RunCommand("PATH=" + bin + ":$PATH bash " + job + "/final.sbatch");
+  ASSERT_EQ(final_step.exit_code, 0) << final_step.output;
+  EXPECT_TRUE(ReadFileBytes(dir + "/slurm.fcm") == ReadFileBytes(dir + "/local.fcm"));
+  EXPECT_FALSE(std::filesystem::exists(job + "/group/store-7")) << "the store is left behind";
+  const RunResult other_size = testing::RunCommand(
+      "SLURM_PROCID=0 SLURM_NTASKS=3 " + std::string(FURN_WORKBENCH_BINARY) + " " + train + dir +
+      "/x.fcm --vote-workers 2 --vote-slurm-group " + job + "/group 2>&1");
+  EXPECT_EQ(other_size.exit_code, 1);
+  EXPECT_NE(other_size.output.find("this Slurm job has 3 tasks, --vote-workers 2"),
+            std::string::npos)
+      << other_size.output;
+}
+
 // `train --vote-member 1` trains another network of the same rooms (10:
 // the tenth validates);
 // `model ensemble` combines the members' vote networks into member 1's model

@@ -7,16 +7,21 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <map>
 #include <string>
 
 #include "core/file_util.h"
+#include "core/learned/vote_net.h"
+#include "core/trainer.h"
 #include "db/dataset_db.h"
 #include "tests/test_util.h"
 #include "tests/workbench/dataset_dump.h"
 #include "tests/workbench/workbench_commands.h"
+#include "workbench/pipelines/train_vote_net.h"
 
 namespace furn {
 namespace {
@@ -205,6 +210,68 @@ TEST_F(Cluster, CrossvalFoldTasksGiveTheOneProcessMetrics) {
                 "/m3 --shards 4 --slurm --job-dir " + dir + "/job4");
   EXPECT_EQ(bad.exit_code, 1);
   EXPECT_NE(bad.output.find("has 3 folds"), std::string::npos) << bad.output;
+}
+
+// The heat of two networks on the same images: the largest difference.
+double LargestHeatDifference(const VoteNet& a, const VoteNet& b, const std::vector<BevSample>& at) {
+  double largest = 0;
+  for (const BevSample& sample : at) {
+    const BevOutput x = a.Predict(sample.image), y = b.Predict(sample.image);
+    for (int k = 0; k < kBevClasses; ++k) {
+      for (int r = 0; r < x.spec.rows; ++r) {
+        for (int c = 0; c < x.spec.cols; ++c)
+          largest = std::max(largest, std::abs(double(x.At(k, r, c)) - y.At(k, r, c)));
+      }
+    }
+  }
+  return largest;
+}
+
+// Issue 70: `train --vote-workers 2 --slurm` trains the network as one job
+// of two tasks (srun; c10d over Gloo, met through a store in the job
+// folder) after one task made the rooms; the model is one process's within
+// the tolerance data-parallel training states (docs/training.md), and the
+// same bytes as two local processes (`--vote-workers 2` without --slurm).
+TEST_F(Cluster, TwoSlurmTasksTrainOneProcesssModel) {
+  const std::string dir = testing::ScratchDir();
+  const std::string train =
+      "train --catalog procedural:4 --vocab kmeans --words 20 --azimuths 6 --vote-rooms 6 "
+      "--vote-frames 2 --vote-epochs 2 --vote-threads 1 --quiet --out ";
+  ASSERT_EQ(Workbench(train + dir + "/one.fcm --keep-rooms").exit_code, 0);
+  const testing::CommandResult submit = Workbench(
+      train + dir + "/two.fcm --vote-workers 2 --cpus 1 --slurm --job-dir " + dir + "/job");
+  ASSERT_EQ(submit.exit_code, 0) << submit.output;
+  const std::string script = ReadFileBytes(dir + "/job/final.sbatch");
+  EXPECT_NE(script.find("#SBATCH --ntasks=2"), std::string::npos) << script;
+  EXPECT_NE(script.find("srun --kill-on-bad-exit=1 "), std::string::npos) << script;
+  const testing::CommandResult wait = Workbench(WaitFor(dir, 500));
+  ASSERT_EQ(wait.exit_code, 0) << wait.output << ReadFileBytes(dir + "/job/logs/final.log");
+  const VoteNet one = VoteNet::Deserialize(LoadTrainedModel(dir + "/one.fcm").vote_net, "one");
+  const VoteNet two = VoteNet::Deserialize(LoadTrainedModel(dir + "/two.fcm").vote_net, "two");
+  VoteNetTrainingOptions read;
+  read.net = one.options();
+  std::vector<BevSample> frames;
+  ReadBevSamples(dir + "/one.fcm.rooms.db", read, &frames, nullptr);
+  const double gap = LargestHeatDifference(one, two, frames);
+  std::printf("2 Slurm tasks against one process: largest heat difference %.4f\n", gap);
+  EXPECT_GT(gap, 0.0) << "the same bytes: did the second task train at all?";
+  EXPECT_LT(gap, 0.05);
+  ASSERT_EQ(Workbench(train + dir + "/local.fcm --vote-workers 2").exit_code, 0);
+  EXPECT_TRUE(ReadFileBytes(dir + "/local.fcm") == ReadFileBytes(dir + "/two.fcm"))
+      << "two Slurm tasks and two local processes trained different networks";
+  const std::string log = ReadFileBytes(dir + "/job/logs/final.log");
+  EXPECT_EQ(log.find("error"), std::string::npos) << log;
+  // Not a Slurm task, or a job of another size: one line naming the rule.
+  const testing::CommandResult outside =
+      Shell("env -u SLURM_PROCID " + std::string(FURN_WORKBENCH_BINARY) + " " + train + dir +
+            "/x.fcm --vote-workers 2 --vote-slurm-group " + dir + "/g 2>&1");
+  EXPECT_EQ(outside.exit_code, 1);
+  EXPECT_NE(outside.output.find("runs in a task of a Slurm job"), std::string::npos)
+      << outside.output;
+  const testing::CommandResult nodes =
+      Workbench(train + dir + "/y.fcm --vote-workers 2 --nodes 3 --slurm --job-dir " + dir + "/j3");
+  EXPECT_EQ(nodes.exit_code, 1);
+  EXPECT_NE(nodes.output.find("--nodes 3 must be in 0..2"), std::string::npos) << nodes.output;
 }
 
 // `jobs cancel` ends every job of the folder; the job then reads as failed

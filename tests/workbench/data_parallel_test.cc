@@ -185,7 +185,7 @@ TEST(DataParallel, TrainWithTwoWorkerProcesses) {
   }
   const testing::CommandResult bad = Workbench(train + dir + "/bad.fcm --vote-workers 0");
   EXPECT_EQ(bad.exit_code, 1);
-  EXPECT_NE(bad.output.find("vote-net workers 0 must be in 1..64"), std::string::npos)
+  EXPECT_NE(bad.output.find("--vote-workers 0 must be in 1..64"), std::string::npos)
       << bad.output;
   const testing::CommandResult ensemble =
       Workbench(train + dir + "/bad.fcm --vote-workers 2 --vote-ensemble 2");

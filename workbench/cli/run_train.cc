@@ -1,5 +1,7 @@
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <iostream>
 #include <optional>
@@ -86,57 +88,126 @@ void PrintTrainSummary(const std::string& out,
   }
 }
 
-// The vote network's training rooms made by the tasks of `train --shards`.
-// Data-parallel training of the vote network on this machine (issue 70):
-// --vote-workers N; the workers' own (hidden) flags, which rank 0 appends to
-// the command it starts them with.
+// Data-parallel training of the vote network (issue 70): --vote-workers N
+// processes of this machine, or with --slurm the N tasks of one Slurm job
+// (--nodes M); the workers' own (hidden) flags, which rank 0 appends to the
+// command it starts them with, and the Slurm tasks' group folder.
 struct VoteWorkerFlags {
   int workers = 1;
+  int nodes = 0;
   int rank = 0, of = 1;
   std::string store, rooms;
+  std::string slurm_group;  // a Slurm task: its rank from SLURM_PROCID
 
   void Add(CLI::App* app) {
     app->add_option("--vote-workers",
                     workers,
-                    "Train the vote network in N processes of this machine together (data-"
-                    "parallel, gradients summed every step; each uses --vote-threads, 1 unless "
-                    "given)")
+                    "Train the vote network in N processes together (data-parallel, gradients "
+                    "summed every step; each uses --vote-threads, 1 unless given): on this "
+                    "machine, or with --slurm as the N tasks of one Slurm job")
+        ->capture_default_str();
+    app->add_option("--nodes",
+                    nodes,
+                    "With --vote-workers N and --slurm: spread the N training tasks over this "
+                    "many nodes (0: where Slurm places them)")
         ->capture_default_str();
     app->add_option("--vote-worker-rank", rank)->group("");
     app->add_option("--vote-worker-of", of)->group("");
     app->add_option("--vote-worker-store", store)->group("");
     app->add_option("--vote-worker-rooms", rooms)->group("");
+    app->add_option("--vote-slurm-group", slurm_group)->group("");
   }
-  bool IsWorker() const { return rank > 0 || !store.empty(); }
+
+  void Check(const ClusterFlags& cluster) const {
+    Require(workers >= 1 && workers <= 64,
+            "--vote-workers " + std::to_string(workers) + " must be in 1..64");
+    Require(nodes == 0 || (cluster.Active() && workers > 1),
+            "--nodes spreads the --vote-workers of a --slurm training over nodes; give both");
+    Require(nodes >= 0 && nodes <= workers,
+            "--nodes " + std::to_string(nodes) + " must be in 0.." + std::to_string(workers) +
+                " (at most one node per --vote-workers task)");
+  }
+
+  // A Slurm task of the training: this process's rank and the group's
+  // store (in the job's group folder, by the job's id: a rerun never meets
+  // an earlier job's store).
+  DataParallelOptions SlurmTask() const {
+    DataParallelOptions group;
+    group.rank = SlurmNumber("SLURM_PROCID", 0);
+    group.world = SlurmNumber("SLURM_NTASKS", 1);
+    Require(group.world == workers,
+            "this Slurm job has " + std::to_string(group.world) + " tasks, --vote-workers " +
+                std::to_string(workers) + " (submit it with 'train --vote-workers N --slurm')");
+    std::filesystem::create_directories(slurm_group);
+    group.store_path = slurm_group + "/store-" + std::to_string(SlurmNumber("SLURM_JOB_ID", 0));
+    group.local = false;
+    return group;
+  }
+  bool IsWorker() const {
+    return rank > 0 || !store.empty() || (!slurm_group.empty() && SlurmTask().rank > 0);
+  }
 
   // A worker's options: the group's, and one process each.
-  VoteNetTrainingOptions Worker(const VoteNetTrainingOptions& vote_net) const {
-    Require(rank > 0 && !store.empty() && !rooms.empty(),
-            "--vote-worker-rank, --vote-worker-store and --vote-worker-rooms go together");
+  VoteNetTrainingOptions Worker(const VoteNetTrainingOptions& vote_net, bool threads_given) const {
     VoteNetTrainingOptions options = vote_net;
+    options.threads = Threads(vote_net.threads, threads_given);
     options.workers = 1;
     options.worker_command.clear();
+    options.quiet = true;
+    if (!slurm_group.empty()) {
+      options.data_parallel = SlurmTask();
+      return options;
+    }
+    Require(rank > 0 && !store.empty() && !rooms.empty(),
+            "--vote-worker-rank, --vote-worker-store and --vote-worker-rooms go together");
     options.data_parallel.rank = rank;
     options.data_parallel.world = of;
     options.data_parallel.store_path = store;
-    options.quiet = true;
     return options;
   }
 
   // Rank 0's options: the workers and the command that starts them (this
-  // program with the same arguments).
+  // program with the same arguments), or the Slurm job's group it leads.
   VoteNetTrainingOptions Leader(const VoteNetTrainingOptions& vote_net,
                                 bool threads_given,
                                 int argc,
                                 char** argv) const {
     VoteNetTrainingOptions options = vote_net;
-    options.workers = workers;
     if (workers < 2) return options;
-    if (!threads_given) options.threads = 1;
+    options.threads = Threads(vote_net.threads, threads_given);
+    if (!slurm_group.empty()) {
+      options.data_parallel = SlurmTask();
+      return options;
+    }
+    options.workers = workers;
     options.worker_command = {std::filesystem::read_symlink("/proc/self/exe").string()};
     for (int i = 0; i < argc; ++i) options.worker_command.push_back(argv[i]);
     options.worker_command.push_back("--quiet");
     return options;
+  }
+
+ private:
+  // Each rank's torch threads: --vote-threads when given, else a Slurm
+  // task's CPUs, else 1 (the local ranks share this machine's cores).
+  int Threads(int given, bool threads_given) const {
+    if (threads_given) return given;
+    if (slurm_group.empty() || std::getenv("SLURM_CPUS_PER_TASK") == nullptr) return 1;
+    return std::clamp(SlurmNumber("SLURM_CPUS_PER_TASK", 1), 1, 256);
+  }
+
+  // A Slurm variable's value, checked; `fallback` when it is unset.
+  static int SlurmNumber(const char* name, int fallback) {
+    const char* value = std::getenv(name);
+    if (value == nullptr) {
+      Require(std::string(name) != "SLURM_PROCID",
+              "--vote-slurm-group runs in a task of a Slurm job (SLURM_PROCID is unset)");
+      return fallback;
+    }
+    char* end = nullptr;
+    const long number = std::strtol(value, &end, 10);
+    Require(*value != '\0' && *end == '\0' && number >= 0 && number <= 1 << 30,
+            std::string(name) + "='" + value + "' must be a number");
+    return static_cast<int>(number);
   }
 };
 
@@ -230,17 +301,28 @@ int GenerateRoomShard(const Catalog& catalog,
 // `train` as an array job: task i generates shard i/N of the vote
 // network's training rooms into the job folder; the final job is the same
 // train, which merges them and trains (scans, vocabulary, network).
-ArrayJob TrainArrayJob(const ClusterFlags& cluster, const std::string& out, int argc, char** argv) {
+ArrayJob TrainArrayJob(const ClusterFlags& cluster,
+                       const VoteWorkerFlags& workers,
+                       const std::string& out,
+                       int argc,
+                       char** argv) {
   ArrayJob job = NewArrayJob(cluster, "train");
   SetTaskOutput(&job, "rooms-", ".db");
   const std::set<std::string> drop = {
-      "--vote-rooms-shard", "--vote-rooms-out", "--vote-rooms-from"};
+      "--vote-rooms-shard", "--vote-rooms-out", "--vote-rooms-from", "--nodes"};
   job.task_command = TaskCommandLine(argc,
                                      argv,
                                      drop,
                                      "--quiet --vote-rooms-shard " + TaskShardArgument(job) +
                                          " --vote-rooms-out " + TaskOutputArgument(job));
-  job.final_command = TaskCommandLine(argc, argv, drop, "--vote-rooms-from" + AllTaskOutputs(job));
+  std::string final_flags = "--vote-rooms-from" + AllTaskOutputs(job);
+  if (workers.workers > 1) {  // the training itself as a job of N tasks
+    job.final_tasks = workers.workers;
+    job.final_nodes = workers.nodes;
+    final_flags +=
+        " --vote-slurm-group " + ShellQuote(std::filesystem::absolute(job.dir).string() + "/group");
+  }
+  job.final_command = TaskCommandLine(argc, argv, drop, final_flags);
   job.final_output = std::filesystem::absolute(out).string();
   return job;
 }
@@ -280,15 +362,21 @@ int RunTrain(int argc, char** argv) {
   AddClusterFlags(&app, &cluster);
   if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
   ApplyGlobalFlags(catalog_flags);
+  // A data-parallel training on Slurm without --shards: one task makes the rooms.
+  if (workers.workers > 1 && cluster.shards == 0 && (cluster.slurm || cluster.emit_only))
+    cluster.shards = 1;
   room_shards.Check(cluster, vote_net);
-  if (cluster.Active()) return RunArrayJob(cluster, TrainArrayJob(cluster, out, argc, argv));
+  workers.Check(cluster);
+  if (cluster.Active())
+    return RunArrayJob(cluster, TrainArrayJob(cluster, workers, out, argc, argv));
   const TrainingOptions training =
       ResolveTrainingFlags(app, vocab, init, options_file, {trainer, scan});
   // Every option is checked (Resolve) before the catalog opens (seconds of work).
   const VoteNetTrainingOptions* vote_net_options = vote_net.Resolve(catalog_flags.quiet);
   if (workers.IsWorker()) {
     Require(vote_net_options != nullptr, "a vote-net worker trains a vote network");
-    TrainVoteNetWorker(workers.Worker(*vote_net_options), workers.rooms);
+    TrainVoteNetWorker(workers.Worker(*vote_net_options, app.count("--vote-threads") > 0),
+                       workers.rooms);
     return 0;
   }
   VoteNetTrainingOptions led;

@@ -95,6 +95,21 @@ std::string Header(const ArrayJob& job, const std::string& what, const std::stri
   return s.str();
 }
 
+// The final job's tasks and nodes, when it has more than one task.
+std::string FinalTasks(const ArrayJob& job) {
+  if (job.final_tasks == 1) return "";
+  std::string lines = "#SBATCH --ntasks=" + std::to_string(job.final_tasks) + "\n";
+  if (job.final_nodes > 0) lines += "#SBATCH --nodes=" + std::to_string(job.final_nodes) + "\n";
+  return lines;
+}
+
+// The final command, through srun when the job has several tasks (a task
+// that fails ends the others: --kill-on-bad-exit).
+std::string FinalCommand(const ArrayJob& job) {
+  if (job.final_tasks == 1) return job.final_command;
+  return "srun --kill-on-bad-exit=1 " + job.final_command;
+}
+
 // Runs `command` in the folder the workbench command was given in (its
 // relative paths mean what they meant there) and records its exit status as
 // STATUS.ok or STATUS.failed.
@@ -201,6 +216,11 @@ std::string ShellQuote(const std::string& argument) {
 
 void WriteJobScripts(const ArrayJob& job) {
   Require(job.tasks >= 1 && job.tasks <= kMaxTasks, "an array job needs 1..100000 tasks");
+  Require(job.final_tasks >= 1 && job.final_tasks <= 1024,
+          "the final job's tasks " + std::to_string(job.final_tasks) + " must be in 1..1024");
+  Require(job.final_nodes >= 0 && job.final_nodes <= job.final_tasks,
+          "--nodes " + std::to_string(job.final_nodes) + " must be in 0.." +
+              std::to_string(job.final_tasks) + " (at most one node per task)");
   job.resources.Check();
   RequirePrintable(job.dir, "the job folder (--job-dir)");
   Require(job.dir.find('$') == std::string::npos,
@@ -231,8 +251,8 @@ void WriteJobScripts(const ArrayJob& job) {
                           Body(ShellQuote(dir + "/status/task-") + "\"$TASK\"", job.task_command));
   if (!job.final_command.empty()) {
     WriteFileAtomically(job.dir + "/final.sbatch",
-                        Header(job, "the final step", dir + "/logs/final.log") +
-                            Body(ShellQuote(dir + "/status/final"), job.final_command));
+                        Header(job, "the final step", dir + "/logs/final.log") + FinalTasks(job) +
+                            Body(ShellQuote(dir + "/status/final"), FinalCommand(job)));
   }
   jobs["name"] = job.name;
   jobs["tasks"] = job.tasks;

@@ -38,6 +38,12 @@ struct ArrayJob {
   std::string task_output;
   std::string final_command;  // run once every task succeeded; empty: none
   std::string final_output;   // the final job is done when this exists
+  // The final job as a job of several tasks (issue 70: data-parallel
+  // training), each running final_command through srun with its rank in
+  // SLURM_PROCID; 1: one task, run directly. final_nodes > 0 spreads them
+  // over that many nodes (sbatch --nodes); 0: where Slurm puts them.
+  int final_tasks = 1;
+  int final_nodes = 0;
   SlurmResources resources;
 };
 

@@ -179,6 +179,9 @@ Catalog TrainingCatalog(const Catalog& catalog,
 
 namespace {
 
+// Where rank 0 tells the others its rooms are (a group started by Slurm).
+constexpr const char* kRoomsKey = "rooms";
+
 // Rank 0 of a local data-parallel training (options.workers > 1): the other
 // ranks started as processes of their own (their output in
 // <rooms>.worker-R.log), the group joined; Finish waits for them and fails
@@ -187,6 +190,11 @@ namespace {
 class LocalGroup {
  public:
   LocalGroup(const VoteNetTrainingOptions& options, const std::string& rooms_path) {
+    if (options.data_parallel.Active()) {  // rank 0 of a group started elsewhere (Slurm)
+      group_ = std::make_unique<DataParallelGroup>(options.data_parallel);
+      group_->Broadcast(kRoomsKey, std::filesystem::absolute(rooms_path).string());
+      return;
+    }
     if (options.workers < 2) return;
     DataParallelOptions parallel;
     parallel.world = options.workers;
@@ -211,6 +219,7 @@ class LocalGroup {
     for (const auto& worker : workers_) watched.push_back(worker.get());
     watch_ = std::make_unique<ProgramWatch>(watched, [this](size_t i) { WorkerFailed(i); });
     group_ = std::make_unique<DataParallelGroup>(parallel);
+    group_->Broadcast(kRoomsKey, std::filesystem::absolute(rooms_path).string());
   }
   ~LocalGroup() {
     if (!store_.empty()) std::filesystem::remove(store_);
@@ -317,6 +326,8 @@ void VoteNetTrainingOptions::Check() const {
   Require(workers == 1 || ensemble == 1,
           "vote-net workers train one network, not an ensemble (--vote-ensemble)");
   Require(workers == 1 || !data_parallel.Active(), "a vote-net worker starts no workers");
+  Require(ensemble == 1 || !data_parallel.Active(),
+          "data-parallel ranks train one network, not an ensemble (--vote-ensemble)");
   data_parallel.Check();
   net.Check();
   loss.Check();
@@ -848,9 +859,10 @@ void TrainVoteNetWorker(const VoteNetTrainingOptions& options, const std::string
   Require(options.data_parallel.Active() && options.data_parallel.rank > 0,
           "a vote-net worker has a rank above 0 of two or more");
   DataParallelGroup group(options.data_parallel);
+  const std::string rooms = group.Broadcast(kRoomsKey, rooms_path);
   SampleShare share{&group, 0, {}};
   std::vector<BevSample> training, validation;
-  ReadBevSamples(rooms_path, options, &training, &validation, nullptr, &share);
+  ReadBevSamples(rooms, options, &training, &validation, nullptr, &share);
   VoteNetTrainingSummary summary;
   TrainVoteNetOnSamples(training, validation, options, &summary, nullptr, &share);
 }

@@ -127,7 +127,9 @@ struct VoteNetTrainingOptions {
   // flags) once the rooms are made. 1: one process.
   int workers = 1;
   std::vector<std::string> worker_command;
-  // In a worker process: its rank, the group's size and store.
+  // In a worker process: its rank, the group's size and store. With rank 0,
+  // this process leads a group started elsewhere (the tasks of a Slurm
+  // job, `train --vote-workers N --slurm`) and starts no workers.
   DataParallelOptions data_parallel;
   bool quiet = false;
 
@@ -248,7 +250,10 @@ std::string TrainVoteNet(const Catalog& catalog,
 
 // What a data-parallel worker process (rank > 0 of options.data_parallel)
 // does: joins the group, rasterises its share of the rooms in `rooms_path`
-// and trains with the others; rank 0 (TrainVoteNet) keeps the network.
+// (rank 0's rooms, which it tells the group, when empty: a Slurm job's
+// ranks) and trains with the others; rank 0 (TrainVoteNet, with
+// options.data_parallel of rank 0 when the group was started elsewhere)
+// keeps the network.
 void TrainVoteNetWorker(const VoteNetTrainingOptions& options, const std::string& rooms_path);
 
 // Shard i/N of the training rooms TrainVoteNet generates, into `out`: what
