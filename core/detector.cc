@@ -230,7 +230,7 @@ void SetShareInView(const PreparedScan& scan,
 DetectionResult Detector::Detect(const DetectionInput& input, bool keep_debug) const {
   DetectionResult result;
   StageTimer timer(&result.timings_ms);
-  PreparedScan scan = Prepare(input);
+  PreparedScan scan = PlaceScan(input);
   result.input_points = scan.input_points;
   if (scan.status != DetectionStatus::kDetected) {
     result.status = scan.status;
@@ -240,15 +240,16 @@ DetectionResult Detector::Detect(const DetectionInput& input, bool keep_debug) c
   }
   result.world_from_camera = scan.world_from_camera;
   result.floor_estimated = scan.floor_estimated;
+  if (impl_->learned) {
+    DetectLearned(input, &scan, keep_debug, &timer, &result);
+    SetShareInView(scan, input, impl_->model, &result.detections);
+    return result;
+  }
+  SegmentScan(input, &scan);
   result.points = static_cast<int>(scan.view.cloud.size());
   result.segments = static_cast<int>(scan.view.segments.size());
   for (const StageTime& stage : scan.timings_ms.stages) result.timings_ms.stages.push_back(stage);
   timer.Restart();
-  if (impl_->learned) {
-    DetectLearned(scan, keep_debug, &timer, &result);
-    SetShareInView(scan, input, impl_->model, &result.detections);
-    return result;
-  }
 
   const VoteMaps votes = Vote(scan);
   timer.Lap(DetectionStage::kVote);

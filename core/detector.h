@@ -524,8 +524,13 @@ class Detector {
   // gives the same result.
   DetectionResult Detect(const DetectionInput& input, bool keep_debug = false) const;
 
-  // The stages of Detect, in order.
+  // The stages of Detect, in order. Prepare is PlaceScan (range, floor or
+  // the given pose) then SegmentScan (preprocessing, segments, features,
+  // structure, occupancy; learned voting without fits needs none of it:
+  // Prepare leaves it out, and Detect runs it beside the network).
   PreparedScan Prepare(const DetectionInput& input) const;
+  PreparedScan PlaceScan(const DetectionInput& input) const;
+  void SegmentScan(const DetectionInput& input, PreparedScan* scan) const;
   VoteMaps Vote(const PreparedScan& scan) const;
   // Maxima of every class, strongest first within a class; `grids` (may be
   // null) gets each class grid's threshold, and its values when keep_values.
@@ -589,8 +594,10 @@ class Detector {
                         const BevImage& image,
                         std::vector<DetectionDebug::Hypothesis>* hypotheses,
                         std::vector<Detection>* detections) const;
-  // Detect's learned path after Prepare: vote map, maxima, detections.
-  void DetectLearned(const PreparedScan& scan,
+  // Detect's learned path after PlaceScan: the network's vote map and
+  // maxima beside SegmentScan (when the fits need it), then the fits.
+  void DetectLearned(const DetectionInput& input,
+                     PreparedScan* scan,
                      bool keep_debug,
                      StageTimer* timer,
                      DetectionResult* result) const;

@@ -208,22 +208,45 @@ std::vector<DetectionDebug::Hypothesis> Detector::LearnedMaxima(
   return hypotheses;
 }
 
-void Detector::DetectLearned(const PreparedScan& scan,
+void Detector::DetectLearned(const DetectionInput& input,
+                             PreparedScan* prepared,
                              bool keep_debug,
                              StageTimer* timer,
                              DetectionResult* result) const {
   const Impl& impl = *impl_;
-  SetTorchThreads(impl.options.torch_threads);
-  // The network's own range (it was trained on it), not the codebook's.
-  const BevImage image = RasteriseScan(scan.camera_points,
-                                       scan.world_from_camera,
-                                       impl.vote_net.options().range_m,
-                                       impl.vote_net.options().grid);
-  timer->Lap(DetectionStage::kBev);
-  const BevOutput output = impl.vote_net.Predict(image, impl.options.learned_mirror_average);
-  timer->Lap(DetectionStage::kNetwork);
-  result->debug.hypotheses = LearnedMaxima(image, output, &result->detections);
-  timer->Lap(DetectionStage::kMaxima);
+  // The network's stages beside the segmentation its fits need (they
+  // share nothing): each on a core of its own. Their stage times overlap.
+  BevImage image;
+  BevOutput output;
+  StageTimings network_ms;
+  auto network = [&] {
+    // On the thread that runs the network: OpenMP's thread count is the
+    // calling thread's.
+    SetTorchThreads(impl.options.torch_threads);
+    StageTimer network_timer(&network_ms);
+    // The network's own range (it was trained on it), not the codebook's.
+    image = RasteriseScan(prepared->camera_points,
+                          prepared->world_from_camera,
+                          impl.vote_net.options().range_m,
+                          impl.vote_net.options().grid);
+    network_timer.Lap(DetectionStage::kBev);
+    output = impl.vote_net.Predict(image, impl.options.learned_mirror_average);
+    network_timer.Lap(DetectionStage::kNetwork);
+    result->debug.hypotheses = LearnedMaxima(image, output, &result->detections);
+    network_timer.Lap(DetectionStage::kMaxima);
+  };
+  if (impl.options.learned_fit) {
+    RunBeside(network, [&] { SegmentScan(input, prepared); });
+  } else {
+    network();
+  }
+  const PreparedScan& scan = *prepared;
+  result->segments = static_cast<int>(scan.view.segments.size());
+  for (const StageTimings* stages :
+       {&scan.timings_ms, static_cast<const StageTimings*>(&network_ms)}) {
+    for (const StageTime& stage : stages->stages) result->timings_ms.stages.push_back(stage);
+  }
+  timer->Restart();
   if (impl.options.learned_fit) {
     FitLearned(scan, &result->debug.hypotheses, &result->detections);
     timer->Lap(DetectionStage::kFitAndVerify);

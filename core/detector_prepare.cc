@@ -156,6 +156,13 @@ void KeepDepthImage(const DetectionInput& input, double max_range_m, PreparedSca
 }  // namespace
 
 PreparedScan Detector::Prepare(const DetectionInput& input) const {
+  PreparedScan scan = PlaceScan(input);
+  const bool fits = !impl_->learned || impl_->options.learned_fit;
+  if (scan.status == DetectionStatus::kDetected && fits) SegmentScan(input, &scan);
+  return scan;
+}
+
+PreparedScan Detector::PlaceScan(const DetectionInput& input) const {
   const Impl& impl = *impl_;
   const DetectorOptions& options = impl.options;
   PreparedScan scan;
@@ -179,35 +186,45 @@ PreparedScan Detector::Prepare(const DetectionInput& input) const {
     return scan;
   }
   if (!PlaceInWorld(input, options, &scan)) return scan;
+  scan.sensor = scan.world_from_camera.translation().cast<float>();
   if (impl.learned) {  // the network's grid is rasterised from the points as given
     scan.camera_points = input.points;
-    if (!options.learned_fit) {  // else segments, structure and occupancy for the fits
-      // The extent fit's visibility test and each detection's share in view
-      // project onto the scan's pixels.
-      KeepIntrinsics(input, &scan);
-      scan.sensor = scan.world_from_camera.translation().cast<float>();
-      timer.Lap(DetectionStage::kFloor);
-      return scan;
-    }
+    // The extent fit's visibility test and each detection's share in view
+    // project onto the scan's pixels (SegmentScan keeps them again, with
+    // the depth image, when the fits need it).
+    if (!options.learned_fit) KeepIntrinsics(input, &scan);
   }
+  timer.Lap(DetectionStage::kFloor);
+  return scan;
+}
+
+void Detector::SegmentScan(const DetectionInput& input, PreparedScan* scan_out) const {
+  const Impl& impl = *impl_;
+  const DetectorOptions& options = impl.options;
+  PreparedScan& scan = *scan_out;
+  const auto start = std::chrono::steady_clock::now();
   const Eigen::Matrix3f rotation = scan.world_from_camera.linear().cast<float>();
   const Eigen::Vector3f translation = scan.world_from_camera.translation().cast<float>();
-  scan.sensor = translation;
+  const float max_range2 = static_cast<float>(options.max_range_m * options.max_range_m);
   std::vector<Eigen::Vector3f> world, above_floor;
-  world.reserve(in_range.size());
-  for (const Eigen::Vector3f& p : in_range) {
+  world.reserve(scan.input_points);
+  for (const Eigen::Vector3f& p : input.points) {
+    if (!p.allFinite() || p.squaredNorm() == 0 || p.squaredNorm() > max_range2) continue;
     world.push_back(rotation * p + translation);
     if (world.back().z() >= options.floor_band_m) above_floor.push_back(world.back());
   }
-  timer.Lap(DetectionStage::kFloor);
+  const double to_world_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
 
-  // Segments and features, exactly as in training.
+  // Segments and features, exactly as in training (learned voting's fits
+  // use no features: no codebook words).
   SegmentTimings segment_timings;
-  scan.view = SegmentView(above_floor, scan.sensor, impl.model.options, &segment_timings);
-  scan.timings_ms.Add(DetectionStage::kPreprocess, segment_timings.preprocess_ms);
+  scan.view =
+      SegmentView(above_floor, scan.sensor, impl.model.options, &segment_timings, !impl.learned);
+  StageTimer timer(&scan.timings_ms);  // from here: structure, depth image, occupancy
+  scan.timings_ms.Add(DetectionStage::kPreprocess, to_world_ms + segment_timings.preprocess_ms);
   scan.timings_ms.Add(DetectionStage::kSegment, segment_timings.segment_ms);
-  scan.timings_ms.Add(DetectionStage::kFeatures, segment_timings.features_ms);
-  timer.Restart();  // the three stages above cover the time since the last lap
+  if (!impl.learned) scan.timings_ms.Add(DetectionStage::kFeatures, segment_timings.features_ms);
   scan.segment_of_point.assign(scan.view.cloud.size(), -1);
   for (size_t segment = 0; segment < scan.view.segments.size(); ++segment) {
     for (int point : scan.view.segments[segment])
@@ -223,7 +240,6 @@ PreparedScan Detector::Prepare(const DetectionInput& input) const {
   scan.occupancy.emplace(
       ThinOut(world, options.occupancy_voxel_m), scan.sensor, options.occupancy_voxel_m);
   timer.Lap(DetectionStage::kOccupancy);
-  return scan;
 }
 
 }  // namespace furn

@@ -59,6 +59,10 @@ class Pool {
 
   int Threads() const { return static_cast<int>(workers_.size()) + 1; }
 
+  // One loop at a time: false when another thread's loop holds the pool.
+  bool TryAcquire() { return !busy_.exchange(true, std::memory_order_acquire); }
+  void Release() { busy_.store(false, std::memory_order_release); }
+
   void Run(Loop* loop) {
     {
       std::lock_guard<std::mutex> lock(mutex_);
@@ -96,6 +100,7 @@ class Pool {
   Loop* loop_ = nullptr;
   uint64_t generation_ = 0;
   bool stop_ = false;
+  std::atomic<bool> busy_{false};
 };
 
 Pool& SharedPool() {
@@ -110,7 +115,7 @@ int ParallelThreads() { return SharedPool().Threads(); }
 void ParallelFor(int begin, int end, const std::function<void(int)>& body) {
   if (begin >= end) return;
   Pool& pool = SharedPool();
-  if (t_inside_parallel_for || pool.Threads() == 1 || end - begin == 1) {
+  if (t_inside_parallel_for || pool.Threads() == 1 || end - begin == 1 || !pool.TryAcquire()) {
     for (int i = begin; i < end; ++i) body(i);
     return;
   }
@@ -121,7 +126,27 @@ void ParallelFor(int begin, int end, const std::function<void(int)>& body) {
   // About 8 chunks per thread: balance without much contention on `next`.
   loop.chunk = std::max(1, (end - begin) / (8 * pool.Threads()));
   pool.Run(&loop);
+  pool.Release();
   if (loop.error) std::rethrow_exception(loop.error);
+}
+
+void RunBeside(const std::function<void()>& beside, const std::function<void()>& here) {
+  std::exception_ptr beside_error, here_error;
+  std::thread thread([&] {
+    try {
+      beside();
+    } catch (...) {
+      beside_error = std::current_exception();
+    }
+  });
+  try {
+    here();
+  } catch (...) {
+    here_error = std::current_exception();
+  }
+  thread.join();
+  if (here_error) std::rethrow_exception(here_error);
+  if (beside_error) std::rethrow_exception(beside_error);
 }
 
 }  // namespace furn

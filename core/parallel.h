@@ -14,9 +14,17 @@
 namespace furn {
 
 // Calls body(i) for every i in [begin, end), spread over the shared pool (the
-// calling thread takes part). Nested calls from inside a body run serially.
+// calling thread takes part). Nested calls from inside a body run serially,
+// and so does a call while another thread's loop holds the pool.
 // An exception thrown by a body is rethrown in the caller after the loop.
 void ParallelFor(int begin, int end, const std::function<void(int)>& body);
+
+// Runs `beside` on a thread of its own while the calling thread runs `here`
+// (the ParallelFor loops of either on the pool when it is free, else
+// serially); returns when both ended and rethrows the first exception
+// either threw. Two stages that need each other's cores, e.g. the vote
+// network beside the segmentation (Detector::Detect).
+void RunBeside(const std::function<void()>& beside, const std::function<void()>& here);
 
 // Threads taking part in ParallelFor, the caller included (>= 1).
 int ParallelThreads();

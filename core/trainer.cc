@@ -254,7 +254,8 @@ Eigen::Matrix2f ViewAlignedFromWorld(const Eigen::Vector3f& sensor,
 ViewSegments SegmentView(const std::vector<Eigen::Vector3f>& points,
                          const Eigen::Vector3f& sensor_origin,
                          const TrainerOptions& options,
-                         SegmentTimings* timings) {
+                         SegmentTimings* timings,
+                         bool features) {
   using Clock = std::chrono::steady_clock;
   auto lap = [last = Clock::now()](double* ms) mutable {
     const auto now = Clock::now();
@@ -267,11 +268,11 @@ ViewSegments SegmentView(const std::vector<Eigen::Vector3f>& points,
   if (view.cloud.size() == 0) return view;
   view.segments = GrowRegions(view.cloud, options.region_growing);
   lap(timings ? &timings->segment_ms : nullptr);
-  view.features.resize(view.segments.size());
+  if (features) view.features.resize(view.segments.size());
   view.centroids.resize(view.segments.size());
   ParallelFor(0, static_cast<int>(view.segments.size()), [&](int s) {
     const std::vector<int>& segment = view.segments[s];
-    view.features[s] = ComputeSgf(view.cloud, segment, options.sgf);
+    if (features) view.features[s] = ComputeSgf(view.cloud, segment, options.sgf);
     Eigen::Vector3f centroid = Eigen::Vector3f::Zero();
     for (int i : segment) centroid += view.cloud.points[i];
     view.centroids[s] = centroid / static_cast<float>(segment.size());

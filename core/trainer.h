@@ -181,10 +181,13 @@ TrainedModel TrainModel(const std::vector<TrainingView>& views,
 struct SegmentTimings {
   double preprocess_ms = 0, segment_ms = 0, features_ms = 0;
 };
+// With `features` false the segments' SGFs are left empty (what learned
+// voting's fits need: segments and centroids, no codebook words).
 ViewSegments SegmentView(const std::vector<Eigen::Vector3f>& points,
                          const Eigen::Vector3f& sensor_origin,
                          const TrainerOptions& options,
-                         SegmentTimings* timings = nullptr);
+                         SegmentTimings* timings = nullptr,
+                         bool features = true);
 
 // The cloud indices of the points of some of a view's segments.
 std::vector<int> PointsOfSegments(const ViewSegments& view, const std::vector<int>& segments);

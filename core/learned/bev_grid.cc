@@ -14,10 +14,45 @@ constexpr int kBearingBins = 720;  // 0.5 degree
 
 float LogCount(float count) { return std::log1p(count) / 4.0f; }
 
+// atan(x) for |x| <= 1 within 0.0015 rad (Rajan, Wang, Inkol and Joyal,
+// "Efficient approximations for the arctangent function", 2006): a sixth of
+// a bearing bin, so the bin it gives is the true one or a neighbour.
+double RoughAtan(double x) {
+  return M_PI / 4 * x - x * (std::abs(x) - 1) * (0.2447 + 0.0663 * std::abs(x));
+}
+
+double RoughAtan2(double v, double u) {
+  const double au = std::abs(u), av = std::abs(v);
+  if (au == 0 && av == 0) return 0;
+  double angle = au >= av ? RoughAtan(av / au) : M_PI / 2 - RoughAtan(au / av);
+  if (u < 0) angle = M_PI - angle;
+  return v < 0 ? -angle : angle;
+}
+
+// The directions where the bins begin (bin b spans [-pi + b w, -pi + (b + 1) w)).
+struct BinEdges {
+  double cos[kBearingBins + 1], sin[kBearingBins + 1];
+  BinEdges() {
+    for (int b = 0; b <= kBearingBins; ++b) {
+      const double angle = -M_PI + 2 * M_PI * b / kBearingBins;
+      cos[b] = std::cos(angle);
+      sin[b] = std::sin(angle);
+    }
+  }
+  // Whether (u, v) lies counter-clockwise of edge b (within half a turn).
+  bool After(int b, double u, double v) const { return cos[b] * v - sin[b] * u >= 0; }
+};
+
+// The bearing's bin, -pi..pi in kBearingBins: the rough arctangent's bin,
+// moved to the neighbour whose edges hold the point (no trigonometry per
+// point; the bin of atan2 but where rounding decides at an edge).
 int BearingBin(double u, double v) {
-  const double angle = std::atan2(v, u);  // -pi..pi
-  const int bin = static_cast<int>((angle + M_PI) / (2 * M_PI) * kBearingBins);
-  return std::clamp(bin, 0, kBearingBins - 1);
+  static const BinEdges edges;
+  int bin = static_cast<int>((RoughAtan2(v, u) + M_PI) / (2 * M_PI) * kBearingBins);
+  bin = std::clamp(bin, 0, kBearingBins - 1);
+  while (bin > 0 && !edges.After(bin, u, v)) --bin;
+  while (bin < kBearingBins - 1 && edges.After(bin + 1, u, v)) ++bin;
+  return bin;
 }
 
 }  // namespace
@@ -85,7 +120,7 @@ BevImage RasteriseBev(const std::vector<Eigen::Vector3f>& world_points,
   image.spec = spec;
   image.frame = frame;
   image.values.assign(static_cast<size_t>(kBevChannels) * spec.rows * spec.cols, 0.0f);
-  std::vector<double> farthest(kBearingBins, 0.0);
+  std::vector<double> farthest2(kBearingBins, 0.0);  // squared
   const Eigen::Vector2d left = frame.Left();
   const Eigen::Vector2d sensor_xy = sensor.head<2>().cast<double>();
   for (const Eigen::Vector3f& p : world_points) {
@@ -93,7 +128,7 @@ BevImage RasteriseBev(const std::vector<Eigen::Vector3f>& world_points,
     const Eigen::Vector2d from_sensor = p.head<2>().cast<double>() - sensor_xy;
     const double u = from_sensor.dot(frame.forward), v = from_sensor.dot(left);
     const int bin = BearingBin(u, v);
-    farthest[bin] = std::max(farthest[bin], std::hypot(u, v));
+    farthest2[bin] = std::max(farthest2[bin], u * u + v * v);
     const Eigen::Vector2d cell = frame.CellOf(p.head<2>().cast<double>(), spec);
     const int row = static_cast<int>(std::floor(cell.x()));
     const int col = static_cast<int>(std::floor(cell.y()));
@@ -118,7 +153,7 @@ BevImage RasteriseBev(const std::vector<Eigen::Vector3f>& world_points,
     for (int c = 0; c < spec.cols; ++c) {
       const Eigen::Vector2d d = frame.WorldOf({r + 0.5, c + 0.5}, spec) - sensor_xy;
       const double u = d.dot(frame.forward), v = d.dot(left);
-      image.At(kBevSeenChannel, r, c) = std::hypot(u, v) < farthest[BearingBin(u, v)] ? 1.0f : 0.0f;
+      image.At(kBevSeenChannel, r, c) = u * u + v * v < farthest2[BearingBin(u, v)] ? 1.0f : 0.0f;
     }
   }
   return image;

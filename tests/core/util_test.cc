@@ -4,15 +4,18 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <set>
+#include <stdexcept>
 #include <thread>
 
 #include "core/error.h"
 #include "core/file_util.h"
 #include "core/furniture_class.h"
+#include "core/parallel.h"
 #include "core/progress.h"
 #include "core/random.h"
 #include "tests/test_util.h"
@@ -51,6 +54,36 @@ TEST(Progress, LogLinesEveryTenthAndAtLeastEveryInterval) {
   Progress::SetQuiet(true);
   EXPECT_EQ(LinesLogged(1000, 30, 0.02, 5), 0u);
   Progress::SetQuiet(false);
+}
+
+// Every index once, whether the loop has the pool or (another thread's loop
+// holding it) runs serially; nested loops too; RunBeside's two sides run
+// at once (each waits for the other to start) and their errors come back.
+TEST(Parallel, LoopsFromTwoThreadsAtOnceEachCoverTheirRange) {
+  constexpr int kCount = 5000;
+  auto count_loop = [](std::vector<std::atomic<int>>* hits) {
+    ParallelFor(0, kCount, [&](int i) { ParallelFor(0, 3, [&](int) { ++(*hits)[i]; }); });
+  };
+  std::vector<std::atomic<int>> beside(kCount), here(kCount);
+  for (int round = 0; round < 20; ++round) {
+    for (auto& h : beside) h = 0;
+    for (auto& h : here) h = 0;
+    RunBeside([&] { count_loop(&beside); }, [&] { count_loop(&here); });
+    for (int i = 0; i < kCount; ++i) {
+      ASSERT_EQ(beside[i], 3) << "round " << round << " index " << i;
+      ASSERT_EQ(here[i], 3) << "round " << round << " index " << i;
+    }
+  }
+  std::atomic<int> started{0};
+  auto meet = [&] {
+    ++started;
+    for (int k = 0; k < 2000 && started < 2; ++k)
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    EXPECT_EQ(started, 2) << "the two sides did not run at once";
+  };
+  RunBeside(meet, meet);
+  EXPECT_THROW(RunBeside([] { throw std::runtime_error("beside"); }, [] {}), std::runtime_error);
+  EXPECT_THROW(RunBeside([] {}, [] { throw std::runtime_error("here"); }), std::runtime_error);
 }
 
 TEST(Random, SameSeedSameSequenceAndKnownValues) {

@@ -2,9 +2,12 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <thread>
+#include <tuple>
 
 #include <Eigen/Geometry>
 #include <nlohmann/json.hpp>
@@ -13,6 +16,7 @@
 #include "core/detector.h"
 #include "core/error.h"
 #include "core/file_util.h"
+#include "core/parallel.h"
 #include "core/progress.h"
 #include "db/dataset_db.h"
 #include "reports/detection_debug.h"
@@ -291,6 +295,28 @@ TEST(Train, VoteNetIsStoredUsedAndItsRoomsHoldNoHeldOutModel) {
     stages.clear();
     for (const StageTime& t : fitted.timings_ms.stages) stages.push_back(t.stage);
     EXPECT_NE(std::find(stages.begin(), stages.end(), DetectionStage::kFitAndVerify), stages.end());
+    // Issue 70: the segmentation runs beside the network and computes no
+    // SGFs (no codebook words on this path); the same detections whichever
+    // thread gets the pool, e.g. while another loop holds it.
+    EXPECT_NE(std::find(stages.begin(), stages.end(), DetectionStage::kSegment), stages.end());
+    EXPECT_EQ(std::find(stages.begin(), stages.end(), DetectionStage::kFeatures), stages.end());
+    const Detector fitting_detector(model, fitting);
+    DetectionResult contended;
+    RunBeside(
+        [&] {
+          ParallelFor(
+              0, 64, [](int) { std::this_thread::sleep_for(std::chrono::milliseconds(2)); });
+        },
+        [&] {
+          contended = fitting_detector.Detect(DetectionInputOf(room.frames.front(), "frame"), true);
+        });
+    ASSERT_EQ(contended.detections.size(), fitted.detections.size());
+    for (size_t i = 0; i < fitted.detections.size(); ++i) {
+      const Detection &a = fitted.detections[i], &b = contended.detections[i];
+      EXPECT_EQ(std::tie(a.x, a.y, a.yaw, a.score, a.model_index, a.width, a.depth),
+                std::tie(b.x, b.y, b.yaw, b.score, b.model_index, b.width, b.depth));
+    }
+    EXPECT_EQ(contended.segments, fitted.segments);
     int refined = 0, k = 0;
     for (const DetectionDebug::Hypothesis& h : fitted.debug.hypotheses) {
       if (h.outcome != HypothesisOutcome::kDetected) continue;
