@@ -214,8 +214,9 @@ void Detector::DetectLearned(const DetectionInput& input,
                              StageTimer* timer,
                              DetectionResult* result) const {
   const Impl& impl = *impl_;
-  // The network's stages beside the segmentation its fits need (they
-  // share nothing): each on a core of its own. Their stage times overlap.
+  // The network's stages (on one torch thread) beside the segmentation its
+  // fits need (they share nothing): each on a core of its own. Their stage
+  // times overlap.
   BevImage image;
   BevOutput output;
   StageTimings network_ms;
@@ -235,10 +236,11 @@ void Detector::DetectLearned(const DetectionInput& input,
     result->debug.hypotheses = LearnedMaxima(image, output, &result->detections);
     network_timer.Lap(DetectionStage::kMaxima);
   };
-  if (impl.options.learned_fit) {
+  if (impl.options.learned_fit && impl.options.torch_threads == 1) {
     RunBeside(network, [&] { SegmentScan(input, prepared); });
-  } else {
+  } else {  // a network on every core has none to share (measured: slower beside)
     network();
+    if (impl.options.learned_fit) SegmentScan(input, prepared);
   }
   const PreparedScan& scan = *prepared;
   result->segments = static_cast<int>(scan.view.segments.size());
