@@ -92,16 +92,12 @@ std::vector<char> FindStructure(const ViewSegments& view,
 
 namespace {
 
-// The finite points within `max_range_m` of the sensor (camera frame).
-std::vector<Eigen::Vector3f> PointsInRange(const std::vector<Eigen::Vector3f>& points,
-                                           double max_range_m) {
-  std::vector<Eigen::Vector3f> in_range;
-  in_range.reserve(points.size());
+// How many finite points lie within `max_range_m` of the sensor (camera frame).
+int CountInRange(const std::vector<Eigen::Vector3f>& points, double max_range_m) {
   const float max_range2 = static_cast<float>(max_range_m * max_range_m);
-  for (const Eigen::Vector3f& p : points) {
-    if (p.allFinite() && p.squaredNorm() > 0 && p.squaredNorm() <= max_range2)
-      in_range.push_back(p);
-  }
+  int in_range = 0;
+  for (const Eigen::Vector3f& p : points)
+    in_range += p.allFinite() && p.squaredNorm() > 0 && p.squaredNorm() <= max_range2;
   return in_range;
 }
 
@@ -173,9 +169,8 @@ PreparedScan Detector::PlaceScan(const DetectionInput& input) const {
               std::to_string(input.width) + "x" + std::to_string(input.height));
 
   // World frame, range, floor.
-  const std::vector<Eigen::Vector3f> in_range = PointsInRange(input.points, options.max_range_m);
-  scan.input_points = static_cast<int>(in_range.size());
-  if (in_range.empty()) {  // a frame of nothing in range: nothing to detect, not an error
+  scan.input_points = CountInRange(input.points, options.max_range_m);
+  if (scan.input_points == 0) {  // a frame of nothing in range: nothing to detect, not an error
     scan.status = DetectionStatus::kNoPointsInRange;
     char message[96];
     std::snprintf(message,
