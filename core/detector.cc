@@ -248,7 +248,8 @@ DetectionResult Detector::Detect(const DetectionInput& input, bool keep_debug) c
   SegmentScan(input, &scan);
   result.points = static_cast<int>(scan.view.cloud.size());
   result.segments = static_cast<int>(scan.view.segments.size());
-  for (const StageTime& stage : scan.timings_ms.stages) result.timings_ms.stages.push_back(stage);
+  result.timings_ms.stages.insert(
+      result.timings_ms.stages.end(), scan.timings_ms.stages.begin(), scan.timings_ms.stages.end());
   timer.Restart();
 
   const VoteMaps votes = Vote(scan);

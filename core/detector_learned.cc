@@ -244,10 +244,9 @@ void Detector::DetectLearned(const DetectionInput& input,
   }
   const PreparedScan& scan = *prepared;
   result->segments = static_cast<int>(scan.view.segments.size());
-  for (const StageTimings* stages :
-       {&scan.timings_ms, static_cast<const StageTimings*>(&network_ms)}) {
-    for (const StageTime& stage : stages->stages) result->timings_ms.stages.push_back(stage);
-  }
+  std::vector<StageTime>& stages = result->timings_ms.stages;
+  stages.insert(stages.end(), scan.timings_ms.stages.begin(), scan.timings_ms.stages.end());
+  stages.insert(stages.end(), network_ms.stages.begin(), network_ms.stages.end());
   timer->Restart();
   if (impl.options.learned_fit) {
     FitLearned(scan, &result->debug.hypotheses, &result->detections);

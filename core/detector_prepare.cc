@@ -92,12 +92,17 @@ std::vector<char> FindStructure(const ViewSegments& view,
 
 namespace {
 
-// How many finite points lie within `max_range_m` of the sensor (camera frame).
+// A finite point within the range (squared) of the sensor (camera frame).
+bool InRange(const Eigen::Vector3f& p, float max_range2) {
+  return p.allFinite() && p.squaredNorm() > 0 && p.squaredNorm() <= max_range2;
+}
+
+float SquaredRange(double max_range_m) { return static_cast<float>(max_range_m * max_range_m); }
+
 int CountInRange(const std::vector<Eigen::Vector3f>& points, double max_range_m) {
-  const float max_range2 = static_cast<float>(max_range_m * max_range_m);
+  const float max_range2 = SquaredRange(max_range_m);
   int in_range = 0;
-  for (const Eigen::Vector3f& p : points)
-    in_range += p.allFinite() && p.squaredNorm() > 0 && p.squaredNorm() <= max_range2;
+  for (const Eigen::Vector3f& p : points) in_range += InRange(p, max_range2);
   return in_range;
 }
 
@@ -141,7 +146,7 @@ bool KeepIntrinsics(const DetectionInput& input, PreparedScan* scan) {
 // needs; nothing for unorganised scans.
 void KeepDepthImage(const DetectionInput& input, double max_range_m, PreparedScan* scan) {
   if (!KeepIntrinsics(input, scan)) return;
-  const float max_range2 = static_cast<float>(max_range_m * max_range_m);
+  const float max_range2 = SquaredRange(max_range_m);
   scan->depth.assign(input.points.size(), std::numeric_limits<float>::quiet_NaN());
   for (size_t i = 0; i < input.points.size(); ++i) {
     const Eigen::Vector3f& p = input.points[i];
@@ -200,11 +205,11 @@ void Detector::SegmentScan(const DetectionInput& input, PreparedScan* scan_out) 
   const auto start = std::chrono::steady_clock::now();
   const Eigen::Matrix3f rotation = scan.world_from_camera.linear().cast<float>();
   const Eigen::Vector3f translation = scan.world_from_camera.translation().cast<float>();
-  const float max_range2 = static_cast<float>(options.max_range_m * options.max_range_m);
+  const float max_range2 = SquaredRange(options.max_range_m);
   std::vector<Eigen::Vector3f> world, above_floor;
   world.reserve(scan.input_points);
   for (const Eigen::Vector3f& p : input.points) {
-    if (!p.allFinite() || p.squaredNorm() == 0 || p.squaredNorm() > max_range2) continue;
+    if (!InRange(p, max_range2)) continue;
     world.push_back(rotation * p + translation);
     if (world.back().z() >= options.floor_band_m) above_floor.push_back(world.back());
   }

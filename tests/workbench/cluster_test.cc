@@ -20,6 +20,7 @@
 #include "db/dataset_db.h"
 #include "tests/test_util.h"
 #include "tests/workbench/dataset_dump.h"
+#include "tests/workbench/heat_difference.h"
 #include "tests/workbench/workbench_commands.h"
 #include "workbench/pipelines/train_vote_net.h"
 
@@ -212,21 +213,6 @@ TEST_F(Cluster, CrossvalFoldTasksGiveTheOneProcessMetrics) {
   EXPECT_NE(bad.output.find("has 3 folds"), std::string::npos) << bad.output;
 }
 
-// The heat of two networks on the same images: the largest difference.
-double LargestHeatDifference(const VoteNet& a, const VoteNet& b, const std::vector<BevSample>& at) {
-  double largest = 0;
-  for (const BevSample& sample : at) {
-    const BevOutput x = a.Predict(sample.image), y = b.Predict(sample.image);
-    for (int k = 0; k < kBevClasses; ++k) {
-      for (int r = 0; r < x.spec.rows; ++r) {
-        for (int c = 0; c < x.spec.cols; ++c)
-          largest = std::max(largest, std::abs(double(x.At(k, r, c)) - y.At(k, r, c)));
-      }
-    }
-  }
-  return largest;
-}
-
 // Issue 70: `train --vote-workers 2 --slurm` trains the network as one job
 // of two tasks (srun; c10d over Gloo, met through a store in the job
 // folder) after one task made the rooms; the model is one process's within
@@ -252,7 +238,7 @@ TEST_F(Cluster, TwoSlurmTasksTrainOneProcesssModel) {
   read.net = one.options();
   std::vector<BevSample> frames;
   ReadBevSamples(dir + "/one.fcm.rooms.db", read, &frames, nullptr);
-  const double gap = LargestHeatDifference(one, two, frames);
+  const double gap = testing::LargestHeatDifference(one, two, frames);
   std::printf("2 Slurm tasks against one process: largest heat difference %.4f\n", gap);
   EXPECT_GT(gap, 0.0) << "the same bytes: did the second task train at all?";
   EXPECT_LT(gap, 0.05);

@@ -20,6 +20,7 @@
 #include "core/trainer.h"
 #include "db/dataset_db.h"
 #include "tests/test_util.h"
+#include "tests/workbench/heat_difference.h"
 #include "workbench/pipelines/generate.h"
 #include "workbench/pipelines/run_program.h"
 #include "workbench/pipelines/train_vote_net.h"
@@ -63,21 +64,6 @@ TEST(DataParallel, AGroupOfTwoSumsWhatItsRanksHold) {
   std::vector<double> same{4.0};
   single.SumDoubles(&same);
   EXPECT_EQ(same[0], 4.0);
-}
-
-// The heat of two networks on the same images: the largest difference.
-double LargestHeatDifference(const VoteNet& a, const VoteNet& b, const std::vector<BevSample>& at) {
-  double largest = 0;
-  for (const BevSample& sample : at) {
-    const BevOutput x = a.Predict(sample.image), y = b.Predict(sample.image);
-    for (int k = 0; k < kBevClasses; ++k) {
-      for (int r = 0; r < x.spec.rows; ++r) {
-        for (int c = 0; c < x.spec.cols; ++c)
-          largest = std::max(largest, std::abs(double(x.At(k, r, c)) - y.At(k, r, c)));
-      }
-    }
-  }
-  return largest;
 }
 
 VoteNetTrainingOptions SmallTraining() {
@@ -140,7 +126,7 @@ TEST(DataParallel, TwoRanksTrainOneNetworkNearOneProcesssOwn) {
   const double loss_gap =
       std::abs(summaries[0].epochs.back().train_loss - single_summary.epochs.back().train_loss) /
       single_summary.epochs.back().train_loss;
-  const double heat_gap = LargestHeatDifference(parallel, single, all);
+  const double heat_gap = testing::LargestHeatDifference(parallel, single, all);
   std::printf(
       "two ranks against one process: last epoch's loss %.4f vs %.4f (%.1f %%), largest "
       "heat difference %.4f\n",
@@ -174,7 +160,7 @@ TEST(DataParallel, TrainWithTwoWorkerProcesses) {
   read.net = one.options();
   std::vector<BevSample> frames;
   ReadBevSamples(dir + "/one.fcm.rooms.db", read, &frames, nullptr);
-  const double gap = LargestHeatDifference(one, both, frames);
+  const double gap = testing::LargestHeatDifference(one, both, frames);
   std::printf("train --vote-workers 2 against one process: largest heat difference %.4f\n", gap);
   EXPECT_GT(gap, 0.0) << "the same bytes: did the workers train at all?";
   EXPECT_LT(gap, 0.05);
@@ -185,8 +171,7 @@ TEST(DataParallel, TrainWithTwoWorkerProcesses) {
   }
   const testing::CommandResult bad = Workbench(train + dir + "/bad.fcm --vote-workers 0");
   EXPECT_EQ(bad.exit_code, 1);
-  EXPECT_NE(bad.output.find("--vote-workers 0 must be in 1..64"), std::string::npos)
-      << bad.output;
+  EXPECT_NE(bad.output.find("--vote-workers 0 must be in 1..64"), std::string::npos) << bad.output;
   const testing::CommandResult ensemble =
       Workbench(train + dir + "/bad.fcm --vote-workers 2 --vote-ensemble 2");
   EXPECT_NE(ensemble.output.find("not an ensemble"), std::string::npos) << ensemble.output;

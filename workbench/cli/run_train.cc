@@ -133,7 +133,7 @@ struct VoteWorkerFlags {
   // an earlier job's store).
   DataParallelOptions SlurmTask() const {
     DataParallelOptions group;
-    group.rank = SlurmNumber("SLURM_PROCID", 0);
+    group.rank = SlurmNumber("SLURM_PROCID", std::nullopt);
     group.world = SlurmNumber("SLURM_NTASKS", 1);
     Require(group.world == workers,
             "this Slurm job has " + std::to_string(group.world) + " tasks, --vote-workers " +
@@ -191,17 +191,19 @@ struct VoteWorkerFlags {
   // task's CPUs, else 1 (the local ranks share this machine's cores).
   int Threads(int given, bool threads_given) const {
     if (threads_given) return given;
-    if (slurm_group.empty() || std::getenv("SLURM_CPUS_PER_TASK") == nullptr) return 1;
+    if (slurm_group.empty()) return 1;
     return std::clamp(SlurmNumber("SLURM_CPUS_PER_TASK", 1), 1, 256);
   }
 
-  // A Slurm variable's value, checked; `fallback` when it is unset.
-  static int SlurmNumber(const char* name, int fallback) {
+  // A Slurm variable's value, checked; `fallback` when it is unset (none:
+  // this is not a Slurm task).
+  static int SlurmNumber(const char* name, std::optional<int> fallback) {
     const char* value = std::getenv(name);
     if (value == nullptr) {
-      Require(std::string(name) != "SLURM_PROCID",
-              "--vote-slurm-group runs in a task of a Slurm job (SLURM_PROCID is unset)");
-      return fallback;
+      Require(
+          fallback.has_value(),
+          std::string("--vote-slurm-group runs in a task of a Slurm job (") + name + " is unset)");
+      return *fallback;
     }
     char* end = nullptr;
     const long number = std::strtol(value, &end, 10);
