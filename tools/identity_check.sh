@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # The same small end-to-end run on the procedural catalog (generate, train,
 # evaluate, report, crossval with its scorer, a scored model, detect with
-# debug PNGs, the real set, exports), then a digest of everything it made
+# debug PNGs, the real set, exports), the same on the learned path (a small
+# one-thread vote-net training, evaluate, detect --explain with its debug
+# folder, fused detection, crossval with vote nets), then a digest of everything it made
 # (tools/identity_digest.py). A refactoring must leave the digest unchanged:
 #   bash tools/identity_check.sh BUILD_BEFORE before/ > before.txt
 #   bash tools/identity_check.sh BUILD_AFTER after/ > after.txt
@@ -33,6 +35,18 @@ run evaluate --model ms.fcm --db real.db --split test --quiet
 run dataset export d.db --format rosbag --out d.bag --split test 2>/dev/null || true
 run dataset export d.db --format bop --out bop
 run dataset export d.db --format pcd --out pcd
-rm -rf cvm/*.partial
+# The learned path (the default): vote nets trained on one torch thread.
+vote_net=(--vote-frames 2 --vote-epochs 2 --vote-threads 1)
+run train --catalog procedural:4 --vocab kmeans --words 20 --azimuths 6 "${vote_net[@]}" \
+  --vote-rooms 8 --out ml.fcm --quiet
+run evaluate --model ml.fcm --db d.db --split all --quiet
+run evaluate --model ml.fcm --db real.db --split test --quiet
+"$wb" detect --model ml.fcm --db d.db --frame 2 --debug-dir detect_learned --explain \
+  --out detect_learned.json > /dev/null 2> explain_learned.txt
+run detect --model ml.fcm --db d.db --frame 4 --fuse --out detect_fused.json
+run crossval "${vote_net[@]}" --vote-rooms 3 --db cv.db --work-dir cvl --quiet
+run report --db d.db --out report_learned
+rm -rf cvm/*.partial cvl/*.partial
 python3 "$repo/tools/identity_digest.py" "$out"
 grep -v "ms\b" explain.txt | sha256sum | sed 's/^/explain /'
+grep -v "ms\b" explain_learned.txt | sha256sum | sed 's/^/explain_learned /'
