@@ -22,7 +22,7 @@
 #include <string>
 #include <vector>
 
-#include "core/furniture_class.h"
+#include "core/model/furniture_class.h"
 #include "db/split.h"
 #include "db/sqlite.h"
 

@@ -8,7 +8,7 @@
 
 #include <string>
 
-#include "core/enum_text.h"
+#include "core/util/enum_text.h"
 
 namespace furn {
 

@@ -4,8 +4,8 @@
 
 #include <sqlite3.h>
 
-#include "core/error.h"
-#include "core/file_util.h"
+#include "core/util/error.h"
+#include "core/util/file_util.h"
 
 namespace furn {
 namespace {

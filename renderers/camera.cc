@@ -5,7 +5,7 @@
 #include <limits>
 #include <sstream>
 
-#include "core/error.h"
+#include "core/util/error.h"
 
 namespace furn {
 

@@ -2,7 +2,7 @@
 
 #include <cmath>
 
-#include "core/error.h"
+#include "core/util/error.h"
 #include "renderers/embree_caster.h"
 #include "renderers/osmesa_renderer.h"
 

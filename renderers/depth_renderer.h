@@ -12,7 +12,7 @@
 #include <string>
 #include <unordered_map>
 
-#include "core/scene.h"
+#include "core/geometry/scene.h"
 #include "renderers/camera.h"
 #include "renderers/depth_frame.h"
 

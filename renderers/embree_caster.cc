@@ -11,8 +11,8 @@
 #include <stdexcept>
 #include <unordered_map>
 
-#include "core/embree_device.h"
-#include "core/parallel.h"
+#include "core/geometry/embree_device.h"
+#include "core/util/parallel.h"
 
 namespace furn {
 namespace {

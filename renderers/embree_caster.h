@@ -20,7 +20,7 @@
 #include <string>
 #include <vector>
 
-#include "core/embree_device.h"
+#include "core/geometry/embree_device.h"
 #include "renderers/depth_renderer.h"
 
 namespace furn {

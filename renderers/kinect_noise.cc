@@ -3,9 +3,9 @@
 #include <cmath>
 #include <limits>
 
-#include "core/error.h"
-#include "core/parallel.h"
-#include "core/random.h"
+#include "core/util/error.h"
+#include "core/util/parallel.h"
+#include "core/util/random.h"
 
 namespace furn {
 namespace {

@@ -10,8 +10,8 @@
 #include <map>
 #include <stdexcept>
 
-#include "core/error.h"
-#include "core/parallel.h"
+#include "core/util/error.h"
+#include "core/util/parallel.h"
 
 namespace furn {
 namespace {

@@ -8,8 +8,8 @@
 #include <filesystem>
 #include <mutex>
 
-#include "core/error.h"
-#include "core/text.h"
+#include "core/util/error.h"
+#include "core/util/text.h"
 
 namespace furn {
 namespace {

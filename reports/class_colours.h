@@ -9,7 +9,7 @@
 #include <cstdint>
 #include <optional>
 
-#include "core/furniture_class.h"
+#include "core/model/furniture_class.h"
 
 namespace furn {
 

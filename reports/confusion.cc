@@ -4,8 +4,8 @@
 #include <cstdio>
 #include <opencv2/imgproc.hpp>
 
-#include "core/error.h"
-#include "core/file_util.h"
+#include "core/util/error.h"
+#include "core/util/file_util.h"
 #include "reports/png_file.h"
 
 namespace furn {

@@ -6,8 +6,8 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "core/error.h"
-#include "core/file_util.h"
+#include "core/util/error.h"
+#include "core/util/file_util.h"
 #include "reports/png_file.h"
 #include "reports/scene_view.h"
 
@@ -195,8 +195,8 @@ void WriteSegmentsPng(const DebugInput& in) {
     view.Dot(in.debug().points[i], s < 0 ? cv::Scalar(90, 90, 90) : SegmentColour(s));
   }
   Caption(&view.image(),
-          std::to_string(in.result.segments) + " segments of " + std::to_string(in.result.points) +
-              " points (floor removed)");
+          std::to_string(in.result.segments) + " segments of " +
+              std::to_string(in.result.scene_points) + " points (floor removed)");
   WritePngAtomically(view.image(), in.Path("segments.png"));
 }
 
@@ -325,13 +325,14 @@ void WriteFittedPng(const DebugInput& in) {
 constexpr int kMinCaptionWidth = 640;  // pixels: the longest caption at its font
 
 // A class's vote heat map, top-down with y up, with its maxima.
-void WriteVotesPng(const DebugInput& in, const DetectionDebug::VoteGrid& grid) {
-  if (grid.values.empty()) return;
+// Returns the file's name, or empty when it wrote none.
+std::string WriteVotesPng(const DebugInput& in, const DetectionDebug::VoteGrid& grid) {
+  if (grid.values.empty()) return "";
   // A class the model has no CAD model of has no map worth a file.
   if (std::find(in.model.model_classes.begin(),
                 in.model.model_classes.end(),
                 grid.furniture_class) == in.model.model_classes.end())
-    return;
+    return "";
   cv::Mat values(grid.rows, grid.cols, CV_32F, const_cast<float*>(grid.values.data()));
   double high = 0;
   cv::minMaxLoc(values, nullptr, &high);
@@ -390,8 +391,9 @@ void WriteVotesPng(const DebugInput& in, const DetectionDebug::VoteGrid& grid) {
                 grid.threshold,
                 maxima);
   Caption(&heat, caption + LeftOut(labels));
-  WritePngAtomically(heat,
-                     in.Path(std::string("votes_") + ClassName(grid.furniture_class) + ".png"));
+  const std::string name = std::string("votes_") + ClassName(grid.furniture_class) + ".png";
+  WritePngAtomically(heat, in.Path(name));
+  return name;
 }
 
 // Top-down: points, ground truth (white), detections (class colour).
@@ -478,12 +480,12 @@ void WriteHypothesesJson(const DebugInput& in) {
 
 }  // namespace
 
-void WriteDetectionDebug(const DetectionResult& result,
-                         const TrainedModel& model,
-                         const CameraIntrinsics& camera,
-                         const std::vector<GroundTruthFootprint>& ground_truth,
-                         const std::string& dir,
-                         const SceneViewLinks& links) {
+std::vector<std::string> WriteDetectionDebug(const DetectionResult& result,
+                                             const TrainedModel& model,
+                                             const CameraIntrinsics& camera,
+                                             const std::vector<GroundTruthFootprint>& ground_truth,
+                                             const std::string& dir,
+                                             const SceneViewLinks& links) {
   MakeDirectories(dir, "debug directory");
   const DebugInput in{result, model, camera, ground_truth, dir};
   const bool learned = LearnedRun(result.debug);
@@ -496,10 +498,16 @@ void WriteDetectionDebug(const DetectionResult& result,
   std::error_code error;
   std::filesystem::remove(in.Path(learned ? "segments.png" : "heat.png"), error);
   WriteFittedPng(in);
-  for (const DetectionDebug::VoteGrid& grid : result.debug.grids) WriteVotesPng(in, grid);
+  std::vector<std::string> images = {"fitted.png", "topdown.png"};
+  images.push_back(learned ? "heat.png" : "segments.png");
+  for (const DetectionDebug::VoteGrid& grid : result.debug.grids) {
+    const std::string name = WriteVotesPng(in, grid);
+    if (!name.empty()) images.push_back(name);
+  }
   WriteTopDownPng(in);
   WriteHypothesesJson(in);
   WriteSceneView(result, model, camera, ground_truth, dir, links);
+  return images;
 }
 
 }  // namespace furn

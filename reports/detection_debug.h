@@ -17,7 +17,7 @@
 #include <string>
 #include <vector>
 
-#include "core/detector.h"
+#include "core/detector/detector.h"
 #include "renderers/camera.h"
 
 namespace furn {
@@ -43,12 +43,14 @@ struct SceneViewLinks {
 
 // `camera` projects the camera-frame points (Kinect v1 when the input had no
 // intrinsics). Creates `dir`; every file is written atomically. Also writes
-// the 3-D page scene.html (reports/scene_view.h).
-void WriteDetectionDebug(const DetectionResult& result,
-                         const TrainedModel& model,
-                         const CameraIntrinsics& camera,
-                         const std::vector<GroundTruthFootprint>& ground_truth,
-                         const std::string& dir,
-                         const SceneViewLinks& links = SceneViewLinks{});
+// the 3-D page scene.html (reports/scene_view.h). Returns the PNGs' names
+// as a report shows them: fitted, topdown, segments or heat, then the vote
+// maps of the model's classes.
+std::vector<std::string> WriteDetectionDebug(const DetectionResult& result,
+                                             const TrainedModel& model,
+                                             const CameraIntrinsics& camera,
+                                             const std::vector<GroundTruthFootprint>& ground_truth,
+                                             const std::string& dir,
+                                             const SceneViewLinks& links = SceneViewLinks{});
 
 }  // namespace furn

@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "core/error.h"
+#include "core/util/error.h"
 
 namespace furn {
 namespace {
@@ -71,31 +71,12 @@ std::string FunnelStageWords(FunnelStage stage) {
 }
 
 FunnelStage FunnelStageOf(HypothesisOutcome outcome) {
-  switch (outcome) {
-    case HypothesisOutcome::kNoSupport:
-      return FunnelStage::kNoSupport;
-    case HypothesisOutcome::kSameSupport:
-      return FunnelStage::kSameSupport;
-    case HypothesisOutcome::kNoFit:
-      return FunnelStage::kNoFit;
-    case HypothesisOutcome::kLowCoverage:
-      return FunnelStage::kLowCoverage;
-    case HypothesisOutcome::kLowVerification:
-      return FunnelStage::kLowVerification;
-    case HypothesisOutcome::kLowSeenOccupied:
-      return FunnelStage::kLowSeenOccupied;
-    case HypothesisOutcome::kSeenThrough:
-      return FunnelStage::kSeenThrough;
-    case HypothesisOutcome::kLowScore:
-      return FunnelStage::kLowScore;
-    case HypothesisOutcome::kBelowOperatingPoint:
-      return FunnelStage::kBelowOperatingPoint;
-    case HypothesisOutcome::kSuppressed:
-      return FunnelStage::kSuppressed;
-    case HypothesisOutcome::kDetected:
-      return FunnelStage::kDetectedOffTarget;
-  }
-  throw std::logic_error("hypothesis outcome without a funnel stage");
+  // Derived, not mirrored: every stage a hypothesis can stop at is the
+  // funnel stage of its name (EveryOutcomeHasItsFunnelStage checks each);
+  // a maximum that became a detection but matched no object of its class
+  // within 10 cm is "detected off target".
+  if (outcome == HypothesisOutcome::kDetected) return FunnelStage::kDetectedOffTarget;
+  return ParseEnum<FunnelStage>(EnumName(outcome));
 }
 
 MetricId MetricId::Plain(PlainMetric metric) {

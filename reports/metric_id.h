@@ -13,9 +13,9 @@
 #include <optional>
 #include <string>
 
-#include "core/detector.h"
-#include "core/enum_text.h"
-#include "core/furniture_class.h"
+#include "core/detector/detector.h"
+#include "core/model/furniture_class.h"
+#include "core/util/enum_text.h"
 
 namespace furn {
 

@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "core/furniture_class.h"
+#include "core/model/furniture_class.h"
 
 namespace furn {
 

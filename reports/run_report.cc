@@ -8,11 +8,12 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "core/error.h"
-#include "core/file_util.h"
+#include "core/util/error.h"
+#include "core/util/file_util.h"
 #include "reports/chart.h"
 #include "reports/confusion.h"
 #include "reports/evaluation.h"
+#include "reports/run_results.h"
 
 namespace furn {
 namespace {
@@ -40,7 +41,7 @@ bool HasClassMetrics(const std::map<std::string, double>& metrics, FurnitureClas
 }
 
 // A PR plot of the named curves (recall, precision) from the run's results.
-void PlotCurves(const nlohmann::json& curves,
+void PlotCurves(const std::map<std::string, std::vector<PrPoint>>& curves,
                 const std::string& prefix,
                 const std::string& suffix,
                 const std::string& title,
@@ -52,18 +53,19 @@ void PlotCurves(const nlohmann::json& curves,
   chart.y = MakeAxis("precision", 0, 1.02);
   chart.empty_note = "no objects of these classes";
   const std::vector<FurnitureClass> classes = ReportedClasses(
-      [&](FurnitureClass c) { return curves.contains(prefix + ClassName(c) + suffix); });
+      [&](FurnitureClass c) { return curves.count(prefix + ClassName(c) + suffix) > 0; });
   for (FurnitureClass furniture_class : classes) {
     const std::string c = ClassName(furniture_class);
     const std::string name = prefix + c + suffix;
-    if (!curves.contains(name) || !curves[name].is_array() || curves[name].empty()) continue;
+    const auto curve = curves.find(name);
+    if (curve == curves.end() || curve->second.empty()) continue;
     ChartSeries series =
         MakeSeries(c + " (" + Number(ClassObjectCount(metrics, furniture_class), 0) + " objects)",
                    ChartStyle::kLinesPoints,
                    ChartPalette(chart.series.size()));
-    for (const auto& p : curves[name]) {
-      series.x.push_back(p.at(0).get<double>());
-      series.y.push_back(p.at(1).get<double>());
+    for (const PrPoint& p : curve->second) {
+      series.x.push_back(p.recall);
+      series.y.push_back(p.precision);
     }
     chart.series.push_back(series);
   }
@@ -334,14 +336,14 @@ std::string FunnelHtml(const std::vector<FurnitureClass>& classes,
 // The reliability plot of a run's score (results' "calibration" bins: low,
 // high, detections, true positives, score sum) and its table, as HTML; a
 // note instead when the run has no bins or no detections.
-std::string ReliabilityHtml(const nlohmann::json& bins,
+std::string ReliabilityHtml(const std::vector<CalibrationBin>& bins,
                             double calibration_error,
                             const std::string& png_path,
                             const std::string& png_name) {
   std::ostringstream html;
   html << "<h2>Score calibration (reliability, 10 cm)</h2>\n";
   int total = 0;
-  for (const nlohmann::json& bin : bins) total += bin[2].get<int>();
+  for (const CalibrationBin& bin : bins) total += bin.detections;
   if (total == 0) {
     html << "<p>No detections, so no calibration to show.</p>\n";
     return html.str();
@@ -360,11 +362,11 @@ std::string ReliabilityHtml(const nlohmann::json& bins,
                                     {0, 1},
                                     {0, 1});
   ChartSeries points = MakeSeries("bins", ChartStyle::kLinesPoints, ChartColour{0xcc, 0x33, 0x11});
-  for (const nlohmann::json& bin : bins) {
-    const int n = bin[2].get<int>();
+  for (const CalibrationBin& bin : bins) {
+    const int n = bin.detections;
     if (n == 0) continue;
-    points.x.push_back(bin[4].get<double>() / n);
-    points.y.push_back(bin[3].get<double>() / n);
+    points.x.push_back(bin.score_sum / n);
+    points.y.push_back(static_cast<double>(bin.true_positives) / n);
     points.labels.push_back(std::to_string(n));
   }
   chart.series = {diagonal, points};
@@ -375,20 +377,26 @@ std::string ReliabilityHtml(const nlohmann::json& bins,
           "probability.</p>\n<div class=\"row\"><div><img src=\""
        << png_name << "\" alt=\"reliability plot\"></div><div><table><tr><th>score</th>"
        << "<th>detections</th><th>true positives</th><th>mean score</th></tr>";
-  for (const nlohmann::json& bin : bins) {
-    const int n = bin[2].get<int>();
-    html << "<tr><td>" << Number(bin[0].get<double>(), 1) << "&ndash;"
-         << Number(bin[1].get<double>(), 1) << "</td><td>" << n << "</td><td>" << bin[3].get<int>()
-         << "</td><td>" << (n ? Number(bin[4].get<double>() / n) : "&ndash;") << "</td></tr>";
+  for (const CalibrationBin& bin : bins) {
+    const int n = bin.detections;
+    html << "<tr><td>" << Number(bin.low, 1) << "&ndash;" << Number(bin.high, 1) << "</td><td>" << n
+         << "</td><td>" << bin.true_positives << "</td><td>"
+         << (n ? Number(bin.score_sum / n) : "&ndash;") << "</td></tr>";
   }
   html << "</table></div></div>\n";
   return html.str();
 }
 
-double JsonMetric(const nlohmann::json& metrics, const MetricId& id) {
-  const std::string name = id.Name();
-  return metrics.contains(name) && metrics[name].is_number() ? metrics[name].get<double>()
-                                                             : std::nan("");
+// The run's results as the caller read them, or read here.
+RunResults ResultsOf(const RunReportInput& input) {
+  if (input.results) return *input.results;
+  return RunResults::Parse(input.run.results_json, "run " + std::to_string(input.run.id));
+}
+
+// A fold's metric, NaN where it has none.
+double FoldMetric(const FoldResult& fold, const MetricId& id) {
+  const auto value = fold.metrics.find(id.Name());
+  return value == fold.metrics.end() ? std::nan("") : value->second;
 }
 
 }  // namespace
@@ -398,7 +406,7 @@ namespace {
 const double kDistances[] = {0.05, 0.10, 0.20};
 
 // AP@10cm per class and fold, grouped bars.
-void PlotFoldAp(const nlohmann::json& folds,
+void PlotFoldAp(const std::vector<FoldResult>& folds,
                 const std::vector<FurnitureClass>& classes,
                 const std::string& png_path) {
   Chart chart;
@@ -418,7 +426,7 @@ void PlotFoldAp(const nlohmann::json& folds,
     bars.bar_width = width;
     for (size_t c = 0; c < classes.size(); ++c) {
       bars.x.push_back(static_cast<double>(c) - 0.4 + width * (static_cast<double>(k) + 0.5));
-      bars.y.push_back(JsonMetric(folds[k]["metrics"], MetricId::ClassAp(classes[c], 0.10)));
+      bars.y.push_back(FoldMetric(folds[k], MetricId::ClassAp(classes[c], 0.10)));
     }
     chart.series.push_back(bars);
   }
@@ -427,41 +435,41 @@ void PlotFoldAp(const nlohmann::json& folds,
 }
 
 // One row of the folds table: what it held out, its size, mAP and APs.
-std::string FoldRowHtml(const nlohmann::json& fold,
+std::string FoldRowHtml(const FoldResult& fold,
                         const std::vector<FurnitureClass>& classes,
                         const std::string& fold_report) {
   std::ostringstream html;
-  const nlohmann::json& fm = fold["metrics"];
-  html << "<tr><td>" << fold.value("fold", 0) << "</td><td>";
-  for (size_t c = 0; c < classes.size(); ++c)
-    html << (c ? "/" : "") << fold["held_out"].value(ClassName(classes[c]), 0);
-  html << "</td><td>" << Number(JsonMetric(fm, MetricId::Plain(PlainMetric::kFrames)), 0)
-       << "</td><td>" << Number(JsonMetric(fm, MetricId::Plain(PlainMetric::kObjects)), 0)
+  html << "<tr><td>" << fold.fold << "</td><td>";
+  for (size_t c = 0; c < classes.size(); ++c) {
+    const auto held_out = fold.held_out.find(ClassName(classes[c]));
+    html << (c ? "/" : "") << (held_out == fold.held_out.end() ? 0 : held_out->second);
+  }
+  html << "</td><td>" << Number(FoldMetric(fold, MetricId::Plain(PlainMetric::kFrames)), 0)
+       << "</td><td>" << Number(FoldMetric(fold, MetricId::Plain(PlainMetric::kObjects)), 0)
        << "</td>";
   for (double d : kDistances)
-    html << "<td>" << Number(JsonMetric(fm, MetricId::MeanAp(d))) << "</td>";
-  std::map<std::string, double> fold_metrics;  // NaN is stored as null
-  for (const auto& [name, value] : fm.items())
-    if (value.is_number()) fold_metrics[name] = value.get<double>();
+    html << "<td>" << Number(FoldMetric(fold, MetricId::MeanAp(d))) << "</td>";
+  std::map<std::string, double> fold_metrics;  // those it has (NaN: none)
+  for (const auto& [name, value] : fold.metrics)
+    if (!std::isnan(value)) fold_metrics[name] = value;
   for (FurnitureClass c : classes) {
     html << "<td>"
-         << ApWithObjects(JsonMetric(fm, MetricId::ClassAp(c, 0.10)),
+         << ApWithObjects(FoldMetric(fold, MetricId::ClassAp(c, 0.10)),
                           ClassObjectCount(fold_metrics, c))
          << "</td>";
   }
   html << "<td>";
   if (!fold_report.empty()) {
-    html << "<a href=\"" << HtmlEscape(fold_report) << "/index.html\">run " << fold.value("run", 0)
-         << "</a>";
+    html << "<a href=\"" << HtmlEscape(fold_report) << "/index.html\">run " << fold.run << "</a>";
   } else {
-    html << "run " << fold.value("run", 0);
+    html << "run " << fold.run;
   }
   html << "</td></tr>";
   return html.str();
 }
 
 // The folds table: a row per fold, the mean +- spread, and the fixed gates.
-std::string FoldsTableHtml(const nlohmann::json& folds,
+std::string FoldsTableHtml(const std::vector<FoldResult>& folds,
                            const std::vector<FurnitureClass>& classes,
                            const std::vector<std::string>& fold_reports,
                            const std::map<std::string, double>& m) {
@@ -520,8 +528,8 @@ void WriteCrossvalReport(const RunReportInput& input,
   std::error_code error;
   std::filesystem::create_directories(dir, error);
   Require(!error, dir + ": cannot create the report directory (" + error.message() + ")");
-  const nlohmann::json results = nlohmann::json::parse(input.run.results_json);
-  const nlohmann::json folds = results.value("folds", nlohmann::json::array());
+  const RunResults results = ResultsOf(input);
+  const std::vector<FoldResult>& folds = results.folds;
   const std::map<std::string, double>& m = input.metrics;
   const std::vector<FurnitureClass> classes =
       ReportedClasses([&](FurnitureClass c) { return HasClassMetrics(m, c); });
@@ -545,8 +553,8 @@ void WriteCrossvalReport(const RunReportInput& input,
             "models with the fixed verification thresholds instead.</p>\n";
   }
   html << "<img src=\"folds_ap.png\" alt=\"AP per class and fold\">\n" << PoseAndSpeedHtml(m);
-  if (results.contains("calibration")) {  // pooled over the folds
-    html << ReliabilityHtml(results["calibration"],
+  if (results.calibration_stored) {  // pooled over the folds
+    html << ReliabilityHtml(results.calibration,
                             MetricOrNan(m, MetricId::Plain(PlainMetric::kCalibrationError)),
                             (std::filesystem::path(dir) / "reliability.png").string(),
                             "reliability.png");
@@ -554,8 +562,8 @@ void WriteCrossvalReport(const RunReportInput& input,
   html << FunnelHtml(classes, [&](const MetricId& id) {  // counts: summed over the folds
     double sum = 0;
     bool any = false;
-    for (const nlohmann::json& fold : folds) {
-      const double n = JsonMetric(fold["metrics"], id);
+    for (const FoldResult& fold : folds) {
+      const double n = FoldMetric(fold, id);
       if (std::isnan(n)) continue;
       sum += n;
       any = true;
@@ -594,21 +602,23 @@ void PlotLatency(const std::vector<double>& frame_ms, const std::string& png_pat
 // Confusion at the operating point, 10 cm: rows the true class (background:
 // nothing there), columns the detected class and "missed" (no detection
 // within 10 cm). Runs stored before misses were counted keep the old square.
-void PlotConfusion(const nlohmann::json& results,
+void PlotConfusion(const RunResults& results,
                    const std::vector<FurnitureClass>& classes,
                    const std::string& png_path) {
   std::vector<std::string> rows, columns;
   for (FurnitureClass c : classes) rows.push_back(ClassName(c));
   columns = rows;
   rows.push_back("background");
-  const bool with_missed = results.contains("confusion_layout");
+  const bool with_missed = results.confusion_has_missed;
   columns.push_back(with_missed ? "missed" : "background");
   std::vector<std::vector<int64_t>> counts(rows.size(), std::vector<int64_t>(columns.size(), 0));
-  const nlohmann::json confusion = results.value("confusion", nlohmann::json::object());
   for (size_t column = 0; column < columns.size(); ++column) {
-    if (!confusion.contains(columns[column])) continue;
-    for (size_t row = 0; row < rows.size(); ++row)
-      counts[row][column] = confusion[columns[column]].value(rows[row], 0);
+    const auto detected = results.confusion.find(columns[column]);
+    if (detected == results.confusion.end()) continue;
+    for (size_t row = 0; row < rows.size(); ++row) {
+      const auto count = detected->second.find(rows[row]);
+      if (count != detected->second.end()) counts[row][column] = count->second;
+    }
   }
   WriteConfusionPng(rows,
                     columns,
@@ -722,8 +732,8 @@ void WriteRunReport(const RunReportInput& input, const std::string& dir) {
   std::filesystem::create_directories(dir, error);
   Require(!error, dir + ": cannot create the report directory (" + error.message() + ")");
   auto path = [&](const std::string& name) { return (std::filesystem::path(dir) / name).string(); };
-  const nlohmann::json results = nlohmann::json::parse(input.run.results_json);
-  const nlohmann::json curves = results.value("curves", nlohmann::json::object());
+  const RunResults results = ResultsOf(input);
+  const std::map<std::string, std::vector<PrPoint>>& curves = results.curves;
   const std::map<std::string, double>& m = input.metrics;
   const std::vector<FurnitureClass> classes =
       ReportedClasses([&](FurnitureClass c) { return HasClassMetrics(m, c); });
@@ -742,7 +752,7 @@ void WriteRunReport(const RunReportInput& input, const std::string& dir) {
 
   std::ostringstream html;
   html << PageHead("Evaluation run", input.run) << SummaryHtml(m, classes) << FiguresHtml(m);
-  html << ReliabilityHtml(results.value("calibration", nlohmann::json::array()),
+  html << ReliabilityHtml(results.calibration,
                           MetricOrNan(m, MetricId::Plain(PlainMetric::kCalibrationError)),
                           path("reliability.png"),
                           "reliability.png");

@@ -10,10 +10,12 @@
 #pragma once
 
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "db/dataset_db.h"
+#include "reports/run_results.h"
 
 namespace furn {
 
@@ -26,6 +28,9 @@ struct GalleryFrame {
 
 struct RunReportInput {
   RunRecord run;
+  // run.results_json as read (RunResults::Parse, naming its file); unset:
+  // the report reads it, naming the run alone.
+  std::optional<RunResults> results;
   std::map<std::string, double> metrics;
   std::vector<double> frame_ms;  // total detection time per frame
   std::vector<GalleryFrame> gallery;

@@ -5,10 +5,10 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 
-#include "core/conventions.h"
-#include "core/detection_box.h"
-#include "core/error.h"
-#include "core/file_util.h"
+#include "core/detector/detection_box.h"
+#include "core/geometry/conventions.h"
+#include "core/util/error.h"
+#include "core/util/file_util.h"
 #include "reports/class_colours.h"
 #include "reports/evaluation.h"
 #include "reports/run_report.h"

@@ -18,7 +18,7 @@
 #include <string>
 #include <vector>
 
-#include "core/detector.h"
+#include "core/detector/detector.h"
 #include "renderers/camera.h"
 #include "reports/detection_debug.h"
 

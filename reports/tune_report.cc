@@ -6,8 +6,8 @@
 #include <filesystem>
 #include <sstream>
 
-#include "core/error.h"
-#include "core/file_util.h"
+#include "core/util/error.h"
+#include "core/util/file_util.h"
 #include "reports/chart.h"
 #include "reports/evaluation.h"
 #include "reports/run_report.h"

@@ -6,9 +6,9 @@
 #include <mutex>
 #include <set>
 
-#include "core/error.h"
-#include "core/parallel.h"
-#include "core/progress.h"
+#include "core/util/error.h"
+#include "core/util/parallel.h"
+#include "core/util/progress.h"
 #include "scenes/class_map.h"
 #include "scenes/mesh_io.h"
 #include "scenes/procedural_catalog.h"

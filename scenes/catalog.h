@@ -21,8 +21,8 @@
 #include <string>
 #include <vector>
 
-#include "core/furniture_class.h"
-#include "core/mesh.h"
+#include "core/geometry/mesh.h"
+#include "core/model/furniture_class.h"
 #include "scenes/procedural_catalog.h"
 
 namespace furn {

@@ -44,7 +44,7 @@
 #include <string>
 #include <vector>
 
-#include "core/furniture_class.h"
+#include "core/model/furniture_class.h"
 #include "scenes/mesh_io.h"
 
 namespace furn {

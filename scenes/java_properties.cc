@@ -3,7 +3,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "core/text.h"
+#include "core/util/text.h"
 
 namespace furn {
 namespace {

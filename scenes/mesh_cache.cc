@@ -5,7 +5,7 @@
 #include <filesystem>
 #include <fstream>
 
-#include "core/file_util.h"
+#include "core/util/file_util.h"
 
 namespace furn {
 namespace {

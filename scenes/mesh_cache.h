@@ -21,7 +21,7 @@
 #include <optional>
 #include <string>
 
-#include "core/mesh.h"
+#include "core/geometry/mesh.h"
 
 namespace furn {
 

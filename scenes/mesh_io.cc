@@ -18,8 +18,8 @@
 #include <set>
 #include <sstream>
 
-#include "core/error.h"
-#include "core/file_util.h"
+#include "core/util/error.h"
+#include "core/util/file_util.h"
 #include "scenes/vtk_mesh.h"
 #include "scenes/zip_archive.h"
 

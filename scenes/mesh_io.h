@@ -19,7 +19,7 @@
 #include <string>
 #include <vector>
 
-#include "core/mesh.h"
+#include "core/geometry/mesh.h"
 
 namespace furn {
 

@@ -2,8 +2,8 @@
 
 #include <algorithm>
 
-#include "core/error.h"
-#include "core/random.h"
+#include "core/util/error.h"
+#include "core/util/random.h"
 
 namespace furn {
 

@@ -1,7 +1,7 @@
 #include "scenes/procedural_catalog.h"
 
-#include "core/error.h"
-#include "core/random.h"
+#include "core/util/error.h"
+#include "core/util/random.h"
 
 namespace furn {
 namespace {

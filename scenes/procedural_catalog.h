@@ -14,8 +14,8 @@
 #include <cstdint>
 #include <vector>
 
-#include "core/furniture_class.h"
-#include "core/mesh.h"
+#include "core/geometry/mesh.h"
+#include "core/model/furniture_class.h"
 
 namespace furn {
 

@@ -22,7 +22,7 @@
 #include <string>
 #include <vector>
 
-#include "core/enum_text.h"
+#include "core/util/enum_text.h"
 #include "scenes/catalog.h"
 #include "scenes/procedural_catalog.h"
 

@@ -4,8 +4,8 @@
 #include <cmath>
 #include <map>
 
-#include "core/error.h"
-#include "core/random.h"
+#include "core/util/error.h"
+#include "core/util/random.h"
 #include "scenes/catalog.h"
 
 namespace furn {

@@ -18,9 +18,9 @@
 #include <string>
 #include <vector>
 
-#include "core/furniture_class.h"
-#include "core/mesh.h"
-#include "core/scene.h"
+#include "core/geometry/mesh.h"
+#include "core/geometry/scene.h"
+#include "core/model/furniture_class.h"
 
 namespace furn {
 

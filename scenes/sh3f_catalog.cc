@@ -6,7 +6,7 @@
 #include <set>
 #include <sstream>
 
-#include "core/error.h"
+#include "core/util/error.h"
 #include "scenes/java_properties.h"
 #include "scenes/mesh_cache.h"
 #include "scenes/mesh_io.h"

@@ -20,7 +20,7 @@
 #include <string>
 #include <vector>
 
-#include "core/mesh.h"
+#include "core/geometry/mesh.h"
 #include "scenes/mesh_cache.h"
 
 namespace furn {

@@ -5,8 +5,8 @@
 //   Eigen::Isometry3d world_from_camera = ShowcaseCamera(2.5, 1.2, 20);
 #pragma once
 
-#include "core/mesh.h"
-#include "core/scene.h"
+#include "core/geometry/mesh.h"
+#include "core/geometry/scene.h"
 
 namespace furn {
 

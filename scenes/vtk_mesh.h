@@ -8,7 +8,7 @@
 
 #include <string>
 
-#include "core/mesh.h"
+#include "core/geometry/mesh.h"
 
 namespace furn {
 

@@ -5,9 +5,9 @@
 #include <zlib.h>
 #include <mutex>
 
-#include "core/error.h"
-#include "core/file_util.h"
-#include "core/mesh.h"
+#include "core/geometry/mesh.h"
+#include "core/util/error.h"
+#include "core/util/file_util.h"
 
 namespace furn {
 

@@ -8,7 +8,7 @@
 #include <cstdlib>
 #include <string>
 
-#include "core/leak_suppressions.h"
+#include "core/util/leak_suppressions.h"
 
 namespace {
 

@@ -11,7 +11,7 @@
 #include <filesystem>
 #include <fstream>
 
-#include "core/error.h"
+#include "core/util/error.h"
 
 namespace furn::testing {
 

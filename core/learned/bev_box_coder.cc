@@ -4,8 +4,8 @@
 #include <cmath>
 #include <limits>
 
-#include "core/angles.h"
-#include "core/error.h"
+#include "core/util/angles.h"
+#include "core/util/error.h"
 
 namespace furn {
 namespace {

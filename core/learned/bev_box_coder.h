@@ -42,9 +42,9 @@
 #include <limits>
 #include <vector>
 
-#include "core/enum_text.h"
 #include "core/learned/bev_channels.h"
 #include "core/learned/bev_grid.h"
+#include "core/util/enum_text.h"
 
 namespace furn {
 

@@ -22,7 +22,7 @@
 //   const float heat = output.At(bev_channels::kHeat.first + k, row, col);
 #pragma once
 
-#include "core/furniture_class.h"
+#include "core/model/furniture_class.h"
 
 namespace furn {
 

@@ -28,8 +28,9 @@
 #include <array>
 #include <functional>
 
-#include "core/enum_text.h"
+#include "core/geometry/visibility.h"
 #include "core/learned/bev_grid.h"
+#include "core/util/enum_text.h"
 
 namespace furn {
 
@@ -40,14 +41,6 @@ struct FootprintBox {
   double width = 0, depth = 0;
 };
 
-// What the scan says about a point of the room.
-enum class Visibility {
-  kFree,      // a ray of the scan passed through it
-  kOccupied,  // the scan saw a surface there
-  kHidden,    // the scan saw a surface in front of it
-  kUnknown,   // out of view, or no return on its ray: the scan says nothing
-};
-using VisibilityTest = std::function<Visibility(const Eigen::Vector3d& world)>;
 
 // The BEV image's own test, for scans without a depth image: a point is
 // occupied where its cell's highest point reaches its height, else free

@@ -3,8 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
-#include "core/angles.h"
-#include "core/error.h"
+#include "core/util/angles.h"
+#include "core/util/error.h"
 
 namespace furn {
 namespace {

@@ -27,8 +27,8 @@
 #include <optional>
 #include <vector>
 
-#include "core/furniture_class.h"
 #include "core/learned/bev_channels.h"
+#include "core/model/furniture_class.h"
 
 namespace furn {
 

@@ -8,7 +8,7 @@
 #include <cstdlib>
 #include <stdexcept>
 
-#include "core/error.h"
+#include "core/util/error.h"
 
 namespace furn {
 

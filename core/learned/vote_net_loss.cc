@@ -2,8 +2,8 @@
 
 #include <algorithm>
 
-#include "core/error.h"
 #include "core/learned/vote_net_loss_torch.h"
+#include "core/util/error.h"
 
 namespace furn {
 

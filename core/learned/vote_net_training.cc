@@ -6,8 +6,8 @@
 #include <string>
 #include <type_traits>
 
-#include "core/error.h"
 #include "core/learned/vote_net_loss_torch.h"
+#include "core/util/error.h"
 
 namespace furn {
 namespace {

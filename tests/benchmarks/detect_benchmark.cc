@@ -18,8 +18,8 @@
 #include <filesystem>
 #include <map>
 
-#include "core/detector.h"
-#include "core/scan_fusion.h"
+#include "core/detector/detector.h"
+#include "core/geometry/scan_fusion.h"
 #include "db/dataset_db.h"
 #include "workbench/formats/scan_file.h"
 #include "workbench/pipelines/import_real.h"

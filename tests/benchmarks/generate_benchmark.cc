@@ -8,7 +8,7 @@
 
 #include <filesystem>
 
-#include "core/progress.h"
+#include "core/util/progress.h"
 #include "db/dataset_db.h"
 #include "workbench/pipelines/generate.h"
 

@@ -14,7 +14,7 @@
 
 #include "core/learned/vote_net.h"
 #include "core/learned/vote_net_training.h"
-#include "core/progress.h"
+#include "core/util/progress.h"
 #include "db/dataset_db.h"
 #include "workbench/pipelines/train.h"
 #include "workbench/pipelines/train_vote_net.h"

@@ -11,7 +11,7 @@
 
 #include <cmath>
 
-#include "core/angles.h"
+#include "core/util/angles.h"
 
 namespace furn {
 namespace {

@@ -9,7 +9,7 @@
 
 #include <cmath>
 
-#include "core/error.h"
+#include "core/util/error.h"
 
 namespace furn {
 namespace {

@@ -5,9 +5,9 @@
 #include <set>
 #include <string>
 
-#include "core/detector.h"
-#include "core/furniture_class.h"
-#include "core/voxel_key.h"
+#include "core/detector/detector.h"
+#include "core/geometry/voxel_key.h"
+#include "core/model/furniture_class.h"
 #include "tests/test_util.h"
 
 namespace furn {

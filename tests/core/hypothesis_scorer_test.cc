@@ -1,7 +1,7 @@
 // The learned hypothesis scorer: it learns a rule hidden in the features,
 // its probabilities are calibrated, it is deterministic and survives the
 // model file; bad bytes and too few samples are clear errors.
-#include "core/hypothesis_scorer.h"
+#include "core/codebook/hypothesis_scorer.h"
 
 #include <gtest/gtest.h>
 
@@ -10,9 +10,9 @@
 #include <filesystem>
 #include <random>
 
-#include "core/error.h"
-#include "core/file_util.h"
-#include "core/trainer.h"
+#include "core/model/trained_model.h"
+#include "core/util/error.h"
+#include "core/util/file_util.h"
 #include "tests/test_util.h"
 
 namespace furn {

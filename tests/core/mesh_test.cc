@@ -1,10 +1,10 @@
-#include "core/mesh.h"
+#include "core/geometry/mesh.h"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 
-#include "core/error.h"
+#include "core/util/error.h"
 
 namespace furn {
 namespace {
@@ -113,6 +113,31 @@ TEST(Mesh, CheckRejectsEmptyNonFiniteAndOutOfRange) {
   bad_index.triangles[0][1] = 99;
   EXPECT_THROW(CheckMeshValid(bad_index, "index"), InputError);
   EXPECT_THROW(BoundingBox(empty), InputError);
+}
+
+TEST(Mesh, SimplifyMergesCellsDropsDegenerateTrianglesAndKeepsTheShape) {
+  // A finely tessellated 1 m square (2 x 100 x 100 triangles).
+  TriangleMesh grid;
+  for (int i = 0; i <= 100; ++i) {
+    for (int j = 0; j <= 100; ++j) grid.vertices.emplace_back(i * 0.01f, j * 0.01f, 0.f);
+  }
+  for (int i = 0; i < 100; ++i) {
+    for (int j = 0; j < 100; ++j) {
+      const int a = i * 101 + j;
+      grid.triangles.emplace_back(a, a + 101, a + 102);
+      grid.triangles.emplace_back(a, a + 102, a + 1);
+    }
+  }
+  const TriangleMesh simple = SimplifyMesh(grid, 0.05f);
+  EXPECT_LT(simple.NumTriangles(), grid.NumTriangles() / 10);
+  EXPECT_GT(simple.NumTriangles(), 100u);
+  EXPECT_NO_THROW(CheckMeshValid(simple, "simplified"));
+  EXPECT_NEAR(SurfaceArea(simple), 1.0, 0.1);
+  EXPECT_EQ(SimplifyMesh(grid, 0.05f).vertices, simple.vertices);  // deterministic
+  // A box bigger than the cell keeps its 12 triangles; one smaller vanishes.
+  EXPECT_EQ(SimplifyMesh(MakeBox({0, 0, 0}, {1, 1, 1}), 0.3f).NumTriangles(), 12u);
+  EXPECT_TRUE(SimplifyMesh(MakeBox({0.01f, 0.01f, 0.01f}, {0.02f, 0.02f, 0.02f}), 0.3f).Empty());
+  EXPECT_THROW(SimplifyMesh(grid, 0.f), InputError);
 }
 
 }  // namespace

@@ -1,13 +1,13 @@
-// Several posed scans as one detection input (core/scan_fusion.h), and the
+// Several posed scans as one detection input (core/geometry/scan_fusion.h), and the
 // random pose error that measures what fusion loses to odometry.
-#include "core/scan_fusion.h"
+#include "core/geometry/scan_fusion.h"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <limits>
 
-#include "core/random.h"
+#include "core/util/random.h"
 #include "tests/test_util.h"
 
 namespace furn {

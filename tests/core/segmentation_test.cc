@@ -6,11 +6,11 @@
 #include <cmath>
 #include <random>
 
-#include "core/error.h"
-#include "core/preprocess.h"
-#include "core/region_growing.h"
-#include "core/scene.h"
-#include "core/sgf.h"
+#include "core/codebook/preprocess.h"
+#include "core/codebook/region_growing.h"
+#include "core/codebook/sgf.h"
+#include "core/geometry/scene.h"
+#include "core/util/error.h"
 #include "renderers/embree_caster.h"
 #include "scenes/procedural_catalog.h"
 
@@ -217,7 +217,7 @@ TEST(RegionGrowing, SplitsAScannedChairIntoSeatBackAndLegs) {
 }  // namespace
 }  // namespace furn
 
-#include "core/part_subsets.h"
+#include "core/codebook/part_subsets.h"
 
 namespace furn {
 namespace {

@@ -1,5 +1,5 @@
-// Text from files is made valid UTF-8 and printable (core/text.h).
-#include "core/text.h"
+// Text from files is made valid UTF-8 and printable (core/util/text.h).
+#include "core/util/text.h"
 
 #include <gtest/gtest.h>
 

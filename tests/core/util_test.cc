@@ -12,12 +12,12 @@
 #include <stdexcept>
 #include <thread>
 
-#include "core/error.h"
-#include "core/file_util.h"
-#include "core/furniture_class.h"
-#include "core/parallel.h"
-#include "core/progress.h"
-#include "core/random.h"
+#include "core/model/furniture_class.h"
+#include "core/util/error.h"
+#include "core/util/file_util.h"
+#include "core/util/parallel.h"
+#include "core/util/progress.h"
+#include "core/util/random.h"
 #include "tests/test_util.h"
 
 namespace furn {

@@ -1,10 +1,10 @@
 // The share of a box inside a camera's view (Detection::in_view and the
 // ground truth's --min-in-view).
-#include "core/view_share.h"
+#include "core/geometry/view_share.h"
 
 #include <gtest/gtest.h>
 
-#include "core/render_compare.h"  // PinholeIntrinsics
+#include "core/geometry/render_compare.h"  // PinholeIntrinsics
 
 namespace furn {
 namespace {

@@ -1,9 +1,9 @@
-#include "core/vocabulary.h"
+#include "core/codebook/vocabulary.h"
 
 #include <gtest/gtest.h>
 
-#include "core/error.h"
-#include "core/random.h"
+#include "core/util/error.h"
+#include "core/util/random.h"
 
 namespace furn {
 namespace {

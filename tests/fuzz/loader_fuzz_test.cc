@@ -35,10 +35,10 @@
 #include <string>
 #include <vector>
 
-#include "core/error.h"
-#include "core/file_util.h"
 #include "core/learned/vote_net.h"
-#include "core/progress.h"
+#include "core/util/error.h"
+#include "core/util/file_util.h"
+#include "core/util/progress.h"
 #include "db/dataset_db.h"
 #include "db/sqlite.h"
 #include "scenes/catalog.h"

@@ -2,7 +2,7 @@
 
 #include <gtest/gtest.h>
 
-#include "core/error.h"
+#include "core/util/error.h"
 #include "tests/test_util.h"
 
 namespace furn {

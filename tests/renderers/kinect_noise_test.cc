@@ -8,7 +8,7 @@
 #include <cstring>
 #include <set>
 
-#include "core/error.h"
+#include "core/util/error.h"
 #include "renderers/depth_renderer.h"
 #include "renderers/kinect_simulator.h"
 #include "tests/renderers/render_fixtures.h"

@@ -1,7 +1,7 @@
 // Known scenes for renderer tests and benchmarks.
 #pragma once
 
-#include "core/scene.h"
+#include "core/geometry/scene.h"
 #include "renderers/camera.h"
 
 namespace furn::testing {

@@ -6,7 +6,7 @@
 #include <array>
 #include <cmath>
 
-#include "core/error.h"
+#include "core/util/error.h"
 #include "renderers/depth_renderer.h"
 #include "renderers/embree_caster.h"
 #include "renderers/kinect_noise.h"

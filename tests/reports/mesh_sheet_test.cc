@@ -6,7 +6,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "core/error.h"
+#include "core/util/error.h"
 #include "scenes/procedural_catalog.h"
 #include "tests/test_util.h"
 

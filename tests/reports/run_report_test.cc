@@ -6,7 +6,7 @@
 #include <filesystem>
 #include <opencv2/imgcodecs.hpp>
 
-#include "core/file_util.h"
+#include "core/util/file_util.h"
 #include "reports/confusion.h"
 #include "reports/run_report.h"
 #include "reports/training_curve.h"

@@ -7,7 +7,7 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 
-#include "core/file_util.h"
+#include "core/util/file_util.h"
 #include "tests/test_util.h"
 
 namespace furn {

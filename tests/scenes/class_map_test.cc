@@ -2,7 +2,7 @@
 
 #include <gtest/gtest.h>
 
-#include "core/error.h"
+#include "core/util/error.h"
 #include "scenes/catalog.h"
 #include "scenes/model_folds.h"
 #include "scenes/room_composer.h"

@@ -7,7 +7,7 @@
 #include <set>
 #include <string>
 
-#include "core/mesh.h"
+#include "core/geometry/mesh.h"
 
 namespace furn::testing {
 

@@ -5,9 +5,9 @@
 
 #include <filesystem>
 
-#include "core/error.h"
-#include "core/file_util.h"
-#include "core/mesh.h"
+#include "core/geometry/mesh.h"
+#include "core/util/error.h"
+#include "core/util/file_util.h"
 #include "scenes/catalog.h"
 #include "scenes/class_map.h"
 #include "scenes/mesh_io.h"

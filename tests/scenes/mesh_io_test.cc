@@ -7,7 +7,7 @@
 
 #include <filesystem>
 
-#include "core/error.h"
+#include "core/util/error.h"
 #include "tests/scenes/fixtures.h"
 #include "tests/test_util.h"
 

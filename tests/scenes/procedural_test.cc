@@ -4,7 +4,7 @@
 
 #include <set>
 
-#include "core/error.h"
+#include "core/util/error.h"
 
 namespace furn {
 namespace {

@@ -7,7 +7,7 @@
 #include <memory>
 #include <vector>
 
-#include "core/error.h"
+#include "core/util/error.h"
 #include "scenes/catalog.h"
 
 namespace furn {

@@ -11,10 +11,10 @@
 #include <utility>
 #include <vector>
 
-#include "core/text.h"
+#include "core/util/text.h"
 
-#include "core/error.h"
-#include "core/file_util.h"
+#include "core/util/error.h"
+#include "core/util/file_util.h"
 #include "scenes/catalog.h"
 #include "scenes/java_properties.h"
 #include "scenes/mesh_io.h"

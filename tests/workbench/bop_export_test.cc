@@ -14,9 +14,9 @@
 
 #include <opencv2/imgcodecs.hpp>
 
-#include "core/error.h"
-#include "core/file_util.h"
-#include "core/progress.h"
+#include "core/util/error.h"
+#include "core/util/file_util.h"
+#include "core/util/progress.h"
 #include "db/sqlite.h"
 #include "tests/test_util.h"
 #include "workbench/pipelines/dataset_tools.h"

@@ -8,8 +8,8 @@
 #include <filesystem>
 #include <opencv2/imgcodecs.hpp>
 
-#include "core/error.h"
-#include "core/render_compare.h"
+#include "core/geometry/render_compare.h"
+#include "core/util/error.h"
 #include "tests/test_util.h"
 #include "workbench/formats/depth_png.h"
 #include "workbench/formats/point_cloud_file.h"

@@ -5,8 +5,8 @@
 
 #include <filesystem>
 
-#include "core/error.h"
-#include "core/mesh.h"
+#include "core/geometry/mesh.h"
+#include "core/util/error.h"
 #include "scenes/catalog.h"
 #include "scenes/mesh_io.h"
 #include "tests/test_util.h"

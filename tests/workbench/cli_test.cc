@@ -9,9 +9,9 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "core/error.h"
-#include "core/file_util.h"
-#include "core/mesh.h"
+#include "core/geometry/mesh.h"
+#include "core/util/error.h"
+#include "core/util/file_util.h"
 #include "db/dataset_db.h"
 #include "scenes/mesh_io.h"
 #include "tests/scenes/fixtures.h"

@@ -14,9 +14,9 @@
 #include <map>
 #include <string>
 
-#include "core/file_util.h"
 #include "core/learned/vote_net.h"
-#include "core/trainer.h"
+#include "core/model/trained_model.h"
+#include "core/util/file_util.h"
 #include "db/dataset_db.h"
 #include "tests/test_util.h"
 #include "tests/workbench/dataset_dump.h"

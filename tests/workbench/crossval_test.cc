@@ -7,8 +7,8 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 
-#include "core/file_util.h"
-#include "core/trainer.h"
+#include "core/model/trained_model.h"
+#include "core/util/file_util.h"
 #include "db/dataset_db.h"
 #include "db/sqlite.h"
 #include "scenes/model_folds.h"

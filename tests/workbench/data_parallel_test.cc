@@ -14,10 +14,10 @@
 #include <filesystem>
 #include <thread>
 
-#include "core/error.h"
 #include "core/learned/data_parallel.h"
-#include "core/progress.h"
-#include "core/trainer.h"
+#include "core/model/trained_model.h"
+#include "core/util/error.h"
+#include "core/util/progress.h"
 #include "db/dataset_db.h"
 #include "tests/test_util.h"
 #include "tests/workbench/heat_difference.h"

@@ -12,11 +12,11 @@
 
 #include <opencv2/imgcodecs.hpp>
 
-#include "core/detector.h"
-#include "core/error.h"
-#include "core/file_util.h"
-#include "core/progress.h"
-#include "core/scan_fusion.h"
+#include "core/detector/detector.h"
+#include "core/geometry/scan_fusion.h"
+#include "core/util/error.h"
+#include "core/util/file_util.h"
+#include "core/util/progress.h"
 #include "renderers/embree_caster.h"
 #include "renderers/kinect_simulator.h"
 #include "scenes/room_composer.h"
@@ -440,7 +440,7 @@ TEST_F(DetectTest, BadScansAreClearErrors) {
   EXPECT_EQ(no_floor.status, DetectionStatus::kNoFloor);
   EXPECT_TRUE(no_floor.detections.empty());
   EXPECT_NE(no_floor.message.find("no floor found"), std::string::npos) << no_floor.message;
-  EXPECT_NE(no_floor.message.find("--world-from-camera"), std::string::npos) << no_floor.message;
+  EXPECT_NE(no_floor.message.find("world_from_camera"), std::string::npos) << no_floor.message;
 }
 
 TEST_F(DetectTest, BadFilesAndIntrinsicsAreClearErrors) {

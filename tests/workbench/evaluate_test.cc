@@ -11,7 +11,7 @@
 #include <nlohmann/json.hpp>
 #include <vector>
 
-#include "core/file_util.h"
+#include "core/util/file_util.h"
 #include "db/dataset_db.h"
 #include "db/sqlite.h"
 #include "tests/test_util.h"

@@ -12,7 +12,7 @@
 #include <filesystem>
 #include <opencv2/imgcodecs.hpp>
 
-#include "core/error.h"
+#include "core/util/error.h"
 #include "renderers/depth_renderer.h"
 #include "renderers/kinect_noise.h"
 #include "tests/renderers/render_fixtures.h"

@@ -13,7 +13,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <sstream>
 
-#include "core/error.h"
+#include "core/util/error.h"
 #include "db/dataset_db.h"
 #include "renderers/embree_caster.h"
 #include "scenes/procedural_catalog.h"

@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "core/file_util.h"
+#include "core/util/file_util.h"
 #include "db/dataset_db.h"
 #include "tests/test_util.h"
 #include "tests/workbench/workbench_commands.h"

@@ -11,9 +11,8 @@
 #include <string>
 #include <vector>
 
-#include "core/file_util.h"
-#include "core/model_upgrade.h"
-#include "core/trainer.h"
+#include "core/model/trained_model.h"
+#include "core/util/file_util.h"
 #include "db/sqlite.h"
 #include "renderers/depth_frame.h"
 #include "tests/test_util.h"

@@ -12,9 +12,9 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
-#include "core/error.h"
-#include "core/file_util.h"
-#include "core/floor.h"
+#include "core/geometry/floor.h"
+#include "core/util/error.h"
+#include "core/util/file_util.h"
 #include "tests/test_util.h"
 #include "workbench/formats/mat_file.h"
 #include "workbench/formats/real_labels.h"

@@ -8,8 +8,8 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 
-#include "core/error.h"
-#include "core/file_util.h"
+#include "core/util/error.h"
+#include "core/util/file_util.h"
 #include "db/dataset_db.h"
 #include "tests/test_util.h"
 #include "tests/workbench/workbench_commands.h"

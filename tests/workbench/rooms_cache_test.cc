@@ -10,8 +10,8 @@
 #include <fstream>
 #include <thread>
 
-#include "core/error.h"
-#include "core/progress.h"
+#include "core/util/error.h"
+#include "core/util/progress.h"
 #include "db/sqlite.h"
 #include "tests/test_util.h"
 #include "workbench/formats/scan_file.h"

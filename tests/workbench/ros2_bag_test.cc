@@ -13,8 +13,8 @@
 #include <string>
 #include <vector>
 
-#include "core/error.h"
-#include "core/file_util.h"
+#include "core/util/error.h"
+#include "core/util/file_util.h"
 #include "db/sqlite.h"
 #include "tests/test_util.h"
 #include "workbench/formats/cdr.h"

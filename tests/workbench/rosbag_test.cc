@@ -23,7 +23,7 @@
 #include <sstream>
 #include <tuple>
 
-#include "core/file_util.h"
+#include "core/util/file_util.h"
 #include "db/dataset_db.h"
 #include "db/sqlite.h"
 #include "renderers/camera.h"

@@ -13,15 +13,17 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 
-#include "core/detector.h"
-#include "core/error.h"
-#include "core/file_util.h"
-#include "core/parallel.h"
-#include "core/progress.h"
+#include "core/detector/detector.h"
+#include "core/detector/learned_source.h"
+#include "core/util/error.h"
+#include "core/util/file_util.h"
+#include "core/util/parallel.h"
+#include "core/util/progress.h"
 #include "db/dataset_db.h"
 #include "reports/detection_debug.h"
 #include "tests/test_util.h"
 #include "workbench/formats/scan_file.h"
+#include "workbench/pipelines/model_info.h"
 #include "workbench/pipelines/train.h"
 
 namespace furn {
@@ -279,7 +281,8 @@ TEST(Train, VoteNetIsStoredUsedAndItsRoomsHoldNoHeldOutModel) {
         Detector(model, every_maximum).Detect(DetectionInputOf(room.frames.front(), "frame"), true);
     EXPECT_GT(farthest_maximum(all), 1.5);
     EXPECT_LE(farthest_maximum(near_only), 1.5);
-    for (const DetectionDebug::Hypothesis& h : result.debug.hypotheses) EXPECT_TRUE(h.learned);
+    for (const DetectionDebug::Hypothesis& h : result.debug.hypotheses)
+      EXPECT_TRUE(h.learned.has_value());
     for (const Detection& d : result.detections) {
       EXPECT_EQ(d.model_index, -1);
       EXPECT_GT(d.width, 0);
@@ -321,7 +324,7 @@ TEST(Train, VoteNetIsStoredUsedAndItsRoomsHoldNoHeldOutModel) {
     for (const DetectionDebug::Hypothesis& h : fitted.debug.hypotheses) {
       if (h.outcome != HypothesisOutcome::kDetected) continue;
       const Detection& d = fitted.detections.at(k++);
-      if (!h.refined) {
+      if (!h.learned->refined) {
         EXPECT_EQ(d.model_index, -1);
         continue;
       }
@@ -342,6 +345,34 @@ TEST(Train, VoteNetIsStoredUsedAndItsRoomsHoldNoHeldOutModel) {
     }
     EXPECT_EQ(k, static_cast<int>(fitted.detections.size()));
     EXPECT_GT(refined, 0) << "no hypothesis was fitted";
+    {  // Issue 71: the learned source's stages called alone give Detect's detections.
+      const DetectionInput input = DetectionInputOf(room.frames.front(), "frame");
+      const LearnedSource source(fitting_detector);
+      PreparedScan scan = fitting_detector.Prepare(input);
+      SetTorchThreads(fitting.torch_threads);  // as Detect's network thread
+      const BevImage image = source.Rasterise(scan);
+      const BevOutput output = source.RunNetwork(image);
+      Proposals proposals = source.Decode(image, output);
+      proposals.image = image;  // what the extent fit reads
+      EXPECT_EQ(proposals.hypotheses.size(), fitted.debug.hypotheses.size());
+      KeepAtOperatingPoint(fitting_detector.operating_point(), &proposals);
+      source.FitCandidates(scan, &proposals);
+      source.FitExtents(scan, &proposals);
+      ASSERT_EQ(proposals.candidates.size(), fitted.detections.size());
+      for (size_t i = 0; i < fitted.detections.size(); ++i) {
+        const Detection &a = fitted.detections[i], &b = proposals.candidates[i].detection;
+        EXPECT_EQ(std::tie(a.x, a.y, a.yaw, a.score, a.model_index, a.width, a.depth),
+                  std::tie(b.x, b.y, b.yaw, b.score, b.model_index, b.width, b.depth));
+      }
+      // Without a vote network there is no learned source.
+      EXPECT_NE(testing::ErrorOf([&] {
+                  DetectorOptions codebook;
+                  codebook.voting = VotingMode::kCodebook;
+                  const Detector plain(model, codebook);
+                  LearnedSource{plain};
+                }).find("does not vote with a network"),
+                std::string::npos);
+    }
     // Its debug figures show what it did: heat under the points and boxes in
     // class colours, not grey points; no segments figure on this path.
     std::filesystem::create_directories(dir + "/debug");
@@ -456,14 +487,14 @@ TEST(Train, VoteNetIsStoredUsedAndItsRoomsHoldNoHeldOutModel) {
     SaveTrainedModel(fused, dir + "/share.fcm");
     EXPECT_NE(testing::ErrorOf([&] { LoadTrainedModel(dir + "/share.fcm"); })
                   .find("share.fcm: model file is corrupt (the vote network's training input "
-                        "fused share is not in 0..1)"),
+                        "fused share 2.000000 must be in 0..1)"),
               std::string::npos);
     fused.vote_net_input.fused_share = 0.5;
     fused.vote_net_input.pose_noise_deg = std::nan("");
     SaveTrainedModel(fused, dir + "/noise.fcm");
     EXPECT_NE(testing::ErrorOf([&] {
                 LoadTrainedModel(dir + "/noise.fcm");
-              }).find("pose error is not in 0..1 m, 0..45 deg"),
+              }).find("fused pose error nan degrees must be in 0..45 degrees)"),
               std::string::npos);
   }
   DetectorOptions codebook;

@@ -12,8 +12,8 @@
 #include <nlohmann/json.hpp>
 #include <set>
 
-#include "core/error.h"
-#include "core/file_util.h"
+#include "core/util/error.h"
+#include "core/util/file_util.h"
 #include "db/dataset_db.h"
 #include "tests/test_util.h"
 #include "tests/workbench/dataset_dump.h"

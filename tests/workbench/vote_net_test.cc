@@ -13,9 +13,9 @@
 #include <filesystem>
 #include <set>
 
-#include "core/error.h"
 #include "core/learned/self_training.h"
 #include "core/learned/vote_net_training.h"
+#include "core/util/error.h"
 #include "db/sqlite.h"
 #include "scenes/catalog.h"
 #include "tests/scenes/vote_net_only_map.h"

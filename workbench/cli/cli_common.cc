@@ -8,8 +8,8 @@
 #include <memory>
 #include <sstream>
 
-#include "core/progress.h"
-#include "core/text.h"
+#include "core/util/progress.h"
+#include "core/util/text.h"
 #include "workbench/cli/enum_option.h"
 #include "workbench/formats/scan_file.h"
 #include "workbench/formats/sensor_file.h"

@@ -5,7 +5,7 @@
 #include <type_traits>
 #include <vector>
 
-#include "core/file_util.h"
+#include "core/util/file_util.h"
 #include "workbench/cli/enum_option.h"
 #include "workbench/formats/detector_option_table.h"
 #include "workbench/formats/options_file.h"

@@ -12,7 +12,7 @@
 #include <set>
 #include <string>
 
-#include "core/detector.h"
+#include "core/detector/detector.h"
 
 namespace CLI {
 class App;

@@ -1,4 +1,4 @@
-// A command-line option whose value is an enum named by core/enum_text.h:
+// A command-line option whose value is an enum named by core/util/enum_text.h:
 // "--voting learned", "--vote-shape-sizes real". A name not in the table is a
 // usage error naming the option, the value and the names it takes.
 #pragma once
@@ -7,7 +7,7 @@
 #include <algorithm>
 #include <string>
 
-#include "core/enum_text.h"
+#include "core/util/enum_text.h"
 
 namespace furn {
 

@@ -7,8 +7,8 @@
 #include <cstring>
 #include <exception>
 
-#include "core/leak_suppressions.h"
-#include "core/text.h"
+#include "core/util/leak_suppressions.h"
+#include "core/util/text.h"
 #include "workbench/cli/commands.h"
 
 namespace {

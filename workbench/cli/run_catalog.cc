@@ -2,8 +2,8 @@
 #include <cstdio>
 #include <iostream>
 
-#include "core/error.h"
-#include "core/progress.h"
+#include "core/util/error.h"
+#include "core/util/progress.h"
 #include "reports/mesh_sheet.h"
 #include "scenes/mesh_io.h"
 #include "scenes/procedural_shapes.h"

@@ -3,9 +3,9 @@
 #include <filesystem>
 #include <iostream>
 
-#include "core/error.h"
-#include "core/file_util.h"
-#include "core/progress.h"
+#include "core/util/error.h"
+#include "core/util/file_util.h"
+#include "core/util/progress.h"
 #include "scenes/room_composer.h"
 #include "workbench/cli/cli_common.h"
 #include "workbench/cli/cluster_flags.h"

@@ -2,8 +2,8 @@
 #include <string>
 #include <vector>
 
-#include "core/error.h"
-#include "core/progress.h"
+#include "core/util/error.h"
+#include "core/util/progress.h"
 #include "workbench/cli/cli_common.h"
 #include "workbench/cli/commands.h"
 #include "workbench/cli/detector_flags.h"

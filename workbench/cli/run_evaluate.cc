@@ -8,9 +8,9 @@
 #include <tuple>
 #include <vector>
 
-#include "core/error.h"
-#include "core/file_util.h"
-#include "core/progress.h"
+#include "core/util/error.h"
+#include "core/util/file_util.h"
+#include "core/util/progress.h"
 #include "db/dataset_db.h"
 #include "reports/run_report.h"
 #include "workbench/cli/cli_common.h"
@@ -20,7 +20,9 @@
 #include "workbench/pipelines/compare_vocab.h"
 #include "workbench/pipelines/crossval.h"
 #include "workbench/pipelines/evaluate.h"
+#include "workbench/pipelines/evaluation_report.h"
 #include "workbench/pipelines/generate.h"  // ParseShard
+#include "workbench/pipelines/regression.h"
 #include "workbench/pipelines/train.h"
 
 namespace furn {

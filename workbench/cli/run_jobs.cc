@@ -6,7 +6,7 @@
 #include <cstdio>
 #include <thread>
 
-#include "core/error.h"
+#include "core/util/error.h"
 #include "workbench/cli/cli_common.h"
 #include "workbench/cli/commands.h"
 #include "workbench/pipelines/slurm_jobs.h"

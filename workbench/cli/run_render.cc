@@ -5,8 +5,8 @@
 #include <iostream>
 #include <nlohmann/json.hpp>
 
-#include "core/error.h"
-#include "core/file_util.h"
+#include "core/util/error.h"
+#include "core/util/file_util.h"
 #include "workbench/cli/cli_common.h"
 #include "workbench/cli/commands.h"
 #include "workbench/pipelines/render_showcase.h"

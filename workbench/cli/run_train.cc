@@ -8,12 +8,13 @@
 #include <set>
 #include <tuple>
 
-#include "core/error.h"
-#include "core/file_util.h"
-#include "core/hypothesis_scorer.h"
+#include "core/codebook/hypothesis_scorer.h"
+#include "core/codebook/trainer.h"
 #include "core/learned/vote_net.h"
 #include "core/learned/vote_net_upgrade.h"
-#include "core/model_upgrade.h"
+#include "core/model/trained_model.h"
+#include "core/util/error.h"
+#include "core/util/file_util.h"
 #include "db/dataset_db.h"
 #include "workbench/cli/cli_common.h"
 #include "workbench/cli/cluster_flags.h"
@@ -23,6 +24,7 @@
 #include "workbench/pipelines/eval_parts.h"
 #include "workbench/pipelines/evaluate.h"
 #include "workbench/pipelines/generate.h"  // ParseShard
+#include "workbench/pipelines/model_info.h"
 #include "workbench/pipelines/train.h"
 
 namespace furn {

@@ -4,8 +4,8 @@
 #include <set>
 #include <tuple>
 
-#include "core/error.h"
-#include "core/trainer.h"
+#include "core/model/trained_model.h"
+#include "core/util/error.h"
 #include "reports/evaluation.h"
 #include "workbench/cli/cli_common.h"
 #include "workbench/cli/cluster_flags.h"

@@ -9,8 +9,8 @@
 #include <sstream>
 #include <vector>
 
-#include "core/error.h"
-#include "core/file_util.h"
+#include "core/util/error.h"
+#include "core/util/file_util.h"
 
 namespace furn {
 namespace {

@@ -1,6 +1,6 @@
 #include "workbench/formats/cdr.h"
 
-#include "core/error.h"
+#include "core/util/error.h"
 
 namespace furn {
 namespace {

@@ -5,7 +5,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "core/detection_box.h"
+#include "core/detector/detection_box.h"
 
 namespace furn {
 
@@ -82,7 +82,7 @@ std::string DetectionJson(const DetectionResult& result,
        scan.pose_source.empty() ? std::string(result.floor_estimated ? "floor estimated" : "given")
                                 : scan.pose_source},
       {"points_in_range", result.input_points},
-      {"points", result.points},
+      {"points", result.scene_points},
       {"segments", result.segments},
       {"detections", detections},
       {"timings_ms", timings}};
@@ -117,18 +117,20 @@ const char* ModelNameOf(const TrainedModel& model, int index) {
 // What moved a learned maximum's centre from its peak cell's own vote: the
 // dense votes' mean shift and/or the sides its cells' edge votes placed.
 std::string LearnedPlacement(const DetectionDebug::Hypothesis& h) {
-  const double moved = std::hypot(h.peak_x - h.x, h.peak_y - h.y);
+  const DetectionDebug::LearnedPeak& peak = *h.learned;
+  const double moved = std::hypot(peak.peak_x - h.x, peak.peak_y - h.y);
   char text[128];
   std::string out;
-  if (h.votes > 0) {
-    std::snprintf(text, sizeof(text), "votes %.0f (%.2f m from the peak cell's)  ", h.votes, moved);
+  if (peak.votes > 0) {
+    std::snprintf(
+        text, sizeof(text), "votes %.0f (%.2f m from the peak cell's)  ", peak.votes, moved);
     out += text;
   }
-  if (h.edge_cells > 0) {
+  if (peak.edge_cells > 0) {
     std::snprintf(text,
                   sizeof(text),
                   "sides placed by %d cells (%.2f m from the peak cell's)  ",
-                  h.edge_cells,
+                  peak.edge_cells,
                   moved);
     out += text;
   }
@@ -139,21 +141,23 @@ std::string LearnedPlacement(const DetectionDebug::Hypothesis& h) {
 
 std::string ExplainDetection(const DetectionResult& result, const TrainedModel& model) {
   std::ostringstream out;
-  const bool learned = !result.debug.hypotheses.empty() && result.debug.hypotheses.front().learned;
+  const bool learned =
+      !result.debug.hypotheses.empty() && result.debug.hypotheses.front().learned.has_value();
   out << result.debug.hypotheses.size()
       << (learned ? " hypotheses (learned heat maxima):\n" : " hypotheses (Hough maxima):\n");
   char line[256];
   for (const DetectionDebug::Hypothesis& h : result.debug.hypotheses) {
     if (h.learned) {
+      const DetectionDebug::LearnedPeak& peak = *h.learned;
       std::snprintf(line,
                     sizeof(line),
                     "  %-9s x %6.2f  y %6.2f  yaw %6.1f deg  footprint %.2f x %.2f m  heat %.3f  ",
                     ClassName(h.furniture_class),
                     h.x,
                     h.y,
-                    Rep103YawFromModelYaw(h.yaw) * 180 / M_PI,
-                    h.depth,
-                    h.width,
+                    Rep103YawFromModelYaw(peak.yaw) * 180 / M_PI,
+                    peak.depth,
+                    peak.width,
                     h.vote_weight);
       out << line;
       out << LearnedPlacement(h);
@@ -163,15 +167,15 @@ std::string ExplainDetection(const DetectionResult& result, const TrainedModel& 
                       "fit %s %.2f m away (%s)  ",
                       ModelNameOf(model, best->model_index),
                       std::hypot(h.fit_x - h.x, h.fit_y - h.y),
-                      h.refined ? "agrees: its yaw and model" : "disagrees: the network's yaw");
+                      peak.refined ? "agrees: its yaw and model" : "disagrees: the network's yaw");
         out << line;
       }
-      if (h.extent_edges >= 0) {
+      if (peak.extent_edges >= 0) {
         std::snprintf(line,
                       sizeof(line),
                       "extent: %d of 4 edges seen, moved %.2f m  ",
-                      h.extent_edges,
-                      h.extent_moved_m);
+                      peak.extent_edges,
+                      peak.extent_moved_m);
         out << line;
       }
       out << "-> " << DetectionDebug::Describe(h) << "\n";

@@ -8,7 +8,7 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
-#include "core/detector.h"
+#include "core/detector/detector.h"
 #include "workbench/formats/scan_file.h"
 
 namespace furn {

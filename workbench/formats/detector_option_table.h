@@ -12,7 +12,7 @@
 #include <array>
 #include <string>
 
-#include "core/detector.h"
+#include "core/detector/detector.h"
 
 namespace furn {
 

@@ -4,7 +4,7 @@
 #include <nlohmann/json.hpp>
 #include <vector>
 
-#include "core/error.h"
+#include "core/util/error.h"
 #include "workbench/formats/detector_option_table.h"
 #include "workbench/formats/json_text.h"
 

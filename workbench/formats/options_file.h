@@ -16,8 +16,8 @@
 
 #include <string>
 
-#include "core/detector.h"
-#include "core/trainer.h"
+#include "core/codebook/trainer.h"
+#include "core/detector/detector.h"
 
 namespace furn {
 

@@ -15,8 +15,8 @@
 #include <set>
 #include <sstream>
 
-#include "core/error.h"
-#include "core/file_util.h"
+#include "core/util/error.h"
+#include "core/util/file_util.h"
 #include "workbench/formats/point_fields.h"
 
 namespace furn {

@@ -4,7 +4,7 @@
 #include <iterator>
 #include <limits>
 
-#include "core/error.h"
+#include "core/util/error.h"
 
 namespace furn {
 namespace {

@@ -6,10 +6,10 @@
 #include <map>
 #include <nlohmann/json.hpp>
 
-#include "core/angles.h"
-#include "core/conventions.h"
-#include "core/error.h"
-#include "core/file_util.h"
+#include "core/geometry/conventions.h"
+#include "core/util/angles.h"
+#include "core/util/error.h"
+#include "core/util/file_util.h"
 #include "workbench/formats/camera_file.h"
 
 namespace furn {

@@ -15,8 +15,8 @@
 #include <optional>
 #include <set>
 
-#include "core/error.h"
-#include "core/file_util.h"
+#include "core/util/error.h"
+#include "core/util/file_util.h"
 #include "db/sqlite.h"
 #include "workbench/formats/ros2_messages.h"
 #include "workbench/formats/ros_common.h"
@@ -76,8 +76,9 @@ void RefuseCompressedBag(const std::string& folder) {
     return;
   }
   Require(format.empty() && (mode.empty() || mode == "none" || mode == "NONE"),
-          (fs::path(folder) / "metadata.yaml").string() + ": compressed storage (" + format.substr(0, 16) + ", mode " +
-              mode.substr(0, 16) + ") is not read here; " + kConvertAdvice);
+          (fs::path(folder) / "metadata.yaml").string() + ": compressed storage (" +
+              format.substr(0, 16) + ", mode " + mode.substr(0, 16) + ") is not read here; " +
+              kConvertAdvice);
 }
 
 // The .db3 files of a bag, in split order.

@@ -5,9 +5,9 @@
 #include <cstring>
 #include <limits>
 
-#include "core/detection_box.h"
-#include "core/error.h"
-#include "core/furniture_class.h"
+#include "core/detector/detection_box.h"
+#include "core/model/furniture_class.h"
+#include "core/util/error.h"
 #include "reports/class_colours.h"
 #include "workbench/formats/camera_file.h"
 #include "workbench/formats/depth_png.h"

@@ -17,7 +17,7 @@
 #include <string>
 #include <vector>
 
-#include "core/detector.h"
+#include "core/detector/detector.h"
 #include "db/dataset_db.h"
 #include "workbench/formats/depth_png.h"
 #include "workbench/formats/rosbag_io.h"

@@ -1,6 +1,6 @@
 #include "workbench/formats/rosbag_io.h"
 
-#include "core/error.h"
+#include "core/util/error.h"
 
 #ifndef FURN_WITH_ROS
 
@@ -49,10 +49,10 @@ int FrameBagWriter::Finish() { NoRos(); }
 #include <map>
 #include <optional>
 
-#include "core/file_util.h"
-#include "core/furniture_class.h"
-#include "core/progress.h"
-#include "core/trainer.h"
+#include "core/model/furniture_class.h"
+#include "core/model/trained_model.h"
+#include "core/util/file_util.h"
+#include "core/util/progress.h"
 #include "db/dataset_db.h"
 #include "reports/class_colours.h"
 #include "workbench/formats/bag_check.h"

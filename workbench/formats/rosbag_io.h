@@ -20,7 +20,7 @@
 #include <string>
 #include <vector>
 
-#include "core/detector.h"
+#include "core/detector/detector.h"
 #include "db/dataset_db.h"
 #include "workbench/formats/scan_file.h"
 

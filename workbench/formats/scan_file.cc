@@ -10,11 +10,11 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "core/error.h"
-#include "core/file_util.h"
-#include "core/random.h"
-#include "core/render_compare.h"
-#include "core/scan_fusion.h"
+#include "core/geometry/render_compare.h"
+#include "core/geometry/scan_fusion.h"
+#include "core/util/error.h"
+#include "core/util/file_util.h"
+#include "core/util/random.h"
 #include "db/dataset_db.h"
 #include "workbench/formats/camera_file.h"
 #include "workbench/formats/depth_png.h"
@@ -68,18 +68,6 @@ void SetIntrinsics(const CameraIntrinsics& camera, FrameRecord* frame) {
 
 CameraIntrinsics IntrinsicsOf(const FrameRecord& frame) {
   return {frame.width, frame.height, frame.fx, frame.fy, frame.cx, frame.cy};
-}
-
-void CheckPoseErrorSpreads(double sigma_m, double sigma_deg, const std::string& what) {
-  auto spread = [&what](double value, double limit, const char* unit) {
-    char text[32];
-    std::snprintf(text, sizeof(text), "%g", value);
-    Require(std::isfinite(value) && value >= 0 && value <= limit,
-            what + " " + text + " " + unit + " must be in 0.." +
-                std::to_string(static_cast<int>(limit)) + " " + unit);
-  };
-  spread(sigma_m, 1, "m");
-  spread(sigma_deg, 45, "degrees");
 }
 
 void FrameFusion::Check() const {

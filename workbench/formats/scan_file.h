@@ -15,8 +15,8 @@
 
 #include <nlohmann/json_fwd.hpp>
 
-#include "core/detector.h"
-#include "core/scan_fusion.h"
+#include "core/detector/detector.h"
+#include "core/geometry/scan_fusion.h"
 #include "db/dataset_db.h"
 #include "renderers/camera.h"
 #include "reports/detection_debug.h"
@@ -54,10 +54,6 @@ struct FrameFusion {
   nlohmann::json Json() const;
   static FrameFusion FromJson(const nlohmann::json& json, const std::string& what);
 };
-
-// Throws InputError, "<what> <value> m must be in 0..1 m" (or degrees in
-// 0..45), for a pose error's spread that is negative, not finite or larger.
-void CheckPoseErrorSpreads(double sigma_m, double sigma_deg, const std::string& what);
 
 // "M,DEG" or "M,DEG,planar" (the value of `flag`) into the fusion's
 // spreads; InputError naming the flag otherwise.

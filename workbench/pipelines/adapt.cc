@@ -6,13 +6,13 @@
 #include <sstream>
 #include <utility>
 
-#include "core/error.h"
 #include "core/learned/bev_grid.h"
 #include "core/learned/self_training.h"
 #include "core/learned/vote_net.h"
-#include "core/progress.h"
-#include "core/random.h"
-#include "core/trainer.h"
+#include "core/model/trained_model.h"
+#include "core/util/error.h"
+#include "core/util/progress.h"
+#include "core/util/random.h"
 #include "db/dataset_db.h"
 #include "workbench/pipelines/train_vote_net.h"
 

@@ -30,7 +30,7 @@
 #include <string>
 #include <vector>
 
-#include "core/detector.h"
+#include "core/detector/detector.h"
 #include "core/learned/self_training.h"
 #include "core/learned/vote_net_training.h"
 #include "db/split.h"

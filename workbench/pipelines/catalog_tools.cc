@@ -9,8 +9,8 @@
 #include <set>
 #include <sstream>
 
-#include "core/error.h"
-#include "core/file_util.h"
+#include "core/util/error.h"
+#include "core/util/file_util.h"
 #include "scenes/mesh_io.h"
 
 namespace furn {

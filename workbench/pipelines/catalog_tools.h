@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "core/furniture_class.h"
+#include "core/model/furniture_class.h"
 #include "scenes/catalog.h"
 
 namespace furn {

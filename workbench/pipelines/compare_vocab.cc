@@ -2,7 +2,7 @@
 
 #include <cmath>
 
-#include "core/error.h"
+#include "core/util/error.h"
 #include "workbench/pipelines/train.h"
 
 namespace furn {

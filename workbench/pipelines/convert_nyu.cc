@@ -12,9 +12,9 @@
 #include <set>
 #include <sstream>
 
-#include "core/error.h"
-#include "core/file_util.h"
-#include "core/progress.h"
+#include "core/util/error.h"
+#include "core/util/file_util.h"
+#include "core/util/progress.h"
 #include "renderers/depth_frame.h"
 #include "workbench/formats/depth_png.h"
 #include "workbench/formats/mat_file.h"

@@ -6,13 +6,15 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 
-#include "core/error.h"
-#include "core/file_util.h"
-#include "core/hypothesis_scorer.h"
-#include "core/mesh.h"
+#include "core/codebook/hypothesis_scorer.h"
+#include "core/geometry/mesh.h"
+#include "core/util/error.h"
+#include "core/util/file_util.h"
 #include "db/dataset_db.h"
+#include "reports/run_results.h"
 #include "scenes/model_folds.h"
 #include "workbench/formats/json_text.h"
+#include "workbench/pipelines/run_record.h"
 #include "workbench/pipelines/train.h"
 
 namespace furn {
@@ -266,16 +268,16 @@ int64_t WriteCrossvalRun(const std::string& db_path,
   if (options.vote_net) stored["vote_net"] = nlohmann::json::parse(options.vote_net->Json());
   if (options.evaluate.fusion.room_frames) stored["fusion"] = options.evaluate.fusion.Json();
   run.options_json = stored.dump();
-  nlohmann::json per_fold = nlohmann::json::array();
+  RunResults results;
+  results.kind = RunResults::Kind::kCrossval;
+  results.calibration = PooledCalibration(summary.per_fold);
   for (const CrossvalFold& fold : summary.per_fold) {
-    per_fold.push_back({{"fold", fold.fold},
-                        {"run", fold.evaluation.run_id},
-                        {"held_out", fold.held_out_per_class},
-                        {"metrics", fold.evaluation.result.metrics}});
+    results.folds.push_back({fold.fold,
+                             fold.evaluation.run_id,
+                             fold.held_out_per_class,
+                             fold.evaluation.result.metrics});
   }
-  nlohmann::json results = CalibrationJson(PooledCalibration(summary.per_fold));
-  results["folds"] = per_fold;
-  run.results_json = results.dump();
+  run.results_json = results.Json();
   std::map<std::string, double> metrics = summary.mean;
   const auto in = [](const std::string& name, MetricId::Group group) {
     return MetricId::Parse(name).InGroup(group).Name();

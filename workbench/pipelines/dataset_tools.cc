@@ -5,8 +5,8 @@
 #include <set>
 #include <sstream>
 
-#include "core/error.h"
-#include "core/file_util.h"
+#include "core/util/error.h"
+#include "core/util/file_util.h"
 #include "db/dataset_db.h"
 #include "reports/dataset_sheet.h"
 #include "workbench/pipelines/export_bop.h"
@@ -151,8 +151,8 @@ void WriteDatasetPreview(const std::string& db_path, int max_frames, const std::
 
 #include <fstream>
 
-#include "core/file_util.h"
-#include "core/scene.h"
+#include "core/geometry/scene.h"
+#include "core/util/file_util.h"
 #include "renderers/camera.h"
 #include "workbench/formats/depth_png.h"
 #include "workbench/formats/point_cloud_file.h"

@@ -9,13 +9,13 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 
-#include "core/error.h"
-#include "core/file_util.h"
-#include "core/progress.h"
+#include "core/util/error.h"
+#include "core/util/file_util.h"
+#include "core/util/progress.h"
 #include "reports/detection_debug.h"
 #include "workbench/formats/detection_output.h"
 #include "workbench/formats/ros2_bag.h"
-#include "workbench/pipelines/train.h"
+#include "workbench/pipelines/model_info.h"
 
 namespace furn {
 namespace {
@@ -62,8 +62,12 @@ void PrintStageTimes(const DetectionResult& result,
   }
 }
 
-// A hint for an image with nothing in range: most often its depth unit.
-std::string UnitHint(const LoadedScan& scan, const DetectionResult& result) {
+// What a scan without detections needs, in the CLI's words (the detector's
+// message names its fields): no floor found, a pose or a larger range;
+// nothing in range of an image, most often its depth unit.
+std::string CliHint(const LoadedScan& scan, const DetectionResult& result) {
+  if (result.status == DetectionStatus::kNoFloor)
+    return " (detect: --world-from-camera or --floor-aligned; --max-range)";
   if (scan.input.width <= 0 || result.status != DetectionStatus::kNoPointsInRange) return "";
   return "; if the image's depth unit is not the millimetre, give --depth-scale (units per "
          "metre; TUM RGB-D PNGs: 5000)";
@@ -78,7 +82,7 @@ int DetectOneScan(const LoadedScan& scan, const Detector& detector, const Detect
         detector.Detect(scan.input, /*keep_debug=*/!run.debug_dir.empty() && k == run.repeat - 1);
     // One scan given by the user: nothing in range is most likely a wrong file or unit.
     Require(result.status == DetectionStatus::kDetected,
-            scan.description + ": " + result.message + UnitHint(scan, result));
+            scan.description + ": " + result.message + CliHint(scan, result));
     for (const StageTime& t : result.timings_ms.stages) stage_times[t.stage].push_back(t.ms);
   }
   if (!run.debug_dir.empty()) {  // first: --out may name a file inside it
@@ -111,7 +115,7 @@ int DetectBatch(const std::vector<ScanSource>& sources,
       const LoadedScan scan = LoadScan(source);
       const DetectionResult result = detector.Detect(scan.input, /*keep_debug=*/false);
       if (result.status != DetectionStatus::kDetected) {
-        lines += ScanErrorJson(scan.description, result.message);
+        lines += ScanErrorJson(scan.description, result.message + CliHint(scan, result));
         ++failed;
       } else {
         lines += DetectionJson(result, scan, detector.model(), /*one_line=*/true);
@@ -146,9 +150,10 @@ std::string BagLine(const BagScan& scan, const DetectionResult& result, const Tr
   const nlohmann::ordered_json place{
       {"topic", scan.topic}, {"stamp", scan.stamp}, {"seq", scan.seq}, {"frame_id", scan.frame_id}};
   const std::string place_text = place.dump();  // {"topic":...}
-  const std::string line = result.status != DetectionStatus::kDetected
-                               ? ScanErrorJson(scan.loaded.description, result.message)
-                               : DetectionJson(result, scan.loaded, model, /*one_line=*/true);
+  const std::string line =
+      result.status != DetectionStatus::kDetected
+          ? ScanErrorJson(scan.loaded.description, result.message + CliHint(scan.loaded, result))
+          : DetectionJson(result, scan.loaded, model, /*one_line=*/true);
   // Both are one-line JSON objects: splice the place in after the brace.
   return place_text.substr(0, place_text.size() - 1) + "," + line.substr(1);
 }

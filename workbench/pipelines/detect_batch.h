@@ -16,7 +16,7 @@
 #include <string>
 #include <vector>
 
-#include "core/detector.h"
+#include "core/detector/detector.h"
 #include "workbench/formats/rosbag_io.h"
 #include "workbench/formats/scan_file.h"
 

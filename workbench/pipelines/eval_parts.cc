@@ -6,11 +6,12 @@
 #include <mutex>
 #include <nlohmann/json.hpp>
 
-#include "core/error.h"
-#include "core/file_util.h"
-#include "core/parallel.h"
-#include "core/progress.h"
-#include "core/random.h"
+#include "core/codebook/segment_view.h"
+#include "core/util/error.h"
+#include "core/util/file_util.h"
+#include "core/util/parallel.h"
+#include "core/util/progress.h"
+#include "core/util/random.h"
 #include "reports/confusion.h"
 
 namespace furn {

@@ -15,8 +15,9 @@
 #include <string>
 #include <vector>
 
-#include "core/part_subsets.h"
-#include "core/trainer.h"
+#include "core/codebook/part_subsets.h"
+#include "core/codebook/trainer.h"
+#include "core/model/trained_model.h"
 #include "scenes/catalog.h"
 #include "workbench/pipelines/train.h"
 

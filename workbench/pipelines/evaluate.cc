@@ -9,76 +9,30 @@
 #include <nlohmann/json.hpp>
 #include <set>
 
-#include "core/error.h"
-#include "core/file_util.h"
-#include "core/mesh.h"
-#include "core/pose_fit.h"
-#include "core/progress.h"
-#include "core/render_compare.h"  // PinholeIntrinsics
-#include "core/scene.h"
-#include "core/view_share.h"
+#include "core/geometry/mesh.h"
+#include "core/geometry/pose_fit.h"
+#include "core/geometry/render_compare.h"  // PinholeIntrinsics
+#include "core/geometry/scene.h"
+#include "core/geometry/view_share.h"
+#include "core/util/error.h"
+#include "core/util/file_util.h"
+#include "core/util/progress.h"
 #include "db/dataset_db.h"
 #include "renderers/camera.h"
 #include "reports/detection_debug.h"
 #include "reports/run_report.h"
+#include "reports/run_results.h"
 #include "reports/scene_view.h"
 #include "scenes/model_folds.h"
 #include "workbench/formats/json_text.h"
 #include "workbench/formats/real_labels.h"
 #include "workbench/formats/scan_file.h"
 #include "workbench/pipelines/evaluated_frame.h"
+#include "workbench/pipelines/model_info.h"
 #include "workbench/pipelines/run_program.h"
-#include "workbench/pipelines/train.h"
+#include "workbench/pipelines/run_record.h"
 
 namespace furn {
-namespace {
-
-// What `git -C <source dir> args...` prints, without its trailing newline;
-// empty when git is missing or fails (not a checkout).
-std::string GitOutput(const std::vector<std::string>& args) {
-  std::vector<std::string> argv = {"git", "-C", FURN_SOURCE_DIR};
-  argv.insert(argv.end(), args.begin(), args.end());
-  ProgramResult git = RunProgram(argv, false);
-  if (git.exit_code != 0) return "";
-  while (!git.output.empty() && (git.output.back() == '\n' || git.output.back() == '\r'))
-    git.output.pop_back();
-  return git.output;
-}
-
-std::string UtcNow() {
-  const std::time_t now = std::time(nullptr);
-  std::tm utc{};
-  gmtime_r(&now, &utc);
-  char text[32];
-  std::strftime(text, sizeof(text), "%Y-%m-%dT%H:%M:%SZ", &utc);
-  return text;
-}
-
-nlohmann::json CurvesJson(const EvaluationResult& result) {
-  nlohmann::json curves = nlohmann::json::object();
-  for (const auto& [name, curve] : result.curves) {
-    nlohmann::json points = nlohmann::json::array();
-    for (const PrPoint& p : curve) points.push_back({p.recall, p.precision, p.threshold});
-    curves[name] = points;
-  }
-  nlohmann::json frame_errors = nlohmann::json::object();
-  for (const auto& [frame, errors] : result.frame_errors)
-    frame_errors[std::to_string(frame)] = {errors.first, errors.second};
-  const nlohmann::json calibration = CalibrationJson(result.calibration);
-  return {{"curves", curves},
-          {"curve_layout", "recall, precision, threshold"},
-          {"calibration", calibration["calibration"]},
-          {"calibration_layout", calibration["calibration_layout"]},
-          {"confusion", ConfusionByName(result)},
-          {"confusion_layout",
-           "{detected class or missed: {true class or background: count}}, detections at the "
-           "operating point within 10 cm"},
-          {"frame_errors", frame_errors},
-          {"frame_errors_layout",
-           "false positives, missed objects at 10 cm, detections at the operating point"}};
-}
-
-}  // namespace
 
 // The ground truth's box, as a detection's (Detection::in_view).
 double ShareInView(const ObjectRecord& object, const FrameRecord& frame) {
@@ -91,25 +45,6 @@ double ShareInView(const ObjectRecord& object, const FrameRecord& frame) {
       frame.world_from_camera.inverse() * PoseXYZYaw(object.x, object.y, object.z, object.yaw),
       -half,
       half + Eigen::Vector3d(0, 0, object.height));
-}
-
-nlohmann::json CalibrationJson(const std::vector<CalibrationBin>& bins) {
-  nlohmann::json rows = nlohmann::json::array();
-  for (const CalibrationBin& bin : bins)
-    rows.push_back({bin.low, bin.high, bin.detections, bin.true_positives, bin.score_sum});
-  return {{"calibration", rows},
-          {"calibration_layout", "low, high, detections, true positives, score sum"}};
-}
-
-RunRecord NewRunRecord(const std::string& kind, const std::string& label) {
-  RunRecord run;
-  run.kind = kind;
-  run.label = label;
-  run.started = UtcNow();
-  run.git_commit = GitOutput({"rev-parse", "HEAD"});
-  if (run.git_commit.empty()) run.git_commit = "unknown";
-  run.git_dirty = !GitOutput({"status", "--porcelain", "--untracked-files=no"}).empty();
-  return run;
 }
 
 int SymmetryOrder(const ModelShape& shape) {
@@ -463,8 +398,7 @@ EvaluateSummary StoreRun(DatasetDb& dataset,
   run.dataset_hash = selection.dataset_hash;
   run.split = options.split;
   run.options_json = StoredOptionsJson(options, evaluation);
-  run.results_json =
-      CurvesJson(summary.result).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+  run.results_json = RunResults::OfEvaluation(summary.result).Json();
   summary.run_id = dataset.WriteRun(run, summary.result.metrics, detections, frame_records);
   return summary;
 }
@@ -605,206 +539,6 @@ OperatingPoint ChooseOperatingPointOn(const TrainedModel& model,
                               std::to_string(outcomes.size()) + " frames of " +
                                   std::filesystem::path(db_path).filename().string() + " (split " +
                                   EnumName(options.split) + ")");
-}
-
-namespace {
-
-// The frames with the most errors at 10 cm among the detections at the
-// operating point (as evaluate counted them), detection rerun as detect runs
-// it (deterministic: the same result) with the debug PNGs and a 3-D page
-// each, linked to one another in gallery order.
-std::vector<GalleryFrame> WriteGallery(const std::string& db_path,
-                                       const RunRecord& run,
-                                       const std::string& out_dir) {
-  struct Errors {
-    int64_t frame_id;
-    int fp, fn;
-  };
-  std::vector<Errors> errors;
-  const nlohmann::json results = nlohmann::json::parse(run.results_json);
-  const nlohmann::json frame_errors = results.value("frame_errors", nlohmann::json::object());
-  for (const auto& [frame, counts] : frame_errors.items()) {
-    const Errors e{std::stoll(frame), counts[0].get<int>(), counts[1].get<int>()};
-    if (e.fp + e.fn > 0) errors.push_back(e);
-  }
-  std::sort(errors.begin(), errors.end(), [](const Errors& a, const Errors& b) {
-    return a.fp + a.fn != b.fp + b.fn ? a.fp + a.fn > b.fp + b.fn : a.frame_id < b.frame_id;
-  });
-  constexpr size_t kGallery = 6;
-  errors.resize(std::min(kGallery, errors.size()));
-  std::vector<GalleryFrame> gallery;
-  if (errors.empty() || !std::filesystem::is_regular_file(run.model_path)) return gallery;
-  // What detect outputs (the run itself swept every candidate for AP).
-  DetectorOptions options = DetectorOptionsFromJson(run.options_json, db_path + " run options");
-  options.all_candidates = !results.contains("confusion_layout");  // older runs: as counted
-  const Detector detector(LoadTrainedModel(run.model_path), options);
-  // A run of fused frames is shown fused, as it was evaluated.
-  const FrameFusion fusion = FrameFusion::FromJson(
-      nlohmann::json::parse(run.options_json).value("fusion", nlohmann::json()),
-      db_path + " run " + std::to_string(run.id));
-  WriteSceneLibrary((std::filesystem::path(out_dir) / "three").string());
-  auto scene_of = [&](size_t k) {
-    return k < errors.size() ? "../" + std::to_string(errors[k].frame_id) + "/scene.html"
-                             : std::string();
-  };
-  for (size_t k = 0; k < errors.size(); ++k) {
-    ScanSource source;
-    source.db_path = db_path;
-    source.frame_id = errors[k].frame_id;
-    source.fusion = fusion;
-    const LoadedScan scan = LoadScan(source);
-    const DetectionResult result = detector.Detect(scan.input, /*keep_debug=*/true);
-    GalleryFrame g{errors[k].frame_id, errors[k].fp, errors[k].fn, "", {}};
-    g.dir = "frames/" + std::to_string(g.frame_id);
-    const std::filesystem::path dir = std::filesystem::path(out_dir) / g.dir;
-    SceneViewLinks links;
-    links.title = "run " + std::to_string(run.id) + ", frame " + std::to_string(g.frame_id) + ": " +
-                  std::to_string(g.false_positives) + " false, " +
-                  std::to_string(g.false_negatives) + " missed";
-    links.library = "../../three";
-    links.previous = k > 0 ? scene_of(k - 1) : "";
-    links.next = scene_of(k + 1);
-    links.index = "../../index.html";
-    WriteDetectionDebug(result,
-                        detector.model(),
-                        scan.camera,
-                        GroundTruthInDetectorFrame(scan, result),
-                        dir.string(),
-                        links);
-    for (const std::string png : {"fitted",
-                                  "topdown",
-                                  "segments",
-                                  "heat",
-                                  "votes_chair",
-                                  "votes_armchair",
-                                  "votes_table",
-                                  "votes_sideboard"}) {
-      if (std::filesystem::exists(dir / (png + ".png"))) g.pngs.push_back(png + ".png");
-    }
-    gallery.push_back(std::move(g));
-  }
-  return gallery;
-}
-
-}  // namespace
-
-namespace {
-
-void WriteReportForRunUnguarded(const std::string& db_path,
-                                int64_t run_id,
-                                const std::string& out_dir);
-
-}  // namespace
-
-void WriteReportForRun(const std::string& db_path, int64_t run_id, const std::string& out_dir) {
-  try {
-    WriteReportForRunUnguarded(db_path, run_id, out_dir);
-  } catch (const nlohmann::json::exception& e) {  // a run row written by someone else
-    std::string reason = e.what();                // "[json.exception.<kind>.<id>] <what>": the what
-    if (reason.rfind("[json.exception.", 0) == 0 && reason.find("] ") != std::string::npos)
-      reason = reason.substr(reason.find("] ") + 2);
-    throw InputError(
-        db_path + ": run " + (run_id == 0 ? std::string("(the latest)") : std::to_string(run_id)) +
-        ": its stored options or results are not the JSON evaluate stores (" + reason + ")");
-  }
-}
-
-namespace {
-
-void WriteReportForRunUnguarded(const std::string& db_path,
-                                int64_t run_id,
-                                const std::string& out_dir) {
-  DatasetDb dataset(db_path, DatasetDb::Mode::kReadOnly);
-  const std::vector<RunRecord> runs = dataset.Runs();
-  Require(!runs.empty(), db_path + ": has no runs (run 'workbench evaluate' first)");
-  if (run_id == 0) run_id = runs.back().id;
-  const RunRecord* run = nullptr;
-  for (const RunRecord& r : runs) {
-    if (r.id == run_id) run = &r;
-  }
-  Require(run != nullptr, db_path + ": no run with id " + std::to_string(run_id));
-  RunReportInput input;
-  input.run = *run;
-  input.metrics = dataset.RunMetrics(run_id);
-  if (run->kind == "crossval") {  // protocol E: a page of its own, each fold's report beside it
-    const nlohmann::json fold_runs =
-        nlohmann::json::parse(run->options_json).value("fold_runs", nlohmann::json::array());
-    std::vector<std::string> fold_reports;
-    for (size_t k = 0; k < fold_runs.size(); ++k) {
-      fold_reports.push_back("fold-" + std::to_string(k));
-      WriteReportForRun(db_path,
-                        fold_runs[k].get<int64_t>(),
-                        (std::filesystem::path(out_dir) / fold_reports.back()).string());
-    }
-    WriteCrossvalReport(input, fold_reports, out_dir);
-    return;
-  }
-  for (const RunFrameRecord& f : dataset.RunFrames(run_id)) input.frame_ms.push_back(f.total_ms);
-
-  input.gallery = WriteGallery(db_path, *run, out_dir);
-  WriteRunReport(input, out_dir);
-}
-
-}  // namespace
-
-std::vector<Regression> FindRegressions(const std::map<std::string, double>& run,
-                                        const std::map<std::string, double>& baseline,
-                                        double tolerance,
-                                        const std::map<std::string, double>& overrides,
-                                        double latency_tolerance) {
-  std::vector<Regression> regressions;
-  for (const auto& [metric, base] : baseline) {
-    const auto it = run.find(metric);
-    const MetricId id = MetricId::Parse(metric);  // a misspelt baseline metric is an error
-    const bool latency = id.Unit() == std::string("ms");
-    if (latency && latency_tolerance <= 0) continue;
-    if (id.Unit() == std::string("count") || id.group() == MetricId::Group::kSpread)
-      continue;  // sizes, spreads and diagnostic counts, not quality
-    if (it == run.end()) {
-      regressions.push_back({metric, std::nan(""), base, 0});  // a metric that vanished
-      continue;
-    }
-    const auto override_it = overrides.find(metric);
-    const double allowed = override_it != overrides.end() ? override_it->second
-                           : latency                      ? latency_tolerance * std::abs(base)
-                                                          : tolerance;
-    const double worse = id.HigherIsBetter() ? base - it->second : it->second - base;
-    if (worse > allowed) regressions.push_back({metric, it->second, base, allowed});
-  }
-  return regressions;
-}
-
-Baseline LoadBaseline(DatasetDb& dataset, const std::string& db_path, const std::string& spec) {
-  Baseline baseline;
-  if (spec.find_first_not_of("0123456789") == std::string::npos) {
-    baseline.metrics = dataset.RunMetrics(std::stoll(spec));
-    Require(!baseline.metrics.empty(), db_path + ": no baseline run with id " + spec);
-    baseline.name = "run " + spec;
-    return baseline;
-  }
-  try {
-    const nlohmann::json json = nlohmann::json::parse(ReadFileBytes(spec));
-    baseline.metrics = json.at("metrics").get<std::map<std::string, double>>();
-    if (json.contains("tolerances"))
-      baseline.tolerances = json["tolerances"].get<std::map<std::string, double>>();
-  } catch (const nlohmann::json::exception& error) {
-    throw InputError(spec +
-                     ": not a baseline file ({\"metrics\": {name: value}}): " + error.what());
-  }
-  baseline.name = spec;
-  return baseline;
-}
-
-void WriteBaselineFile(const std::string& path,
-                       int64_t run_id,
-                       const std::string& db_path,
-                       const std::map<std::string, double>& metrics) {
-  nlohmann::ordered_json json{{"run", run_id},
-                              {"db", db_path},
-                              {"metrics", metrics},
-                              {"tolerances", nlohmann::json::object()}};
-  WriteFileAtomically(path,
-                      json.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
 }
 
 }  // namespace furn

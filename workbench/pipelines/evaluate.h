@@ -17,7 +17,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "core/detector.h"
+#include "core/detector/detector.h"
 #include "db/dataset_db.h"  // RunRecord
 #include "reports/evaluation.h"
 #include "workbench/formats/options_file.h"  // DetectorOptionsJson, DetectorOptionsFromJson
@@ -74,14 +74,6 @@ struct EvaluateSummary {
   std::vector<ScorerSample> scorer_samples;
 };
 
-// Reliability bins as stored in a run's results: {"calibration": [[low,
-// high, detections, true positives, score sum], ...], "calibration_layout"}.
-nlohmann::json CalibrationJson(const std::vector<CalibrationBin>& bins);
-
-// Provenance of a new run: its kind and label, the time, the source commit
-// and whether the tree had uncommitted changes.
-RunRecord NewRunRecord(const std::string& kind, const std::string& label);
-
 // Throws InputError for a missing model or dataset, or a split with no frames.
 EvaluateSummary EvaluateModel(const std::string& model_path,
                               const std::string& db_path,
@@ -104,10 +96,6 @@ OperatingPoint ChooseOperatingPointOn(const TrainedModel& model,
                                       const std::string& db_path,
                                       const EvaluateCommandOptions& options);
 
-// `workbench report`: the run's report folder, with a gallery of the frames
-// with the most errors (detection rerun with the run's options and model).
-void WriteReportForRun(const std::string& db_path, int64_t run_id, const std::string& out_dir);
-
 // The share of an object's 3-D box in the frame's view (TruthObject::in_view):
 // of a regular grid of points inside the box, those in front of the camera
 // that project into the image.
@@ -116,32 +104,5 @@ double ShareInView(const ObjectRecord& object, const FrameRecord& frame);
 // Rotational symmetry order (4, 2 or 1) of a model shape about its origin:
 // the largest order whose rotation maps 90 % of its points onto itself.
 int SymmetryOrder(const ModelShape& shape);
-
-struct Regression {
-  std::string metric;
-  double value = 0, baseline = 0, tolerance = 0;
-};
-
-// Metrics of `run` that are worse than `baseline` by more than the tolerance
-// (absolute; per-metric overrides win). Latency metrics are compared only
-// when `latency_tolerance` (relative, e.g. 0.5 = 50 % slower) is positive.
-std::vector<Regression> FindRegressions(const std::map<std::string, double>& run,
-                                        const std::map<std::string, double>& baseline,
-                                        double tolerance,
-                                        const std::map<std::string, double>& overrides,
-                                        double latency_tolerance);
-
-// What `regress` compares against: another run of the dataset (`spec` is
-// its id) or a baseline file ({"metrics": {name: value}, "tolerances":
-// {name: allowed worsening}}, as WriteBaselineFile writes it).
-struct Baseline {
-  std::string name;  // "run 7" or the file's path
-  std::map<std::string, double> metrics, tolerances;
-};
-Baseline LoadBaseline(DatasetDb& dataset, const std::string& db_path, const std::string& spec);
-void WriteBaselineFile(const std::string& path,
-                       int64_t run_id,
-                       const std::string& db_path,
-                       const std::map<std::string, double>& metrics);
 
 }  // namespace furn

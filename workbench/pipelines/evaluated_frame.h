@@ -16,10 +16,10 @@
 #include <string>
 #include <vector>
 
-#include "core/detector.h"
-#include "core/hypothesis_scorer.h"  // ScorerSample
-#include "db/dataset_db.h"           // RunDetectionRecord, RunFrameRecord
-#include "reports/evaluation.h"      // FrameOutcome
+#include "core/codebook/hypothesis_scorer.h"  // ScorerSample
+#include "core/detector/detector.h"
+#include "db/dataset_db.h"       // RunDetectionRecord, RunFrameRecord
+#include "reports/evaluation.h"  // FrameOutcome
 
 namespace furn {
 

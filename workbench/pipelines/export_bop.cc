@@ -10,11 +10,11 @@
 #include <set>
 #include <sstream>
 
-#include "core/error.h"
-#include "core/file_util.h"
-#include "core/parallel.h"
-#include "core/progress.h"
-#include "core/scene.h"
+#include "core/geometry/scene.h"
+#include "core/util/error.h"
+#include "core/util/file_util.h"
+#include "core/util/parallel.h"
+#include "core/util/progress.h"
 #include "db/dataset_db.h"
 #include "renderers/embree_caster.h"
 #include "workbench/formats/depth_png.h"

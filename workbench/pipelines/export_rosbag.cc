@@ -2,8 +2,8 @@
 
 #include <vector>
 
-#include "core/error.h"
-#include "core/progress.h"
+#include "core/util/error.h"
+#include "core/util/progress.h"
 #include "db/dataset_db.h"
 #include "workbench/formats/ros2_bag.h"
 

@@ -4,7 +4,7 @@
 #include <sys/file.h>
 #include <unistd.h>
 
-#include "core/error.h"
+#include "core/util/error.h"
 
 namespace furn {
 

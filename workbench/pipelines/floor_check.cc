@@ -6,8 +6,8 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "core/error.h"
-#include "core/progress.h"
+#include "core/util/error.h"
+#include "core/util/progress.h"
 #include "db/dataset_db.h"
 #include "workbench/formats/real_labels.h"
 #include "workbench/formats/scan_file.h"

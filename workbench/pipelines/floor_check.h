@@ -12,8 +12,8 @@
 #include <string>
 #include <vector>
 
-#include "core/enum_text.h"
-#include "core/floor.h"
+#include "core/geometry/floor.h"
+#include "core/util/enum_text.h"
 
 namespace furn {
 

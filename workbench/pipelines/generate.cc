@@ -9,10 +9,10 @@
 #include <nlohmann/json.hpp>
 #include <set>
 
-#include "core/error.h"
-#include "core/parallel.h"
-#include "core/progress.h"
-#include "core/random.h"
+#include "core/util/error.h"
+#include "core/util/parallel.h"
+#include "core/util/progress.h"
+#include "core/util/random.h"
 #include "db/dataset_db.h"
 #include "renderers/embree_caster.h"
 #include "renderers/kinect_simulator.h"

@@ -5,10 +5,10 @@
 #include <map>
 #include <nlohmann/json.hpp>
 
-#include "core/error.h"
-#include "core/file_util.h"
-#include "core/mesh.h"
-#include "core/progress.h"
+#include "core/geometry/mesh.h"
+#include "core/util/error.h"
+#include "core/util/file_util.h"
+#include "core/util/progress.h"
 #include "db/dataset_db.h"
 #include "reports/real_sheet.h"
 #include "workbench/formats/camera_file.h"

@@ -8,8 +8,8 @@
 #include <map>
 #include <random>
 
-#include "core/error.h"
-#include "core/floor.h"
+#include "core/geometry/floor.h"
+#include "core/util/error.h"
 #include "workbench/pipelines/convert_nyu.h"
 
 namespace furn {

@@ -1,13 +1,13 @@
 #include "workbench/pipelines/render_showcase.h"
 
-#include "core/conventions.h"
+#include "core/geometry/conventions.h"
 
 #include <cmath>
 #include <filesystem>
 #include <nlohmann/json.hpp>
 
-#include "core/error.h"
-#include "core/file_util.h"
+#include "core/util/error.h"
+#include "core/util/file_util.h"
 #include "renderers/kinect_simulator.h"
 #include "reports/frame_preview.h"
 #include "scenes/showcase_scene.h"

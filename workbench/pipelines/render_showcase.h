@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "core/mesh.h"
+#include "core/geometry/mesh.h"
 #include "renderers/camera.h"
 #include "renderers/depth_renderer.h"
 #include "renderers/kinect_noise.h"

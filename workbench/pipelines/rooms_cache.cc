@@ -6,8 +6,8 @@
 #include <filesystem>
 #include <set>
 
-#include "core/error.h"
-#include "core/mesh.h"  // ShortHash
+#include "core/geometry/mesh.h"  // ShortHash
+#include "core/util/error.h"
 #include "db/dataset_db.h"
 
 namespace furn {

@@ -10,7 +10,7 @@
 #include <chrono>
 #include <csignal>
 
-#include "core/error.h"
+#include "core/util/error.h"
 
 extern char** environ;
 

@@ -15,9 +15,9 @@
 #include <sstream>
 #include <utility>
 
-#include "core/error.h"
-#include "core/pcl_conversion.h"
-#include "core/progress.h"
+#include "core/geometry/pcl_conversion.h"
+#include "core/util/error.h"
+#include "core/util/progress.h"
 #include "db/dataset_db.h"
 #include "workbench/formats/depth_png.h"
 #include "workbench/formats/scan_file.h"

@@ -12,8 +12,8 @@
 #include <set>
 #include <sstream>
 
-#include "core/error.h"
-#include "core/file_util.h"
+#include "core/util/error.h"
+#include "core/util/file_util.h"
 #include "workbench/formats/json_text.h"
 #include "workbench/pipelines/run_program.h"
 

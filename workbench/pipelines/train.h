@@ -10,7 +10,8 @@
 #include <string>
 #include <vector>
 
-#include "core/trainer.h"
+#include "core/codebook/trainer.h"
+#include "core/model/trained_model.h"
 #include "scenes/catalog.h"
 #include "workbench/pipelines/train_vote_net.h"
 
@@ -58,21 +59,4 @@ std::string LastWeightsModelPath(const std::string& model_path);
 // The input a vote network trained with `options` was trained on, as the
 // model file records it.
 VoteNetInput VoteNetInputOf(const VoteNetTrainingOptions& options);
-// `model info`'s words for it: "single frames", "fused frames in 50 % of its
-// training, their room-mates off by 2 cm / 1 deg", or "not recorded (…)".
-std::string DescribeVoteNetInput(const VoteNetInput& input);
-// A one-line note (empty when there is none) for detecting with the model's
-// vote network on input of the other kind than it was trained on: fused scans
-// (`fused_input`) to a network trained on single frames, or single frames to
-// one trained fused. Nothing for a codebook model or an unrecorded input.
-std::string VoteNetInputNote(const TrainedModel& model,
-                             const std::string& model_path,
-                             bool fused_input);
-
-// `model info`: what a model file holds, as text.
-std::string DescribeTrainedModel(const TrainedModel& model);
-// The operating point's lines of `model info`: each class's threshold and
-// what it measured where it was chosen.
-std::string DescribeOperatingPoint(const OperatingPoint& point);
-
 }  // namespace furn

@@ -12,10 +12,10 @@
 #include <stdexcept>
 #include <thread>
 
-#include "core/error.h"
-#include "core/progress.h"
-#include "core/random.h"
-#include "core/scan_fusion.h"
+#include "core/geometry/scan_fusion.h"
+#include "core/util/error.h"
+#include "core/util/progress.h"
+#include "core/util/random.h"
 #include "db/dataset_db.h"
 #include "reports/evaluation.h"
 #include "reports/training_curve.h"

@@ -8,10 +8,10 @@
 #include <set>
 #include <tuple>
 
-#include "core/error.h"
-#include "core/file_util.h"
-#include "core/mesh.h"
-#include "core/random.h"
+#include "core/geometry/mesh.h"
+#include "core/util/error.h"
+#include "core/util/file_util.h"
+#include "core/util/random.h"
 #include "db/dataset_db.h"
 #include "reports/tune_report.h"
 #include "workbench/formats/json_text.h"

@@ -28,7 +28,7 @@
 #include <string>
 #include <vector>
 
-#include "core/detector.h"
+#include "core/detector/detector.h"
 #include "scenes/catalog.h"
 #include "workbench/formats/options_file.h"
 

@@ -27,12 +27,12 @@
 
 #include <nlohmann/json.hpp>
 
-#include "core/detection_box.h"
-#include "core/detector.h"
-#include "core/error.h"
-#include "core/furniture_class.h"
-#include "core/scan_fusion.h"
-#include "core/trainer.h"
+#include "core/detector/detection_box.h"
+#include "core/detector/detector.h"
+#include "core/geometry/scan_fusion.h"
+#include "core/model/furniture_class.h"
+#include "core/model/trained_model.h"
+#include "core/util/error.h"
 #include "db/dataset_db.h"
 #include "db/sqlite.h"
 #include "renderers/camera.h"
@@ -587,7 +587,7 @@ void BindDetections(py::module_& m) {
       .def_readonly("detections", &PyResult::detections)
       .def_property_readonly("floor_estimated",
                              [](const PyResult& r) { return r.result.floor_estimated; })
-      .def_property_readonly("points", [](const PyResult& r) { return r.result.points; })
+      .def_property_readonly("points", [](const PyResult& r) { return r.result.scene_points; })
       .def_property_readonly("segments", [](const PyResult& r) { return r.result.segments; })
       .def_property_readonly(
           "world_from_camera",

@@ -1,0 +1,90 @@
+// Internal to the detector's stage files (core/detector/*.cc): the trained model
+// indexed for detection, shared by every stage. Not a public header.
+#pragma once
+
+#include <array>
+#include <chrono>
+#include <map>
+#include <memory>
+#include <opencv2/core.hpp>
+#include <vector>
+
+#include "core/detector/detector.h"
+#include "core/detector/hypothesis_source.h"
+#include "core/learned/vote_net.h"
+
+namespace furn {
+
+inline constexpr int kClasses = static_cast<int>(kAllClasses.size());
+
+// Times the stages of one call into a StageTimings.
+class StageTimer {
+ public:
+  using Clock = std::chrono::steady_clock;
+  explicit StageTimer(StageTimings* out) : out_(out) {}
+  void Lap(DetectionStage stage) {
+    const auto now = Clock::now();
+    out_->Add(stage, std::chrono::duration<double, std::milli>(now - last_).count());
+    last_ = now;
+  }
+  void Restart() { last_ = Clock::now(); }
+  void Total() {
+    out_->Add(DetectionStage::kTotal,
+              std::chrono::duration<double, std::milli>(Clock::now() - start_).count());
+  }
+
+ private:
+  StageTimings* out_;
+  Clock::time_point start_ = Clock::now();
+  Clock::time_point last_ = start_;
+};
+
+struct Detector::Impl {
+  TrainedModel model;
+  DetectorOptions options;
+  std::vector<std::vector<int>> entries_of_word;             // shape entries per word
+  std::vector<std::array<int, kClasses>> entries_per_class;  // #(A_i, o)
+  std::array<double, kClasses> class_width{};  // median footprint width per class (m); 0: none
+  std::vector<ModelFitter> fitters;            // one per model
+  // Segments reaching higher than this (the tallest model plus the fit's
+  // above_m) are structure, like walls: no model can explain them.
+  float structure_height_m = 0;
+  std::unique_ptr<PartSubsetIndex> parts;
+  HypothesisScorer scorer;  // empty: the fixed gates decide
+  bool scored = false;      // the scorer decides (the model has one and use_scorer)
+  VoteNet vote_net;         // empty: the model has none
+  bool learned = false;     // hypotheses from vote_net
+  // Where the hypotheses come from: LearnedSource when learned, else
+  // CodebookSource.
+  std::unique_ptr<HypothesisSource> source;
+  OperatingPoint operating_point;  // the model's, under the options' overrides
+  // Ray casts the models' meshes for render-and-compare; null for a model
+  // file without meshes (its shape samples are splatted instead).
+  std::unique_ptr<ModelMeshCaster> mesh_caster;
+
+  // The hypotheses of one class from its smoothed grid (codebook_vote.cc).
+  std::vector<DetectionDebug::Hypothesis> Maxima(const cv::Mat& grid,
+                                                 int class_index,
+                                                 const Eigen::Vector2f& origin,
+                                                 DetectionDebug::VoteGrid* debug) const;
+  // The segments behind a hypothesis and its candidate CAD models
+  // (codebook_rank.cc).
+  std::map<int, double> Support(const std::vector<HoughVote>& class_votes,
+                                DetectionDebug::Hypothesis* hypothesis) const;
+  // Per segment of the scan, the nearest part subsets (VFH) of those that
+  // back any of `supports` (segment -> weight); empty for the rest.
+  std::vector<std::vector<int>> SegmentNeighbours(
+      const PreparedScan& scan, const std::vector<std::map<int, double>>& supports) const;
+  void Rank(const std::map<int, double>& support,
+            const std::vector<std::vector<int>>& segment_neighbours,
+            DetectionDebug::Hypothesis* hypothesis) const;
+  // The covered share counting only segments mostly inside the fit's box
+  // (fit.cc).
+  double ExplainedOwnPoints(const PreparedScan& scan,
+                            int model_index,
+                            const PlanarPose& pose,
+                            const std::vector<Eigen::Vector3f>& scene_points,
+                            const std::vector<int>& cloud_index) const;
+};
+
+}  // namespace furn

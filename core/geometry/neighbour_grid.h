@@ -1,0 +1,99 @@
+// Fixed-radius neighbour search on a uniform grid of cubic cells (edge = the
+// largest radius asked for): a query visits the 27 cells around its point.
+// Several times faster than a kd-tree for the dense, evenly sampled clouds
+// preprocessing makes (1.5 cm voxels, 3 to 5 cm radii), and shared by the
+// normal fit and region growing. Visits are in a fixed order (cell by cell,
+// points by index), so results are deterministic.
+//
+//   NeighbourGrid grid(cloud.points, 0.05f);
+//   grid.ForEachWithin(p, 0.05f, [&](int j, float squared_distance) { ... });
+#pragma once
+
+#include <Eigen/Core>
+#include <cmath>
+#include <cstdint>
+#include <unordered_map>
+#include <utility>
+#include <vector>
+
+#include "core/geometry/voxel_key.h"
+
+namespace furn {
+
+class NeighbourGrid {
+ public:
+  // `points` must outlive the grid; cell > 0.
+  NeighbourGrid(const std::vector<Eigen::Vector3f>& points, float cell);
+
+  // Calls visit(j, squared distance) for every point j within `radius`
+  // (<= the cell edge) of p, p itself included when it is one of the points.
+  // The same for the grid's own point i, without hashing: each occupied
+  // cell keeps its neighbouring cells (the form for loops over all points).
+  template <class Visit>
+  void ForEachNeighbourOf(int i, float radius, Visit&& visit) const {
+    ForEachNeighbourOf(
+        i, radius, [](int) { return false; }, visit);
+  }
+
+  // The same, skipping the cells for which skip_cell(cell index) is true
+  // (a caller that knows a cell holds nothing more for it).
+  template <class Skip, class Visit>
+  void ForEachNeighbourOf(int i, float radius, Skip&& skip_cell, Visit&& visit) const {
+    const float radius2 = radius * radius;
+    const Eigen::Vector3f& p = points_[i];
+    const int cell = cell_of_point_[i];
+    for (int n = neighbour_begin_[cell]; n < neighbour_begin_[cell + 1]; ++n) {
+      if (skip_cell(neighbour_cells_[n])) continue;
+      const auto& [begin, end] = ranges_[neighbour_cells_[n]];
+      for (int k = begin; k < end; ++k) {
+        const int j = order_[k];
+        const float d2 = (points_[j] - p).squaredNorm();
+        if (d2 <= radius2) visit(j, d2);
+      }
+    }
+  }
+
+  // The occupied cell holding point i, in 0..NumCells().
+  int CellOfPoint(int i) const { return cell_of_point_[i]; }
+  int NumCells() const { return static_cast<int>(ranges_.size()); }
+  int CellSize(int cell) const { return ranges_[cell].second - ranges_[cell].first; }
+
+  template <class Visit>
+  void ForEachWithin(const Eigen::Vector3f& p, float radius, Visit&& visit) const {
+    const float radius2 = radius * radius;
+    const Eigen::Vector3i centre = CellOf(p);
+    for (int dz = -1; dz <= 1; ++dz) {
+      for (int dy = -1; dy <= 1; ++dy) {
+        for (int dx = -1; dx <= 1; ++dx) {
+          const auto it = cells_.find(Key(centre + Eigen::Vector3i(dx, dy, dz)));
+          if (it == cells_.end()) continue;
+          const auto& [begin, end] = ranges_[it->second];
+          for (int k = begin; k < end; ++k) {
+            const int j = order_[k];
+            const float d2 = (points_[j] - p).squaredNorm();
+            if (d2 <= radius2) visit(j, d2);
+          }
+        }
+      }
+    }
+  }
+
+ private:
+  Eigen::Vector3i CellOf(const Eigen::Vector3f& p) const {
+    return Eigen::Vector3i(static_cast<int>(std::floor(p.x() * inverse_cell_)),
+                           static_cast<int>(std::floor(p.y() * inverse_cell_)),
+                           static_cast<int>(std::floor(p.z() * inverse_cell_)));
+  }
+  static uint64_t Key(const Eigen::Vector3i& c) { return VoxelKey(c); }
+
+  const std::vector<Eigen::Vector3f>& points_;
+  float inverse_cell_;
+  std::vector<int> order_;                   // point indices, grouped by cell
+  std::vector<std::pair<int, int>> ranges_;  // per occupied cell: [begin, end) in order_
+  std::unordered_map<uint64_t, int> cells_;  // cell key -> index into ranges_
+  std::vector<int> cell_of_point_;           // index into ranges_
+  std::vector<int> neighbour_begin_;         // per cell, into neighbour_cells_ (+1 sentinel)
+  std::vector<int> neighbour_cells_;         // occupied cells among the 27 around each
+};
+
+}  // namespace furn
