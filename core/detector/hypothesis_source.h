@@ -46,8 +46,8 @@ class HypothesisSource {
   // The placed scan's hypotheses and candidates, after the source's own
   // suppression and before the operating point. Segments the scan
   // (Detector::SegmentScan) where the source or its refinement needs it,
-  // and records its stage times, points and segments in `result` (and the
-  // vote grids when keep_debug).
+  // and records its stage times in `result` (and the vote grids when
+  // keep_debug); the tail counts the segmented points and segments.
   virtual Proposals Propose(const DetectionInput& input,
                             PreparedScan* scan,
                             bool keep_debug,

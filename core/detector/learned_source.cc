@@ -160,6 +160,18 @@ void LearnedSource::FitCandidates(const PreparedScan& scan, Proposals* proposals
   });
 }
 
+Detection LearnedSource::DetectionOf(const BevPeak& peak) {
+  Detection d;
+  d.furniture_class = peak.furniture_class;
+  d.x = peak.x;
+  d.y = peak.y;
+  d.yaw = peak.yaw;
+  d.width = peak.width;
+  d.depth = peak.depth;
+  d.score = d.vote_weight = peak.heat;
+  return d;
+}
+
 Proposals LearnedSource::Decode(const BevImage& image, const BevOutput& output) const {
   Proposals proposals;
   for (const BevPeak& peak : DecodeBevOutput(image, output, detector_.options().LearnedDecode())) {
@@ -180,14 +192,7 @@ Proposals LearnedSource::Decode(const BevImage& image, const BevOutput& output) 
     h.outcome = peak.suppressed ? HypothesisOutcome::kSuppressed : HypothesisOutcome::kDetected;
     if (!peak.suppressed) {
       Candidate candidate;
-      Detection& d = candidate.detection;
-      d.furniture_class = peak.furniture_class;
-      d.x = peak.x;
-      d.y = peak.y;
-      d.yaw = peak.yaw;
-      d.width = peak.width;
-      d.depth = peak.depth;
-      d.score = d.vote_weight = peak.heat;
+      candidate.detection = DetectionOf(peak);
       candidate.hypothesis = static_cast<int>(proposals.hypotheses.size());
       proposals.candidates.push_back(std::move(candidate));
     }

@@ -47,6 +47,11 @@ class LearnedSource : public HypothesisSource {
   // The output's maxima (DecodeBevOutput) as hypotheses, the unsuppressed
   // ones as candidates, strongest first.
   Proposals Decode(const BevImage& image, const BevOutput& output) const;
+  // The detection one decoded maximum stands for, before any refinement:
+  // the network's class, centre, yaw and footprint, its heat as score. The
+  // one mapping from the network's output to detections: Decode uses it,
+  // and so does the operating-point choice on validation frames.
+  static Detection DetectionOf(const BevPeak& peak);
   // Each candidate's CAD models ranked by the segments inside its box and
   // fitted; an agreeing best fit gives it its yaw and model.
   void FitCandidates(const PreparedScan& scan, Proposals* proposals) const;

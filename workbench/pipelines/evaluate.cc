@@ -199,8 +199,7 @@ void RecordDetections(const DetectionResult& result,
     // A learned detection names no CAD model: its class's symmetry.
     const int symmetry =
         d.model_index >= 0 ? facts.symmetry[d.model_index] : BevYawSymmetry(d.furniture_class);
-    out->outcome.detections.push_back(
-        {d.furniture_class, d.model_name, d.x, d.y, d.yaw, d.score, symmetry, d.width, d.depth});
+    out->outcome.detections.push_back(ScoredDetectionOf(d, symmetry));
     out->detections.push_back({frame.id,
                                d.furniture_class,
                                d.model_name,

@@ -11,6 +11,10 @@
 #include "workbench/formats/json_text.h"
 
 namespace furn {
+
+ScoredDetection ScoredDetectionOf(const Detection& d, int symmetry) {
+  return {d.furniture_class, d.model_name, d.x, d.y, d.yaw, d.score, symmetry, d.width, d.depth};
+}
 namespace {
 
 using Json = nlohmann::json;

@@ -23,6 +23,10 @@
 
 namespace furn {
 
+// A detection as evaluation scores it; `symmetry` is the rotational order of
+// its model (a learned detection names none: its class's, BevYawSymmetry).
+ScoredDetection ScoredDetectionOf(const Detection& d, int symmetry);
+
 struct EvaluatedFrame {
   int position = 0;  // in the selection of frames (split, fold, max_frames)
   DetectionStatus status = DetectionStatus::kDetected;

@@ -12,6 +12,7 @@
 #include <stdexcept>
 #include <thread>
 
+#include "core/detector/learned_source.h"
 #include "core/geometry/scan_fusion.h"
 #include "core/util/error.h"
 #include "core/util/progress.h"
@@ -21,7 +22,8 @@
 #include "reports/training_curve.h"
 #include "scenes/procedural_shapes.h"
 #include "workbench/formats/scan_file.h"
-#include "workbench/pipelines/dataset_tools.h"  // MergeDatasets
+#include "workbench/pipelines/dataset_tools.h"    // MergeDatasets
+#include "workbench/pipelines/evaluated_frame.h"  // ScoredDetectionOf
 #include "workbench/pipelines/generate.h"
 #include "workbench/pipelines/rooms_cache.h"
 #include "workbench/pipelines/run_program.h"
@@ -78,7 +80,9 @@ VoteNetLoss ValidationLoss(const VoteNet& net,
 }
 
 // The network's decoded maxima on the validation frames as evaluation
-// frames, from its plain output: not mirror-averaged, though detection is by
+// frames, each the detection it stands for as detection decodes it
+// (LearnedSource::DetectionOf) and scored as evaluate scores it, from its
+// plain output: not mirror-averaged, though detection is by
 // default. F1 is flat over the mirror's scores, and its best lies lower
 // (chair 0.32 against 0.40): twice the false detections at the same F1 on
 // seen-model rooms (docs/learned-voting.md, "fold seed 3 and mirror
@@ -111,13 +115,8 @@ std::vector<FrameOutcome> DecodedFrames(const VoteNet& net,
     }
     for (const BevPeak& peak : DecodeBevOutput(sample.image, net.Predict(sample.image), decode)) {
       if (peak.suppressed) continue;
-      ScoredDetection d;
-      d.furniture_class = peak.furniture_class;
-      d.x = peak.x;
-      d.y = peak.y;
-      d.yaw = peak.yaw;
-      d.score = peak.heat;
-      frame.detections.push_back(d);
+      frame.detections.push_back(ScoredDetectionOf(LearnedSource::DetectionOf(peak),
+                                                   BevYawSymmetry(peak.furniture_class)));
     }
     frames.push_back(std::move(frame));
   }
