@@ -6,7 +6,7 @@
 #include <cstdio>
 #include <filesystem>
 
-#include "core/error.h"
+#include "core/util/error.h"
 
 namespace furn {
 namespace {
@@ -27,7 +27,8 @@ std::string SelfPath() {
 
 void ClusterFlags::Check() const {
   if (!Active()) {
-    Require(!slurm && !emit_only, "--slurm and --emit-only need --shards N");
+    Require(!slurm && !emit_only,
+            "--slurm and --emit-only need --shards N (train: or --vote-workers N)");
     return;
   }
   // The final step names every shard's file on one command line: 10^4 stay
@@ -43,11 +44,19 @@ void AddClusterFlags(CLI::App* app, ClusterFlags* flags) {
                   flags->shards,
                   "Run as a Slurm array job of N tasks (one shard each) and a final merge")
       ->capture_default_str();
-  app->add_flag("--slurm", flags->slurm, "With --shards: submit the array job (sbatch)");
+  // train takes them with --vote-workers N too (a one-task array job
+  // makes the rooms), so the help names both.
+  app->add_flag("--slurm",
+                flags->slurm,
+                "With --shards (train: or --vote-workers N): submit the array job (sbatch)");
   app->add_flag("--emit-only",
                 flags->emit_only,
-                "With --shards: write the sbatch scripts and print the commands, submit nothing");
-  app->add_option("--job-dir", flags->job_dir, "With --shards: the job folder (shared filesystem)");
+                "With --shards (train: or --vote-workers N): write the sbatch scripts and print "
+                "the commands, submit nothing");
+  app->add_option("--job-dir",
+                  flags->job_dir,
+                  "With --shards (train: or --vote-workers N --slurm): the job folder (shared "
+                  "filesystem)");
   app->add_option("--partition", flags->resources.partition, "Slurm partition");
   app->add_option("--time", flags->resources.time, "Slurm time limit per task (e.g. 1:00:00)");
   app->add_option("--mem", flags->resources.mem, "Slurm memory per task (e.g. 4G)");
