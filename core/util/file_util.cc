@@ -111,6 +111,18 @@ MappedFile::~MappedFile() {
   if (data_ != nullptr) ::munmap(const_cast<char*>(data_), size_);
 }
 
+namespace {
+
+// The null device under any of its names (/dev/null, a link to it).
+bool IsNullDevice(const std::string& path) {
+  struct stat target {};
+  struct stat null_device {};
+  return ::stat(path.c_str(), &target) == 0 && ::stat("/dev/null", &null_device) == 0 &&
+         S_ISCHR(target.st_mode) && target.st_rdev == null_device.st_rdev;
+}
+
+}  // namespace
+
 AtomicFile::AtomicFile(std::string path)
     : path_(std::move(path)), temp_path_(path_ + ".tmp-" + std::to_string(::getpid())) {
   Require(path_ != "-", "-: this output cannot go to standard output; name a file");
@@ -118,6 +130,11 @@ AtomicFile::AtomicFile(std::string path)
   std::error_code ec;
   if (!parent.empty() && !std::filesystem::is_directory(parent, ec)) {
     throw InputError(path_ + ": cannot write (directory " + parent.string() + " does not exist)");
+  }
+  if (IsNullDevice(path_)) {  // `--out /dev/null`: written, then gone
+    discard_ = true;
+    temp_path_ = path_;
+    return;
   }
   // A device, FIFO or socket is never replaced by a regular file (as root,
   // a rename over /dev/stdout would replace the device node).
@@ -142,10 +159,14 @@ void SyncPath(const std::string& path, int flags) {
 }  // namespace
 
 AtomicFile::~AtomicFile() {
-  if (!committed_) std::remove(temp_path_.c_str());
+  if (!committed_ && !discard_) std::remove(temp_path_.c_str());
 }
 
 void AtomicFile::Commit() {
+  if (discard_) {
+    committed_ = true;
+    return;
+  }
   std::error_code ec;
   if (!std::filesystem::exists(temp_path_, ec)) {
     throw InputError(path_ + ": cannot write (nothing was written)");

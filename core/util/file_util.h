@@ -57,13 +57,15 @@ class MappedFile {
 // one, never an empty one); throws InputError naming `path` on failure and
 // removes the temporary file. "-" writes to standard output instead. An
 // existing `path` that is not a regular file (a device, a FIFO) is refused,
-// never replaced.
+// never replaced, except the null device (/dev/null or a name of it), which
+// is written to and discards what it gets.
 void WriteFileAtomically(const std::string& path, const std::string& bytes);
 
 // For writers that need a path rather than bytes (assimp, OpenCV, PCL):
 // write to TempPath(), then Commit() (synced as above). Destroyed without
 // Commit(), the temporary file is removed and `path` is untouched. Refuses
-// "-" and a `path` that exists and is not a regular file.
+// "-" and a `path` that exists and is not a regular file but the null
+// device: for it TempPath() is the device itself and Commit() renames nothing.
 class AtomicFile {
  public:
   explicit AtomicFile(std::string path);
@@ -78,6 +80,7 @@ class AtomicFile {
   std::string path_;
   std::string temp_path_;
   bool committed_ = false;
+  bool discard_ = false;  // `path` is the null device
 };
 
 // Lower-case extension without the dot ("PLY" -> "ply"), "" when none.

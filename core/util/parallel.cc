@@ -1,15 +1,54 @@
 #include "core/util/parallel.h"
 
+#include <sched.h>
+
 #include <algorithm>
 #include <atomic>
+#include <cerrno>
 #include <condition_variable>
+#include <cstdlib>
 #include <exception>
 #include <mutex>
+#include <optional>
+#include <stdexcept>
+#include <string>
 #include <thread>
 #include <vector>
 
+#include "core/util/error.h"
+
 namespace furn {
 namespace {
+
+std::atomic<int> g_requested_threads{0};  // SetParallelThreads's, 0: none
+std::atomic<const char*> g_threads_source{"CPUs"};
+
+// A whole number in [1, max] or nothing; `text` is the environment's.
+std::optional<int> PositiveCount(const char* text, int max) {
+  if (text == nullptr || *text == '\0') return std::nullopt;
+  char* end = nullptr;
+  errno = 0;
+  const long value = std::strtol(text, &end, 10);
+  if (*end != '\0' || errno != 0 || value < 1 || value > max) return std::nullopt;
+  return static_cast<int>(value);
+}
+
+int WantedThreads() {
+  if (const int requested = g_requested_threads.load()) {
+    g_threads_source = "--threads";
+    return requested;
+  }
+  if (const char* text = std::getenv("FURN_THREADS")) {
+    const std::optional<int> threads = PositiveCount(text, kMaxParallelThreads);
+    Require(threads.has_value(),
+            "FURN_THREADS='" + std::string(text) + "' must be a whole number in 1.." +
+                std::to_string(kMaxParallelThreads) + " (unset it to use every CPU available)");
+    g_threads_source = "FURN_THREADS";
+    return *threads;
+  }
+  g_threads_source = "CPUs";
+  return AvailableCpus();
+}
 
 thread_local bool t_inside_parallel_for = false;
 
@@ -44,9 +83,8 @@ struct Loop {
 
 class Pool {
  public:
-  Pool() {
-    const unsigned hardware = std::max(1u, std::thread::hardware_concurrency());
-    for (unsigned i = 1; i < hardware; ++i) workers_.emplace_back([this] { WorkerLoop(); });
+  explicit Pool(int threads) {
+    for (int i = 1; i < threads; ++i) workers_.emplace_back([this] { WorkerLoop(); });
   }
   ~Pool() {
     {
@@ -104,13 +142,40 @@ class Pool {
 };
 
 Pool& SharedPool() {
-  static Pool pool;
+  static Pool pool(WantedThreads());
   return pool;
 }
 
 }  // namespace
 
 int ParallelThreads() { return SharedPool().Threads(); }
+
+void SetParallelThreads(int threads) {
+  Require(threads >= 1 && threads <= kMaxParallelThreads,
+          "threads " + std::to_string(threads) + " must be in 1.." +
+              std::to_string(kMaxParallelThreads));
+  g_requested_threads = threads;
+  if (SharedPool().Threads() != threads)
+    throw std::logic_error("SetParallelThreads(" + std::to_string(threads) +
+                           ") after the pool started with " +
+                           std::to_string(SharedPool().Threads()));
+}
+
+int AvailableCpus() {
+  int cpus = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  if (sched_getaffinity(0, sizeof(set), &set) == 0) cpus = std::max(1, CPU_COUNT(&set));
+  if (const std::optional<int> slurm =
+          PositiveCount(std::getenv("SLURM_CPUS_PER_TASK"), kMaxParallelThreads))
+    cpus = std::min(cpus, *slurm);
+  return cpus;
+}
+
+const char* ParallelThreadsSource() {
+  SharedPool();
+  return g_threads_source.load();
+}
 
 void ParallelFor(int begin, int end, const std::function<void(int)>& body) {
   if (begin >= end) return;

@@ -26,7 +26,26 @@ void ParallelFor(int begin, int end, const std::function<void(int)>& body);
 // network beside the segmentation (Detector::Detect).
 void RunBeside(const std::function<void()>& beside, const std::function<void()>& here);
 
-// Threads taking part in ParallelFor, the caller included (>= 1).
+// Threads taking part in ParallelFor, the caller included (>= 1). The pool
+// is made at the first call of any of these functions with, first found:
+// SetParallelThreads's count, the FURN_THREADS environment variable, or
+// AvailableCpus(). Throws InputError for a FURN_THREADS that is not a whole
+// number in 1..kMaxParallelThreads.
 int ParallelThreads();
+
+constexpr int kMaxParallelThreads = 1024;
+
+// The pool's size before its first use (`workbench --threads N`); throws
+// InputError for a count outside 1..kMaxParallelThreads and logic_error once
+// the pool runs with another count.
+void SetParallelThreads(int threads);
+
+// The CPUs this process may run on: its affinity mask (taskset, cgroups,
+// Slurm's binding), capped by SLURM_CPUS_PER_TASK when Slurm sets it (a task
+// of 2 CPUs on a 64-core node without binding); at least 1.
+int AvailableCpus();
+
+// Where the pool's size came from: "--threads", "FURN_THREADS" or "CPUs".
+const char* ParallelThreadsSource();
 
 }  // namespace furn

@@ -1,4 +1,5 @@
 #include <gtest/gtest.h>
+#include <sched.h>
 #include <sys/stat.h>
 
 #include <unistd.h>
@@ -8,6 +9,7 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <set>
 #include <stdexcept>
 #include <thread>
@@ -84,6 +86,34 @@ TEST(Parallel, LoopsFromTwoThreadsAtOnceEachCoverTheirRange) {
   RunBeside(meet, meet);
   EXPECT_THROW(RunBeside([] { throw std::runtime_error("beside"); }, [] {}), std::runtime_error);
   EXPECT_THROW(RunBeside([] {}, [] { throw std::runtime_error("here"); }), std::runtime_error);
+}
+
+// The CPUs a process may use are its affinity mask's (taskset, cgroups,
+// Slurm's binding), capped by SLURM_CPUS_PER_TASK; a Slurm value that is no
+// count is ignored.
+TEST(Parallel, AvailableCpusFollowAffinityAndSlurm) {
+  cpu_set_t all;
+  ASSERT_EQ(sched_getaffinity(0, sizeof(all), &all), 0);
+  const int mask = CPU_COUNT(&all);
+  ASSERT_EQ(unsetenv("SLURM_CPUS_PER_TASK"), 0);
+  EXPECT_EQ(AvailableCpus(), mask);
+  cpu_set_t one;
+  CPU_ZERO(&one);
+  for (int cpu = 0; cpu < CPU_SETSIZE; ++cpu) {
+    if (!CPU_ISSET(cpu, &all)) continue;
+    CPU_SET(cpu, &one);
+    break;
+  }
+  ASSERT_EQ(sched_setaffinity(0, sizeof(one), &one), 0);
+  EXPECT_EQ(AvailableCpus(), 1);
+  ASSERT_EQ(sched_setaffinity(0, sizeof(all), &all), 0);
+  setenv("SLURM_CPUS_PER_TASK", "1", 1);
+  EXPECT_EQ(AvailableCpus(), 1);
+  setenv("SLURM_CPUS_PER_TASK", "4096", 1);  // more than the mask: the mask
+  EXPECT_EQ(AvailableCpus(), mask);
+  setenv("SLURM_CPUS_PER_TASK", "two", 1);
+  EXPECT_EQ(AvailableCpus(), mask);
+  unsetenv("SLURM_CPUS_PER_TASK");
 }
 
 TEST(Random, SameSeedSameSequenceAndKnownValues) {
@@ -172,6 +202,23 @@ TEST(FileUtil, NonRegularTargetsAreRefusedAndDashIsStandardOutput) {
   WriteFileAtomically("-", "{\"detections\": []}\n");
   EXPECT_EQ(::testing::internal::GetCapturedStdout(), "{\"detections\": []}\n");
   EXPECT_FALSE(std::filesystem::exists("-"));
+}
+
+// The null device is the one non-regular output taken: written to, never
+// renamed over, still the device afterwards.
+TEST(FileUtil, TheNullDeviceTakesOutputAndStaysTheDevice) {
+  WriteFileAtomically("/dev/null", "discarded");
+  {
+    AtomicFile file("/dev/null");
+    EXPECT_EQ(file.TempPath(), "/dev/null");
+    std::ofstream(file.TempPath()) << "discarded";
+    file.Commit();
+  }
+  { AtomicFile uncommitted("/dev/null"); }  // destroyed: removes nothing
+  struct stat device {};
+  ASSERT_EQ(stat("/dev/null", &device), 0);
+  EXPECT_TRUE(S_ISCHR(device.st_mode));
+  EXPECT_THROW(WriteFileAtomically("/dev/zero", "x"), InputError);  // other devices: refused
 }
 
 TEST(FileUtil, UncommittedAtomicFileLeavesTargetUntouched) {

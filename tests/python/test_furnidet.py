@@ -344,6 +344,25 @@ class FurnidetTest(unittest.TestCase):
         with self.assertRaisesRegex(ValueError, "min_covered_fraction|unknown"):
             furnidet.Detector(self.model, options={"no_such_option": 1})
 
+    def test_depth_units_are_read_as_given_or_refused(self):
+        # Millimetres as float64 are refused in one line, not "nothing in
+        # range"; NumPy's default int64 millimetres read as uint16 ones do.
+        frame = self.dataset.frame(self.dataset.frame_ids()[0])
+        millimetres = np.round(frame.depth * 1000)
+        with self.assertRaisesRegex(ValueError, "float depth is in metres"):
+            self.detector.detect_depth(millimetres, frame.K)
+        as_uint16 = self.detector.detect_depth(millimetres.astype(np.uint16), frame.K)
+        as_int64 = self.detector.detect_depth(millimetres.astype(np.int64), frame.K)
+        self.assertEqual(as_int64.status, as_uint16.status)
+        self.assertEqual(furnidet.records(as_int64.detections).tolist(),
+                         furnidet.records(as_uint16.detections).tolist())
+        self.assertGreater(as_uint16.points_in_range, 1000)
+
+    def test_version_and_conventions_are_exported(self):
+        self.assertEqual(furnidet.CONVENTIONS, 2)
+        self.assertRegex(furnidet.__version__, r"^\d+\.\d+\.\d+$")
+        self.assertIn("CONVENTIONS", furnidet.__all__)
+
     def test_hostile_arrays_and_arguments_are_one_input_error(self):
         # Issue 29: bool, object, complex and negative integer depth, a K with
         # skew, records of non-detections: each one InputError naming the rule.

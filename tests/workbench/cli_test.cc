@@ -263,6 +263,38 @@ TEST(Cli, UsageMistakesExitWithTwo) {
   EXPECT_EQ(version.output.rfind("workbench (furnidet) ", 0), 0u) << version.output;
 }
 
+// The run's threads: --threads, else FURN_THREADS, else the CPUs the process
+// may use (under taskset one); a bad count is one usage line.
+TEST(Cli, ThreadsFollowTheFlagTheEnvironmentAndTheAffinity) {
+  const std::string wb = FURN_WORKBENCH_BINARY;
+  const auto threads_line = [](const testing::CommandResult& run) {
+    const size_t at = run.output.find("threads: ");
+    return at == std::string::npos ? run.output
+                                   : run.output.substr(at, run.output.find('\n', at) - at);
+  };
+  const testing::CommandResult pinned = testing::RunCommand("taskset -c 0 " + wb + " --version");
+  EXPECT_EQ(pinned.exit_code, 0) << pinned.output;
+  EXPECT_EQ(threads_line(pinned), "threads: 1 (from CPUs; 1 CPU available to this process)");
+  const testing::CommandResult env = testing::RunCommand("FURN_THREADS=3 " + wb + " --version");
+  EXPECT_EQ(threads_line(env).rfind("threads: 3 (from FURN_THREADS;", 0), 0u) << env.output;
+  const testing::CommandResult flag =
+      testing::RunCommand("FURN_THREADS=3 " + wb + " --threads 2 --version");
+  EXPECT_EQ(threads_line(flag).rfind("threads: 2 (from --threads;", 0), 0u) << flag.output;
+  const testing::CommandResult bad_env =
+      testing::RunCommand("FURN_THREADS=two " + wb + " --version");
+  EXPECT_EQ(bad_env.exit_code, 2);
+  EXPECT_EQ(bad_env.output,
+            "workbench: FURN_THREADS='two' must be a whole number in 1..1024 (unset it to use "
+            "every CPU available)\n");
+  const testing::CommandResult bad_flag = RunWorkbench("--threads 0 --version");
+  EXPECT_EQ(bad_flag.exit_code, 2);
+  EXPECT_EQ(bad_flag.output, "workbench: --threads '0' must be a whole number in 1..1024\n");
+  // The flag reaches the command's own flags untouched.
+  const testing::CommandResult command =
+      RunWorkbench("--threads=1 catalog list --catalog procedural:2 --quiet");
+  EXPECT_EQ(command.exit_code, 0) << command.output;
+}
+
 // The rooms cache keeps the rooms itself: with --keep-rooms it is one line
 // before anything is trained, and no model file is written.
 TEST(Cli, RoomsCacheIsNotCombinedWithKeepRooms) {

@@ -164,6 +164,37 @@ TEST_F(RosbagTest, ExportedFramesReadBackAsTheDatasetHasThem) {
   }
 }
 
+// A bag of messages none of which could be detected in (nothing within
+// reach) fails as a batch of such files does: a line each, exit code 1.
+TEST_F(RosbagTest, ABagWhoseMessagesAllFailExitsOne) {
+  const std::string out = *dir_ + "/none.jsonl";
+  const testing::CommandResult r =
+      Workbench("detect --model " + Model() + " --bag " + Bag() +
+                " --topic /camera/depth/image_raw --max-range 0.05 --out " + out);
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find("8 messages, 8 without points or floor"), std::string::npos) << r.output;
+  EXPECT_EQ(JsonLines(out).size(), 8u);
+}
+
+// A --tf-world the bag's TF does not reach is a warning naming the tree's
+// roots (an error with --strict); the boxes then name no TF frame.
+TEST_F(RosbagTest, AnUnresolvedTfWorldIsAWarningOrWithStrictAnError) {
+  const std::string out = *dir_ + "/odom.jsonl";
+  const std::string base = "detect --model " + Model() + " --bag " + Bag() +
+                           " --topic /camera/depth/image_raw --tf-world odom --max-range 0.05";
+  const testing::CommandResult warned = Workbench(base + " --out " + out);
+  EXPECT_NE(warned.output.find("warning: TF has no chain from camera_depth_optical_frame to "
+                               "--tf-world 'odom' (the TF tree's roots: world)"),
+            std::string::npos)
+      << warned.output;
+  for (const nlohmann::json& line : JsonLines(out)) EXPECT_TRUE(line["boxes_frame_id"].is_null());
+  const testing::CommandResult strict = Workbench(base + " --strict --out " + out + ".strict");
+  EXPECT_EQ(strict.exit_code, 1);
+  EXPECT_NE(strict.output.find("(--strict; name a root with --tf-world)"), std::string::npos)
+      << strict.output;
+  EXPECT_FALSE(std::filesystem::exists(out + ".strict"));
+}
+
 TEST_F(RosbagTest, DetectionOverTheBagEqualsDetectionOverTheDatasetAndWritesMarkers) {
   const std::string out = *dir_ + "/bag.jsonl", marked = *dir_ + "/marked.bag";
   const testing::CommandResult r =
@@ -176,6 +207,7 @@ TEST_F(RosbagTest, DetectionOverTheBagEqualsDetectionOverTheDatasetAndWritesMark
   std::vector<size_t> per_message;
   for (const nlohmann::json& line : lines) {
     EXPECT_EQ(line["pose_source"], "tf: world <- camera_depth_optical_frame");
+    EXPECT_EQ(line["boxes_frame_id"], "world");
     EXPECT_EQ(line["topic"], "/camera/depth/image_raw");
     ExpectSameDetections(line["detections"], DetectFrame(line["seq"].get<int64_t>()));
     per_message.push_back(line["detections"].size());

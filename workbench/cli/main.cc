@@ -4,10 +4,13 @@
 //   workbench catalog list --catalog default
 //   workbench catalog export Scopia/chair3 --out chair.ply
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <exception>
+#include <string>
 
 #include "core/util/leak_suppressions.h"
+#include "core/util/parallel.h"
 #include "core/util/text.h"
 #include "workbench/cli/commands.h"
 
@@ -46,20 +49,72 @@ constexpr Command kCommands[] = {
 
 void PrintUsage() {
   std::printf(
-      "usage: workbench <command> [options]   (workbench <command> "
-      "--help; workbench --version)\n\ncommands:\n");
+      "usage: workbench [--threads N] <command> [options]   (workbench <command> "
+      "--help; workbench --version)\n\n"
+      "--threads N: worker threads of the whole run (default: FURN_THREADS, else the CPUs\n"
+      "  this process may use: its affinity mask, capped by SLURM_CPUS_PER_TASK)\n\n"
+      "commands:\n");
   for (const Command& command : kCommands) std::printf("  %-10s %s\n", command.name, command.help);
+}
+
+// `--threads N` or `--threads=N` in front of the command: the pool's size,
+// removed from argv. Returns false (after one line on stderr) for a bad one.
+bool TakeThreadsFlag(int* argc, char*** argv) {
+  if (*argc < 2) return true;
+  const std::string first = (*argv)[1];
+  std::string value;
+  int used = 0;
+  if (first == "--threads") {
+    if (*argc < 3) {
+      std::fprintf(stderr, "workbench: --threads needs a count (e.g. --threads 2)\n");
+      return false;
+    }
+    value = (*argv)[2];
+    used = 2;
+  } else if (first.rfind("--threads=", 0) == 0) {
+    value = first.substr(10);
+    used = 1;
+  } else {
+    return true;
+  }
+  char* end = nullptr;
+  const long threads = std::strtol(value.c_str(), &end, 10);
+  if (value.empty() || *end != '\0' || threads < 1 || threads > furn::kMaxParallelThreads) {
+    std::fprintf(stderr,
+                 "workbench: --threads '%s' must be a whole number in 1..%d\n",
+                 furn::PrintableText(value).c_str(),
+                 furn::kMaxParallelThreads);
+    return false;
+  }
+  furn::SetParallelThreads(static_cast<int>(threads));
+  (*argv)[used] = (*argv)[0];
+  *argv += used;
+  *argc -= used;
+  return true;
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
+  if (!TakeThreadsFlag(&argc, &argv)) return 2;
+  try {  // a bad FURN_THREADS is a usage error, before any work
+    furn::ParallelThreads();
+  } catch (const std::exception& error) {
+    std::fprintf(stderr, "workbench: %s\n", furn::PrintableText(error.what()).c_str());
+    return 2;
+  }
   if (argc < 2 || std::strcmp(argv[1], "--help") == 0 || std::strcmp(argv[1], "-h") == 0) {
     PrintUsage();
     return argc < 2 ? 2 : 0;
   }
   if (std::strcmp(argv[1], "--version") == 0) {
     std::printf("workbench (furnidet) %s\n", FURN_VERSION);
+    const int cpus = furn::AvailableCpus();
+    std::printf("threads: %d (from %s; %d CPU%s available to this process)\n",
+                furn::ParallelThreads(),
+                furn::ParallelThreadsSource(),
+                cpus,
+                cpus == 1 ? "" : "s");
     return 0;
   }
   for (const Command& command : kCommands) {

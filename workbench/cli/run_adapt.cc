@@ -96,7 +96,7 @@ int RunAdapt(int argc, char** argv) {
       ->capture_default_str();
   AddSelfTrainingFlags(&app, &options);
   DetectorFlags detector_flags(&app, {"--seed"});
-  app.add_flag("--quiet", options.quiet, "Print nothing but errors");
+  app.add_flag("--quiet,-q", options.quiet, "Print nothing but errors");
   if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
   Progress::SetQuiet(options.quiet);
   options.split = ParseSplit(split, "--split");

@@ -48,7 +48,10 @@ void AddBagFlags(CLI::App* app_pointer, BagScanOptions* bag_pointer, std::string
   CLI::App& app = *app_pointer;
   BagScanOptions& bag = *bag_pointer;
   std::string& out_bag = *out_bag_pointer;
-  app.add_option("--bag", bag.bag_path, "ROS 1 bag: detect in every message of --topic");
+  app.add_option("--bag",
+                 bag.bag_path,
+                 "ROS bag: a ROS 1 .bag or a ROS 2 bag folder (sqlite3); detect in every message "
+                 "of --topic");
   app.add_option("--topic",
                  bag.topic,
                  "Bag topic: sensor_msgs/PointCloud2 (camera frame) or sensor_msgs/Image "
@@ -64,7 +67,8 @@ void AddBagFlags(CLI::App* app_pointer, BagScanOptions* bag_pointer, std::string
   app.add_option("--out-bag",
                  out_bag,
                  "Write a copy of --bag with the detections as visualization_msgs/MarkerArray "
-                 "on /furnidet/detections");
+                 "on /furnidet/detections (ROS 2: and vision_msgs/Detection3DArray on "
+                 "/furnidet/detections_3d)");
 }
 
 // Several posed scans detected at once (--fuse), their poses refined first.
@@ -149,7 +153,10 @@ int RunDetect(int argc, char** argv) {
   FrameFusion fusion;  // registration only: --fuse decides what is fused
   DetectRunOptions run;
   AddFuseFlags(&app, &fuse, &fusion, &run);
-  app.add_flag("--quiet", quiet, "Print nothing but errors");
+  app.add_flag("--quiet,-q", quiet, "Print nothing but errors");
+  app.add_flag("--strict",
+               run.strict,
+               "Warnings are errors (a --tf-world that the bag's TF cannot resolve)");
   if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
   Progress::SetQuiet(quiet);  // batches and bags show progress unless --quiet
   Require(repeat >= 1 && repeat <= 1000,

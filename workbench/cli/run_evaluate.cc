@@ -563,11 +563,13 @@ int RunReport(int argc, char** argv) {
   app.add_option("--db", db_path, "Dataset database holding the run")->required();
   app.add_option("--run", run_id, "Run id (0: the latest)")->capture_default_str();
   app.add_option("--out", out, "Report directory (index.html and PNGs)")->required();
+  bool quiet = false;
+  app.add_flag("--quiet,-q", quiet, "Print nothing but errors");
   if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
   // A failure leaves no half-written report behind.
   WriteDirectoryAtomically(
       out, [&](const std::string& dir) { WriteReportForRun(db_path, run_id, dir); });
-  std::printf("wrote %s/index.html\n", out.c_str());
+  if (!quiet) std::printf("wrote %s/index.html\n", out.c_str());
   return 0;
 }
 
@@ -581,6 +583,8 @@ int RunHistory(int argc, char** argv) {
                  "(synthetic and real)")
       ->required();
   app.add_option("--out", out, "Directory for history.html and its plots")->required();
+  bool quiet = false;
+  app.add_flag("--quiet,-q", quiet, "Print nothing but errors");
   if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
   std::vector<HistoryDataset> datasets;
   size_t runs = 0;
@@ -595,8 +599,9 @@ int RunHistory(int argc, char** argv) {
     datasets.push_back(std::move(history));
   }
   WriteDirectoryAtomically(out, [&](const std::string& dir) { WriteHistoryReport(datasets, dir); });
-  std::printf(
-      "wrote %s/history.html: %zu runs of %zu datasets\n", out.c_str(), runs, datasets.size());
+  if (!quiet)
+    std::printf(
+        "wrote %s/history.html: %zu runs of %zu datasets\n", out.c_str(), runs, datasets.size());
   return 0;
 }
 

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <set>
 
 #include "core/detector/detection_box.h"
 #include "core/model/furniture_class.h"
@@ -58,6 +59,14 @@ void TfBuffer::Sort() {
       return a.time < b.time;
     });
   }
+}
+
+std::vector<std::string> TfBuffer::Roots() const {
+  std::set<std::string> roots;
+  for (const auto& [child, edge] : edges_) {
+    if (edges_.count(edge.parent) == 0) roots.insert(edge.parent);
+  }
+  return {roots.begin(), roots.end()};
 }
 
 std::optional<Eigen::Isometry3d> TfBuffer::Lookup(const std::string& target,
@@ -228,6 +237,13 @@ BagScan BagScanAssembler::Finish(BagScan scan, const RosHeader& header) const {
       scan.loaded.input.world_from_camera = *pose;
       scan.loaded.pose_source = "tf: " + options_.world_frame + " <- " + scan.frame_id;
       scan.pose_from_tf = true;
+    } else {
+      std::string roots;
+      for (const std::string& root : tf_->Roots()) roots += (roots.empty() ? "" : ", ") + root;
+      scan.tf_miss = "TF has no chain from " + scan.frame_id + " to --tf-world '" +
+                     options_.world_frame + "' (the TF tree's roots: " + roots +
+                     "); the floor is estimated and the boxes are in the detector's own floor "
+                     "frame";
     }
   }
   return scan;

@@ -101,6 +101,9 @@ class TfBuffer {
   void Add(const RosTransform& transform, bool is_static, const std::string& where);
   void Sort();
   bool empty() const { return edges_.empty(); }
+  // The frames at the top of the tree (parents that are nobody's child),
+  // sorted: what a floor-aligned world frame usually is (odom, map, world).
+  std::vector<std::string> Roots() const;
   // target_from_source at `time`, walking up from source; none when the
   // chain does not reach target.
   std::optional<Eigen::Isometry3d> Lookup(const std::string& target,

@@ -49,6 +49,10 @@ struct BagScan {
   double bag_time = 0;   // when the bag recorded it, seconds
   uint32_t seq = 0;      // header.seq (a dataset export puts the frame id here)
   bool pose_from_tf = false;
+  // When the bag has TF but no chain from the message's frame to
+  // world_frame: why, naming the TF tree's roots (the frames --tf-world
+  // could name); empty otherwise.
+  std::string tf_miss;
   int total = 0;  // messages on the topic
 };
 

@@ -12,6 +12,7 @@
 #include "core/util/error.h"
 #include "core/util/file_util.h"
 #include "core/util/progress.h"
+#include "core/util/text.h"
 #include "reports/detection_debug.h"
 #include "workbench/formats/detection_output.h"
 #include "workbench/formats/ros2_bag.h"
@@ -146,9 +147,19 @@ int DetectBatch(const std::vector<ScanSource>& sources,
 
 // One message's JSON line: its place in the bag first, then what
 // DetectionJson (or the error line) says.
-std::string BagLine(const BagScan& scan, const DetectionResult& result, const TrainedModel& model) {
+std::string BagLine(const BagScan& scan,
+                    const DetectionResult& result,
+                    const TrainedModel& model,
+                    const std::string& world_frame) {
+  // The boxes' frame: the TF world frame their pose came from, else none a
+  // TF tree knows (the detector's own floor frame, whose pose of the camera
+  // is the line's world_from_camera).
   const nlohmann::ordered_json place{
-      {"topic", scan.topic}, {"stamp", scan.stamp}, {"seq", scan.seq}, {"frame_id", scan.frame_id}};
+      {"topic", scan.topic},
+      {"stamp", scan.stamp},
+      {"seq", scan.seq},
+      {"frame_id", scan.frame_id},
+      {"boxes_frame_id", scan.pose_from_tf ? nlohmann::json(world_frame) : nlohmann::json()}};
   const std::string place_text = place.dump();  // {"topic":...}
   const std::string line =
       result.status != DetectionStatus::kDetected
@@ -233,7 +244,15 @@ int DetectInBag(const BagScanOptions& bag,
   std::vector<double> totals;
   int without = 0;
   std::optional<Progress> progress;
+  bool warned = false;
   ForEachScanInBag(bag, [&](const BagScan& scan) {
+    if (!scan.tf_miss.empty()) {
+      Require(!run.strict,
+              scan.loaded.description + ": " + scan.tf_miss + " (--strict; name a root with " +
+                  "--tf-world)");
+      if (!warned) std::fprintf(stderr, "warning: %s\n", PrintableText(scan.tf_miss).c_str());
+      warned = true;
+    }
     if (!progress) progress.emplace("detect", scan.total, "messages");  // its clock starts here
     const DetectionResult result = detector.Detect(scan.loaded.input, /*keep_debug=*/false);
     if (result.status != DetectionStatus::kDetected) {
@@ -241,7 +260,7 @@ int DetectInBag(const BagScanOptions& bag,
     } else {
       totals.push_back(result.timings_ms.Of(DetectionStage::kTotal));
     }
-    lines += BagLine(scan, result, detector.model());
+    lines += BagLine(scan, result, detector.model(), bag.world_frame);
     if (markers) markers->Add(scan, result, detector.model());
     if (run.explain) Explain(scan.loaded.description, result, detector);
     progress->Advance();
@@ -261,7 +280,19 @@ int DetectInBag(const BagScanOptions& bag,
                  out_bag.empty() ? "" : "; markers in ",
                  out_bag.c_str());
   }
-  return 0;
+  // As a batch of files: 1 when a message was not detected in (its line
+  // says why), whatever else went well. A bag of nothing on the topic is
+  // an error of its own.
+  Require(totals.size() + without > 0,
+          bag.bag_path + ": no message on " + bag.topic + " could be read as a scan");
+  if (without > 0 && run.quiet)
+    std::fprintf(stderr,
+                 "%s %s: %d of %zu messages without points or floor\n",
+                 bag.bag_path.c_str(),
+                 bag.topic.c_str(),
+                 without,
+                 totals.size() + without);
+  return without > 0 ? 1 : 0;
 }
 
 }  // namespace furn

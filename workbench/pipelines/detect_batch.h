@@ -31,6 +31,9 @@ struct DetectRunOptions {
   bool quiet = false;     // nothing but errors
   bool explain = false;   // every hypothesis and its outcome on stderr
   bool timings = false;   // stage times and the model's load time on stderr
+  // Warnings are errors: a bag's --tf-world that TF cannot resolve stops the
+  // run instead of falling back to estimating the floor.
+  bool strict = false;
   // Several scans with their own poses: one detection in all of them fused
   // (FuseLoadedScans), seen from the last one's camera, as for one scan.
   bool fuse = false;
@@ -51,6 +54,9 @@ bool IsBatch(const std::vector<std::string>& inputs, const std::vector<ScanSourc
 int DetectScans(const std::vector<ScanSource>& sources, bool batch, const DetectRunOptions& run);
 
 // Every message of the bag's topic; markers into `out_bag` unless empty.
+// The exit code as for a batch: 0, or 1 when a message could not be
+// detected in (no points in range, no floor); a bag with no readable
+// message on the topic throws.
 int DetectInBag(const BagScanOptions& bag, const std::string& out_bag, const DetectRunOptions& run);
 
 }  // namespace furn

@@ -16,7 +16,9 @@
 #include <pybind11/stl.h>
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <map>
 #include <memory>
@@ -47,6 +49,10 @@ namespace py = pybind11;
 
 namespace furn {
 namespace {
+
+// A depth image's median return beyond this (m) is no sensor's: millimetres
+// passed as float metres (Kinect v1 reaches ~10 m, long-range ToF ~50 m).
+constexpr double kMaxMedianDepthM = 100;
 
 // A NumPy array that owns `values` (moved, not copied) with the given shape.
 template <typename T>
@@ -343,9 +349,7 @@ class PyDetector {
     }
     const int height = static_cast<int>(depth.shape(0)), width = static_cast<int>(depth.shape(1));
     const CameraIntrinsics camera = IntrinsicsFromPython(k, width, height);
-    const bool integer = py::isinstance<py::array_t<uint16_t>>(depth) ||
-                         py::isinstance<py::array_t<uint32_t>>(depth) ||
-                         py::isinstance<py::array_t<int32_t>>(depth);
+    const bool integer = kind == 'u' || kind == 'i';  // any width: NumPy's int64 too
     const double scale = depth_scale.value_or(integer ? 1000.0 : 1.0);
     if (!(scale > 0) || !std::isfinite(scale) || scale > 1e6) {
       throw InputError("depth_scale " + std::to_string(scale) +
@@ -363,9 +367,22 @@ class PyDetector {
           throw InputError("depth holds a negative integer (" + std::to_string(values[i]) + ")");
       }
     }
+    std::vector<float> returns;
     for (size_t i = 0; i < frame.depth.size(); ++i) {
       const double z = values[i] / scale;
       frame.depth[i] = std::isfinite(z) && z > 0 ? static_cast<float>(z) : 0.0f;
+      if (frame.depth[i] > 0) returns.push_back(frame.depth[i]);
+    }
+    // Millimetres given as floats read as metres put every point kilometres
+    // away: say so rather than find nothing in range.
+    if (!returns.empty()) {
+      std::nth_element(returns.begin(), returns.begin() + returns.size() / 2, returns.end());
+      const double median = returns[returns.size() / 2];
+      if (median > kMaxMedianDepthM)
+        throw InputError("depth's median return is " +
+                         std::to_string(static_cast<int64_t>(median)) +
+                         " m, beyond any depth sensor's range: float depth is in metres (pass "
+                         "depth / 1000 for millimetres, or depth_scale=1000)");
     }
     DetectionInput input;
     input.points = BackProject(frame, camera);
@@ -536,6 +553,7 @@ void BindDataset(py::module_& m) {
 void BindDetections(py::module_& m) {
   // Conventions version 2 (docs/conventions.md): yaw and box REP 103, x the object's front.
   m.attr("CONVENTIONS") = 2;
+  m.attr("__version__") = FURN_VERSION;
   py::class_<PyDetection>(
       m,
       "Detection",
@@ -587,6 +605,8 @@ void BindDetections(py::module_& m) {
       .def_readonly("detections", &PyResult::detections)
       .def_property_readonly("floor_estimated",
                              [](const PyResult& r) { return r.result.floor_estimated; })
+      .def_property_readonly("points_in_range",
+                             [](const PyResult& r) { return r.result.input_points; })
       .def_property_readonly("points", [](const PyResult& r) { return r.result.scene_points; })
       .def_property_readonly("segments", [](const PyResult& r) { return r.result.segments; })
       .def_property_readonly(

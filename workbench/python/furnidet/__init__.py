@@ -17,13 +17,13 @@ floor is found). Detection and evaluation release the GIL.
 
 import numpy as _np
 
-from ._furnidet import (CLASSES, DatabaseError, Detection, DetectionResult,
-                        Frame, InputError)
+from ._furnidet import (CLASSES, CONVENTIONS, DatabaseError, Detection,
+                        DetectionResult, Frame, InputError, __version__)
 from ._furnidet import Dataset as _Dataset
 from ._furnidet import Detector as _Detector
 from ._furnidet import evaluate
 
-__all__ = ["CLASSES", "Dataset", "DatabaseError", "Detection", "DetectionResult",
+__all__ = ["CLASSES", "CONVENTIONS", "Dataset", "DatabaseError", "Detection", "DetectionResult",
            "Detector", "Frame", "InputError", "evaluate", "records",
            "DETECTION_DTYPE"]
 
