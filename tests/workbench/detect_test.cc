@@ -13,6 +13,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "core/detector/detector.h"
+#include "core/geometry/mesh.h"  // ContentHasher
 #include "core/geometry/scan_fusion.h"
 #include "core/util/error.h"
 #include "core/util/file_util.h"
@@ -740,6 +741,15 @@ TEST_F(DetectTest, BatchOverGlobsTumListsAndBopFoldersGivesJsonLines) {
     EXPECT_EQ(line["detections"][0]["class"], "chair");
   }
   EXPECT_NE(tum_lines[1]["input"].get<std::string>().find("2.000.png"), std::string::npos);
+  // Each line names the camera used, the program and the model file.
+  EXPECT_EQ(tum_lines[0]["camera"]["source"], "intrinsics");
+  EXPECT_EQ(tum_lines[0]["camera"]["fx"], 580);
+  EXPECT_EQ(tum_lines[0]["program"].get<std::string>().rfind("furnidet ", 0), 0u);
+  EXPECT_EQ(tum_lines[0]["model_file"]["path"], *model_path_);
+  ContentHasher model_hash;
+  const std::string model_bytes = ReadFileBytes(*model_path_);
+  model_hash.Update(model_bytes.data(), model_bytes.size());
+  EXPECT_EQ(tum_lines[0]["model_file"]["hash"], model_hash.HexDigest());
   // The same images by a glob and by the list, in one batch.
   const testing::CommandResult mixed = testing::RunCommand(
       detect + " '" + dir + "/tum/depth/*.png' " + dir +
@@ -755,6 +765,17 @@ TEST_F(DetectTest, BatchOverGlobsTumListsAndBopFoldersGivesJsonLines) {
   ASSERT_EQ(bop.exit_code, 0) << bop.output;
   const std::vector<nlohmann::json> bop_lines = lines_of(dir + "/bop.jsonl");
   ASSERT_EQ(bop_lines.size(), 1u);
+  EXPECT_EQ(bop_lines[0]["camera"]["source"], "camera file");
+  // A depth image nobody gave a camera: Kinect v1's, said on stderr.
+  const testing::CommandResult assumed = testing::RunCommand(
+      std::string(FURN_WORKBENCH_BINARY) + " detect --model " + *model_path_ + " --depth " + dir +
+      "/tum/depth/1.000.png --depth-scale 5000 --out " + dir + "/assumed.json");
+  ASSERT_EQ(assumed.exit_code, 0) << assumed.output;
+  EXPECT_NE(assumed.output.find("no --intrinsics or --camera, so Kinect v1's are assumed"),
+            std::string::npos)
+      << assumed.output;
+  EXPECT_EQ(nlohmann::json::parse(ReadFileBytes(dir + "/assumed.json"))["camera"]["source"],
+            "kinect1");
   ASSERT_EQ(bop_lines[0]["detections"].size(), 1u) << bop_lines[0].dump();
   // A batch with an unreadable scan: its line says why, the others go on, exit 1.
   testing::WriteText(dir + "/tum/depth/3.000.png", "not a png");

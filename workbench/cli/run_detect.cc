@@ -1,9 +1,12 @@
 #include <CLI/CLI.hpp>
+#include <cstdio>
 #include <string>
 #include <vector>
 
 #include "core/util/error.h"
 #include "core/util/progress.h"
+#include "core/util/text.h"
+#include "renderers/camera.h"
 #include "workbench/cli/cli_common.h"
 #include "workbench/cli/commands.h"
 #include "workbench/cli/detector_flags.h"
@@ -118,6 +121,27 @@ std::vector<ScanSource> ScanSourcesOf(const CLI::App& app,
   return sources;
 }
 
+// Depth images whose camera nobody gave get Kinect v1's: said once on
+// stderr (the JSON's "camera" records it too).
+void NoteDefaultIntrinsics(const CLI::App& app,
+                           const std::vector<ScanSource>& sources,
+                           bool quiet) {
+  if (quiet || app.count("--intrinsics") > 0) return;
+  for (const ScanSource& s : sources) {
+    if (s.depth_path.empty() || !s.camera_file.empty() || s.intrinsics != "kinect1") continue;
+    const CameraIntrinsics k = CameraIntrinsics::KinectV1();
+    std::fprintf(stderr,
+                 "note: %s: no --intrinsics or --camera, so Kinect v1's are assumed (fx %g, fy "
+                 "%g, cx %g, cy %g for 640x480)\n",
+                 PrintableText(s.depth_path).c_str(),
+                 k.fx,
+                 k.fy,
+                 k.cx,
+                 k.cy);
+    return;
+  }
+}
+
 }  // namespace
 
 int RunDetect(int argc, char** argv) {
@@ -189,6 +213,7 @@ int RunDetect(int argc, char** argv) {
           "--topic, --camera-info and --out-bag apply to --bag");
 
   const std::vector<ScanSource> sources = ScanSourcesOf(app, inputs, source, fuse, fusion);
+  NoteDefaultIntrinsics(app, sources, quiet);
   // One plain scan file, or --cloud/--depth/--db: one indented JSON; any
   // other inputs (several, a glob, a list, a folder): JSON lines.
   return DetectScans(sources, IsBatch(inputs, sources), run);

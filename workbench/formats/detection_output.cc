@@ -64,9 +64,26 @@ nlohmann::ordered_json DetectionBoxJson(const Detection& d, const TrainedModel& 
       {"covered_fraction", NumberOrNull(fitted, d.covered_fraction)}};
 }
 
+namespace {
+
+nlohmann::ordered_json CameraJson(const LoadedScan& scan) {
+  if (scan.camera_source.empty()) return nullptr;
+  const CameraIntrinsics& c = scan.camera;
+  return {{"source", scan.camera_source},
+          {"width", c.width},
+          {"height", c.height},
+          {"fx", c.fx},
+          {"fy", c.fy},
+          {"cx", c.cx},
+          {"cy", c.cy}};
+}
+
+}  // namespace
+
 std::string DetectionJson(const DetectionResult& result,
                           const LoadedScan& scan,
                           const TrainedModel& model,
+                          const DetectionProvenance& provenance,
                           bool one_line) {
   nlohmann::ordered_json detections = nlohmann::ordered_json::array();
   for (const Detection& d : result.detections) detections.push_back(DetectionBoxJson(d, model));
@@ -81,6 +98,9 @@ std::string DetectionJson(const DetectionResult& result,
       {"pose_source",
        scan.pose_source.empty() ? std::string(result.floor_estimated ? "floor estimated" : "given")
                                 : scan.pose_source},
+      {"camera", CameraJson(scan)},
+      {"program", std::string("furnidet ") + FURN_VERSION},
+      {"model_file", {{"path", provenance.model_path}, {"hash", provenance.model_hash}}},
       {"points_in_range", result.input_points},
       {"points", result.scene_points},
       {"segments", result.segments},

@@ -26,11 +26,19 @@ inline constexpr const char* kConventionsText =
 // One detection as its JSON object (REP 103 box, docs/conventions.md).
 nlohmann::ordered_json DetectionBoxJson(const Detection& detection, const TrainedModel& model);
 
-// Detections, pose used, timings, as JSON text: indented, or on one line
-// (JSON lines of a batch).
+// What made a detection: the model file (its path and content hash, as
+// evaluation runs store it); the program's version is the build's.
+struct DetectionProvenance {
+  std::string model_path;
+  std::string model_hash;
+};
+
+// Detections, pose used, camera, program and model, timings, as JSON text:
+// indented, or on one line (JSON lines of a batch).
 std::string DetectionJson(const DetectionResult& result,
                           const LoadedScan& scan,
                           const TrainedModel& model,
+                          const DetectionProvenance& provenance,
                           bool one_line = false);
 
 // A JSON line for a scan of a batch that could not be detected in.

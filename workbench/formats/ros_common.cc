@@ -208,6 +208,7 @@ BagScan BagScanAssembler::OnImage(const RosImage& image,
   scan.loaded.input.width = depth.width;
   scan.loaded.input.height = depth.height;
   scan.loaded.camera = *camera_;
+  scan.loaded.camera_source = "CameraInfo";
   return Finish(std::move(scan), image.header);
 }
 

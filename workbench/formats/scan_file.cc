@@ -225,6 +225,7 @@ LoadedScan LoadCloudScan(const ScanSource& source, bool world_options) {
       if (own->fx > 0 && own->fy > 0 && own->cx >= 0 && own->cy >= 0 && own->cx < fitted.width &&
           own->cy < fitted.height)
         scan.camera = fitted;
+      scan.camera_source = "organised cloud";
     }
   }
   return scan;
@@ -261,6 +262,9 @@ LoadedScan LoadDepthScan(const ScanSource& source) {
   }
   const DepthFrame frame = ReadDepthImage(source.depth_path, units);
   scan.camera = CameraOfDepthImage(source, camera_file, frame);
+  scan.camera_source = !source.camera_file.empty()      ? "camera file"
+                       : source.intrinsics == "kinect1" ? "kinect1"
+                                                        : "intrinsics";
   scan.input.points = BackProject(frame, scan.camera);
   scan.input.width = frame.width;
   scan.input.height = frame.height;
@@ -295,6 +299,7 @@ LoadedScan LoadDatasetFrame(const ScanSource& source) {
   LoadedScan scan;
   const std::string what = source.db_path + " frame " + std::to_string(frame->id);
   scan.camera = IntrinsicsOf(*frame);
+  scan.camera_source = "dataset frame";
   const std::optional<std::string> generation = db.GenerationOptions();
   const bool estimated_pose =
       generation && FramesWithEstimatedPose(*generation).count(frame->id) > 0;

@@ -53,6 +53,11 @@ struct LoadedScan {
   DetectionInput input;
   std::string description;  // for messages and the JSON
   CameraIntrinsics camera;  // of the depth image or DB frame; Kinect v1 for clouds
+  // Where `camera` came from: "kinect1" (the default or --intrinsics
+  // kinect1), "intrinsics" (fx,fy,cx,cy given), "camera file", "dataset
+  // frame", "CameraInfo", "organised cloud"; empty: none (an unorganised
+  // cloud: `camera` only draws the debug views).
+  std::string camera_source;
   std::vector<GroundTruthFootprint> ground_truth;  // DB frames only
   std::string pose_source;  // where the pose came from, or empty (floor estimated)
   // Imported real scans whose floor the detector estimates: the camera's pose

@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 
+#include "core/geometry/mesh.h"  // ContentHasher
 #include "core/util/error.h"
 #include "core/util/file_util.h"
 #include "core/util/progress.h"
@@ -74,6 +75,14 @@ std::string CliHint(const LoadedScan& scan, const DetectionResult& result) {
          "metre; TUM RGB-D PNGs: 5000)";
 }
 
+// The model file behind a run's JSON: its path and content hash.
+DetectionProvenance ProvenanceOf(const DetectRunOptions& run) {
+  const std::string bytes = ReadFileBytes(run.model_path);
+  ContentHasher hash;
+  hash.Update(bytes.data(), bytes.size());
+  return {run.model_path, hash.HexDigest()};
+}
+
 // One scan given by the user: its errors throw, with debug PNGs and repeats.
 int DetectOneScan(const LoadedScan& scan, const Detector& detector, const DetectRunOptions& run) {
   std::map<DetectionStage, std::vector<double>> stage_times;
@@ -94,7 +103,7 @@ int DetectOneScan(const LoadedScan& scan, const Detector& detector, const Detect
                         run.debug_dir,
                         SceneViewLinks{scan.description, "", "", "", ""});
   }
-  Emit(DetectionJson(result, scan, detector.model()), run);
+  Emit(DetectionJson(result, scan, detector.model(), ProvenanceOf(run)), run);
   if (!run.quiet) PrintDetections(scan, result);
   if (run.explain) std::fputs(ExplainDetection(result, detector.model()).c_str(), stderr);
   if (run.timings || run.repeat > 1) PrintStageTimes(result, stage_times, run.repeat);
@@ -110,6 +119,7 @@ int DetectBatch(const std::vector<ScanSource>& sources,
   std::string lines;
   int failed = 0;
   std::vector<double> totals;
+  const DetectionProvenance provenance = ProvenanceOf(run);
   Progress progress("detect", sources.size(), "scans");
   for (const ScanSource& source : sources) {
     try {
@@ -119,7 +129,7 @@ int DetectBatch(const std::vector<ScanSource>& sources,
         lines += ScanErrorJson(scan.description, result.message + CliHint(scan, result));
         ++failed;
       } else {
-        lines += DetectionJson(result, scan, detector.model(), /*one_line=*/true);
+        lines += DetectionJson(result, scan, detector.model(), provenance, /*one_line=*/true);
         totals.push_back(result.timings_ms.Of(DetectionStage::kTotal));
         if (run.explain) Explain(scan.description, result, detector);
       }
@@ -150,6 +160,7 @@ int DetectBatch(const std::vector<ScanSource>& sources,
 std::string BagLine(const BagScan& scan,
                     const DetectionResult& result,
                     const TrainedModel& model,
+                    const DetectionProvenance& provenance,
                     const std::string& world_frame) {
   // The boxes' frame: the TF world frame their pose came from, else none a
   // TF tree knows (the detector's own floor frame, whose pose of the camera
@@ -164,7 +175,7 @@ std::string BagLine(const BagScan& scan,
   const std::string line =
       result.status != DetectionStatus::kDetected
           ? ScanErrorJson(scan.loaded.description, result.message + CliHint(scan.loaded, result))
-          : DetectionJson(result, scan.loaded, model, /*one_line=*/true);
+          : DetectionJson(result, scan.loaded, model, provenance, /*one_line=*/true);
   // Both are one-line JSON objects: splice the place in after the brace.
   return place_text.substr(0, place_text.size() - 1) + "," + line.substr(1);
 }
@@ -244,6 +255,7 @@ int DetectInBag(const BagScanOptions& bag,
   std::vector<double> totals;
   int without = 0;
   std::optional<Progress> progress;
+  const DetectionProvenance provenance = ProvenanceOf(run);
   bool warned = false;
   ForEachScanInBag(bag, [&](const BagScan& scan) {
     if (!scan.tf_miss.empty()) {
@@ -260,7 +272,7 @@ int DetectInBag(const BagScanOptions& bag,
     } else {
       totals.push_back(result.timings_ms.Of(DetectionStage::kTotal));
     }
-    lines += BagLine(scan, result, detector.model(), bag.world_frame);
+    lines += BagLine(scan, result, detector.model(), provenance, bag.world_frame);
     if (markers) markers->Add(scan, result, detector.model());
     if (run.explain) Explain(scan.loaded.description, result, detector);
     progress->Advance();
