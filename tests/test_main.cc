@@ -5,6 +5,7 @@
 // read nor fill the user's cache.
 #include <gtest/gtest.h>
 
+#include <cstdio>
 #include <cstdlib>
 #include <string>
 
@@ -36,12 +37,40 @@ class ForcedIsaEnvironment : public ::testing::Environment {
   }
 };
 
+// FURN_TORCH_ISA=avx2 (the [torch-avx2] variants): libtorch's and oneDNN's
+// kernels capped at AVX2 before either first runs, so a machine with AVX-512
+// also tests the path most CPUs take. Skipped on a CPU without AVX2.
+bool ForceTorchIsa() {
+  const char* isa = std::getenv("FURN_TORCH_ISA");
+  if (isa == nullptr) return true;
+  if (std::string(isa) != "avx2") return false;
+  __builtin_cpu_init();
+  if (!__builtin_cpu_supports("avx2")) return true;  // ForcedIsaEnvironment skips
+  setenv("ATEN_CPU_CAPABILITY", "avx2", 1);
+  setenv("DNNL_MAX_CPU_ISA", "AVX2", 1);
+  return true;
+}
+
+class ForcedTorchIsaEnvironment : public ::testing::Environment {
+  void SetUp() override {
+    const char* isa = std::getenv("FURN_TORCH_ISA");
+    __builtin_cpu_init();
+    if (isa != nullptr && !__builtin_cpu_supports("avx2"))
+      GTEST_SKIP() << "this CPU lacks the ISA of FURN_TORCH_ISA=" << isa;
+  }
+};
+
 }  // namespace
 
 int main(int argc, char** argv) {
   ::testing::InitGoogleTest(&argc, argv);
+  if (!ForceTorchIsa()) {
+    std::fprintf(stderr, "FURN_TORCH_ISA='%s' must be avx2\n", std::getenv("FURN_TORCH_ISA"));
+    return 2;
+  }
   setenv("FURN_MESH_CACHE", "off", 1);
   ::testing::UnitTest::GetInstance()->listeners().Append(new ReseedListener);
   ::testing::AddGlobalTestEnvironment(new ForcedIsaEnvironment);
+  ::testing::AddGlobalTestEnvironment(new ForcedTorchIsaEnvironment);
   return RUN_ALL_TESTS();
 }
