@@ -18,14 +18,18 @@ class ReseedListener : public ::testing::EmptyTestEventListener {
 };
 
 // The ISA variants of the renderer, generate and evaluate tests force Embree
-// onto a narrower instruction set (FURN_EMBREE_CONFIG=isa=...). On a CPU
+// onto a narrower instruction set (FURN_EMBREE_CONFIG=isa=...), those of the
+// vote-net tests libtorch (FURN_TORCH_ISA=avx2, ForceTorchIsa). On a CPU
 // without that set they are skipped, not crashed with an illegal instruction.
 class ForcedIsaEnvironment : public ::testing::Environment {
   void SetUp() override {
+    __builtin_cpu_init();
+    if (const char* torch = std::getenv("FURN_TORCH_ISA");
+        torch != nullptr && !__builtin_cpu_supports("avx2"))
+      GTEST_SKIP() << "this CPU lacks the ISA of FURN_TORCH_ISA=" << torch;
     const char* config = std::getenv("FURN_EMBREE_CONFIG");
     if (config == nullptr) return;
     const std::string text = config;
-    __builtin_cpu_init();
     const bool cpu_has[] = {__builtin_cpu_supports("avx2") != 0,
                             __builtin_cpu_supports("avx512f") != 0,
                             __builtin_cpu_supports("sse4.2") != 0};
@@ -39,7 +43,7 @@ class ForcedIsaEnvironment : public ::testing::Environment {
 
 // FURN_TORCH_ISA=avx2 (the [torch-avx2] variants): libtorch's and oneDNN's
 // kernels capped at AVX2 before either first runs, so a machine with AVX-512
-// also tests the path most CPUs take. Skipped on a CPU without AVX2.
+// also tests the path most CPUs take. False for another value.
 bool ForceTorchIsa() {
   const char* isa = std::getenv("FURN_TORCH_ISA");
   if (isa == nullptr) return true;
@@ -50,15 +54,6 @@ bool ForceTorchIsa() {
   setenv("DNNL_MAX_CPU_ISA", "AVX2", 1);
   return true;
 }
-
-class ForcedTorchIsaEnvironment : public ::testing::Environment {
-  void SetUp() override {
-    const char* isa = std::getenv("FURN_TORCH_ISA");
-    __builtin_cpu_init();
-    if (isa != nullptr && !__builtin_cpu_supports("avx2"))
-      GTEST_SKIP() << "this CPU lacks the ISA of FURN_TORCH_ISA=" << isa;
-  }
-};
 
 }  // namespace
 
@@ -71,6 +66,5 @@ int main(int argc, char** argv) {
   setenv("FURN_MESH_CACHE", "off", 1);
   ::testing::UnitTest::GetInstance()->listeners().Append(new ReseedListener);
   ::testing::AddGlobalTestEnvironment(new ForcedIsaEnvironment);
-  ::testing::AddGlobalTestEnvironment(new ForcedTorchIsaEnvironment);
   return RUN_ALL_TESTS();
 }

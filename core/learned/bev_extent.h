@@ -41,7 +41,6 @@ struct FootprintBox {
   double width = 0, depth = 0;
 };
 
-
 // The BEV image's own test, for scans without a depth image: a point is
 // occupied where its cell's highest point reaches its height, else free
 // where the cell lies nearer than its bearing's farthest return (lenient: it

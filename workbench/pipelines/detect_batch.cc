@@ -9,7 +9,6 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 
-#include "core/geometry/mesh.h"  // ContentHasher
 #include "core/util/error.h"
 #include "core/util/file_util.h"
 #include "core/util/progress.h"
@@ -77,10 +76,7 @@ std::string CliHint(const LoadedScan& scan, const DetectionResult& result) {
 
 // The model file behind a run's JSON: its path and content hash.
 DetectionProvenance ProvenanceOf(const DetectRunOptions& run) {
-  const std::string bytes = ReadFileBytes(run.model_path);
-  ContentHasher hash;
-  hash.Update(bytes.data(), bytes.size());
-  return {run.model_path, hash.HexDigest()};
+  return {run.model_path, ModelFileHash(run.model_path)};
 }
 
 // One scan given by the user: its errors throw, with debug PNGs and repeats.

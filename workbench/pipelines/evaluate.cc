@@ -320,12 +320,6 @@ EvaluationOptions EvaluationOptionsOf(const EvaluateCommandOptions& options) {
   return evaluation;
 }
 
-std::string HashOf(const std::string& bytes) {
-  ContentHasher hash;
-  hash.Update(bytes.data(), bytes.size());
-  return hash.HexDigest();
-}
-
 // Detection in the selected frames at positions p with p % shard_count ==
 // shard_index (every frame when shard_count is 0), in order.
 std::vector<EvaluatedFrame> DetectFrames(DatasetDb& dataset,
@@ -430,7 +424,7 @@ EvaluateSummary EvaluateModel(const std::string& model_path,
   const bool shard = command_options.shard_count > 0;
   DatasetDb dataset(db_path,
                     shard ? DatasetDb::Mode::kReadOnly : DatasetDb::Mode::kReadWriteExisting);
-  const std::string model_hash = HashOf(ReadFileBytes(model_path));
+  const std::string model_hash = ModelFileHash(model_path);
   TrainedModel model = LoadTrainedModel(model_path);
   const EvaluateCommandOptions options = WithOperatingPoint(command_options, model);
   const std::string note = VoteNetInputNote(model, model_path, options.fusion.room_frames);
@@ -462,7 +456,7 @@ EvaluateSummary MergeEvaluation(const std::string& model_path,
   Require(!shard_paths.empty(), "no shard files to merge");
   const auto start = std::chrono::steady_clock::now();
   DatasetDb dataset(db_path, DatasetDb::Mode::kReadWriteExisting);
-  const std::string model_hash = HashOf(ReadFileBytes(model_path));
+  const std::string model_hash = ModelFileHash(model_path);
   const TrainedModel model = LoadTrainedModel(model_path);
   const EvaluateCommandOptions options = WithOperatingPoint(command_options, model);
   const ModelFacts facts = TrainedFactsOf(model);

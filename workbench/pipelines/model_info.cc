@@ -5,7 +5,9 @@
 #include <sstream>
 
 #include "core/codebook/hypothesis_scorer.h"
+#include "core/geometry/mesh.h"  // ShortHash
 #include "core/learned/vote_net.h"
+#include "core/util/file_util.h"
 #include "core/util/text.h"
 #include "reports/evaluation.h"
 
@@ -151,5 +153,7 @@ std::string DescribeOperatingPoint(const OperatingPoint& point) {
   }
   return out.str();
 }
+
+std::string ModelFileHash(const std::string& path) { return ShortHash(ReadFileBytes(path), 32); }
 
 }  // namespace furn

@@ -22,6 +22,10 @@ std::string VoteNetInputNote(const TrainedModel& model,
 
 // `model info`: what a model file holds, as text.
 std::string DescribeTrainedModel(const TrainedModel& model);
+
+// The model file's content hash (XXH3-128, 32 hex digits), as evaluation
+// runs store it and the detection JSON names it.
+std::string ModelFileHash(const std::string& path);
 // The operating point's lines of `model info`: each class's threshold and
 // what it measured where it was chosen.
 std::string DescribeOperatingPoint(const OperatingPoint& point);
