@@ -22,7 +22,7 @@
 #include <string>
 #include <vector>
 
-#include "core/model/furniture_class.h"
+#include "core/model/furniture_box.h"
 #include "db/split.h"
 #include "db/sqlite.h"
 
@@ -45,6 +45,9 @@ struct ObjectRecord {
   double x = 0, y = 0, z = 0, yaw = 0;            // world_from_object
   double reference_x = 0, reference_y = 0;        // footprint centre on the floor (SPEC §3)
   double width = 0, depth = 0, height = 0;        // m
+
+  // The piece's box: the reference point, yaw and footprint.
+  FurnitureBox Footprint() const { return {reference_x, reference_y, yaw, width, depth}; }
 };
 
 struct FrameObjectRecord {

@@ -18,18 +18,10 @@
 #include <vector>
 
 #include "core/detector/detector.h"
+#include "core/model/furniture_box.h"  // GroundTruthFootprint
 #include "renderers/camera.h"
 
 namespace furn {
-
-// A true object for the top-down view (from a dataset frame).
-struct GroundTruthFootprint {
-  std::optional<FurnitureClass> furniture_class;  // none for clutter
-  double x = 0, y = 0, yaw = 0, width = 0, depth = 0;
-  double height = 0;
-  std::string model_id;    // empty: not known
-  double visibility = -1;  // visible / amodal pixels in this frame; -1: not known
-};
 
 // What the folder's 3-D page (scene.html, reports/scene_view.h) is called
 // and links to.

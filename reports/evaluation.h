@@ -30,14 +30,12 @@
 
 namespace furn {
 
-struct TruthObject {
+struct TruthObject : FurnitureBox {  // the box in the world frame; footprint 0: unknown
   std::optional<FurnitureClass> furniture_class;  // none: clutter, never a target
   std::string model_id;
-  double x = 0, y = 0, yaw = 0;  // reference point and yaw, world frame
   double visibility = 0;         // visible / amodal pixels in this frame
   double distance_m = 0;         // from the camera to the reference point
   bool seen_in_training = true;  // false for evaluation-only CAD models
-  double width = 0, depth = 0;   // footprint (m); 0: unknown
   // Share of the object's 3-D box inside the camera's view (1: wholly in
   // the frame). `visibility` counts only the pixels in the frame; a long
   // table cut by the image's side is "fully visible" there but half in view.
@@ -48,13 +46,11 @@ struct TruthObject {
   bool seen_by_fused_frames = false;
 };
 
-struct ScoredDetection {
+struct ScoredDetection : FurnitureBox {  // footprint when the detector gives one
   FurnitureClass furniture_class = FurnitureClass::kChair;
   std::string model_id;
-  double x = 0, y = 0, yaw = 0;
   double score = 0;
-  int symmetry = 1;             // rotational symmetry order of the detected model (1, 2 or 4)
-  double width = 0, depth = 0;  // footprint (m) when the detector gives one (learned voting)
+  int symmetry = 1;  // rotational symmetry order of the detected model (1, 2 or 4)
 };
 
 struct HoughMaximum {

@@ -159,14 +159,12 @@ Fates FatesOf(const DetectionResult& result, const std::vector<GroundTruthFootpr
     TruthObject object;
     object.furniture_class = g.furniture_class;
     object.model_id = g.model_id;
-    object.x = g.x;
-    object.y = g.y;
+    object.box() = g.box();
     object.visibility = g.visibility < 0 ? 1.0 : g.visibility;
     frame.truth.push_back(object);
   }
   for (const Detection& d : result.detections) {
-    frame.detections.push_back(
-        {d.furniture_class, d.model_name, d.x, d.y, d.yaw, d.score, 1, d.width, d.depth});
+    frame.detections.push_back({d.box(), d.furniture_class, d.model_name, d.score, 1});
   }
   for (const DetectionDebug::Hypothesis& h : result.debug.hypotheses)
     frame.maxima.push_back({h.furniture_class, h.x, h.y, h.relative_weight, h.outcome});
@@ -215,8 +213,7 @@ Json TruthJson(const std::vector<GroundTruthFootprint>& truth, const Fates& fate
   for (size_t t = 0; t < truth.size(); ++t) {
     const GroundTruthFootprint& g = truth[t];
     const double height = g.height > 0 ? g.height : 0.8;
-    Json object =
-        BoxJson(FootprintBoxInWorld(Eigen::Vector3d(g.x, g.y, 0), g.yaw, g.width, g.depth, height));
+    Json object = BoxJson(WorldBoxOf(g, 0, height));
     object["class"] = g.furniture_class ? Json(ClassName(*g.furniture_class)) : Json(nullptr);
     object["model"] = g.model_id.empty() ? Json(nullptr) : Json(g.model_id);
     object["visibility"] = g.visibility >= 0 ? Json(g.visibility) : Json(nullptr);

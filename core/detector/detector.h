@@ -60,6 +60,7 @@
 #include "core/learned/bev_box_coder.h"
 #include "core/learned/bev_extent.h"
 #include "core/model/operating_point.h"
+#include "core/model/furniture_box.h"
 #include "core/model/trained_model.h"
 
 namespace furn {
@@ -207,12 +208,13 @@ struct DetectorOptions {
   void Check() const;
 };
 
-struct Detection {
+// The box (FurnitureBox: reference point, yaw, footprint; the footprint 0
+// when the detector gives none) and what found it.
+struct Detection : FurnitureBox {
   FurnitureClass furniture_class = FurnitureClass::kChair;
-  double x = 0, y = 0, z = 0, yaw = 0;  // reference point and yaw, world frame
-  int model_index = -1;                 // into the trained model's names
+  double z = 0;          // height of the reference point (the floor's, world frame)
+  int model_index = -1;  // into the trained model's names
   std::string model_name;
-  double width = 0, depth = 0;  // footprint (m) along the object's x and y; 0: unknown
   double score = 0;  // learned: the heat; else the scorer's probability or vs x covered x seen
   double vote_weight = 0;       // smoothed Hough value at the maximum
   double verification = 0;      // visibility score vs
@@ -334,7 +336,6 @@ struct DetectionDebug {
   };
   // A learned maximum's record (Hypothesis::learned).
   struct LearnedPeak {
-    double yaw = 0, width = 0, depth = 0;  // the network's box at the maximum
     // Where the peak cell's own vote put the centre, the summed weight of
     // the dense votes that placed it (0: the peak's own), and the cells
     // whose edge votes placed it (0: not by edges).
@@ -350,10 +351,13 @@ struct DetectionDebug {
     int extent_edges = -1;
     double extent_moved_m = 0;
   };
-  struct Hypothesis {
+  // The box: the maximum's position and, on the learned path, the network's
+  // yaw and footprint there (0 on the codebook path: a Hough maximum has
+  // neither).
+  struct Hypothesis : FurnitureBox {
     FurnitureClass furniture_class = FurnitureClass::kChair;
     // Codebook: the smoothed Hough value at the maximum; learned: its heat.
-    double x = 0, y = 0, vote_weight = 0;
+    double vote_weight = 0;
     double relative_weight = 0;         // (vote - min) / (max - min) of the class grid
     std::vector<int> segments;          // that voted for it
     std::vector<int> candidate_models;  // ranked by the part subsets

@@ -59,9 +59,9 @@ constexpr double kMostlyInside = 0.5;
 
 std::map<int, double> SegmentsInBox(const PreparedScan& scan,
                                     const DetectionDebug::Hypothesis& hypothesis) {
-  const DetectionDebug::LearnedPeak& peak = *hypothesis.learned;
-  const double c = std::cos(peak.yaw), s = std::sin(peak.yaw);
-  const double half_w = peak.width / 2 + kSupportMarginM, half_d = peak.depth / 2 + kSupportMarginM;
+  const double c = std::cos(hypothesis.yaw), s = std::sin(hypothesis.yaw);
+  const double half_w = hypothesis.width / 2 + kSupportMarginM;
+  const double half_d = hypothesis.depth / 2 + kSupportMarginM;
   std::map<int, double> support;
   const ViewSegments& view = scan.view;
   for (size_t segment = 0; segment < view.segments.size(); ++segment) {
@@ -111,16 +111,11 @@ void LearnedSource::FitExtents(const PreparedScan& scan, Proposals* proposals) c
     if (!FitsExtent(classes, d.furniture_class)) continue;
     DetectionDebug::Hypothesis& h = proposals->hypotheses[candidate.hypothesis];
     DetectionDebug::LearnedPeak& peak = *h.learned;
-    const ExtentFit fit =
-        FitExtent(proposals->image, {d.x, d.y, d.yaw, d.width, d.depth}, visibility, fit_options);
+    const ExtentFit fit = FitExtent(proposals->image, d.box(), visibility, fit_options);
     peak.extent_edges =
         static_cast<int>(std::count(fit.edge_seen.begin(), fit.edge_seen.end(), true));
     peak.extent_moved_m = std::hypot(fit.box.x - d.x, fit.box.y - d.y);
-    d.x = h.x = fit.box.x;
-    d.y = h.y = fit.box.y;
-    d.yaw = peak.yaw = fit.box.yaw;
-    d.width = peak.width = fit.box.width;
-    d.depth = peak.depth = fit.box.depth;
+    d.box() = h.box() = fit.box;
   }
 }
 
@@ -162,12 +157,8 @@ void LearnedSource::FitCandidates(const PreparedScan& scan, Proposals* proposals
 
 Detection LearnedSource::DetectionOf(const BevPeak& peak) {
   Detection d;
+  d.box() = peak.box();
   d.furniture_class = peak.furniture_class;
-  d.x = peak.x;
-  d.y = peak.y;
-  d.yaw = peak.yaw;
-  d.width = peak.width;
-  d.depth = peak.depth;
   d.score = d.vote_weight = peak.heat;
   return d;
 }
@@ -176,14 +167,12 @@ Proposals LearnedSource::Decode(const BevImage& image, const BevOutput& output) 
   Proposals proposals;
   for (const BevPeak& peak : DecodeBevOutput(image, output, detector_.options().LearnedDecode())) {
     DetectionDebug::Hypothesis h;
+    h.box() = peak.box();
     h.furniture_class = peak.furniture_class;
-    h.x = h.fit_x = peak.x;
-    h.y = h.fit_y = peak.y;
+    h.fit_x = peak.x;
+    h.fit_y = peak.y;
     h.vote_weight = h.relative_weight = peak.heat;
     DetectionDebug::LearnedPeak& record = h.learned.emplace();
-    record.yaw = peak.yaw;
-    record.width = peak.width;
-    record.depth = peak.depth;
     record.peak_x = peak.peak_x;
     record.peak_y = peak.peak_y;
     record.votes = peak.votes;

@@ -32,7 +32,7 @@ CellBox EncodeBox(const BevObject& object,
                   const BevFrame& frame,
                   const BevGridSpec& spec) {
   CellBox box;
-  box.offset_cells = frame.CellOf(object.centre, spec) - cell_centre;
+  box.offset_cells = frame.CellOf(object.Centre(), spec) - cell_centre;
   box.log_width = static_cast<float>(std::log(std::max(object.width, kMinSizeM)));
   box.log_depth = static_cast<float>(std::log(std::max(object.depth, kMinSizeM)));
   const double yaw = BevYawSymmetry(object.furniture_class) * (object.yaw - frame.heading);
@@ -78,7 +78,7 @@ CellVote DecodeCell(const BevOutput& output, int row, int col) {
 
 // Whether world point `xy` lies in the object's footprint widened by margin.
 bool InFootprint(const BevObject& object, const Eigen::Vector2d& xy, double margin) {
-  const Eigen::Vector2d local = Eigen::Rotation2Dd(-object.yaw) * (xy - object.centre);
+  const Eigen::Vector2d local = Eigen::Rotation2Dd(-object.yaw) * (xy - object.Centre());
   return std::abs(local.x()) <= object.width / 2 + margin &&
          std::abs(local.y()) <= object.depth / 2 + margin;
 }
@@ -118,7 +118,7 @@ int OwnerOf(const std::vector<BevObject>& objects, const Eigen::Vector2d& xy, do
   int owner = -1;
   double nearest = 1e30;
   for (size_t i = 0; i < objects.size(); ++i) {
-    const double distance = (objects[i].centre - xy).norm();
+    const double distance = (objects[i].Centre() - xy).norm();
     if (objects[i].target && distance < nearest && InFootprint(objects[i], xy, margin))
       owner = static_cast<int>(i), nearest = distance;
   }
@@ -157,7 +157,7 @@ Eigen::Vector4d FootprintBoxCells(const BevObject& object, const BevImage& image
   for (const double sx : {-0.5, 0.5}) {
     for (const double sy : {-0.5, 0.5}) {
       const Eigen::Vector2d corner =
-          object.centre + rotation * Eigen::Vector2d(sx * object.width, sy * object.depth);
+          object.Centre() + rotation * Eigen::Vector2d(sx * object.width, sy * object.depth);
       const Eigen::Vector2d cell = image.frame.CellOf(corner, image.spec);
       box[0] = std::min(box[0], cell.x());
       box[1] = std::max(box[1], cell.x());
@@ -415,7 +415,7 @@ void EncodeCentreCells(const std::vector<BevObject>& objects,
     if (targets->votes[i] > 0) taken_at[i] = -1;  // a dense vote's
   }
   for (const BevObject& object : objects) {
-    const Eigen::Vector2d cell = image.frame.CellOf(object.centre, spec);
+    const Eigen::Vector2d cell = image.frame.CellOf(object.Centre(), spec);
     if (!object.target || !InGrid(cell, spec)) continue;
     const int row = static_cast<int>(std::floor(cell.x())),
               col = static_cast<int>(std::floor(cell.y()));
@@ -529,7 +529,7 @@ BevTargets EncodeBevTargets(const std::vector<BevObject>& objects,
   targets.weight.assign(plane, 1.0f);
   if (options.edge_votes) targets.edges.assign(plane, 0.0f);
   for (const BevObject& object : objects) {
-    const Eigen::Vector2d cell = image.frame.CellOf(object.centre, spec);
+    const Eigen::Vector2d cell = image.frame.CellOf(object.Centre(), spec);
     if (!InGrid(cell, spec)) continue;
     if (!object.target) {
       ClearDisc(cell, options.ignore_radius_cells, spec, targets.weight.data());

@@ -172,10 +172,8 @@ struct BevDecodeOptions {
   void Check() const;
 };
 
-struct BevPeak {
+struct BevPeak : FurnitureBox {  // the decoded box, world frame
   FurnitureClass furniture_class = FurnitureClass::kChair;
-  double x = 0, y = 0, yaw = 0;  // world frame
-  double width = 0, depth = 0;   // footprint (m)
   double heat = 0;
   double peak_x = 0, peak_y = 0;  // the peak cell's own vote (world)
   double votes = 0;               // summed weight of the votes that placed it (kVotes)

@@ -22,7 +22,7 @@ struct BoxFrame {
   Eigen::Vector2d centre;
   Eigen::Vector2d axis_w, axis_d;
 
-  explicit BoxFrame(const FootprintBox& box)
+  explicit BoxFrame(const FurnitureBox& box)
       : centre(box.x, box.y),
         axis_w(std::cos(box.yaw), std::sin(box.yaw)),
         axis_d(-std::sin(box.yaw), std::cos(box.yaw)) {}
@@ -70,14 +70,14 @@ std::vector<LocalCell> WindowCells(const BevImage& image,
   return cells;
 }
 
-bool InInnerHalf(const LocalCell& cell, const FootprintBox& box, double cell_m) {
+bool InInnerHalf(const LocalCell& cell, const FurnitureBox& box, double cell_m) {
   return std::abs(cell.local.x()) <= box.width / 4 + cell_m &&
          std::abs(cell.local.y()) <= box.depth / 4 + cell_m;
 }
 
 // The median top height of the occupied cells in the box's inner half; < 0
 // when there are none.
-double TopHeight(const std::vector<LocalCell>& cells, const FootprintBox& box, double cell_m) {
+double TopHeight(const std::vector<LocalCell>& cells, const FurnitureBox& box, double cell_m) {
   std::vector<double> tops;
   for (const LocalCell& cell : cells) {
     if (cell.occupied && InInnerHalf(cell, box, cell_m)) tops.push_back(cell.top_m);
@@ -91,7 +91,7 @@ double TopHeight(const std::vector<LocalCell>& cells, const FootprintBox& box, d
 // The surface: cells near the top's height, 8-connected to those in the
 // inner half. Indices into `cells`.
 std::vector<int> SurfaceCells(const std::vector<LocalCell>& cells,
-                              const FootprintBox& box,
+                              const FurnitureBox& box,
                               double top_m,
                               const BevGridSpec& spec,
                               const ExtentFitOptions& options) {
@@ -228,7 +228,7 @@ struct Surface {
   double top_m = -1;
 };
 
-Surface SurfaceOf(const BevImage& image, const FootprintBox& box, const ExtentFitOptions& options) {
+Surface SurfaceOf(const BevImage& image, const FurnitureBox& box, const ExtentFitOptions& options) {
   Surface surface;
   surface.half_window = Eigen::Vector2d(box.width, box.depth) * (options.window_scale / 2) +
                         Eigen::Vector2d::Constant(options.window_margin_m);
@@ -259,7 +259,7 @@ Eigen::Vector2d TurnedLengths(const Surface& surface, double angle, double cell_
 // box's yaw; the box's yaw when no turn shrinks the rectangle by
 // options.min_area_gain (a round top has no yaw).
 double SurfaceYaw(const Surface& surface,
-                  const FootprintBox& box,
+                  const FurnitureBox& box,
                   double cell_m,
                   const ExtentFitOptions& options) {
   constexpr int kSteps = 90;  // 1 degree over a quarter turn
@@ -288,7 +288,7 @@ double SurfaceYaw(const Surface& surface,
 }  // namespace
 
 ExtentFit FitExtent(const BevImage& image,
-                    const FootprintBox& network_box,
+                    const FurnitureBox& network_box,
                     const VisibilityTest& visibility,
                     const ExtentFitOptions& options) {
   options.Check();
@@ -296,7 +296,7 @@ ExtentFit FitExtent(const BevImage& image,
   fit.box = network_box;
   const double cell_m = image.spec.cell_m;
   constexpr size_t kLeastCells = 4;
-  FootprintBox box = network_box;
+  FurnitureBox box = network_box;
   Surface surface = SurfaceOf(image, box, options);
   if (options.fit_yaw && surface.members.size() >= kLeastCells) {
     const double yaw = SurfaceYaw(surface, box, cell_m, options);

@@ -30,16 +30,10 @@
 
 #include "core/geometry/visibility.h"
 #include "core/learned/bev_grid.h"
+#include "core/model/furniture_box.h"
 #include "core/util/enum_text.h"
 
 namespace furn {
-
-// A footprint in the world frame: centre, yaw (its width along the yaw's
-// direction) and size (m).
-struct FootprintBox {
-  double x = 0, y = 0, yaw = 0;
-  double width = 0, depth = 0;
-};
 
 // The BEV image's own test, for scans without a depth image: a point is
 // occupied where its cell's highest point reaches its height, else free
@@ -79,7 +73,7 @@ struct ExtentFitOptions {
 };
 
 struct ExtentFit {
-  FootprintBox box;                 // the refined box (the network's where nothing moved)
+  FurnitureBox box;                 // the refined box (the network's where nothing moved)
   bool moved = false;               // at least one axis was refined
   std::array<bool, 4> edge_seen{};  // +width, -width, +depth, -depth sides
   int surface_cells = 0;
@@ -87,7 +81,7 @@ struct ExtentFit {
 };
 
 ExtentFit FitExtent(const BevImage& image,
-                    const FootprintBox& network_box,
+                    const FurnitureBox& network_box,
                     const VisibilityTest& visibility,
                     const ExtentFitOptions& options);
 

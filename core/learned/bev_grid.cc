@@ -177,9 +177,9 @@ BevImage RasteriseScan(const std::vector<Eigen::Vector3f>& camera_points,
 
 BevObject MirroredObject(const BevObject& object, const BevFrame& frame) {
   BevObject mirrored = object;
-  const Eigen::Vector2d d = object.centre - frame.origin;
-  mirrored.centre =
-      frame.origin + frame.forward * d.dot(frame.forward) - frame.Left() * d.dot(frame.Left());
+  const Eigen::Vector2d d = object.Centre() - frame.origin;
+  mirrored.SetCentre(frame.origin + frame.forward * d.dot(frame.forward) -
+                     frame.Left() * d.dot(frame.Left()));
   mirrored.yaw = WrapAngle(frame.heading + M_PI - (object.yaw - frame.heading));
   return mirrored;
 }

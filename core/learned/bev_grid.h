@@ -28,7 +28,7 @@
 #include <vector>
 
 #include "core/learned/bev_channels.h"
-#include "core/model/furniture_class.h"
+#include "core/model/furniture_box.h"
 
 namespace furn {
 
@@ -112,15 +112,11 @@ BevImage RasteriseScan(const std::vector<Eigen::Vector3f>& camera_points,
                        double max_range_m,
                        const BevGridSpec& spec);
 
-// One labelled object: its footprint centre (world xy), yaw, footprint
-// width (along its x) and depth (m). An object seen too little to be a
+// One labelled object: its box (world frame) and class. An object seen too little to be a
 // target (target false) is neither rewarded nor punished: the loss ignores
 // the heat around it.
-struct BevObject {
+struct BevObject : FurnitureBox {
   FurnitureClass furniture_class = FurnitureClass::kChair;
-  Eigen::Vector2d centre = Eigen::Vector2d::Zero();
-  double yaw = 0;
-  double width = 0, depth = 0;
   bool target = true;
 };
 

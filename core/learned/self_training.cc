@@ -12,10 +12,7 @@ namespace {
 BevObject ObjectOf(const BevPeak& peak) {
   BevObject object;
   object.furniture_class = peak.furniture_class;
-  object.centre = {peak.x, peak.y};
-  object.yaw = peak.yaw;
-  object.width = peak.width;
-  object.depth = peak.depth;
+  object.box() = peak.box();
   return object;
 }
 
@@ -80,8 +77,8 @@ BevSample PseudoLabelledSample(const VoteNet& net,
     for (size_t i = 0; i < mirror.size() && !confirmed && peak.heat >= threshold; ++i) {
       if (mirror[i].furniture_class != peak.furniture_class || mirror_heats[i] < threshold)
         continue;
-      if ((mirror[i].centre - object.centre).norm() > options.mirror_match_m) continue;
-      object.centre = 0.5 * (object.centre + mirror[i].centre);
+      if ((mirror[i].Centre() - object.Centre()).norm() > options.mirror_match_m) continue;
+      object.SetCentre(0.5 * (object.Centre() + mirror[i].Centre()));
       confirmed = true;
     }
     object.target = confirmed;

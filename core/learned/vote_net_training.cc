@@ -42,7 +42,7 @@ void KeepWeightNearTargets(const std::vector<BevObject>& objects,
   std::vector<char> near(static_cast<size_t>(spec.rows) * spec.cols, 0);
   for (const BevObject& object : objects) {
     if (!object.target) continue;
-    const Eigen::Vector2d cell = image.frame.CellOf(object.centre, spec);
+    const Eigen::Vector2d cell = image.frame.CellOf(object.Centre(), spec);
     const double reach =
         0.5 * std::hypot(object.width, object.depth) / spec.cell_m + kUnknownBackgroundReachCells;
     for (int r = 0; r < spec.rows; ++r) {

@@ -64,7 +64,7 @@ void BM_VoteNetTrainStep(benchmark::State& state) {
   for (int i = 0; i < batch; ++i) {
     training.images.push_back(RandomImage(&random));
     training.targets.push_back(EncodeBevTargets(
-        {{FurnitureClass::kChair, {1.5, 0.2}, 0.5, 0.5, 0.5}}, training.images.back(), {}));
+        {{{1.5, 0.2, 0.5, 0.5, 0.5}, FurnitureClass::kChair}}, training.images.back(), {}));
   }
   for (auto _ : state) benchmark::DoNotOptimize(optimizer.Step(training, 1e-3));
   state.counters["frames_per_s"] = benchmark::Counter(

@@ -27,7 +27,7 @@ BevImage ImageWith(const std::vector<BevObject>& objects) {
     for (int c = 0; c < image.spec.cols; ++c) {
       const Eigen::Vector2d xy = image.frame.WorldOf({r + 0.5, c + 0.5}, image.spec);
       for (const BevObject& object : objects) {
-        const Eigen::Vector2d local = Eigen::Rotation2Dd(-object.yaw) * (xy - object.centre);
+        const Eigen::Vector2d local = Eigen::Rotation2Dd(-object.yaw) * (xy - object.Centre());
         if (std::abs(local.x()) < object.width / 2 && std::abs(local.y()) < object.depth / 2)
           image.At(3, r, c) = 0.5f;  // points 0.5-0.8 m
       }
@@ -47,16 +47,16 @@ size_t At(const BevGridSpec& spec, int channel, int row, int col) {
   return (static_cast<size_t>(channel) * spec.rows + row) * spec.cols + col;
 }
 
-const BevObject kTable{FurnitureClass::kTable, {2.012, 0.537}, 0.3, 1.2, 0.8};
-const BevObject kChair{FurnitureClass::kChair, {1.013, -0.513}, 2.0, 0.5, 0.55};
+const BevObject kTable{{2.012, 0.537, 0.3, 1.2, 0.8}, FurnitureClass::kTable};
+const BevObject kChair{{1.013, -0.513, 2.0, 0.5, 0.55}, FurnitureClass::kChair};
 
 TEST(BevBoxCoder, HeatPeaksAtCentresAndOccupiedFootprintCellsVote) {
-  const BevObject outside{FurnitureClass::kChair, {-1.0, 0.0}, 0.0, 0.5, 0.5};
+  const BevObject outside{{-1.0, 0.0, 0.0, 0.5, 0.5}, FurnitureClass::kChair};
   const BevImage image = ImageWith({kTable, kChair});
   const BevGridSpec& spec = image.spec;
   const BevTargets t = EncodeBevTargets({kTable, kChair, outside}, image, BevCoderOptions::Dense());
   EXPECT_EQ(t.objects, 2);
-  const Eigen::Vector2d cell = image.frame.CellOf(kTable.centre, spec);
+  const Eigen::Vector2d cell = image.frame.CellOf(kTable.Centre(), spec);
   const int row = static_cast<int>(cell.x()), col = static_cast<int>(cell.y());
   const int table = ch::kHeat[static_cast<int>(FurnitureClass::kTable)];
   EXPECT_FLOAT_EQ(t.values[At(spec, table, row, col)], 1.0f);
@@ -64,7 +64,7 @@ TEST(BevBoxCoder, HeatPeaksAtCentresAndOccupiedFootprintCellsVote) {
   EXPECT_EQ(t.values[At(spec, ch::kHeat[static_cast<int>(FurnitureClass::kChair)], row, col)], 0);
   // A cell near the table's corner votes for its centre, in tenths of a metre.
   const Eigen::Vector2d corner_xy =
-      kTable.centre + Eigen::Rotation2Dd(kTable.yaw) * Eigen::Vector2d(0.5, 0.3);
+      kTable.Centre() + Eigen::Rotation2Dd(kTable.yaw) * Eigen::Vector2d(0.5, 0.3);
   const Eigen::Vector2d corner = image.frame.CellOf(corner_xy, spec);
   const int cr = static_cast<int>(corner.x()), cc = static_cast<int>(corner.y());
   EXPECT_EQ(t.votes[static_cast<size_t>(cr) * spec.cols + cc], 1.0f);
@@ -81,7 +81,7 @@ TEST(BevBoxCoder, HeatPeaksAtCentresAndOccupiedFootprintCellsVote) {
   EXPECT_EQ(t.votes[free_at], 0.0f);
   EXPECT_EQ(t.weight[free_at], 1.0f);
   // A table turned half a turn is the same table: the same yaw target.
-  const BevObject turned{FurnitureClass::kTable, kTable.centre, 0.3 + M_PI, 1.2, 0.8};
+  const BevObject turned{{kTable.x, kTable.y, 0.3 + M_PI, 1.2, 0.8}, FurnitureClass::kTable};
   const BevTargets u = EncodeBevTargets({turned}, image, BevCoderOptions::Dense());
   for (int k = 0; k < 2; ++k) {
     EXPECT_NEAR(
@@ -95,7 +95,7 @@ TEST(BevBoxCoder, ObjectsSeenTooLittleAreIgnoredNotPunished) {
   const BevImage image = ImageWith({kTable, glimpsed});
   const BevTargets t = EncodeBevTargets({kTable, glimpsed}, image, BevCoderOptions::Dense());
   EXPECT_EQ(t.objects, 1);
-  const Eigen::Vector2d cell = image.frame.CellOf(glimpsed.centre, image.spec);
+  const Eigen::Vector2d cell = image.frame.CellOf(glimpsed.Centre(), image.spec);
   const size_t at = static_cast<size_t>(cell.x()) * image.spec.cols + static_cast<size_t>(cell.y());
   EXPECT_EQ(t.weight[at], 0.0f);
   EXPECT_EQ(t.votes[at], 0.0f);
@@ -121,8 +121,8 @@ TEST(BevBoxCoder, DecodingTheTargetsGivesBackTheObjects) {
         if (peak.furniture_class == object.furniture_class) found = &peak;
       }
       ASSERT_NE(found, nullptr);
-      EXPECT_NEAR(found->x, object.centre.x(), 1e-4) << EnumName(centre);
-      EXPECT_NEAR(found->y, object.centre.y(), 1e-4) << EnumName(centre);
+      EXPECT_NEAR(found->x, object.Centre().x(), 1e-4) << EnumName(centre);
+      EXPECT_NEAR(found->y, object.Centre().y(), 1e-4) << EnumName(centre);
       EXPECT_NEAR(found->width, object.width, 1e-4);
       EXPECT_NEAR(found->depth, object.depth, 1e-4);
       const double period = 2 * M_PI / BevYawSymmetry(object.furniture_class);
@@ -139,7 +139,7 @@ TEST(BevBoxCoder, VotesOutvoteOneWrongPeakCell) {
   const BevImage image = ImageWith({kTable});
   const BevTargets t = EncodeBevTargets({kTable}, image, BevCoderOptions::Dense());
   BevOutput output = PerfectOutput(t, image.spec);
-  const Eigen::Vector2d cell = image.frame.CellOf(kTable.centre, image.spec);
+  const Eigen::Vector2d cell = image.frame.CellOf(kTable.Centre(), image.spec);
   const int row = static_cast<int>(cell.x()), col = static_cast<int>(cell.y());
   output.values[At(image.spec, ch::kOffset[1], row, col)] += 1.5f;  // 15 cm to the left
   BevDecodeOptions options;
@@ -147,8 +147,8 @@ TEST(BevBoxCoder, VotesOutvoteOneWrongPeakCell) {
   const BevPeak peak = DecodeBevOutput(image, output, options).front();
   options.centre = BevCentre::kVotes;
   const BevPeak voted = DecodeBevOutput(image, output, options).front();
-  EXPECT_NEAR(std::hypot(peak.x - kTable.centre.x(), peak.y - kTable.centre.y()), 0.15, 1e-4);
-  EXPECT_LT(std::hypot(voted.x - kTable.centre.x(), voted.y - kTable.centre.y()), 0.01);
+  EXPECT_NEAR(std::hypot(peak.x - kTable.Centre().x(), peak.y - kTable.Centre().y()), 0.15, 1e-4);
+  EXPECT_LT(std::hypot(voted.x - kTable.Centre().x(), voted.y - kTable.Centre().y()), 0.01);
   EXPECT_NEAR(voted.peak_x, peak.x, 1e-9);  // the peak cell's own vote, reported
   EXPECT_GT(voted.votes, 100);
   // A network trained without dense votes: its other cells' offsets mean
@@ -168,7 +168,7 @@ TEST(BevBoxCoder, CentreCellEncodingRegressesAtTheCentreOnly) {
   const BevGridSpec& spec = image.spec;
   const BevTargets t = EncodeBevTargets({kTable, glimpsed}, image, BevCoderOptions{});
   EXPECT_EQ(t.objects, 1);
-  const Eigen::Vector2d cell = image.frame.CellOf(kTable.centre, spec);
+  const Eigen::Vector2d cell = image.frame.CellOf(kTable.Centre(), spec);
   const int row = static_cast<int>(cell.x()), col = static_cast<int>(cell.y());
   const int table = ch::kHeat[static_cast<int>(FurnitureClass::kTable)];
   const double sigma = BevSplatSigma(kTable.width, kTable.depth, spec);
@@ -182,8 +182,8 @@ TEST(BevBoxCoder, CentreCellEncodingRegressesAtTheCentreOnly) {
   const std::vector<BevPeak> peaks =
       DecodeBevOutput(image, PerfectOutput(t, spec, /*dense_votes=*/false), BevDecodeOptions{});
   ASSERT_EQ(peaks.size(), 1u);
-  EXPECT_NEAR(peaks[0].x, kTable.centre.x(), 1e-4);
-  EXPECT_NEAR(peaks[0].y, kTable.centre.y(), 1e-4);
+  EXPECT_NEAR(peaks[0].x, kTable.Centre().x(), 1e-4);
+  EXPECT_NEAR(peaks[0].y, kTable.Centre().y(), 1e-4);
   EXPECT_NEAR(peaks[0].width, kTable.width, 1e-4);
 }
 
@@ -192,8 +192,8 @@ TEST(BevBoxCoder, CentreCellEncodingRegressesAtTheCentreOnly) {
 // none), so a heat peak that lands a cell off the centre decodes to the
 // centre; the centre cell alone (radius 0) is the encoding as before.
 TEST(BevBoxCoder, CentreRadiusCellsRegressTheCentreTheyAreNear) {
-  const BevObject left{FurnitureClass::kChair, {1.512, 0.312}, 0.2, 0.5, 0.5};
-  const BevObject right{FurnitureClass::kChair, {1.512, 0.162}, 0.2, 0.5, 0.5};
+  const BevObject left{{1.512, 0.312, 0.2, 0.5, 0.5}, FurnitureClass::kChair};
+  const BevObject right{{1.512, 0.162, 0.2, 0.5, 0.5}, FurnitureClass::kChair};
   const BevImage image = ImageWith({left, right});
   const BevGridSpec& spec = image.spec;
   BevCoderOptions coder;
@@ -210,7 +210,7 @@ TEST(BevBoxCoder, CentreRadiusCellsRegressTheCentreTheyAreNear) {
   // regresses the centre of the chair it is nearer.
   for (const int toward : {-1, 1}) {  // columns grow to the left: -1 is rightwards
     const BevObject& chair = toward < 0 ? left : right;
-    const Eigen::Vector2d cell = image.frame.CellOf(chair.centre, spec);
+    const Eigen::Vector2d cell = image.frame.CellOf(chair.Centre(), spec);
     const int row = static_cast<int>(cell.x()), col = static_cast<int>(cell.y());
     BevOutput output = PerfectOutput(wide, spec, /*dense_votes=*/false);
     const int heat = ch::kHeat[static_cast<int>(FurnitureClass::kChair)];
@@ -222,13 +222,13 @@ TEST(BevBoxCoder, CentreRadiusCellsRegressTheCentreTheyAreNear) {
     const BevPeak* nearest = nullptr;
     const std::vector<BevPeak> peaks = DecodeBevOutput(image, output, decode);
     for (const BevPeak& peak : peaks) {
-      if (!nearest || std::hypot(peak.x - chair.centre.x(), peak.y - chair.centre.y()) <
-                          std::hypot(nearest->x - chair.centre.x(), nearest->y - chair.centre.y()))
+      if (!nearest || std::hypot(peak.x - chair.Centre().x(), peak.y - chair.Centre().y()) <
+                          std::hypot(nearest->x - chair.Centre().x(), nearest->y - chair.Centre().y()))
         nearest = &peak;
     }
     ASSERT_NE(nearest, nullptr);
-    EXPECT_NEAR(nearest->x, chair.centre.x(), 1e-4);
-    EXPECT_NEAR(nearest->y, chair.centre.y(), 1e-4);
+    EXPECT_NEAR(nearest->x, chair.Centre().x(), 1e-4);
+    EXPECT_NEAR(nearest->y, chair.Centre().y(), 1e-4);
   }
   coder.centre_radius_cells = 10.5;
   EXPECT_THROW(coder.Check(), InputError);
@@ -240,8 +240,8 @@ TEST(BevBoxCoder, CentreRadiusCellsRegressTheCentreTheyAreNear) {
 // 20 cm along its length, and leaves a chair beside it (whose cells place
 // another box) and the chair's own centre alone.
 TEST(BevBoxCoder, EdgeVotesCentreALongTableWhereItsPeakSlid) {
-  const BevObject table{FurnitureClass::kTable, {2.1, 0.2}, 0.3, 2.0, 0.9};
-  const BevObject chair{FurnitureClass::kChair, {2.0, -0.85}, 1.8, 0.5, 0.5};
+  const BevObject table{{2.1, 0.2, 0.3, 2.0, 0.9}, FurnitureClass::kTable};
+  const BevObject chair{{2.0, -0.85, 1.8, 0.5, 0.5}, FurnitureClass::kChair};
   const BevImage image = ImageWith({table, chair});
   const BevGridSpec& spec = image.spec;
   BevCoderOptions coder;
@@ -257,7 +257,7 @@ TEST(BevBoxCoder, EdgeVotesCentreALongTableWhereItsPeakSlid) {
   for (double sx : {-1.0, 1.0}) {
     for (double sy : {-1.0, 1.0}) {
       const Eigen::Vector2d corner =
-          table.centre + Eigen::Rotation2Dd(table.yaw) * Eigen::Vector2d(sx * 1.0, sy * 0.45);
+          table.Centre() + Eigen::Rotation2Dd(table.yaw) * Eigen::Vector2d(sx * 1.0, sy * 0.45);
       row_min = std::min(row_min, image.frame.CellOf(corner, spec).x());
       row_max = std::max(row_max, image.frame.CellOf(corner, spec).x());
     }
@@ -275,7 +275,7 @@ TEST(BevBoxCoder, EdgeVotesCentreALongTableWhereItsPeakSlid) {
   // A shelf behind the table (no target: its cells' distances are never
   // trained, and here claim the table's far side at their own row, with a
   // centre 12.5 cm beyond the table's) has membership 0 and does not vote.
-  const BevObject shelf{FurnitureClass::kSideboard, {3.45, 0.2}, 0.0, 0.3, 1.5, false};
+  const BevObject shelf{{3.45, 0.2, 0.0, 0.3, 1.5}, FurnitureClass::kSideboard, false};
   const BevImage with_shelf = ImageWith({table, chair, shelf});
   const BevTargets t2 = EncodeBevTargets({table, chair, shelf}, with_shelf, coder);
   EXPECT_EQ(t2.values, t.values);  // the shelf encodes nothing
@@ -286,13 +286,13 @@ TEST(BevBoxCoder, EdgeVotesCentreALongTableWhereItsPeakSlid) {
       ASSERT_GT(xy.x(), 3.25);
       t.values[At(spec, ch::kEdges[1], r, c)] = std::log(0.0f + ch::kEdgeEpsM);
       t.values[At(spec, ch::kEdges[0], r, c)] = std::log(static_cast<float>(
-          (r + 0.5 - image.frame.CellOf(table.centre, spec).x()) * 2 * spec.cell_m - 0.25 +
+          (r + 0.5 - image.frame.CellOf(table.Centre(), spec).x()) * 2 * spec.cell_m - 0.25 +
           ch::kEdgeEpsM));
     }
   }
 
   // The table's centre cell votes 20 cm off along the grid's rows.
-  const Eigen::Vector2d cell = image.frame.CellOf(table.centre, spec);
+  const Eigen::Vector2d cell = image.frame.CellOf(table.Centre(), spec);
   const int row = static_cast<int>(cell.x()), col = static_cast<int>(cell.y());
   t.values[At(spec, ch::kOffset[0], row, col)] += 0.2f / ch::kOffsetUnitM;
   BevOutput output{spec, t.values, /*dense_votes=*/false, /*edge_votes=*/true};
@@ -306,12 +306,12 @@ TEST(BevBoxCoder, EdgeVotesCentreALongTableWhereItsPeakSlid) {
   };
   const BevPeak slid =
       of_class(DecodeBevOutput(with_shelf, output, options), FurnitureClass::kTable);
-  EXPECT_NEAR(std::hypot(slid.x - table.centre.x(), slid.y - table.centre.y()), 0.2, 1e-3);
+  EXPECT_NEAR(std::hypot(slid.x - table.Centre().x(), slid.y - table.Centre().y()), 0.2, 1e-3);
   EXPECT_EQ(slid.edge_cells, 0);
   options.edge_classes = BevEdgeClasses::kAll;
   const std::vector<BevPeak> peaks = DecodeBevOutput(with_shelf, output, options);
   const BevPeak placed = of_class(peaks, FurnitureClass::kTable);
-  EXPECT_LT(std::hypot(placed.x - table.centre.x(), placed.y - table.centre.y()), 0.01);
+  EXPECT_LT(std::hypot(placed.x - table.Centre().x(), placed.y - table.Centre().y()), 0.01);
   // Were the shelf's cells members, they would pull the far side in.
   for (int r = 0; r < spec.rows; ++r) {
     for (int c = 0; c < spec.cols; ++c) {
@@ -321,10 +321,10 @@ TEST(BevBoxCoder, EdgeVotesCentreALongTableWhereItsPeakSlid) {
   }
   const BevPeak pulled =
       of_class(DecodeBevOutput(with_shelf, output, options), FurnitureClass::kTable);
-  EXPECT_GT(std::hypot(pulled.x - table.centre.x(), pulled.y - table.centre.y()), 0.02);
+  EXPECT_GT(std::hypot(pulled.x - table.Centre().x(), pulled.y - table.Centre().y()), 0.02);
   EXPECT_GT(placed.edge_cells, 300);  // 2 x 0.9 m of 5 cm cells: about 720
   const BevPeak seat = of_class(peaks, FurnitureClass::kChair);
-  EXPECT_LT(std::hypot(seat.x - chair.centre.x(), seat.y - chair.centre.y()), 0.01);
+  EXPECT_LT(std::hypot(seat.x - chair.Centre().x(), seat.y - chair.Centre().y()), 0.01);
   EXPECT_LT(seat.edge_cells, 150);  // its own cells, not the table's
   EXPECT_GT(seat.edge_cells, 50);
 }
@@ -335,7 +335,7 @@ TEST(BevBoxCoder, CrossClassSuppressionIsAnOption) {
   BevObject armchair = kChair;
   armchair.furniture_class = FurnitureClass::kArmchair;
   BevTargets t = EncodeBevTargets({kChair, armchair}, image, BevCoderOptions::Dense());
-  const Eigen::Vector2d cell = image.frame.CellOf(kChair.centre, image.spec);
+  const Eigen::Vector2d cell = image.frame.CellOf(kChair.Centre(), image.spec);
   t.values[At(image.spec,
               ch::kHeat[static_cast<int>(FurnitureClass::kArmchair)],
               static_cast<int>(cell.x()),
@@ -357,10 +357,10 @@ TEST(BevBoxCoder, AClassMaximumSeenTwiceIsOneObject) {
   // Two chairs 0.6 m apart; the first's heat has a second, weaker maximum
   // three cells off, whose votes centre it on the same chair.
   BevObject neighbour = kChair;
-  neighbour.centre += Eigen::Vector2d(0.0, 0.6);
+  neighbour.y += 0.6;
   const BevImage image = ImageWith({kChair, neighbour});
   BevTargets t = EncodeBevTargets({kChair, neighbour}, image, BevCoderOptions::Dense());
-  const Eigen::Vector2d cell = image.frame.CellOf(kChair.centre, image.spec);
+  const Eigen::Vector2d cell = image.frame.CellOf(kChair.Centre(), image.spec);
   t.values[At(image.spec,
               ch::kHeat[static_cast<int>(FurnitureClass::kChair)],
               static_cast<int>(cell.x()) + 3,
@@ -369,9 +369,9 @@ TEST(BevBoxCoder, AClassMaximumSeenTwiceIsOneObject) {
   const std::vector<BevPeak> once = DecodeBevOutput(image, PerfectOutput(t, image.spec), options);
   ASSERT_EQ(once.size(), 2u);
   for (const BevPeak& peak : once) {
-    const double to_first = std::hypot(peak.x - kChair.centre.x(), peak.y - kChair.centre.y());
+    const double to_first = std::hypot(peak.x - kChair.Centre().x(), peak.y - kChair.Centre().y());
     const double to_second =
-        std::hypot(peak.x - neighbour.centre.x(), peak.y - neighbour.centre.y());
+        std::hypot(peak.x - neighbour.Centre().x(), peak.y - neighbour.Centre().y());
     EXPECT_LT(std::min(to_first, to_second), 0.01);
     EXPECT_EQ(peak.heat, 1.0);
   }
@@ -379,7 +379,7 @@ TEST(BevBoxCoder, AClassMaximumSeenTwiceIsOneObject) {
   const std::vector<BevPeak> twice = DecodeBevOutput(image, PerfectOutput(t, image.spec), options);
   ASSERT_EQ(twice.size(), 3u);
   EXPECT_NEAR(twice[2].heat, 0.7, 1e-6);
-  EXPECT_LT(std::hypot(twice[2].x - kChair.centre.x(), twice[2].y - kChair.centre.y()), 0.05);
+  EXPECT_LT(std::hypot(twice[2].x - kChair.Centre().x(), twice[2].y - kChair.Centre().y()), 0.05);
   // Another class at the same place is not the same object.
   t.values[At(image.spec,
               ch::kHeat[static_cast<int>(FurnitureClass::kArmchair)],

@@ -15,7 +15,7 @@ namespace furn {
 namespace {
 
 // A rectangle of points at height z, every 1 cm.
-void AddRectangle(const FootprintBox& box, double z, std::vector<Eigen::Vector3f>* points) {
+void AddRectangle(const FurnitureBox& box, double z, std::vector<Eigen::Vector3f>* points) {
   const Eigen::Rotation2Dd rotation(box.yaw);
   for (double a = -box.width / 2; a <= box.width / 2; a += 0.01) {
     for (double b = -box.depth / 2; b <= box.depth / 2; b += 0.01) {
@@ -28,7 +28,7 @@ void AddRectangle(const FootprintBox& box, double z, std::vector<Eigen::Vector3f
 
 // A sensor at (0, 0, 1.2) looking along +x over a floor seen to 3.5 m, with
 // the given surfaces.
-BevImage Scan(const std::vector<std::pair<FootprintBox, double>>& surfaces) {
+BevImage Scan(const std::vector<std::pair<FurnitureBox, double>>& surfaces) {
   std::vector<Eigen::Vector3f> points;
   AddRectangle({1.75, 0, 0, 3.5, 4.8}, 0.0, &points);  // the floor
   for (const auto& [box, z] : surfaces) AddRectangle(box, z, &points);
@@ -36,11 +36,11 @@ BevImage Scan(const std::vector<std::pair<FootprintBox, double>>& surfaces) {
   return RasteriseBev(points, Eigen::Vector3f(0, 0, 1.2f), BevFrame{}, spec);
 }
 
-const FootprintBox kTable{2.0, 0.3, 0.4, 2.0, 0.9};
+const FurnitureBox kTable{2.0, 0.3, 0.4, 2.0, 0.9};
 
 // The network's box: right yaw, 25 cm off along the length, too short.
-FootprintBox NetworkBox() {
-  FootprintBox box = kTable;
+FurnitureBox NetworkBox() {
+  FurnitureBox box = kTable;
   box.x += 0.25 * std::cos(kTable.yaw);
   box.y += 0.25 * std::sin(kTable.yaw);
   box.width = 1.4;
@@ -56,7 +56,7 @@ Eigen::Vector2d TableAxis() { return {std::cos(kTable.yaw), std::sin(kTable.yaw)
 
 // Only the near half of the top returned points.
 BevImage NearHalfScan() {
-  FootprintBox near_half = kTable;
+  FurnitureBox near_half = kTable;
   near_half.width = 1.0;
   near_half.x -= 0.5 * TableAxis().x();
   near_half.y -= 0.5 * TableAxis().y();
@@ -105,7 +105,7 @@ TEST(ExtentFit, WithoutOneEdgeMovesOnlyAxesSeenWholeMove) {
   const VisibilityTest visibility = FarHalfUnknown(image);
   ExtentFitOptions options;
   options.one_edge_moves = false;
-  const FootprintBox network = NetworkBox();
+  const FurnitureBox network = NetworkBox();
   const ExtentFit fit = FitExtent(image, network, visibility, options);
   // Along the length (one end seen) nothing moved; across it (both seen) the
   // box spans the top's 0.9 m.
@@ -117,7 +117,7 @@ TEST(ExtentFit, WithoutOneEdgeMovesOnlyAxesSeenWholeMove) {
 
 TEST(ExtentFit, ALowerNeighbourDoesNotJoinTheTop) {
   // A chair's seat (0.45 m) touching the table's +width end.
-  const FootprintBox seat{kTable.x + 1.25 * std::cos(kTable.yaw),
+  const FurnitureBox seat{kTable.x + 1.25 * std::cos(kTable.yaw),
                           kTable.y + 1.25 * std::sin(kTable.yaw),
                           kTable.yaw,
                           0.5,
@@ -131,7 +131,7 @@ TEST(ExtentFit, ALowerNeighbourDoesNotJoinTheTop) {
 
 TEST(ExtentFit, NothingMovesWithoutASurface) {
   const BevImage image = Scan({});
-  const FootprintBox box = NetworkBox();
+  const FurnitureBox box = NetworkBox();
   const ExtentFit fit = FitExtent(image, box, ImageVisibility(image), ExtentFitOptions{});
   EXPECT_FALSE(fit.moved);
   EXPECT_EQ(fit.surface_cells, 0);

@@ -122,22 +122,22 @@ TEST(BevGrid, MirroredObjectsFaceTheMirroredWay) {
   BevFrame frame = BevFrameOf(LevelCamera());
   // A chair 2 m ahead, 0.4 m left, turned so its front (-y) faces the
   // camera's left (+y of the world here): yaw pi.
-  const BevObject chair{FurnitureClass::kChair, {2.0, 0.4}, M_PI, 0.5, 0.5};
+  const BevObject chair{{2.0, 0.4, M_PI, 0.5, 0.5}, FurnitureClass::kChair};
   const BevObject mirrored = MirroredObject(chair, frame);
-  EXPECT_TRUE(mirrored.centre.isApprox(Eigen::Vector2d(2.0, -0.4)));
+  EXPECT_TRUE(mirrored.Centre().isApprox(Eigen::Vector2d(2.0, -0.4)));
   const Eigen::Vector2d front = Eigen::Rotation2Dd(mirrored.yaw) * Eigen::Vector2d(0, -1);
   EXPECT_NEAR(front.y(), -1, 1e-9) << "faces the camera's right once mirrored";
   // Twice mirrored is the object itself; under another heading too.
   frame = BevFrameOf(Eigen::Isometry3d(Eigen::AngleAxisd(0.7, Eigen::Vector3d::UnitZ())) *
                      LevelCamera());
-  const BevObject table{FurnitureClass::kTable, {1.3, -0.9}, 0.25, 1.2, 0.8};
+  const BevObject table{{1.3, -0.9, 0.25, 1.2, 0.8}, FurnitureClass::kTable};
   const BevObject twice = MirroredObject(MirroredObject(table, frame), frame);
-  EXPECT_TRUE(twice.centre.isApprox(table.centre));
+  EXPECT_TRUE(twice.Centre().isApprox(table.Centre()));
   EXPECT_NEAR(std::remainder(twice.yaw - table.yaw, 2 * M_PI), 0, 1e-9);
   // Its cell is the image's mirrored column.
   const BevGridSpec spec;
-  const Eigen::Vector2d a = frame.CellOf(table.centre, spec);
-  const Eigen::Vector2d b = frame.CellOf(MirroredObject(table, frame).centre, spec);
+  const Eigen::Vector2d a = frame.CellOf(table.Centre(), spec);
+  const Eigen::Vector2d b = frame.CellOf(MirroredObject(table, frame).Centre(), spec);
   EXPECT_NEAR(a.x(), b.x(), 1e-9);
   EXPECT_NEAR(a.y(), spec.cols - b.y(), 1e-9);
 }

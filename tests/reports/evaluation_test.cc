@@ -501,7 +501,7 @@ TEST(MetricId, EveryMetricOfAnEvaluationParses) {
     t.x = x;
     t.visibility = 1;
     frame.truth.push_back(t);
-    frame.detections.push_back({c, ClassName(c), x, 0, 0, 0.9, 1});
+    frame.detections.push_back({{x, 0, 0}, c, ClassName(c), 0.9, 1});
   }
   const EvaluationResult result = EvaluateFrames({frame}, EvaluationOptions{});
   for (const auto& [name, value] : result.metrics)

@@ -25,6 +25,7 @@
 #include "workbench/formats/depth_png.h"
 #include "workbench/formats/detection_output.h"
 #include "workbench/formats/point_cloud_file.h"
+#include "reports/detection_debug.h"
 #include "workbench/formats/scan_file.h"
 #include "workbench/pipelines/train.h"
 
@@ -143,15 +144,12 @@ class DetectTest : public ::testing::Test {
       std::vector<GroundTruthFootprint> footprints;
       for (const Placement& p : truth) {
         const CatalogEntry& entry = catalog_->Get(p.model_id);
-        footprints.push_back({entry.furniture_class,
-                              p.x,
-                              p.y,
-                              p.yaw_deg * M_PI / 180,
-                              entry.size_m.x(),
-                              entry.size_m.y(),
-                              entry.size_m.z(),
-                              p.model_id,
-                              1.0});
+        footprints.push_back(
+            {{p.x, p.y, p.yaw_deg * M_PI / 180, entry.size_m.x(), entry.size_m.y()},
+             entry.furniture_class,
+             entry.size_m.z(),
+             p.model_id,
+             1.0});
       }
       WriteDetectionDebug(result,
                           detector_->model(),

@@ -174,14 +174,16 @@ TEST(RealSet, ImportWritesFramesLabelsAndSheetsAndRefusesToOverwrite) {
   EXPECT_FALSE(std::filesystem::exists(db + ".partial"));
 }
 
-TEST(RealSet, MovesFloorPosesBetweenFrames) {
+TEST(RealSet, MovesBoxesBetweenFloorFrames) {
   Eigen::Isometry3d to_from_from = Eigen::Isometry3d::Identity();
   to_from_from.rotate(Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ()));
   to_from_from.pretranslate(Eigen::Vector3d(1, 2, 0));
-  const FloorPose moved = MoveFloorPose({1, 0, 0.25}, to_from_from);
+  const FurnitureBox moved = MovedBox({1, 0, 0.25, 0.6, 0.4}, to_from_from);
   EXPECT_NEAR(moved.x, 1, 1e-12);
   EXPECT_NEAR(moved.y, 3, 1e-12);
   EXPECT_NEAR(moved.yaw, 0.25 + M_PI / 2, 1e-12);
+  EXPECT_EQ(moved.width, 0.6);  // the footprint stays
+  EXPECT_EQ(moved.depth, 0.4);
 }
 
 // Synthetic frames exported as camera-frame PCDs, labelled in two different
@@ -219,8 +221,7 @@ TEST(RealSet, EvaluationIsTheSameInAnyLabelFrame) {
         nlohmann::json objects = nlohmann::json::array();
         for (const ObjectRecord& object : room.objects) {
           if (!object.furniture_class) continue;
-          const FloorPose at =
-              MoveFloorPose({object.reference_x, object.reference_y, object.yaw}, label_from_world);
+          const FurnitureBox at = MovedBox(object.Footprint(), label_from_world);
           double visibility = 0;
           for (const FrameObjectRecord& seen : frame.objects) {
             if (seen.instance_id == object.instance_id) visibility = seen.visibility;

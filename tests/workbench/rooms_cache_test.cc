@@ -288,7 +288,7 @@ TEST(FusedTraining, RoomMatesCanCarryAPoseError) {
     EXPECT_EQ(blurred[k].image.values, blurred_again[k].image.values) << "frame " << k;
     ASSERT_EQ(blurred[k].objects.size(), sharp[k].objects.size()) << "frame " << k;
     for (size_t i = 0; i < sharp[k].objects.size(); ++i)
-      EXPECT_EQ(blurred[k].objects[i].centre, sharp[k].objects[i].centre) << "frame " << k;
+      EXPECT_EQ(blurred[k].objects[i].Centre(), sharp[k].objects[i].Centre()) << "frame " << k;
   }
   EXPECT_EQ(moved, 8) << "every fused frame's room-mates moved";
 

@@ -48,21 +48,19 @@ BevSample SyntheticRoom(uint64_t seed, const BevGridSpec& spec) {
   BevSample sample;
   for (int i = 0; i < 3; ++i) {
     const bool table = i == 0;
-    const BevObject object{table ? FurnitureClass::kTable : FurnitureClass::kChair,
-                           {ahead(random), side(random)},
-                           turn(random),
-                           table ? 1.2 : 0.5,
-                           table ? 0.8 : 0.5};
+    const BevObject object{
+        {ahead(random), side(random), turn(random), table ? 1.2 : 0.5, table ? 0.8 : 0.5},
+        table ? FurnitureClass::kTable : FurnitureClass::kChair};
     bool overlaps = false;
     for (const BevObject& other : sample.objects)
-      overlaps |= (other.centre - object.centre).norm() < 1.0;
+      overlaps |= (other.Centre() - object.Centre()).norm() < 1.0;
     if (overlaps) continue;
     sample.objects.push_back(object);
     const Eigen::Rotation2Dd rotation(object.yaw);
     for (double a = -0.5; a <= 0.5; a += 0.04) {
       for (double b = -0.5; b <= 0.5; b += 0.04) {
         const Eigen::Vector2d xy =
-            object.centre + rotation * Eigen::Vector2d(a * object.width, b * object.depth);
+            object.Centre() + rotation * Eigen::Vector2d(a * object.width, b * object.depth);
         const float top = table ? 0.75f : 0.45f;
         points.emplace_back(xy.x(), xy.y(), top);
         if (!table && a > 0.45) {  // the chair's back
@@ -112,7 +110,7 @@ TEST(VoteNet, FitsAHandfulOfRoomsAlmostPerfectly) {
     const BevOutput out = net.Predict(room.image);
     for (const BevObject& object : room.objects) {
       ++objects;
-      const Eigen::Vector2d cell = room.image.frame.CellOf(object.centre, room.image.spec);
+      const Eigen::Vector2d cell = room.image.frame.CellOf(object.Centre(), room.image.spec);
       const int k = static_cast<int>(object.furniture_class);
       const int row = static_cast<int>(cell.x()), col = static_cast<int>(cell.y());
       float best = 0;
@@ -770,7 +768,7 @@ double HeatError(const VoteNet& net,
     const BevOutput out = net.Predict(shown[i].image);
     const BevOutput reference = reference_net.Predict(rooms[i].image);
     for (const BevObject& object : rooms[i].objects) {
-      const Eigen::Vector2d cell = rooms[i].image.frame.CellOf(object.centre, rooms[i].image.spec);
+      const Eigen::Vector2d cell = rooms[i].image.frame.CellOf(object.Centre(), rooms[i].image.spec);
       const int k = static_cast<int>(object.furniture_class);
       const int row = static_cast<int>(cell.x()), col = static_cast<int>(cell.y());
       error += std::abs(out.At(k, row, col) - reference.At(k, row, col));
@@ -867,7 +865,7 @@ TEST(VoteNetAdaptation, AnUnknownBackgroundTrainsOnlyNearTheTargets) {
     const BevGridSpec& spec = shown.image.spec;
     int kept = 0;
     for (const BevObject& object : shown.objects) {
-      const Eigen::Vector2d cell = shown.image.frame.CellOf(object.centre, spec);
+      const Eigen::Vector2d cell = shown.image.frame.CellOf(object.Centre(), spec);
       EXPECT_EQ(near[static_cast<int>(cell.x()) * spec.cols + static_cast<int>(cell.y())], 1.0f);
     }
     for (float w : near) kept += w > 0;
@@ -886,7 +884,7 @@ double MeanHeatAtObjects(const VoteNet& net,
   for (size_t i = 0; i < rooms.size(); ++i) {
     const BevOutput out = net.Predict(shown[i].image);
     for (const BevObject& object : rooms[i].objects) {
-      const Eigen::Vector2d cell = rooms[i].image.frame.CellOf(object.centre, rooms[i].image.spec);
+      const Eigen::Vector2d cell = rooms[i].image.frame.CellOf(object.Centre(), rooms[i].image.spec);
       sum += out.At(static_cast<int>(object.furniture_class),
                     static_cast<int>(cell.x()),
                     static_cast<int>(cell.y()));
@@ -927,7 +925,7 @@ TEST(VoteNetAdaptation, SelfTrainingOnItsOwnConfidentMaximaRaisesTheHeatOnShifte
       double nearest = 1e9;
       for (const BevObject& object : truth.objects) {
         if (object.furniture_class == label.furniture_class)
-          nearest = std::min(nearest, (object.centre - label.centre).norm());
+          nearest = std::min(nearest, (object.Centre() - label.Centre()).norm());
       }
       if (nearest >= 0.3) {
         ++off_targets;

@@ -112,8 +112,7 @@ std::vector<ScanSource> ScanSourcesOf(const CLI::App& app,
     source.fusion.room_frames = fuse;
     return {source};
   }
-  Require(source.cloud_path.empty() && source.depth_path.empty() && source.db_path.empty(),
-          "give scans as inputs or with --cloud/--depth/--db, not both");
+  Require(!NamesAScan(source), "give scans as inputs or with --cloud/--depth/--db, not both");
   std::vector<ScanSource> sources = ExpandScanInputs(
       inputs, source, app.count("--intrinsics") > 0, app.count("--depth-scale") > 0);
   Require(!fuse || sources.size() >= 2,
@@ -201,8 +200,7 @@ int RunDetect(int argc, char** argv) {
   Require(!fusion.planar || fusion.register_poses, "--fuse-planar applies to --fuse-register");
 
   if (!bag.bag_path.empty()) {
-    Require(inputs.empty() && source.cloud_path.empty() && source.depth_path.empty() &&
-                source.db_path.empty(),
+    Require(inputs.empty() && !NamesAScan(source),
             "--bag takes no other scans (inputs, --cloud, --depth or --db)");
     Require(debug_dir.empty() && repeat == 1, "--debug-dir and --repeat apply to one scan");
     Require(!fuse, "--fuse applies to scans and --db frames, not to --bag");

@@ -175,9 +175,9 @@ std::string ExplainDetection(const DetectionResult& result, const TrainedModel& 
                     ClassName(h.furniture_class),
                     h.x,
                     h.y,
-                    Rep103YawFromModelYaw(peak.yaw) * 180 / M_PI,
-                    peak.depth,
-                    peak.width,
+                    Rep103YawFromModelYaw(h.yaw) * 180 / M_PI,
+                    h.depth,
+                    h.width,
                     h.vote_weight);
       out << line;
       out << LearnedPlacement(h);

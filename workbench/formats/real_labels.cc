@@ -246,10 +246,4 @@ std::set<int64_t> FramesWithEstimatedPose(const std::string& generation_options_
   return frames;
 }
 
-FloorPose MoveFloorPose(const FloorPose& pose, const Eigen::Isometry3d& to_from_from) {
-  const Eigen::Vector3d p = to_from_from * Eigen::Vector3d(pose.x, pose.y, 0);
-  const Eigen::Vector3d heading = to_from_from.linear() * Eigen::Vector3d(1, 0, 0);
-  return {p.x(), p.y(), pose.yaw + std::atan2(heading.y(), heading.x())};
-}
-
 }  // namespace furn

@@ -65,11 +65,4 @@ RealSet ReadRealSet(const std::string& path);
 // scans without a known floor); empty for generated datasets.
 std::set<int64_t> FramesWithEstimatedPose(const std::string& generation_options_json);
 
-// `pose` (x, y, yaw of a floor footprint) moved from one floor frame to
-// another: to_from_from = world_to_from_camera * world_from_from_camera^-1.
-struct FloorPose {
-  double x = 0, y = 0, yaw = 0;
-};
-FloorPose MoveFloorPose(const FloorPose& pose, const Eigen::Isometry3d& to_from_from);
-
 }  // namespace furn

@@ -331,14 +331,9 @@ std::vector<RosMarker> TruthMarkers(const RoomRecord& room, double stamp) {
   header.frame_id = "world";
   std::vector<RosMarker> markers{DeleteAll(header)};
   for (const ObjectRecord& object : room.objects) {
-    RosMarker box =
-        BoxMarker(FootprintBoxInWorld(Eigen::Vector3d(object.reference_x, object.reference_y, 0),
-                                      object.yaw,
-                                      object.width,
-                                      object.depth,
-                                      object.height),
-                  object.furniture_class,
-                  Eigen::Isometry3d::Identity());
+    RosMarker box = BoxMarker(WorldBoxOf(object.Footprint(), 0, object.height),
+                              object.furniture_class,
+                              Eigen::Isometry3d::Identity());
     box.header = header;
     box.ns = object.furniture_class ? ClassName(*object.furniture_class) : "clutter";
     box.id = static_cast<int32_t>(object.instance_id);

@@ -203,7 +203,9 @@ std::optional<int64_t> BopImageId(const std::string& path) {
 
 namespace {
 
-LoadedScan LoadCloudScan(const ScanSource& source, bool world_options) {
+LoadedScan LoadCloudScan(const ScanSource& source) {
+  const bool world_options =
+      !source.world_from_camera.empty() || source.floor_aligned || !source.sensor.empty();
   LoadedScan scan;
   ScanCloud cloud = ReadPointCloudFile(source.cloud_path);
   Require(!cloud.points.empty(), source.cloud_path + ": the cloud is empty");
@@ -314,33 +316,84 @@ LoadedScan LoadDatasetFrame(const ScanSource& source) {
     for (const FrameObjectRecord& seen : frame->objects) {
       if (seen.instance_id == object.instance_id) visibility = seen.visibility;
     }
-    scan.ground_truth.push_back({object.furniture_class,
-                                 object.reference_x,
-                                 object.reference_y,
-                                 object.yaw,
-                                 object.width,
-                                 object.depth,
-                                 object.height,
-                                 object.model_id,
-                                 visibility});
+    scan.ground_truth.push_back(
+        {object.Footprint(), object.furniture_class, object.height, object.model_id, visibility});
   }
   return scan;
 }
 
+// "--cloud, --depth or --db" (each flag, those that take `rule`, if given).
+std::string FlagList(bool (*rule)(const ScanKind&) = nullptr) {
+  std::vector<std::string> flags;
+  for (const ScanKind& kind : ScanKinds()) {
+    if (!rule || rule(kind)) flags.push_back(kind.flag);
+  }
+  std::string text;
+  for (size_t i = 0; i < flags.size(); ++i)
+    text += (i == 0 ? "" : i + 1 == flags.size() ? " or " : ", ") + flags[i];
+  return text;
+}
+
 }  // namespace
 
+const std::vector<ScanKind>& ScanKinds() {
+  static const std::vector<ScanKind> kinds = {
+      {"cloud", "--cloud", &ScanSource::cloud_path, {"pcd", "ply"}, true, true, LoadCloudScan},
+      {"depth image",
+       "--depth",
+       &ScanSource::depth_path,
+       {"png", "tif", "tiff", "exr"},
+       true,
+       false,
+       LoadDepthScan},
+      {"dataset frame", "--db", &ScanSource::db_path, {}, false, false, LoadDatasetFrame},
+  };
+  return kinds;
+}
+
+const ScanKind& KindOf(const ScanSource& source) {
+  const ScanKind* named = nullptr;
+  int given = 0;
+  for (const ScanKind& kind : ScanKinds()) {
+    if ((source.*kind.path).empty()) continue;
+    named = &kind;
+    ++given;
+  }
+  Require(given == 1, "give exactly one of " + FlagList() + " (or inputs)");
+  return *named;
+}
+
+const ScanKind* KindOfFile(const std::string& path) {
+  const std::string extension = FileExtension(path);
+  for (const ScanKind& kind : ScanKinds()) {
+    for (const std::string& e : kind.extensions) {
+      if (e == extension) return &kind;
+    }
+  }
+  return nullptr;
+}
+
+bool NamesAScan(const ScanSource& source) {
+  for (const ScanKind& kind : ScanKinds()) {
+    if (!(source.*kind.path).empty()) return true;
+  }
+  return false;
+}
+
+ScanSource WithoutScan(ScanSource source) {
+  for (const ScanKind& kind : ScanKinds()) (source.*kind.path).clear();
+  return source;
+}
+
 LoadedScan LoadScan(const ScanSource& source) {
-  const int given =
-      !source.cloud_path.empty() + !source.depth_path.empty() + !source.db_path.empty();
-  Require(given == 1, "give exactly one of --cloud, --depth or --db (or inputs)");
+  const ScanKind& kind = KindOf(source);
   if (source.depth_scale != 0) CheckUnitsPerMetre(source.depth_scale, "--depth-scale");
-  const bool world_options =
-      !source.world_from_camera.empty() || source.floor_aligned || !source.sensor.empty();
-  if (!source.cloud_path.empty()) return LoadCloudScan(source, world_options);
-  Require(source.sensor.empty(), "--sensor applies to point clouds");
-  if (!source.depth_path.empty()) return LoadDepthScan(source);
-  Require(!world_options, "--world-from-camera applies to clouds and depth images, not --db");
-  return LoadDatasetFrame(source);
+  Require(kind.takes_sensor || source.sensor.empty(), "--sensor applies to point clouds");
+  Require(kind.takes_world_pose || (source.world_from_camera.empty() && !source.floor_aligned),
+          std::string("--world-from-camera applies to ") +
+              FlagList([](const ScanKind& k) { return k.takes_world_pose; }) + " scans, not " +
+              kind.flag);
+  return kind.load(source);
 }
 
 std::vector<GroundTruthFootprint> GroundTruthInDetectorFrame(const LoadedScan& scan,
@@ -350,18 +403,17 @@ std::vector<GroundTruthFootprint> GroundTruthInDetectorFrame(const LoadedScan& s
   const Eigen::Isometry3d to_detector =
       result.world_from_camera * scan.label_from_camera->inverse();
   for (GroundTruthFootprint& truth : ground_truth) {
-    const FloorPose moved = MoveFloorPose({truth.x, truth.y, truth.yaw}, to_detector);
-    truth.x = moved.x;
-    truth.y = moved.y;
-    truth.yaw = moved.yaw;
+    truth.box() = MovedBox(truth.box(), to_detector);
   }
   return ground_truth;
 }
 
 std::string ScanSourceName(const ScanSource& source) {
-  if (!source.cloud_path.empty()) return source.cloud_path;
-  if (!source.depth_path.empty()) return source.depth_path;
-  return source.db_path + " frame " + std::to_string(source.frame_id);
+  if (!source.db_path.empty()) return source.db_path + " frame " + std::to_string(source.frame_id);
+  for (const ScanKind& kind : ScanKinds()) {
+    if (!(source.*kind.path).empty()) return source.*kind.path;
+  }
+  return "";
 }
 
 }  // namespace furn

@@ -17,9 +17,9 @@
 
 #include "core/detector/detector.h"
 #include "core/geometry/scan_fusion.h"
+#include "core/model/furniture_box.h"
 #include "db/dataset_db.h"
 #include "renderers/camera.h"
-#include "reports/detection_debug.h"
 #include "workbench/formats/dataset_frame.h"  // FrameFusion
 
 namespace furn {
@@ -65,8 +65,34 @@ struct LoadedScan {
   std::optional<Eigen::Isometry3d> label_from_camera;
 };
 
-// Exactly one of cloud, depth or db must be given. Throws InputError naming
-// the file or value for anything unreadable or inconsistent.
+// The kinds of scan a ScanSource can name, one row each (ScanKinds(), in
+// scan_file.cc). A new kind is a path field of ScanSource, a loader and a row
+// (its flag, the file extensions that name it as an input, what pose options
+// it takes), plus its flag in workbench/cli/run_detect.cc: LoadScan, the
+// inputs' expansion (scan_inputs.cc), the batch test and the messages follow
+// the table.
+struct ScanKind {
+  const char* name;                     // "cloud"
+  const char* flag;                     // "--cloud"
+  std::string ScanSource::*path;        // the field that names the scan
+  std::vector<std::string> extensions;  // lower case, no dot; empty: never an input file
+  bool takes_world_pose = false;        // --world-from-camera, --floor-aligned
+  bool takes_sensor = false;            // --sensor
+  LoadedScan (*load)(const ScanSource& source) = nullptr;
+};
+const std::vector<ScanKind>& ScanKinds();
+
+// The kind whose path field `source` sets; throws InputError unless exactly
+// one is set.
+const ScanKind& KindOf(const ScanSource& source);
+// The kind whose extensions include the file's, or none.
+const ScanKind* KindOfFile(const std::string& path);
+// Whether any kind's path is set; `source` with every kind's path cleared.
+bool NamesAScan(const ScanSource& source);
+ScanSource WithoutScan(ScanSource source);
+
+// Exactly one kind's path must be given. Throws InputError naming the file
+// or value for anything unreadable or inconsistent.
 LoadedScan LoadScan(const ScanSource& source);
 
 // The scan's ground truth in the detector's floor frame: as stored, or moved

@@ -13,30 +13,28 @@
 namespace furn {
 namespace {
 
-bool IsCloudFile(const std::string& path) {
-  const std::string e = FileExtension(path);
-  return e == "pcd" || e == "ply";
+bool IsDepthFile(const std::string& path) {
+  const ScanKind* kind = KindOfFile(path);
+  return kind != nullptr && kind->path == &ScanSource::depth_path;
 }
 
-bool IsDepthFile(const std::string& path) {
-  const std::string e = FileExtension(path);
-  return e == "png" || e == "tif" || e == "tiff" || e == "exr";
+// ".pcd, .ply, .png, ...": every extension that names a scan.
+std::string ScanExtensions() {
+  std::string text;
+  for (const ScanKind& kind : ScanKinds()) {
+    for (const std::string& e : kind.extensions) text += (text.empty() ? "." : ", .") + e;
+  }
+  return text;
 }
 
 ScanSource SourceOfFile(const std::string& path, const ScanSource& common) {
-  ScanSource source = common;
-  source.cloud_path.clear();
-  source.depth_path.clear();
-  source.db_path.clear();
-  if (IsCloudFile(path)) {
-    source.cloud_path = path;
-  } else if (IsDepthFile(path)) {
-    source.depth_path = path;
-  } else {
-    throw InputError(path +
-                     ": not a scan (.pcd, .ply, .png, .tif, .tiff, .exr), TUM list "
-                     "(.txt), BOP folder or glob pattern");
+  const ScanKind* kind = KindOfFile(path);
+  if (!kind) {
+    throw InputError(path + ": not a scan (" + ScanExtensions() +
+                     "), TUM list (.txt), BOP folder or glob pattern");
   }
+  ScanSource source = WithoutScan(common);
+  source.*kind->path = path;
   return source;
 }
 
@@ -89,9 +87,7 @@ void AddTumList(const std::string& list, const ScanSource& common, std::vector<S
                 "timestamp depth/y.png'");
     // Whatever the line names is its depth image: a directory or a file of
     // another kind fails as that scan's own line, and the others go on.
-    ScanSource source = common;
-    source.cloud_path.clear();
-    source.db_path.clear();
+    ScanSource source = WithoutScan(common);
     source.depth_path = (base / depth).string();
     out->push_back(source);
   }

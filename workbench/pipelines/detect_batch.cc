@@ -191,8 +191,7 @@ bool IsBatch(const std::vector<std::string>& inputs, const std::vector<ScanSourc
   if (inputs.empty()) return false;
   if (inputs[0].find_first_of("*?[") != std::string::npos) return true;
   // A list or a folder that expanded to one scan is still a batch.
-  return !sources.empty() && (sources[0].cloud_path.empty() ? sources[0].depth_path
-                                                            : sources[0].cloud_path) != inputs[0];
+  return !sources.empty() && ScanSourceName(sources[0]) != inputs[0];
 }
 
 int DetectScans(const std::vector<ScanSource>& sources, bool batch, const DetectRunOptions& run) {

@@ -146,16 +146,12 @@ std::vector<TruthObject> TruthOf(const RoomRecord& room,
           fusion.room_frames && other.id != frame.id && VisibilityIn(other, object) > 0;
     }
     const Eigen::Vector3d reference(object.reference_x, object.reference_y, 0);
-    truth.push_back({object.furniture_class,
+    truth.push_back({object.Footprint(),
+                     object.furniture_class,
                      object.model_id,
-                     object.reference_x,
-                     object.reference_y,
-                     object.yaw,
                      visibility,
                      (reference - eye).norm(),
                      facts.trained.count(object.model_id) > 0,
-                     object.width,
-                     object.depth,
                      // Only a target's share counts (clutter is never one).
                      object.furniture_class ? ShareInView(object, frame) : 1.0,
                      seen_by_fused_frames});
@@ -174,7 +170,7 @@ void AddScorerSamples(const DetectionResult& result,
     ScorerSample sample;
     sample.features = h.features->Vector();
     sample.group = static_cast<uint64_t>(frame.id);
-    const FloorPose fit = MoveFloorPose({h.fit_x, h.fit_y, 0}, to_labels);
+    const FurnitureBox fit = MovedBox({h.fit_x, h.fit_y}, to_labels);
     for (const TruthObject& t : out->outcome.truth) {
       sample.positive |=
           t.furniture_class == h.furniture_class && std::hypot(t.x - fit.x, t.y - fit.y) <= 0.10;
@@ -192,10 +188,7 @@ void RecordDetections(const DetectionResult& result,
                       EvaluatedFrame* out) {
   for (const Detection& detected : result.detections) {
     Detection d = detected;
-    const FloorPose moved = MoveFloorPose({d.x, d.y, d.yaw}, to_labels);
-    d.x = moved.x;
-    d.y = moved.y;
-    d.yaw = moved.yaw;
+    d.box() = MovedBox(d.box(), to_labels);
     // A learned detection names no CAD model: its class's symmetry.
     const int symmetry =
         d.model_index >= 0 ? facts.symmetry[d.model_index] : BevYawSymmetry(d.furniture_class);
@@ -213,7 +206,7 @@ void RecordDetections(const DetectionResult& result,
                                d.covered_fraction});
   }
   for (const DetectionDebug::Hypothesis& h : result.debug.hypotheses) {
-    const FloorPose maximum = MoveFloorPose({h.x, h.y, 0}, to_labels);
+    const FurnitureBox maximum = MovedBox({h.x, h.y}, to_labels);
     out->outcome.maxima.push_back(
         {h.furniture_class, maximum.x, maximum.y, h.relative_weight, h.outcome});
   }

@@ -13,7 +13,7 @@
 namespace furn {
 
 ScoredDetection ScoredDetectionOf(const Detection& d, int symmetry) {
-  return {d.furniture_class, d.model_name, d.x, d.y, d.yaw, d.score, symmetry, d.width, d.depth};
+  return {d.box(), d.furniture_class, d.model_name, d.score, symmetry};
 }
 namespace {
 
@@ -127,17 +127,16 @@ EvaluatedFrame FrameOf(const Json& json) {
     const char* what = "detection";
     const FurnitureClass c = ParseEnum<FurnitureClass>(StringOf(Item(d, 0, what), "class"));
     const std::string model = StringOf(Item(d, 1, what), "model");
-    frame.outcome.detections.push_back(
-        {c,
-         model,
-         FiniteOf(Item(d, 2, what), "x"),
-         FiniteOf(Item(d, 3, what), "y"),
-         FiniteOf(Item(d, 4, what), "yaw"),
-         FiniteOf(Item(d, 5, what), "score"),
-         static_cast<int>(IntegerOf(Item(d, 6, what), "symmetry", 1, 4)),
-         NumberOrNan(Item(d, 7, what), "width"),
-         NumberOrNan(Item(d, 8, what), "depth")});
-    const ScoredDetection& s = frame.outcome.detections.back();
+    ScoredDetection& s = frame.outcome.detections.emplace_back();
+    s.furniture_class = c;
+    s.model_id = model;
+    s.x = FiniteOf(Item(d, 2, what), "x");
+    s.y = FiniteOf(Item(d, 3, what), "y");
+    s.yaw = FiniteOf(Item(d, 4, what), "yaw");
+    s.score = FiniteOf(Item(d, 5, what), "score");
+    s.symmetry = static_cast<int>(IntegerOf(Item(d, 6, what), "symmetry", 1, 4));
+    s.width = NumberOrNan(Item(d, 7, what), "width");
+    s.depth = NumberOrNan(Item(d, 8, what), "depth");
     frame.detections.push_back({frame.outcome.frame_id,
                                 c,
                                 model,

@@ -20,12 +20,8 @@ namespace {
 std::vector<GroundTruthFootprint> Footprints(const RealScan& scan) {
   std::vector<GroundTruthFootprint> footprints;
   for (const RealObject& o : scan.objects) {
-    footprints.push_back({o.furniture_class,
-                          o.x,
-                          o.y,
-                          o.yaw ? *o.yaw : std::nan(""),
-                          o.size.x(),
-                          o.size.y(),
+    footprints.push_back({{o.x, o.y, o.yaw ? *o.yaw : std::nan(""), o.size.x(), o.size.y()},
+                          o.furniture_class,
                           o.size.z(),
                           "",
                           -1});

@@ -52,12 +52,8 @@ void AddObjectsSeenBy(const RoomRecord& room,
       }
     }
     if (visibility <= 0) continue;
-    sample->objects.push_back({*object.furniture_class,
-                               {object.reference_x, object.reference_y},
-                               object.yaw,
-                               object.width,
-                               object.depth,
-                               visibility >= min_visibility});
+    sample->objects.push_back(
+        {object.Footprint(), *object.furniture_class, visibility >= min_visibility});
     sample->visibility.push_back(visibility);
   }
 }
@@ -103,14 +99,12 @@ std::vector<FrameOutcome> DecodedFrames(const VoteNet& net,
       if (!object.target && !ignore_non_targets) continue;
       TruthObject truth;
       truth.furniture_class = object.furniture_class;
-      truth.x = object.centre.x();
-      truth.y = object.centre.y();
-      truth.yaw = object.yaw;
+      truth.box() = object.box();
       // As evaluation counts them: the object's visibility (a non-target
       // one below any min_visibility: ignore), its distance from the camera.
       truth.visibility = k < sample.visibility.size() ? sample.visibility[k] : 1;
       if (!object.target) truth.visibility = std::min(truth.visibility, 0.01);
-      truth.distance_m = (object.centre - sample.image.frame.origin).norm();
+      truth.distance_m = (object.Centre() - sample.image.frame.origin).norm();
       frame.truth.push_back(truth);
     }
     for (const BevPeak& peak : DecodeBevOutput(sample.image, net.Predict(sample.image), decode)) {

@@ -117,12 +117,12 @@ std::set<std::string> MetricNames() {
     const std::string name = ClassName(c);
     for (bool seen : {true, false}) {
       x += 1;
-      frame.truth.push_back({c, name, x, 0, 0, 1.0, 1.0, seen});
-      frame.detections.push_back({c, name, x, 0, 0, 1.0, 1});
+      frame.truth.push_back({{x, 0, 0}, c, name, 1.0, 1.0, seen});
+      frame.detections.push_back({{x, 0, 0}, c, name, 1.0, 1});
     }
   }
   frame.detections.push_back(
-      {FurnitureClass::kChair, "chair", -5, 0, 0, 0.5, 1});  // a false positive
+      {{-5, 0, 0}, FurnitureClass::kChair, "chair", 0.5, 1});  // a false positive
   std::set<std::string> names;
   for (const auto& [name, value] : EvaluateFrames({frame}, EvaluationOptions{}).metrics)
     names.insert(name);

@@ -178,12 +178,7 @@ py::dict ObjectDict(const ObjectRecord& object, const FrameObjectRecord* seen) {
   d["y"] = object.reference_y;
   d["z"] = object.z;
   // REP 103 (docs/conventions.md): the box's x is the object's front.
-  const OrientedBox box =
-      FootprintBoxInWorld(Eigen::Vector3d(object.reference_x, object.reference_y, object.z),
-                          object.yaw,
-                          object.width,
-                          object.depth,
-                          object.height);
+  const OrientedBox box = WorldBoxOf(object.Footprint(), object.z, object.height);
   d["yaw"] = box.yaw;
   d["size"] = py::make_tuple(box.size.x(), box.size.y(), box.size.z());
   d["box"] = BoxDict(box);
