@@ -59,8 +59,8 @@
 #include "core/geometry/render_compare.h"
 #include "core/learned/bev_box_coder.h"
 #include "core/learned/bev_extent.h"
-#include "core/model/operating_point.h"
 #include "core/model/furniture_box.h"
+#include "core/model/operating_point.h"
 #include "core/model/trained_model.h"
 
 namespace furn {

@@ -222,8 +222,9 @@ TEST(BevBoxCoder, CentreRadiusCellsRegressTheCentreTheyAreNear) {
     const BevPeak* nearest = nullptr;
     const std::vector<BevPeak> peaks = DecodeBevOutput(image, output, decode);
     for (const BevPeak& peak : peaks) {
-      if (!nearest || std::hypot(peak.x - chair.Centre().x(), peak.y - chair.Centre().y()) <
-                          std::hypot(nearest->x - chair.Centre().x(), nearest->y - chair.Centre().y()))
+      if (!nearest ||
+          std::hypot(peak.x - chair.Centre().x(), peak.y - chair.Centre().y()) <
+              std::hypot(nearest->x - chair.Centre().x(), nearest->y - chair.Centre().y()))
         nearest = &peak;
     }
     ASSERT_NE(nearest, nullptr);

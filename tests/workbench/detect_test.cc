@@ -20,12 +20,12 @@
 #include "core/util/progress.h"
 #include "renderers/embree_caster.h"
 #include "renderers/kinect_simulator.h"
+#include "reports/detection_debug.h"
 #include "scenes/room_composer.h"
 #include "tests/test_util.h"
 #include "workbench/formats/depth_png.h"
 #include "workbench/formats/detection_output.h"
 #include "workbench/formats/point_cloud_file.h"
-#include "reports/detection_debug.h"
 #include "workbench/formats/scan_file.h"
 #include "workbench/pipelines/train.h"
 

@@ -768,7 +768,8 @@ double HeatError(const VoteNet& net,
     const BevOutput out = net.Predict(shown[i].image);
     const BevOutput reference = reference_net.Predict(rooms[i].image);
     for (const BevObject& object : rooms[i].objects) {
-      const Eigen::Vector2d cell = rooms[i].image.frame.CellOf(object.Centre(), rooms[i].image.spec);
+      const Eigen::Vector2d cell =
+          rooms[i].image.frame.CellOf(object.Centre(), rooms[i].image.spec);
       const int k = static_cast<int>(object.furniture_class);
       const int row = static_cast<int>(cell.x()), col = static_cast<int>(cell.y());
       error += std::abs(out.At(k, row, col) - reference.At(k, row, col));
@@ -884,7 +885,8 @@ double MeanHeatAtObjects(const VoteNet& net,
   for (size_t i = 0; i < rooms.size(); ++i) {
     const BevOutput out = net.Predict(shown[i].image);
     for (const BevObject& object : rooms[i].objects) {
-      const Eigen::Vector2d cell = rooms[i].image.frame.CellOf(object.Centre(), rooms[i].image.spec);
+      const Eigen::Vector2d cell =
+          rooms[i].image.frame.CellOf(object.Centre(), rooms[i].image.spec);
       sum += out.At(static_cast<int>(object.furniture_class),
                     static_cast<int>(cell.x()),
                     static_cast<int>(cell.y()));
