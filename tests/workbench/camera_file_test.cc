@@ -135,29 +135,50 @@ TEST(CameraFile, HostileFilesAreOneLineNamingTheFileAndTheRule) {
 }
 
 TEST(CameraFile, PosesAsMatricesOrTranslationAndQuaternion) {
-  const Eigen::Isometry3d a = ParsePose("1,2,3,1,0,0,0", "--pose");
+  const Eigen::Isometry3d a = ParsePose("t=1,2,3 q=0,0,0,1", "--pose");
   EXPECT_TRUE(a.translation().isApprox(Eigen::Vector3d(1, 2, 3)));
   EXPECT_TRUE(a.linear().isApprox(Eigen::Matrix3d::Identity()));
-  // 90 degrees about z, as a quaternion and as a matrix row by row.
-  const double h = std::sqrt(0.5);
-  const Eigen::Isometry3d q =
-      ParsePose("0 0 1.5 " + std::to_string(h) + " 0 0 " + std::to_string(h), "--pose");
+  // 90 degrees about z, as a quaternion x,y,z,w (parts in either order,
+  // apart by ';' too) and as a matrix row by row.
+  const std::string h = std::to_string(std::sqrt(0.5));
+  const Eigen::Isometry3d q = ParsePose("t=0,0,1.5 q=0,0," + h + "," + h, "--pose");
+  const Eigen::Isometry3d swapped = ParsePose("q=0,0," + h + "," + h + ";t=0,0,1.5", "--pose");
   const Eigen::Isometry3d m = ParsePose("0,-1,0,0, 1,0,0,0, 0,0,1,1.5, 0,0,0,1", "--pose");
   EXPECT_TRUE(q.matrix().isApprox(m.matrix(), 1e-5));
+  EXPECT_TRUE(swapped.matrix().isApprox(m.matrix(), 1e-5));
+  // x,y,z,w is Eigen's coeffs() order.
+  EXPECT_TRUE(Eigen::Quaterniond(q.linear())
+                  .coeffs()
+                  .isApprox(Eigen::Vector4d(0, 0, std::sqrt(0.5), std::sqrt(0.5)), 1e-5));
+  // Seven bare numbers (the old x,y,z,qw,qx,qy,qz) are refused, naming the
+  // form to give.
+  const std::string old =
+      testing::ErrorOf([] { ParsePose("0,0,1.5,0.5,-0.5,0.5,-0.5", "--pose"); });
+  EXPECT_NE(old.find("seven bare numbers are not read"), std::string::npos) << old;
+  EXPECT_NE(old.find("'t=x,y,z q=qx,qy,qz,qw'"), std::string::npos) << old;
+  EXPECT_NE(testing::ErrorOf([] { ParsePose("t=1,2 q=0,0,0,1", "--pose"); }).find("t= with 3"),
+            std::string::npos);
+  EXPECT_NE(testing::ErrorOf([] { ParsePose("t=1,2,3 r=0,0,0,1", "--pose"); }).find("'r=0,0,0,1'"),
+            std::string::npos);
+  EXPECT_NE(testing::ErrorOf([] {
+              ParsePose("t=1,2,3 t=1,2,3 q=0,0,0,1", "--pose");
+            }).find("is not one t=... or q=..."),
+            std::string::npos);
   EXPECT_TRUE((m * Eigen::Vector3d(1, 0, 0)).isApprox(Eigen::Vector3d(0, 1, 1.5)));
   EXPECT_NE(testing::ErrorOf([] { ParsePose("1,2,3", "--pose"); }).find("16 numbers"),
             std::string::npos);
-  EXPECT_NE(testing::ErrorOf([] { ParsePose("1,2,3,2,0,0,0", "--pose"); }).find("unit length"),
+  EXPECT_NE(testing::ErrorOf([] { ParsePose("t=1,2,3 q=2,0,0,0", "--pose"); }).find("unit length"),
             std::string::npos);
   EXPECT_NE(testing::ErrorOf([] {
               ParsePose("2,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,0,1", "--pose");
             }).find("not a rigid transform"),
             std::string::npos);
-  EXPECT_NE(testing::ErrorOf([] { ParsePose("1,x,3,1,0,0,0", "--pose"); }).find("'x'"),
+  EXPECT_NE(testing::ErrorOf([] { ParsePose("t=1,x,3 q=0,0,0,1", "--pose"); }).find("'x'"),
             std::string::npos);
-  EXPECT_NE(
-      testing::ErrorOf([] { ParsePose("1,inf,3,1,0,0,0", "--pose"); }).find("not a finite number"),
-      std::string::npos);
+  EXPECT_NE(testing::ErrorOf([] {
+              ParsePose("1,inf,3,1,0,0,0,0,1,0,0,0,0,1,0,0", "--pose");
+            }).find("not a finite number"),
+            std::string::npos);
   EXPECT_TRUE(ParsePosition("1, 2, 3", "--sensor").isApprox(Eigen::Vector3d(1, 2, 3)));
 }
 

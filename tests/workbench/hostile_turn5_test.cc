@@ -149,7 +149,7 @@ TEST_F(HostileTurn5, FusionIsBoundedBeforeReading) {
   testing::WriteText(*dir_ + "/tum.txt", list);
   ExpectOneLine(
       "detect --model model.fcm --fuse --floor-aligned --world-from-camera "
-      "0,0,1.5,0.5,-0.5,0.5,-0.5 --intrinsics 525,525,319.5,239.5 tum.txt --quiet",
+      "'t=0,0,1.5 q=-0.5,0.5,-0.5,0.5' --intrinsics 525,525,319.5,239.5 tum.txt --quiet",
       "more than --fuse-max-scans 64");
 }
 

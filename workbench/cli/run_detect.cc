@@ -33,10 +33,12 @@ void AddScanFlags(CLI::App* app_pointer, ScanSource* source_pointer) {
                  source.depth_scale,
                  "Depth units per metre (default: the camera file's, else 1000 for 16-bit "
                  "images, 1 for float; TUM: 5000)");
-  app.add_option("--world-from-camera",
-                 source.world_from_camera,
-                 "Cloud in a world frame: the camera's pose in it, 16 numbers (4x4, row by row) "
-                 "or x,y,z,qw,qx,qy,qz (default: the PCD VIEWPOINT)");
+  app.add_option(
+      "--world-from-camera",
+      source.world_from_camera,
+      "Cloud in a world frame: the camera's pose in it, 16 numbers (4x4, row by row) "
+      "or 't=x,y,z q=qx,qy,qz,qw' (quaternion x,y,z,w as ROS writes it; default: the PCD "
+      "VIEWPOINT)");
   app.add_flag("--floor-aligned",
                source.floor_aligned,
                "The world frame is floor-aligned (z up, floor at z = 0): its pose is used, the "

@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <sstream>
 #include <vector>
 
@@ -242,23 +243,56 @@ CameraFile ReadCameraFile(const std::string& path, std::optional<int64_t> image_
   return file;
 }
 
+namespace {
+
+constexpr const char* kPoseForms =
+    "16 numbers (a 4x4 matrix, row by row) or 't=x,y,z q=qx,qy,qz,qw' (the quaternion x,y,z,w "
+    "as ROS messages and Eigen's coeffs() write it)";
+
+// "t=x,y,z q=qx,qy,qz,qw": parts apart by spaces or ';', in either order.
+Eigen::Isometry3d LabelledPose(const std::string& text, const std::string& what) {
+  std::string spaced = text;
+  for (char& c : spaced) {
+    if (c == ';') c = ' ';
+  }
+  std::istringstream parts(spaced);
+  std::optional<std::vector<double>> t, q;
+  std::string part;
+  while (parts >> part) {
+    const size_t equals = part.find('=');
+    const std::string key = part.substr(0, equals);
+    std::optional<std::vector<double>>* slot = key == "t" ? &t : key == "q" ? &q : nullptr;
+    Require(equals != std::string::npos && slot != nullptr && !slot->has_value(),
+            what + " '" + text + "': '" + part + "' is not one t=... or q=...; give " + kPoseForms);
+    *slot = Numbers(part.substr(equals + 1), what);
+  }
+  Require(t && q && t->size() == 3 && q->size() == 4,
+          what + " '" + text + "' needs t= with 3 numbers and q= with 4; give " + kPoseForms);
+  const Eigen::Quaterniond rotation((*q)[3], (*q)[0], (*q)[1], (*q)[2]);  // w first in Eigen
+  Require(std::abs(rotation.norm() - 1) < 1e-3,
+          what + " '" + text + "': the quaternion qx,qy,qz,qw must have unit length (it has " +
+              std::to_string(rotation.norm()) + ")");
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.linear() = rotation.normalized().toRotationMatrix();
+  pose.translation() = Eigen::Vector3d((*t)[0], (*t)[1], (*t)[2]);
+  return pose;
+}
+
+}  // namespace
+
 Eigen::Isometry3d ParsePose(const std::string& text, const std::string& what) {
+  if (text.find('=') != std::string::npos) return LabelledPose(text, what);
   const std::vector<double> v = Numbers(text, what);
   Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-  if (v.size() == 7) {
-    const Eigen::Quaterniond q(v[3], v[4], v[5], v[6]);
-    Require(std::abs(q.norm() - 1) < 1e-3,
-            what + " '" + text + "': the quaternion qw,qx,qy,qz must have unit length (it has " +
-                std::to_string(q.norm()) + ")");
-    pose.linear() = q.normalized().toRotationMatrix();
-    pose.translation() = Eigen::Vector3d(v[0], v[1], v[2]);
-    return pose;
-  }
-  Require(v.size() == 16,
+  // Seven bare numbers were once x,y,z,qw,qx,qy,qz: read in either order
+  // they would move a pasted pose silently, so they are refused.
+  Require(v.size() != 7,
           what + " '" + text +
-              "' must be 16 numbers (a 4x4 matrix, row by row) or 7 "
-              "(x,y,z,qw,qx,qy,qz); it has " +
-              std::to_string(v.size()));
+              "': seven bare numbers are not read (they were once x,y,z,qw,qx,qy,qz); give " +
+              kPoseForms);
+  Require(v.size() == 16,
+          what + " '" + text + "' must be " + kPoseForms + "; it has " + std::to_string(v.size()) +
+              " numbers");
   Eigen::Matrix4d m;
   for (int r = 0; r < 4; ++r) {
     for (int c = 0; c < 4; ++c) m(r, c) = v[4 * r + c];

@@ -47,10 +47,12 @@ CameraIntrinsics CameraFromMatrix(const std::vector<double>& k,
 // (1: metres, 1000: millimetres, 5000: TUM). Throws InputError naming `what`.
 void CheckUnitsPerMetre(double units_per_metre, const std::string& what);
 
-// A pose as 16 numbers (a 4x4 matrix, row by row; the last row 0 0 0 1) or 7
-// (x,y,z,qw,qx,qy,qz), separated by commas or spaces. Throws InputError
-// naming `what` for another count, a non-number, a non-rigid matrix or a
-// quaternion far from unit length.
+// A pose as 16 numbers (a 4x4 matrix, row by row, separated by commas or
+// spaces; the last row 0 0 0 1) or as "t=x,y,z q=qx,qy,qz,qw" (translation
+// and quaternion x,y,z,w as ROS and Eigen's coeffs(); the parts apart by a
+// space or ';'). Throws InputError naming `what` for another count, seven
+// bare numbers (once x,y,z,qw,qx,qy,qz: refused, not guessed), a non-number,
+// a non-rigid matrix or a quaternion far from unit length.
 Eigen::Isometry3d ParsePose(const std::string& text, const std::string& what);
 
 // x,y,z (metres). Throws InputError naming `what`.
