@@ -334,6 +334,15 @@ std::string FlagList(bool (*rule)(const ScanKind&) = nullptr) {
   return text;
 }
 
+// The kinds whose path `source` sets, in the table's order.
+std::vector<const ScanKind*> NamedKinds(const ScanSource& source) {
+  std::vector<const ScanKind*> named;
+  for (const ScanKind& kind : ScanKinds()) {
+    if (!(source.*kind.path).empty()) named.push_back(&kind);
+  }
+  return named;
+}
+
 }  // namespace
 
 const std::vector<ScanKind>& ScanKinds() {
@@ -352,15 +361,9 @@ const std::vector<ScanKind>& ScanKinds() {
 }
 
 const ScanKind& KindOf(const ScanSource& source) {
-  const ScanKind* named = nullptr;
-  int given = 0;
-  for (const ScanKind& kind : ScanKinds()) {
-    if ((source.*kind.path).empty()) continue;
-    named = &kind;
-    ++given;
-  }
-  Require(given == 1, "give exactly one of " + FlagList() + " (or inputs)");
-  return *named;
+  const std::vector<const ScanKind*> named = NamedKinds(source);
+  Require(named.size() == 1, "give exactly one of " + FlagList() + " (or inputs)");
+  return *named[0];
 }
 
 const ScanKind* KindOfFile(const std::string& path) {
@@ -373,12 +376,7 @@ const ScanKind* KindOfFile(const std::string& path) {
   return nullptr;
 }
 
-bool NamesAScan(const ScanSource& source) {
-  for (const ScanKind& kind : ScanKinds()) {
-    if (!(source.*kind.path).empty()) return true;
-  }
-  return false;
-}
+bool NamesAScan(const ScanSource& source) { return !NamedKinds(source).empty(); }
 
 ScanSource WithoutScan(ScanSource source) {
   for (const ScanKind& kind : ScanKinds()) (source.*kind.path).clear();
@@ -409,11 +407,11 @@ std::vector<GroundTruthFootprint> GroundTruthInDetectorFrame(const LoadedScan& s
 }
 
 std::string ScanSourceName(const ScanSource& source) {
-  if (!source.db_path.empty()) return source.db_path + " frame " + std::to_string(source.frame_id);
-  for (const ScanKind& kind : ScanKinds()) {
-    if (!(source.*kind.path).empty()) return source.*kind.path;
-  }
-  return "";
+  const std::vector<const ScanKind*> named = NamedKinds(source);
+  if (named.empty()) return "";
+  const std::string& path = source.*named[0]->path;
+  return named[0]->path == &ScanSource::db_path ? path + " frame " + std::to_string(source.frame_id)
+                                                : path;
 }
 
 }  // namespace furn
