@@ -6,7 +6,7 @@ packages=(
   build-essential cmake ninja-build ccache pkg-config git
   libeigen3-dev libpcl-dev libassimp-dev libembree-dev libosmesa6-dev libopencv-dev
   libceres-dev libsqlite3-dev libgtest-dev libgmock-dev libbenchmark-dev
-  nlohmann-json3-dev libcli11-dev libzip-dev zlib1g-dev libxxhash-dev libdeflate-dev
+  nlohmann-json3-dev libcli11-dev libzip-dev zlib1g-dev libxxhash-dev libdeflate-dev libzstd-dev liblz4-dev
   libyaml-cpp-dev libpng-dev libplplot-dev plplot-driver-cairo fonts-dejavu-core chromium libjs-three sweethome3d-furniture valgrind
   python3-dev pybind11-dev python3-numpy python3-matplotlib libtorch-dev libgloo-dev
   slurm-wlm munge

@@ -49,7 +49,10 @@
 #include "workbench/formats/depth_png.h"
 #include "workbench/formats/options_file.h"
 #include "workbench/formats/point_cloud_file.h"
+#include "workbench/formats/mcap.h"
 #include "workbench/formats/ros2_bag.h"
+#include "workbench/formats/ros2_messages.h"
+#include "workbench/formats/ros_common.h"
 #include "workbench/formats/rosbag_io.h"
 #include "workbench/formats/scan_file.h"
 #include "workbench/pipelines/evaluated_frame.h"
@@ -486,6 +489,41 @@ TEST_F(LoaderFuzz, Ros2Bags) {
           BagScanOptions options;
           options.bag_path = path;
           options.topic = "/camera/depth/image_raw";
+          ForEachScanInBag(options, [](const BagScan&) {});
+        }},
+       dir_);
+}
+
+// MCAP bags (ROS 2 Iron and later): the exporter's frame in each chunk
+// compression; the uncompressed seed lets mutations reach the records and
+// message fields, the compressed ones the decompressors' bounds.
+TEST_F(LoaderFuzz, Ros2McapBags) {
+  ASSERT_NO_FATAL_FAILURE(GenerateSeedDataset(dir_ + "/seed.db"));
+  std::vector<std::string> seeds;
+  DatasetDb db(dir_ + "/seed.db", DatasetDb::Mode::kReadOnly);
+  const RoomRecord room = db.ReadRoom(db.RoomIds().at(0), /*with_images=*/true);
+  for (McapCompression compression :
+       {McapCompression::kNone, McapCompression::kZstd, McapCompression::kLz4}) {
+    const std::string bag = dir_ + "/seed_mcap_" + McapCompressionName(compression);
+    {
+      Ros2BagWriter writer(bag, Ros2Storage::kMcap, compression);
+      const RecordedFrame frame = RecordFrame(room, room.frames.at(0), 0, "seed frame");
+      writer.Write("/tf", kRos2TfMessage, 1, EncodeTfMessage({frame.world_from_camera}));
+      writer.Write("/camera/depth/camera_info", kRos2CameraInfo, 1, EncodeCameraInfo(frame.info));
+      writer.Write("/camera/depth/image_raw", kRos2Image, 1, EncodeImage(frame.depth));
+      writer.Finish();
+    }
+    seeds.push_back(ReadFileBytes(bag + "/" + std::filesystem::path(bag).filename().string() +
+                                  "_0.mcap"));
+  }
+  Fuzz({"ros2_mcap",
+        "mcap",
+        seeds,
+        [](const std::string& path) {
+          BagScanOptions options;
+          options.bag_path = path;
+          options.topic = "/camera/depth/image_raw";
+          options.world_frame = "world";
           ForEachScanInBag(options, [](const BagScan&) {});
         }},
        dir_);

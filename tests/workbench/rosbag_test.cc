@@ -18,8 +18,12 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <iostream>
 #include <map>
+#include <optional>
+#include <set>
 #include <nlohmann/json.hpp>
+#include <yaml-cpp/yaml.h>
 #include <sstream>
 #include <tuple>
 
@@ -30,7 +34,10 @@
 #include "tests/test_util.h"
 #include "workbench/formats/bag_check.h"
 #include "workbench/formats/cdr.h"
+#include "workbench/formats/mcap.h"
 #include "workbench/formats/ros2_bag.h"
+#include "workbench/formats/ros2_messages.h"
+#include "workbench/formats/ros_common.h"
 #include "workbench/formats/rosbag_io.h"
 #include "workbench/formats/scan_file.h"
 
@@ -142,6 +149,21 @@ TEST_F(RosbagTest, ExportedFramesReadBackAsTheDatasetHasThem) {
     ++arrays;
   }
   EXPECT_EQ(arrays, 8);
+  // The TF tree a driver publishes: camera_link -> optical frame once on
+  // /tf_static (latched), world -> camera_link per frame on /tf.
+  rosbag::View statics(bag, rosbag::TopicQuery("/tf_static"));
+  ASSERT_EQ(statics.size(), 1u);
+  EXPECT_EQ(statics.begin()->getConnectionHeader()->at("latching"), "1");
+  const auto fixed = statics.begin()->instantiate<tf2_msgs::TFMessage>();
+  ASSERT_EQ(fixed->transforms.size(), 1u);
+  EXPECT_EQ(fixed->transforms[0].header.frame_id, "camera_link");
+  EXPECT_EQ(fixed->transforms[0].child_frame_id, "camera_depth_optical_frame");
+  EXPECT_NEAR(fixed->transforms[0].transform.rotation.w, 0.5, 1e-12);
+  EXPECT_NEAR(fixed->transforms[0].transform.rotation.x, -0.5, 1e-12);
+  rosbag::View moving(bag, rosbag::TopicQuery("/tf"));
+  EXPECT_EQ(moving.size(), 8u);
+  EXPECT_EQ(moving.begin()->instantiate<tf2_msgs::TFMessage>()->transforms.at(0).child_frame_id,
+            "camera_link");
   const RoomRecord room = dataset.ReadRoom(dataset.RoomIds().front(), false);
   const auto first = view.begin()->instantiate<visualization_msgs::MarkerArray>();
   ASSERT_EQ(first->markers.size(), room.objects.size() + 1);  // + DELETEALL
@@ -212,7 +234,11 @@ TEST_F(RosbagTest, DetectionOverTheBagEqualsDetectionOverTheDatasetAndWritesMark
     ExpectSameDetections(line["detections"], DetectFrame(line["seq"].get<int64_t>()));
     per_message.push_back(line["detections"].size());
   }
-  // The marked bag: every message of the input, and a MarkerArray per scan.
+  // The marked bag: every message of the input, and a MarkerArray per scan,
+  // compressed as its input (LZ4 from the exporter).
+  EXPECT_EQ(CheckBagFile(Bag()), "lz4");
+  EXPECT_EQ(CheckBagFile(marked), "lz4");
+  EXPECT_LT(std::filesystem::file_size(marked), 2 * std::filesystem::file_size(Bag()));
   rosbag::Bag in(Bag(), rosbag::bagmode::Read), with(marked, rosbag::bagmode::Read);
   EXPECT_EQ(rosbag::View(with).size(), rosbag::View(in).size() + 8);
   rosbag::View markers(with, rosbag::TopicQuery("/furnidet/detections"));
@@ -303,6 +329,17 @@ TEST_F(RosbagTest, Ros2BagsMatchTheRos1PathFrameForFrame) {
                             "/camera/depth/ids",
                             "/furnidet/ground_truth"})
     EXPECT_EQ(per_topic[topic], 8) << topic;
+  EXPECT_EQ(per_topic["/tf_static"], 1);
+  // QoS as recorded from a driver: /tf_static transient local (1), the rest volatile (2).
+  const YAML::Node info = YAML::LoadFile(ros2 + "/metadata.yaml")["rosbag2_bagfile_information"];
+  for (const YAML::Node& topic : info["topics_with_message_count"]) {
+    const std::string name = topic["topic_metadata"]["name"].as<std::string>();
+    const YAML::Node qos =
+        YAML::Load(topic["topic_metadata"]["offered_qos_profiles"].as<std::string>());
+    ASSERT_TRUE(qos.IsSequence()) << name;
+    EXPECT_EQ(qos[0]["durability"].as<int>(), name == "/tf_static" ? 1 : 2) << name;
+    EXPECT_EQ(qos[0]["reliability"].as<int>(), 1) << name;
+  }
 
   // Detection: the same JSON lines from either bag; the output bag holds the
   // input's messages, one MarkerArray and one Detection3DArray per scan.
@@ -336,12 +373,15 @@ TEST_F(RosbagTest, Ros2BagsMatchTheRos1PathFrameForFrame) {
     EXPECT_EQ(header(), "world");
     const nlohmann::json& detections = b.at(scan)["detections"];
     ASSERT_EQ(in.SequenceLength("detections", 1), detections.size());
+    size_t index = 0;
     for (const nlohmann::json& d : detections) {
       header();
       ASSERT_EQ(in.SequenceLength("results", 1), 1u);
       EXPECT_EQ(in.String("class_id"), d["class"].get<std::string>());
       EXPECT_NEAR(in.Read<double>(), d["score"].get<double>(), 1e-9);
-      for (int i = 0; i < 7 + 36; ++i) in.Read<double>();
+      for (int i = 0; i < 7; ++i) in.Read<double>();
+      EXPECT_EQ(in.Read<double>(), -1.0);  // covariance unknown, as sensor_msgs marks it
+      for (int i = 1; i < 36; ++i) EXPECT_EQ(in.Read<double>(), 0.0);
       for (int i = 0; i < 3; ++i)
         EXPECT_NEAR(in.Read<double>(), d["centre"][i].get<double>(), 1e-9);
       const double qx = in.Read<double>(), qy = in.Read<double>(), qz = in.Read<double>(),
@@ -353,7 +393,7 @@ TEST_F(RosbagTest, Ros2BagsMatchTheRos1PathFrameForFrame) {
           1,
           1e-9);
       for (int i = 0; i < 3; ++i) EXPECT_NEAR(in.Read<double>(), d["size"][i].get<double>(), 1e-9);
-      in.String("id");
+      EXPECT_EQ(in.String("id"), std::to_string(index++));  // unique in the message
       ++boxes;
     }
     EXPECT_LT(in.remaining(), 4u);
@@ -373,6 +413,136 @@ TEST_F(RosbagTest, Ros2BagsMatchTheRos1PathFrameForFrame) {
                      [&](const Ros2Message& m) { again += m.topic == "/furnidet/detections"; });
   EXPECT_EQ(again, 8);
   EXPECT_FALSE(std::filesystem::exists(marked + ".partial-" + std::to_string(getpid())));
+}
+
+// What @mcap/core (Foxglove's reader, tools/mcap_check/check.cjs) finds in an
+// MCAP file, as JSON; null when node or the npm modules are not installed
+// (`npm ci --prefix tools/mcap_check`, or FURN_MCAP_NODE_MODULES).
+std::optional<nlohmann::json> McapCoreRead(const std::string& file) {
+  const std::string tools = std::string(FURN_SOURCE_DIR) + "/tools/mcap_check";
+  const char* env = std::getenv("FURN_MCAP_NODE_MODULES");
+  const std::string modules = env != nullptr ? env : tools + "/node_modules";
+  if (testing::RunCommand("node --version").exit_code != 0 ||
+      !std::filesystem::exists(modules + "/@mcap/core")) {
+    std::cout << "[ SKIPPED  ] the @mcap/core check: no node or no " << modules
+              << "/@mcap/core (npm ci --prefix tools/mcap_check)\n";
+    return std::nullopt;
+  }
+  const testing::CommandResult r = testing::RunCommand(
+      "NODE_PATH=" + modules + " node " + tools + "/check.cjs " + file + " 2>&1");
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  if (r.exit_code != 0) return std::nullopt;
+  return nlohmann::json::parse(r.output);
+}
+
+// A Jazzy-style MCAP bag (what `ros2 bag record` writes since Iron) reads
+// as its SQLite twin: the same scans and detections; `--out-bag` of an MCAP
+// input is an MCAP bag, in the input's chunk compression, that @mcap/core
+// reads (when node is present) with the messages' schemas and QoS.
+TEST_F(RosbagTest, McapBagsDetectAsTheirSqliteTwins) {
+  const std::string sqlite = *dir_ + "/twin_sqlite", mcap = *dir_ + "/twin_mcap";
+  ASSERT_EQ(Workbench("dataset export " + Db() + " --format rosbag --out " + sqlite).exit_code, 0);
+  const testing::CommandResult exported =
+      Workbench("dataset export " + Db() + " --format rosbag --storage mcap --out " + mcap);
+  ASSERT_EQ(exported.exit_code, 0) << exported.output;
+  ASSERT_TRUE(std::filesystem::exists(mcap + "/twin_mcap_0.mcap"));
+  EXPECT_NE(ReadFileBytes(mcap + "/metadata.yaml").find("storage_identifier: mcap"),
+            std::string::npos);
+  BagScanOptions options;
+  options.topic = "/camera/depth/image_raw";
+  std::vector<BagScan> one, two;
+  options.bag_path = sqlite;
+  ForEachScanInBag(options, [&](const BagScan& scan) { one.push_back(scan); });
+  options.bag_path = mcap + "/twin_mcap_0.mcap";  // the file alone reads too
+  ForEachScanInBag(options, [&](const BagScan& scan) { two.push_back(scan); });
+  ASSERT_EQ(one.size(), 8u);
+  ASSERT_EQ(two.size(), one.size());
+  for (size_t k = 0; k < one.size(); ++k) {
+    EXPECT_EQ(two[k].stamp, one[k].stamp);
+    EXPECT_TRUE(two[k].pose_from_tf);
+    ASSERT_EQ(two[k].loaded.input.points.size(), one[k].loaded.input.points.size());
+    EXPECT_EQ(0,
+              std::memcmp(two[k].loaded.input.points.data(),
+                          one[k].loaded.input.points.data(),
+                          one[k].loaded.input.points.size() * sizeof(Eigen::Vector3f)));
+  }
+  const std::string lines1 = *dir_ + "/twin1.jsonl", lines2 = *dir_ + "/twin2.jsonl";
+  const std::string marked = *dir_ + "/twin_marked";
+  for (const auto& [bag, out, extra] : {std::tuple{sqlite, lines1, std::string()},
+                                        std::tuple{mcap, lines2, " --out-bag " + marked}}) {
+    const testing::CommandResult r = Workbench("detect --quiet --model " + Model() + " --bag " +
+                                               bag + " --topic /camera/depth/image_raw --out " +
+                                               out + extra);
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+  }
+  const std::vector<nlohmann::json> a = JsonLines(lines1), b = JsonLines(lines2);
+  ASSERT_EQ(a.size(), 8u);
+  ASSERT_EQ(b.size(), a.size());
+  size_t detections = 0;
+  for (size_t k = 0; k < a.size(); ++k) {
+    ExpectSameDetections(a[k]["detections"], b[k]["detections"]);
+    detections += a[k]["detections"].size();
+  }
+  EXPECT_GT(detections, 0u);
+  // The marked bag: MCAP like its input, zstd chunks like its input, every
+  // input message and the detections, each topic with a schema and its QoS.
+  const std::string file = marked + "/twin_marked_0.mcap";
+  ASSERT_TRUE(std::filesystem::exists(file));
+  McapReader out(file);
+  EXPECT_EQ(out.compression(), McapCompression::kZstd);
+  std::map<std::string, const McapChannel*> channels;
+  for (const auto& [id, channel] : out.channels()) channels[channel.topic] = &channel;
+  ASSERT_TRUE(channels.count("/furnidet/detections_3d"));
+  const McapSchema& boxes = out.schemas().at(channels["/furnidet/detections_3d"]->schema_id);
+  EXPECT_EQ(boxes.name, "vision_msgs/msg/Detection3DArray");
+  EXPECT_EQ(boxes.encoding, "ros2msg");
+  EXPECT_NE(boxes.data.find("MSG: vision_msgs/Detection3D\n"), std::string::npos);
+  EXPECT_NE(boxes.data.find("MSG: geometry_msgs/PoseWithCovariance\n"), std::string::npos);
+  EXPECT_NE(channels["/tf"]->metadata.at("offered_qos_profiles").find("durability: 2"),
+            std::string::npos);
+  std::set<uint16_t> all;
+  for (const auto& [id, channel] : out.channels()) all.insert(id);
+  EXPECT_EQ(out.Count(all), 8 * 5 + 2 * 8);
+  if (const std::optional<nlohmann::json> seen = McapCoreRead(file)) {
+    EXPECT_EQ((*seen)["profile"], "ros2");
+    EXPECT_EQ((*seen)["counts"]["/furnidet/detections_3d"], 8);
+    EXPECT_EQ((*seen)["counts"]["/camera/depth/image_raw"], 8);
+    EXPECT_EQ((*seen)["statistics_messages"], 8 * 5 + 2 * 8);
+    EXPECT_EQ((*seen)["streamed"]["messages"], 8 * 5 + 2 * 8);
+    EXPECT_TRUE((*seen)["ordered"].get<bool>());
+    for (const nlohmann::json& channel : (*seen)["channels"]) {
+      EXPECT_EQ(channel["encoding"], "cdr");
+      EXPECT_EQ(channel["schema_encoding"], "ros2msg");
+      EXPECT_GT(channel["schema_bytes"].get<int>(), 0) << channel["topic"];
+    }
+  }
+}
+
+// The committed Jazzy-style fixture (tests/data/mcap_jazzy/, written by
+// @mcap/core's writer with lz4 chunks: see its README) detects as its
+// SQLite twin made here from the same messages.
+TEST_F(RosbagTest, AnMcapBagWrittenByAnotherWriterReadsAsItsSqliteTwin) {
+  const std::string fixture = std::string(FURN_SOURCE_DIR) + "/tests/data/mcap_jazzy/frames";
+  const std::string twin = *dir_ + "/fixture_twin";
+  {
+    Ros2BagWriter writer(twin);
+    ForEachRos2Message(fixture, [&](const Ros2Message& m) { writer.Write(m); });
+    EXPECT_EQ(writer.Finish(), 3 * 2);
+  }
+  EXPECT_EQ(McapReader::FirstChunkCompression(fixture + "/frames_0.mcap"), McapCompression::kLz4);
+  const std::string lines1 = *dir_ + "/fixture1.jsonl", lines2 = *dir_ + "/fixture2.jsonl";
+  for (const auto& [bag, out] : {std::pair{fixture, lines1}, std::pair{twin, lines2}}) {
+    const testing::CommandResult r = Workbench("detect --quiet --model " + Model() + " --bag " +
+                                               bag + " --topic /camera/depth/image_raw --out " + out);
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+  }
+  const std::vector<nlohmann::json> a = JsonLines(lines1), b = JsonLines(lines2);
+  ASSERT_EQ(a.size(), 2u);
+  ASSERT_EQ(b.size(), a.size());
+  for (size_t k = 0; k < a.size(); ++k) {
+    EXPECT_TRUE(a[k]["boxes_frame_id"].is_string());
+    ExpectSameDetections(a[k]["detections"], b[k]["detections"]);
+  }
 }
 
 TEST_F(RosbagTest, PointCloud2WithPaddingAndNoTfFindsTheFloor) {
@@ -438,6 +608,65 @@ TEST_F(RosbagTest, PointCloud2WithPaddingAndNoTfFindsTheFloor) {
   // The floor found in the first: the camera at the frame's height.
   const std::vector<std::vector<double>> pose = lines[0]["world_from_camera"];  // rows
   EXPECT_NEAR(pose[2][3], frame.world_from_camera.translation().z(), 0.03);
+}
+
+// A cloud in camera_link (REP 103 body axes: x forward, z up) is turned to
+// optical axes when TF places it, giving the detections of the same points
+// in the optical frame; without TF the bag is refused with one line.
+TEST_F(RosbagTest, ACloudInABodyFrameIsTurnedByTfOrRefused) {
+  DatasetDb dataset(Db(), DatasetDb::Mode::kReadOnly);
+  const FrameRecord frame = dataset.ReadRoom(dataset.RoomIds().back(), true).frames.front();
+  const DetectionInput input = DetectionInputOf(frame, "frame");
+  const Eigen::Matrix3f body_from_optical = BodyFromOptical().toRotationMatrix().cast<float>();
+  RosPointCloud2 cloud;
+  cloud.header = {6.0, "camera_link", 0};
+  cloud.height = static_cast<uint32_t>(frame.height);
+  cloud.width = static_cast<uint32_t>(frame.width);
+  for (uint32_t k = 0; k < 3; ++k) cloud.fields.push_back({std::string(1, "xyz"[k]), 4 * k, 7, 1});
+  cloud.point_step = 12;
+  cloud.row_step = 12 * cloud.width;
+  cloud.data.resize(size_t{cloud.row_step} * cloud.height);
+  for (size_t i = 0; i < input.points.size(); ++i) {
+    const Eigen::Vector3f body = body_from_optical * input.points[i];
+    std::memcpy(&cloud.data[12 * i], body.data(), 12);
+  }
+  RosTransform placed;
+  placed.header = {6.0, "world", 0};
+  placed.child_frame_id = "camera_link";
+  const Eigen::Isometry3d world_from_body =
+      frame.world_from_camera * Eigen::Isometry3d(BodyFromOptical().conjugate());
+  placed.translation = world_from_body.translation();
+  placed.rotation = Eigen::Quaterniond(world_from_body.linear());
+  const std::string with_tf = *dir_ + "/body_tf", without = *dir_ + "/body_no_tf";
+  for (const std::string& bag : {with_tf, without}) {
+    Ros2BagWriter writer(bag, Ros2Storage::kMcap);
+    if (bag == with_tf)
+      writer.Write("/tf_static", kRos2TfMessage, 6'000'000'000, EncodeTfMessage({placed}));
+    writer.Write("/points", kRos2PointCloud2, 6'000'000'000, EncodePointCloud2(cloud));
+    writer.Finish();
+  }
+  const std::string out = *dir_ + "/body.jsonl";
+  const testing::CommandResult r = Workbench("detect --quiet --model " + Model() + " --bag " +
+                                             with_tf + " --topic /points --out " + out);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const std::vector<nlohmann::json> lines = JsonLines(out);
+  ASSERT_EQ(lines.size(), 1u);
+  EXPECT_EQ(lines[0]["pose_source"],
+            "tf: world <- camera_link (a body frame, turned to optical axes)");
+  EXPECT_EQ(lines[0]["boxes_frame_id"], "world");
+  ExpectSameDetections(lines[0]["detections"], DetectFrame(frame.id));
+  const testing::CommandResult refused = Workbench("detect --quiet --model " + Model() +
+                                                   " --bag " + without + " --topic /points");
+  EXPECT_NE(refused.exit_code, 0);
+  EXPECT_NE(refused.output.find("PointCloud2 in 'camera_link', a REP 103 body frame (x forward, "
+                                "z up), and the bag has no /tf to place it"),
+            std::string::npos)
+      << refused.output;
+  EXPECT_EQ(std::count(refused.output.begin(), refused.output.end(), '\n'), 1) << refused.output;
+  EXPECT_TRUE(IsBodyFrame("base_link"));
+  EXPECT_TRUE(IsBodyFrame("odom"));
+  EXPECT_FALSE(IsBodyFrame("camera_depth_optical_frame"));
+  EXPECT_FALSE(IsBodyFrame("kinect"));  // unknown names stay optical, as drivers publish clouds
 }
 
 TEST_F(RosbagTest, BadBagsAndTopicsGetOneClearLine) {

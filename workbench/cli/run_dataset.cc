@@ -199,6 +199,7 @@ namespace {
 struct DatasetCommands {
   CLI::App *info, *preview, *merge, *export_command, *import_real, *noise, *convert_nyu, *floors;
   std::string db, out, format = "bop", export_split = "all", labels, sheets, sensor_file;
+  std::string storage = "sqlite3";
   std::vector<std::string> inputs;
   bool json = false, allow_partial = false, quiet = false, fit = false;
   int max_frames = 12, noise_frames = 0;
@@ -228,8 +229,16 @@ struct DatasetCommands {
     export_command->add_option("db", db, "Dataset database")->required();
     export_command->add_option("--format", format, "bop, png, pcd or rosbag")
         ->capture_default_str();
-    export_command->add_option("--out", out, "Output directory (rosbag: the .bag file)")
+    export_command
+        ->add_option("--out",
+                     out,
+                     "Output directory (rosbag: a .bag file for ROS 1, else a ROS 2 bag folder)")
         ->required();
+    export_command
+        ->add_option("--storage",
+                     storage,
+                     "rosbag to a ROS 2 folder: sqlite3 (Humble's default) or mcap (Iron, Jazzy)")
+        ->capture_default_str();
     export_command->add_option("--split", export_split, "rosbag: frames of train, val, test or all")
         ->capture_default_str();
     AddExportCatalogFlags(export_command, &export_catalog);
@@ -342,11 +351,15 @@ struct DatasetCommands {
 
 void RunExport(const DatasetCommands& c) {
   if (c.format == "rosbag") {
-    const int frames = ExportRosbag(c.db, c.out, c.export_split);
+    const Ros2Storage storage = Ros2StorageFromName(c.storage, "--storage");
+    Require(c.storage == "sqlite3" || FileExtension(c.out) != "bag",
+            "--storage applies to ROS 2 bag folders, not to the ROS 1 bag " + c.out);
+    const int frames = ExportRosbag(c.db, c.out, c.export_split, storage);
     std::cout << "wrote " << frames << " frames to " << c.out << " (rosbag)\n";
     return;
   }
   Require(c.export_split == "all", "--split applies to --format rosbag");
+  Require(c.storage == "sqlite3", "--storage applies to --format rosbag");
   int frames = 0;  // a failed export leaves no partial folder
   WriteDirectoryAtomically(c.out, [&](const std::string& dir) {
     frames = ExportDataset(c.db, c.format, dir, MakeOpenOptions(c.export_catalog));

@@ -74,6 +74,10 @@ const std::string& Field(const std::map<std::string, std::string>& fields,
 class BagWalker {
  public:
   BagWalker(const std::string& path, uint64_t file_size) : path_(path), file_size_(file_size) {}
+  // The first chunk's compression; "none" when the bag has no chunk.
+  std::string first_compression() const {
+    return first_compression_.empty() ? "none" : first_compression_;
+  }
 
   // One record at `at` (within [at, end)): returns the next record's offset.
   uint64_t Record(std::istream& in, uint64_t at, uint64_t end, bool in_chunk) {
@@ -180,6 +184,7 @@ class BagWalker {
                 " is not its data's " + std::to_string(data_bytes));
     chunks_[record_at] = size;
     last_chunk_size_ = size;
+    if (first_compression_.empty()) first_compression_ = compression;
     chunk_record_starts_.clear();
     chunk_compressed_ = compression != "none";
     if (compression == "none") {  // its records, within it
@@ -235,6 +240,7 @@ class BagWalker {
   std::set<uint64_t> chunk_record_starts_;  // of the last chunk's records, from its data
   uint64_t chunk_data_at_ = 0;              // where the last chunk's data starts
   bool chunk_compressed_ = false;
+  std::string first_compression_;  // of the first chunk
 };
 
 // A bounded reader of ROS 1 serialized fields (little endian; strings and
@@ -342,7 +348,7 @@ void CheckMessageFields(const std::string& type,
   reader.End();
 }
 
-void CheckBagFile(const std::string& path) {
+std::string CheckBagFile(const std::string& path) {
   RequireRegularFile(path);
   std::ifstream in(path, std::ios::binary);
   Require(in.good(), path + ": cannot open");
@@ -360,6 +366,7 @@ void CheckBagFile(const std::string& path) {
     at = walker.Record(in, at, size, /*in_chunk=*/false);
   }
   walker.CheckChunkInfos();
+  return walker.first_compression();
 }
 
 }  // namespace furn

@@ -22,8 +22,10 @@ namespace furn {
 // header, known op codes, the bag header's index position, each chunk's
 // compression (none, lz4, bz2) and uncompressed size, index entries that
 // point into their chunk, chunk infos that name a chunk, and (uncompressed
-// chunks) the records inside a chunk within it.
-void CheckBagFile(const std::string& path);
+// chunks) the records inside a chunk within it. Returns the first chunk's
+// compression ("none", "lz4" or "bz2"; "none" without chunks): what a copy
+// of the bag is written with.
+std::string CheckBagFile(const std::string& path);
 
 // The serialized fields of a message of `type` (sensor_msgs/Image,
 // sensor_msgs/PointCloud2, sensor_msgs/CameraInfo, tf2_msgs/TFMessage):

@@ -8,7 +8,6 @@
 #include <algorithm>
 #include <cerrno>
 #include <climits>
-#include <deque>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -17,17 +16,14 @@
 
 #include "core/util/error.h"
 #include "core/util/file_util.h"
-#include "db/sqlite.h"
 #include "workbench/formats/ros2_messages.h"
+#include "workbench/formats/ros2_storage.h"
 #include "workbench/formats/ros_common.h"
 
 namespace furn {
 namespace {
 
 namespace fs = std::filesystem;
-
-constexpr int64_t kMaxMessageBytes = int64_t{1} << 28;  // 256 MiB: 100 raw 1080p depth frames
-constexpr int kMaxTopics = 10000;
 
 std::string SecondsText(int64_t time_ns) { return TimeText(time_ns * 1e-9); }
 
@@ -44,7 +40,8 @@ int64_t SplitIndex(const fs::path& file) {
 }
 
 constexpr const char* kConvertAdvice =
-    "convert with 'ros2 bag convert' to sqlite3 without compression";
+    "convert with 'ros2 bag convert' to sqlite3 or mcap without file or message compression "
+    "(MCAP's compressed chunks are read)";
 
 constexpr uintmax_t kMaxMetadataBytes = 1u << 20;
 
@@ -81,7 +78,13 @@ void RefuseCompressedBag(const std::string& folder) {
               kConvertAdvice);
 }
 
-// The .db3 files of a bag, in split order.
+// Whether a file is a storage file of a bag: .db3 or .mcap.
+bool IsStorageFile(const fs::path& file) {
+  const std::string extension = FileExtension(file.string());
+  return extension == "db3" || extension == "mcap";
+}
+
+// The storage files of a bag (.db3 or .mcap), in split order.
 std::vector<std::string> BagFiles(const std::string& path) {
   std::error_code ec;
   if (!fs::is_directory(path, ec)) {
@@ -91,19 +94,20 @@ std::vector<std::string> BagFiles(const std::string& path) {
   }
   RefuseCompressedBag(path);
   std::vector<fs::path> files;
-  bool other_storage = false;
+  bool compressed_storage = false;
   for (const fs::directory_entry& entry : fs::directory_iterator(path, ec)) {
     const std::string name = entry.path().filename().string();
-    if (entry.path().extension() == ".db3") files.push_back(entry.path());
-    if (entry.path().extension() == ".mcap" || name.find(".db3.") != std::string::npos)
-      other_storage = true;
+    if (IsStorageFile(entry.path())) files.push_back(entry.path());
+    if (name.find(".db3.") != std::string::npos || name.find(".mcap.") != std::string::npos)
+      compressed_storage = true;
   }
   Require(!ec, path + ": cannot list the bag folder (" + ec.message() + ")");
   Require(!files.empty(),
-          path + (other_storage ? std::string(": MCAP or compressed storage is not read here; ") +
-                                      kConvertAdvice
-                                : ": no .db3 file (a ROS 2 bag folder holds metadata.yaml and "
-                                  "<name>_0.db3)"));
+          path + (compressed_storage
+                      ? std::string(": compressed storage files are not read here; ") +
+                            kConvertAdvice
+                      : ": no .db3 or .mcap file (a ROS 2 bag folder holds metadata.yaml and "
+                        "<name>_0.db3 or <name>_0.mcap)"));
   std::sort(files.begin(), files.end(), [](const fs::path& a, const fs::path& b) {
     return std::make_pair(SplitIndex(a), a.string()) < std::make_pair(SplitIndex(b), b.string());
   });
@@ -112,149 +116,12 @@ std::vector<std::string> BagFiles(const std::string& path) {
   return paths;
 }
 
-struct Topic {
-  std::string name, type, serialization;
-};
+using StorageFiles = std::vector<std::unique_ptr<Ros2StorageReader>>;
 
-// One .db3 of a bag, opened read-only; its tables checked before use.
-class BagFile {
- public:
-  explicit BagFile(const std::string& path) : path_(path), db_(Open(path)) {
-    // A hostile file may define its tables as views or its columns as
-    // expressions that make gigabytes out of a few bytes.
-    db_.TreatAsUntrusted(kMaxMessageBytes);
-    CheckPlainTable("topics", {"id", "name", "type", "serialization_format"});
-    CheckPlainTable("messages", {"id", "topic_id", "timestamp", "data"});
-    Statement topics(&db_, "SELECT id, name, type, serialization_format FROM topics");
-    while (topics.Step()) {
-      Require(static_cast<int>(topics_.size()) < kMaxTopics,
-              path + ": more than " + std::to_string(kMaxTopics) + " topics");
-      const std::string name = topics.ColumnText(1), type = topics.ColumnText(2);
-      Require(name.size() <= 256 && type.size() <= 256,
-              path + ": a topic name or type longer than 256 bytes");
-      topics_[topics.ColumnInt(0)] = {name, type, topics.ColumnText(3)};
-    }
-  }
-  const std::map<int64_t, Topic>& topics() const { return topics_; }
-
-  // Topic ids of the names (and, when not empty, of the type).
-  std::set<int64_t> Ids(const std::set<std::string>& names, const std::string& type = "") const {
-    std::set<int64_t> ids;
-    for (const auto& [id, topic] : topics_) {
-      if (names.count(topic.name) && (type.empty() || topic.type == type)) ids.insert(id);
-    }
-    return ids;
-  }
-
-  int64_t Count(const std::set<int64_t>& ids) {
-    if (ids.empty()) return 0;
-    Statement count(&db_, "SELECT COUNT(*) FROM messages WHERE topic_id IN (" + List(ids) + ")");
-    return count.Step() ? count.ColumnInt(0) : 0;
-  }
-
-  // The messages of the topics in time order (the first `limit`; 0: all); a
-  // message above kMaxMessageBytes is refused before it is read.
-  void ForEach(const std::set<int64_t>& ids,
-               const std::function<void(const Ros2Message&)>& each,
-               int64_t limit = 0) {
-    if (ids.empty()) return;
-    // length() of a BLOB is its bytes, read from the record without its
-    // content; of TEXT it counts characters to the first NUL, so a message
-    // stored as TEXT is refused rather than measured.
-    Statement rows(&db_,
-                   "SELECT topic_id, timestamp, typeof(data), length(data), CASE WHEN "
-                   "typeof(data) = 'blob' AND length(data) <= " +
-                       std::to_string(kMaxMessageBytes) +
-                       " THEN data END FROM messages WHERE topic_id IN (" + List(ids) +
-                       ") ORDER BY timestamp, id" +
-                       (limit > 0 ? " LIMIT " + std::to_string(limit) : std::string()));
-    Ros2Message message;
-    while (Step(&rows)) {
-      const Topic& topic = topics_.at(rows.ColumnInt(0));
-      message.topic = topic.name;
-      message.type = topic.type;
-      message.time_ns = rows.ColumnInt(1);
-      const std::string where = path_ + " " + topic.name + " at " + SecondsText(message.time_ns);
-      Require(rows.ColumnText(2) == "blob",
-              where + ": the message is stored as " + rows.ColumnText(2).substr(0, 16) +
-                  "; rosbag2 stores messages as BLOB");
-      Require(rows.ColumnInt(3) <= kMaxMessageBytes,
-              where + ": a message of " + std::to_string(rows.ColumnInt(3)) + " bytes, more than " +
-                  std::to_string(kMaxMessageBytes));
-      Require(topic.serialization == "cdr",
-              path_ + " " + topic.name + ": serialization '" + topic.serialization.substr(0, 32) +
-                  "' is not cdr");
-      message.data = rows.ColumnBlob(4);
-      each(message);
-    }
-  }
-
- private:
-  static Database Open(const std::string& path) {
-    try {
-      return Database(path, Database::Mode::kReadOnly);
-    } catch (const DbError& e) {
-      throw InputError(std::string(e.what()));
-    }
-  }
-  // The next row; a value past the length cap (SQLite's "too big", whatever
-  // the column computes or stores) is refused as the cap it breaks.
-  bool Step(Statement* rows) {
-    try {
-      return rows->Step();
-    } catch (const DbError& e) {
-      if (std::string(e.what()).find("too big") == std::string::npos) throw;
-      throw InputError(path_ + ": a message of more than " + std::to_string(kMaxMessageBytes) +
-                       " bytes (SQLite: string or blob too big)");
-    }
-  }
-  // A table as rosbag2 makes it: a plain table (not a view, not a virtual
-  // table) with the `needed` columns, all stored (no generated or hidden one).
-  void CheckPlainTable(const std::string& table, const std::set<std::string>& needed) {
-    Statement kind(&db_, "SELECT type, sql FROM sqlite_master WHERE name = ?");
-    kind.Bind(1, table);
-    Require(kind.Step() && kind.ColumnText(0) == "table",
-            path_ + ": no '" + table + "' table: not a rosbag2 SQLite file");
-    Require(kind.ColumnText(1).rfind("CREATE TABLE", 0) == 0,
-            path_ + ": table '" + table + "' is not a plain table (rosbag2 writes CREATE TABLE)");
-    Statement columns(&db_, "SELECT name, hidden FROM pragma_table_xinfo(?)");
-    columns.Bind(1, table);
-    std::set<std::string> missing = needed;
-    while (columns.Step()) {
-      Require(columns.ColumnInt(1) == 0,
-              path_ + ": column '" + columns.ColumnText(0).substr(0, 64) + "' of table '" + table +
-                  "' is generated or hidden; a rosbag2 file stores its columns");
-      missing.erase(columns.ColumnText(0));
-    }
-    Require(missing.empty(),
-            path_ + ": table '" + table + "' has no column '" +
-                (missing.empty() ? std::string() : *missing.begin()) +
-                "': not a rosbag2 SQLite file");
-  }
-  static std::string List(const std::set<int64_t>& ids) {
-    std::string list;
-    for (int64_t id : ids) list += (list.empty() ? "" : ",") + std::to_string(id);
-    return list;
-  }
-  std::string path_;
-  Database db_;
-  std::map<int64_t, Topic> topics_;
-};
-
-// Runs `body`, turning SQLite's errors into InputError naming the bag.
-template <typename Body>
-auto Guarded(const std::string& path, Body body) {
-  try {
-    return body();
-  } catch (const DbError& e) {
-    throw InputError(path + ": " + e.what());
-  }
-}
-
-TfBuffer ReadTf(std::deque<BagFile>& files, const std::string& path) {
+TfBuffer ReadTf(StorageFiles& files, const std::string& path) {
   TfBuffer tf;
-  for (BagFile& file : files) {
-    file.ForEach(file.Ids({"/tf", "/tf_static", "tf", "tf_static"}, kRos2TfMessage),
+  for (auto& file : files) {
+    file->ForEach(file->Ids({"/tf", "/tf_static", "tf", "tf_static"}, kRos2TfMessage),
                  [&](const Ros2Message& m) {
                    const std::string where = path + " " + m.topic + " at " + SecondsText(m.time_ns);
                    const bool is_static = m.topic.find("tf_static") != std::string::npos;
@@ -267,10 +134,10 @@ TfBuffer ReadTf(std::deque<BagFile>& files, const std::string& path) {
 }
 
 // The scan topic's type across the files: PointCloud2 or Image.
-std::string ScanTopicType(const std::deque<BagFile>& files, const BagScanOptions& options) {
+std::string ScanTopicType(const StorageFiles& files, const BagScanOptions& options) {
   std::string type;
-  for (const BagFile& file : files) {
-    for (const auto& [id, topic] : file.topics())
+  for (const auto& file : files) {
+    for (const auto& [id, topic] : file->topics())
       if (topic.name == options.topic) type = topic.type;
   }
   Require(!type.empty(), options.bag_path + ": no topic " + options.topic);
@@ -280,7 +147,7 @@ std::string ScanTopicType(const std::deque<BagFile>& files, const BagScanOptions
   return type;
 }
 
-int ScanFiles(std::deque<BagFile>& files,
+int ScanFiles(StorageFiles& files,
               const BagScanOptions& options,
               const TfBuffer& tf,
               const std::function<void(const BagScan&)>& each) {
@@ -288,12 +155,12 @@ int ScanFiles(std::deque<BagFile>& files,
   const std::string type = ScanTopicType(files, options);
   BagScanAssembler scans(options, &tf, info_topic);
   int64_t total = 0;
-  for (BagFile& file : files) total += file.Count(file.Ids({options.topic}));
+  for (auto& file : files) total += file->Count(file->Ids({options.topic}));
   if (type == kRos2Image) {  // the first CameraInfo, for images recorded before it
-    for (BagFile& file : files) {
+    for (auto& file : files) {
       if (scans.has_camera()) break;
-      file.ForEach(
-          file.Ids({info_topic}, kRos2CameraInfo),
+      file->ForEach(
+          file->Ids({info_topic}, kRos2CameraInfo),
           [&](const Ros2Message& m) {
             const std::string where = options.bag_path + " " + m.topic;
             scans.OnCameraInfo(DecodeCameraInfo(m.data, where), where);
@@ -302,8 +169,8 @@ int ScanFiles(std::deque<BagFile>& files,
     }
   }
   int count = 0;
-  for (BagFile& file : files) {
-    file.ForEach(file.Ids({options.topic, info_topic}), [&](const Ros2Message& m) {
+  for (auto& file : files) {
+    file->ForEach(file->Ids({options.topic, info_topic}), [&](const Ros2Message& m) {
       const std::string where = options.bag_path + " " + m.topic + " at " + SecondsText(m.time_ns);
       const double bag_time = m.time_ns * 1e-9;
       if (m.topic == info_topic && m.topic != options.topic) {
@@ -322,39 +189,34 @@ int ScanFiles(std::deque<BagFile>& files,
   return count;
 }
 
-std::deque<BagFile> OpenBagFiles(const std::string& path) {
-  std::deque<BagFile> files;
-  for (const std::string& file : BagFiles(path)) files.emplace_back(file);
-  return files;  // moved as a whole: the files stay where they are
+StorageFiles OpenBagFiles(const std::string& path) {
+  StorageFiles files;
+  for (const std::string& file : BagFiles(path)) files.push_back(OpenRos2Storage(file));
+  return files;
 }
 
 }  // namespace
 
 bool IsRos2Bag(const std::string& path) {
   std::error_code ec;
-  return fs::is_directory(path, ec) || FileExtension(path) == "db3";
+  return fs::is_directory(path, ec) || IsStorageFile(path);
 }
 
 int ForEachRos2BagScan(const BagScanOptions& options,
                        const std::function<void(const BagScan&)>& each) {
   CheckBagScanOptions(options);
-  return Guarded(options.bag_path, [&] {
-    std::deque<BagFile> files = OpenBagFiles(options.bag_path);
-    const TfBuffer tf = options.world_frame.empty() ? TfBuffer() : ReadTf(files, options.bag_path);
-    return ScanFiles(files, options, tf, each);
-  });
+  StorageFiles files = OpenBagFiles(options.bag_path);
+  const TfBuffer tf = options.world_frame.empty() ? TfBuffer() : ReadTf(files, options.bag_path);
+  return ScanFiles(files, options, tf, each);
 }
 
 void ForEachRos2Message(const std::string& bag,
                         const std::function<void(const Ros2Message&)>& each) {
-  Guarded(bag, [&] {
-    for (BagFile& file : OpenBagFiles(bag)) {
-      std::set<int64_t> all;
-      for (const auto& [id, topic] : file.topics()) all.insert(id);
-      file.ForEach(all, each);
-    }
-    return 0;
-  });
+  for (auto& file : OpenBagFiles(bag)) {
+    std::set<int64_t> all;
+    for (const auto& [id, topic] : file->topics()) all.insert(id);
+    file->ForEach(all, each);
+  }
 }
 
 // ---------------------------------------------------------------- writing
@@ -364,10 +226,10 @@ namespace {
 // What metadata.yaml says of a bag.
 struct BagSummary {
   struct TopicCount {
-    int64_t id = 0;
-    std::string type;
+    Ros2Topic topic;
     int64_t messages = 0;
   };
+  Ros2Storage storage = Ros2Storage::kSqlite3;
   std::string file_name;
   std::map<std::string, TopicCount> topics;
   int64_t first_ns = INT64_MAX, last_ns = INT64_MIN, messages = 0;
@@ -439,11 +301,12 @@ void RemoveDeadWritersFolders(const std::string& out) {
     const pid_t pid = static_cast<pid_t>(std::stol(pid_text));
     if (pid == getpid() || kill(pid, 0) == 0 || errno != ESRCH) continue;  // alive, or not ours
     const std::string db3 = target.filename().string() + "_0.db3";
+    const std::string mcap = target.filename().string() + "_0.mcap";
     bool only_ours = fs::is_directory(entry.symlink_status(ec));
     for (const fs::directory_entry& file : fs::directory_iterator(entry.path(), ec)) {
       const std::string file_name = file.path().filename().string();
       only_ours = only_ours && fs::is_regular_file(file.symlink_status(ec)) &&
-                  (file_name == "metadata.yaml" || file_name == db3 ||
+                  (file_name == "metadata.yaml" || file_name == db3 || file_name == mcap ||
                    file_name == db3 + "-journal" || file_name.rfind("metadata.yaml.", 0) == 0);
     }
     if (only_ours) fs::remove_all(entry.path(), ec);
@@ -457,7 +320,7 @@ std::string MetadataYaml(const BagSummary& bag) {
   yaml << YAML::BeginMap << YAML::Key << "rosbag2_bagfile_information" << YAML::Value
        << YAML::BeginMap;
   yaml << YAML::Key << "version" << YAML::Value << 5;
-  yaml << YAML::Key << "storage_identifier" << YAML::Value << "sqlite3";
+  yaml << YAML::Key << "storage_identifier" << YAML::Value << Ros2StorageName(bag.storage);
   yaml << YAML::Key << "duration" << YAML::Value << YAML::BeginMap << YAML::Key << "nanoseconds"
        << YAML::Value << duration << YAML::EndMap;
   yaml << YAML::Key << "starting_time" << YAML::Value << YAML::BeginMap << YAML::Key
@@ -467,9 +330,10 @@ std::string MetadataYaml(const BagSummary& bag) {
   for (const auto& [name, topic] : bag.topics) {
     yaml << YAML::BeginMap << YAML::Key << "topic_metadata" << YAML::Value << YAML::BeginMap;
     yaml << YAML::Key << "name" << YAML::Value << name;
-    yaml << YAML::Key << "type" << YAML::Value << topic.type;
-    yaml << YAML::Key << "serialization_format" << YAML::Value << "cdr";
-    yaml << YAML::Key << "offered_qos_profiles" << YAML::Value << YAML::DoubleQuoted << "";
+    yaml << YAML::Key << "type" << YAML::Value << topic.topic.type;
+    yaml << YAML::Key << "serialization_format" << YAML::Value << topic.topic.serialization;
+    yaml << YAML::Key << "offered_qos_profiles" << YAML::Value << YAML::DoubleQuoted
+         << topic.topic.offered_qos_profiles;
     yaml << YAML::EndMap << YAML::Key << "message_count" << YAML::Value << topic.messages
          << YAML::EndMap;
   }
@@ -493,13 +357,27 @@ std::string MetadataYaml(const BagSummary& bag) {
 
 struct Ros2BagWriter::Impl {
   std::string out, partial;
-  std::unique_ptr<Database> db;
-  std::unique_ptr<Statement> insert;
+  std::unique_ptr<Ros2StorageWriter> file;
   BagSummary summary;
   bool finished = false;
+
+  void Write(const Ros2Topic& topic, int64_t time_ns, const std::vector<uint8_t>& cdr) {
+    auto found = summary.topics.find(topic.name);
+    if (found == summary.topics.end())
+      found = summary.topics.emplace(topic.name, BagSummary::TopicCount{topic, 0}).first;
+    Require(found->second.topic.type == topic.type,
+            out + ": topic " + topic.name + " written as " + found->second.topic.type + " and " +
+                topic.type);
+    file->Write(found->second.topic, time_ns, cdr);
+    ++found->second.messages;
+    ++summary.messages;
+    summary.first_ns = std::min(summary.first_ns, time_ns);
+    summary.last_ns = std::max(summary.last_ns, time_ns);
+  }
 };
 
-Ros2BagWriter::Ros2BagWriter(const std::string& out) : impl_(std::make_unique<Impl>()) {
+Ros2BagWriter::Ros2BagWriter(const std::string& out, Ros2Storage storage, McapCompression compression)
+    : impl_(std::make_unique<Impl>()) {
   std::string trimmed = out;
   while (trimmed.size() > 1 && trimmed.back() == '/') trimmed.pop_back();
   std::error_code ec;
@@ -508,32 +386,19 @@ Ros2BagWriter::Ros2BagWriter(const std::string& out) : impl_(std::make_unique<Im
   impl_->out = trimmed;
   RemoveDeadWritersFolders(trimmed);
   impl_->partial = trimmed + ".partial-" + std::to_string(getpid());
-  impl_->summary.file_name = fs::path(trimmed).filename().string() + "_0.db3";
+  impl_->summary.storage = storage;
+  impl_->summary.file_name =
+      fs::path(trimmed).filename().string() + "_0." + Ros2StorageExtension(storage);
   fs::remove_all(impl_->partial, ec);
   Require(fs::create_directories(impl_->partial, ec) && !ec,
           out + ": cannot create the bag folder " + impl_->partial + " (" + ec.message() + ")");
-  Guarded(out, [&] {
-    impl_->db = std::make_unique<Database>(impl_->partial + "/" + impl_->summary.file_name);
-    impl_->db->Execute(
-        "PRAGMA journal_mode = DELETE;"
-        "CREATE TABLE schema(schema_version INTEGER PRIMARY KEY, ros_distro TEXT NOT NULL);"
-        "INSERT INTO schema VALUES (3, 'humble');"
-        "CREATE TABLE topics(id INTEGER PRIMARY KEY, name TEXT NOT NULL, type TEXT NOT NULL, "
-        "serialization_format TEXT NOT NULL, offered_qos_profiles TEXT NOT NULL);"
-        "CREATE TABLE messages(id INTEGER PRIMARY KEY, topic_id INTEGER NOT NULL, "
-        "timestamp INTEGER NOT NULL, data BLOB NOT NULL);"
-        "CREATE INDEX timestamp_idx ON messages (timestamp ASC);"
-        "BEGIN");
-    impl_->insert = std::make_unique<Statement>(
-        impl_->db.get(), "INSERT INTO messages(topic_id, timestamp, data) VALUES (?, ?, ?)");
-    return 0;
-  });
+  impl_->file =
+      CreateRos2Storage(impl_->partial + "/" + impl_->summary.file_name, storage, compression);
 }
 
 Ros2BagWriter::~Ros2BagWriter() {
   if (impl_->finished) return;
-  impl_->insert.reset();
-  impl_->db.reset();
+  impl_->file.reset();
   std::error_code ec;
   fs::remove_all(impl_->partial, ec);
 }
@@ -542,36 +407,21 @@ void Ros2BagWriter::Write(const std::string& topic,
                           const std::string& type,
                           int64_t time_ns,
                           const std::vector<uint8_t>& cdr) {
-  Guarded(impl_->out, [&] {
-    auto found = impl_->summary.topics.find(topic);
-    if (found == impl_->summary.topics.end()) {
-      Statement add(impl_->db.get(),
-                    "INSERT INTO topics(name, type, serialization_format, offered_qos_profiles) "
-                    "VALUES (?, ?, 'cdr', '')");
-      add.Bind(1, topic).Bind(2, type).Run();
-      found = impl_->summary.topics
-                  .emplace(topic, BagSummary::TopicCount{impl_->db->LastInsertRowId(), type, 0})
-                  .first;
-    }
-    Require(found->second.type == type,
-            impl_->out + ": topic " + topic + " written as " + found->second.type + " and " + type);
-    impl_->insert->Bind(1, found->second.id).Bind(2, time_ns).BindBlob(3, cdr).Run();
-    impl_->insert->Reset();
-    ++found->second.messages;
-    ++impl_->summary.messages;
-    impl_->summary.first_ns = std::min(impl_->summary.first_ns, time_ns);
-    impl_->summary.last_ns = std::max(impl_->summary.last_ns, time_ns);
-    return 0;
-  });
+  Ros2Topic declared;
+  declared.name = topic;
+  declared.type = type;
+  declared.offered_qos_profiles = Ros2OfferedQos(topic == "/tf_static" || topic == "tf_static");
+  impl_->Write(declared, time_ns, cdr);
+}
+
+void Ros2BagWriter::Write(const Ros2Message& message) {
+  if (message.declaration == nullptr) return Write(message.topic, message.type, message.time_ns, message.data);
+  impl_->Write(*message.declaration, message.time_ns, message.data);
 }
 
 int64_t Ros2BagWriter::Finish() {
-  Guarded(impl_->out, [&] {
-    impl_->db->Execute("COMMIT");
-    impl_->insert.reset();
-    impl_->db.reset();
-    return 0;
-  });
+  impl_->file->Finish();
+  impl_->file.reset();
   WriteFileAtomically(impl_->partial + "/metadata.yaml", MetadataYaml(impl_->summary));
   std::error_code ec;
   if (fs::exists(impl_->out, ec)) {
@@ -589,6 +439,18 @@ namespace {
 int64_t Nanoseconds(double seconds, const std::string& where) {
   const auto [sec, nanosec] = Ros2Time(seconds, where);
   return int64_t{sec} * 1000000000 + nanosec;
+}
+
+// The storage of a bag's first file, and its MCAP chunks' compression: what
+// a copy of it is written as.
+Ros2Storage StorageOf(const std::string& bag) {
+  const std::vector<std::string> files = BagFiles(bag);
+  return FileExtension(files.front()) == "mcap" ? Ros2Storage::kMcap : Ros2Storage::kSqlite3;
+}
+McapCompression CompressionOf(const std::string& bag) {
+  const std::vector<std::string> files = BagFiles(bag);
+  return FileExtension(files.front()) == "mcap" ? McapReader::FirstChunkCompression(files.front())
+                                               : McapCompression::kZstd;
 }
 
 std::string CheckedInput(const std::string& in_bag, const std::string& out_bag) {
@@ -609,7 +471,7 @@ Ros2DetectionWriter::Ros2DetectionWriter(const std::string& in_bag,
     : in_bag_(CheckedInput(in_bag, out_bag)),
       world_frame_(std::move(world_frame)),
       marker_topic_(std::move(marker_topic)),
-      out_(out_bag) {}
+      out_(out_bag, StorageOf(in_bag_), CompressionOf(in_bag_)) {}
 
 Ros2DetectionWriter::~Ros2DetectionWriter() = default;
 
@@ -635,7 +497,7 @@ void Ros2DetectionWriter::Add(const BagScan& scan,
 void Ros2DetectionWriter::Finish() {
   ForEachRos2Message(in_bag_, [&](const Ros2Message& m) {
     if (m.topic == marker_topic_ || m.topic == marker_topic_ + "_3d") return;  // a rerun's
-    out_.Write(m.topic, m.type, m.time_ns, m.data);
+    out_.Write(m);
   });
   out_.Finish();
 }
@@ -645,6 +507,9 @@ void Ros2FrameWriter::Write(const RoomRecord& room,
                             const std::string& where) {
   const RecordedFrame recorded = RecordFrame(room, frame, frames_, where);
   const int64_t time_ns = Nanoseconds(recorded.stamp, where);
+  if (frames_ == 0)  // once, transient local: a late subscriber still gets it
+    out_.Write(
+        "/tf_static", kRos2TfMessage, time_ns, EncodeTfMessage({recorded.camera_from_optical}));
   out_.Write("/tf", kRos2TfMessage, time_ns, EncodeTfMessage({recorded.world_from_camera}));
   out_.Write(
       "/camera/depth/camera_info", kRos2CameraInfo, time_ns, EncodeCameraInfo(recorded.info));
@@ -677,9 +542,9 @@ std::unique_ptr<DetectionBagSink> OpenDetectionBag(const std::string& in_bag,
   return std::make_unique<BagMarkerWriter>(in_bag, out_bag, world_frame);
 }
 
-std::unique_ptr<FrameBagSink> OpenFrameBag(const std::string& out_bag) {
+std::unique_ptr<FrameBagSink> OpenFrameBag(const std::string& out_bag, Ros2Storage storage) {
   if (FileExtension(out_bag) == "bag") return std::make_unique<FrameBagWriter>(out_bag);
-  return std::make_unique<Ros2FrameWriter>(out_bag);
+  return std::make_unique<Ros2FrameWriter>(out_bag, storage);
 }
 
 }  // namespace furn

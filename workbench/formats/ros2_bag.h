@@ -1,12 +1,14 @@
-// ROS 2 bags (rosbag2's default SQLite storage, CDR messages): scans read
+// ROS 2 bags (rosbag2's SQLite or MCAP storage, CDR messages): scans read
 // from a bag's depth topic as `detect --bag` does for ROS 1, detections
 // written back as visualization_msgs/MarkerArray and
 // vision_msgs/Detection3DArray, and dataset frames exported for ROS 2 stacks
-// to replay. No ROS installation is needed: the SQLite tables, metadata.yaml
-// and CDR are read and written here, bounded like the ROS 1 path.
+// to replay. No ROS installation is needed: the SQLite tables, MCAP files,
+// metadata.yaml and CDR are read and written here, bounded like the ROS 1
+// path (ros2_storage.h has the two storage formats).
 //
-// A ROS 2 bag is a folder (metadata.yaml and <name>_0.db3, ...) or one .db3
-// file. The dispatchers at the end pick ROS 1 or ROS 2 by the path:
+// A ROS 2 bag is a folder (metadata.yaml and <name>_0.db3 or <name>_0.mcap,
+// ...) or one .db3 or .mcap file: what `ros2 bag record` writes on Humble
+// (sqlite3) and on Iron, Jazzy and later (mcap). The dispatchers at the end pick ROS 1 or ROS 2 by the path:
 //
 //   ForEachScanInBag(options, [&](const BagScan& scan) { ... });   // .bag or ROS 2
 //   std::unique_ptr<FrameBagSink> out = OpenFrameBag("export_ros2");  // a folder: ROS 2
@@ -18,35 +20,35 @@
 #include <string>
 #include <vector>
 
+#include "workbench/formats/ros2_storage.h"
 #include "workbench/formats/rosbag_io.h"
 
 namespace furn {
 
-// True when `path` is a ROS 2 bag: a folder, or a file ending in .db3.
+// True when `path` is a ROS 2 bag: a folder, or a file ending in .db3 or .mcap.
 bool IsRos2Bag(const std::string& path);
 
 // ForEachBagScan of a ROS 2 bag (same options, same scans, same errors).
 int ForEachRos2BagScan(const BagScanOptions& options,
                        const std::function<void(const BagScan&)>& each);
 
-// One message of a ROS 2 bag as stored: topic, type, receive time, CDR bytes.
-struct Ros2Message {
-  std::string topic, type;
-  int64_t time_ns = 0;
-  std::vector<uint8_t> data;
-};
 // Every message of a bag in time order (for tests and copies); bounded as
 // the scan reader.
 void ForEachRos2Message(const std::string& bag,
                         const std::function<void(const Ros2Message&)>& each);
 
 // Writes a ROS 2 bag folder: <out>/<name>_0.db3 (the Humble layout, schema
-// 3) and metadata.yaml (version 5). Written into <out>.partial and moved
-// into place by Finish(); an existing <out> is replaced only when it is a
-// ROS 2 bag folder. Destroyed unfinished, it leaves nothing.
+// 3) or <out>/<name>_0.mcap (chunked, indexed, with a summary, as
+// rosbag2's MCAP plugin writes), and metadata.yaml (version 5). Every topic
+// carries its offered QoS (transient local for /tf_static) and, in MCAP, its
+// message definition. Written into <out>.partial-<pid> and moved into place
+// by Finish(); an existing <out> is replaced only when it is a ROS 2 bag
+// folder. Destroyed unfinished, it leaves nothing.
 class Ros2BagWriter {
  public:
-  explicit Ros2BagWriter(const std::string& out);
+  explicit Ros2BagWriter(const std::string& out,
+                         Ros2Storage storage = Ros2Storage::kSqlite3,
+                         McapCompression compression = McapCompression::kZstd);
   ~Ros2BagWriter();
   Ros2BagWriter(const Ros2BagWriter&) = delete;
   Ros2BagWriter& operator=(const Ros2BagWriter&) = delete;
@@ -54,6 +56,8 @@ class Ros2BagWriter {
              const std::string& type,
              int64_t time_ns,
              const std::vector<uint8_t>& cdr);
+  // A copy of a message read from a bag, with its topic's QoS and schema.
+  void Write(const Ros2Message& message);
   // Returns the messages written.
   int64_t Finish();
 
@@ -63,7 +67,8 @@ class Ros2BagWriter {
 };
 
 // The ROS 2 DetectionBagSink: a copy of the input bag with, per scan, a
-// MarkerArray on `marker_topic` and a Detection3DArray on <marker_topic>_3d.
+// MarkerArray on `marker_topic` and a Detection3DArray on <marker_topic>_3d,
+// in the input's storage (MCAP with the input's chunk compression, or SQLite).
 class Ros2DetectionWriter : public DetectionBagSink {
  public:
   Ros2DetectionWriter(const std::string& in_bag,
@@ -82,7 +87,8 @@ class Ros2DetectionWriter : public DetectionBagSink {
 // The ROS 2 FrameBagSink: the topics of FrameBagWriter, as ROS 2 types.
 class Ros2FrameWriter : public FrameBagSink {
  public:
-  explicit Ros2FrameWriter(const std::string& out_bag) : out_(out_bag) {}
+  explicit Ros2FrameWriter(const std::string& out_bag, Ros2Storage storage = Ros2Storage::kSqlite3)
+      : out_(out_bag, storage) {}
   void Write(const RoomRecord& room, const FrameRecord& frame, const std::string& where) override;
   int Finish() override;
 
@@ -97,7 +103,8 @@ int ForEachScanInBag(const BagScanOptions& options,
 std::unique_ptr<DetectionBagSink> OpenDetectionBag(const std::string& in_bag,
                                                    const std::string& out_bag,
                                                    const std::string& world_frame);
-// A ".bag" path: ROS 1; anything else: a ROS 2 bag folder.
-std::unique_ptr<FrameBagSink> OpenFrameBag(const std::string& out_bag);
+// A ".bag" path: ROS 1; anything else: a ROS 2 bag folder of `storage`.
+std::unique_ptr<FrameBagSink> OpenFrameBag(const std::string& out_bag,
+                                           Ros2Storage storage = Ros2Storage::kSqlite3);
 
 }  // namespace furn

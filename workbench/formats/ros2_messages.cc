@@ -245,7 +245,7 @@ std::vector<uint8_t> EncodeDetection3DArray(const RosHeader& header,
     out.String(d.class_id);
     out.Write<double>(d.score);
     WritePose(out, d.box_pose);                           // hypothesis pose
-    for (int i = 0; i < 36; ++i) out.Write<double>(0.0);  // its covariance: unknown
+    for (double v : d.covariance) out.Write<double>(v);
     WritePose(out, d.box_pose);                           // bbox.center
     WriteVector3(out, d.size);                            // bbox.size
     out.String(d.id);

@@ -37,6 +37,14 @@ std::vector<uint8_t> EncodeMarkerArray(const std::vector<RosMarker>& markers);
 std::vector<uint8_t> EncodeDetection3DArray(const RosHeader& header,
                                             const std::vector<RosDetection3D>& detections);
 
+// The definition of a type written here as an MCAP "ros2msg" schema holds it
+// (its fields, then every type it uses); empty for other types.
+std::string Ros2MessageDefinition(const std::string& type);
+
+// rosbag2's offered_qos_profiles YAML of one publisher: reliable, and
+// transient local when `latched` (/tf_static), else volatile.
+std::string Ros2OfferedQos(bool latched);
+
 // Seconds as ROS 2 time (int32 sec, uint32 nanosec), rounded to the
 // nanosecond; InputError naming `where` outside 0..2^31 s.
 std::pair<int32_t, uint32_t> Ros2Time(double seconds, const std::string& where);

@@ -224,7 +224,44 @@ BagScan BagScanAssembler::OnCloud(const RosPointCloud2& cloud,
     scan.loaded.input.width = static_cast<int>(cloud.width);
     scan.loaded.input.height = static_cast<int>(cloud.height);
   }
-  return Finish(std::move(scan), cloud.header);
+  scan = Finish(std::move(scan), cloud.header);
+  if (IsBodyFrame(scan.frame_id)) TurnToOpticalAxes(&scan, where);
+  return scan;
+}
+
+bool IsBodyFrame(const std::string& frame_id) {
+  auto ends_with = [&](const std::string& tail) {
+    return frame_id.size() >= tail.size() &&
+           frame_id.compare(frame_id.size() - tail.size(), tail.size(), tail) == 0;
+  };
+  if (frame_id.find("optical") != std::string::npos) return false;
+  for (const char* name : {"odom", "map", "world", "earth"}) {
+    if (frame_id == name || frame_id == std::string("/") + name) return true;
+  }
+  return ends_with("_link") || ends_with("_footprint");
+}
+
+// A cloud in a REP 103 body frame (x forward, y left, z up), re-expressed in
+// optical axes at the same origin (z forward, x right, y down), which the
+// detector's floor search and camera model assume; only with a TF pose,
+// since without one nothing says where the floor is.
+void BagScanAssembler::TurnToOpticalAxes(BagScan* scan, const std::string& where) const {
+  Require(scan->pose_from_tf,
+          where + ": PointCloud2 in '" + scan->frame_id +
+              "', a REP 103 body frame (x forward, z up), and " +
+              (tf_ == nullptr || tf_->empty()
+                   ? std::string("the bag has no /tf to place it")
+                   : "TF has no chain from it to --tf-world '" + options_.world_frame + "'") +
+              ": its floor cannot be found in body axes; record its TF (or name --tf-world) or "
+              "the cloud in the camera's optical frame");
+  const Eigen::Quaterniond body_from_optical = BodyFromOptical();
+  const Eigen::Matrix3f optical_from_body =
+      body_from_optical.conjugate().toRotationMatrix().cast<float>();
+  for (Eigen::Vector3f& p : scan->loaded.input.points) p = optical_from_body * p;
+  Eigen::Isometry3d world_from_optical = *scan->loaded.input.world_from_camera;
+  world_from_optical.linear() = world_from_optical.linear() * body_from_optical.toRotationMatrix();
+  scan->loaded.input.world_from_camera = world_from_optical;
+  scan->loaded.pose_source += " (a body frame, turned to optical axes)";
 }
 
 BagScan BagScanAssembler::Finish(BagScan scan, const RosHeader& header) const {
@@ -316,7 +353,7 @@ std::vector<RosDetection3D> DetectionBoxes(const DetectionResult& result,
     const OrientedBox box = DetectionBoxInWorld(d, model);
     RosDetection3D out;
     out.class_id = ClassName(d.furniture_class);
-    out.id = d.model_index >= 0 ? d.model_name : "";
+    out.id = std::to_string(boxes.size());
     out.score = d.score;
     out.box_pose = frame_from_world * WorldFromBox(box);
     out.size = box.size;
@@ -359,6 +396,14 @@ RosImage Image16(const RosHeader& header, int width, int height, const uint16_t*
 
 }  // namespace
 
+Eigen::Quaterniond BodyFromOptical() {
+  Eigen::Matrix3d body_from_optical;
+  body_from_optical.col(0) = -Eigen::Vector3d::UnitY();  // optical x: right
+  body_from_optical.col(1) = -Eigen::Vector3d::UnitZ();  // optical y: down
+  body_from_optical.col(2) = Eigen::Vector3d::UnitX();   // optical z: forward
+  return Eigen::Quaterniond(body_from_optical);
+}
+
 RecordedFrame RecordFrame(const RoomRecord& room,
                           const FrameRecord& frame,
                           int index,
@@ -384,11 +429,16 @@ RecordedFrame RecordFrame(const RoomRecord& room,
   out.info.k = {frame.fx, 0, frame.cx, 0, frame.fy, frame.cy, 0, 0, 1};
   out.info.r = {1, 0, 0, 0, 1, 0, 0, 0, 1};
   out.info.p = {frame.fx, 0, frame.cx, 0, 0, frame.fy, frame.cy, 0, 0, 0, 1, 0};
+  out.camera_from_optical.header = header;
+  out.camera_from_optical.header.frame_id = kExportBodyFrame;
+  out.camera_from_optical.child_frame_id = kExportCameraFrame;
+  out.camera_from_optical.rotation = BodyFromOptical();
   out.world_from_camera.header = header;
   out.world_from_camera.header.frame_id = "world";
-  out.world_from_camera.child_frame_id = kExportCameraFrame;
+  out.world_from_camera.child_frame_id = kExportBodyFrame;
   out.world_from_camera.translation = frame.world_from_camera.translation();
-  out.world_from_camera.rotation = Eigen::Quaterniond(frame.world_from_camera.linear());
+  out.world_from_camera.rotation =
+      Eigen::Quaterniond(frame.world_from_camera.linear()) * BodyFromOptical().conjugate();
   out.truth = TruthMarkers(room, out.stamp);
   return out;
 }

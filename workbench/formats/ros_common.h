@@ -87,10 +87,24 @@ struct RosMarker {
 
 // One detection as vision_msgs/Detection3D: a box and one hypothesis.
 struct RosDetection3D {
-  std::string class_id, id;
+  std::string class_id;
+  // Unique within its message: the detection's index in the message (and in
+  // detect's JSON line of the same scan). Not a track id: detections of one
+  // object in two messages do not share it (vision_msgs allows that).
+  std::string id;
   double score = 0;
   Eigen::Isometry3d box_pose = Eigen::Isometry3d::Identity();  // box centre, x = the front
   Eigen::Vector3d size = Eigen::Vector3d::Zero();
+  // The hypothesis pose's covariance (row-major x, y, z, rotations about x,
+  // y, z). The detector estimates none, so it is marked unknown as
+  // sensor_msgs does (first element -1, the rest 0).
+  std::array<double, 36> covariance = UnknownCovariance();
+
+  static std::array<double, 36> UnknownCovariance() {
+    std::array<double, 36> unknown{};
+    unknown[0] = -1;
+    return unknown;
+  }
 };
 
 // /tf and /tf_static: every edge's transforms over time (parent_from_child).
@@ -145,6 +159,11 @@ Eigen::Isometry3d FrameFromWorld(const BagScan& scan, const DetectionResult& res
 
 // Turns a bag's messages, in bag order, into scans: the latest CameraInfo
 // gives an image its intrinsics, TF its pose.
+// Whether a frame is a REP 103 body frame (x forward, y left, z up) by its
+// name: *_link, *_footprint, odom, map, world, earth; never one named
+// *optical*. Clouds in other frames are taken as optical (z forward).
+bool IsBodyFrame(const std::string& frame_id);
+
 class BagScanAssembler {
  public:
   BagScanAssembler(const BagScanOptions& options, const TfBuffer* tf, std::string info_topic)
@@ -159,6 +178,7 @@ class BagScanAssembler {
 
  private:
   BagScan Finish(BagScan scan, const RosHeader& header) const;
+  void TurnToOpticalAxes(BagScan* scan, const std::string& where) const;
   const BagScanOptions& options_;
   const TfBuffer* tf_;
   std::string info_topic_;
@@ -182,11 +202,19 @@ std::vector<RosMarker> TruthMarkers(const RoomRecord& room, double stamp);
 
 // What a Kinect driver would record of a dataset frame.
 inline constexpr char kExportCameraFrame[] = "camera_depth_optical_frame";
+inline constexpr char kExportBodyFrame[] = "camera_link";
+// camera_link_from_optical of REP 103: optical z is the body's x, optical x
+// its -y, optical y its -z.
+Eigen::Quaterniond BodyFromOptical();
 struct RecordedFrame {
   double stamp = 0;
   RosImage depth, ids;  // 16UC1 millimetres; 16UC1 instance ids
   RosCameraInfo info;
-  RosTransform world_from_camera;
+  // The TF tree a camera driver publishes: /tf world -> camera_link (REP 103
+  // body frame, x forward, z up) per frame, and /tf_static camera_link ->
+  // camera_depth_optical_frame (z forward, x right, y down), the images'.
+  RosTransform world_from_camera;  // world -> camera_link
+  RosTransform camera_from_optical;
   std::vector<RosMarker> truth;
 };
 // Frame number `index` of an export (0.1 s apart from t = 1 s).

@@ -32,6 +32,7 @@ int FrameBagWriter::Finish() { NoRos(); }
 
 #else
 
+#include <boost/make_shared.hpp>
 #include <console_bridge/console.h>
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
@@ -313,8 +314,14 @@ BagMarkerWriter::BagMarkerWriter(const std::string& in_bag,
                   std::filesystem::weakly_canonical(out_bag, ec_out) ||
               ec_in || ec_out,
           "--out-bag " + out_bag + " must not be the input bag");
+  // The copy keeps the input's chunk compression (a marked LZ4 bag stays
+  // LZ4, not five times its size).
+  const std::string compression = CheckBagFile(in_bag);
   try {
     impl_->out.open(impl_->temporary, rosbag::bagmode::Write);
+    impl_->out.setCompression(compression == "lz4"   ? rosbag::compression::LZ4
+                              : compression == "bz2" ? rosbag::compression::BZ2
+                                                     : rosbag::compression::Uncompressed);
   } catch (const std::exception& e) {
     throw InputError(out_bag + ": cannot write the bag (" + e.what() + ")");
   }
@@ -442,6 +449,23 @@ FrameBagWriter::~FrameBagWriter() {
   std::filesystem::remove(impl_->temporary, ec);
 }
 
+namespace {
+
+// A connection header that marks a topic latched (rosbag records it so).
+template <typename Message>
+boost::shared_ptr<ros::M_string> Latched() {
+  auto header = boost::make_shared<ros::M_string>();
+  (*header)["topic"] = "/tf_static";
+  (*header)["type"] = ros::message_traits::datatype<Message>();
+  (*header)["md5sum"] = ros::message_traits::md5sum<Message>();
+  (*header)["message_definition"] = ros::message_traits::definition<Message>();
+  (*header)["callerid"] = "/furnidet_export";
+  (*header)["latching"] = "1";
+  return header;
+}
+
+}  // namespace
+
 void FrameBagWriter::Write(const RoomRecord& room,
                            const FrameRecord& frame,
                            const std::string& where) {
@@ -463,6 +487,19 @@ void FrameBagWriter::Write(const RoomRecord& room,
              &transform.transform.translation,
              &transform.transform.rotation);
     tf.transforms.push_back(transform);
+    if (written == 0) {  // once, latched as tf2's static broadcaster publishes it
+      tf2_msgs::TFMessage tf_static;
+      geometry_msgs::TransformStamped fixed;
+      fixed.header.stamp = stamp;
+      fixed.header.frame_id = recorded.camera_from_optical.header.frame_id;
+      fixed.child_frame_id = recorded.camera_from_optical.child_frame_id;
+      SetRigid(recorded.camera_from_optical.translation,
+               recorded.camera_from_optical.rotation,
+               &fixed.transform.translation,
+               &fixed.transform.rotation);
+      tf_static.transforms.push_back(fixed);
+      impl_->bag.write("/tf_static", stamp, tf_static, Latched<tf2_msgs::TFMessage>());
+    }
     visualization_msgs::MarkerArray truth = Ros1Markers(recorded.truth);
     for (visualization_msgs::Marker& m : truth.markers) m.header.stamp = stamp;
     impl_->bag.write("/tf", stamp, tf);

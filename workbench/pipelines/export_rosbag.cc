@@ -9,7 +9,10 @@
 
 namespace furn {
 
-int ExportRosbag(const std::string& db_path, const std::string& out_bag, const std::string& split) {
+int ExportRosbag(const std::string& db_path,
+                 const std::string& out_bag,
+                 const std::string& split,
+                 Ros2Storage storage) {
   const Split selected = ParseSplit(split, "--split");
   DatasetDb dataset(db_path, DatasetDb::Mode::kReadOnly);
   std::vector<int64_t> rooms;
@@ -23,7 +26,7 @@ int ExportRosbag(const std::string& db_path, const std::string& out_bag, const s
   Require(frames_total > 0,
           db_path + ": no frames in split '" + std::string(EnumName(selected)) + "'");
   Progress progress("export", frames_total, "frames");
-  const std::unique_ptr<FrameBagSink> writer = OpenFrameBag(out_bag);
+  const std::unique_ptr<FrameBagSink> writer = OpenFrameBag(out_bag, storage);
   for (int64_t room_id : rooms) {
     const RoomRecord room = dataset.ReadRoom(room_id, /*with_images=*/true);
     for (const FrameRecord& frame : room.frames) {

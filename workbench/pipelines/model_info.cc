@@ -79,8 +79,19 @@ std::string DescribeTrainedModel(const TrainedModel& model) {
         << " KiB); targets: " << TargetsText(net.options().coder) << "\n"
         << "vote net input: " << DescribeVoteNetInput(model.vote_net_input) << "\n";
   }
+  out << "score:       " << ScoreMeaning(model) << "\n";
   out << DescribeOperatingPoint(model.operating_point);
   return out.str();
+}
+
+std::string ScoreMeaning(const TrainedModel& model) {
+  if (!model.vote_net.empty())
+    return "the vote network's heat at the maximum (0..1): a ranking, not a calibrated "
+           "probability; the operating point's threshold per class is the decision";
+  if (!model.scorer.empty())
+    return "the scorer's probability that the hypothesis is an object of its class within "
+           "10 cm (Platt-scaled on crossval hypotheses; calibrated on synthetic rooms only)";
+  return "the fixed gates' product: a ranking, not a probability";
 }
 
 std::string DescribeVoteNetInput(const VoteNetInput& input) {

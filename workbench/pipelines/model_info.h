@@ -23,6 +23,11 @@ std::string VoteNetInputNote(const TrainedModel& model,
 // `model info`: what a model file holds, as text.
 std::string DescribeTrainedModel(const TrainedModel& model);
 
+// What a detection's score is with this model (the learned path: the vote
+// network's heat, not calibrated; the codebook with a scorer: a Platt-scaled
+// probability), as `model info` and the docs say it.
+std::string ScoreMeaning(const TrainedModel& model);
+
 // The model file's content hash (XXH3-128, 32 hex digits), as evaluation
 // runs store it and the detection JSON names it.
 std::string ModelFileHash(const std::string& path);
