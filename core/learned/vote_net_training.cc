@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <string>
 #include <type_traits>
 
@@ -234,6 +235,102 @@ void AverageBuffersOverGroup(VoteNet* net, DataParallelGroup* group) {
 }
 
 const VoteNetStepTimes& VoteNetOptimizer::times() const { return impl_->times; }
+
+namespace {
+
+constexpr char kAdamMagic[8] = {'F', 'V', 'N', 'A', 'D', 'A', 'M', '1'};
+
+void AppendTensor(std::string* out, const torch::Tensor& tensor) {
+  const torch::Tensor flat = tensor.to(torch::kFloat32).contiguous();
+  out->append(reinterpret_cast<const char*>(flat.data_ptr<float>()),
+              static_cast<size_t>(flat.numel()) * sizeof(float));
+}
+
+// `like`'s shape filled from bytes[*at...], which must hold it whole.
+torch::Tensor TakeTensor(const std::string& bytes,
+                         size_t* at,
+                         const torch::Tensor& like,
+                         const std::string& what) {
+  const size_t size = static_cast<size_t>(like.numel()) * sizeof(float);
+  Require(bytes.size() - *at >= size, what + ": optimiser state is truncated");
+  torch::Tensor tensor = torch::empty_like(like, torch::kFloat32);
+  std::memcpy(tensor.data_ptr<float>(), bytes.data() + *at, size);
+  *at += size;
+  return tensor;
+}
+
+}  // namespace
+
+std::string VoteNetOptimizer::SaveState() const {
+  std::string out(kAdamMagic, sizeof(kAdamMagic));
+  for (const auto& group : impl_->adam->param_groups()) {
+    for (const torch::Tensor& p : group.params()) {
+      const auto found = impl_->adam->state().find(c10::guts::to_string(p.unsafeGetTensorImpl()));
+      const bool has = found != impl_->adam->state().end();
+      out.push_back(has ? 1 : 0);
+      if (!has) continue;
+      const auto& state = static_cast<const torch::optim::AdamParamState&>(*found->second);
+      const int64_t step = state.step();
+      out.append(reinterpret_cast<const char*>(&step), sizeof(step));
+      AppendTensor(&out, state.exp_avg());
+      AppendTensor(&out, state.exp_avg_sq());
+    }
+  }
+  return out;
+}
+
+namespace {
+
+// `from`'s named tensors copied into `to`'s of the same names and shapes.
+void CopyTensorsInPlace(const torch::OrderedDict<std::string, torch::Tensor>& from,
+                        const torch::OrderedDict<std::string, torch::Tensor>& to,
+                        const std::string& what) {
+  Require(from.size() == to.size(), what + ": its weights are not this network's");
+  for (const auto& item : to) {
+    const torch::Tensor* source = from.find(item.key());
+    Require(source != nullptr && source->sizes() == item.value().sizes(),
+            what + ": its weight " + item.key() + " is not this network's");
+    item.value().copy_(*source);
+  }
+}
+
+}  // namespace
+
+void VoteNetOptimizer::RestoreState(const VoteNet& weights,
+                                    const std::string& bytes,
+                                    const std::string& what) {
+  Require(!weights.empty() && weights.Members() == 1, what + ": no single network to restore");
+  {
+    torch::NoGradGuard no_grad;
+    const auto& from = *VoteNetAccess::Of(weights).net;
+    CopyTensorsInPlace(from.named_parameters(), impl_->net->net->named_parameters(), what);
+    CopyTensorsInPlace(from.named_buffers(), impl_->net->net->named_buffers(), what);
+  }
+  Require(bytes.size() >= sizeof(kAdamMagic) &&
+              std::memcmp(bytes.data(), kAdamMagic, sizeof(kAdamMagic)) == 0,
+          what + ": not a vote network optimiser state");
+  size_t at = sizeof(kAdamMagic);
+  for (const auto& group : impl_->adam->param_groups()) {
+    for (const torch::Tensor& p : group.params()) {
+      Require(at < bytes.size(), what + ": optimiser state is truncated");
+      const std::string key = c10::guts::to_string(p.unsafeGetTensorImpl());
+      if (bytes[at++] == 0) {
+        impl_->adam->state().erase(key);
+        continue;
+      }
+      int64_t step = 0;
+      Require(bytes.size() - at >= sizeof(step), what + ": optimiser state is truncated");
+      std::memcpy(&step, bytes.data() + at, sizeof(step));
+      at += sizeof(step);
+      auto state = std::make_unique<torch::optim::AdamParamState>();
+      state->step(step);
+      state->exp_avg(TakeTensor(bytes, &at, p, what));
+      state->exp_avg_sq(TakeTensor(bytes, &at, p, what));
+      impl_->adam->state()[key] = std::move(state);
+    }
+  }
+  Require(at == bytes.size(), what + ": optimiser state has bytes after its last parameter");
+}
 
 VoteNetWeightAverage::VoteNetWeightAverage(const VoteNet& net, double decay)
     : average_(VoteNet::Deserialize(net.Serialize(), "the network's weights")), decay_(decay) {

@@ -11,6 +11,7 @@
 #pragma once
 
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "core/learned/bev_box_coder.h"
@@ -84,6 +85,14 @@ class VoteNetOptimizer {
   void JoinGroup(DataParallelGroup* group);
   // The steps' times so far.
   const VoteNetStepTimes& times() const;
+  // Adam's state (per parameter: its step count and both moments) as plain
+  // records, for a checkpoint. RestoreState copies a checkpoint's weights
+  // (and batch-norm statistics) into the network this optimiser steps, in
+  // place, and reads Adam's records back; every length is the parameter's
+  // own, so the bytes allocate nothing their parameters do not (InputError
+  // naming `what` for records or weights of another network's shape).
+  std::string SaveState() const;
+  void RestoreState(const VoteNet& weights, const std::string& adam, const std::string& what);
 
  private:
   struct Impl;
@@ -111,6 +120,11 @@ class VoteNetWeightAverage {
   // After each step of `net` (the network the average was made from).
   void Update(const VoteNet& net);
   const VoteNet& average() const { return average_; }
+  // A checkpoint's average and its update count, in place of this one's.
+  void Restore(VoteNet average, int64_t updates) {
+    average_ = std::move(average);
+    updates_ = updates;
+  }
   // The average, moved out (the object is spent).
   VoteNet Take() { return std::move(average_); }
   int64_t updates() const { return updates_; }

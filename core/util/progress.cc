@@ -28,6 +28,8 @@ std::string FormatSeconds(double seconds) {
 
 void Progress::SetQuiet(bool quiet) { g_quiet = quiet; }
 
+bool Progress::Quiet() { return g_quiet; }
+
 void Progress::SetLogInterval(double seconds) { g_log_interval_s = seconds; }
 
 Progress::Progress(std::string label, size_t total, std::string unit)

@@ -27,6 +27,7 @@ class Progress {
 
   // Set once by the CLI (--quiet); applies to every Progress.
   static void SetQuiet(bool quiet);
+  static bool Quiet();
   // The longest time between two log lines (seconds; 60 unless set, for tests).
   static void SetLogInterval(double seconds);
 

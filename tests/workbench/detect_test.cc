@@ -2,6 +2,7 @@
 // known poses, a Kinect v1 frame from Embree and the sensor model, then the
 // detector with a model trained on the same procedural catalog.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <filesystem>
@@ -698,6 +699,76 @@ TEST_F(DetectTest, FusedScansFindWhatOneScanDoesNotSee) {
           "--fuse-register applies to --fuse");
   refused(dir + "/second.pcd " + dir + "/first.pcd --floor-aligned --fuse --fuse-planar",
           "--fuse-planar applies to --fuse-register");
+}
+
+// Issue 72: a batch killed (SIGKILL) part-way and run again with --resume
+// keeps the lines it had written to <out>.partial, detects only the rest and
+// writes what an uninterrupted run writes (the same inputs and detections,
+// in order); the partial file is gone afterwards. Misuse is one line.
+TEST_F(DetectTest, AKilledBatchResumesWithTheLinesItKept) {
+  const std::string dir = testing::ScratchDir();
+  const DetectionInput input = Render({{ModelOf(FurnitureClass::kChair, 1), 0.2, 0.1, 30}});
+  DepthFrame frame;
+  frame.Resize(640, 480);
+  for (size_t i = 0; i < input.points.size(); ++i)
+    frame.depth[i] = input.points[i].allFinite() ? input.points[i].z() : 0.0f;
+  std::filesystem::create_directories(dir + "/depth");
+  for (int k = 0; k < 16; ++k) {
+    char name[32];
+    std::snprintf(name, sizeof(name), "/depth/%02d.png", k);
+    WriteDepthPng(frame, dir + name, 5000);
+  }
+  const std::string batch = std::string(FURN_WORKBENCH_BINARY) + " detect --quiet --model " +
+                            *model_path_ + " '" + dir +
+                            "/depth/*.png' --intrinsics 580,580,319.5,239.5 --depth-scale 5000";
+  ASSERT_EQ(testing::RunCommand(batch + " --out " + dir + "/whole.jsonl").exit_code, 0);
+  EXPECT_FALSE(std::filesystem::exists(dir + "/whole.jsonl.partial"));
+
+  const std::string out = dir + "/resumed.jsonl";
+  const testing::CommandResult started =
+      testing::RunCommand(batch + " --out " + out + " > /dev/null 2>&1 & echo $!");
+  const std::string pid = started.output.substr(0, started.output.find('\n'));
+  auto entries = [&] {
+    const std::string text = std::filesystem::exists(out + ".partial")
+                                 ? ReadFileBytes(out + ".partial")
+                                 : std::string();
+    return std::count(text.begin(), text.end(), '\n') - 1;
+  };
+  for (int wait = 0; wait < 3000 && entries() < 3; ++wait) usleep(10 * 1000);
+  ASSERT_GE(entries(), 3);
+  ASSERT_EQ(testing::RunCommand("kill -9 " + pid).exit_code, 0);
+  for (int wait = 0; wait < 100 && testing::RunCommand("kill -0 " + pid).exit_code == 0; ++wait)
+    usleep(100 * 1000);
+  ASSERT_FALSE(std::filesystem::exists(out)) << "killed after the batch finished";
+  const testing::CommandResult resumed =
+      testing::RunCommand(batch + " --resume --out " + out + " 2>&1");
+  ASSERT_EQ(resumed.exit_code, 0) << resumed.output;
+  EXPECT_NE(resumed.output.find("detect: resuming: "), std::string::npos) << resumed.output;
+  EXPECT_FALSE(std::filesystem::exists(out + ".partial"));
+  auto lines_of = [](const std::string& path) {
+    std::vector<nlohmann::json> lines;
+    std::istringstream in(ReadFileBytes(path));
+    for (std::string line; std::getline(in, line);) lines.push_back(nlohmann::json::parse(line));
+    return lines;
+  };
+  const std::vector<nlohmann::json> a = lines_of(dir + "/whole.jsonl"), b = lines_of(out);
+  ASSERT_EQ(a.size(), 16u);
+  ASSERT_EQ(b.size(), a.size());
+  for (size_t k = 0; k < a.size(); ++k) {
+    EXPECT_EQ(b[k]["input"], a[k]["input"]);
+    EXPECT_EQ(b[k]["detections"], a[k]["detections"]);
+  }
+  // Another model's partial lines are not taken; misuse is one line.
+  testing::WriteText(out + ".partial", "{\"furnidet_partial\":1,\"model_hash\":\"other\"}\n");
+  const testing::CommandResult foreign = testing::RunCommand(batch + " --resume --out " + out);
+  EXPECT_NE(foreign.exit_code, 0);
+  EXPECT_NE(foreign.output.find("the lines of another run"), std::string::npos) << foreign.output;
+  const testing::CommandResult no_out = testing::RunCommand(batch + " --resume");
+  EXPECT_NE(no_out.output.find("--resume needs --out FILE"), std::string::npos) << no_out.output;
+  const testing::CommandResult one = testing::RunCommand(
+      std::string(FURN_WORKBENCH_BINARY) + " detect --model " + *model_path_ + " --depth " + dir +
+      "/depth/00.png --depth-scale 5000 --resume --out " + dir + "/one.json");
+  EXPECT_NE(one.output.find("--resume applies to batches"), std::string::npos) << one.output;
 }
 
 TEST_F(DetectTest, BatchOverGlobsTumListsAndBopFoldersGivesJsonLines) {

@@ -2,6 +2,7 @@
 // procedural dataset; the run is gated by the committed baseline
 // tests/baselines/small_eval.json (the CI evaluation).
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
@@ -106,6 +107,75 @@ TEST(Evaluate, ShareInViewIsThePartOfTheBoxInsideTheImage) {
   table.y = 0;
   table.x = -2;  // behind the camera
   EXPECT_DOUBLE_EQ(ShareInView(table, frame), 0.0);
+}
+
+// Issue 72: an evaluation killed (SIGKILL) part-way and run again detects
+// only the frames it had not saved (`<db>.evaluate-<key>.partial`) and
+// stores one run equal to an uninterrupted one's: the same metrics and the
+// same detections; the progress file is gone once the run is stored.
+TEST(Evaluate, AKilledEvaluationResumesToTheSameRun) {
+  const std::string dir = testing::ScratchDir();
+  const std::string db = dir + "/d.db", again = dir + "/again.db", model = dir + "/m.fcm";
+  ASSERT_EQ(
+      Workbench("generate --catalog procedural:4 --rooms 12 --frames 3 --seed 5 --quiet --out " + db)
+          .exit_code,
+      0);
+  ASSERT_EQ(Workbench(std::string(testing::kTrainSmallCodebook) + model).exit_code, 0);
+  std::filesystem::copy_file(db, again);
+  const std::string evaluate = " evaluate --split all --model " + model + " --db ";
+  ASSERT_EQ(Workbench(evaluate + db + " --quiet").exit_code, 0);
+
+  const std::string log = dir + "/killed.log";
+  const testing::CommandResult started =
+      testing::RunCommand("FURN_EVALUATE_SAVE_SECONDS=0 " + std::string(FURN_WORKBENCH_BINARY) +
+                          evaluate + again + " > " + log + " 2>&1 & echo $!");
+  const std::string pid = started.output.substr(0, started.output.find('\n'));
+  auto partial = [&]() -> std::string {
+    for (const auto& entry : std::filesystem::directory_iterator(dir)) {
+      const std::string name = entry.path().filename().string();
+      if (name.rfind("again.db.evaluate-", 0) == 0 && entry.path().extension() == ".partial")
+        return entry.path().string();
+    }
+    return "";
+  };
+  for (int wait = 0; wait < 3000 && partial().empty(); ++wait) usleep(20 * 1000);
+  ASSERT_FALSE(partial().empty()) << ReadFileBytes(log);
+  ASSERT_EQ(testing::RunCommand("kill -9 " + pid).exit_code, 0);
+  for (int wait = 0; wait < 100 && testing::RunCommand("kill -0 " + pid).exit_code == 0; ++wait)
+    usleep(100 * 1000);
+  {
+    DatasetDb killed(again, DatasetDb::Mode::kReadOnly);
+    ASSERT_TRUE(killed.Runs().empty()) << "killed after the run was stored: " << ReadFileBytes(log);
+  }
+  const testing::CommandResult resumed = Workbench(evaluate + again + " 2>&1");
+  ASSERT_EQ(resumed.exit_code, 0) << resumed.output;
+  EXPECT_NE(resumed.output.find("evaluate: resuming: "), std::string::npos) << resumed.output;
+  EXPECT_TRUE(partial().empty());
+  DatasetDb one(db, DatasetDb::Mode::kReadOnly), two(again, DatasetDb::Mode::kReadOnly);
+  ASSERT_EQ(one.Runs().size(), 1u);
+  ASSERT_EQ(two.Runs().size(), 1u);
+  auto untimed = [](std::map<std::string, double> metrics) {  // latencies are the clock's
+    for (auto it = metrics.begin(); it != metrics.end();)
+      it = it->first.find("latency") != std::string::npos ? metrics.erase(it) : std::next(it);
+    return metrics;
+  };
+  const std::map<std::string, double> expected = untimed(one.RunMetrics(one.Runs()[0].id));
+  EXPECT_EQ(untimed(two.RunMetrics(two.Runs()[0].id)), expected);
+  EXPECT_GT(expected.size(), 10u);
+  auto detections = [](const std::string& path) {
+    Database file(path, Database::Mode::kReadOnly);
+    Statement rows(&file, "SELECT frame_id, class, x, y, score FROM run_detections ORDER BY rowid");
+    std::vector<std::string> out;
+    while (rows.Step()) {
+      out.push_back(std::to_string(rows.ColumnInt(0)) + " " + rows.ColumnText(1) + " " +
+                    std::to_string(rows.ColumnDouble(2)) + " " +
+                    std::to_string(rows.ColumnDouble(3)) + " " +
+                    std::to_string(rows.ColumnDouble(4)));
+    }
+    return out;
+  };
+  EXPECT_EQ(detections(again), detections(db));
+  EXPECT_FALSE(detections(db).empty());
 }
 
 TEST(Evaluate, SmallRunIsStoredAndGatedByTheCommittedBaseline) {

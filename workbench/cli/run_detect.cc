@@ -182,6 +182,10 @@ int RunDetect(int argc, char** argv) {
   app.add_flag("--strict",
                run.strict,
                "Warnings are errors (a --tf-world that the bag's TF cannot resolve)");
+  app.add_flag("--resume",
+               run.resume,
+               "Batches and bags with --out FILE: keep the lines a killed run of the same model, "
+               "options and inputs left in FILE.partial and detect only the rest");
   if (const std::optional<int> exit_code = ParseCommandLine(&app, argc, argv)) return *exit_code;
   Progress::SetQuiet(quiet);  // batches and bags show progress unless --quiet
   Require(repeat >= 1 && repeat <= 1000,
@@ -216,7 +220,11 @@ int RunDetect(int argc, char** argv) {
   NoteDefaultIntrinsics(app, sources, quiet);
   // One plain scan file, or --cloud/--depth/--db: one indented JSON; any
   // other inputs (several, a glob, a list, a folder): JSON lines.
-  return DetectScans(sources, IsBatch(inputs, sources), run);
+  const bool batch = IsBatch(inputs, sources);
+  Require(!run.resume || (batch && !run.fuse),
+          "--resume applies to batches of scans and to --bag (one detection has nothing to "
+          "resume)");
+  return DetectScans(sources, batch, run);
 }
 
 }  // namespace furn

@@ -15,6 +15,7 @@
 #include "core/model/trained_model.h"
 #include "core/util/error.h"
 #include "core/util/file_util.h"
+#include "core/util/parallel.h"
 #include "db/dataset_db.h"
 #include "workbench/cli/cli_common.h"
 #include "workbench/cli/cluster_flags.h"
@@ -384,6 +385,13 @@ int RunTrain(int argc, char** argv) {
     return 0;
   }
   VoteNetTrainingOptions led;
+  if (vote_net_options != nullptr && workers.workers == 1 && app.count("--vote-threads") == 0) {
+    // One process: torch gets the CPUs the run may use (--threads,
+    // FURN_THREADS, the affinity mask, SLURM_CPUS_PER_TASK), as the pool does.
+    led = *vote_net_options;
+    led.threads = ParallelThreads();
+    vote_net_options = &led;
+  }
   if (workers.workers != 1) {
     Require(vote_net_options != nullptr,
             "--vote-workers trains the vote network: not with --no-vote-net");

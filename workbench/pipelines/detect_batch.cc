@@ -2,12 +2,15 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
+#include <sstream>
 
 #include "core/util/error.h"
 #include "core/util/file_util.h"
@@ -15,6 +18,7 @@
 #include "core/util/text.h"
 #include "reports/detection_debug.h"
 #include "workbench/formats/detection_output.h"
+#include "workbench/formats/options_file.h"
 #include "workbench/formats/ros2_bag.h"
 #include "workbench/pipelines/model_info.h"
 
@@ -79,6 +83,95 @@ DetectionProvenance ProvenanceOf(const DetectRunOptions& run) {
   return {run.model_path, ModelFileHash(run.model_path)};
 }
 
+// A batch's or bag's lines as they are made, in "<out>.partial": a header
+// naming the run (model hash, detector options, inputs), then one entry per
+// scan {"key", "failed", "line"} appended and flushed. With --resume the
+// entries of a killed run of the same run are taken instead of detecting
+// their scans again (a last entry cut by the kill is dropped).
+class PartialLines {
+ public:
+  PartialLines(const DetectRunOptions& run, const std::string& inputs, bool has_out_bag) {
+    Require(!run.resume || !has_out_bag,
+            "--resume does not apply with --out-bag (the marked bag is written in one pass)");
+    std::error_code ec;
+    const bool device =  // /dev/null and the like: nothing to resume into
+        std::filesystem::exists(run.out, ec) && !std::filesystem::is_regular_file(run.out, ec);
+    if (run.out.empty() || run.out == "-" || device) {
+      Require(!run.resume, "--resume needs --out FILE (the lines a killed run kept are there)");
+      return;
+    }
+    path_ = run.out + ".partial";
+    nlohmann::ordered_json header{{"furnidet_partial", 1},
+                                  {"model_hash", ModelFileHash(run.model_path)},
+                                  {"detector", DetectorOptionsJson(run.detector)},
+                                  {"inputs", inputs}};
+    header_ = header.dump();
+    if (run.resume) ReadSaved();
+    file_ = std::fopen(path_.c_str(), "wb");
+    Require(file_ != nullptr, path_ + ": cannot write (" + std::strerror(errno) + ")");
+    std::fputs((header_ + "\n").c_str(), file_);
+    for (const auto& [key, entry] : saved_) Append(key, entry.second, entry.first);
+    std::fflush(file_);
+  }
+  ~PartialLines() {
+    if (file_ != nullptr) std::fclose(file_);
+  }
+  PartialLines(const PartialLines&) = delete;
+  PartialLines& operator=(const PartialLines&) = delete;
+
+  // A saved scan's line and whether it failed.
+  const std::pair<bool, std::string>* Saved(const std::string& key) const {
+    const auto found = saved_.find(key);
+    return found == saved_.end() ? nullptr : &found->second;
+  }
+  size_t saved() const { return saved_.size(); }
+  void Add(const std::string& key, const std::string& line, bool failed) {
+    if (file_ == nullptr) return;
+    Append(key, line, failed);
+    std::fflush(file_);
+  }
+  // The run is written: the partial lines are not needed any more.
+  void Finish() {
+    if (file_ == nullptr) return;
+    std::fclose(file_);
+    file_ = nullptr;
+    std::error_code ec;
+    std::filesystem::remove(path_, ec);
+  }
+
+ private:
+  void Append(const std::string& key, const std::string& line, bool failed) {
+    const nlohmann::ordered_json entry{{"key", key}, {"failed", failed}, {"line", line}};
+    std::fputs((entry.dump() + "\n").c_str(), file_);
+  }
+  void ReadSaved() {
+    std::error_code ec;
+    if (!std::filesystem::exists(path_, ec)) return;
+    RequireRegularFile(path_);
+    std::istringstream in(ReadFileBytes(path_));
+    std::string line;
+    Require(std::getline(in, line) && line == header_,
+            path_ + ": the lines of another run (model, options or inputs differ); remove it or "
+                    "run without --resume");
+    for (int number = 2; std::getline(in, line); ++number) {
+      nlohmann::json entry;
+      try {
+        entry = nlohmann::json::parse(line);
+        saved_[entry.at("key").get<std::string>()] = {entry.at("failed").get<bool>(),
+                                                      entry.at("line").get<std::string>()};
+      } catch (const std::exception&) {
+        Require(in.peek() == EOF, path_ + ":" + std::to_string(number) + ": not an entry of "
+                                      "furnidet's partial lines");
+      }
+    }
+    if (!saved_.empty())
+      std::fprintf(stderr, "detect: resuming: %zu scans from %s\n", saved_.size(), path_.c_str());
+  }
+  std::string path_, header_;
+  std::FILE* file_ = nullptr;
+  std::map<std::string, std::pair<bool, std::string>> saved_;
+};
+
 // One scan given by the user: its errors throw, with debug PNGs and repeats.
 int DetectOneScan(const LoadedScan& scan, const Detector& detector, const DetectRunOptions& run) {
   std::map<DetectionStage, std::vector<double>> stage_times;
@@ -112,31 +205,47 @@ int DetectBatch(const std::vector<ScanSource>& sources,
                 const Detector& detector,
                 double load_ms,
                 const DetectRunOptions& run) {
-  std::string lines;
+  std::string lines, names;
+  for (const ScanSource& source : sources) names += ScanSourceName(source) + "\n";
+  PartialLines partial(run, names, /*has_out_bag=*/false);
   int failed = 0;
   std::vector<double> totals;
   const DetectionProvenance provenance = ProvenanceOf(run);
   Progress progress("detect", sources.size(), "scans");
-  for (const ScanSource& source : sources) {
+  for (size_t k = 0; k < sources.size(); ++k) {
+    const ScanSource& source = sources[k];
+    const std::string key = std::to_string(k);
+    if (const auto* saved = partial.Saved(key)) {
+      lines += saved->second;
+      failed += saved->first;
+      progress.Advance();
+      continue;
+    }
+    std::string line;
+    bool scan_failed = false;
     try {
       const LoadedScan scan = LoadScan(source);
       const DetectionResult result = detector.Detect(scan.input, /*keep_debug=*/false);
       if (result.status != DetectionStatus::kDetected) {
-        lines += ScanErrorJson(scan.description, result.message + CliHint(scan, result));
-        ++failed;
+        line = ScanErrorJson(scan.description, result.message + CliHint(scan, result));
+        scan_failed = true;
       } else {
-        lines += DetectionJson(result, scan, detector.model(), provenance, /*one_line=*/true);
+        line = DetectionJson(result, scan, detector.model(), provenance, /*one_line=*/true);
         totals.push_back(result.timings_ms.Of(DetectionStage::kTotal));
         if (run.explain) Explain(scan.description, result, detector);
       }
     } catch (const InputError& e) {
-      lines += ScanErrorJson(ScanSourceName(source), e.what());
-      ++failed;
+      line = ScanErrorJson(ScanSourceName(source), e.what());
+      scan_failed = true;
     }
+    lines += line;
+    failed += scan_failed;
+    partial.Add(key, line, scan_failed);
     progress.Advance();
   }
   progress.Finish();
   Emit(lines, run);
+  partial.Finish();
   if (!run.quiet || failed > 0) {
     std::sort(totals.begin(), totals.end());
     std::fprintf(stderr,
@@ -244,11 +353,13 @@ int DetectInBag(const BagScanOptions& bag,
   if (!std::filesystem::is_directory(bag.bag_path, ec)) RequireRegularFile(bag.bag_path);
   const Detector detector(LoadTrainedModel(run.model_path), run.detector);
   NoteVoteNetInput(detector, run, /*fused_input=*/false);
+  PartialLines partial(
+      run, bag.bag_path + "\n" + bag.topic + "\n" + bag.world_frame, !out_bag.empty());
   std::unique_ptr<DetectionBagSink> markers;
   if (!out_bag.empty()) markers = OpenDetectionBag(bag.bag_path, out_bag, bag.world_frame);
   std::string lines;
   std::vector<double> totals;
-  int without = 0;
+  int without = 0, resumed_ok = 0, index = 0;
   std::optional<Progress> progress;
   const DetectionProvenance provenance = ProvenanceOf(run);
   bool warned = false;
@@ -261,13 +372,23 @@ int DetectInBag(const BagScanOptions& bag,
       warned = true;
     }
     if (!progress) progress.emplace("detect", scan.total, "messages");  // its clock starts here
+    const std::string key = std::to_string(index++);
+    if (const auto* saved = partial.Saved(key)) {
+      lines += saved->second;
+      without += saved->first;
+      resumed_ok += !saved->first;
+      progress->Advance();
+      return;
+    }
     const DetectionResult result = detector.Detect(scan.loaded.input, /*keep_debug=*/false);
     if (result.status != DetectionStatus::kDetected) {
       ++without;
     } else {
       totals.push_back(result.timings_ms.Of(DetectionStage::kTotal));
     }
-    lines += BagLine(scan, result, detector.model(), provenance, bag.world_frame);
+    const std::string line = BagLine(scan, result, detector.model(), provenance, bag.world_frame);
+    partial.Add(key, line, result.status != DetectionStatus::kDetected);
+    lines += line;
     if (markers) markers->Add(scan, result, detector.model());
     if (run.explain) Explain(scan.loaded.description, result, detector);
     progress->Advance();
@@ -275,13 +396,14 @@ int DetectInBag(const BagScanOptions& bag,
   if (progress) progress->Finish();
   if (markers) markers->Finish();
   Emit(lines, run);
+  partial.Finish();
   if (!run.quiet) {
     std::sort(totals.begin(), totals.end());
     std::fprintf(stderr,
                  "%s %s: %zu messages, %d without points or floor; detection median %.0f ms%s%s\n",
                  bag.bag_path.c_str(),
                  bag.topic.c_str(),
-                 totals.size() + without,
+                 totals.size() + resumed_ok + without,
                  without,
                  totals.empty() ? 0.0 : totals[totals.size() / 2],
                  out_bag.empty() ? "" : "; markers in ",
@@ -290,7 +412,7 @@ int DetectInBag(const BagScanOptions& bag,
   // As a batch of files: 1 when a message was not detected in (its line
   // says why), whatever else went well. A bag of nothing on the topic is
   // an error of its own.
-  Require(totals.size() + without > 0,
+  Require(totals.size() + resumed_ok + without > 0,
           bag.bag_path + ": no message on " + bag.topic + " could be read as a scan");
   if (without > 0 && run.quiet)
     std::fprintf(stderr,
@@ -298,7 +420,7 @@ int DetectInBag(const BagScanOptions& bag,
                  bag.bag_path.c_str(),
                  bag.topic.c_str(),
                  without,
-                 totals.size() + without);
+                 totals.size() + resumed_ok + without);
   return without > 0 ? 1 : 0;
 }
 

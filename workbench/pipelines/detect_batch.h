@@ -43,6 +43,12 @@ struct DetectRunOptions {
   // (refused before any is read) and points in all (refused while reading).
   int fuse_max_scans = 64;
   int64_t fuse_max_points = int64_t{1} << 25;  // 33.5 M: 109 Kinect v1 frames
+  // Batches and bags with `out`: every scan's line also goes to
+  // "<out>.partial" as it is made; with resume, the scans a killed run of
+  // the same model and options left there are not detected again, and the
+  // finished file is the one an uninterrupted run writes. Not with an
+  // output bag (written in one pass).
+  bool resume = false;
 };
 
 // Whether `inputs` (the command's positional scans) expanded into `sources`

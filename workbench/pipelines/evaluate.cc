@@ -3,9 +3,11 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <ctime>
 #include <filesystem>
 #include <functional>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <set>
 
@@ -313,13 +315,80 @@ EvaluationOptions EvaluationOptionsOf(const EvaluateCommandOptions& options) {
   return evaluation;
 }
 
+ShardHeader HeaderOf(const FrameSelection& selection,
+                     const std::string& model_hash,
+                     const EvaluateCommandOptions& options,
+                     int shard,
+                     int shards);
+
+// A running evaluation's frames so far, in a shard file beside the dataset
+// (`<db>.evaluate-<key>.partial`, the key naming model, frames and options),
+// rewritten at most every FURN_EVALUATE_SAVE_SECONDS (default 10) seconds:
+// a killed evaluation run again with the same model and options detects only
+// the frames it had not saved. Off for shards and scorer samples.
+class EvaluationProgress {
+ public:
+  EvaluationProgress(const std::string& db_path, ShardHeader header, bool enabled)
+      : header_(std::move(header)), enabled_(enabled) {
+    if (!enabled_) return;
+    path_ = db_path + ".evaluate-" +
+            ShortHash(header_.dataset_hash + "\n" + header_.model_hash + "\n" + header_.options_json) +
+            ".partial";
+    const char* env = std::getenv("FURN_EVALUATE_SAVE_SECONDS");
+    if (env != nullptr) interval_s_ = std::max(0.0, std::atof(env));
+  }
+
+  // The frames a killed run of this evaluation saved, by position.
+  std::map<int, EvaluatedFrame> Saved(bool quiet) const {
+    std::map<int, EvaluatedFrame> saved;
+    std::error_code ec;
+    if (!enabled_ || !std::filesystem::exists(path_, ec)) return saved;
+    try {
+      for (EvaluatedFrame& frame : ReadShardFile(path_, header_)) {
+        const int position = frame.position;
+        saved.emplace(position, std::move(frame));
+      }
+    } catch (const InputError& e) {
+      if (!quiet) std::fprintf(stderr, "note: %s; evaluating every frame\n", e.what());
+      return {};
+    }
+    if (!quiet && !saved.empty())
+      std::fprintf(stderr, "evaluate: resuming: %zu frames from %s\n", saved.size(), path_.c_str());
+    return saved;
+  }
+
+  // After each frame: the frames so far, when the interval has passed.
+  void Save(const std::vector<EvaluatedFrame>& frames, bool force = false) {
+    if (!enabled_) return;
+    const auto now = std::chrono::steady_clock::now();
+    if (!force && std::chrono::duration<double>(now - last_).count() < interval_s_) return;
+    WriteShardFile(path_, header_, frames);
+    last_ = now;
+  }
+
+  void Remove() const {
+    std::error_code ec;
+    if (enabled_) std::filesystem::remove(path_, ec);
+  }
+
+ private:
+  ShardHeader header_;
+  bool enabled_ = false;
+  std::string path_;
+  double interval_s_ = 10;
+  std::chrono::steady_clock::time_point last_ = std::chrono::steady_clock::now();
+};
+
 // Detection in the selected frames at positions p with p % shard_count ==
-// shard_index (every frame when shard_count is 0), in order.
+// shard_index (every frame when shard_count is 0), in order; the frames in
+// `saved` (a killed run's) are taken as they are, their truth attached again.
 std::vector<EvaluatedFrame> DetectFrames(DatasetDb& dataset,
                                          const std::string& db_path,
                                          const Detector& detector,
                                          const FrameSelection& selection,
-                                         const EvaluateCommandOptions& options) {
+                                         const EvaluateCommandOptions& options,
+                                         std::map<int, EvaluatedFrame> saved,
+                                         EvaluationProgress* progress_file) {
   const ModelFacts facts = FactsOf(detector.model());
   const std::set<int64_t> estimated_pose =
       FramesWithEstimatedPose(dataset.GenerationOptions().value_or(""));
@@ -332,8 +401,17 @@ std::vector<EvaluatedFrame> DetectFrames(DatasetDb& dataset,
   std::vector<EvaluatedFrame> frames;
   Progress progress("evaluate", total, "frames");
   std::optional<RoomRecord> room;  // with images: the room of the frames being evaluated
+  const ModelFacts saved_facts = TrainedFactsOf(detector.model());
   for (int p = 0; p < selected; ++p) {
     if (!wanted(p)) continue;
+    const auto found = saved.find(p);
+    if (found != saved.end() && found->second.outcome.frame_id == selection.FrameAt(p).id) {
+      found->second.outcome.truth =
+          TruthOf(selection.RoomAt(p), selection.FrameAt(p), saved_facts, options.fusion);
+      frames.push_back(std::move(found->second));
+      progress.Advance();
+      continue;
+    }
     const RoomRecord& listed = selection.RoomAt(p);
     if (!room || room->id != listed.id) room = dataset.ReadRoom(listed.id, /*with_images=*/true);
     const FrameRecord& frame = room->frames[selection.frames[p].frame];
@@ -342,6 +420,7 @@ std::vector<EvaluatedFrame> DetectFrames(DatasetDb& dataset,
     frames.push_back(EvaluateFrame(
         detector, *room, frame, estimated_pose.count(frame.id) > 0, facts, db_path, options));
     frames.back().position = p;
+    progress_file->Save(frames);
     progress.Advance();
   }
   progress.Finish();
@@ -424,7 +503,16 @@ EvaluateSummary EvaluateModel(const std::string& model_path,
   if (!note.empty() && !shard) std::fprintf(stderr, "note: %s\n", note.c_str());
   const Detector detector(std::move(model), options.detector);
   const FrameSelection selection = SelectFrames(dataset, db_path, options);
-  std::vector<EvaluatedFrame> frames = DetectFrames(dataset, db_path, detector, selection, options);
+  EvaluationProgress progress_file(db_path,
+                                   HeaderOf(selection, model_hash, options, 0, 1),
+                                   !shard && !options.collect_scorer_samples);
+  std::vector<EvaluatedFrame> frames = DetectFrames(dataset,
+                                                    db_path,
+                                                    detector,
+                                                    selection,
+                                                    options,
+                                                    progress_file.Saved(Progress::Quiet()),
+                                                    &progress_file);
   EvaluateSummary summary;
   if (shard) {
     WriteShardFile(
@@ -434,6 +522,7 @@ EvaluateSummary EvaluateModel(const std::string& model_path,
     summary.frames = static_cast<int>(frames.size());
   } else {
     summary = StoreRun(dataset, model_path, model_hash, selection, options, std::move(frames));
+    progress_file.Remove();
   }
   summary.seconds = SecondsSince(start);
   return summary;
@@ -517,7 +606,9 @@ OperatingPoint ChooseOperatingPointOn(const TrainedModel& model,
   const Detector detector(model, options.detector);
   const FrameSelection selection = SelectFrames(dataset, db_path, options);
   std::vector<FrameOutcome> outcomes;
-  for (EvaluatedFrame& frame : DetectFrames(dataset, db_path, detector, selection, options))
+  EvaluationProgress no_progress_file(db_path, {}, /*enabled=*/false);
+  for (EvaluatedFrame& frame :
+       DetectFrames(dataset, db_path, detector, selection, options, {}, &no_progress_file))
     outcomes.push_back(std::move(frame.outcome));
   return ChooseOperatingPoint(outcomes,
                               EvaluationOptionsOf(options),

@@ -15,6 +15,7 @@
 #include "renderers/kinect_noise.h"
 #include "reports/evaluation.h"                 // kOwnOperatingPointObjects
 #include "workbench/pipelines/dataset_tools.h"  // CheckMergeable
+#include "workbench/pipelines/vote_net_checkpoint.h"
 
 namespace furn {
 
@@ -141,6 +142,8 @@ TrainSummary TrainFromCatalog(const Catalog& catalog,
   if (vote_net != nullptr) {
     VoteNetTrainingOptions options = *vote_net;
     if (options.curve_png.empty()) options.curve_png = out_path + ".training.png";
+    // A killed training resumes after its last epoch when rerun.
+    if (options.checkpoint_path.empty()) options.checkpoint_path = out_path + ".checkpoint";
     model.vote_net = TrainVoteNet(
         catalog, held_out, options, out_path + ".rooms.db", &summary.vote_net_training);
     summary.vote_net = true;
@@ -153,6 +156,11 @@ TrainSummary TrainFromCatalog(const Catalog& catalog,
     last.vote_net = summary.vote_net_training.last_weights;
     last.operating_point = summary.vote_net_training.last_operating_point;
     SaveTrainedModel(last, LastWeightsModelPath(out_path));
+  }
+  if (vote_net != nullptr) {  // the model holds what they kept
+    VoteNetTrainingOptions options = *vote_net;
+    if (options.checkpoint_path.empty()) options.checkpoint_path = out_path + ".checkpoint";
+    RemoveCheckpoints(options);
   }
   summary.train_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   summary.models = static_cast<int>(ids.size());

@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <random>
+#include <sstream>
 #include <stdexcept>
 #include <thread>
 
@@ -27,6 +28,7 @@
 #include "workbench/pipelines/generate.h"
 #include "workbench/pipelines/rooms_cache.h"
 #include "workbench/pipelines/run_program.h"
+#include "workbench/pipelines/vote_net_checkpoint.h"
 
 namespace furn {
 namespace {
@@ -602,6 +604,56 @@ void PrintEpoch(const VoteNetEpoch& record, int epochs, bool validated) {
                record.seconds);
 }
 
+// The training's state after `epochs_done` epochs, to its checkpoint file.
+struct CheckpointState {
+  std::string path, fingerprint;
+  VoteNet* net = nullptr;
+  VoteNetOptimizer* optimizer = nullptr;
+  std::optional<VoteNetWeightAverage>* average = nullptr;
+  std::mt19937_64* random = nullptr;
+
+  bool enabled() const { return !path.empty(); }
+
+  void Save(int epochs_done, size_t steps_done, const std::vector<VoteNetEpoch>& epochs) const {
+    VoteNetCheckpoint checkpoint;
+    checkpoint.fingerprint = fingerprint;
+    checkpoint.epochs_done = epochs_done;
+    checkpoint.steps_done = steps_done;
+    std::ostringstream generator;
+    generator << *random;
+    checkpoint.generator = generator.str();
+    checkpoint.net = net->Serialize();
+    checkpoint.adam = optimizer->SaveState();
+    if (*average) {
+      checkpoint.average = (*average)->average().Serialize();
+      checkpoint.average_updates = (*average)->updates();
+    }
+    checkpoint.epochs = epochs;
+    WriteCheckpoint(path, checkpoint);
+  }
+
+  // The epochs a checkpoint of this training holds (0: none), restored.
+  int Resume(size_t* step, VoteNetTrainingSummary* summary, bool quiet) const {
+    const std::optional<VoteNetCheckpoint> saved = ReadCheckpoint(path, fingerprint, quiet);
+    if (!saved) return 0;
+    optimizer->RestoreState(VoteNet::Deserialize(saved->net, path), saved->adam, path);
+    Require(saved->average.empty() == !average->has_value(),
+            path + ": its weight average does not match the options'");
+    if (*average) (*average)->Restore(VoteNet::Deserialize(saved->average, path), saved->average_updates);
+    std::istringstream generator(saved->generator);
+    generator >> *random;
+    Require(!generator.fail(), path + ": its generator state is not readable");
+    *step = saved->steps_done;
+    summary->epochs = saved->epochs;
+    if (!quiet)
+      std::fprintf(stderr,
+                   "vote net: resuming after epoch %d from %s\n",
+                   saved->epochs_done,
+                   path.c_str());
+    return saved->epochs_done;
+  }
+};
+
 }  // namespace
 
 VoteNet TrainVoteNetOnSamples(const std::vector<BevSample>& training,
@@ -635,11 +687,22 @@ VoteNet TrainVoteNetOnSamples(const std::vector<BevSample>& training,
   std::mt19937_64 random(options.WeightSeed() * 7919 + 17);
   const size_t steps_per_epoch = (total + options.batch_size - 1) / options.batch_size;
   const size_t total_steps = steps_per_epoch * options.epochs;
-  Progress progress("train vote net", total_steps, "steps");
-  std::vector<size_t> order(total);
   size_t step = 0;
+  CheckpointState checkpoint;
+  if (!options.checkpoint_path.empty() && group == nullptr && tune_from == nullptr) {
+    checkpoint = {MemberCheckpointPath(options.checkpoint_path, options.member),
+                  TrainingFingerprint(training, validation, options, net),
+                  &net,
+                  &optimizer,
+                  &average,
+                  &random};
+  }
+  const int resumed = checkpoint.enabled() ? checkpoint.Resume(&step, summary, options.quiet) : 0;
+  Progress progress("train vote net", total_steps, "steps");
+  if (step > 0) progress.Advance(step);
+  std::vector<size_t> order(total);
   const auto start = std::chrono::steady_clock::now();
-  for (int epoch = 0; epoch < options.epochs; ++epoch) {
+  for (int epoch = resumed; epoch < options.epochs; ++epoch) {
     const auto epoch_start = std::chrono::steady_clock::now();
     for (size_t i = 0; i < order.size(); ++i) order[i] = i;
     std::shuffle(order.begin(), order.end(), random);
@@ -680,6 +743,7 @@ VoteNet TrainVoteNetOnSamples(const std::vector<BevSample>& training,
     record.seconds = Seconds(epoch_start);
     summary->epochs.push_back(record);
     if (!options.quiet) PrintEpoch(record, options.epochs, !validation.empty());
+    if (checkpoint.enabled()) checkpoint.Save(epoch + 1, step, summary->epochs);
   }
   progress.Finish();
   summary->train_s = Seconds(start);

@@ -61,7 +61,9 @@ struct VoteNetTrainingOptions {
   // frames (seen-model rooms, mAP@10cm 0.27 against 0.17): more steps.
   int batch_size = 8;
   double learning_rate = 4e-3;  // peak; cosine decay to 5 % of it
-  int threads = 2;              // torch's intra-op threads while training
+  // Torch's intra-op threads while training; `train` gives it the CPUs the
+  // run may use (the worker pool's count) unless --vote-threads is given.
+  int threads = 2;
   // Objects seen less than this (visible / amodal pixels) are not targets;
   // the loss ignores the heat around them (BevCoderOptions::ignore_radius_cells).
   double min_visibility = 0.15;
@@ -131,6 +133,14 @@ struct VoteNetTrainingOptions {
   // this process leads a group started elsewhere (the tasks of a Slurm
   // job, `train --vote-workers N --slurm`) and starts no workers.
   DataParallelOptions data_parallel;
+  // After every epoch the training's whole state (weights, Adam's moments,
+  // the generator, the average, the epochs' records) goes to this file,
+  // atomically; a training that finds one of its own (same samples, options
+  // and initial weights) resumes after its last epoch, to the same bytes
+  // as an uninterrupted run (workbench/pipelines/vote_net_checkpoint.h).
+  // Empty: none. Not in data-parallel training. An ensemble's member k > 0
+  // uses "<path>.member<k>".
+  std::string checkpoint_path;
   bool quiet = false;
 
   void Check() const;
