@@ -289,10 +289,13 @@ TEST_F(Ros2BagTest, HostileBagsAreRefusedByName) {
   testing::WriteText(junk, "SQLite format 3 but not really");
   expect_refused(junk, "junk.db3");
   fs::create_directories(dir_ + "/empty");
-  expect_refused(dir_ + "/empty", "no .db3 file");
+  expect_refused(dir_ + "/empty", "no .db3 or .mcap file");
   fs::create_directories(dir_ + "/mcap");
   testing::WriteText(dir_ + "/mcap/x_0.mcap", "");
-  expect_refused(dir_ + "/mcap", "MCAP or compressed storage");
+  expect_refused(dir_ + "/mcap", "x_0.mcap: 0 bytes, too short for an MCAP file");
+  fs::create_directories(dir_ + "/zstd_file");
+  testing::WriteText(dir_ + "/zstd_file/x_0.mcap.zstd", "(zstd)");
+  expect_refused(dir_ + "/zstd_file", "compressed storage files are not read here");
   options.topic = "/nothing";
   expect_refused(bag, "no topic /nothing");
   options.topic = "/tf_static";

@@ -502,13 +502,13 @@ TEST_F(RosbagTest, McapBagsDetectAsTheirSqliteTwins) {
             std::string::npos);
   std::set<uint16_t> all;
   for (const auto& [id, channel] : out.channels()) all.insert(id);
-  EXPECT_EQ(out.Count(all), 8 * 5 + 2 * 8);
+  EXPECT_EQ(out.Count(all), 1 + 8 * 5 + 2 * 8);  // /tf_static once
   if (const std::optional<nlohmann::json> seen = McapCoreRead(file)) {
     EXPECT_EQ((*seen)["profile"], "ros2");
     EXPECT_EQ((*seen)["counts"]["/furnidet/detections_3d"], 8);
     EXPECT_EQ((*seen)["counts"]["/camera/depth/image_raw"], 8);
-    EXPECT_EQ((*seen)["statistics_messages"], 8 * 5 + 2 * 8);
-    EXPECT_EQ((*seen)["streamed"]["messages"], 8 * 5 + 2 * 8);
+    EXPECT_EQ((*seen)["statistics_messages"], 1 + 8 * 5 + 2 * 8);
+    EXPECT_EQ((*seen)["streamed"]["messages"], 1 + 8 * 5 + 2 * 8);
     EXPECT_TRUE((*seen)["ordered"].get<bool>());
     for (const nlohmann::json& channel : (*seen)["channels"]) {
       EXPECT_EQ(channel["encoding"], "cdr");
@@ -518,29 +518,32 @@ TEST_F(RosbagTest, McapBagsDetectAsTheirSqliteTwins) {
   }
 }
 
-// The committed Jazzy-style fixture (tests/data/mcap_jazzy/, written by
-// @mcap/core's writer with lz4 chunks: see its README) detects as its
-// SQLite twin made here from the same messages.
+// The committed Jazzy-style fixture (tests/data/mcap_jazzy/: container by
+// @mcap/core's writer with lz4 chunks, PointCloud2 messages encoded in
+// JavaScript; see its README) detects as its SQLite twin made here from the
+// same messages, with the camera's pose from its TF.
 TEST_F(RosbagTest, AnMcapBagWrittenByAnotherWriterReadsAsItsSqliteTwin) {
   const std::string fixture = std::string(FURN_SOURCE_DIR) + "/tests/data/mcap_jazzy/frames";
   const std::string twin = *dir_ + "/fixture_twin";
   {
     Ros2BagWriter writer(twin);
     ForEachRos2Message(fixture, [&](const Ros2Message& m) { writer.Write(m); });
-    EXPECT_EQ(writer.Finish(), 3 * 2);
+    EXPECT_EQ(writer.Finish(), 1 + 2 * 2);
   }
   EXPECT_EQ(McapReader::FirstChunkCompression(fixture + "/frames_0.mcap"), McapCompression::kLz4);
   const std::string lines1 = *dir_ + "/fixture1.jsonl", lines2 = *dir_ + "/fixture2.jsonl";
   for (const auto& [bag, out] : {std::pair{fixture, lines1}, std::pair{twin, lines2}}) {
     const testing::CommandResult r = Workbench("detect --quiet --model " + Model() + " --bag " +
-                                               bag + " --topic /camera/depth/image_raw --out " + out);
+                                               bag + " --topic /camera/depth/points --out " + out);
     ASSERT_EQ(r.exit_code, 0) << r.output;
   }
   const std::vector<nlohmann::json> a = JsonLines(lines1), b = JsonLines(lines2);
   ASSERT_EQ(a.size(), 2u);
   ASSERT_EQ(b.size(), a.size());
   for (size_t k = 0; k < a.size(); ++k) {
-    EXPECT_TRUE(a[k]["boxes_frame_id"].is_string());
+    EXPECT_EQ(a[k]["pose_source"], "tf: world <- camera_depth_optical_frame");
+    EXPECT_EQ(a[k]["boxes_frame_id"], "world");
+    EXPECT_EQ(a[k]["points"], b[k]["points"]);
     ExpectSameDetections(a[k]["detections"], b[k]["detections"]);
   }
 }

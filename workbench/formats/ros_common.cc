@@ -401,7 +401,9 @@ Eigen::Quaterniond BodyFromOptical() {
   body_from_optical.col(0) = -Eigen::Vector3d::UnitY();  // optical x: right
   body_from_optical.col(1) = -Eigen::Vector3d::UnitZ();  // optical y: down
   body_from_optical.col(2) = Eigen::Vector3d::UnitX();   // optical z: forward
-  return Eigen::Quaterniond(body_from_optical);
+  Eigen::Quaterniond q(body_from_optical);
+  if (q.w() < 0) q.coeffs() *= -1;  // as drivers publish it: (x, y, z, w) = (-0.5, 0.5, -0.5, 0.5)
+  return q;
 }
 
 RecordedFrame RecordFrame(const RoomRecord& room,

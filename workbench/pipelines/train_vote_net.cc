@@ -698,8 +698,7 @@ VoteNet TrainVoteNetOnSamples(const std::vector<BevSample>& training,
                   &random};
   }
   const int resumed = checkpoint.enabled() ? checkpoint.Resume(&step, summary, options.quiet) : 0;
-  Progress progress("train vote net", total_steps, "steps");
-  if (step > 0) progress.Advance(step);
+  Progress progress("train vote net", total_steps - step, "steps");  // what is left to do
   std::vector<size_t> order(total);
   const auto start = std::chrono::steady_clock::now();
   for (int epoch = resumed; epoch < options.epochs; ++epoch) {

@@ -164,7 +164,8 @@ std::optional<VoteNetCheckpoint> ReadCheckpoint(const std::string& path,
     const std::string bytes = ReadFileBytes(path);
     Require(bytes.size() >= sizeof(kMagic) && std::memcmp(bytes.data(), kMagic, sizeof(kMagic)) == 0,
             path + ": not a vote network checkpoint");
-    Reader in(bytes.substr(sizeof(kMagic)), path);
+    const std::string body = bytes.substr(sizeof(kMagic));
+    Reader in(body, path);
     VoteNetCheckpoint checkpoint;
     checkpoint.fingerprint = in.Text();
     if (checkpoint.fingerprint != fingerprint) return skip("another training's checkpoint");
