@@ -6,6 +6,7 @@
 #include <numeric>
 #include <set>
 
+#include "core/geometry/box_iou.h"
 #include "core/util/error.h"
 
 namespace furn {
@@ -178,6 +179,76 @@ FunnelStage LostAt(const TruthObject& object,
   return any_maximum ? FunnelStage::kWrongClassOnly : FunnelStage::kNoMaximum;
 }
 
+// How a detection and an object are compared for the IoU metrics.
+enum class Overlap { k3d, kBev };
+
+bool HasBox(const OrientedBox& box) {
+  return box.size.x() > 0 && box.size.y() > 0 && box.size.z() > 0;
+}
+
+// The indoor protocol of SUN RGB-D and ScanNet as mmdetection3d's
+// indoor_eval computes it (VOC style): detections of the class in
+// descending score; each one's object is the one of its class it overlaps
+// most in its frame; at least `threshold` and not yet taken: a true
+// positive, else a false one (a second detection of an object is false). An
+// "ignore" object overlapped so is neither; absent objects are not there.
+Matching MatchClassByIou(const std::vector<FrameOutcome>& frames,
+                         FurnitureClass furniture_class,
+                         double threshold,
+                         Overlap overlap,
+                         const std::function<Role(const TruthObject&)>& role) {
+  Matching result;
+  result.targets_in_frame.assign(frames.size(), 0);
+  result.true_positives_in_frame.assign(frames.size(), 0);
+  result.false_positives_in_frame.assign(frames.size(), 0);
+  std::vector<std::pair<size_t, const ScoredDetection*>> candidates;
+  for (size_t f = 0; f < frames.size(); ++f) {
+    for (const TruthObject& t : frames[f].truth)
+      result.targets_in_frame[f] += t.furniture_class == furniture_class && role(t) == Role::kTarget;
+    result.targets += result.targets_in_frame[f];
+    for (const ScoredDetection& d : frames[f].detections)
+      if (d.furniture_class == furniture_class) candidates.emplace_back(f, &d);
+  }
+  std::stable_sort(candidates.begin(), candidates.end(), [](const auto& a, const auto& b) {
+    return a.second->score > b.second->score;
+  });
+  std::vector<std::vector<bool>> used(frames.size());
+  for (size_t f = 0; f < frames.size(); ++f) used[f].assign(frames[f].truth.size(), false);
+  int tp = 0, fp = 0;
+  for (const auto& [f, detection] : candidates) {
+    const FrameOutcome& frame = frames[f];
+    int best = -1;
+    double best_iou = 0;
+    for (size_t k = 0; k < frame.truth.size(); ++k) {
+      const TruthObject& t = frame.truth[k];
+      if (t.furniture_class != furniture_class || role(t) == Role::kAbsent) continue;
+      const double iou = overlap == Overlap::k3d ? Iou3d(detection->box3d, t.box3d)
+                                                 : BevIou(detection->box3d, t.box3d);
+      if (iou > best_iou) {
+        best_iou = iou;
+        best = static_cast<int>(k);
+      }
+    }
+    const bool overlaps = best >= 0 && best_iou >= threshold;
+    if (overlaps && role(frame.truth[best]) == Role::kIgnore) continue;  // neither
+    if (overlaps && !used[f][best]) {
+      used[f][best] = true;
+      ++tp;
+      ++result.true_positives_in_frame[f];
+      result.true_positives.emplace_back(detection, &frame.truth[best]);
+    } else {
+      ++fp;
+      ++result.false_positives_in_frame[f];
+      result.false_positives.push_back(detection);
+    }
+    result.curve.push_back({result.targets > 0 ? static_cast<double>(tp) / result.targets : 0,
+                            static_cast<double>(tp) / (tp + fp),
+                            detection->score});
+    result.counts.emplace_back(tp, fp);
+  }
+  return result;
+}
+
 double AveragePrecision(const std::vector<PrPoint>& curve) {
   // Precision envelope from the right, then the area over recall steps.
   double ap = 0, previous_recall = 0;
@@ -254,6 +325,38 @@ void AddDetectionAp(const std::vector<FrameOutcome>& frames,
       }
     }
     if (classes > 0) result->metrics[MetricId::MeanAp(distance).Name()] = sum / classes;
+  }
+}
+
+// AP at 3-D and bird's-eye IoU thresholds per class, and their means over
+// the classes with objects; only when every object and detection of the
+// frames has a 3-D box (a set labelled without heights has none).
+void AddIouAp(const std::vector<FrameOutcome>& frames,
+              const EvaluationOptions& options,
+              const RoleOf& role,
+              EvaluationResult* result) {
+  for (const FrameOutcome& frame : frames) {
+    for (const TruthObject& t : frame.truth)
+      if (t.furniture_class && role(t) != Role::kAbsent && !HasBox(t.box3d)) return;
+    for (const ScoredDetection& d : frame.detections)
+      if (!HasBox(d.box3d)) return;
+  }
+  for (Overlap overlap : {Overlap::k3d, Overlap::kBev}) {
+    for (double threshold : options.iou_thresholds) {
+      double sum = 0;
+      int classes = 0;
+      for (FurnitureClass c : options.classes) {
+        const Matching matching = MatchClassByIou(frames, c, threshold, overlap, role);
+        if (matching.targets == 0) continue;
+        const double ap = AveragePrecision(matching.curve);
+        result->metrics[MetricId::IouAp(c, threshold, overlap == Overlap::kBev).Name()] = ap;
+        sum += ap;
+        ++classes;
+      }
+      if (classes > 0)
+        result->metrics[MetricId::IouAp(std::nullopt, threshold, overlap == Overlap::kBev).Name()] =
+            sum / classes;
+    }
   }
 }
 
@@ -765,6 +868,7 @@ EvaluationResult EvaluateFrames(const std::vector<FrameOutcome>& frames,
   m[MetricId::Plain(PlainMetric::kFrames).Name()] = static_cast<double>(frames.size());
   m[MetricId::Plain(PlainMetric::kObjects).Name()] = objects;
   AddDetectionAp(frames, options, role, &result);
+  AddIouAp(frames, options, role, &result);
   m[MetricId::Plain(PlainMetric::kFalseAboveTrue).Name()] = FalseAboveTrue(frames, options, role);
   AddLossesAndPoseErrors(frames, options, role, &result);
   AddSeenAndUnseen(frames, options, role, &m);

@@ -26,6 +26,7 @@
 #include <vector>
 
 #include "core/detector/detector.h"  // HypothesisOutcome
+#include "core/geometry/conventions.h"  // OrientedBox
 #include "reports/metric_id.h"
 
 namespace furn {
@@ -44,6 +45,9 @@ struct TruthObject : FurnitureBox {  // the box in the world frame; footprint 0:
   // seen by another frame fused into its scan, so a detection of it is
   // neither found nor false ("ignore"); unfused, such an object is absent.
   bool seen_by_fused_frames = false;
+  // The object's 3-D box in the world (REP 103; size 0: unknown, e.g. a
+  // label without a height): what the IoU metrics compare.
+  OrientedBox box3d = {};
 };
 
 struct ScoredDetection : FurnitureBox {  // footprint when the detector gives one
@@ -51,6 +55,9 @@ struct ScoredDetection : FurnitureBox {  // footprint when the detector gives on
   std::string model_id;
   double score = 0;
   int symmetry = 1;  // rotational symmetry order of the detected model (1, 2 or 4)
+  // The detection's 3-D box in the world (its REP 103 box: the learned
+  // footprint or the fitted model's bounds, with a height); size 0: unknown.
+  OrientedBox box3d = {};
 };
 
 struct HoughMaximum {
@@ -84,6 +91,9 @@ struct EvaluationOptions {
   // frames adds no metric).
   std::vector<FurnitureClass> classes{kAllClasses.begin(), kAllClasses.end()};
   std::vector<double> distances_m = {0.05, 0.10, 0.20};
+  // AP at these 3-D and bird's-eye IoUs of the boxes (AP3D/<class>@0.25,
+  // APBEV/<class>@0.25), when every object and detection has a 3-D box.
+  std::vector<double> iou_thresholds = {0.25, 0.5};
   double min_visibility = 0.25;
   // Objects with less of their box in view (TruthObject::in_view: cut by the
   // image's side) are "ignore" too; 0, the default, keeps them as targets

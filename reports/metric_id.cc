@@ -1,7 +1,9 @@
 #include "reports/metric_id.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
+#include <cstdio>
 
 #include "core/util/error.h"
 
@@ -146,6 +148,15 @@ MetricId MetricId::CentreErrorMedian(FurnitureClass furniture_class) {
   return id;
 }
 
+MetricId MetricId::IouAp(std::optional<FurnitureClass> furniture_class, double iou, bool bev) {
+  MetricId id;
+  id.kind_ = Kind::kIouAp;
+  id.class_ = furniture_class;
+  id.iou_percent_ = static_cast<int>(std::lround(iou * 100));
+  id.bev_ = bev;
+  return id;
+}
+
 MetricId MetricId::InGroup(Group group) const {
   MetricId id = *this;
   id.group_ = group;
@@ -175,6 +186,12 @@ std::string MetricId::Name() const {
              EnumName(measure_) + "@" + cm;
     case Kind::kCentreError:
       return name + "centre/" + ClassName(*class_) + "/median_m";
+    case Kind::kIouAp: {
+      char iou[16];
+      std::snprintf(iou, sizeof(iou), "@%d.%02d", iou_percent_ / 100, iou_percent_ % 100);
+      const std::string kind = bev_ ? "BEV" : "3D";
+      return name + (class_ ? "AP" + kind + "/" + ClassName(*class_) : "mAP" + kind) + iou;
+    }
   }
   throw std::logic_error("metric without a name");
 }
@@ -229,8 +246,31 @@ std::optional<MetricId> MetricId::TryParse(const std::string& full) {
     if (const auto c = FurnitureClassNamed(rest.substr(0, rest.size() - 9)))
       id = CentreErrorMedian(*c);
   }
+  if (!id) id = ParseIouAp(name);
   if (id) id->group_ = group;
   return id;
+}
+
+// AP3D/<class>@0.25, APBEV/<class>@0.5, mAP3D@0.25, mAPBEV@0.5.
+std::optional<MetricId> MetricId::ParseIouAp(const std::string& name) {
+  const size_t at = name.find('@');
+  if (at == std::string::npos || name.size() - at != 5 || name.compare(at + 2, 1, ".") != 0 ||
+      !std::isdigit(static_cast<unsigned char>(name[at + 1])) ||
+      !std::isdigit(static_cast<unsigned char>(name[at + 3])) ||
+      !std::isdigit(static_cast<unsigned char>(name[at + 4])))
+    return std::nullopt;
+  const int percent = (name[at + 1] - '0') * 100 + (name[at + 3] - '0') * 10 + (name[at + 4] - '0');
+  if (percent < 1 || percent > 100) return std::nullopt;
+  const std::string head = name.substr(0, at);
+  for (const bool bev : {false, true}) {
+    const std::string kind = bev ? "BEV" : "3D";
+    if (head == "mAP" + kind) return IouAp(std::nullopt, percent / 100.0, bev);
+    std::string rest;
+    if (StartsWith(head, ("AP" + kind + "/").c_str(), &rest)) {
+      if (const auto c = FurnitureClassNamed(rest)) return IouAp(*c, percent / 100.0, bev);
+    }
+  }
+  return std::nullopt;
 }
 
 MetricId MetricId::Parse(const std::string& name) {
@@ -238,7 +278,8 @@ MetricId MetricId::Parse(const std::string& name) {
   throw InputError(
       "unknown metric '" + name +
       "' (e.g. mAP@10cm, AP/chair@20cm, xy_error_mean_m, latency_p50_ms, "
-      "paper/table/best_f1, funnel/all/no_maximum, op/precision@20cm, centre/table/median_m)");
+      "paper/table/best_f1, funnel/all/no_maximum, op/precision@20cm, centre/table/median_m, "
+      "AP3D/chair@0.25, mAPBEV@0.50)");
 }
 
 bool MetricId::HigherIsBetter() const {
@@ -248,6 +289,7 @@ bool MetricId::HigherIsBetter() const {
     case Kind::kMeanAp:
     case Kind::kClassAp:
     case Kind::kPaperBestF1:
+    case Kind::kIouAp:
       return true;
     case Kind::kStageLatency:
     case Kind::kFalsePositives:

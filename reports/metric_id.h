@@ -122,7 +122,8 @@ class MetricId {
     kFunnel,
     kFalsePositives,
     kOperating,
-    kCentreError
+    kCentreError,
+    kIouAp
   };
   // Crossval runs store each metric's mean plainly, and its spread over the
   // folds and its value with the fixed gates under a prefix.
@@ -144,10 +145,15 @@ class MetricId {
   // centre/<class>/median_m: the median centre error of the class's objects
   // seen at least half (reports/evaluation.h, kCentreErrorVisibility).
   static MetricId CentreErrorMedian(FurnitureClass furniture_class);
+  // AP at a box IoU (the SUN RGB-D / ScanNet protocol): AP3D/chair@0.25 of
+  // the 3-D boxes, APBEV/chair@0.25 of their footprints, mAP3D@0.5 and
+  // mAPBEV@0.5 over the classes (none: over the classes).
+  static MetricId IouAp(std::optional<FurnitureClass> furniture_class, double iou, bool bev);
 
   // The metric of this name; InputError naming it and what names look like.
   static MetricId Parse(const std::string& name);
   static std::optional<MetricId> TryParse(const std::string& name);
+  static std::optional<MetricId> ParseIouAp(const std::string& name);
 
   MetricId InGroup(Group group) const;
   std::string Name() const;
@@ -161,6 +167,9 @@ class MetricId {
   Group group() const { return group_; }
   // The match distance of an AP, operating-point or centre metric (m).
   double distance_m() const { return centimetres_ / 100.0; }
+  // The IoU threshold of an IoU AP, and whether it is of the footprints.
+  double iou() const { return iou_percent_ / 100.0; }
+  bool bev() const { return bev_; }
   bool operator==(const MetricId& other) const { return Name() == other.Name(); }
 
  private:
@@ -174,6 +183,8 @@ class MetricId {
   FunnelStage funnel_ = FunnelStage::kDetected;
   FalsePositiveKind false_positive_ = FalsePositiveKind::kBackground;
   OperatingMeasure measure_ = OperatingMeasure::kPrecision;
+  int iou_percent_ = 0;
+  bool bev_ = false;
 };
 
 // The metric's value, or NaN when a run lacks it (e.g. AP of a class that

@@ -5,6 +5,8 @@
 #include <sys/wait.h>
 
 #include <array>
+#include <thread>
+#include <chrono>
 #include <cctype>
 #include <cstdio>
 #include <cstdlib>
@@ -71,6 +73,25 @@ CommandResult RunCommand(const std::string& command) {
   const int status = pclose(pipe);
   result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   return result;
+}
+
+std::string StartInBackground(const std::string& command, const std::string& log) {
+  const CommandResult started = RunCommand(command + " > " + log + " 2>&1 & echo $!");
+  return started.output.substr(0, started.output.find('\n'));
+}
+
+bool WaitUntil(const std::function<bool()>& done, double timeout_s, int poll_ms) {
+  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+  while (!done()) {
+    if (std::chrono::steady_clock::now() > end) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(poll_ms));
+  }
+  return true;
+}
+
+void KillHard(const std::string& pid) {
+  RunCommand("kill -9 " + pid);
+  WaitUntil([&] { return RunCommand("kill -0 " + pid).exit_code != 0; }, 10, 50);
 }
 
 std::string SceneSelfTest(const std::string& page, std::string* output) {

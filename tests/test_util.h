@@ -23,6 +23,16 @@ struct CommandResult {
 };
 CommandResult RunCommand(const std::string& command);
 
+// Starts a shell command in the background (its output to `log`) and
+// returns its process id.
+std::string StartInBackground(const std::string& command, const std::string& log);
+// Waits (polling every `poll_ms`, at most `timeout_s`) until `done` holds;
+// returns whether it did.
+bool WaitUntil(const std::function<bool()>& done, double timeout_s, int poll_ms = 20);
+// SIGKILL to the process, then waits until it is gone: what a power cut or
+// the OOM killer does to a run.
+void KillHard(const std::string& pid);
+
 // Opens a 3-D scene page (reports/scene_view.h) in headless Chromium with
 // #selftest and returns what the page wrote into <pre id="scene-check"> (a
 // JSON object: counts, toggles, drawn pixels, load_ms, errors), or "" with

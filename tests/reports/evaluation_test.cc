@@ -119,6 +119,53 @@ TEST(ProtocolB, GreedyMatchingByScoreWithinTheDistance) {
   EXPECT_DOUBLE_EQ(r.metrics.at("latency_p50_ms"), 50);
 }
 
+OrientedBox Cube(double x, double y, double side, double yaw = 0) {
+  OrientedBox box;
+  box.centre = Eigen::Vector3d(x, y, side / 2);
+  box.size = Eigen::Vector3d(side, side, side);
+  box.yaw = yaw;
+  return box;
+}
+
+// The box metrics (AP at 3-D and bird's-eye IoU, the SUN RGB-D / ScanNet
+// protocol as mmdetection3d computes it): 1 m cubes; a detection shifted by
+// 0.4 m along x overlaps 0.6 / 1.4 = 0.43 (a TP at 0.25, an FP at 0.5); a
+// second detection of a taken object is an FP even where it overlaps; a
+// detection overlapping nothing enough is an FP.
+TEST(ProtocolIou, GreedyByScoreOnTheBestOverlappingObject) {
+  FrameOutcome frame;
+  frame.truth = {Chair(0, 0), Chair(3, 0)};
+  frame.truth[0].box3d = Cube(0, 0, 1);
+  frame.truth[1].box3d = Cube(3, 0, 1);
+  frame.detections = {Found(0, 0, 0.9), Found(0.1, 0, 0.8), Found(3.4, 0, 0.7), Found(6, 0, 0.6)};
+  frame.detections[0].box3d = Cube(0, 0, 1, 0.0);        // IoU 1
+  frame.detections[1].box3d = Cube(0.1, 0, 1);           // the same object again: FP
+  frame.detections[2].box3d = Cube(3.4, 0, 1);           // IoU 0.6 / 1.4
+  frame.detections[3].box3d = Cube(6, 0, 1);             // nothing
+  const EvaluationResult r = EvaluateFrames({frame}, ChairsOnly());
+  // @0.25: TP, FP, TP, FP -> recall 1/2 at precision 1, 1 at 2/3.
+  EXPECT_NEAR(r.metrics.at("AP3D/chair@0.25"), 0.5 + 0.5 * 2.0 / 3, 1e-12);
+  EXPECT_NEAR(r.metrics.at("mAP3D@0.25"), 0.5 + 0.5 * 2.0 / 3, 1e-12);
+  // @0.5: only the first.
+  EXPECT_NEAR(r.metrics.at("AP3D/chair@0.50"), 0.5, 1e-12);
+  // Footprints of equal height: the bird's-eye figures are the same here.
+  EXPECT_NEAR(r.metrics.at("APBEV/chair@0.25"), r.metrics.at("AP3D/chair@0.25"), 1e-12);
+  // A box twice as tall as its object: BEV IoU 1, 3-D IoU 0.5.
+  frame.detections = {Found(0, 0, 0.9)};
+  frame.detections[0].box3d = Cube(0, 0, 1);
+  frame.detections[0].box3d.size.z() = 2;
+  frame.detections[0].box3d.centre.z() = 1;
+  const EvaluationResult tall = EvaluateFrames({frame}, ChairsOnly());
+  EXPECT_NEAR(tall.metrics.at("APBEV/chair@0.50"), 0.5, 1e-12);  // one of two objects
+  EXPECT_NEAR(tall.metrics.at("AP3D/chair@0.50"), 0.5, 1e-12);   // IoU exactly 0.5
+  frame.detections[0].box3d.size.z() = 2.2;
+  frame.detections[0].box3d.centre.z() = 1.1;
+  EXPECT_NEAR(EvaluateFrames({frame}, ChairsOnly()).metrics.at("AP3D/chair@0.50"), 0, 1e-12);
+  // Without 3-D boxes (a set labelled without heights): no box metric at all.
+  frame.truth[1].box3d = OrientedBox{};
+  EXPECT_EQ(EvaluateFrames({frame}, ChairsOnly()).metrics.count("AP3D/chair@0.25"), 0u);
+}
+
 // The confusion counts what detect outputs: detections below the operating
 // point are not in it, and a true object nothing reached is "missed".
 TEST(Confusion, KeptDetectionsAgainstTheTruthAndTheMissedObjects) {
@@ -306,7 +353,9 @@ TEST(MetricId, NamesParseBackWithTheirDirectionAndUnit) {
       MetricId::Operating(std::nullopt, OperatingMeasure::kPrecision, 0.20),
       MetricId::Operating(FurnitureClass::kTable, OperatingMeasure::kFalsePerFrame, 0.10),
       MetricId::ClassAp(FurnitureClass::kChair, 0.10).InGroup(MetricId::Group::kGates),
-      MetricId::CentreErrorMedian(FurnitureClass::kTable)};
+      MetricId::CentreErrorMedian(FurnitureClass::kTable),
+      MetricId::IouAp(FurnitureClass::kChair, 0.25, false),
+      MetricId::IouAp(std::nullopt, 0.5, true)};
   const std::vector<std::string> names = {"mAP@10cm",
                                           "AP/sofa@5cm",
                                           "paper/table/best_f1",
@@ -319,7 +368,9 @@ TEST(MetricId, NamesParseBackWithTheirDirectionAndUnit) {
                                           "op/precision@20cm",
                                           "op/table/false_per_frame@10cm",
                                           "gates/AP/chair@10cm",
-                                          "centre/table/median_m"};
+                                          "centre/table/median_m",
+                                          "AP3D/chair@0.25",
+                                          "mAPBEV@0.50"};
   for (size_t k = 0; k < ids.size(); ++k) {
     EXPECT_EQ(ids[k].Name(), names[k]);
     EXPECT_EQ(MetricId::Parse(names[k]).Name(), names[k]);
@@ -344,7 +395,11 @@ TEST(MetricId, NamesParseBackWithTheirDirectionAndUnit) {
                           "op/chair/recal@20cm",
                           "centre/stool/median_m",
                           "centre/table/mean_m",
-                          "op/precision"})
+                          "op/precision",
+                          "AP3D/chair@0.2",
+                          "AP3D/stool@0.25",
+                          "mAP3D@1.50",
+                          "APXY/chair@0.25"})
     EXPECT_NE(testing::ErrorOf([&] { MetricId::Parse(bad); }).find("unknown metric"),
               std::string::npos)
         << bad;

@@ -2,7 +2,6 @@
 // known poses, a Kinect v1 frame from Embree and the sensor model, then the
 // detector with a model trained on the same procedural catalog.
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <cmath>
 #include <filesystem>
@@ -69,6 +68,17 @@ class DetectTest : public ::testing::Test {
       if (*entry->furniture_class == furniture_class && seen++ == k) return entry->id;
     }
     throw InputError("no such model");
+  }
+
+  // One chair at (0.2, 0.1), turned 30 degrees, as a 640 x 480 depth image
+  // (0: no return).
+  static DepthFrame OneChairDepth() {
+    const DetectionInput input = Render({{ModelOf(FurnitureClass::kChair, 1), 0.2, 0.1, 30}});
+    DepthFrame frame;
+    frame.Resize(640, 480);
+    for (size_t i = 0; i < input.points.size(); ++i)
+      frame.depth[i] = input.points[i].allFinite() ? input.points[i].z() : 0.0f;
+    return frame;
   }
 
   struct Placement {
@@ -492,11 +502,7 @@ TEST_F(DetectTest, BadFilesAndIntrinsicsAreClearErrors) {
 TEST_F(DetectTest, CommandLineOnAPcdWritesJsonAndDebugPngs) {
   const std::string dir = testing::ScratchDir();
   // An organised PCD of one chair, camera frame, as a Kinect driver writes it.
-  const DetectionInput input = Render({{ModelOf(FurnitureClass::kChair, 1), 0.2, 0.1, 30}});
-  DepthFrame frame;
-  frame.Resize(640, 480);
-  for (size_t i = 0; i < input.points.size(); ++i)
-    frame.depth[i] = input.points[i].allFinite() ? input.points[i].z() : 0.0f;
+  const DepthFrame frame = OneChairDepth();
   WriteOrganizedPcd(frame, CameraIntrinsics::KinectV1(), dir + "/scan.pcd");
   const testing::CommandResult run = testing::RunCommand(
       std::string(FURN_WORKBENCH_BINARY) + " detect --model " + *model_path_ + " --cloud " + dir +
@@ -707,11 +713,7 @@ TEST_F(DetectTest, FusedScansFindWhatOneScanDoesNotSee) {
 // in order); the partial file is gone afterwards. Misuse is one line.
 TEST_F(DetectTest, AKilledBatchResumesWithTheLinesItKept) {
   const std::string dir = testing::ScratchDir();
-  const DetectionInput input = Render({{ModelOf(FurnitureClass::kChair, 1), 0.2, 0.1, 30}});
-  DepthFrame frame;
-  frame.Resize(640, 480);
-  for (size_t i = 0; i < input.points.size(); ++i)
-    frame.depth[i] = input.points[i].allFinite() ? input.points[i].z() : 0.0f;
+  const DepthFrame frame = OneChairDepth();
   std::filesystem::create_directories(dir + "/depth");
   for (int k = 0; k < 16; ++k) {
     char name[32];
@@ -725,20 +727,15 @@ TEST_F(DetectTest, AKilledBatchResumesWithTheLinesItKept) {
   EXPECT_FALSE(std::filesystem::exists(dir + "/whole.jsonl.partial"));
 
   const std::string out = dir + "/resumed.jsonl";
-  const testing::CommandResult started =
-      testing::RunCommand(batch + " --out " + out + " > /dev/null 2>&1 & echo $!");
-  const std::string pid = started.output.substr(0, started.output.find('\n'));
+  const std::string pid = testing::StartInBackground(batch + " --out " + out, "/dev/null");
   auto entries = [&] {
     const std::string text = std::filesystem::exists(out + ".partial")
                                  ? ReadFileBytes(out + ".partial")
                                  : std::string();
     return std::count(text.begin(), text.end(), '\n') - 1;
   };
-  for (int wait = 0; wait < 3000 && entries() < 3; ++wait) usleep(10 * 1000);
-  ASSERT_GE(entries(), 3);
-  ASSERT_EQ(testing::RunCommand("kill -9 " + pid).exit_code, 0);
-  for (int wait = 0; wait < 100 && testing::RunCommand("kill -0 " + pid).exit_code == 0; ++wait)
-    usleep(100 * 1000);
+  ASSERT_TRUE(testing::WaitUntil([&] { return entries() >= 3; }, 60));
+  testing::KillHard(pid);
   ASSERT_FALSE(std::filesystem::exists(out)) << "killed after the batch finished";
   const testing::CommandResult resumed =
       testing::RunCommand(batch + " --resume --out " + out + " 2>&1");
@@ -773,11 +770,7 @@ TEST_F(DetectTest, AKilledBatchResumesWithTheLinesItKept) {
 
 TEST_F(DetectTest, BatchOverGlobsTumListsAndBopFoldersGivesJsonLines) {
   const std::string dir = testing::ScratchDir();
-  const DetectionInput input = Render({{ModelOf(FurnitureClass::kChair, 1), 0.2, 0.1, 30}});
-  DepthFrame frame;
-  frame.Resize(640, 480);
-  for (size_t i = 0; i < input.points.size(); ++i)
-    frame.depth[i] = input.points[i].allFinite() ? input.points[i].z() : 0.0f;
+  const DepthFrame frame = OneChairDepth();
   // TUM layout: depth/<timestamp>.png at 5000 units per metre, and a list.
   std::filesystem::create_directories(dir + "/tum/depth");
   WriteDepthPng(frame, dir + "/tum/depth/1.000.png", 5000);

@@ -2,7 +2,6 @@
 // procedural dataset; the run is gated by the committed baseline
 // tests/baselines/small_eval.json (the CI evaluation).
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
@@ -117,7 +116,7 @@ TEST(Evaluate, AKilledEvaluationResumesToTheSameRun) {
   const std::string dir = testing::ScratchDir();
   const std::string db = dir + "/d.db", again = dir + "/again.db", model = dir + "/m.fcm";
   ASSERT_EQ(
-      Workbench("generate --catalog procedural:4 --rooms 12 --frames 3 --seed 5 --quiet --out " + db)
+      Workbench("generate --catalog procedural:4 --rooms 8 --frames 2 --seed 5 --quiet --out " + db)
           .exit_code,
       0);
   ASSERT_EQ(Workbench(std::string(testing::kTrainSmallCodebook) + model).exit_code, 0);
@@ -126,10 +125,8 @@ TEST(Evaluate, AKilledEvaluationResumesToTheSameRun) {
   ASSERT_EQ(Workbench(evaluate + db + " --quiet").exit_code, 0);
 
   const std::string log = dir + "/killed.log";
-  const testing::CommandResult started =
-      testing::RunCommand("FURN_EVALUATE_SAVE_SECONDS=0 " + std::string(FURN_WORKBENCH_BINARY) +
-                          evaluate + again + " > " + log + " 2>&1 & echo $!");
-  const std::string pid = started.output.substr(0, started.output.find('\n'));
+  const std::string pid = testing::StartInBackground(
+      "FURN_EVALUATE_SAVE_SECONDS=0 " + std::string(FURN_WORKBENCH_BINARY) + evaluate + again, log);
   auto partial = [&]() -> std::string {
     for (const auto& entry : std::filesystem::directory_iterator(dir)) {
       const std::string name = entry.path().filename().string();
@@ -138,11 +135,8 @@ TEST(Evaluate, AKilledEvaluationResumesToTheSameRun) {
     }
     return "";
   };
-  for (int wait = 0; wait < 3000 && partial().empty(); ++wait) usleep(20 * 1000);
-  ASSERT_FALSE(partial().empty()) << ReadFileBytes(log);
-  ASSERT_EQ(testing::RunCommand("kill -9 " + pid).exit_code, 0);
-  for (int wait = 0; wait < 100 && testing::RunCommand("kill -0 " + pid).exit_code == 0; ++wait)
-    usleep(100 * 1000);
+  ASSERT_TRUE(testing::WaitUntil([&] { return !partial().empty(); }, 60)) << ReadFileBytes(log);
+  testing::KillHard(pid);
   {
     DatasetDb killed(again, DatasetDb::Mode::kReadOnly);
     ASSERT_TRUE(killed.Runs().empty()) << "killed after the run was stored: " << ReadFileBytes(log);

@@ -451,6 +451,19 @@ FrameBagWriter::~FrameBagWriter() {
 
 namespace {
 
+// One transform as a TF message stamped `stamp`.
+tf2_msgs::TFMessage Ros1TfMessage(const RosTransform& t, const ros::Time& stamp) {
+  geometry_msgs::TransformStamped transform;
+  transform.header.stamp = stamp;
+  transform.header.frame_id = t.header.frame_id;
+  transform.child_frame_id = t.child_frame_id;
+  SetRigid(
+      t.translation, t.rotation, &transform.transform.translation, &transform.transform.rotation);
+  tf2_msgs::TFMessage tf;
+  tf.transforms.push_back(transform);
+  return tf;
+}
+
 // A connection header that marks a topic latched (rosbag records it so).
 template <typename Message>
 boost::shared_ptr<ros::M_string> Latched() {
@@ -477,29 +490,13 @@ void FrameBagWriter::Write(const RoomRecord& room,
     sensor_msgs::Image image = Ros1Image(recorded.depth), ids = Ros1Image(recorded.ids);
     sensor_msgs::CameraInfo info = Ros1CameraInfo(recorded.info);
     image.header.stamp = ids.header.stamp = info.header.stamp = stamp;
-    tf2_msgs::TFMessage tf;
-    geometry_msgs::TransformStamped transform;
-    transform.header.stamp = stamp;
-    transform.header.frame_id = recorded.world_from_camera.header.frame_id;
-    transform.child_frame_id = recorded.world_from_camera.child_frame_id;
-    SetRigid(recorded.world_from_camera.translation,
-             recorded.world_from_camera.rotation,
-             &transform.transform.translation,
-             &transform.transform.rotation);
-    tf.transforms.push_back(transform);
     if (written == 0) {  // once, latched as tf2's static broadcaster publishes it
-      tf2_msgs::TFMessage tf_static;
-      geometry_msgs::TransformStamped fixed;
-      fixed.header.stamp = stamp;
-      fixed.header.frame_id = recorded.camera_from_optical.header.frame_id;
-      fixed.child_frame_id = recorded.camera_from_optical.child_frame_id;
-      SetRigid(recorded.camera_from_optical.translation,
-               recorded.camera_from_optical.rotation,
-               &fixed.transform.translation,
-               &fixed.transform.rotation);
-      tf_static.transforms.push_back(fixed);
-      impl_->bag.write("/tf_static", stamp, tf_static, Latched<tf2_msgs::TFMessage>());
+      impl_->bag.write("/tf_static",
+                       stamp,
+                       Ros1TfMessage(recorded.camera_from_optical, stamp),
+                       Latched<tf2_msgs::TFMessage>());
     }
+    const tf2_msgs::TFMessage tf = Ros1TfMessage(recorded.world_from_camera, stamp);
     visualization_msgs::MarkerArray truth = Ros1Markers(recorded.truth);
     for (visualization_msgs::Marker& m : truth.markers) m.header.stamp = stamp;
     impl_->bag.write("/tf", stamp, tf);

@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 #include <set>
 
+#include "core/detector/detection_box.h"
 #include "core/geometry/mesh.h"
 #include "core/geometry/pose_fit.h"
 #include "core/geometry/render_compare.h"  // PinholeIntrinsics
@@ -157,6 +158,7 @@ std::vector<TruthObject> TruthOf(const RoomRecord& room,
                      // Only a target's share counts (clutter is never one).
                      object.furniture_class ? ShareInView(object, frame) : 1.0,
                      seen_by_fused_frames});
+    if (object.height > 0) truth.back().box3d = WorldBoxOf(object.Footprint(), 0, object.height);
   }
   return truth;
 }
@@ -181,12 +183,20 @@ void AddScorerSamples(const DetectionResult& result,
   }
 }
 
+// A world box moved by a floor-aligned transform (a turn about z and a shift).
+OrientedBox MovedOrientedBox(OrientedBox box, const Eigen::Isometry3d& moved) {
+  box.centre = moved * box.centre;
+  box.yaw += std::atan2(moved.linear()(1, 0), moved.linear()(0, 0));
+  return box;
+}
+
 // The detector's output in the labels' frame, as the evaluation and the run
 // see it.
 void RecordDetections(const DetectionResult& result,
                       const FrameRecord& frame,
                       const Eigen::Isometry3d& to_labels,
                       const ModelFacts& facts,
+                      const TrainedModel& model,
                       EvaluatedFrame* out) {
   for (const Detection& detected : result.detections) {
     Detection d = detected;
@@ -195,6 +205,8 @@ void RecordDetections(const DetectionResult& result,
     const int symmetry =
         d.model_index >= 0 ? facts.symmetry[d.model_index] : BevYawSymmetry(d.furniture_class);
     out->outcome.detections.push_back(ScoredDetectionOf(d, symmetry));
+    out->outcome.detections.back().box3d =
+        MovedOrientedBox(DetectionBoxInWorld(detected, model), to_labels);
     out->detections.push_back({frame.id,
                                d.furniture_class,
                                d.model_name,
@@ -245,7 +257,7 @@ EvaluatedFrame EvaluateFrame(const Detector& detector,
   out.status = result.status;
   out.outcome.frame_id = frame.id;
   out.outcome.truth = TruthOf(room, frame, facts, options.fusion);
-  RecordDetections(result, frame, to_labels, facts, &out);
+  RecordDetections(result, frame, to_labels, facts, detector.model(), &out);
   if (options.collect_scorer_samples) AddScorerSamples(result, frame, to_labels, &out);
   return out;
 }

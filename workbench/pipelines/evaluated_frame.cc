@@ -20,7 +20,7 @@ namespace {
 using Json = nlohmann::json;
 
 constexpr const char* kFormat = "furn-evaluate-shard";
-constexpr int kVersion = 1;
+constexpr int kVersion = 2;  // 2: each detection with its 3-D box
 
 // JSON has no NaN or infinity: they travel as null (read back as NaN).
 Json Number(double value) { return std::isfinite(value) ? Json(value) : Json(nullptr); }
@@ -42,7 +42,14 @@ Json DetectionJson(const ScoredDetection& d, const RunDetectionRecord& r) {
                       Number(r.z),
                       Number(r.vote_weight),
                       Number(r.verification),
-                      Number(r.covered_fraction)});
+                      Number(r.covered_fraction),
+                      Number(d.box3d.centre.x()),
+                      Number(d.box3d.centre.y()),
+                      Number(d.box3d.centre.z()),
+                      Number(d.box3d.size.x()),
+                      Number(d.box3d.size.y()),
+                      Number(d.box3d.size.z()),
+                      Number(d.box3d.yaw)});
 }
 
 Json FrameJson(const EvaluatedFrame& frame) {
@@ -148,6 +155,13 @@ EvaluatedFrame FrameOf(const Json& json) {
                                 FiniteOf(Item(d, 10, what), "vote_weight"),
                                 FiniteOf(Item(d, 11, what), "verification"),
                                 FiniteOf(Item(d, 12, what), "covered_fraction")});
+    s.box3d.centre = Eigen::Vector3d(FiniteOf(Item(d, 13, what), "box centre x"),
+                                     FiniteOf(Item(d, 14, what), "box centre y"),
+                                     FiniteOf(Item(d, 15, what), "box centre z"));
+    s.box3d.size = Eigen::Vector3d(FiniteOf(Item(d, 16, what), "box size x"),
+                                   FiniteOf(Item(d, 17, what), "box size y"),
+                                   FiniteOf(Item(d, 18, what), "box size z"));
+    s.box3d.yaw = FiniteOf(Item(d, 19, what), "box yaw");
   }
   Require(json.at("maxima").is_array(), "'maxima' must be an array");
   for (const Json& m : json.at("maxima")) {
