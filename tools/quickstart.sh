@@ -29,6 +29,12 @@ fi
 cmake --build "$build_dir" -j 2
 
 if [[ "$mode" == test ]]; then
+  # Foxglove's MCAP reader for rosbag_test's check of our MCAP files, when
+  # node and the npm registry are there (the test says when it skips).
+  if command -v npm > /dev/null && [[ ! -d tools/mcap_check/node_modules/@mcap/core ]]; then
+    timeout 180 npm ci --prefix tools/mcap_check --no-audit --no-fund > /dev/null 2>&1 ||
+      echo "quickstart: @mcap/core not installed (no npm registry?); rosbag_test skips its check"
+  fi
   # The 'slow' label holds long end-to-end runs; run them with: ctest -L slow
   exec ctest --test-dir "$build_dir" --output-on-failure -j 2 -LE slow
 fi

@@ -688,7 +688,7 @@ VoteNet TrainVoteNetOnSamples(const std::vector<BevSample>& training,
   const size_t steps_per_epoch = (total + options.batch_size - 1) / options.batch_size;
   const size_t total_steps = steps_per_epoch * options.epochs;
   size_t step = 0;
-  CheckpointState checkpoint;
+  CheckpointState checkpoint;  // one process from scratch: not a rank, not a fine-tuning
   if (!options.checkpoint_path.empty() && group == nullptr && tune_from == nullptr) {
     checkpoint = {MemberCheckpointPath(options.checkpoint_path, options.member),
                   TrainingFingerprint(training, validation, options, net),
