@@ -204,7 +204,8 @@ Matching MatchClassByIou(const std::vector<FrameOutcome>& frames,
   std::vector<std::pair<size_t, const ScoredDetection*>> candidates;
   for (size_t f = 0; f < frames.size(); ++f) {
     for (const TruthObject& t : frames[f].truth)
-      result.targets_in_frame[f] += t.furniture_class == furniture_class && role(t) == Role::kTarget;
+      result.targets_in_frame[f] +=
+          t.furniture_class == furniture_class && role(t) == Role::kTarget;
     result.targets += result.targets_in_frame[f];
     for (const ScoredDetection& d : frames[f].detections)
       if (d.furniture_class == furniture_class) candidates.emplace_back(f, &d);

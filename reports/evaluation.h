@@ -25,7 +25,7 @@
 #include <string>
 #include <vector>
 
-#include "core/detector/detector.h"  // HypothesisOutcome
+#include "core/detector/detector.h"     // HypothesisOutcome
 #include "core/geometry/conventions.h"  // OrientedBox
 #include "reports/metric_id.h"
 

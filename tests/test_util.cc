@@ -5,13 +5,13 @@
 #include <sys/wait.h>
 
 #include <array>
-#include <thread>
-#include <chrono>
 #include <cctype>
+#include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <thread>
 
 #include "core/util/error.h"
 

@@ -69,10 +69,10 @@ TEST(BoxIou, SymmetricAndBoundedOnRandomBoxes) {
     return static_cast<double>(state >> 11) / static_cast<double>(1ull << 53);
   };
   for (int k = 0; k < 2000; ++k) {
-    const OrientedBox a = Box(next(), next(), next(), 0.1 + next(), 0.1 + next(), 0.1 + next(),
-                              6 * next());
-    const OrientedBox b = Box(next(), next(), next(), 0.1 + next(), 0.1 + next(), 0.1 + next(),
-                              6 * next());
+    const OrientedBox a =
+        Box(next(), next(), next(), 0.1 + next(), 0.1 + next(), 0.1 + next(), 6 * next());
+    const OrientedBox b =
+        Box(next(), next(), next(), 0.1 + next(), 0.1 + next(), 0.1 + next(), 6 * next());
     const double ab = Iou3d(a, b), ba = Iou3d(b, a);
     EXPECT_NEAR(ab, ba, 1e-9);
     EXPECT_GE(ab, 0.0);

@@ -47,9 +47,9 @@
 #include "tests/test_util.h"
 #include "workbench/formats/camera_file.h"
 #include "workbench/formats/depth_png.h"
+#include "workbench/formats/mcap.h"
 #include "workbench/formats/options_file.h"
 #include "workbench/formats/point_cloud_file.h"
-#include "workbench/formats/mcap.h"
 #include "workbench/formats/ros2_bag.h"
 #include "workbench/formats/ros2_messages.h"
 #include "workbench/formats/ros_common.h"
@@ -513,8 +513,8 @@ TEST_F(LoaderFuzz, Ros2McapBags) {
       writer.Write("/camera/depth/image_raw", kRos2Image, 1, EncodeImage(frame.depth));
       writer.Finish();
     }
-    seeds.push_back(ReadFileBytes(bag + "/" + std::filesystem::path(bag).filename().string() +
-                                  "_0.mcap"));
+    seeds.push_back(
+        ReadFileBytes(bag + "/" + std::filesystem::path(bag).filename().string() + "_0.mcap"));
   }
   Fuzz({"ros2_mcap",
         "mcap",

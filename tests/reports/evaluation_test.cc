@@ -138,10 +138,10 @@ TEST(ProtocolIou, GreedyByScoreOnTheBestOverlappingObject) {
   frame.truth[0].box3d = Cube(0, 0, 1);
   frame.truth[1].box3d = Cube(3, 0, 1);
   frame.detections = {Found(0, 0, 0.9), Found(0.1, 0, 0.8), Found(3.4, 0, 0.7), Found(6, 0, 0.6)};
-  frame.detections[0].box3d = Cube(0, 0, 1, 0.0);        // IoU 1
-  frame.detections[1].box3d = Cube(0.1, 0, 1);           // the same object again: FP
-  frame.detections[2].box3d = Cube(3.4, 0, 1);           // IoU 0.6 / 1.4
-  frame.detections[3].box3d = Cube(6, 0, 1);             // nothing
+  frame.detections[0].box3d = Cube(0, 0, 1, 0.0);  // IoU 1
+  frame.detections[1].box3d = Cube(0.1, 0, 1);     // the same object again: FP
+  frame.detections[2].box3d = Cube(3.4, 0, 1);     // IoU 0.6 / 1.4
+  frame.detections[3].box3d = Cube(6, 0, 1);       // nothing
   const EvaluationResult r = EvaluateFrames({frame}, ChairsOnly());
   // @0.25: TP, FP, TP, FP -> recall 1/2 at precision 1, 1 at 2/3.
   EXPECT_NEAR(r.metrics.at("AP3D/chair@0.25"), 0.5 + 0.5 * 2.0 / 3, 1e-12);

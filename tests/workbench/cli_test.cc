@@ -415,7 +415,8 @@ TEST(Cli, ATrainingKilledMidEpochResumesToTheSameModelBytes) {
   const std::string train =
       std::string(FURN_WORKBENCH_BINARY) +
       " train --catalog procedural:4 --vocab kmeans --words 20 --azimuths 6 --vote-rooms 16 "
-      "--vote-frames 4 --vote-epochs 5 --vote-threads 1 --rooms-cache " + dir + "/rooms --out ";
+      "--vote-frames 4 --vote-epochs 5 --vote-threads 1 --rooms-cache " +
+      dir + "/rooms --out ";
   const RunResult whole = testing::RunCommand(train + dir + "/whole.fcm 2>&1");
   ASSERT_EQ(whole.exit_code, 0) << whole.output;
   EXPECT_FALSE(std::filesystem::exists(dir + "/whole.fcm.checkpoint"));

@@ -729,9 +729,8 @@ TEST_F(DetectTest, AKilledBatchResumesWithTheLinesItKept) {
   const std::string out = dir + "/resumed.jsonl";
   const std::string pid = testing::StartInBackground(batch + " --out " + out, "/dev/null");
   auto entries = [&] {
-    const std::string text = std::filesystem::exists(out + ".partial")
-                                 ? ReadFileBytes(out + ".partial")
-                                 : std::string();
+    const std::string text =
+        std::filesystem::exists(out + ".partial") ? ReadFileBytes(out + ".partial") : std::string();
     return std::count(text.begin(), text.end(), '\n') - 1;
   };
   ASSERT_TRUE(testing::WaitUntil([&] { return entries() >= 3; }, 60));

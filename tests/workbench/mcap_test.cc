@@ -180,7 +180,8 @@ TEST_F(McapTest, FilesWrittenHereReadBackInLogTimeOrderWithEveryCompression) {
     EXPECT_EQ(depth.front(), Bytes("late"));
     EXPECT_EQ(depth.back(), std::vector<uint8_t>(339, 39));
     int limited = 0;
-    in.ForEach({2}, [&](const McapMessage&) { ++limited; }, 5);
+    in.ForEach(
+        {2}, [&](const McapMessage&) { ++limited; }, 5);
     EXPECT_EQ(limited, 5);
   }
 }
@@ -210,14 +211,15 @@ TEST_F(McapTest, TheSummaryIndexesAndCrcsAreThoseOfTheSpecification) {
                   static_cast<uInt>(footer + 25 - summary_start)));
   // The data end record just before the summary, with the data section's CRC.
   ASSERT_EQ(static_cast<uint8_t>(file[summary_start - 13]), 0x0F);
-  EXPECT_EQ(At<uint32_t>(file, summary_start - 4),
-            crc32(0, reinterpret_cast<const Bytef*>(file.data()), static_cast<uInt>(summary_start - 13)));
+  EXPECT_EQ(
+      At<uint32_t>(file, summary_start - 4),
+      crc32(0, reinterpret_cast<const Bytef*>(file.data()), static_cast<uInt>(summary_start - 13)));
   // Summary offsets: one per group, each pointing at records of its opcode.
   std::map<uint8_t, std::pair<uint64_t, uint64_t>> groups;
   for (size_t at = offsets_start; at < footer;) {
     ASSERT_EQ(static_cast<uint8_t>(file[at]), 0x0E);
     groups[static_cast<uint8_t>(file[at + 9])] = {At<uint64_t>(file, at + 10),
-                                                   At<uint64_t>(file, at + 18)};
+                                                  At<uint64_t>(file, at + 18)};
     at += 9 + At<uint64_t>(file, at + 1);
   }
   ASSERT_EQ(groups.size(), 4u);  // schemas, channels, statistics, chunk indexes
@@ -243,8 +245,10 @@ TEST_F(McapTest, TheSummaryIndexesAndCrcsAreThoseOfTheSpecification) {
         const uint64_t size = At<uint64_t>(file, chunk_at + 9 + 16);
         const uint32_t crc = At<uint32_t>(file, chunk_at + 9 + 24);
         const uint64_t records_at = chunk_at + 9 + 28 + 4 + 8;  // compression "" then length
-        EXPECT_EQ(crc, crc32(0, reinterpret_cast<const Bytef*>(file.data() + records_at),
-                             static_cast<uInt>(size)));
+        EXPECT_EQ(crc,
+                  crc32(0,
+                        reinterpret_cast<const Bytef*>(file.data() + records_at),
+                        static_cast<uInt>(size)));
         // Each message index points at message records of its channel.
         const uint32_t map_bytes = At<uint32_t>(file, content + 32);
         for (uint64_t entry = content + 36; entry < content + 36 + map_bytes; entry += 10) {
@@ -277,9 +281,9 @@ TEST_F(McapTest, DamagedFilesAreOneLineNamingTheRecord) {
   EXPECT_NE(Refusal(good.substr(0, good.size() / 2)).find("cut short"), std::string::npos);
   // Cut between records: no footer.
   const std::string whole_records = FileOf(SchemaRecord(1));
-  EXPECT_NE(Refusal(whole_records.substr(0, whole_records.size() - 8 - 29))
-                .find("without a Footer"),
-            std::string::npos);
+  EXPECT_NE(
+      Refusal(whole_records.substr(0, whole_records.size() - 8 - 29)).find("without a Footer"),
+      std::string::npos);
   // A record whose length runs past the file.
   std::string past = good;
   const uint64_t huge = uint64_t{1} << 40;
@@ -295,9 +299,9 @@ TEST_F(McapTest, DamagedFilesAreOneLineNamingTheRecord) {
   EXPECT_NE(Refusal(FileOf(ChunkRecord("brotli", records, records.size())))
                 .find("'brotli' is not none, zstd or lz4"),
             std::string::npos);
-  EXPECT_NE(Refusal(FileOf(ChunkRecord("", records, records.size(), 12345)))
-                .find("uncompressed_crc"),
-            std::string::npos);
+  EXPECT_NE(
+      Refusal(FileOf(ChunkRecord("", records, records.size(), 12345))).find("uncompressed_crc"),
+      std::string::npos);
   // A plain chunk whose records run past its end.
   const std::string overlong = records + Raw().Put<uint8_t>(5).Put<uint64_t>(100).bytes;
   EXPECT_NE(Refusal(FileOf(ChunkRecord("", overlong, overlong.size())))
@@ -332,8 +336,7 @@ TEST_F(McapTest, ChunkSizesAreNeverTakenOnTrust) {
             std::string::npos);
   EXPECT_LT(PeakRssMb() - peak_before, 16.0);
   // A cut zstd frame.
-  EXPECT_NE(Refusal(FileOf(ChunkRecord("zstd", zstd.substr(0, zstd.size() / 2),
-                                       records.size())))
+  EXPECT_NE(Refusal(FileOf(ChunkRecord("zstd", zstd.substr(0, zstd.size() / 2), records.size())))
                 .find("zstd"),
             std::string::npos);
   // Claims more than it holds.

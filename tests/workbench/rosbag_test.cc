@@ -13,6 +13,7 @@
 #include <visualization_msgs/MarkerArray.h>
 
 #include <unistd.h>
+#include <yaml-cpp/yaml.h>
 #include <chrono>
 #include <cmath>
 #include <cstring>
@@ -20,10 +21,9 @@
 #include <fstream>
 #include <iostream>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <set>
-#include <nlohmann/json.hpp>
-#include <yaml-cpp/yaml.h>
 #include <sstream>
 #include <tuple>
 
@@ -428,8 +428,8 @@ std::optional<nlohmann::json> McapCoreRead(const std::string& file) {
               << "/@mcap/core (npm ci --prefix tools/mcap_check)\n";
     return std::nullopt;
   }
-  const testing::CommandResult r = testing::RunCommand(
-      "NODE_PATH=" + modules + " node " + tools + "/check.cjs " + file + " 2>&1");
+  const testing::CommandResult r = testing::RunCommand("NODE_PATH=" + modules + " node " + tools +
+                                                       "/check.cjs " + file + " 2>&1");
   EXPECT_EQ(r.exit_code, 0) << r.output;
   if (r.exit_code != 0) return std::nullopt;
   return nlohmann::json::parse(r.output);
@@ -470,9 +470,9 @@ TEST_F(RosbagTest, McapBagsDetectAsTheirSqliteTwins) {
   const std::string marked = *dir_ + "/twin_marked";
   for (const auto& [bag, out, extra] : {std::tuple{sqlite, lines1, std::string()},
                                         std::tuple{mcap, lines2, " --out-bag " + marked}}) {
-    const testing::CommandResult r = Workbench("detect --quiet --model " + Model() + " --bag " +
-                                               bag + " --topic /camera/depth/image_raw --out " +
-                                               out + extra);
+    const testing::CommandResult r =
+        Workbench("detect --quiet --model " + Model() + " --bag " + bag +
+                  " --topic /camera/depth/image_raw --out " + out + extra);
     ASSERT_EQ(r.exit_code, 0) << r.output;
   }
   const std::vector<nlohmann::json> a = JsonLines(lines1), b = JsonLines(lines2);
@@ -661,8 +661,8 @@ TEST_F(RosbagTest, ACloudInABodyFrameIsTurnedByTfOrRefused) {
             "tf: world <- camera_link (a body frame, turned to optical axes)");
   EXPECT_EQ(lines[0]["boxes_frame_id"], "world");
   ExpectSameDetections(lines[0]["detections"], DetectFrame(frame.id));
-  const testing::CommandResult refused = Workbench("detect --quiet --model " + Model() +
-                                                   " --bag " + without + " --topic /points");
+  const testing::CommandResult refused =
+      Workbench("detect --quiet --model " + Model() + " --bag " + without + " --topic /points");
   EXPECT_NE(refused.exit_code, 0);
   EXPECT_NE(refused.output.find("PointCloud2 in 'camera_link', a REP 103 body frame (x forward, "
                                 "z up), and the bag has no /tf to place it"),

@@ -98,14 +98,16 @@ void PrintCentreErrors(const std::map<std::string, double>& m,
 // The field's box metrics (SUN RGB-D / ScanNet): AP at 3-D IoU 0.25 and 0.5
 // per class and their mean, and the bird's-eye view's; nothing for a run
 // without 3-D boxes (a set labelled without heights).
-void PrintIouAp(const std::map<std::string, double>& m, const std::vector<FurnitureClass>& classes) {
+void PrintIouAp(const std::map<std::string, double>& m,
+                const std::vector<FurnitureClass>& classes) {
   if (!m.count(MetricId::IouAp(std::nullopt, 0.25, false).Name())) return;
-  std::printf("  box IoU (all-point AP, greedy by score as mmdetection3d): mAP3D@0.25 %.3f  "
-              "mAP3D@0.50 %.3f  mAPBEV@0.25 %.3f  mAPBEV@0.50 %.3f\n",
-              MetricOrNan(m, MetricId::IouAp(std::nullopt, 0.25, false)),
-              MetricOrNan(m, MetricId::IouAp(std::nullopt, 0.5, false)),
-              MetricOrNan(m, MetricId::IouAp(std::nullopt, 0.25, true)),
-              MetricOrNan(m, MetricId::IouAp(std::nullopt, 0.5, true)));
+  std::printf(
+      "  box IoU (all-point AP, greedy by score as mmdetection3d): mAP3D@0.25 %.3f  "
+      "mAP3D@0.50 %.3f  mAPBEV@0.25 %.3f  mAPBEV@0.50 %.3f\n",
+      MetricOrNan(m, MetricId::IouAp(std::nullopt, 0.25, false)),
+      MetricOrNan(m, MetricId::IouAp(std::nullopt, 0.5, false)),
+      MetricOrNan(m, MetricId::IouAp(std::nullopt, 0.25, true)),
+      MetricOrNan(m, MetricId::IouAp(std::nullopt, 0.5, true)));
   for (FurnitureClass c : classes) {
     std::printf("  %-9s AP3D@0.25 %.3f  AP3D@0.50 %.3f  APBEV@0.25 %.3f  APBEV@0.50 %.3f\n",
                 ClassName(c),

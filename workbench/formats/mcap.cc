@@ -31,25 +31,37 @@ enum Opcode : uint8_t {
   kDataEnd = 0x0F,
 };
 
-constexpr uint64_t kRecordPrefixBytes = 9;        // opcode + uint64 length
-constexpr uint64_t kMessageFixedBytes = 22;       // channel, sequence, two times
+constexpr uint64_t kRecordPrefixBytes = 9;          // opcode + uint64 length
+constexpr uint64_t kMessageFixedBytes = 22;         // channel, sequence, two times
 constexpr uint64_t kMaxOtherRecordBytes = 1 << 26;  // 64 MiB: a schema, channel, index
 constexpr uint64_t kFooterBytes = 20;
 
 const char* OpcodeName(uint8_t opcode) {
   switch (opcode) {
-    case kHeader: return "Header";
-    case kFooter: return "Footer";
-    case kSchema: return "Schema";
-    case kChannel: return "Channel";
-    case kMessage: return "Message";
-    case kChunk: return "Chunk";
-    case kMessageIndex: return "Message Index";
-    case kChunkIndex: return "Chunk Index";
-    case kStatistics: return "Statistics";
-    case kSummaryOffset: return "Summary Offset";
-    case kDataEnd: return "Data End";
-    default: return "record";
+    case kHeader:
+      return "Header";
+    case kFooter:
+      return "Footer";
+    case kSchema:
+      return "Schema";
+    case kChannel:
+      return "Channel";
+    case kMessage:
+      return "Message";
+    case kChunk:
+      return "Chunk";
+    case kMessageIndex:
+      return "Message Index";
+    case kChunkIndex:
+      return "Chunk Index";
+    case kStatistics:
+      return "Statistics";
+    case kSummaryOffset:
+      return "Summary Offset";
+    case kDataEnd:
+      return "Data End";
+    default:
+      return "record";
   }
 }
 
@@ -187,8 +199,9 @@ std::vector<uint8_t> DecompressZstd(const uint8_t* data,
   size_t produced = 0;
   while (true) {
     if (produced == out.size()) {
-      Require(produced <= claimed, where + ": decompresses to more than its uncompressed_size " +
-                                       std::to_string(claimed));
+      Require(
+          produced <= claimed,
+          where + ": decompresses to more than its uncompressed_size " + std::to_string(claimed));
       GrowOutput(&out, produced, claimed);
     }
     ZSTD_outBuffer buffer{out.data(), out.size(), produced};
@@ -218,8 +231,9 @@ std::vector<uint8_t> DecompressLz4(const uint8_t* data,
   size_t consumed = 0, produced = 0;
   while (true) {
     if (produced == out.size()) {
-      Require(produced <= claimed, where + ": decompresses to more than its uncompressed_size " +
-                                       std::to_string(claimed));
+      Require(
+          produced <= claimed,
+          where + ": decompresses to more than its uncompressed_size " + std::to_string(claimed));
       GrowOutput(&out, produced, claimed);
     }
     size_t out_bytes = out.size() - produced, in_bytes = static_cast<size_t>(size) - consumed;
@@ -241,12 +255,14 @@ std::vector<uint8_t> CompressChunk(McapCompression compression, const std::vecto
   if (compression == McapCompression::kZstd) {
     out.resize(ZSTD_compressBound(in.size()));
     const size_t size = ZSTD_compress(out.data(), out.size(), in.data(), in.size(), 1);
-    if (ZSTD_isError(size)) throw std::runtime_error(std::string("zstd: ") + ZSTD_getErrorName(size));
+    if (ZSTD_isError(size))
+      throw std::runtime_error(std::string("zstd: ") + ZSTD_getErrorName(size));
     out.resize(size);
   } else if (compression == McapCompression::kLz4) {
     out.resize(LZ4F_compressFrameBound(in.size(), nullptr));
     const size_t size = LZ4F_compressFrame(out.data(), out.size(), in.data(), in.size(), nullptr);
-    if (LZ4F_isError(size)) throw std::runtime_error(std::string("lz4: ") + LZ4F_getErrorName(size));
+    if (LZ4F_isError(size))
+      throw std::runtime_error(std::string("lz4: ") + LZ4F_getErrorName(size));
     out.resize(size);
   } else {
     out = in;
@@ -274,9 +290,12 @@ struct ChunkPlace {
 
 const char* McapCompressionName(McapCompression compression) {
   switch (compression) {
-    case McapCompression::kZstd: return "zstd";
-    case McapCompression::kLz4: return "lz4";
-    case McapCompression::kNone: break;
+    case McapCompression::kZstd:
+      return "zstd";
+    case McapCompression::kLz4:
+      return "lz4";
+    case McapCompression::kNone:
+      break;
   }
   return "";
 }
@@ -334,8 +353,9 @@ struct McapReader::Impl {
             path + ": " + std::to_string(file_size) + " bytes, too short for an MCAP file");
     const std::vector<uint8_t> head = ReadBytes(0, kMcapMagicBytes);
     Require(std::memcmp(head.data(), kMcapMagic, kMcapMagicBytes) == 0,
-            path + ": no MCAP magic (\\x89MCAP0\\r\\n) at its start: not an MCAP file of major "
-                   "version 0");
+            path +
+                ": no MCAP magic (\\x89MCAP0\\r\\n) at its start: not an MCAP file of major "
+                "version 0");
   }
 
   void AddSchema(McapSchema schema, const std::string& where) {
@@ -350,8 +370,9 @@ struct McapReader::Impl {
             where + ": channel " + std::to_string(channel.id) + " names schema " +
                 std::to_string(channel.schema_id) + ", which no record before it defines");
     auto [it, added] = channels.emplace(channel.id, channel);
-    Require(added || (it->second.topic == channel.topic && it->second.schema_id == channel.schema_id),
-            where + ": channel " + std::to_string(channel.id) + " redefined differently");
+    Require(
+        added || (it->second.topic == channel.topic && it->second.schema_id == channel.schema_id),
+        where + ": channel " + std::to_string(channel.id) + " redefined differently");
   }
 
   void AddMessage(const uint8_t* content,
@@ -360,8 +381,9 @@ struct McapReader::Impl {
                   int32_t chunk,
                   const std::string& where) {
     FieldReader in(content, std::min(size, kMessageFixedBytes), where);
-    Require(size >= kMessageFixedBytes, where + ": a Message record of " + std::to_string(size) +
-                                            " bytes, less than its 22 fixed bytes");
+    Require(size >= kMessageFixedBytes,
+            where + ": a Message record of " + std::to_string(size) +
+                " bytes, less than its 22 fixed bytes");
     Require(size - kMessageFixedBytes <= kMcapMaxMessageBytes,
             where + ": a message of " + std::to_string(size - kMessageFixedBytes) +
                 " bytes, more than " + std::to_string(kMcapMaxMessageBytes));
@@ -410,7 +432,9 @@ struct McapReader::Impl {
   }
 
   // The records of a chunk's uncompressed bytes.
-  void ScanChunkRecords(const std::vector<uint8_t>& records, int32_t chunk, const std::string& where) {
+  void ScanChunkRecords(const std::vector<uint8_t>& records,
+                        int32_t chunk,
+                        const std::string& where) {
     uint64_t position = 0;
     while (position < records.size()) {
       const std::string at = where + ", its record at byte " + std::to_string(position);
@@ -445,11 +469,12 @@ struct McapReader::Impl {
         records = std::move(compressed);
         break;
       case McapCompression::kZstd:
-        records = DecompressZstd(
-            compressed.data(), compressed.size(), place.uncompressed_size, where);
+        records =
+            DecompressZstd(compressed.data(), compressed.size(), place.uncompressed_size, where);
         break;
       case McapCompression::kLz4:
-        records = DecompressLz4(compressed.data(), compressed.size(), place.uncompressed_size, where);
+        records =
+            DecompressLz4(compressed.data(), compressed.size(), place.uncompressed_size, where);
         break;
     }
     Require(records.size() == place.uncompressed_size,
@@ -523,12 +548,12 @@ struct McapReader::Impl {
       if (opcode == kChunk && data_section) {
         ReadChunk(position, length);
       } else if (opcode == kHeader || (data_section && (opcode == kSchema || opcode == kChannel ||
-                                                         opcode == kMessage))) {
+                                                        opcode == kMessage))) {
         Require(first || opcode != kHeader, where + ": a second Header");
-        const uint64_t cap = opcode == kMessage ? kMcapMaxMessageBytes + kMessageFixedBytes
-                                                : kMaxOtherRecordBytes;
-        Require(length <= cap, where + ": " + std::to_string(length) + " bytes, more than " +
-                                   std::to_string(cap));
+        const uint64_t cap =
+            opcode == kMessage ? kMcapMaxMessageBytes + kMessageFixedBytes : kMaxOtherRecordBytes;
+        Require(length <= cap,
+                where + ": " + std::to_string(length) + " bytes, more than " + std::to_string(cap));
         const uint64_t read = opcode == kMessage ? kMessageFixedBytes : length;
         const std::vector<uint8_t> content =
             ReadBytes(position + kRecordPrefixBytes, std::min(read, length));
@@ -537,7 +562,8 @@ struct McapReader::Impl {
           profile = in.String("profile");
           in.String("library");
         } else if (opcode == kMessage) {
-          Require(length >= kMessageFixedBytes, where + ": shorter than a message's 22 fixed bytes");
+          Require(length >= kMessageFixedBytes,
+                  where + ": shorter than a message's 22 fixed bytes");
           AddMessage(content.data(), length, position + kRecordPrefixBytes, -1, where);
         } else {
           OnRecord(opcode, content.data(), length, position + kRecordPrefixBytes, -1, where);
@@ -684,7 +710,8 @@ struct McapWriter::Impl {
   uint64_t chunk_start = std::numeric_limits<uint64_t>::max(), chunk_end = 0;
 
   void Emit(const std::vector<uint8_t>& bytes, uint32_t* crc = nullptr) {
-    file.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+    file.write(reinterpret_cast<const char*>(bytes.data()),
+               static_cast<std::streamsize>(bytes.size()));
     Require(file.good(), path + ": cannot write (disk full?)");
     if (crc) *crc = Crc32(bytes.data(), bytes.size(), *crc);
     position += bytes.size();
@@ -733,7 +760,10 @@ struct McapWriter::Impl {
 
   static std::vector<uint8_t> SchemaRecord(const McapSchema& schema) {
     FieldWriter content;
-    content.Put<uint16_t>(schema.id).String(schema.name).String(schema.encoding).String(schema.data);
+    content.Put<uint16_t>(schema.id)
+        .String(schema.name)
+        .String(schema.encoding)
+        .String(schema.data);
     return Record(kSchema, content.bytes());
   }
   static std::vector<uint8_t> ChannelRecord(const McapChannel& channel) {
@@ -855,8 +885,11 @@ uint16_t McapWriter::AddChannel(uint16_t schema_id,
           impl_->path + ": channel " + topic + " names schema " + std::to_string(schema_id) +
               ", which was not added");
   Require(impl_->channels.size() < 65535, impl_->path + ": more than 65535 channels");
-  McapChannel channel{
-      static_cast<uint16_t>(impl_->channels.size() + 1), schema_id, topic, message_encoding, metadata};
+  McapChannel channel{static_cast<uint16_t>(impl_->channels.size() + 1),
+                      schema_id,
+                      topic,
+                      message_encoding,
+                      metadata};
   impl_->AppendToChunk(Impl::ChannelRecord(channel));
   impl_->channels.push_back(std::move(channel));
   return impl_->channels.back().id;

@@ -102,12 +102,12 @@ std::vector<std::string> BagFiles(const std::string& path) {
       compressed_storage = true;
   }
   Require(!ec, path + ": cannot list the bag folder (" + ec.message() + ")");
-  Require(!files.empty(),
-          path + (compressed_storage
-                      ? std::string(": compressed storage files are not read here; ") +
-                            kConvertAdvice
-                      : ": no .db3 or .mcap file (a ROS 2 bag folder holds metadata.yaml and "
-                        "<name>_0.db3 or <name>_0.mcap)"));
+  Require(
+      !files.empty(),
+      path + (compressed_storage
+                  ? std::string(": compressed storage files are not read here; ") + kConvertAdvice
+                  : ": no .db3 or .mcap file (a ROS 2 bag folder holds metadata.yaml and "
+                    "<name>_0.db3 or <name>_0.mcap)"));
   std::sort(files.begin(), files.end(), [](const fs::path& a, const fs::path& b) {
     return std::make_pair(SplitIndex(a), a.string()) < std::make_pair(SplitIndex(b), b.string());
   });
@@ -122,12 +122,13 @@ TfBuffer ReadTf(StorageFiles& files, const std::string& path) {
   TfBuffer tf;
   for (auto& file : files) {
     file->ForEach(file->Ids({"/tf", "/tf_static", "tf", "tf_static"}, kRos2TfMessage),
-                 [&](const Ros2Message& m) {
-                   const std::string where = path + " " + m.topic + " at " + SecondsText(m.time_ns);
-                   const bool is_static = m.topic.find("tf_static") != std::string::npos;
-                   for (const RosTransform& t : DecodeTfMessage(m.data, where))
-                     tf.Add(t, is_static, where);
-                 });
+                  [&](const Ros2Message& m) {
+                    const std::string where =
+                        path + " " + m.topic + " at " + SecondsText(m.time_ns);
+                    const bool is_static = m.topic.find("tf_static") != std::string::npos;
+                    for (const RosTransform& t : DecodeTfMessage(m.data, where))
+                      tf.Add(t, is_static, where);
+                  });
   }
   tf.Sort();
   return tf;
@@ -376,7 +377,9 @@ struct Ros2BagWriter::Impl {
   }
 };
 
-Ros2BagWriter::Ros2BagWriter(const std::string& out, Ros2Storage storage, McapCompression compression)
+Ros2BagWriter::Ros2BagWriter(const std::string& out,
+                             Ros2Storage storage,
+                             McapCompression compression)
     : impl_(std::make_unique<Impl>()) {
   std::string trimmed = out;
   while (trimmed.size() > 1 && trimmed.back() == '/') trimmed.pop_back();
@@ -415,7 +418,8 @@ void Ros2BagWriter::Write(const std::string& topic,
 }
 
 void Ros2BagWriter::Write(const Ros2Message& message) {
-  if (message.declaration == nullptr) return Write(message.topic, message.type, message.time_ns, message.data);
+  if (message.declaration == nullptr)
+    return Write(message.topic, message.type, message.time_ns, message.data);
   impl_->Write(*message.declaration, message.time_ns, message.data);
 }
 
@@ -450,7 +454,7 @@ Ros2Storage StorageOf(const std::string& bag) {
 McapCompression CompressionOf(const std::string& bag) {
   const std::vector<std::string> files = BagFiles(bag);
   return FileExtension(files.front()) == "mcap" ? McapReader::FirstChunkCompression(files.front())
-                                               : McapCompression::kZstd;
+                                                : McapCompression::kZstd;
 }
 
 std::string CheckedInput(const std::string& in_bag, const std::string& out_bag) {

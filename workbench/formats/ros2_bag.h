@@ -8,7 +8,8 @@
 //
 // A ROS 2 bag is a folder (metadata.yaml and <name>_0.db3 or <name>_0.mcap,
 // ...) or one .db3 or .mcap file: what `ros2 bag record` writes on Humble
-// (sqlite3) and on Iron, Jazzy and later (mcap). The dispatchers at the end pick ROS 1 or ROS 2 by the path:
+// (sqlite3) and on Iron, Jazzy and later (mcap). The dispatchers at the end pick ROS 1 or ROS 2 by
+// the path:
 //
 //   ForEachScanInBag(options, [&](const BagScan& scan) { ... });   // .bag or ROS 2
 //   std::unique_ptr<FrameBagSink> out = OpenFrameBag("export_ros2");  // a folder: ROS 2

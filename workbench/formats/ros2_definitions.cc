@@ -112,7 +112,9 @@ std::string ShortName(const std::string& type) {
 }
 
 // The types `type` uses, depth first, each once.
-void Dependencies(const std::string& type, std::set<std::string>* seen, std::vector<std::string>* out) {
+void Dependencies(const std::string& type,
+                  std::set<std::string>* seen,
+                  std::vector<std::string>* out) {
   for (const char* used : Definitions().at(type).uses) {
     if (!seen->insert(used).second) continue;
     out->push_back(used);

@@ -244,10 +244,10 @@ std::vector<uint8_t> EncodeDetection3DArray(const RosHeader& header,
     out.SequenceLength(1);  // results: one hypothesis
     out.String(d.class_id);
     out.Write<double>(d.score);
-    WritePose(out, d.box_pose);                           // hypothesis pose
+    WritePose(out, d.box_pose);  // hypothesis pose
     for (double v : d.covariance) out.Write<double>(v);
-    WritePose(out, d.box_pose);                           // bbox.center
-    WriteVector3(out, d.size);                            // bbox.size
+    WritePose(out, d.box_pose);  // bbox.center
+    WriteVector3(out, d.size);   // bbox.size
     out.String(d.id);
   }
   return out.Take();

@@ -43,7 +43,8 @@ class SqliteReader : public Ros2StorageReader {
       // A hostile file may define its tables as views or its columns as
       // expressions that make gigabytes out of a few bytes.
       db_.TreatAsUntrusted(kMaxMessageBytes);
-      const bool has_qos = CheckPlainTable("topics", {"id", "name", "type", "serialization_format"});
+      const bool has_qos =
+          CheckPlainTable("topics", {"id", "name", "type", "serialization_format"});
       CheckPlainTable("messages", {"id", "topic_id", "timestamp", "data"});
       Statement topics(&db_,
                        std::string("SELECT id, name, type, serialization_format, ") +
@@ -51,8 +52,12 @@ class SqliteReader : public Ros2StorageReader {
       while (topics.Step()) {
         Require(static_cast<int>(topics_.size()) < kMaxTopics,
                 path + ": more than " + std::to_string(kMaxTopics) + " topics");
-        Ros2Topic topic{topics.ColumnText(1), topics.ColumnText(2), topics.ColumnText(3),
-                        topics.ColumnText(4).substr(0, 1 << 16), "", ""};
+        Ros2Topic topic{topics.ColumnText(1),
+                        topics.ColumnText(2),
+                        topics.ColumnText(3),
+                        topics.ColumnText(4).substr(0, 1 << 16),
+                        "",
+                        ""};
         Require(topic.name.size() <= 256 && topic.type.size() <= 256,
                 path + ": a topic name or type longer than 256 bytes");
         topics_[topics.ColumnInt(0)] = std::move(topic);
@@ -315,10 +320,11 @@ class McapStorageWriter : public Ros2StorageWriter {
                      .first;
       std::map<std::string, std::string> metadata;
       metadata["offered_qos_profiles"] = topic.offered_qos_profiles;
-      found = channels_
-                  .emplace(topic.name,
-                           file_.AddChannel(schema->second, topic.name, topic.serialization, metadata))
-                  .first;
+      found =
+          channels_
+              .emplace(topic.name,
+                       file_.AddChannel(schema->second, topic.name, topic.serialization, metadata))
+              .first;
     }
     file_.Write(found->second, static_cast<uint64_t>(time_ns), cdr);
   }
@@ -349,7 +355,8 @@ const char* Ros2StorageExtension(Ros2Storage storage) {
 Ros2Storage Ros2StorageFromName(const std::string& name, const std::string& flag) {
   if (name == "sqlite3") return Ros2Storage::kSqlite3;
   if (name == "mcap") return Ros2Storage::kMcap;
-  throw InputError(flag + " '" + name.substr(0, 32) + "': a ROS 2 bag's storage is sqlite3 or mcap");
+  throw InputError(flag + " '" + name.substr(0, 32) +
+                   "': a ROS 2 bag's storage is sqlite3 or mcap");
 }
 
 std::set<int64_t> Ros2StorageReader::Ids(const std::set<std::string>& names,

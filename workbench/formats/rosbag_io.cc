@@ -32,7 +32,6 @@ int FrameBagWriter::Finish() { NoRos(); }
 
 #else
 
-#include <boost/make_shared.hpp>
 #include <console_bridge/console.h>
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
@@ -41,6 +40,7 @@ int FrameBagWriter::Finish() { NoRos(); }
 #include <sensor_msgs/PointCloud2.h>
 #include <tf2_msgs/TFMessage.h>
 #include <visualization_msgs/MarkerArray.h>
+#include <boost/make_shared.hpp>
 
 #include <Eigen/Geometry>
 #include <cmath>

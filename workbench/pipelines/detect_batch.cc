@@ -1,8 +1,8 @@
 #include "workbench/pipelines/detect_batch.h"
 
 #include <algorithm>
-#include <chrono>
 #include <cerrno>
+#include <chrono>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -151,8 +151,9 @@ class PartialLines {
     std::istringstream in(ReadFileBytes(path_));
     std::string line;
     Require(std::getline(in, line) && line == header_,
-            path_ + ": the lines of another run (model, options or inputs differ); remove it or "
-                    "run without --resume");
+            path_ +
+                ": the lines of another run (model, options or inputs differ); remove it or "
+                "run without --resume");
     for (int number = 2; std::getline(in, line); ++number) {
       nlohmann::json entry;
       try {
@@ -160,8 +161,10 @@ class PartialLines {
         saved_[entry.at("key").get<std::string>()] = {entry.at("failed").get<bool>(),
                                                       entry.at("line").get<std::string>()};
       } catch (const std::exception&) {
-        Require(in.peek() == EOF, path_ + ":" + std::to_string(number) + ": not an entry of "
-                                      "furnidet's partial lines");
+        Require(in.peek() == EOF,
+                path_ + ":" + std::to_string(number) +
+                    ": not an entry of "
+                    "furnidet's partial lines");
       }
     }
     if (!saved_.empty())

@@ -343,9 +343,10 @@ class EvaluationProgress {
   EvaluationProgress(const std::string& db_path, ShardHeader header, bool enabled)
       : header_(std::move(header)), enabled_(enabled) {
     if (!enabled_) return;
-    path_ = db_path + ".evaluate-" +
-            ShortHash(header_.dataset_hash + "\n" + header_.model_hash + "\n" + header_.options_json) +
-            ".partial";
+    path_ =
+        db_path + ".evaluate-" +
+        ShortHash(header_.dataset_hash + "\n" + header_.model_hash + "\n" + header_.options_json) +
+        ".partial";
     const char* env = std::getenv("FURN_EVALUATE_SAVE_SECONDS");
     if (env != nullptr) interval_s_ = std::max(0.0, std::atof(env));
   }

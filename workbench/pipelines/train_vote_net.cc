@@ -639,17 +639,16 @@ struct CheckpointState {
     optimizer->RestoreState(VoteNet::Deserialize(saved->net, path), saved->adam, path);
     Require(saved->average.empty() == !average->has_value(),
             path + ": its weight average does not match the options'");
-    if (*average) (*average)->Restore(VoteNet::Deserialize(saved->average, path), saved->average_updates);
+    if (*average)
+      (*average)->Restore(VoteNet::Deserialize(saved->average, path), saved->average_updates);
     std::istringstream generator(saved->generator);
     generator >> *random;
     Require(!generator.fail(), path + ": its generator state is not readable");
     *step = saved->steps_done;
     summary->epochs = saved->epochs;
     if (!quiet)
-      std::fprintf(stderr,
-                   "vote net: resuming after epoch %d from %s\n",
-                   saved->epochs_done,
-                   path.c_str());
+      std::fprintf(
+          stderr, "vote net: resuming after epoch %d from %s\n", saved->epochs_done, path.c_str());
     return saved->epochs_done;
   }
 };

@@ -48,9 +48,7 @@ class Reader {
   bool done() const { return at_ == bytes_.size(); }
 
  private:
-  void Need(uint64_t size) const {
-    Require(size <= bytes_.size() - at_, what_ + ": truncated");
-  }
+  void Need(uint64_t size) const { Require(size <= bytes_.size() - at_, what_ + ": truncated"); }
   const std::string& bytes_;
   std::string what_;
   size_t at_ = 0;
@@ -155,15 +153,18 @@ std::optional<VoteNetCheckpoint> ReadCheckpoint(const std::string& path,
   std::error_code ec;
   if (!std::filesystem::exists(path, ec)) return std::nullopt;
   auto skip = [&](const std::string& why) -> std::optional<VoteNetCheckpoint> {
-    if (!quiet) std::fprintf(stderr, "vote net: %s: %s; training from the start\n", path.c_str(), why.c_str());
+    if (!quiet)
+      std::fprintf(
+          stderr, "vote net: %s: %s; training from the start\n", path.c_str(), why.c_str());
     return std::nullopt;
   };
   if (!std::filesystem::is_regular_file(path, ec)) return skip("not a regular file");
   if (std::filesystem::file_size(path, ec) > kMaxCheckpointBytes) return skip("over 4 GiB");
   try {
     const std::string bytes = ReadFileBytes(path);
-    Require(bytes.size() >= sizeof(kMagic) && std::memcmp(bytes.data(), kMagic, sizeof(kMagic)) == 0,
-            path + ": not a vote network checkpoint");
+    Require(
+        bytes.size() >= sizeof(kMagic) && std::memcmp(bytes.data(), kMagic, sizeof(kMagic)) == 0,
+        path + ": not a vote network checkpoint");
     const std::string body = bytes.substr(sizeof(kMagic));
     Reader in(body, path);
     VoteNetCheckpoint checkpoint;
