@@ -180,12 +180,18 @@ std::vector<uint8_t> Record(uint8_t opcode, const std::vector<uint8_t>& content)
   return std::move(record.bytes());
 }
 
-// Grows `out` with what the decompressor wrote, never past `claimed` + 1
-// bytes: a chunk is refused when it decompresses to more than it claims.
-void GrowOutput(std::vector<uint8_t>* out, size_t produced, uint64_t claimed) {
-  const uint64_t limit = claimed + 1;
+// Room for the decompressor's next output once `out` is full: grown with
+// what it really wrote, never past `claimed` + 1 bytes, and a chunk that
+// decompresses to more than it claims is refused.
+void MakeRoom(std::vector<uint8_t>* out,
+              size_t produced,
+              uint64_t claimed,
+              const std::string& where) {
+  if (produced < out->size()) return;
+  Require(produced <= claimed,
+          where + ": decompresses to more than its uncompressed_size " + std::to_string(claimed));
   const uint64_t wanted = std::max<uint64_t>(produced * 2, uint64_t{1} << 20);
-  out->resize(static_cast<size_t>(std::min(limit, wanted)));
+  out->resize(static_cast<size_t>(std::min(claimed + 1, wanted)));
 }
 
 std::vector<uint8_t> DecompressZstd(const uint8_t* data,
@@ -198,12 +204,7 @@ std::vector<uint8_t> DecompressZstd(const uint8_t* data,
   ZSTD_inBuffer in{data, static_cast<size_t>(size), 0};
   size_t produced = 0;
   while (true) {
-    if (produced == out.size()) {
-      Require(
-          produced <= claimed,
-          where + ": decompresses to more than its uncompressed_size " + std::to_string(claimed));
-      GrowOutput(&out, produced, claimed);
-    }
+    MakeRoom(&out, produced, claimed, where);
     ZSTD_outBuffer buffer{out.data(), out.size(), produced};
     const size_t before = in.pos;
     const size_t status = ZSTD_decompressStream(context.get(), &buffer, &in);
@@ -230,12 +231,7 @@ std::vector<uint8_t> DecompressLz4(const uint8_t* data,
   std::vector<uint8_t> out;
   size_t consumed = 0, produced = 0;
   while (true) {
-    if (produced == out.size()) {
-      Require(
-          produced <= claimed,
-          where + ": decompresses to more than its uncompressed_size " + std::to_string(claimed));
-      GrowOutput(&out, produced, claimed);
-    }
+    MakeRoom(&out, produced, claimed, where);
     size_t out_bytes = out.size() - produced, in_bytes = static_cast<size_t>(size) - consumed;
     const size_t hint = LZ4F_decompress(
         context.get(), out.data() + produced, &out_bytes, data + consumed, &in_bytes, nullptr);

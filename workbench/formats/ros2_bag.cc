@@ -446,15 +446,11 @@ int64_t Nanoseconds(double seconds, const std::string& where) {
 }
 
 // The storage of a bag's first file, and its MCAP chunks' compression: what
-// a copy of it is written as.
-Ros2Storage StorageOf(const std::string& bag) {
-  const std::vector<std::string> files = BagFiles(bag);
-  return FileExtension(files.front()) == "mcap" ? Ros2Storage::kMcap : Ros2Storage::kSqlite3;
-}
-McapCompression CompressionOf(const std::string& bag) {
-  const std::vector<std::string> files = BagFiles(bag);
-  return FileExtension(files.front()) == "mcap" ? McapReader::FirstChunkCompression(files.front())
-                                                : McapCompression::kZstd;
+// a copy of it is written as (the folder listed once).
+std::pair<Ros2Storage, McapCompression> StorageOf(const std::string& bag) {
+  const std::string first = BagFiles(bag).front();
+  if (FileExtension(first) != "mcap") return {Ros2Storage::kSqlite3, McapCompression::kZstd};
+  return {Ros2Storage::kMcap, McapReader::FirstChunkCompression(first)};
 }
 
 std::string CheckedInput(const std::string& in_bag, const std::string& out_bag) {
@@ -475,7 +471,8 @@ Ros2DetectionWriter::Ros2DetectionWriter(const std::string& in_bag,
     : in_bag_(CheckedInput(in_bag, out_bag)),
       world_frame_(std::move(world_frame)),
       marker_topic_(std::move(marker_topic)),
-      out_(out_bag, StorageOf(in_bag_), CompressionOf(in_bag_)) {}
+      format_(StorageOf(in_bag_)),
+      out_(out_bag, format_.first, format_.second) {}
 
 Ros2DetectionWriter::~Ros2DetectionWriter() = default;
 

@@ -19,6 +19,7 @@
 #include <functional>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "workbench/formats/ros2_storage.h"
@@ -82,6 +83,7 @@ class Ros2DetectionWriter : public DetectionBagSink {
 
  private:
   std::string in_bag_, world_frame_, marker_topic_;
+  std::pair<Ros2Storage, McapCompression> format_;  // the input's: what the copy is written as
   Ros2BagWriter out_;
 };
 

@@ -90,7 +90,10 @@ DetectionProvenance ProvenanceOf(const DetectRunOptions& run) {
 // their scans again (a last entry cut by the kill is dropped).
 class PartialLines {
  public:
-  PartialLines(const DetectRunOptions& run, const std::string& inputs, bool has_out_bag) {
+  PartialLines(const DetectRunOptions& run,
+               const std::string& model_hash,
+               const std::string& inputs,
+               bool has_out_bag) {
     Require(!run.resume || !has_out_bag,
             "--resume does not apply with --out-bag (the marked bag is written in one pass)");
     std::error_code ec;
@@ -102,7 +105,7 @@ class PartialLines {
     }
     path_ = run.out + ".partial";
     nlohmann::ordered_json header{{"furnidet_partial", 1},
-                                  {"model_hash", ModelFileHash(run.model_path)},
+                                  {"model_hash", model_hash},
                                   {"detector", DetectorOptionsJson(run.detector)},
                                   {"inputs", inputs}};
     header_ = header.dump();
@@ -210,10 +213,10 @@ int DetectBatch(const std::vector<ScanSource>& sources,
                 const DetectRunOptions& run) {
   std::string lines, names;
   for (const ScanSource& source : sources) names += ScanSourceName(source) + "\n";
-  PartialLines partial(run, names, /*has_out_bag=*/false);
+  const DetectionProvenance provenance = ProvenanceOf(run);  // the model file hashed once
+  PartialLines partial(run, provenance.model_hash, names, /*has_out_bag=*/false);
   int failed = 0;
   std::vector<double> totals;
-  const DetectionProvenance provenance = ProvenanceOf(run);
   Progress progress("detect", sources.size(), "scans");
   for (size_t k = 0; k < sources.size(); ++k) {
     const ScanSource& source = sources[k];
@@ -356,15 +359,17 @@ int DetectInBag(const BagScanOptions& bag,
   if (!std::filesystem::is_directory(bag.bag_path, ec)) RequireRegularFile(bag.bag_path);
   const Detector detector(LoadTrainedModel(run.model_path), run.detector);
   NoteVoteNetInput(detector, run, /*fused_input=*/false);
-  PartialLines partial(
-      run, bag.bag_path + "\n" + bag.topic + "\n" + bag.world_frame, !out_bag.empty());
+  const DetectionProvenance provenance = ProvenanceOf(run);  // the model file hashed once
+  PartialLines partial(run,
+                       provenance.model_hash,
+                       bag.bag_path + "\n" + bag.topic + "\n" + bag.world_frame,
+                       !out_bag.empty());
   std::unique_ptr<DetectionBagSink> markers;
   if (!out_bag.empty()) markers = OpenDetectionBag(bag.bag_path, out_bag, bag.world_frame);
   std::string lines;
   std::vector<double> totals;
   int without = 0, resumed_ok = 0, index = 0;
   std::optional<Progress> progress;
-  const DetectionProvenance provenance = ProvenanceOf(run);
   bool warned = false;
   ForEachScanInBag(bag, [&](const BagScan& scan) {
     if (!scan.tf_miss.empty()) {

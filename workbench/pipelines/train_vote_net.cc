@@ -604,6 +604,49 @@ void PrintEpoch(const VoteNetEpoch& record, int epochs, bool validated) {
                record.seconds);
 }
 
+// One epoch's steps over the shuffled `order`: each batch made (mirrored at
+// random, cut to this rank's frames), the optimiser stepped on the cosine
+// schedule, the weight average updated. Returns the epoch's summed loss.
+struct EpochSteps {
+  const std::vector<BevSample>& training;
+  const VoteNetTrainingOptions& options;
+  const SampleShare* share;
+  VoteNet& net;
+  VoteNetOptimizer& optimizer;
+  std::optional<VoteNetWeightAverage>& average;
+  std::mt19937_64& random;
+  VoteNetTrainingSummary* summary;
+  Progress& progress;
+  size_t total_steps;
+
+  double Run(int epoch, const std::vector<size_t>& order, size_t* step) const {
+    double loss_sum = 0;
+    for (size_t first = 0; first < order.size(); first += options.batch_size) {
+      std::vector<size_t> indices(
+          order.begin() + first,
+          order.begin() + std::min(order.size(), first + options.batch_size));
+      std::vector<char> mirror(indices.size());
+      for (char& m : mirror) m = static_cast<char>(random() & 1);
+      auto lap = std::chrono::steady_clock::now();
+      if (share != nullptr) KeepLocalPart(*share, &indices, &mirror);
+      const TrainingBatch batch = MakeTrainingBatch(training, indices, mirror, options.net.coder);
+      summary->stages.batch_s += Seconds(lap);
+      const VoteNetLoss loss =
+          optimizer.Step(batch, CosineLearningRate(*step, total_steps, options.learning_rate));
+      lap = std::chrono::steady_clock::now();
+      if (average) average->Update(net);
+      summary->stages.average_s += Seconds(lap);
+      loss_sum += loss.Total();
+      ++*step;
+      char note[64];
+      std::snprintf(note, sizeof(note), "epoch %d loss %.3f", epoch + 1, loss.Total());
+      progress.SetNote(note);
+      progress.Advance();
+    }
+    return loss_sum;
+  }
+};
+
 // The training's state after `epochs_done` epochs, to its checkpoint file.
 struct CheckpointState {
   std::string path, fingerprint;
@@ -698,35 +741,15 @@ VoteNet TrainVoteNetOnSamples(const std::vector<BevSample>& training,
   }
   const int resumed = checkpoint.enabled() ? checkpoint.Resume(&step, summary, options.quiet) : 0;
   Progress progress("train vote net", total_steps - step, "steps");  // what is left to do
+  const EpochSteps steps{
+      training, options, share, net, optimizer, average, random, summary, progress, total_steps};
   std::vector<size_t> order(total);
   const auto start = std::chrono::steady_clock::now();
   for (int epoch = resumed; epoch < options.epochs; ++epoch) {
     const auto epoch_start = std::chrono::steady_clock::now();
     for (size_t i = 0; i < order.size(); ++i) order[i] = i;
     std::shuffle(order.begin(), order.end(), random);
-    double loss_sum = 0;
-    for (size_t first = 0; first < order.size(); first += options.batch_size) {
-      std::vector<size_t> indices(
-          order.begin() + first,
-          order.begin() + std::min(order.size(), first + options.batch_size));
-      std::vector<char> mirror(indices.size());
-      for (char& m : mirror) m = static_cast<char>(random() & 1);
-      auto lap = std::chrono::steady_clock::now();
-      if (share != nullptr) KeepLocalPart(*share, &indices, &mirror);
-      const TrainingBatch batch = MakeTrainingBatch(training, indices, mirror, options.net.coder);
-      summary->stages.batch_s += Seconds(lap);
-      const VoteNetLoss loss =
-          optimizer.Step(batch, CosineLearningRate(step, total_steps, options.learning_rate));
-      lap = std::chrono::steady_clock::now();
-      if (average) average->Update(net);
-      summary->stages.average_s += Seconds(lap);
-      loss_sum += loss.Total();
-      ++step;
-      char note[64];
-      std::snprintf(note, sizeof(note), "epoch %d loss %.3f", epoch + 1, loss.Total());
-      progress.SetNote(note);
-      progress.Advance();
-    }
+    const double loss_sum = steps.Run(epoch, order, &step);
     AverageBuffersOverGroup(&net, group);
     VoteNetEpoch record;
     record.epoch = epoch + 1;
