@@ -46,37 +46,65 @@ struct Matching {
   std::vector<const ScoredDetection*> false_positives;
 };
 
+struct Candidate {
+  size_t frame;
+  const ScoredDetection* detection;
+};
+
+// Starts a matching of one class: its targets counted per frame, and its
+// detections returned best score first (ties in frame order).
+std::vector<Candidate> StartMatching(const std::vector<FrameOutcome>& frames,
+                                     FurnitureClass furniture_class,
+                                     const std::function<Role(const TruthObject&)>& role,
+                                     Matching* result) {
+  result->targets_in_frame.assign(frames.size(), 0);
+  result->true_positives_in_frame.assign(frames.size(), 0);
+  result->false_positives_in_frame.assign(frames.size(), 0);
+  std::vector<Candidate> candidates;
+  for (size_t f = 0; f < frames.size(); ++f) {
+    for (const TruthObject& t : frames[f].truth) {
+      result->targets_in_frame[f] +=
+          t.furniture_class == furniture_class && role(t) == Role::kTarget;
+    }
+    result->targets += result->targets_in_frame[f];
+    for (const ScoredDetection& d : frames[f].detections) {
+      if (d.furniture_class == furniture_class) candidates.push_back({f, &d});
+    }
+  }
+  std::stable_sort(
+      candidates.begin(), candidates.end(), [](const Candidate& a, const Candidate& b) {
+        return a.detection->score > b.detection->score;
+      });
+  return candidates;
+}
+
+// A detection booked as a true positive of `truth`, or a false one (none),
+// with the curve's point after it.
+void Book(const Candidate& c, const TruthObject* truth, Matching* result) {
+  if (truth != nullptr) {
+    ++result->true_positives_in_frame[c.frame];
+    result->true_positives.emplace_back(c.detection, truth);
+  } else {
+    ++result->false_positives_in_frame[c.frame];
+    result->false_positives.push_back(c.detection);
+  }
+  const int tp = static_cast<int>(result->true_positives.size());
+  const int fp = static_cast<int>(result->false_positives.size());
+  result->curve.push_back({result->targets > 0 ? static_cast<double>(tp) / result->targets : 0,
+                           static_cast<double>(tp) / (tp + fp),
+                           c.detection->score});
+  result->counts.emplace_back(tp, fp);
+}
+
 // Protocol B for one class and distance; `role` says how each true object counts.
 Matching MatchClass(const std::vector<FrameOutcome>& frames,
                     FurnitureClass furniture_class,
                     double distance,
                     const std::function<Role(const TruthObject&)>& role) {
   Matching result;
-  result.targets_in_frame.assign(frames.size(), 0);
-  result.true_positives_in_frame.assign(frames.size(), 0);
-  result.false_positives_in_frame.assign(frames.size(), 0);
-  struct Candidate {
-    double score;
-    size_t frame;
-    const ScoredDetection* detection;
-  };
-  std::vector<Candidate> candidates;
-  for (size_t f = 0; f < frames.size(); ++f) {
-    for (const TruthObject& t : frames[f].truth) {
-      result.targets_in_frame[f] +=
-          t.furniture_class == furniture_class && role(t) == Role::kTarget;
-    }
-    result.targets += result.targets_in_frame[f];
-    for (const ScoredDetection& d : frames[f].detections) {
-      if (d.furniture_class == furniture_class) candidates.push_back({d.score, f, &d});
-    }
-  }
-  std::stable_sort(candidates.begin(),
-                   candidates.end(),
-                   [](const Candidate& a, const Candidate& b) { return a.score > b.score; });
+  const std::vector<Candidate> candidates = StartMatching(frames, furniture_class, role, &result);
   std::vector<std::vector<bool>> used(frames.size());
   for (size_t f = 0; f < frames.size(); ++f) used[f].assign(frames[f].truth.size(), false);
-  int tp = 0, fp = 0;
   for (const Candidate& c : candidates) {
     const FrameOutcome& frame = frames[c.frame];
     int best = -1;
@@ -94,18 +122,8 @@ Matching MatchClass(const std::vector<FrameOutcome>& frames,
     if (best >= 0) {
       used[c.frame][best] = true;
       if (role(frame.truth[best]) == Role::kIgnore) continue;  // neither TP nor FP
-      ++tp;
-      ++result.true_positives_in_frame[c.frame];
-      result.true_positives.emplace_back(c.detection, &frame.truth[best]);
-    } else {
-      ++fp;
-      ++result.false_positives_in_frame[c.frame];
-      result.false_positives.push_back(c.detection);
     }
-    result.curve.push_back({result.targets > 0 ? static_cast<double>(tp) / result.targets : 0,
-                            static_cast<double>(tp) / (tp + fp),
-                            c.score});
-    result.counts.emplace_back(tp, fp);
+    Book(c, best >= 0 ? &frame.truth[best] : nullptr, &result);
   }
   return result;
 }
@@ -198,33 +216,18 @@ Matching MatchClassByIou(const std::vector<FrameOutcome>& frames,
                          Overlap overlap,
                          const std::function<Role(const TruthObject&)>& role) {
   Matching result;
-  result.targets_in_frame.assign(frames.size(), 0);
-  result.true_positives_in_frame.assign(frames.size(), 0);
-  result.false_positives_in_frame.assign(frames.size(), 0);
-  std::vector<std::pair<size_t, const ScoredDetection*>> candidates;
-  for (size_t f = 0; f < frames.size(); ++f) {
-    for (const TruthObject& t : frames[f].truth)
-      result.targets_in_frame[f] +=
-          t.furniture_class == furniture_class && role(t) == Role::kTarget;
-    result.targets += result.targets_in_frame[f];
-    for (const ScoredDetection& d : frames[f].detections)
-      if (d.furniture_class == furniture_class) candidates.emplace_back(f, &d);
-  }
-  std::stable_sort(candidates.begin(), candidates.end(), [](const auto& a, const auto& b) {
-    return a.second->score > b.second->score;
-  });
+  const std::vector<Candidate> candidates = StartMatching(frames, furniture_class, role, &result);
   std::vector<std::vector<bool>> used(frames.size());
   for (size_t f = 0; f < frames.size(); ++f) used[f].assign(frames[f].truth.size(), false);
-  int tp = 0, fp = 0;
-  for (const auto& [f, detection] : candidates) {
-    const FrameOutcome& frame = frames[f];
+  for (const Candidate& c : candidates) {
+    const FrameOutcome& frame = frames[c.frame];
     int best = -1;
     double best_iou = 0;
     for (size_t k = 0; k < frame.truth.size(); ++k) {
       const TruthObject& t = frame.truth[k];
       if (t.furniture_class != furniture_class || role(t) == Role::kAbsent) continue;
-      const double iou = overlap == Overlap::k3d ? Iou3d(detection->box3d, t.box3d)
-                                                 : BevIou(detection->box3d, t.box3d);
+      const double iou = overlap == Overlap::k3d ? Iou3d(c.detection->box3d, t.box3d)
+                                                 : BevIou(c.detection->box3d, t.box3d);
       if (iou > best_iou) {
         best_iou = iou;
         best = static_cast<int>(k);
@@ -232,20 +235,9 @@ Matching MatchClassByIou(const std::vector<FrameOutcome>& frames,
     }
     const bool overlaps = best >= 0 && best_iou >= threshold;
     if (overlaps && role(frame.truth[best]) == Role::kIgnore) continue;  // neither
-    if (overlaps && !used[f][best]) {
-      used[f][best] = true;
-      ++tp;
-      ++result.true_positives_in_frame[f];
-      result.true_positives.emplace_back(detection, &frame.truth[best]);
-    } else {
-      ++fp;
-      ++result.false_positives_in_frame[f];
-      result.false_positives.push_back(detection);
-    }
-    result.curve.push_back({result.targets > 0 ? static_cast<double>(tp) / result.targets : 0,
-                            static_cast<double>(tp) / (tp + fp),
-                            detection->score});
-    result.counts.emplace_back(tp, fp);
+    const bool found = overlaps && !used[c.frame][best];
+    if (found) used[c.frame][best] = true;
+    Book(c, found ? &frame.truth[best] : nullptr, &result);
   }
   return result;
 }
