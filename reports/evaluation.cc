@@ -555,27 +555,49 @@ void AddConfusion(const std::vector<FrameOutcome>& frames,
                   EvaluationResult* result) {
   constexpr double kConfusionM = 0.10;
   for (const FrameOutcome& f : frames) {
-    std::vector<bool> reached(f.truth.size(), false);
+    std::vector<const ScoredDetection*> kept;
     for (const ScoredDetection& d : f.detections) {
-      if (!options.operating_point.Keeps(d.furniture_class, d.score)) continue;
-      std::optional<FurnitureClass> truth;
-      double best = kConfusionM;
-      for (size_t k = 0; k < f.truth.size(); ++k) {
-        const TruthObject& t = f.truth[k];
-        if (!t.furniture_class || role(t) == Role::kAbsent) continue;
-        const double distance = std::hypot(t.x - d.x, t.y - d.y);
-        reached[k] = reached[k] || distance <= kConfusionM;
-        if (distance <= best) {
-          best = distance;
-          truth = t.furniture_class;
+      if (options.operating_point.Keeps(d.furniture_class, d.score)) kept.push_back(&d);
+    }
+    std::set<const ScoredDetection*> taken;
+    // The nearest kept detection within reach not yet taken whose class is
+    // (or is not) the object's.
+    auto nearest = [&](const TruthObject& t, bool own_class) {
+      const ScoredDetection* best = nullptr;
+      double best_distance = kConfusionM;
+      for (const ScoredDetection* d : kept) {
+        if ((d->furniture_class == t.furniture_class) != own_class || taken.count(d)) continue;
+        const double distance = std::hypot(t.x - d->x, t.y - d->y);
+        if (distance <= best_distance) {
+          best_distance = distance;
+          best = d;
         }
       }
-      ++result->confusion[d.furniture_class][truth];
-    }
-    for (size_t k = 0; k < f.truth.size(); ++k) {
-      const TruthObject& t = f.truth[k];
-      if (t.furniture_class && role(t) == Role::kTarget && !reached[k])
+      return best;
+    };
+    for (const TruthObject& t : f.truth) {
+      if (!t.furniture_class || role(t) != Role::kTarget) continue;
+      const ScoredDetection* d = nearest(t, true);
+      if (d == nullptr) d = nearest(t, false);
+      if (d == nullptr) {
         ++result->missed[*t.furniture_class];
+        continue;
+      }
+      taken.insert(d);
+      ++result->confusion[d->furniture_class][t.furniture_class];
+    }
+    for (const ScoredDetection* d : kept) {
+      if (taken.count(d)) continue;
+      bool near_object = false;
+      for (const TruthObject& t : f.truth) {
+        near_object |= t.furniture_class && role(t) != Role::kAbsent &&
+                       std::hypot(t.x - d->x, t.y - d->y) <= kConfusionM;
+      }
+      if (near_object) {
+        ++result->confusion_extra;
+      } else {
+        ++result->confusion[d->furniture_class][std::nullopt];
+      }
     }
   }
 }
@@ -867,7 +889,7 @@ EvaluationResult EvaluateFrames(const std::vector<FrameOutcome>& frames,
   AddSeenAndUnseen(frames, options, role, &m);
   AddCentreErrors(frames, options, role, &m);
   AddConfusion(frames, options, role, &result);
-  AddPaperProtocol(frames, options, role, &result);
+  if (options.paper_protocol) AddPaperProtocol(frames, options, role, &result);
   AddLatency(frames, &m);
   AddOperatingPoint(frames, options, role, &m);
   return result;

@@ -103,6 +103,12 @@ struct EvaluationOptions {
   double paper_window_m = 0.05;          // protocol A: half the window's side
   double funnel_window_m = 0.15;         // a maximum this near an object is about it
   std::vector<double> paper_thresholds;  // protocol A sweep; empty: 0, 0.05, .., 1
+  // The frames' maxima are the Hough maxima of the project's detector and
+  // the paper's protocol A sweeps them. False for detections another
+  // program wrote (evaluate --detections), whose maxima are its detections:
+  // protocol A is left out (the funnel then tells a missed object with a
+  // detection of its class nearby from one with none).
+  bool paper_protocol = true;
   // The detections at this operating point (a detector's
   // EffectiveOperatingPoint; empty: every detection) give the op/ metrics,
   // matched at its match_m. AP sweeps every detection regardless.
@@ -127,12 +133,16 @@ struct EvaluationResult {
   std::map<std::string, double> metrics;
   // PR curves: "B/<class>@10cm" (by score) and "A/<class>" (by threshold).
   std::map<std::string, std::vector<PrPoint>> curves;
-  // Confusion at the operating point (what detect outputs): each kept
-  // detection against the class of the nearest true object within 10 cm
-  // (none: background), counts[detected][true]; and per true class the
-  // objects no kept detection of any class lies within 10 cm of.
+  // Confusion at the operating point (what detect outputs), 10 cm, each
+  // object to find counted once: as the class of the kept detection that
+  // took it (its own class's nearest, else another class's nearest; a
+  // detection takes one object), counts[detected][true], or in `missed`
+  // when none lies within 10 cm. counts[detected][none]: kept detections
+  // near no object (background). `confusion_extra`: the other kept
+  // detections (a second one on an object, one on an ignored object).
   std::map<FurnitureClass, std::map<std::optional<FurnitureClass>, int>> confusion;
   std::map<FurnitureClass, int> missed;
+  int confusion_extra = 0;
   // Per frame id: false detections and missed objects at 10 cm (protocol B)
   // among the detections at the operating point (what detect outputs).
   std::map<int64_t, std::pair<int, int>> frame_errors;

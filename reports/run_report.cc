@@ -274,7 +274,8 @@ std::string PageHead(const std::string& title, const RunRecord& run) {
        << "<tr><th>commit</th><td>" << HtmlEscape(run.git_commit)
        << (run.git_dirty ? " (dirty)" : "") << "</td></tr>"
        << "<tr><th>split</th><td>" << HtmlEscape(EnumName(run.split)) << "</td></tr>"
-       << "<tr><th>model</th><td>" << HtmlEscape(run.model_path)
+       << "<tr><th>" << (run.kind == "external" ? "detections" : "model") << "</th><td>"
+       << HtmlEscape(run.model_path)
        << (run.model_hash.empty() ? "" : " · " + HtmlEscape(run.model_hash))
        << "</td></tr>"
        // A leave-models-out run spans its folds' runs, each with its own model
@@ -305,19 +306,30 @@ std::string FunnelHtml(const std::vector<FurnitureClass>& classes,
                        const std::function<double(const MetricId&)>& metric) {
   std::ostringstream html;
   html << "<h2>Where objects are lost (10 cm)</h2>\n<p>Each object to find is counted once: "
-          "found, or the furthest stage a maximum of its class (Hough or learned heat) within 15 "
-          "cm of it "
-          "reached. Start tuning from the biggest loss.</p>\n<table><tr><th>class</th>";
-  for (FunnelStage stage : EnumValues<FunnelStage>())  // spaces, so the header wraps
-    html << "<th>" << FunnelStageWords(stage) << "</th>";
+          "found, or the furthest stage a maximum of its class (Hough or learned heat; another "
+          "program's: its detections) within 15 cm of it reached. Stages in pipeline order; "
+          "each class's largest loss in bold: start tuning there.</p>\n<table><tr><th>stage "
+          "reached</th>";
+  std::vector<std::optional<FurnitureClass>> columns(classes.begin(), classes.end());
+  columns.push_back(std::nullopt);  // all
+  for (const std::optional<FurnitureClass>& c : columns)
+    html << "<th>" << (c ? ClassName(*c) : "all") << "</th>";
   html << "</tr>";
-  std::vector<std::optional<FurnitureClass>> rows(classes.begin(), classes.end());
-  rows.push_back(std::nullopt);  // all
-  for (const std::optional<FurnitureClass>& c : rows) {
-    html << "<tr><td>" << (c ? ClassName(*c) : "all") << "</td>";
+  // Per column, the largest count of a stage other than detected.
+  std::vector<double> largest(columns.size(), 0);
+  for (size_t k = 0; k < columns.size(); ++k) {
     for (FunnelStage stage : EnumValues<FunnelStage>()) {
-      const double n = metric(MetricId::Funnel(c, stage));
-      html << "<td>" << (std::isnan(n) ? std::string("0") : Number(n, 0)) << "</td>";
+      const double n = metric(MetricId::Funnel(columns[k], stage));
+      if (stage != FunnelStage::kDetected && !std::isnan(n)) largest[k] = std::max(largest[k], n);
+    }
+  }
+  for (FunnelStage stage : EnumValues<FunnelStage>()) {
+    html << "<tr><td>" << FunnelStageWords(stage) << "</td>";
+    for (size_t k = 0; k < columns.size(); ++k) {
+      const double n = metric(MetricId::Funnel(columns[k], stage));
+      const std::string text = std::isnan(n) ? std::string("0") : Number(n, 0);
+      const bool worst = stage != FunnelStage::kDetected && n > 0 && n == largest[k];
+      html << "<td>" << (worst ? "<b>" + text + "</b>" : text) << "</td>";
     }
     html << "</tr>";
   }
@@ -620,16 +632,17 @@ void PlotConfusion(const RunResults& results,
       if (count != detected->second.end()) counts[row][column] = count->second;
     }
   }
-  WriteConfusionPng(rows,
-                    columns,
-                    counts,
-                    with_missed ? "at the operating point, 10 cm" : "every detection, 10 cm",
-                    png_path);
+  const std::string title = !with_missed ? "every detection, 10 cm"
+                            : results.confusion_by_object
+                                ? "at the operating point, 10 cm: each object once"
+                                : "at the operating point, 10 cm (kept detections)";
+  WriteConfusionPng(rows, columns, counts, title, png_path);
 }
 
 // The headline metrics and the per-class table.
 std::string SummaryHtml(const std::map<std::string, double>& m,
-                        const std::vector<FurnitureClass>& classes) {
+                        const std::vector<FurnitureClass>& classes,
+                        const RunRecord& run) {
   std::ostringstream html;
   html << "<h2>Summary</h2>\n<table><tr><th>metric</th><th>value</th></tr>";
   const std::vector<MetricId> summary = {MetricId::Plain(PlainMetric::kFrames),
@@ -659,10 +672,16 @@ std::string SummaryHtml(const std::map<std::string, double>& m,
          << Number(MetricOrNan(m, id), measure == OperatingMeasure::kFalsePerFrame ? 2 : 3)
          << "</td></tr>";
   }
-  html << "</table>\n<p>AP sweeps every candidate; the operating point is the model's per-class "
-          "least score (<code>workbench model info</code>), what <code>detect</code> outputs; "
-          "its detections are matched at "
-       << Number(op * 100, 0) << " cm.</p>\n<h2>Per class</h2>\n<table><tr><th>class</th>"
+  if (run.kind == "external") {
+    html << "</table>\n<p>Detections another program wrote (<code>evaluate --detections</code>): "
+            "AP sweeps every one; the operating point keeps those at or above the run's "
+            "<code>--op-&lt;class&gt;</code> scores (every one without), matched at ";
+  } else {
+    html << "</table>\n<p>AP sweeps every candidate; the operating point is the model's "
+            "per-class least score (<code>workbench model info</code>), what <code>detect</code> "
+            "outputs; its detections are matched at ";
+  }
+  html << Number(op * 100, 0) << " cm.</p>\n<h2>Per class</h2>\n<table><tr><th>class</th>"
        << "<th>objects</th><th>AP@5cm</th><th>AP@10cm</th><th>AP@20cm</th><th>AP3D@0.25</th>"
        << "<th>AP3D@0.50</th><th>precision at the "
           "operating point</th><th>recall at the operating point</th><th>paper best F1</th>"
@@ -690,17 +709,48 @@ std::string SummaryHtml(const std::map<std::string, double>& m,
   return html.str();
 }
 
+// Whether the run has protocol A's curves (another program's detections
+// have no maxima to sweep).
+bool HasPaperCurves(const RunResults& results) {
+  for (const auto& [name, curve] : results.curves) {
+    if (name.rfind("A/", 0) == 0) return true;
+  }
+  return false;
+}
+
+// What the confusion matrix counts, under it.
+std::string ConfusionCaption(const RunResults& results) {
+  if (!results.confusion_has_missed || !results.confusion_by_object)
+    return "<p>Stored before each object was counted once: a cell counts kept detections, "
+           "<i>missed</i> counts objects.</p>";
+  return "<p>A row per class of the objects to find, each object counted once: found as its "
+         "class (the diagonal), taken by a detection of another class, or missed (no kept "
+         "detection within 10 cm); a row's shares add up to its objects, the diagonal's is the "
+         "recall at 10 cm. <i>background</i>: kept detections near no object. Not in it: " +
+         std::to_string(results.confusion_extra) +
+         " kept detections near an object already counted (duplicates) or an ignored one.</p>";
+}
+
 // The figures' row and the per-stage latency table.
-std::string FiguresHtml(const std::map<std::string, double>& m) {
+std::string FiguresHtml(const std::map<std::string, double>& m, const RunResults& results) {
   std::ostringstream html;
-  html
-      << "<div class=\"row\"><div><h3>PR, protocol B</h3><img src=\"pr_detection.png\" "
-      << "alt=\"protocol B PR curves\"></div><div><h3>PR, protocol A</h3><img src=\"pr_paper.png\" "
-      << "alt=\"protocol A PR curves\"></div></div>\n<div class=\"row\"><div><h3>Confusion at the "
-         "operating point (10 cm)"
-      << "</h3><img src=\"confusion.png\" alt=\"confusion matrix\"></div><div><h3>Latency</h3>"
-      << "<img src=\"latency.png\" alt=\"latency histogram\"><table><tr><th>stage</th>"
-      << "<th>p50 ms</th></tr>";
+  html << "<div class=\"row\"><div><h3>PR, protocol B</h3><img src=\"pr_detection.png\" "
+       << "alt=\"protocol B PR curves\"></div><div><h3>PR, protocol A</h3>";
+  if (HasPaperCurves(results)) {
+    html << "<img src=\"pr_paper.png\" alt=\"protocol A PR curves\">";
+  } else {
+    html << "<p>Not measured: protocol A sweeps the project's detector's Hough maxima or "
+            "learned heat, which another program's detections do not have.</p>";
+  }
+  html << "</div></div>\n<div class=\"row\"><div><h3>Confusion at the operating point (10 cm)"
+       << "</h3><img src=\"confusion.png\" alt=\"confusion matrix\">" << ConfusionCaption(results)
+       << "</div><div><h3>Latency</h3>";
+  if (m.count(MetricId::Plain(PlainMetric::kLatencyP50).Name())) {
+    html << "<img src=\"latency.png\" alt=\"latency histogram\">";
+  } else {
+    html << "<p>Not given: the detections file has no <code>time_ms</code> for every frame.</p>";
+  }
+  html << "<table><tr><th>stage</th><th>p50 ms</th></tr>";
   for (const auto& [name, value] : m) {
     const std::optional<MetricId> id = MetricId::TryParse(name);
     if (!id || id->kind() != MetricId::Kind::kStageLatency) continue;
@@ -748,18 +798,22 @@ void WriteRunReport(const RunReportInput& input, const std::string& dir) {
 
   PlotCurves(
       curves, "B/", "@10cm", "protocol B: detections by score, 10 cm", m, path("pr_detection.png"));
-  PlotCurves(
-      curves,
-      "A/",
-      "",
-      "protocol A (paper): maxima (Hough votes or learned heat), 5 cm window, threshold swept",
-      m,
-      path("pr_paper.png"));
-  PlotLatency(input.frame_ms, path("latency.png"));
+  if (HasPaperCurves(results)) {
+    PlotCurves(
+        curves,
+        "A/",
+        "",
+        "protocol A (paper): maxima (Hough votes or learned heat), 5 cm window, threshold swept",
+        m,
+        path("pr_paper.png"));
+  }
+  if (m.count(MetricId::Plain(PlainMetric::kLatencyP50).Name()))
+    PlotLatency(input.frame_ms, path("latency.png"));
   PlotConfusion(results, classes, path("confusion.png"));
 
   std::ostringstream html;
-  html << PageHead("Evaluation run", input.run) << SummaryHtml(m, classes) << FiguresHtml(m);
+  html << PageHead("Evaluation run", input.run) << SummaryHtml(m, classes, input.run)
+       << FiguresHtml(m, results);
   html << ReliabilityHtml(results.calibration,
                           MetricOrNan(m, MetricId::Plain(PlainMetric::kCalibrationError)),
                           path("reliability.png"),

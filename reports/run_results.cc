@@ -69,6 +69,14 @@ void ReadEvaluation(const JsonValue& json, const std::string& what, RunResults* 
     }
   }
   results->confusion_has_missed = json.contains("confusion_layout");
+  results->confusion_by_object = json.contains("confusion_extra");
+  if (results->confusion_by_object) {
+    const JsonValue& extra = json["confusion_extra"];
+    Require(extra.is_number_integer() && extra.get<int64_t>() >= 0 &&
+                extra.get<int64_t>() <= std::numeric_limits<int>::max(),
+            what + ": confusion_extra is not a count");
+    results->confusion_extra = extra.get<int>();
+  }
   if (json.contains("confusion")) {
     for (const auto& [detected, row] :
          Field(json, "confusion", JsonValue::value_t::object, what).items()) {
@@ -137,6 +145,7 @@ RunResults RunResults::OfEvaluation(const EvaluationResult& result) {
   for (const auto& [name, curve] : result.curves) results.curves[name] = curve;
   results.calibration = result.calibration;
   results.confusion = ConfusionByName(result);
+  results.confusion_extra = result.confusion_extra;
   for (const auto& [frame, errors] : result.frame_errors) results.frame_errors[frame] = errors;
   return results;
 }
@@ -170,7 +179,8 @@ std::string RunResults::Json() const {
   json["confusion"] = confusion;
   json["confusion_layout"] =
       "{detected class or missed: {true class or background: count}}, detections at the "
-      "operating point within 10 cm";
+      "operating point within 10 cm, each object once; background: detections near no object";
+  json["confusion_extra"] = confusion_extra;
   json["frame_errors"] = errors;
   json["frame_errors_layout"] =
       "false positives, missed objects at 10 cm, detections at the operating point";

@@ -42,6 +42,11 @@ struct RunResults {
   // column (runs older than that have none).
   std::map<std::string, std::map<std::string, int>> confusion;
   bool confusion_has_missed = true;
+  // Each object counted once (EvaluationResult::confusion); runs stored
+  // before counted every kept detection in its cell. confusion_extra: the
+  // kept detections left out (a second one on an object, on ignored ones).
+  bool confusion_by_object = true;
+  int confusion_extra = 0;
   // Evaluation: per frame id, false positives and missed objects at 10 cm.
   std::map<int64_t, std::pair<int, int>> frame_errors;
   // Crossval: its folds in order.

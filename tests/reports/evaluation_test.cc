@@ -166,18 +166,23 @@ TEST(ProtocolIou, GreedyByScoreOnTheBestOverlappingObject) {
   EXPECT_EQ(EvaluateFrames({frame}, ChairsOnly()).metrics.count("AP3D/chair@0.25"), 0u);
 }
 
-// The confusion counts what detect outputs: detections below the operating
-// point are not in it, and a true object nothing reached is "missed".
-TEST(Confusion, KeptDetectionsAgainstTheTruthAndTheMissedObjects) {
+// The confusion counts what detect outputs, each object to find once:
+// detections below the operating point are not in it, a true object nothing
+// reached is "missed", a second detection of an object or one on an
+// ignored object is left out (counted apart), so a row adds up to its
+// objects (issue 73: the chair row read 9 + 2 against 9 chairs).
+TEST(Confusion, EachObjectOnceAgainstTheKeptDetections) {
   FrameOutcome frame;
   TruthObject table = Chair(3, 0);
   table.furniture_class = FurnitureClass::kTable;
   frame.truth = {Chair(0, 0), Chair(1, 0), table, Chair(5, 0, /*visibility=*/0.1)};
   ScoredDetection as_chair = Found(3.02, 0, 0.9);  // the table called a chair
   frame.detections = {Found(0.03, 0, 0.8),         // a hit
+                      Found(0.05, 0, 0.6),         // a duplicate of it: left out
                       Found(1.0, 0, 0.2),          // below the chair's least score: not output
                       as_chair,
-                      Found(9, 0, 0.7)};  // nothing there
+                      Found(5.01, 0, 0.9),  // on the barely visible chair (ignored): left out
+                      Found(9, 0, 0.7)};    // nothing there
   EvaluationOptions options;
   options.operating_point.classes[static_cast<size_t>(FurnitureClass::kChair)].min_score = 0.5;
   const EvaluationResult r = EvaluateFrames({frame}, options);
@@ -188,13 +193,16 @@ TEST(Confusion, KeptDetectionsAgainstTheTruthAndTheMissedObjects) {
   EXPECT_EQ(named.at("missed").at("chair"), 1);      // the chair at x = 1
   EXPECT_EQ(named.at("missed").count("table"), 0u);  // reached, by the wrong class
   EXPECT_EQ(named.at("chair").size(), 3u);           // nothing else: 0.2 not kept
+  EXPECT_EQ(r.confusion_extra, 2);                   // the duplicate, the ignored chair's
   int missed = 0;
   for (const auto& [c, n] : r.missed) missed += n;
   EXPECT_EQ(missed, 1);  // the barely visible chair is no target
+  // The chair row (objects): found 1 + missed 1 = the 2 chairs to find.
+  EXPECT_EQ(named.at("chair").at("chair") + named.at("missed").at("chair"), 2);
   // The frame's errors, as the report's gallery ranks frames: what detect
   // outputs gets wrong (the chair at x = 1 is found only below the operating
-  // point, so it is missed; the table too).
-  EXPECT_EQ(r.frame_errors.at(0), std::make_pair(2, 2));
+  // point, so it is missed; the table too; the duplicate is a false one).
+  EXPECT_EQ(r.frame_errors.at(0), std::make_pair(3, 2));
 }
 
 // The centre error of the objects seen well: per object its nearest

@@ -143,14 +143,16 @@ void PrintHeadline(const EvaluateSummary& summary) {
   const double op = OperatingMatchOf(m);
   for (FurnitureClass c : PrintedClasses(m)) {
     std::printf(
-        "  %-9s %3.0f objects  AP@10cm %.3f  at the operating point precision %.2f recall %.2f"
-        "   paper protocol best F1 %.3f\n",
+        "  %-9s %3.0f objects  AP@10cm %.3f  at the operating point precision %.2f recall %.2f",
         ClassName(c),
         ClassObjectCount(m, c),
         MetricOrNan(m, MetricId::ClassAp(c, 0.10)),
         MetricOrNan(m, MetricId::Operating(c, OperatingMeasure::kPrecision, op)),
-        MetricOrNan(m, MetricId::Operating(c, OperatingMeasure::kRecall, op)),
-        MetricOrNan(m, MetricId::PaperBestF1(c)));
+        MetricOrNan(m, MetricId::Operating(c, OperatingMeasure::kRecall, op)));
+    // Protocol A sweeps the detector's own maxima: not in another program's run.
+    if (m.count(MetricId::PaperBestF1(c).Name()))
+      std::printf("   paper protocol best F1 %.3f", MetricOrNan(m, MetricId::PaperBestF1(c)));
+    std::printf("\n");
   }
   PrintIouAp(m, PrintedClasses(m));
   PrintOperatingPoint(m, "  ");
@@ -164,10 +166,14 @@ void PrintHeadline(const EvaluateSummary& summary) {
       get(PlainMetric::kSizeErrorMedian),
       get(PlainMetric::kCadIdentified));
   PrintLosses(m);
-  std::printf("  latency per frame: p50 %.1f ms, p90 %.1f ms, p99 %.1f ms\n",
-              get(PlainMetric::kLatencyP50),
-              get(PlainMetric::kLatencyP90),
-              get(PlainMetric::kLatencyP99));
+  if (m.count(MetricId::Plain(PlainMetric::kLatencyP50).Name())) {
+    std::printf("  latency per frame: p50 %.1f ms, p90 %.1f ms, p99 %.1f ms\n",
+                get(PlainMetric::kLatencyP50),
+                get(PlainMetric::kLatencyP90),
+                get(PlainMetric::kLatencyP99));
+  } else {
+    std::printf("  latency: not given for every frame (\"time_ms\")\n");
+  }
 }
 
 // A value of a table column `width` wide; "-" for a metric a fold lacks (no
@@ -407,9 +413,18 @@ void AddRunOptions(CLI::App* app, EvaluateCommandOptions* options, std::string* 
 int RunEvaluate(int argc, char** argv) {
   CLI::App app{"Run detection over a dataset split and store the metrics as a run",
                "workbench evaluate"};
-  std::string model_path, db_path, split = "test";
+  std::string model_path, db_path, split = "test", detections;
   EvaluateCommandOptions options;
   app.add_option("--model", model_path, "Model file (.fcm)");
+  app.add_option("--detections",
+                 detections,
+                 "Score detections another program wrote for the dataset's frames instead of "
+                 "running a model: a JSON-lines file or a directory of them (format "
+                 "furnidet-detections 1, or detect's own output; docs/evaluation.md)");
+  app.add_option("--write-detections",
+                 options.write_detections,
+                 "Also write the run's detections (every candidate) to this file in the "
+                 "furnidet-detections format, for other tools and for --detections");
   app.add_option("--db", db_path, "Dataset database")->required();
   app.add_option("--split", split, "train, val, test or all")->capture_default_str();
   AddMinInViewOption(&app, &options.evaluation);
@@ -448,6 +463,8 @@ int RunEvaluate(int argc, char** argv) {
   options.fusion.Check();  // before an array job is submitted
   Require(shard.empty() == options.shard_out.empty(), "--shard i/N and --shard-out go together");
   Require(shard.empty() || merge.empty(), "--shard and --merge-shards do not go together");
+  Require(!(compare_vocab && !detections.empty()),
+          "--compare-vocab and --detections exclude each other");
   Require(!(compare_vocab && (cluster.Active() || !shard.empty() || !merge.empty())),
           "--compare-vocab runs in one process (no --shards, --shard or --merge-shards)");
   if (!shard.empty()) std::tie(options.shard_index, options.shard_count) = ParseShard(shard);
@@ -468,7 +485,15 @@ int RunEvaluate(int argc, char** argv) {
                                 options);
     return 0;
   }
-  Require(!model_path.empty(), "--model is required (or --compare-vocab)");
+  if (!detections.empty()) {
+    Require(model_path.empty(), "--detections scores a file of detections: no --model");
+    Require(!cluster.Active() && shard.empty() && merge.empty(),
+            "--detections runs in one process (no --shards, --shard or --merge-shards)");
+    Require(options.write_detections.empty(), "--write-detections needs --model, not --detections");
+    PrintHeadline(EvaluateDetections(detections, db_path, options));
+    return 0;
+  }
+  Require(!model_path.empty(), "--model is required (or --detections, or --compare-vocab)");
   if (cluster.Active()) {
     Require(shard.empty() && merge.empty(),
             "--shards N runs --shard and --merge-shards itself; give neither");

@@ -1,5 +1,6 @@
 #include "workbench/formats/point_cloud_file.h"
 
+#include <pcl/common/io.h>
 #include <pcl/console/print.h>
 #include <pcl/conversions.h>
 #include <pcl/io/pcd_io.h>
@@ -300,28 +301,46 @@ ScanCloud ReadPointCloudFile(const std::string& path) {
 
 void WriteOrganizedPcd(const DepthFrame& frame,
                        const CameraIntrinsics& camera,
-                       const std::string& path) {
+                       const std::string& path,
+                       const std::optional<Eigen::Isometry3d>& world_from_camera) {
   Require(FileExtension(path) == "pcd", path + ": point clouds are written as .pcd");
   Require(frame.width == camera.width && frame.height == camera.height,
           path + ": frame size does not match the camera");
-  pcl::PointCloud<pcl::PointXYZ> cloud(frame.width, frame.height);
+  const size_t pixels = static_cast<size_t>(frame.width) * frame.height;
+  const bool labelled = frame.instance_ids.size() == pixels;
+  pcl::PointCloud<pcl::PointXYZL> cloud(frame.width, frame.height);
   cloud.is_dense = false;
+  const Eigen::Isometry3f world_from_camera_f =
+      world_from_camera.value_or(Eigen::Isometry3d::Identity()).cast<float>();
   for (int v = 0; v < frame.height; ++v) {
     for (int u = 0; u < frame.width; ++u) {
       const float z = frame.DepthAt(u, v);
-      pcl::PointXYZ& point = cloud.at(u, v);
+      pcl::PointXYZL& point = cloud.at(u, v);
+      point.label = labelled ? frame.instance_ids[static_cast<size_t>(v) * frame.width + u] : 0;
       if (z <= 0) {
         point.x = point.y = point.z = std::numeric_limits<float>::quiet_NaN();
         continue;
       }
-      const Eigen::Vector3f p = z * camera.RayThroughPixel(u, v);
+      const Eigen::Vector3f p = world_from_camera_f * (z * camera.RayThroughPixel(u, v));
       point.x = p.x();
       point.y = p.y();
       point.z = p.z();
     }
   }
+  if (world_from_camera) {
+    cloud.sensor_origin_ << world_from_camera->translation().cast<float>(), 0;
+    cloud.sensor_orientation_ = Eigen::Quaternionf(world_from_camera->linear().cast<float>());
+  }
   AtomicFile file(path);
-  Require(pcl::io::savePCDFileBinary(file.TempPath(), cloud) == 0, path + ": cannot write PCD");
+  int saved = 0;
+  if (labelled) {
+    saved = pcl::io::savePCDFileBinary(file.TempPath(), cloud);
+  } else {  // no ids: no label field (the pose stays)
+    pcl::PointCloud<pcl::PointXYZ> unlabelled;
+    pcl::copyPointCloud(cloud, unlabelled);
+    saved = pcl::io::savePCDFileBinary(file.TempPath(), unlabelled);
+  }
+  Require(saved == 0, path + ": cannot write PCD");
   file.Commit();
 }
 

@@ -39,8 +39,16 @@ ScanCloud ReadPointCloudFile(const std::string& path);
 void CheckPcdHeader(const std::string& bytes, const std::string& path);
 void CheckPlyHeader(const std::string& bytes, const std::string& path);
 
+// An organized cloud of the frame's depth (metres; NaN where there is no
+// return) as binary PCD: in the camera's optical frame, or, given the
+// camera's pose, in the world with VIEWPOINT = that pose (PCL's
+// sensor_origin_ and sensor_orientation_: the sensor in the cloud's frame,
+// as ReadPointCloudFile and pcl_viewer take it). With the frame's instance
+// ids, a `label` field per point (PCL's PointXYZL: the id the pixel shows,
+// 0 for none).
 void WriteOrganizedPcd(const DepthFrame& frame,
                        const CameraIntrinsics& camera,
-                       const std::string& path);
+                       const std::string& path,
+                       const std::optional<Eigen::Isometry3d>& world_from_camera = std::nullopt);
 
 }  // namespace furn

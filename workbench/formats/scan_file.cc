@@ -307,6 +307,7 @@ LoadedScan LoadDatasetFrame(const ScanSource& source) {
       generation && FramesWithEstimatedPose(*generation).count(frame->id) > 0;
   scan.input = RoomFrameInput(room, *frame, source.fusion, estimated_pose, source.db_path);
   scan.description = what;
+  scan.dataset_frame = frame->id;
   if (source.fusion.room_frames && room.frames.size() > 1)
     scan.description +=
         " with its room's " + std::to_string(room.frames.size() - 1) + " other frames fused";

@@ -59,7 +59,8 @@ struct LoadedScan {
   // cloud: `camera` only draws the debug views).
   std::string camera_source;
   std::vector<GroundTruthFootprint> ground_truth;  // DB frames only
-  std::string pose_source;  // where the pose came from, or empty (floor estimated)
+  int64_t dataset_frame = -1;  // a DB frame's id (its detections name it), else -1
+  std::string pose_source;     // where the pose came from, or empty (floor estimated)
   // Imported real scans whose floor the detector estimates: the camera's pose
   // in the labels' frame (ground_truth is in it, detections are not).
   std::optional<Eigen::Isometry3d> label_from_camera;

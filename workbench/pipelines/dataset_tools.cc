@@ -154,7 +154,9 @@ void WriteDatasetPreview(const std::string& db_path, int max_frames, const std::
 #include "core/geometry/scene.h"
 #include "core/util/file_util.h"
 #include "renderers/camera.h"
+#include "workbench/formats/dataset_frame.h"  // IntrinsicsOf
 #include "workbench/formats/depth_png.h"
+#include "workbench/formats/detection_output.h"  // kConventionsText
 #include "workbench/formats/point_cloud_file.h"
 #include "workbench/formats/scan_file.h"
 
@@ -309,8 +311,51 @@ std::string Pad(int64_t value) {
   return text;
 }
 
-nlohmann::json Rows(const Eigen::Matrix3d& m) {
-  return {m(0, 0), m(0, 1), m(0, 2), m(1, 0), m(1, 1), m(1, 2), m(2, 0), m(2, 1), m(2, 2)};
+// A frame's camera and ground truth as the png and pcd exports write them
+// (docs/datasets.md): REP 103 boxes in the world (floor z = 0), the pose as
+// four rows, each object's instance id (= the pixel label) and visibility.
+nlohmann::ordered_json FrameLabelsJson(const RoomRecord& room, const FrameRecord& frame) {
+  nlohmann::ordered_json objects = nlohmann::ordered_json::array();
+  for (const ObjectRecord& object : room.objects) {
+    double visibility = 0;  // not listed: out of view
+    for (const FrameObjectRecord& seen : frame.objects) {
+      if (seen.instance_id == object.instance_id) visibility = seen.visibility;
+    }
+    const OrientedBox box = WorldBoxOf(object.Footprint(), 0, object.height);
+    objects.push_back(
+        {{"label", object.instance_id},
+         {"class",
+          object.furniture_class ? nlohmann::ordered_json(ClassName(*object.furniture_class))
+                                 : nlohmann::ordered_json(nullptr)},
+         {"model", object.model_id},
+         {"centre", {box.centre.x(), box.centre.y(), box.centre.z()}},
+         {"size", {box.size.x(), box.size.y(), box.size.z()}},
+         {"yaw", box.yaw},
+         {"visibility", visibility}});
+  }
+  return {{"frame", frame.id},
+          {"room", room.id},
+          {"split", EnumName(room.split)},
+          {"width", frame.width},
+          {"height", frame.height},
+          {"K", {{frame.fx, 0, frame.cx}, {0, frame.fy, frame.cy}, {0, 0, 1}}},
+          {"world_from_camera", PoseRows(frame.world_from_camera)},
+          {"objects", objects}};
+}
+
+// What every exported labels file says about its numbers.
+nlohmann::ordered_json ExportHeader(const char* format) {
+  return {{"format", format},
+          {"version", 2},
+          {"conventions",
+           std::string(kConventionsText) +
+               "; camera: optical (x right, y down, z ahead); label = the instance id the pixel "
+               "shows: an object's (its \"label\"), the room's (\"structure_labels\") or 0"},
+          {"structure_labels", {{"floor", kFloorId}, {"wall", kWallId}}}};
+}
+
+std::string JsonText(const nlohmann::ordered_json& json) {
+  return json.dump(1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
 }
 
 }  // namespace
@@ -329,39 +374,44 @@ int ExportDataset(const std::string& db_path,
   if (format == "bop") return ExportBop(db_path, out_dir, BopExportOptions{catalog_options});
   DatasetDb dataset = OpenExisting(db_path);
   const std::filesystem::path root(out_dir);
-  nlohmann::ordered_json png_index = nlohmann::ordered_json::array();
+  nlohmann::ordered_json png_frames = nlohmann::ordered_json::array();
   int written = 0;
   for (int64_t room_id : dataset.RoomIds()) {
     const RoomRecord room = dataset.ReadRoom(room_id, /*with_images=*/true);
     for (const FrameRecord& frame : room.frames) {
       const std::string where = db_path + " frame " + std::to_string(frame.id);
+      nlohmann::ordered_json labels = FrameLabelsJson(room, frame);
       if (format == "pcd") {
         DepthFrame noisy = DecodeDepthPng(frame.depth_noisy_png, where);
-        WriteOrganizedPcd(noisy, IntrinsicsOf(frame), (root / (Pad(frame.id) + ".pcd")).string());
+        DecodeIdPng(frame.ids_png, where + " ids", &noisy);
+        WriteOrganizedPcd(noisy,
+                          IntrinsicsOf(frame),
+                          (root / (Pad(frame.id) + ".pcd")).string(),
+                          frame.world_from_camera);
+        nlohmann::ordered_json sidecar = ExportHeader("furnidet-pcd-labels");
+        sidecar.update(labels);
+        sidecar["cloud"] = Pad(frame.id) + ".pcd";
+        WriteFileAtomically((root / (Pad(frame.id) + ".json")).string(), JsonText(sidecar));
       } else {
         std::filesystem::create_directories(root / "frames", ec);
-        WriteBytes((root / "frames" / (Pad(frame.id) + "_depth.png")).string(),
-                   frame.depth_noisy_png);
-        WriteBytes((root / "frames" / (Pad(frame.id) + "_depth_ideal.png")).string(),
-                   frame.depth_ideal_png);
-        WriteBytes((root / "frames" / (Pad(frame.id) + "_ids.png")).string(), frame.ids_png);
-        png_index.push_back({{"frame", frame.id},
-                             {"room", room.id},
-                             {"split", EnumName(room.split)},
-                             {"K", {frame.fx, 0, frame.cx, 0, frame.fy, frame.cy, 0, 0, 1}},
-                             {"world_from_camera", Rows(frame.world_from_camera.linear())},
-                             {"world_from_camera_t",
-                              {frame.world_from_camera.translation().x(),
-                               frame.world_from_camera.translation().y(),
-                               frame.world_from_camera.translation().z()}}});
+        const std::string stem = "frames/" + Pad(frame.id);
+        WriteBytes((root / (stem + "_depth.png")).string(), frame.depth_noisy_png);
+        WriteBytes((root / (stem + "_depth_ideal.png")).string(), frame.depth_ideal_png);
+        WriteBytes((root / (stem + "_ids.png")).string(), frame.ids_png);
+        labels["depth"] = stem + "_depth.png";
+        labels["depth_ideal"] = stem + "_depth_ideal.png";
+        labels["ids"] = stem + "_ids.png";
+        labels["depth_unit_m"] = 0.001;
+        png_frames.push_back(std::move(labels));
       }
       ++written;
     }
   }
-  if (format == "png")
-    WriteFileAtomically(
-        (root / "frames.json").string(),
-        png_index.dump(1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
+  if (format == "png") {
+    nlohmann::ordered_json index = ExportHeader("furnidet-png-export");
+    index["frames"] = std::move(png_frames);
+    WriteFileAtomically((root / "frames.json").string(), JsonText(index));
+  }
   return written;
 }
 

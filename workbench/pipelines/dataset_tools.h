@@ -60,7 +60,10 @@ MergeSummary MergeDatasets(const std::vector<std::string>& inputs,
 //        come from the catalog the dataset was generated from, found with
 //        `catalog_options`
 //   png: frames/<frame>_depth.png, _depth_ideal.png, _ids.png; frames.json
-//   pcd: <frame>.pcd (organized, camera frame, noisy)
+//        (camera, pose as 4 rows, ground truth per frame)
+//   pcd: <frame>.pcd (organized, noisy, world frame with VIEWPOINT = the
+//        camera's pose, a label field = instance id) and <frame>.json
+//        (camera, pose, ground truth)
 // Returns the number of frames written.
 int ExportDataset(const std::string& db_path,
                   const std::string& format,

@@ -27,6 +27,7 @@
 #include "reports/run_results.h"
 #include "reports/scene_view.h"
 #include "scenes/model_folds.h"
+#include "workbench/formats/external_detections.h"
 #include "workbench/formats/json_text.h"
 #include "workbench/formats/real_labels.h"
 #include "workbench/formats/scan_file.h"
@@ -440,11 +441,17 @@ std::vector<EvaluatedFrame> DetectFrames(DatasetDb& dataset,
   return frames;
 }
 
+// What made a run's detections: a model file, or a file of detections
+// another program wrote (whose frames may lack their times).
+struct RunSource {
+  std::string path, hash;
+  bool timed = true;  // false: no latency metric
+};
+
 // The run of the evaluated frames (every frame of the selection, in order):
 // metrics, curves, detections and timings, stored in the dataset.
 EvaluateSummary StoreRun(DatasetDb& dataset,
-                         const std::string& model_path,
-                         const std::string& model_hash,
+                         const RunSource& source,
                          const FrameSelection& selection,
                          const EvaluateCommandOptions& options,
                          std::vector<EvaluatedFrame> frames) {
@@ -469,10 +476,15 @@ EvaluateSummary StoreRun(DatasetDb& dataset,
       summary.frames_without_points;
   summary.result.metrics[MetricId::Plain(PlainMetric::kFramesWithoutFloor).Name()] =
       summary.frames_without_floor;
+  if (!source.timed) {
+    for (PlainMetric latency :
+         {PlainMetric::kLatencyP50, PlainMetric::kLatencyP90, PlainMetric::kLatencyP99})
+      summary.result.metrics.erase(MetricId::Plain(latency).Name());
+  }
 
   RunRecord run = NewRunRecord(options.kind, options.label);
-  run.model_path = model_path;
-  run.model_hash = model_hash;
+  run.model_path = source.path;
+  run.model_hash = source.hash;
   run.dataset_hash = selection.dataset_hash;
   run.split = options.split;
   run.options_json = StoredOptionsJson(options, evaluation);
@@ -495,6 +507,21 @@ ShardHeader HeaderOf(const FrameSelection& selection,
 
 double SecondsSince(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+// The run's detections in the external format (evaluate --write-detections),
+// one line per frame in the selection's order, written atomically.
+void WriteDetectionsFile(const std::string& path,
+                         const std::vector<EvaluatedFrame>& frames,
+                         const std::string& model_path) {
+  const std::string detector = std::string("furnidet ") + FURN_VERSION + " " +
+                               std::filesystem::path(model_path).filename().string();
+  std::string text;
+  for (const EvaluatedFrame& frame : frames) {
+    text += ExternalDetectionsLine(
+        frame.outcome.frame_id, frame.outcome.detections, detector, frame.outcome.total_ms);
+  }
+  WriteFileAtomically(path, text);
 }
 
 }  // namespace
@@ -534,7 +561,9 @@ EvaluateSummary EvaluateModel(const std::string& model_path,
         frames);
     summary.frames = static_cast<int>(frames.size());
   } else {
-    summary = StoreRun(dataset, model_path, model_hash, selection, options, std::move(frames));
+    if (!options.write_detections.empty())
+      WriteDetectionsFile(options.write_detections, frames, model_path);
+    summary = StoreRun(dataset, {model_path, model_hash}, selection, options, std::move(frames));
     progress_file.Remove();
   }
   summary.seconds = SecondsSince(start);
@@ -603,8 +632,10 @@ EvaluateSummary MergeEvaluation(const std::string& model_path,
     summary.seconds = SecondsSince(start);
     return summary;
   }
+  if (!options.write_detections.empty())
+    WriteDetectionsFile(options.write_detections, frames, model_path);
   EvaluateSummary summary =
-      StoreRun(dataset, model_path, model_hash, selection, options, std::move(frames));
+      StoreRun(dataset, {model_path, model_hash}, selection, options, std::move(frames));
   summary.seconds = SecondsSince(start);
   return summary;
 }
@@ -629,6 +660,116 @@ OperatingPoint ChooseOperatingPointOn(const TrainedModel& model,
                               std::to_string(outcomes.size()) + " frames of " +
                                   std::filesystem::path(db_path).filename().string() + " (split " +
                                   EnumName(options.split) + ")");
+}
+
+}  // namespace furn
+
+namespace furn {
+namespace {
+
+// What evaluation knows of the CAD models without a model file: those the
+// dataset does not mark evaluation-only count as seen in training.
+ModelFacts DatasetFactsOf(DatasetDb& dataset) {
+  ModelFacts facts;
+  for (const ModelRecord& model : dataset.ReadModels()) {
+    if (!model.evaluation_only) facts.trained.insert(model.id);
+  }
+  return facts;
+}
+
+// One frame of another program's detections, moved into the labels' frame
+// when they were found on an estimated floor.
+EvaluatedFrame ExternalFrameOf(const ExternalFrame& external,
+                               const RoomRecord& room,
+                               const FrameRecord& frame,
+                               const ModelFacts& facts,
+                               const EvaluateCommandOptions& options) {
+  EvaluatedFrame out;
+  out.outcome.frame_id = frame.id;
+  out.outcome.truth = TruthOf(room, frame, facts, options.fusion);
+  Eigen::Isometry3d to_labels = Eigen::Isometry3d::Identity();
+  if (external.detector_world_from_camera)
+    to_labels = frame.world_from_camera * external.detector_world_from_camera->inverse();
+  for (ScoredDetection d : external.detections) {
+    static_cast<FurnitureBox&>(d) = MovedBox(d, to_labels);
+    d.box3d = MovedOrientedBox(d.box3d, to_labels);
+    out.outcome.detections.push_back(d);
+    // Its detections are its candidates: what the funnel looks for near a
+    // missed object.
+    out.outcome.maxima.push_back(
+        {d.furniture_class, d.x, d.y, d.score, HypothesisOutcome::kDetected});
+    out.detections.push_back({frame.id,
+                              d.furniture_class,
+                              d.model_id,
+                              d.x,
+                              d.y,
+                              d.box3d.centre.z() - d.box3d.size.z() / 2,
+                              d.yaw,
+                              d.score,
+                              0,
+                              0,
+                              0});
+  }
+  out.outcome.total_ms = external.time_ms.value_or(0);
+  nlohmann::json timings = nlohmann::json::object();
+  if (external.time_ms) timings[EnumName(DetectionStage::kTotal)] = *external.time_ms;
+  out.record = {frame.id, out.outcome.total_ms, timings.dump()};
+  return out;
+}
+
+}  // namespace
+
+EvaluateSummary EvaluateDetections(const std::string& detections_path,
+                                   const std::string& db_path,
+                                   const EvaluateCommandOptions& command_options) {
+  CheckEvaluateOptions(command_options);
+  Require(command_options.shard_count == 0 && !command_options.collect_scorer_samples,
+          "scoring another program's detections is one step (no shards, no scorer samples)");
+  const auto start = std::chrono::steady_clock::now();
+  DatasetDb dataset(db_path, DatasetDb::Mode::kReadWriteExisting);
+  const ExternalDetections external = ReadExternalDetections(detections_path);
+  EvaluateCommandOptions options = command_options;
+  options.kind = "external";
+  options.evaluation.paper_protocol = false;  // no Hough maxima
+  options.evaluation.operating_point = options.detector.EffectiveOperatingPoint(OperatingPoint{});
+  if (options.op_match_m > 0) options.evaluation.operating_point.match_m = options.op_match_m;
+  nlohmann::ordered_json extra = options.extra_options_json.empty()
+                                     ? nlohmann::ordered_json::object()
+                                     : nlohmann::ordered_json::parse(options.extra_options_json);
+  extra["detections"] = {{"files", external.files.size()}, {"detector", external.detector}};
+  options.extra_options_json = extra.dump();
+  const FrameSelection selection = SelectFrames(dataset, db_path, options);
+  const ModelFacts facts = DatasetFactsOf(dataset);
+  std::set<int64_t> selected_ids;
+  std::vector<EvaluatedFrame> frames;
+  bool timed = true;
+  for (int p = 0; p < static_cast<int>(selection.frames.size()); ++p) {
+    const FrameRecord& frame = selection.FrameAt(p);
+    const auto found = external.frames.find(frame.id);
+    Require(found != external.frames.end(),
+            detections_path + ": has no line for frame " + std::to_string(frame.id) + " (room " +
+                std::to_string(selection.RoomAt(p).id) + ", split " +
+                EnumName(selection.RoomAt(p).split) +
+                "); a frame where nothing was found needs a line with \"detections\": []");
+    frames.push_back(ExternalFrameOf(found->second, selection.RoomAt(p), frame, facts, options));
+    frames.back().position = p;
+    timed &= found->second.time_ms.has_value();
+    selected_ids.insert(frame.id);
+  }
+  // Lines of frames outside the selection (other splits) are left out; a
+  // frame the dataset does not have means detections of another dataset.
+  for (const auto& [id, frame] : external.frames) {
+    if (!selected_ids.count(id) && !dataset.RoomOfFrame(id))
+      throw InputError(frame.where + ": \"frame\" " + std::to_string(id) + " is not a frame of " +
+                       db_path + " (detections of another dataset?)");
+  }
+  EvaluateSummary summary = StoreRun(dataset,
+                                     {detections_path, external.content_hash, timed},
+                                     selection,
+                                     options,
+                                     std::move(frames));
+  summary.seconds = SecondsSince(start);
+  return summary;
 }
 
 }  // namespace furn

@@ -59,6 +59,10 @@ struct EvaluateCommandOptions {
   // MergeEvaluation only reads and checks the shards (every header against
   // this evaluation), storing nothing.
   bool check_only = false;
+  // The run's detections (every candidate, in the labels' frame) also
+  // written to this file in the external detections format
+  // (workbench/formats/external_detections.h); "" for none.
+  std::string write_detections;
 };
 
 struct EvaluateSummary {
@@ -78,6 +82,17 @@ struct EvaluateSummary {
 EvaluateSummary EvaluateModel(const std::string& model_path,
                               const std::string& db_path,
                               const EvaluateCommandOptions& options);
+
+// A run of detections another program wrote for the frames of the dataset
+// (ReadExternalDetections: a file or a directory), scored and stored exactly
+// as EvaluateModel's: every metric, curve and detection; latency only when
+// every frame gives its time. Runs of kind "external"; the operating point
+// is options.detector's --min-score (none: every detection kept). Throws
+// InputError naming the file and line for a malformed file, a frame of the
+// selection without a line, or a frame the dataset does not have.
+EvaluateSummary EvaluateDetections(const std::string& detections_path,
+                                   const std::string& db_path,
+                                   const EvaluateCommandOptions& options);
 
 // The run EvaluateModel would store, from the shard files of shards 0..N-1
 // (in that order) of the same evaluation: metrics, curves and detections

@@ -10,12 +10,48 @@
 #include "reports/run_report.h"
 #include "reports/run_results.h"
 #include "reports/scene_view.h"
+#include "workbench/formats/external_detections.h"
 #include "workbench/formats/options_file.h"
 #include "workbench/formats/scan_file.h"
 
 namespace furn {
 
 namespace {
+
+// A frame of another program's detections (those at the operating point) as
+// the debug writer draws a result: its points above the floor in the world,
+// in no segment, and the boxes (with no CAD model; their heights the
+// class's, as the run's detections table keeps no size).
+DetectionResult ResultOfExternalFrame(const LoadedScan& scan,
+                                      const ExternalFrame& frame,
+                                      const OperatingPoint& kept) {
+  DetectionResult result;
+  // The labels' frame, which the program's boxes are in.
+  result.world_from_camera =
+      scan.label_from_camera ? *scan.label_from_camera
+                             : scan.input.world_from_camera.value_or(Eigen::Isometry3d::Identity());
+  const Eigen::Isometry3f world_from_camera = result.world_from_camera.cast<float>();
+  for (const Eigen::Vector3f& p : scan.input.points) {
+    const Eigen::Vector3f world = world_from_camera * p;
+    if (p.allFinite() && world.z() > 0.02f) result.debug.points.push_back(world);
+  }
+  result.debug.segment_of_point.assign(result.debug.points.size(), -1);
+  for (const ScoredDetection& d : frame.detections) {
+    if (!kept.Keeps(d.furniture_class, d.score)) continue;
+    Detection detection;
+    static_cast<FurnitureBox&>(detection) = d;
+    detection.furniture_class = d.furniture_class;
+    detection.model_name = d.model_id;
+    detection.score = d.score;
+    if (detection.width <= 0) {  // a box the program took from a model: its footprint
+      detection.width = d.box3d.size.y();
+      detection.depth = d.box3d.size.x();
+    }
+    result.detections.push_back(detection);
+  }
+  result.input_points = static_cast<int>(scan.input.points.size());
+  return result;
+}
 
 // The frames with the most errors at 10 cm among the detections at the
 // operating point (as evaluate counted them), detection rerun as detect runs
@@ -40,11 +76,27 @@ std::vector<GalleryFrame> WriteGallery(const std::string& db_path,
   constexpr size_t kGallery = 6;
   errors.resize(std::min(kGallery, errors.size()));
   std::vector<GalleryFrame> gallery;
-  if (errors.empty() || !std::filesystem::is_regular_file(run.model_path)) return gallery;
+  if (errors.empty() || !std::filesystem::exists(run.model_path)) return gallery;
   // What detect outputs (the run itself swept every candidate for AP).
   DetectorOptions options = DetectorOptionsFromJson(run.options_json, db_path + " run options");
   options.all_candidates = !results.confusion_has_missed;  // older runs: as counted
-  const Detector detector(LoadTrainedModel(run.model_path), options);
+  std::optional<Detector> detector;
+  std::optional<ExternalDetections> external;
+  const TrainedModel no_model;
+  if (run.kind == "external") {  // another program's detections: read again, as scored
+    external = ReadExternalDetections(run.model_path);
+    if (external->content_hash != run.model_hash) return gallery;  // changed since
+  } else {
+    detector.emplace(LoadTrainedModel(run.model_path), options);
+  }
+  const OperatingPoint kept = options.EffectiveOperatingPoint(OperatingPoint{});
+  auto detect = [&](const LoadedScan& scan, int64_t frame_id) {
+    if (detector) return detector->Detect(scan.input, /*keep_debug=*/true);
+    const auto found = external->frames.find(frame_id);
+    return ResultOfExternalFrame(
+        scan, found == external->frames.end() ? ExternalFrame{} : found->second, kept);
+  };
+  const TrainedModel& model = detector ? detector->model() : no_model;
   // A run of fused frames is shown fused, as it was evaluated.
   const FrameFusion fusion = FrameFusion::FromJson(
       nlohmann::json::parse(run.options_json).value("fusion", nlohmann::json()),
@@ -60,7 +112,7 @@ std::vector<GalleryFrame> WriteGallery(const std::string& db_path,
     source.frame_id = errors[k].frame_id;
     source.fusion = fusion;
     const LoadedScan scan = LoadScan(source);
-    const DetectionResult result = detector.Detect(scan.input, /*keep_debug=*/true);
+    const DetectionResult result = detect(scan, errors[k].frame_id);
     GalleryFrame g{errors[k].frame_id, errors[k].fp, errors[k].fn, "", {}};
     g.dir = "frames/" + std::to_string(g.frame_id);
     const std::filesystem::path dir = std::filesystem::path(out_dir) / g.dir;
@@ -73,12 +125,8 @@ std::vector<GalleryFrame> WriteGallery(const std::string& db_path,
     links.next = scene_of(k + 1);
     links.index = "../../index.html";
     // The gallery shows what the debug writer made (every class's vote map).
-    g.pngs = WriteDetectionDebug(result,
-                                 detector.model(),
-                                 scan.camera,
-                                 GroundTruthInDetectorFrame(scan, result),
-                                 dir.string(),
-                                 links);
+    g.pngs = WriteDetectionDebug(
+        result, model, scan.camera, GroundTruthInDetectorFrame(scan, result), dir.string(), links);
     gallery.push_back(std::move(g));
   }
   return gallery;
