@@ -11,6 +11,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
+#include <tuple>
 
 #include <opencv2/imgcodecs.hpp>
 
@@ -218,6 +219,88 @@ TEST(BopExport, FollowsTheToolkitsLayoutUnitsAndPoses) {
   }
   EXPECT_EQ(scenes, 2);
   EXPECT_GT(checked_objects, 4);
+}
+
+// Issue 73: what MSSD/MSPD and the BOP19 evaluation need beside the
+// layout, read back from the files alone: each model's symmetries map its
+// own vertices onto themselves (and a model without any is not its turn),
+// and test_targets_bop19.json lists exactly the test images' furniture
+// instances at least 10 % visible, per obj_id.
+TEST(BopExport, SymmetriesAndTestTargetsAsTheBopToolkitReadsThem) {
+  Progress::SetQuiet(true);
+  const std::string dir = testing::ScratchDir();
+  GenerateOptions options;
+  options.catalog_spec = "procedural:4";
+  options.rooms = 6;
+  options.seed = 10;  // two of its rooms are test rooms
+  options.room.frames_per_room = 1;
+  options.room.max_side_m = 6;
+  GenerateDataset(OpenCatalog("procedural:4"), options, dir + "/d.db");
+  ExportDataset(dir + "/d.db", "bop", dir + "/bop");
+  const fs::path root = dir + "/bop";
+  const json info = ReadJson(root / "models" / "models_info.json");
+  // How far (mm) a 4x4 transform (mm) moves a model's vertex from the
+  // nearest of its vertices, at the worst (MSSD's maximum).
+  auto worst_move = [](const std::vector<Eigen::Vector3d>& points, const Eigen::Matrix4d& transform) {
+    double worst = 0;
+    for (const Eigen::Vector3d& p : points) {
+      const Eigen::Vector3d moved = (transform * p.homogeneous()).head<3>();
+      double best = 1e18;
+      for (const Eigen::Vector3d& q : points) best = std::min(best, (moved - q).norm());
+      worst = std::max(worst, best);
+    }
+    return worst;
+  };
+  int discrete = 0, without = 0;
+  for (const auto& [key, entry] : info.items()) {
+    size_t faces = 0;
+    const std::vector<Eigen::Vector3d> points =
+        ReadPlyVertices(root / "models" / ("obj_" + Pad(std::stoi(key)) + ".ply"), &faces);
+    const double diameter = entry["diameter"].get<double>();
+    if (entry.contains("symmetries_discrete")) {
+      ++discrete;
+      for (const json& matrix : entry["symmetries_discrete"]) {
+        ExpectNumbers(matrix, 16, key + " symmetry");
+        Eigen::Matrix4d transform;
+        for (int r = 0; r < 4; ++r) {
+          for (int c = 0; c < 4; ++c) transform(r, c) = matrix[4 * r + c].get<double>();
+        }
+        EXPECT_LE(worst_move(points, transform), 0.02 * diameter) << key;
+      }
+    } else if (!entry.contains("symmetries_continuous")) {
+      ++without;
+      const Eigen::Matrix4d half_turn = Eigen::Vector4d(-1, -1, 1, 1).asDiagonal();
+      EXPECT_GT(worst_move(points, half_turn), 0.02 * diameter) << key;
+    }
+  }
+  EXPECT_GT(discrete, 0);  // procedural tables and sideboards are boxes
+  EXPECT_GT(without, 0);   // chairs have a front
+
+  // The targets, recounted from the test scenes' own files.
+  std::map<std::tuple<int, int, int>, int> expected;  // scene, image, obj_id -> instances
+  ASSERT_TRUE(fs::is_directory(root / "test")) << "no test room: another seed";
+  for (const auto& scene : fs::directory_iterator(root / "test")) {
+    const int scene_id = std::stoi(scene.path().filename().string());
+    const json gt = ReadJson(scene.path() / "scene_gt.json");
+    const json gt_info = ReadJson(scene.path() / "scene_gt_info.json");
+    const json extra = ReadJson(scene.path() / "scene_gt_furnidet.json");
+    for (const auto& [image, objects] : gt.items()) {
+      for (size_t k = 0; k < objects.size(); ++k) {
+        if (extra[image][k]["class"].get<std::string>().empty()) continue;
+        if (gt_info[image][k]["visib_fract"].get<double>() < 0.1) continue;
+        ++expected[{scene_id, std::stoi(image), objects[k]["obj_id"].get<int>()}];
+      }
+    }
+  }
+  std::map<std::tuple<int, int, int>, int> listed;
+  for (const json& target : ReadJson(root / "test_targets_bop19.json")) {
+    for (const char* field : {"im_id", "inst_count", "obj_id", "scene_id"})
+      ASSERT_TRUE(target[field].is_number_integer()) << field;
+    listed[{target["scene_id"].get<int>(), target["im_id"].get<int>(), target["obj_id"].get<int>()}] =
+        target["inst_count"].get<int>();
+  }
+  EXPECT_FALSE(listed.empty());
+  EXPECT_EQ(listed, expected);
 }
 
 TEST(BopExport, NeedsTheDatasetsModelsAsGenerated) {

@@ -10,6 +10,7 @@
 #include <set>
 #include <sstream>
 
+#include "core/geometry/mesh_symmetry.h"
 #include "core/geometry/scene.h"
 #include "core/util/error.h"
 #include "core/util/file_util.h"
@@ -144,6 +145,29 @@ Catalog CatalogOfDataset(DatasetDb& dataset,
   return catalog;
 }
 
+// BOP's symmetries of a model (its frame centred on the bounding box, z up):
+// a continuous one about z, or the discrete turns about z as 4x4 matrices
+// (row-major, translation in mm: 0, the axis passes through the centre).
+void AddSymmetries(const MeshSymmetry& symmetry, ordered_json* info) {
+  if (symmetry.continuous) {
+    (*info)["symmetries_continuous"] = {{{"axis", {0, 0, 1}}, {"offset", {0, 0, 0}}}};
+    return;
+  }
+  if (symmetry.order < 2) return;
+  ordered_json turns = ordered_json::array();
+  for (int k = 1; k < symmetry.order; ++k) {
+    const double angle = 2 * M_PI * k / symmetry.order;
+    // Exact zeros and ones at quarter turns (cos 90° is 6e-17 in doubles).
+    const double c = std::round(std::cos(angle) * 1e12) / 1e12;
+    const double s = std::round(std::sin(angle) * 1e12) / 1e12;
+    turns.push_back({c, -s, 0, 0, s, c, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1});
+  }
+  (*info)["symmetries_discrete"] = turns;
+}
+
+// BOP19's targets: instances at least this visible (visib_fract).
+constexpr double kBopTargetVisibility = 0.1;
+
 // Models: obj_id in the dataset's model order, meshes as generated, written
 // in mm centred on their boxes with models_info.json.
 std::map<std::string, ExportedModel> ExportModels(DatasetDb& dataset,
@@ -174,13 +198,15 @@ std::map<std::string, ExportedModel> ExportModels(DatasetDb& dataset,
     WriteModelPly(
         cad.mesh, model.centre, (root / "models" / ("obj_" + Pad(model.obj_id) + ".ply")).string());
     const Eigen::Vector3f low = (box.min - model.centre) * 1000.0f, size = box.Size() * 1000.0f;
-    models_info[std::to_string(model.obj_id)] = {{"diameter", 1000.0 * Diameter(cad.mesh.vertices)},
-                                                 {"min_x", low.x()},
-                                                 {"min_y", low.y()},
-                                                 {"min_z", low.z()},
-                                                 {"size_x", size.x()},
-                                                 {"size_y", size.y()},
-                                                 {"size_z", size.z()}};
+    ordered_json& info = models_info[std::to_string(model.obj_id)];
+    info = {{"diameter", 1000.0 * Diameter(cad.mesh.vertices)},
+            {"min_x", low.x()},
+            {"min_y", low.y()},
+            {"min_z", low.z()},
+            {"size_x", size.x()},
+            {"size_y", size.y()},
+            {"size_z", size.z()}};
+    AddSymmetries(FindVerticalSymmetry(cad.mesh, model.centre), &info);
     models_extra[std::to_string(model.obj_id)] = {{"model_id", record.id},
                                                   {"class", model.furniture_class}};
     model.mesh = std::make_shared<TriangleMesh>(std::move(cad.mesh));
@@ -211,10 +237,13 @@ void WriteCameraJson(const FrameRecord& frame, const std::filesystem::path& root
 // amodal mask) with its own caster, and the scene's JSON files.
 class BopRoomWriter {
  public:
+  // `targets`: where a test room's frames add their BOP19 test targets
+  // (nullptr for other splits).
   BopRoomWriter(const RoomRecord& room,
                 const std::map<std::string, ExportedModel>& models,
-                const std::filesystem::path& scene_dir)
-      : models_(models), scene_dir_(scene_dir) {
+                const std::filesystem::path& scene_dir,
+                ordered_json* targets)
+      : models_(models), scene_dir_(scene_dir), scene_id_(room.id), targets_(targets) {
     for (const ObjectRecord& object : room.objects) {
       objects_[object.instance_id] = &object;
       const ExportedModel& model = models.at(object.model_id);
@@ -252,6 +281,7 @@ class BopRoomWriter {
     ParallelFor(0, static_cast<int>(n), [&](int k) {
       ExportObject(frame, ids, noisy, image, k, &gt[k], &info[k], &extra[k]);
     });
+    if (targets_ != nullptr) AddTargets(frame.frame_index, gt, info, extra);
     scene_gt_[key] = gt;
     scene_gt_info_[key] = info;
     scene_extra_[key] = extra;
@@ -325,8 +355,29 @@ class BopRoomWriter {
               {"class", object.furniture_class ? ClassName(*object.furniture_class) : ""}};
   }
 
+  // The image's targets as BOP19 lists them (test_targets_bop19.json): per
+  // object model, the furniture instances (a detection class; clutter is no
+  // target) at least 10 % visible.
+  void AddTargets(int image,
+                  const std::vector<ordered_json>& gt,
+                  const std::vector<ordered_json>& info,
+                  const std::vector<ordered_json>& extra) {
+    std::map<int, int> instances;  // obj_id -> count
+    for (size_t k = 0; k < gt.size(); ++k) {
+      if (extra[k]["class"].get<std::string>().empty()) continue;
+      if (info[k]["visib_fract"].get<double>() < kBopTargetVisibility) continue;
+      ++instances[gt[k]["obj_id"].get<int>()];
+    }
+    for (const auto& [obj_id, count] : instances) {
+      targets_->push_back(
+          {{"im_id", image}, {"inst_count", count}, {"obj_id", obj_id}, {"scene_id", scene_id_}});
+    }
+  }
+
   const std::map<std::string, ExportedModel>& models_;
   const std::filesystem::path scene_dir_;
+  const int64_t scene_id_;
+  ordered_json* targets_;
   std::map<int, const ObjectRecord*> objects_;
   std::map<int, Scene> alone_;
   std::map<int, std::unique_ptr<EmbreeCaster>> casters_;
@@ -347,9 +398,13 @@ int ExportBop(const std::string& db_path,
   Progress progress("export bop", room_ids.size(), "rooms");
   int written = 0;
   bool camera_written = false;
+  ordered_json targets = ordered_json::array();
   for (int64_t room_id : room_ids) {
     const RoomRecord room = dataset.ReadRoom(room_id, /*with_images=*/true);
-    BopRoomWriter writer(room, models, root / EnumName(room.split) / Pad(room.id));
+    BopRoomWriter writer(room,
+                         models,
+                         root / EnumName(room.split) / Pad(room.id),
+                         room.split == Split::kTest ? &targets : nullptr);
     for (const FrameRecord& frame : room.frames) {
       if (!camera_written) {
         WriteCameraJson(frame, root);
@@ -362,6 +417,8 @@ int ExportBop(const std::string& db_path,
     progress.Advance();
   }
   progress.Finish();
+  WriteFileAtomically((root / "test_targets_bop19.json").string(),
+                      targets.dump(1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
   return written;
 }
 

@@ -2,7 +2,11 @@
 // the layout the BOP toolkit's loaders read):
 //
 //   camera.json                       the sensor: fx, fy, cx, cy, width, height, depth_scale
-//   models/models_info.json           per obj_id: diameter, min_x/y/z, size_x/y/z (mm)
+//   models/models_info.json           per obj_id: diameter, min_x/y/z, size_x/y/z (mm),
+//                                     symmetries_discrete (turns about z as 4x4 row-major,
+//                                     mm) or symmetries_continuous (axis z), found on the mesh
+//   test_targets_bop19.json           per test image and obj_id: the furniture instances
+//                                     at least 10 % visible (im_id, inst_count, obj_id, scene_id)
 //   models/obj_000001.ply ...         each CAD model in mm, centred on its bounding box
 //   <split>/<room:06d>/
 //     depth/<im:06d>.png              noisy depth, 16-bit mm (depth_scale 1)
