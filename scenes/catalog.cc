@@ -304,6 +304,9 @@ Catalog OpenCatalog(const std::string& spec, const CatalogOpenOptions& options) 
 
   std::string class_map_path = spec;
   if (spec == "default") {
+    Require(!options.data_dir.empty(),
+            "catalog 'default' needs data/class_map.json: no share/furnidet/data was found beside "
+            "this program (install it with cmake --install, or set FURN_DATA_DIR or --data-dir)");
     class_map_path = (std::filesystem::path(options.data_dir) / "class_map.json").string();
   } else {
     Require(extension == ".json",

@@ -23,6 +23,7 @@
 
 #include "core/geometry/mesh.h"
 #include "core/model/furniture_class.h"
+#include "core/util/data_dir.h"
 #include "scenes/procedural_catalog.h"
 
 namespace furn {
@@ -62,7 +63,7 @@ struct CatalogOpenOptions {
   // Where "default" and class maps find their .sh3f files.
   std::string catalog_dir = "/usr/share/sweethome3d/furniture";
   // Where "default" finds class_map.json.
-  std::string data_dir = FURN_DEFAULT_DATA_DIR;
+  std::string data_dir = DefaultDataDir();  // core/util/data_dir.h
   // "default" falls back to the procedural catalog when catalog_dir lacks a
   // listed catalog; otherwise that is an error.
   bool allow_procedural_fallback = true;

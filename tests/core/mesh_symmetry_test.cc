@@ -23,7 +23,7 @@ TEST(MeshSymmetry, RectangleTwoSquareFourRoundContinuousLShapeNone) {
   EXPECT_TRUE(s.continuous);
 
   TriangleMesh chair = MakeBox({-0.25f, -0.25f, 0.4f}, {0.25f, 0.25f, 0.45f});  // seat
-  AppendMesh(MakeBox({-0.25f, 0.2f, 0.45f}, {0.25f, 0.25f, 0.9f}), &chair);    // back
+  AppendMesh(MakeBox({-0.25f, 0.2f, 0.45f}, {0.25f, 0.25f, 0.9f}), &chair);     // back
   s = FindVerticalSymmetry(chair, {0, 0, 0.45f});
   EXPECT_FALSE(s.continuous);
   EXPECT_EQ(s.order, 1);

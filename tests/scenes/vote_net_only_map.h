@@ -17,7 +17,7 @@ inline constexpr int kVoteNetOnlyExtras = 6;
 
 // Writes the map to dir/with_vote_net_only.json and returns its path.
 inline std::string WriteDefaultMapWithVoteNetOnlyExtras(const std::string& dir) {
-  std::ifstream in(std::string(FURN_DEFAULT_DATA_DIR) + "/class_map.json");
+  std::ifstream in(FURN_SOURCE_DIR "/data/class_map.json");
   nlohmann::json map = nlohmann::json::parse(in);
   const char* const extras[kVoteNetOnlyExtras][2] = {
       {"Scopia/round-table", "table"},

@@ -241,7 +241,8 @@ TEST(BopExport, SymmetriesAndTestTargetsAsTheBopToolkitReadsThem) {
   const json info = ReadJson(root / "models" / "models_info.json");
   // How far (mm) a 4x4 transform (mm) moves a model's vertex from the
   // nearest of its vertices, at the worst (MSSD's maximum).
-  auto worst_move = [](const std::vector<Eigen::Vector3d>& points, const Eigen::Matrix4d& transform) {
+  auto worst_move = [](const std::vector<Eigen::Vector3d>& points,
+                       const Eigen::Matrix4d& transform) {
     double worst = 0;
     for (const Eigen::Vector3d& p : points) {
       const Eigen::Vector3d moved = (transform * p.homogeneous()).head<3>();
@@ -296,7 +297,8 @@ TEST(BopExport, SymmetriesAndTestTargetsAsTheBopToolkitReadsThem) {
   for (const json& target : ReadJson(root / "test_targets_bop19.json")) {
     for (const char* field : {"im_id", "inst_count", "obj_id", "scene_id"})
       ASSERT_TRUE(target[field].is_number_integer()) << field;
-    listed[{target["scene_id"].get<int>(), target["im_id"].get<int>(), target["obj_id"].get<int>()}] =
+    listed[{
+        target["scene_id"].get<int>(), target["im_id"].get<int>(), target["obj_id"].get<int>()}] =
         target["inst_count"].get<int>();
   }
   EXPECT_FALSE(listed.empty());

@@ -25,12 +25,12 @@ void AddCatalogFlags(CLI::App* app, CatalogFlags* flags) {
   app->add_option(
          "--catalog-dir", flags->catalog_dir, "Directory of the .sh3f files (env FURN_CATALOG_DIR)")
       ->capture_default_str();
-  // The default is this build's data/ folder: a path of the build machine,
-  // not shown as if it were a choice.
+  // The default is found beside the program (DefaultDataDir): a path of
+  // this machine, not shown as if it were a choice.
   app->add_option("--data-dir",
                   flags->data_dir,
-                  "Directory of class_map.json (default: the data/ folder of this build's "
-                  "source tree; env FURN_DATA_DIR)");
+                  "Directory of class_map.json (default: share/furnidet/data beside the "
+                  "installed or built program; env FURN_DATA_DIR)");
   app->add_flag("--quiet,-q", flags->quiet, "No progress output");
 }
 

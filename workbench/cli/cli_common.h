@@ -4,6 +4,7 @@
 #include <optional>
 #include <string>
 
+#include "core/util/data_dir.h"
 #include "scenes/catalog.h"
 #include "workbench/pipelines/train_vote_net.h"
 
@@ -16,7 +17,7 @@ namespace furn {
 struct CatalogFlags {
   std::string spec = "default";
   std::string catalog_dir = "/usr/share/sweethome3d/furniture";
-  std::string data_dir = FURN_DEFAULT_DATA_DIR;
+  std::string data_dir = DefaultDataDir();  // core/util/data_dir.h
   bool quiet = false;
 };
 
