@@ -163,8 +163,32 @@ class TopDown {
   cv::Mat image_;
 };
 
+// The figure's caption at its top, wrapped at spaces into as many lines as
+// the image's width needs (a narrow top-down view cut it off).
 void Caption(cv::Mat* image, const std::string& text) {
-  DrawLabel(image, text, cv::Point(6, 16), cv::Scalar(255, 255, 255), 0.45);
+  constexpr double kScale = 0.45;
+  std::vector<std::string> lines(1);
+  size_t start = 0;
+  while (start < text.size()) {
+    size_t end = text.find(' ', start);
+    if (end == std::string::npos) end = text.size();
+    const std::string word = text.substr(start, end - start);
+    const std::string longer = lines.back().empty() ? word : lines.back() + " " + word;
+    int baseline = 0;
+    const int width = cv::getTextSize(longer, cv::FONT_HERSHEY_SIMPLEX, kScale, 3, &baseline).width;
+    if (width > image->cols - 12 && !lines.back().empty()) {
+      lines.push_back(word);
+    } else {
+      lines.back() = longer;
+    }
+    start = end + 1;
+  }
+  for (size_t k = 0; k < lines.size(); ++k)
+    DrawLabel(image,
+              lines[k],
+              cv::Point(6, 16 + 16 * static_cast<int>(k)),
+              cv::Scalar(255, 255, 255),
+              kScale);
 }
 
 // What every debug figure is drawn from.
@@ -396,7 +420,24 @@ std::string WriteVotesPng(const DebugInput& in, const DetectionDebug::VoteGrid& 
   return name;
 }
 
-// Top-down: points, ground truth (white), detections (class colour).
+// What became of a true object in the frame: found (a detection of its
+// class within 10 cm, as the report's gallery counts errors), missed (a
+// piece of furniture seen at least 25 %, or of unknown visibility, that none
+// is near), or neither (clutter, or hardly in view).
+enum class TruthFate { kFound, kMissed, kNeither };
+TruthFate FateOf(const GroundTruthFootprint& truth, const std::vector<Detection>& detections) {
+  if (!truth.furniture_class) return TruthFate::kNeither;
+  for (const Detection& d : detections) {
+    if (d.furniture_class == truth.furniture_class &&
+        std::hypot(d.x - truth.x, d.y - truth.y) <= 0.10)
+      return TruthFate::kFound;
+  }
+  return truth.visibility < 0 || truth.visibility >= 0.25 ? TruthFate::kMissed
+                                                          : TruthFate::kNeither;
+}
+
+// Top-down: points, ground truth (white found, red missed), detections
+// (class colour).
 void WriteTopDownPng(const DebugInput& in) {
   Eigen::Vector2f low = in.sensor().head<2>(), high = in.sensor().head<2>();
   for (const Eigen::Vector3f& p : in.debug().points) {
@@ -421,11 +462,12 @@ void WriteTopDownPng(const DebugInput& in) {
              cv::FILLED);
   for (const GroundTruthFootprint& g : in.ground_truth) {
     const Eigen::Vector2f half(static_cast<float>(g.width / 2), static_cast<float>(g.depth / 2));
-    top.Footprint(PlanarPose{g.x, g.y, g.yaw},
-                  -half,
-                  half,
-                  !g.furniture_class ? cv::Scalar(110, 110, 110) : cv::Scalar(255, 255, 255),
-                  1);
+    const TruthFate fate = FateOf(g, in.result.detections);
+    const cv::Scalar colour = fate == TruthFate::kMissed  ? cv::Scalar(40, 40, 255)
+                              : fate == TruthFate::kFound ? cv::Scalar(255, 255, 255)
+                                                          : cv::Scalar(110, 110, 110);
+    top.Footprint(
+        PlanarPose{g.x, g.y, g.yaw}, -half, half, colour, fate == TruthFate::kMissed ? 2 : 1);
   }
   LabelLayout labels(&top.image());
   for (const Detection& d : in.result.detections) {
@@ -442,7 +484,8 @@ void WriteTopDownPng(const DebugInput& in) {
       in.ground_truth.empty()
           ? "top-down, world frame (1 m grid): detections (class colour), sensor (white dot)" +
                 LeftOut(labels)
-          : "top-down, world frame (1 m grid): detections (class colour), ground truth (white)" +
+          : "top-down (1 m grid): detections (class colour); truth: found (white), missed (red), "
+            "clutter or hardly seen (grey)" +
                 LeftOut(labels));
   WritePngAtomically(top.image(), in.Path("topdown.png"));
 }

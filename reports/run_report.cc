@@ -130,11 +130,33 @@ struct HistoryRow {
   const std::map<std::string, double>* metrics;
 };
 
-// The line a run belongs on: its dataset, the frames it measured and, for
-// anything but a plain evaluation, its kind. Runs on the validation split
-// (tuning) and on the test split are never joined into one line.
+// What made a run's detections, as its stored options say: "learned" or
+// "codebook" (the hypothesis source; runs stored before it was recorded:
+// their voting option when it names one), another program's name, or "".
+std::string RunDetector(const RunRecord& run) {
+  const nlohmann::json options = nlohmann::json::parse(run.options_json, nullptr, false);
+  if (!options.is_object()) return "";
+  if (options.contains("detections") && options["detections"].is_object()) {
+    const nlohmann::json& name = options["detections"].value("detector", nlohmann::json());
+    return name.is_string() ? name.get<std::string>().substr(0, 40) : "";
+  }
+  if (options.contains("hypotheses") && options["hypotheses"].is_string())
+    return options["hypotheses"].get<std::string>();
+  if (options.contains("detector") && options["detector"].is_object()) {
+    const nlohmann::json& voting = options["detector"].value("voting", nlohmann::json());
+    if (voting == "learned" || voting == "codebook") return voting.get<std::string>();
+  }
+  return "";
+}
+
+// The line a run belongs on: its dataset, the frames it measured, what
+// detected (learned, codebook, another program) and, for anything but a
+// plain evaluation, its kind. Runs on the validation split (tuning) and on
+// the test split, or of the two hypothesis sources, are never one line.
 std::string HistorySeries(const HistoryRow& row) {
   std::string series = row.dataset->name + ", " + EnumName(row.run->split);
+  const std::string detector = RunDetector(*row.run);
+  if (!detector.empty()) series += ", " + detector;
   if (row.run->kind != "evaluate") series += " (" + row.run->kind + ")";
   return series;
 }
@@ -155,8 +177,17 @@ Chart HistoryChart(const std::vector<HistoryRow>& rows, const std::string& metri
   chart.width = 560;
   chart.height = 340;
   chart.title = metric + " by run";
-  chart.x.label = "run (in the order they started)";
-  chart.x.tick_step = static_cast<double>(std::max<size_t>(1, rows.size() / 10));
+  chart.x.label =
+      "run, in the order they started: its commit (+ uncommitted changes) below, "
+      "its label above the point";
+  // A tick per run (at most 12: every n-th), named by its commit.
+  const size_t step = std::max<size_t>(1, (rows.size() + 11) / 12);
+  for (size_t k = 0; k < rows.size(); k += step) {
+    chart.x.ticks.emplace_back(
+        static_cast<double>(k + 1),
+        rows[k].run->git_commit.substr(0, 7) + (rows[k].run->git_dirty ? "+" : ""));
+  }
+  const bool labelled = rows.size() <= 24;  // more labels than that overlap
   chart.legend = LegendPlace::kBelow;
   chart.empty_note = "no run has this metric";
   const std::vector<std::string> names = HistorySeriesNames(rows);
@@ -168,6 +199,7 @@ Chart HistoryChart(const std::vector<HistoryRow>& rows, const std::string& metri
       if (it == rows[k].metrics->end() || !std::isfinite(it->second)) continue;
       series.x.push_back(static_cast<double>(k + 1));
       series.y.push_back(it->second);
+      if (labelled) series.labels.push_back(rows[k].run->label.substr(0, 16));
     }
     if (!series.x.empty()) chart.series.push_back(series);
   }
@@ -183,16 +215,18 @@ std::string HistoryTableHtml(const std::vector<HistoryRow>& rows) {
   std::sort(names.begin(), names.end());
   names.erase(std::unique(names.begin(), names.end()), names.end());
   std::ostringstream html;
-  html << "<table><tr><th>dataset</th><th>split</th><th>run</th><th>started</th><th>commit</th>"
-       << "<th>kind</th><th>label</th>";
+  html << "<table><tr><th>#</th><th>dataset</th><th>split</th><th>run</th><th>started</th>"
+       << "<th>commit</th><th>kind</th><th>detector</th><th>label</th>";
   for (const std::string& name : names) html << "<th>" << HtmlEscape(name) << "</th>";
   html << "</tr>\n";
-  for (const HistoryRow& row : rows) {
+  for (size_t k = 0; k < rows.size(); ++k) {
+    const HistoryRow& row = rows[k];
     const RunRecord& run = *row.run;
-    html << "<tr><td>" << HtmlEscape(row.dataset->name) << "</td><td>" << EnumName(run.split)
-         << "</td><td>" << run.id << "</td><td>" << HtmlEscape(run.started) << "</td><td>"
-         << HtmlEscape(run.git_commit.substr(0, 10)) << (run.git_dirty ? "+" : "") << "</td><td>"
-         << HtmlEscape(run.kind) << "</td><td>" << HtmlEscape(run.label) << "</td>";
+    html << "<tr><td>" << k + 1 << "</td><td>" << HtmlEscape(row.dataset->name) << "</td><td>"
+         << EnumName(run.split) << "</td><td>" << run.id << "</td><td>" << HtmlEscape(run.started)
+         << "</td><td>" << HtmlEscape(run.git_commit.substr(0, 10)) << (run.git_dirty ? "+" : "")
+         << "</td><td>" << HtmlEscape(run.kind) << "</td><td>" << HtmlEscape(RunDetector(run))
+         << "</td><td>" << HtmlEscape(run.label) << "</td>";
     for (const std::string& name : names) {  // stored names, of any version
       const auto it = row.metrics->find(name);
       html << "<td>" << Number(it == row.metrics->end() ? std::nan("") : it->second, 3) << "</td>";
@@ -232,15 +266,17 @@ void WriteHistoryReport(const std::vector<HistoryDataset>& datasets, const std::
   html << "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>furnidet "
        << "history</title>\n<style>body{font-family:sans-serif;margin:24px}table{border-collapse:"
        << "collapse;font-size:12px}td,th{border:1px solid #ccc;padding:3px 8px;text-align:right}"
-       << "th{background:#f0f0f0;position:sticky;top:0}td:nth-child(-n+7),th:nth-child(-n+7)"
+       << "th{background:#f0f0f0;position:sticky;top:0}td:nth-child(-n+9),th:nth-child(-n+9)"
        << "{text-align:left}img{border:1px solid #ddd;margin:4px}</style></head><body>\n"
        << "<h1>Metric history (" << rows.size() << " runs";
   if (datasets.size() > 1) {
     html << " of " << datasets.size() << " datasets:";
     for (const HistoryDataset& d : datasets) html << " " << HtmlEscape(d.name);
   }
-  html << ")</h1>\n<p>One line per dataset and split (and run kind): a run on other frames "
-          "is another line, never a step in this one. Lines:";
+  html << ")</h1>\n<p>One line per dataset, split and detector (learned vote map, codebook, "
+          "another program; and run kind): a run on other frames or of another detector is "
+          "another line, never a step in this one. The x axis is the runs in the order they "
+          "started (# in the table), named by commit; the label is above each point. Lines:";
   for (const std::string& series : HistorySeriesNames(rows)) {
     html << " <span class=\"series\">" << HtmlEscape(series) << "</span> ("
          << std::count_if(rows.begin(),
@@ -258,6 +294,26 @@ void WriteHistoryReport(const std::vector<HistoryDataset>& datasets, const std::
 }
 
 namespace {
+
+// What the protocol letters in headings, help and docs stand for
+// (docs/evaluation.md, "Protocols A to E").
+std::string ProtocolGlossaryHtml() {
+  return "<h2 id=\"protocols\">Protocols</h2>\n<dl class=\"glossary\">"
+         "<dt>A</dt><dd>the paper's detection protocol: a Hough maximum (or learned heat "
+         "peak) within a 5 cm square window of an object's reference point is a hit; the "
+         "relative threshold is swept (<code>paper/&lt;class&gt;/best_f1</code>)</dd>"
+         "<dt>B</dt><dd>detection AP: detections by score matched greedily to objects of their "
+         "class by centre distance, 5, 10 and 20 cm (<code>AP/&lt;class&gt;@10cm</code>); the "
+         "box metrics match by 3-D or bird's-eye IoU instead (<code>AP3D</code>, "
+         "<code>APBEV</code>)</dd>"
+         "<dt>C</dt><dd>the paper's classification protocol: its 8 CAD models split by part "
+         "subset, CAD model and category accuracy</dd>"
+         "<dt>D</dt><dd>the vocabulary comparison: k-means against RIM over several seeds "
+         "(<code>evaluate --compare-vocab</code>)</dd>"
+         "<dt>E</dt><dd>leave-models-out: the CAD models split into folds, each fold's held out "
+         "of training and the only furniture of the rooms that evaluate it: furniture never "
+         "trained on (<code>crossval</code>)</dd></dl>\n";
+}
 
 std::string PageHead(const std::string& title, const RunRecord& run) {
   std::ostringstream html;
@@ -290,7 +346,8 @@ std::string PageHead(const std::string& title, const RunRecord& run) {
 // The options and every metric, then the image self-check; ends the page.
 std::string PageTail(const RunRecord& run, const std::map<std::string, double>& metrics) {
   std::ostringstream html;
-  html << "<h2>Options</h2>\n<pre>" << HtmlEscape(nlohmann::json::parse(run.options_json).dump(2))
+  html << ProtocolGlossaryHtml() << "<h2>Options</h2>\n<pre>"
+       << HtmlEscape(nlohmann::json::parse(run.options_json).dump(2))
        << "</pre>\n<h2>All metrics</h2>\n<table><tr><th>metric</th><th>value</th></tr>";
   for (const auto& [name, value] : metrics)
     html << "<tr><td>" << HtmlEscape(name) << "</td><td>" << Number(value, 4) << "</td></tr>";
@@ -557,7 +614,7 @@ void WriteCrossvalReport(const RunReportInput& input,
           "(clutter as usual); every figure below is the mean over the folds &plusmn; the spread "
           "(standard deviation) between them. Held out: models per class (";
   for (size_t c = 0; c < classes.size(); ++c) html << (c ? " / " : "") << ClassName(classes[c]);
-  html << ").</p>\n" << FoldsTableHtml(folds, classes, fold_reports, m);
+  html << ").</p>\n" << input.budget_note << FoldsTableHtml(folds, classes, fold_reports, m);
   if (m.count(MetricId::MeanAp(0.10).InGroup(MetricId::Group::kGates).Name())) {
     html << "<p>Rows per fold and <b>mean</b>: detection scored by the learned hypothesis scorer "
             "of each fold, trained on the hypotheses of the other folds' rooms only (nested, so "
@@ -750,14 +807,16 @@ std::string FiguresHtml(const std::map<std::string, double>& m, const RunResults
   } else {
     html << "<p>Not given: the detections file has no <code>time_ms</code> for every frame.</p>";
   }
-  html << "<table><tr><th>stage</th><th>p50 ms</th></tr>";
+  std::string stages;  // the project's detector's stage medians (none for another program)
   for (const auto& [name, value] : m) {
     const std::optional<MetricId> id = MetricId::TryParse(name);
     if (!id || id->kind() != MetricId::Kind::kStageLatency) continue;
-    html << "<tr><td>" << HtmlEscape(name.substr(8, name.size() - 8 - 7)) << "</td><td>"
-         << Number(value, 1) << "</td></tr>";
+    stages += "<tr><td>" + HtmlEscape(name.substr(8, name.size() - 8 - 7)) + "</td><td>" +
+              Number(value, 1) + "</td></tr>";
   }
-  html << "</table></div></div>\n";
+  if (!stages.empty())
+    html << "<table><tr><th>stage</th><th>p50 ms</th></tr>" << stages << "</table>";
+  html << "</div></div>\n";
   return html.str();
 }
 

@@ -34,6 +34,9 @@ struct RunReportInput {
   std::map<std::string, double> metrics;
   std::vector<double> frame_ms;  // total detection time per frame
   std::vector<GalleryFrame> gallery;
+  // A leave-models-out run's training budget against the default model's
+  // (HTML, shown under its heading); empty: none to say.
+  std::string budget_note;
 };
 
 // Writes index.html and the plots into `dir` (created). Throws InputError

@@ -55,6 +55,11 @@ void PrintUsage() {
       "  this process may use: its affinity mask, capped by SLURM_CPUS_PER_TASK)\n\n"
       "commands:\n");
   for (const Command& command : kCommands) std::printf("  %-10s %s\n", command.name, command.help);
+  std::printf(
+      "\nprotocols (docs/evaluation.md): A the paper's detection (maxima within 5 cm, threshold\n"
+      "  swept), B detection AP by centre distance (and box IoU), C the paper's part-subset\n"
+      "  classification, D k-means against RIM vocabularies, E leave-models-out (furniture\n"
+      "  never trained on)\n");
 }
 
 // `--threads N` or `--threads=N` in front of the command: the pool's size,

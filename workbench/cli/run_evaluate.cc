@@ -228,8 +228,7 @@ void PrintFolds(const CrossvalSummary& summary, const std::vector<FurnitureClass
 // gets, and its figure says so in the same line.
 void PrintVoteNetBudget(const CrossvalSummary& summary, const VoteNetTrainingOptions& folds) {
   const VoteNetTrainingOptions budget;
-  // docs/learned-voting.md, "2400 rooms": nine fold networks of fold seeds 1-3.
-  constexpr double kDefaultBudgetMap = 0.552;
+  constexpr double kDefaultBudgetMap = kDefaultBudgetProtocolEMap;
   const double map = MetricOrNan(summary.mean, MetricId::MeanAp(0.10));
   if (folds.rooms == budget.rooms && folds.epochs == budget.epochs) {
     std::printf(

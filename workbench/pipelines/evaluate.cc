@@ -317,6 +317,15 @@ EvaluateCommandOptions WithOperatingPoint(EvaluateCommandOptions options,
                                           const TrainedModel& model) {
   options.evaluation.operating_point =
       options.detector.EffectiveOperatingPoint(model.operating_point);
+  // Which hypothesis source detects (as the Detector decides), stored with
+  // the run: history keeps learned and codebook runs on their own lines.
+  const bool learned = options.detector.voting == VotingMode::kLearned ||
+                       (options.detector.voting == VotingMode::kAuto && !model.vote_net.empty());
+  nlohmann::ordered_json extra = options.extra_options_json.empty()
+                                     ? nlohmann::ordered_json::object()
+                                     : nlohmann::ordered_json::parse(options.extra_options_json);
+  extra["hypotheses"] = learned ? "learned" : "codebook";
+  options.extra_options_json = extra.dump();
   if (options.op_match_m > 0) options.evaluation.operating_point.match_m = options.op_match_m;
   options.detector.all_candidates = true;
   return options;

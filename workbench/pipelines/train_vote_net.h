@@ -33,6 +33,11 @@ namespace furn {
 
 struct FrameFusion;  // workbench/formats/scan_file.h
 
+// Protocol E's mAP@10cm at the default budget (VoteNetTrainingOptions'
+// defaults): nine fold networks of fold seeds 1-3 (docs/learned-voting.md,
+// "2400 rooms"). What a figure of fewer rooms or epochs is set beside.
+inline constexpr double kDefaultBudgetProtocolEMap = 0.552;
+
 struct VoteNetTrainingOptions {
   // 2400 rooms x 4 frames, 10 epochs: twice the steps of 1200 x 10 (itself
   // 600 x 20's steps over twice the rooms: +0.025 mAP@10cm over seven paired
