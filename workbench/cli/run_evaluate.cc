@@ -390,6 +390,24 @@ void AddFusionOptions(CLI::App* app, FrameFusion* fusion) {
   AddFusePlanarFlag(app, &fusion->planar);
 }
 
+// What detects: a model (--model, its detections optionally written out
+// with --write-detections) or another program's file (--detections).
+void AddDetectionSourceOptions(CLI::App* app,
+                               std::string* model_path,
+                               std::string* detections,
+                               std::string* write_detections) {
+  app->add_option("--model", *model_path, "Model file (.fcm)");
+  app->add_option("--detections",
+                  *detections,
+                  "Score detections another program wrote for the dataset's frames instead of "
+                  "running a model: a JSON-lines file or a directory of them (format "
+                  "furnidet-detections 1, or detect's own output; docs/evaluation.md)");
+  app->add_option("--write-detections",
+                  *write_detections,
+                  "Also write the run's detections (every candidate) to this file in the "
+                  "furnidet-detections format, for other tools and for --detections");
+}
+
 // What a run covers and how it is scored: frames, label, operating-point
 // match distance and leave-models-out fold ("k/N" into `fold`).
 void AddRunOptions(CLI::App* app, EvaluateCommandOptions* options, std::string* fold) {
@@ -414,16 +432,7 @@ int RunEvaluate(int argc, char** argv) {
                "workbench evaluate"};
   std::string model_path, db_path, split = "test", detections;
   EvaluateCommandOptions options;
-  app.add_option("--model", model_path, "Model file (.fcm)");
-  app.add_option("--detections",
-                 detections,
-                 "Score detections another program wrote for the dataset's frames instead of "
-                 "running a model: a JSON-lines file or a directory of them (format "
-                 "furnidet-detections 1, or detect's own output; docs/evaluation.md)");
-  app.add_option("--write-detections",
-                 options.write_detections,
-                 "Also write the run's detections (every candidate) to this file in the "
-                 "furnidet-detections format, for other tools and for --detections");
+  AddDetectionSourceOptions(&app, &model_path, &detections, &options.write_detections);
   app.add_option("--db", db_path, "Dataset database")->required();
   app.add_option("--split", split, "train, val, test or all")->capture_default_str();
   AddMinInViewOption(&app, &options.evaluation);
