@@ -1,4 +1,5 @@
 #include "core/detector/detector.h"
+#include "core/detector/voting_choice.h"
 
 #include <algorithm>
 #include <cstdio>
@@ -126,8 +127,7 @@ Detector::Detector(TrainedModel model, const DetectorOptions& options)
   Require(options.voting != VotingMode::kLearned || !impl.vote_net.empty(),
           "voting learned: the model holds no vote network (train one into it, or vote with "
           "the codebook)");
-  impl.learned = options.voting == VotingMode::kLearned ||
-                 (options.voting == VotingMode::kAuto && !impl.vote_net.empty());
+  impl.learned = UsesLearnedVoting(options.voting, !impl.vote_net.empty());
   impl.operating_point = options.EffectiveOperatingPoint(m.operating_point);
   if (impl.learned) {
     impl.source = std::make_unique<LearnedSource>(*this);

@@ -408,6 +408,17 @@ void AddDetectionSourceOptions(CLI::App* app,
                   "furnidet-detections format, for other tools and for --detections");
 }
 
+// Protocol D instead of a model: --compare-vocab, --seeds, --work-dir.
+void AddCompareVocabOptions(CLI::App* app, bool* compare_vocab, int* seeds, std::string* work_dir) {
+  app->add_flag("--compare-vocab",
+                *compare_vocab,
+                "Protocol D: train k-means, RIM (k-means init) and RIM (PCA init) on --catalog "
+                "for each seed and evaluate each (instead of --model)");
+  app->add_option("--seeds", *seeds, "Seeds per vocabulary (with --compare-vocab)")
+      ->capture_default_str();
+  app->add_option("--work-dir", *work_dir, "Where --compare-vocab writes its models");
+}
+
 // What a run covers and how it is scored: frames, label, operating-point
 // match distance and leave-models-out fold ("k/N" into `fold`).
 void AddRunOptions(CLI::App* app, EvaluateCommandOptions* options, std::string* fold) {
@@ -445,13 +456,7 @@ int RunEvaluate(int argc, char** argv) {
   std::string work_dir;
   CatalogFlags catalog_flags;
   AddCatalogFlags(&app, &catalog_flags);
-  app.add_flag("--compare-vocab",
-               compare_vocab,
-               "Protocol D: train k-means, RIM (k-means init) and RIM (PCA init) on --catalog "
-               "for each seed and evaluate each (instead of --model)");
-  app.add_option("--seeds", seeds, "Seeds per vocabulary (with --compare-vocab)")
-      ->capture_default_str();
-  app.add_option("--work-dir", work_dir, "Where --compare-vocab writes its models");
+  AddCompareVocabOptions(&app, &compare_vocab, &seeds, &work_dir);
   std::string shard;
   std::vector<std::string> merge;
   app.add_option("--shard",

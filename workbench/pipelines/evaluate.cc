@@ -12,6 +12,7 @@
 #include <set>
 
 #include "core/detector/detection_box.h"
+#include "core/detector/voting_choice.h"
 #include "core/geometry/mesh.h"
 #include "core/geometry/pose_fit.h"
 #include "core/geometry/render_compare.h"  // PinholeIntrinsics
@@ -311,6 +312,17 @@ void CheckEvaluateOptions(const EvaluateCommandOptions& options) {
           "a shard of an evaluation does not collect scorer samples");
 }
 
+// A member joining the run's stored options (extra_options_json).
+void AddStoredOption(EvaluateCommandOptions* options,
+                     const std::string& key,
+                     const nlohmann::ordered_json& value) {
+  nlohmann::ordered_json extra = options->extra_options_json.empty()
+                                     ? nlohmann::ordered_json::object()
+                                     : nlohmann::ordered_json::parse(options->extra_options_json);
+  extra[key] = value;
+  options->extra_options_json = extra.dump();
+}
+
 // What evaluate detects with: every candidate (AP sweeps them all), and the
 // operating point the options make of the model's, for the op/ metrics.
 EvaluateCommandOptions WithOperatingPoint(EvaluateCommandOptions options,
@@ -319,13 +331,10 @@ EvaluateCommandOptions WithOperatingPoint(EvaluateCommandOptions options,
       options.detector.EffectiveOperatingPoint(model.operating_point);
   // Which hypothesis source detects (as the Detector decides), stored with
   // the run: history keeps learned and codebook runs on their own lines.
-  const bool learned = options.detector.voting == VotingMode::kLearned ||
-                       (options.detector.voting == VotingMode::kAuto && !model.vote_net.empty());
-  nlohmann::ordered_json extra = options.extra_options_json.empty()
-                                     ? nlohmann::ordered_json::object()
-                                     : nlohmann::ordered_json::parse(options.extra_options_json);
-  extra["hypotheses"] = learned ? "learned" : "codebook";
-  options.extra_options_json = extra.dump();
+  AddStoredOption(
+      &options,
+      "hypotheses",
+      UsesLearnedVoting(options.detector.voting, !model.vote_net.empty()) ? "learned" : "codebook");
   if (options.op_match_m > 0) options.evaluation.operating_point.match_m = options.op_match_m;
   options.detector.all_candidates = true;
   return options;
@@ -742,11 +751,8 @@ EvaluateSummary EvaluateDetections(const std::string& detections_path,
   options.evaluation.paper_protocol = false;  // no Hough maxima
   options.evaluation.operating_point = options.detector.EffectiveOperatingPoint(OperatingPoint{});
   if (options.op_match_m > 0) options.evaluation.operating_point.match_m = options.op_match_m;
-  nlohmann::ordered_json extra = options.extra_options_json.empty()
-                                     ? nlohmann::ordered_json::object()
-                                     : nlohmann::ordered_json::parse(options.extra_options_json);
-  extra["detections"] = {{"files", external.files.size()}, {"detector", external.detector}};
-  options.extra_options_json = extra.dump();
+  AddStoredOption(
+      &options, "detections", {{"files", external.files.size()}, {"detector", external.detector}});
   const FrameSelection selection = SelectFrames(dataset, db_path, options);
   const ModelFacts facts = DatasetFactsOf(dataset);
   std::set<int64_t> selected_ids;
