@@ -27,7 +27,7 @@ function(furn_add_library)
 endfunction()
 
 # furn_add_test(FOLDER core NAME sgf SOURCES sgf_test.cc LINKS furn_core [LABELS slow] [WHOLE]
-#               [EMBREE_ISAS avx2 sse4.2] [TORCH_ISAS avx2])
+#               [EMBREE_ISAS avx2 sse4.2] [TORCH_ISAS avx2] [ISA_FILTER gtest-filter])
 # builds tests/<folder>/<name>_test and registers each TEST as "<folder>/<name>.<Suite>.<Case>";
 # WHOLE registers the binary as one test instead (for suites with a costly shared setup).
 # EMBREE_ISAS registers every test once more per listed ISA, as "<folder>/<name>[isa].<...>",
@@ -35,9 +35,10 @@ endfunction()
 # (skipped where the CPU lacks the ISA). TORCH_ISAS does the same for libtorch and oneDNN,
 # as "<folder>/<name>[torch-isa].<...>" with FURN_TORCH_ISA=<isa> (tests/test_main.cc sets
 # ATEN_CPU_CAPABILITY and DNNL_MAX_CPU_ISA from it): an AVX-512 machine runs the AVX2 kernels
-# too.
+# too. ISA_FILTER (a gtest filter) limits those repetitions to the tests it names: an
+# end-to-end suite repeats one representative run, not every case (the suite's time).
 function(furn_add_test)
-  cmake_parse_arguments(ARG "WHOLE" "FOLDER;NAME;TIMEOUT" "SOURCES;LINKS;LABELS;EMBREE_ISAS;TORCH_ISAS" ${ARGN})
+  cmake_parse_arguments(ARG "WHOLE" "FOLDER;NAME;TIMEOUT;ISA_FILTER" "SOURCES;LINKS;LABELS;EMBREE_ISAS;TORCH_ISAS" ${ARGN})
   set(target ${ARG_FOLDER}_${ARG_NAME}_test)
   add_executable(${target} ${ARG_SOURCES})
   target_link_libraries(${target} PRIVATE ${ARG_LINKS} furn_test_main GTest::gtest GTest::gmock)
@@ -65,6 +66,9 @@ function(furn_add_test)
     TEST_PREFIX "${ARG_FOLDER}/${ARG_NAME}."
     PROPERTIES LABELS "${ARG_LABELS}" TIMEOUT ${ARG_TIMEOUT}
     DISCOVERY_TIMEOUT 60)
+  if(NOT ARG_ISA_FILTER)
+    set(ARG_ISA_FILTER "*")
+  endif()
   foreach(isa IN LISTS ARG_EMBREE_ISAS)
     # One value per property: gtest_discover_tests splits lists. Select these
     # tests with ctest -R '\[avx2\]'.
@@ -72,6 +76,7 @@ function(furn_add_test)
       TEST_PREFIX "${ARG_FOLDER}/${ARG_NAME}[${isa}]."
       PROPERTIES LABELS "${ARG_LABELS}" TIMEOUT ${ARG_TIMEOUT}
                  ENVIRONMENT "FURN_EMBREE_CONFIG=isa=${isa}"
+      TEST_FILTER "${ARG_ISA_FILTER}"
       DISCOVERY_TIMEOUT 60)
   endforeach()
   foreach(isa IN LISTS ARG_TORCH_ISAS)
@@ -79,6 +84,7 @@ function(furn_add_test)
       TEST_PREFIX "${ARG_FOLDER}/${ARG_NAME}[torch-${isa}]."
       PROPERTIES LABELS "${ARG_LABELS}" TIMEOUT ${ARG_TIMEOUT}
                  ENVIRONMENT "FURN_TORCH_ISA=${isa}"
+      TEST_FILTER "${ARG_ISA_FILTER}"
       DISCOVERY_TIMEOUT 60)
   endforeach()
 endfunction()

@@ -414,8 +414,8 @@ TEST(Cli, ATrainingKilledMidEpochResumesToTheSameModelBytes) {
   const std::string dir = testing::ScratchDir();
   const std::string train =
       std::string(FURN_WORKBENCH_BINARY) +
-      " train --catalog procedural:4 --vocab kmeans --words 20 --azimuths 6 --vote-rooms 16 "
-      "--vote-frames 4 --vote-epochs 5 --vote-threads 1 --rooms-cache " +
+      " train --catalog procedural:4 --vocab kmeans --words 20 --azimuths 3 --vote-rooms 12 "
+      "--vote-frames 4 --vote-epochs 4 --vote-threads 1 --rooms-cache " +
       dir + "/rooms --out ";
   const RunResult whole = testing::RunCommand(train + dir + "/whole.fcm 2>&1");
   ASSERT_EQ(whole.exit_code, 0) << whole.output;
@@ -425,11 +425,11 @@ TEST(Cli, ATrainingKilledMidEpochResumesToTheSameModelBytes) {
   const std::string log = dir + "/killed.log";
   const std::string pid = testing::StartInBackground(train + dir + "/resumed.fcm", log);
   ASSERT_TRUE(testing::WaitUntil(
-      [&] { return ReadFileBytes(log).find("vote net: epoch 2/5") != std::string::npos; }, 600))
+      [&] { return ReadFileBytes(log).find("vote net: epoch 2/4") != std::string::npos; }, 600))
       << ReadFileBytes(log);
   testing::KillHard(pid);
   const std::string killed_at = ReadFileBytes(log);
-  EXPECT_EQ(killed_at.find("vote net: epoch 5/5"), std::string::npos) << "killed too late";
+  EXPECT_EQ(killed_at.find("vote net: epoch 4/4"), std::string::npos) << "killed too late";
   EXPECT_FALSE(std::filesystem::exists(dir + "/resumed.fcm"));
   ASSERT_TRUE(std::filesystem::exists(dir + "/resumed.fcm.checkpoint"));
 
@@ -437,7 +437,7 @@ TEST(Cli, ATrainingKilledMidEpochResumesToTheSameModelBytes) {
   ASSERT_EQ(resumed.exit_code, 0) << resumed.output;
   EXPECT_NE(resumed.output.find("vote net: resuming after epoch"), std::string::npos)
       << resumed.output;
-  EXPECT_EQ(resumed.output.find("vote net: epoch 1/5"), std::string::npos) << resumed.output;
+  EXPECT_EQ(resumed.output.find("vote net: epoch 1/4"), std::string::npos) << resumed.output;
   EXPECT_TRUE(ReadFileBytes(dir + "/resumed.fcm") == ReadFileBytes(dir + "/whole.fcm"));
   EXPECT_FALSE(std::filesystem::exists(dir + "/resumed.fcm.checkpoint"));
 }
@@ -531,7 +531,7 @@ TEST(Cli, TrainAsTwoSlurmTasksWritesTheLocalWorkersModel) {
 TEST(Cli, ModelEnsembleCombinesMembersOfOneTraining) {
   const std::string dir = testing::ScratchDir();
   const std::string train =
-      "train --catalog procedural:4 --vocab kmeans --words 20 --azimuths 6 --vote-rooms 10 "
+      "train --catalog procedural:4 --vocab kmeans --words 20 --azimuths 3 --vote-rooms 10 "
       "--vote-frames 2 --vote-epochs 1 --vote-threads 1 --quiet --out ";
   ASSERT_EQ(RunWorkbench(train + dir + "/m0.fcm --keep-rooms").exit_code, 0);
   ASSERT_EQ(RunWorkbench(train + dir + "/m1.fcm --vote-member 1").exit_code, 0);
