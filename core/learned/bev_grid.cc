@@ -46,14 +46,108 @@ struct BinEdges {
 // The bearing's bin, -pi..pi in kBearingBins: the rough arctangent's bin,
 // moved to the neighbour whose edges hold the point (no trigonometry per
 // point; the bin of atan2 but where rounding decides at an edge).
-int BearingBin(double u, double v) {
-  static const BinEdges edges;
-  int bin = static_cast<int>((RoughAtan2(v, u) + M_PI) / (2 * M_PI) * kBearingBins);
-  bin = std::clamp(bin, 0, kBearingBins - 1);
+constexpr double kBinsPerRadian = kBearingBins / (2 * M_PI);
+
+int RoughBin(double u, double v) {
+  return std::clamp(
+      static_cast<int>((RoughAtan2(v, u) + M_PI) * kBinsPerRadian), 0, kBearingBins - 1);
+}
+
+int ExactBin(const BinEdges& edges, int bin, double u, double v) {
   while (bin > 0 && !edges.After(bin, u, v)) --bin;
   while (bin < kBearingBins - 1 && edges.After(bin + 1, u, v)) ++bin;
   return bin;
 }
+
+const BinEdges& Edges() {
+  static const BinEdges edges;
+  return edges;
+}
+
+int BearingBin(double u, double v) { return ExactBin(Edges(), RoughBin(u, v), u, v); }
+
+// log(1 + count) / 4 of the small counts, looked up (the same values).
+struct LogCounts {
+  static constexpr int kSize = 4096;
+  float value[kSize];
+  LogCounts() {
+    for (int count = 0; count < kSize; ++count) value[count] = LogCount(static_cast<float>(count));
+  }
+  float operator()(float count) const {
+    return count < kSize ? value[static_cast<int>(count)] : LogCount(count);
+  }
+};
+
+// One image built point by point (world frame): the counts, the highest
+// point and each bearing's farthest return, then the channels finished.
+class BevRasteriser {
+ public:
+  BevRasteriser(const Eigen::Vector3f& sensor, const BevFrame& frame, const BevGridSpec& spec)
+      : edges_(Edges()),
+        left_(frame.Left()),
+        sensor_xy_(sensor.head<2>().cast<double>()),
+        farthest2_(kBearingBins, 0.0) {
+    image_.spec = spec;
+    image_.frame = frame;
+    image_.values.assign(static_cast<size_t>(kBevChannels) * spec.rows * spec.cols, 0.0f);
+  }
+
+  void Add(const Eigen::Vector3f& p) {
+    const BevFrame& frame = image_.frame;
+    const BevGridSpec& spec = image_.spec;
+    const Eigen::Vector2d xy = p.head<2>().cast<double>();
+    const Eigen::Vector2d from_sensor = xy - sensor_xy_;
+    const double u = from_sensor.dot(frame.forward), v = from_sensor.dot(left_);
+    const double range2 = u * u + v * v;
+    // The exact bin is the rough one or a neighbour (the rough arctangent
+    // errs by a sixth of a bin): a point no farther than all three cannot
+    // raise any of them.
+    const int rough = RoughBin(u, v);
+    if (rough == 0 || rough == kBearingBins - 1 ||
+        range2 > std::min({farthest2_[rough - 1], farthest2_[rough], farthest2_[rough + 1]})) {
+      const int bin = ExactBin(edges_, rough, u, v);
+      farthest2_[bin] = std::max(farthest2_[bin], range2);
+    }
+    const Eigen::Vector2d d = xy - frame.origin;  // BevFrame::CellOf
+    const int row = static_cast<int>(std::floor(d.dot(frame.forward) / spec.cell_m));
+    const int col = static_cast<int>(std::floor(d.dot(left_) / spec.cell_m + spec.cols / 2.0));
+    if (row < 0 || row >= spec.rows || col < 0 || col >= spec.cols) return;
+    if (p.z() < spec.floor_band_m) {
+      image_.At(0, row, col) += 1.0f;
+      return;
+    }
+    const auto slice = std::upper_bound(kSliceTopsM.begin(), kSliceTopsM.end(), p.z());
+    if (slice != kSliceTopsM.end())
+      image_.At(1 + static_cast<int>(slice - kSliceTopsM.begin()), row, col) += 1.0f;
+    float& top = image_.At(kBevTopChannel, row, col);
+    top = std::max(top, std::min(p.z(), 4.0f) / 2.0f);
+  }
+
+  BevImage Finish() {
+    static const LogCounts log_counts;
+    const BevGridSpec& spec = image_.spec;
+    const BevFrame& frame = image_.frame;
+    const size_t cells = static_cast<size_t>(spec.rows) * spec.cols;
+    for (size_t i = 0; i < kBevTopChannel * cells; ++i)  // the counts
+      image_.values[i] = log_counts(image_.values[i]);
+    // Seen: the cell's centre is nearer than the farthest return of its bearing.
+    for (int r = 0; r < spec.rows; ++r) {
+      for (int c = 0; c < spec.cols; ++c) {
+        const Eigen::Vector2d d = frame.WorldOf({r + 0.5, c + 0.5}, spec) - sensor_xy_;
+        const double u = d.dot(frame.forward), v = d.dot(left_);
+        image_.At(kBevSeenChannel, r, c) =
+            u * u + v * v < farthest2_[BearingBin(u, v)] ? 1.0f : 0.0f;
+      }
+    }
+    return std::move(image_);
+  }
+
+ private:
+  const BinEdges& edges_;
+  Eigen::Vector2d left_, sensor_xy_;
+  std::vector<double> farthest2_;  // squared
+  BevImage image_;
+};
 
 }  // namespace
 
@@ -116,47 +210,11 @@ BevImage RasteriseBev(const std::vector<Eigen::Vector3f>& world_points,
                       const Eigen::Vector3f& sensor,
                       const BevFrame& frame,
                       const BevGridSpec& spec) {
-  BevImage image;
-  image.spec = spec;
-  image.frame = frame;
-  image.values.assign(static_cast<size_t>(kBevChannels) * spec.rows * spec.cols, 0.0f);
-  std::vector<double> farthest2(kBearingBins, 0.0);  // squared
-  const Eigen::Vector2d left = frame.Left();
-  const Eigen::Vector2d sensor_xy = sensor.head<2>().cast<double>();
+  BevRasteriser rasteriser(sensor, frame, spec);
   for (const Eigen::Vector3f& p : world_points) {
-    if (!p.allFinite()) continue;
-    const Eigen::Vector2d from_sensor = p.head<2>().cast<double>() - sensor_xy;
-    const double u = from_sensor.dot(frame.forward), v = from_sensor.dot(left);
-    const int bin = BearingBin(u, v);
-    farthest2[bin] = std::max(farthest2[bin], u * u + v * v);
-    const Eigen::Vector2d cell = frame.CellOf(p.head<2>().cast<double>(), spec);
-    const int row = static_cast<int>(std::floor(cell.x()));
-    const int col = static_cast<int>(std::floor(cell.y()));
-    if (row < 0 || row >= spec.rows || col < 0 || col >= spec.cols) continue;
-    if (p.z() < spec.floor_band_m) {
-      image.At(0, row, col) += 1.0f;
-      continue;
-    }
-    const auto slice = std::upper_bound(kSliceTopsM.begin(), kSliceTopsM.end(), p.z());
-    if (slice != kSliceTopsM.end())
-      image.At(1 + static_cast<int>(slice - kSliceTopsM.begin()), row, col) += 1.0f;
-    image.At(kBevTopChannel, row, col) =
-        std::max(image.At(kBevTopChannel, row, col), std::min(p.z(), 4.0f) / 2.0f);
+    if (p.allFinite()) rasteriser.Add(p);
   }
-  for (int k = 0; k < kBevTopChannel; ++k) {  // the counts
-    for (int r = 0; r < spec.rows; ++r) {
-      for (int c = 0; c < spec.cols; ++c) image.At(k, r, c) = LogCount(image.At(k, r, c));
-    }
-  }
-  // Seen: the cell's centre is nearer than the farthest return of its bearing.
-  for (int r = 0; r < spec.rows; ++r) {
-    for (int c = 0; c < spec.cols; ++c) {
-      const Eigen::Vector2d d = frame.WorldOf({r + 0.5, c + 0.5}, spec) - sensor_xy;
-      const double u = d.dot(frame.forward), v = d.dot(left);
-      image.At(kBevSeenChannel, r, c) = u * u + v * v < farthest2[BearingBin(u, v)] ? 1.0f : 0.0f;
-    }
-  }
-  return image;
+  return rasteriser.Finish();
 }
 
 BevImage RasteriseScan(const std::vector<Eigen::Vector3f>& camera_points,
@@ -166,13 +224,17 @@ BevImage RasteriseScan(const std::vector<Eigen::Vector3f>& camera_points,
   const Eigen::Matrix3f rotation = world_from_camera.linear().cast<float>();
   const Eigen::Vector3f translation = world_from_camera.translation().cast<float>();
   const float max_range2 = static_cast<float>(max_range_m * max_range_m);
-  std::vector<Eigen::Vector3f> world;
-  world.reserve(camera_points.size());
+  // Each point straight into the image (no copy of the scan in the world).
+  BevRasteriser rasteriser(translation, BevFrameOf(world_from_camera), spec);
   for (const Eigen::Vector3f& p : camera_points) {
-    if (p.allFinite() && p.squaredNorm() > 0 && p.squaredNorm() <= max_range2)
-      world.push_back(rotation * p + translation);
+    if (!p.allFinite()) continue;
+    const float range2 = p.squaredNorm();
+    if (range2 > 0 && range2 <= max_range2) {
+      const Eigen::Vector3f world = rotation * p + translation;
+      if (world.allFinite()) rasteriser.Add(world);
+    }
   }
-  return RasteriseBev(world, translation, BevFrameOf(world_from_camera), spec);
+  return rasteriser.Finish();
 }
 
 BevObject MirroredObject(const BevObject& object, const BevFrame& frame) {

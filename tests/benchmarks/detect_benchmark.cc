@@ -20,6 +20,8 @@
 
 #include "core/detector/detector.h"
 #include "core/geometry/scan_fusion.h"
+#include "core/learned/bev_grid.h"
+#include "core/learned/vote_net.h"
 #include "db/dataset_db.h"
 #include "workbench/formats/scan_file.h"
 #include "workbench/pipelines/import_real.h"
@@ -170,6 +172,30 @@ BENCHMARK(BM_DetectFrame)
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime()
     ->Iterations(81);
+
+// The vote network's input alone (RasteriseScan: the bird's-eye-view image
+// of a frame's points in range, its "seen" channel by bearing), over the
+// same dataset frames as BM_DetectFrame with their known poses: the
+// network branch's first stage in detection and the training's
+// rasterising stage.
+void BM_RasteriseScan(benchmark::State& state) {
+  const std::string db_path = FromEnv("FURN_BENCH_DB", FURN_SOURCE_DIR "/out/synth.db");
+  if (!std::filesystem::exists(db_path)) {
+    state.SkipWithError(("needs " + db_path + " (run the main job, or set FURN_BENCH_DB)").c_str());
+    return;
+  }
+  const std::vector<LoadedScan> scans = EveryThirdFrame(db_path, FrameFusion{});
+  const VoteNetOptions net;  // the default grid and range
+  size_t next = 0;
+  for (auto _ : state) {
+    const DetectionInput& input = scans[next++ % scans.size()].input;
+    const BevImage image =
+        RasteriseScan(input.points, *input.world_from_camera, net.range_m, net.grid);
+    benchmark::DoNotOptimize(image.values.data());
+  }
+  state.counters["frames"] = static_cast<double>(scans.size());
+}
+BENCHMARK(BM_RasteriseScan)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(270);
 
 // Detection in the real scans of data/real/ (issue 17: median <= 150 ms on
 // a 640x480 real frame, 2 cores), each loaded as `detect` would: the floor

@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 namespace furn {
@@ -200,6 +201,52 @@ TEST(BevGrid, SeenChannelIsThatOfTheExactBearings) {
     }
   }
   EXPECT_GT(seen, spec.rows * spec.cols / 4);
+}
+
+// A scan is rasterised point by point (no copy in the world frame): the
+// image of its finite points within range, moved into the world, as
+// RasteriseBev makes it; a cell of more points than the counts' look-up
+// table holds gets log(1 + count) / 4 all the same.
+TEST(BevGrid, RasteriseScanIsTheImageOfItsPointsInRange) {
+  const Eigen::Isometry3d pose = LevelCamera() * Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitX());
+  std::vector<Eigen::Vector3f> camera;
+  uint64_t state = 99;
+  auto uniform = [&state] {
+    state = state * 6364136223846793005ull + 1442695040888963407ull;
+    return static_cast<float>(static_cast<double>(state >> 11) / 9007199254740992.0);
+  };
+  for (int i = 0; i < 30000; ++i)
+    camera.emplace_back(4 * uniform() - 2, 2 * uniform() - 1, 5 * uniform());
+  for (int i = 0; i < 5000; ++i) camera.emplace_back(0.0f, 0.0f, 2.0f);  // one cell
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  camera.emplace_back(nan, 0.0f, 1.0f);
+  camera.emplace_back(0.0f, 0.0f, 0.0f);
+  camera.emplace_back(0.0f, 0.0f, std::numeric_limits<float>::infinity());
+  const double range_m = 3.6;
+  const BevGridSpec spec;
+  const BevImage image = RasteriseScan(camera, pose, range_m, spec);
+
+  const Eigen::Matrix3f rotation = pose.linear().cast<float>();
+  const Eigen::Vector3f translation = pose.translation().cast<float>();
+  std::vector<Eigen::Vector3f> world;
+  for (const Eigen::Vector3f& p : camera) {
+    if (p.allFinite() && p.squaredNorm() > 0 && p.squaredNorm() <= range_m * range_m)
+      world.push_back(rotation * p + translation);
+  }
+  ASSERT_GT(world.size(), 10000u);
+  const BevImage expected = RasteriseBev(world, translation, BevFrameOf(pose), spec);
+  ASSERT_EQ(image.values.size(), expected.values.size());
+  EXPECT_TRUE(image.values == expected.values);
+
+  const Eigen::Vector3f dense = rotation * Eigen::Vector3f(0, 0, 2) + translation;
+  const Eigen::Vector2d cell = image.frame.CellOf(dense.head<2>().cast<double>(), spec);
+  float most = 0;
+  for (int k = 0; k < kBevTopChannel; ++k)
+    most = std::max(most,
+                    image.At(k,
+                             static_cast<int>(std::floor(cell.x())),
+                             static_cast<int>(std::floor(cell.y()))));
+  EXPECT_GE(most, std::log1p(5000.0f) / 4);
 }
 
 TEST(BevGrid, SpecChecksNameTheRule) {
