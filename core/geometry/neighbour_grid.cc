@@ -1,7 +1,7 @@
 #include "core/geometry/neighbour_grid.h"
 
 #include <algorithm>
-#include <numeric>
+#include <array>
 
 #include "core/util/error.h"
 
@@ -10,36 +10,65 @@ namespace furn {
 NeighbourGrid::NeighbourGrid(const std::vector<Eigen::Vector3f>& points, float cell)
     : points_(points), inverse_cell_(1.0f / cell) {
   Require(cell > 0, "neighbour grid cell must be > 0");
-  std::vector<uint64_t> keys(points.size());
-  for (size_t i = 0; i < points.size(); ++i) keys[i] = Key(CellOf(points[i]));
+  // Points by cell key, ties by index: the order a stable sort by key gives.
+  std::vector<std::pair<uint64_t, int>> keyed(points.size());
+  for (size_t i = 0; i < points.size(); ++i)
+    keyed[i] = {Key(CellOf(points[i])), static_cast<int>(i)};
+  std::sort(keyed.begin(), keyed.end());
   order_.resize(points.size());
-  std::iota(order_.begin(), order_.end(), 0);
-  std::stable_sort(order_.begin(), order_.end(), [&](int a, int b) { return keys[a] < keys[b]; });
-  cells_.reserve(points.size() / 4 + 1);
   cell_of_point_.resize(points.size());
-  for (size_t k = 0; k < order_.size();) {
+  for (size_t k = 0; k < keyed.size();) {
     size_t end = k + 1;
-    while (end < order_.size() && keys[order_[end]] == keys[order_[k]]) ++end;
+    while (end < keyed.size() && keyed[end].first == keyed[k].first) ++end;
     const int cell = static_cast<int>(ranges_.size());
     ranges_.emplace_back(static_cast<int>(k), static_cast<int>(end));
-    cells_.emplace(keys[order_[k]], cell);
-    for (size_t m = k; m < end; ++m) cell_of_point_[order_[m]] = cell;
+    cell_keys_.push_back(keyed[k].first);
+    for (size_t m = k; m < end; ++m) {
+      order_[m] = keyed[m].second;
+      cell_of_point_[keyed[m].second] = cell;
+    }
     k = end;
   }
-  neighbour_begin_.reserve(ranges_.size() + 1);
-  for (const auto& [begin, end] : ranges_) {
+  // A cell's occupied neighbours in the order dz, dy, dx (outer to inner).
+  // Within the grid's range a neighbour's key is the cell's key plus a
+  // fixed step (the key packs x, y, z into separate bit fields, z lowest),
+  // so the three cells of a (dx, dy) column are consecutive keys, and as
+  // the cells go up in key each column's first key does too: one forward
+  // cursor per column.
+  constexpr int kColumns = 9;
+  std::array<uint64_t, kColumns> step;  // from a cell's key to its column's lowest (dz = -1)
+  std::array<size_t, kColumns> cursor{};
+  for (int dy = -1; dy <= 1; ++dy) {
+    for (int dx = -1; dx <= 1; ++dx) {
+      step[(dy + 1) * 3 + (dx + 1)] = (static_cast<uint64_t>(static_cast<int64_t>(dx)) << 42) +
+                                      (static_cast<uint64_t>(static_cast<int64_t>(dy)) << 21) -
+                                      1;
+    }
+  }
+  const size_t cells = cell_keys_.size();
+  neighbour_begin_.reserve(cells + 1);
+  std::array<int, 27> found;  // [dz + 1][dy + 1][dx + 1], -1 when empty
+  for (size_t c = 0; c < cells; ++c) {
     neighbour_begin_.push_back(static_cast<int>(neighbour_cells_.size()));
-    const Eigen::Vector3i centre = CellOf(points[order_[begin]]);
-    for (int dz = -1; dz <= 1; ++dz) {
-      for (int dy = -1; dy <= 1; ++dy) {
-        for (int dx = -1; dx <= 1; ++dx) {
-          const auto it = cells_.find(Key(centre + Eigen::Vector3i(dx, dy, dz)));
-          if (it != cells_.end()) neighbour_cells_.push_back(it->second);
-        }
-      }
+    found.fill(-1);
+    for (int column = 0; column < kColumns; ++column) {
+      const uint64_t low = cell_keys_[c] + step[column];
+      size_t& at = cursor[column];
+      while (at < cells && cell_keys_[at] < low) ++at;
+      for (size_t k = at; k < cells && k < at + 3 && cell_keys_[k] <= low + 2; ++k)
+        found[static_cast<int>(cell_keys_[k] - low) * 9 + column] = static_cast<int>(k);
+    }
+    for (int n : found) {
+      if (n >= 0) neighbour_cells_.push_back(n);
     }
   }
   neighbour_begin_.push_back(static_cast<int>(neighbour_cells_.size()));
+}
+
+int NeighbourGrid::FindCell(const Eigen::Vector3i& cell) const {
+  const uint64_t key = Key(cell);
+  const auto it = std::lower_bound(cell_keys_.begin(), cell_keys_.end(), key);
+  return it != cell_keys_.end() && *it == key ? static_cast<int>(it - cell_keys_.begin()) : -1;
 }
 
 }  // namespace furn

@@ -12,7 +12,6 @@
 #include <Eigen/Core>
 #include <cmath>
 #include <cstdint>
-#include <unordered_map>
 #include <utility>
 #include <vector>
 
@@ -65,9 +64,9 @@ class NeighbourGrid {
     for (int dz = -1; dz <= 1; ++dz) {
       for (int dy = -1; dy <= 1; ++dy) {
         for (int dx = -1; dx <= 1; ++dx) {
-          const auto it = cells_.find(Key(centre + Eigen::Vector3i(dx, dy, dz)));
-          if (it == cells_.end()) continue;
-          const auto& [begin, end] = ranges_[it->second];
+          const int cell = FindCell(centre + Eigen::Vector3i(dx, dy, dz));
+          if (cell < 0) continue;
+          const auto& [begin, end] = ranges_[cell];
           for (int k = begin; k < end; ++k) {
             const int j = order_[k];
             const float d2 = (points_[j] - p).squaredNorm();
@@ -85,12 +84,14 @@ class NeighbourGrid {
                            static_cast<int>(std::floor(p.z() * inverse_cell_)));
   }
   static uint64_t Key(const Eigen::Vector3i& c) { return VoxelKey(c); }
+  // The index of an occupied cell, or -1.
+  int FindCell(const Eigen::Vector3i& cell) const;
 
   const std::vector<Eigen::Vector3f>& points_;
   float inverse_cell_;
   std::vector<int> order_;                   // point indices, grouped by cell
   std::vector<std::pair<int, int>> ranges_;  // per occupied cell: [begin, end) in order_
-  std::unordered_map<uint64_t, int> cells_;  // cell key -> index into ranges_
+  std::vector<uint64_t> cell_keys_;          // per cell, ascending: its key
   std::vector<int> cell_of_point_;           // index into ranges_
   std::vector<int> neighbour_begin_;         // per cell, into neighbour_cells_ (+1 sentinel)
   std::vector<int> neighbour_cells_;         // occupied cells among the 27 around each
