@@ -50,8 +50,9 @@ std::vector<std::vector<int>> GrowRegions(const PointCloud& cloud,
           segment[head],
           delta,
           [&](int cell) { return unlabelled[cell] == 0; },  // nothing left to take there
+          [&](int q) { return label[q] != -1; },            // taken
           [&](int q, float) {
-            if (label[q] != -1 || cloud.normals[q].dot(seed_normal) < min_cosine) return;
+            if (cloud.normals[q].dot(seed_normal) < min_cosine) return;
             label[q] = next_label;
             --unlabelled[grid.CellOfPoint(q)];
             segment.push_back(q);

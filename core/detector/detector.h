@@ -523,6 +523,7 @@ struct FittedHypothesis {
 };
 
 class StageTimer;
+class OccupancyHandoff;
 
 class Detector {
  public:
@@ -545,6 +546,11 @@ class Detector {
   PreparedScan Prepare(const DetectionInput& input) const;
   PreparedScan PlaceScan(const DetectionInput& input) const;
   void SegmentScan(const DetectionInput& input, PreparedScan* scan) const;
+  // The same, leaving the occupancy grid to whichever thread comes to it
+  // first (`handoff`: Detect's network branch may build it).
+  void SegmentScan(const DetectionInput& input,
+                   PreparedScan* scan,
+                   OccupancyHandoff* handoff) const;
   VoteMaps Vote(const PreparedScan& scan) const;
   // Maxima of every class, strongest first within a class; `grids` (may be
   // null) gets each class grid's threshold, and its values when keep_values.

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <array>
+#include <atomic>
 #include <chrono>
 #include <map>
 #include <memory>
@@ -37,6 +38,29 @@ class StageTimer {
   StageTimings* out_;
   Clock::time_point start_ = Clock::now();
   Clock::time_point last_ = start_;
+};
+
+// A scan's occupancy grid, built by whichever of two threads is free first:
+// Detect's segmentation branch offers the scan's points in the world frame
+// before it segments them; the network's branch, when it ends first (real
+// frames: the segmentation is the longer), builds the grid, else the
+// segmentation branch does once it is done. The grid is the same whoever
+// builds it (its construction is serial or split-independent).
+class OccupancyHandoff {
+ public:
+  void Offer(std::vector<Eigen::Vector3f> world, const Eigen::Vector3f& sensor, double voxel_m);
+  // Builds the grid when it was offered and no other thread has claimed
+  // it, its time as kOccupancy in `timings`; true when this call built it.
+  bool BuildIfFree(StageTimings* timings);
+  // After both threads ended.
+  std::optional<OccupancyGrid> Take() { return std::move(grid_); }
+
+ private:
+  std::atomic<bool> offered_{false}, claimed_{false};
+  std::vector<Eigen::Vector3f> world_;
+  Eigen::Vector3f sensor_ = Eigen::Vector3f::Zero();
+  double voxel_m_ = 0;
+  std::optional<OccupancyGrid> grid_;
 };
 
 struct Detector::Impl {

@@ -228,7 +228,15 @@ Proposals LearnedSource::Propose(const DetectionInput& input,
     network_timer.Lap(DetectionStage::kMaxima);
   };
   if (options.learned_fit && options.torch_threads == 1) {
-    RunBeside(network, [&] { detector_.SegmentScan(input, prepared); });
+    // The branch that ends first builds the occupancy grid.
+    OccupancyHandoff handoff;
+    RunBeside(
+        [&] {
+          network();
+          handoff.BuildIfFree(&network_ms);
+        },
+        [&] { detector_.SegmentScan(input, prepared, &handoff); });
+    prepared->occupancy = handoff.Take();
   } else {  // a network on every core has none to share (measured: slower beside)
     network();
     if (options.learned_fit) detector_.SegmentScan(input, prepared);

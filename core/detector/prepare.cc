@@ -198,7 +198,33 @@ PreparedScan Detector::PlaceScan(const DetectionInput& input) const {
   return scan;
 }
 
-void Detector::SegmentScan(const DetectionInput& input, PreparedScan* scan_out) const {
+void OccupancyHandoff::Offer(std::vector<Eigen::Vector3f> world,
+                             const Eigen::Vector3f& sensor,
+                             double voxel_m) {
+  world_ = std::move(world);
+  sensor_ = sensor;
+  voxel_m_ = voxel_m;
+  offered_.store(true, std::memory_order_release);
+}
+
+bool OccupancyHandoff::BuildIfFree(StageTimings* timings) {
+  if (!offered_.load(std::memory_order_acquire) || claimed_.exchange(true)) return false;
+  StageTimer timer(timings);
+  // Occupancy for verification, from every point in range (floor included).
+  grid_.emplace(ThinOut(world_, voxel_m_), sensor_, voxel_m_);
+  timer.Lap(DetectionStage::kOccupancy);
+  return true;
+}
+
+void Detector::SegmentScan(const DetectionInput& input, PreparedScan* scan) const {
+  OccupancyHandoff handoff;
+  SegmentScan(input, scan, &handoff);
+  scan->occupancy = handoff.Take();
+}
+
+void Detector::SegmentScan(const DetectionInput& input,
+                           PreparedScan* scan_out,
+                           OccupancyHandoff* handoff) const {
   const Impl& impl = *impl_;
   const DetectorOptions& options = impl.options;
   PreparedScan& scan = *scan_out;
@@ -213,6 +239,7 @@ void Detector::SegmentScan(const DetectionInput& input, PreparedScan* scan_out) 
     world.push_back(rotation * p + translation);
     if (world.back().z() >= options.floor_band_m) above_floor.push_back(world.back());
   }
+  handoff->Offer(std::move(world), scan.sensor, options.occupancy_voxel_m);
   const double to_world_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
 
@@ -221,9 +248,10 @@ void Detector::SegmentScan(const DetectionInput& input, PreparedScan* scan_out) 
   SegmentTimings segment_timings;
   scan.view =
       SegmentView(above_floor, scan.sensor, impl.model.options, &segment_timings, !impl.learned);
-  StageTimer timer(&scan.timings_ms);  // from here: structure, depth image, occupancy
+  const auto segmented = std::chrono::steady_clock::now();
   scan.timings_ms.Add(DetectionStage::kPreprocess, to_world_ms + segment_timings.preprocess_ms);
   scan.timings_ms.Add(DetectionStage::kSegment, segment_timings.segment_ms);
+  const size_t segment_entry = scan.timings_ms.stages.size() - 1;  // walls, depth image to come
   if (!impl.learned) scan.timings_ms.Add(DetectionStage::kFeatures, segment_timings.features_ms);
   scan.segment_of_point.assign(scan.view.cloud.size(), -1);
   for (size_t segment = 0; segment < scan.view.segments.size(); ++segment) {
@@ -236,10 +264,10 @@ void Detector::SegmentScan(const DetectionInput& input, PreparedScan* scan_out) 
   scan.structure = FindStructure(
       scan.view, options.max_segment_extent_m, impl.structure_height_m, &scan.structure_segment);
   KeepDepthImage(input, options.max_range_m, &scan);
-  // Occupancy for verification, from every point in range (floor included).
-  scan.occupancy.emplace(
-      ThinOut(world, options.occupancy_voxel_m), scan.sensor, options.occupancy_voxel_m);
-  timer.Lap(DetectionStage::kOccupancy);
+  scan.timings_ms.stages[segment_entry].ms +=
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - segmented)
+          .count();
+  handoff->BuildIfFree(&scan.timings_ms);
 }
 
 }  // namespace furn

@@ -24,6 +24,8 @@ void FloorOptions::Check() const {
           "floor distance " + std::to_string(distance_m) + " m must be in 0.002..0.2");
   Require(iterations >= 10 && iterations <= 100000,
           "floor RANSAC iterations " + std::to_string(iterations) + " must be in 10..100000");
+  Require(sample_points >= 1000 && sample_points <= 1000000,
+          "floor sample points " + std::to_string(sample_points) + " must be in 1000..1000000");
   Require(max_tilt_deg >= 1 && max_tilt_deg <= 89, "floor max tilt must be in 1..89 degrees");
   Require(min_fraction > 0 && min_fraction < 1, "floor min fraction must be in (0, 1)");
   Require(min_camera_height_m >= 0 && max_camera_height_m > min_camera_height_m,
@@ -178,7 +180,8 @@ FloorEstimate SearchFloor(const std::vector<Eigen::Vector3f>& points_in_camera,
     return estimate;
   }
   // RANSAC on a fixed subsample keeps it fast and deterministic.
-  const size_t stride = std::max<size_t>(1, finite.size() / 20000);
+  const size_t stride =
+      std::max<size_t>(1, finite.size() / static_cast<size_t>(options.sample_points));
   std::vector<Eigen::Vector3f> sample;
   for (size_t i = 0; i < finite.size(); i += stride) sample.push_back(finite[i]);
   FloorSearch search(sample, options);

@@ -38,6 +38,16 @@ class NeighbourGrid {
   // (a caller that knows a cell holds nothing more for it).
   template <class Skip, class Visit>
   void ForEachNeighbourOf(int i, float radius, Skip&& skip_cell, Visit&& visit) const {
+    ForEachNeighbourOf(
+        i, radius, skip_cell, [](int) { return false; }, visit);
+  }
+
+  // The same, skipping also the points for which skip_point(j) is true
+  // before their distance is computed (region growing: points already
+  // taken).
+  template <class SkipCell, class SkipPoint, class Visit>
+  void ForEachNeighbourOf(
+      int i, float radius, SkipCell&& skip_cell, SkipPoint&& skip_point, Visit&& visit) const {
     const float radius2 = radius * radius;
     const Eigen::Vector3f& p = points_[i];
     const int cell = cell_of_point_[i];
@@ -46,6 +56,7 @@ class NeighbourGrid {
       const auto& [begin, end] = ranges_[neighbour_cells_[n]];
       for (int k = begin; k < end; ++k) {
         const int j = order_[k];
+        if (skip_point(j)) continue;
         const float d2 = (points_[j] - p).squaredNorm();
         if (d2 <= radius2) visit(j, d2);
       }

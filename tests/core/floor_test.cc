@@ -76,5 +76,27 @@ TEST(EstimateFloor, ReturnsTheFloorOrWhyNotWithoutThrowing) {
   EXPECT_NE(out_of_range.message.find("at least 100 are needed"), std::string::npos);
 }
 
+// floor.sample_points: RANSAC draws from about that many points (every
+// k-th); a smaller sample finds the same floor here, and a size outside
+// 1000..1000000 is refused by name.
+TEST(FindFloor, SampleSizeIsAnOptionWithinItsRange) {
+  const std::vector<Eigen::Vector3f> scan = FloorScan(true);
+  ASSERT_GT(scan.size(), 15000u);
+  FloorOptions small;
+  small.sample_points = 2000;
+  const Eigen::Isometry3d full = FindFloor(scan, FloorOptions{});
+  const Eigen::Isometry3d sampled = FindFloor(scan, small);
+  EXPECT_NEAR(sampled.translation().z(), full.translation().z(), 0.01);
+  EXPECT_GT((sampled.linear() * Eigen::Vector3d::UnitZ())
+                .dot(full.linear() * Eigen::Vector3d::UnitZ()),
+            std::cos(0.5 * M_PI / 180));
+  for (int bad : {999, 1000001}) {
+    FloorOptions options;
+    options.sample_points = bad;
+    EXPECT_EQ(testing::ErrorOf([&] { FindFloor(scan, options); }),
+              "floor sample points " + std::to_string(bad) + " must be in 1000..1000000");
+  }
+}
+
 }  // namespace
 }  // namespace furn

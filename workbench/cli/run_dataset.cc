@@ -340,6 +340,11 @@ struct DatasetCommands {
                      "Floor search: largest angle of the floor to the camera's up (deg)")
         ->capture_default_str();
     floors
+        ->add_option("--floor-sample",
+                     floor_options.sample_points,
+                     "Floor search: RANSAC draws from about this many of the points")
+        ->capture_default_str();
+    floors
         ->add_option("--floor-min-fraction",
                      floor_options.min_fraction,
                      "Floor search: the floor's share of the points lower than the camera")

@@ -60,6 +60,10 @@ void ForEachDetectorOption(Options* options, Visit&& visit) {
           "floor.distance_m", "--floor-distance", "Floor search: RANSAC inlier distance (m)"},
       o.floor.distance_m);
   visit(DetectorOptionInfo{"floor.iterations", "", ""}, o.floor.iterations);
+  visit(DetectorOptionInfo{"floor.sample_points",
+                           "--floor-sample",
+                           "Floor search: RANSAC draws from about this many of the points"},
+        o.floor.sample_points);
   visit(DetectorOptionInfo{"floor.max_tilt_deg",
                            "--floor-max-tilt",
                            "Floor search: largest angle of the floor to the camera's up (deg)"},
