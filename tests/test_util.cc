@@ -21,9 +21,12 @@ namespace {
 
 std::string ScratchDirFor(const std::string& base) {
   std::string name = base;
-  // The same test run under a forced Embree ISA (tests/CMakeLists.txt) runs
-  // alongside the plain one: it gets a folder of its own.
-  if (const char* config = std::getenv("FURN_EMBREE_CONFIG"); config != nullptr && *config) {
+  // The same test run under a forced Embree or torch ISA (furn_add_test's
+  // EMBREE_ISAS, TORCH_ISAS) runs alongside the plain one: it gets a folder
+  // of its own (a shared one was seen to fail the torch-avx2 run).
+  for (const char* variable : {"FURN_EMBREE_CONFIG", "FURN_TORCH_ISA"}) {
+    const char* config = std::getenv(variable);
+    if (config == nullptr || *config == 0) continue;
     name += "@";
     for (const char* c = config; *c; ++c) {
       const bool plain = std::isalnum(static_cast<unsigned char>(*c)) || *c == '.';

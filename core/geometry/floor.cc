@@ -1,14 +1,13 @@
 #include "core/geometry/floor.h"
 
-#include <pcl/ModelCoefficients.h>
+#include <emmintrin.h>
 #include <pcl/console/print.h>
 #include <pcl/features/normal_3d.h>
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
-#include <pcl/sample_consensus/method_types.h>
-#include <pcl/sample_consensus/model_types.h>
+#include <pcl/sample_consensus/ransac.h>
+#include <pcl/sample_consensus/sac_model_perpendicular_plane.h>
 #include <pcl/search/kdtree.h>
-#include <pcl/segmentation/sac_segmentation.h>
 
 #include <cmath>
 #include <cstdio>
@@ -51,6 +50,103 @@ Eigen::Isometry3d WorldOfFloor(const Eigen::Vector3d& normal, double offset) {
 
 namespace {
 
+// The largest float f with f < threshold: a float d has d < threshold
+// exactly when d <= f.
+float LargestFloatBelow(double threshold) {
+  float f = static_cast<float>(threshold);
+  while (static_cast<double>(f) >= threshold) f = std::nextafter(f, -INFINITY);
+  return f;
+}
+
+}  // namespace
+
+size_t CountNearPlane(const std::vector<float>& x,
+                      const std::vector<float>& y,
+                      const std::vector<float>& z,
+                      const Eigen::Vector4f& coefficients,
+                      double threshold) {
+  Require(x.size() == y.size() && x.size() == z.size(), "CountNearPlane: arrays differ in size");
+  const __m128 c0 = _mm_set1_ps(coefficients[0]), c1 = _mm_set1_ps(coefficients[1]);
+  const __m128 c2 = _mm_set1_ps(coefficients[2]), c3 = _mm_set1_ps(coefficients[3]);
+  const float limit = LargestFloatBelow(threshold);
+  const __m128 limit4 = _mm_set1_ps(limit);
+  const __m128 sign = _mm_set1_ps(-0.0f);
+  size_t count = 0;
+  size_t i = 0;
+  for (; i + 4 <= x.size(); i += 4) {
+    const __m128 xz =
+        _mm_add_ps(_mm_mul_ps(c0, _mm_loadu_ps(&x[i])), _mm_mul_ps(c2, _mm_loadu_ps(&z[i])));
+    const __m128 y1 = _mm_add_ps(_mm_mul_ps(c1, _mm_loadu_ps(&y[i])), c3);
+    const __m128 distance = _mm_andnot_ps(sign, _mm_add_ps(xz, y1));
+    const int within = _mm_movemask_ps(_mm_cmple_ps(distance, limit4));
+    count += static_cast<size_t>(__builtin_popcount(static_cast<unsigned>(within)));
+  }
+  for (; i < x.size(); ++i) {
+    const float xz = coefficients[0] * x[i] + coefficients[2] * z[i];
+    const float y1 = coefficients[1] * y[i] + coefficients[3];
+    count += std::abs(xz + y1) <= limit;
+  }
+  return count;
+}
+
+namespace {
+
+// PCL's plane perpendicular to an axis, with its inlier count (RANSAC's
+// inner loop: every iteration counts the points within the threshold)
+// by CountNearPlane over a copy of the points in three arrays.
+class CountedPerpendicularPlane : public pcl::SampleConsensusModelPerpendicularPlane<pcl::PointXYZ> {
+ public:
+  CountedPerpendicularPlane(const pcl::PointCloud<pcl::PointXYZ>::ConstPtr& cloud,
+                            const pcl::Indices& indices)
+      : pcl::SampleConsensusModelPerpendicularPlane<pcl::PointXYZ>(cloud, indices) {
+    const size_t n = indices.size();
+    x_.resize(n);
+    y_.resize(n);
+    z_.resize(n);
+    for (size_t i = 0; i < n; ++i) {
+      const pcl::PointXYZ& p = (*cloud)[indices[i]];
+      x_[i] = p.x;
+      y_[i] = p.y;
+      z_[i] = p.z;
+    }
+  }
+
+  std::size_t countWithinDistance(const Eigen::VectorXf& coefficients,
+                                  const double threshold) const override {
+    if (!isModelValid(coefficients)) return 0;
+    return CountNearPlane(x_, y_, z_, coefficients.head<4>(), threshold);
+  }
+
+ private:
+  std::vector<float> x_, y_, z_;
+};
+
+// A plane and its inliers, as PCL's SACSegmentation finds it (RANSAC with
+// the fixed seed, then the coefficients refined on the inliers and the
+// inliers taken again), with the counted model above.
+struct RansacPlane {
+  Eigen::VectorXf coefficients;
+  pcl::Indices inliers;
+};
+std::optional<RansacPlane> FindRansacPlane(const pcl::PointCloud<pcl::PointXYZ>::ConstPtr& cloud,
+                                           const pcl::Indices& indices,
+                                           const FloorOptions& options) {
+  auto model = std::make_shared<CountedPerpendicularPlane>(cloud, indices);
+  model->setAxis(Eigen::Vector3f(0, -1, 0));  // camera up
+  model->setEpsAngle(options.max_tilt_deg * M_PI / 180);
+  pcl::RandomSampleConsensus<pcl::PointXYZ> ransac(model, options.distance_m);
+  ransac.setMaxIterations(options.iterations);
+  if (!ransac.computeModel(0)) return std::nullopt;
+  RansacPlane plane;
+  pcl::Indices inliers;
+  ransac.getInliers(inliers);
+  Eigen::VectorXf coefficients(4);
+  ransac.getModelCoefficients(coefficients);
+  model->optimizeModelCoefficients(inliers, coefficients, plane.coefficients);
+  model->selectWithinDistance(plane.coefficients, options.distance_m, plane.inliers);
+  return plane;
+}
+
 // Planes RANSAC draws, one after another with the last one's points removed.
 constexpr int kPlaneAttempts = 6;
 
@@ -63,14 +159,6 @@ class FloorSearch {
     // PCL prints its own complaints when a plane is not found; ours is the
     // one line the user sees.
     pcl::console::setVerbosityLevel(pcl::console::L_ALWAYS);
-    ransac_.setOptimizeCoefficients(true);
-    ransac_.setModelType(pcl::SACMODEL_PERPENDICULAR_PLANE);
-    ransac_.setMethodType(pcl::SAC_RANSAC);
-    ransac_.setAxis(Eigen::Vector3f(0, -1, 0));  // camera up
-    ransac_.setEpsAngle(options.max_tilt_deg * M_PI / 180);
-    ransac_.setDistanceThreshold(options.distance_m);
-    ransac_.setMaxIterations(options.iterations);
-    ransac_.setInputCloud(cloud_);
   }
 
   // Planes among the `candidates` RANSAC may draw from, largest first; the
@@ -80,19 +168,16 @@ class FloorSearch {
   std::optional<Eigen::Isometry3d> Among(const std::vector<bool>& candidates) {
     std::vector<bool> removed(sample_.size(), false);
     for (int attempt = 0; attempt < kPlaneAttempts; ++attempt) {
-      auto indices = pcl::make_shared<pcl::Indices>();
+      pcl::Indices indices;
       for (size_t i = 0; i < sample_.size(); ++i) {
-        if (!removed[i] && candidates[i]) indices->push_back(static_cast<int>(i));
+        if (!removed[i] && candidates[i]) indices.push_back(static_cast<int>(i));
       }
-      if (indices->size() < 3) break;
-      ransac_.setIndices(indices);
-      pcl::PointIndices inliers;
-      pcl::ModelCoefficients coefficients;
-      ransac_.segment(inliers, coefficients);
-      if (coefficients.values.size() != 4) break;
-      Eigen::Vector3d normal(
-          coefficients.values[0], coefficients.values[1], coefficients.values[2]);
-      double offset = coefficients.values[3];
+      if (indices.size() < 3) break;
+      const std::optional<RansacPlane> found = FindRansacPlane(cloud_, indices, options_);
+      if (!found || found->coefficients.size() != 4) break;
+      const Eigen::VectorXf& coefficients = found->coefficients;
+      Eigen::Vector3d normal(coefficients[0], coefficients[1], coefficients[2]);
+      double offset = coefficients[3];
       const double length = normal.norm();
       normal /= length;
       offset /= length;
@@ -108,7 +193,7 @@ class FloorSearch {
         if (plane.support < options_.min_fraction * plane.lower) break;
         if (plane.below < 0.02 * sample_.size()) return WorldOfFloor(normal, offset);
       }
-      for (int i : inliers.indices) removed[i] = true;
+      for (int i : found->inliers) removed[i] = true;
     }
     return std::nullopt;
   }
@@ -160,30 +245,37 @@ class FloorSearch {
   const std::vector<Eigen::Vector3f>& sample_;
   const FloorOptions& options_;
   pcl::PointCloud<pcl::PointXYZ>::Ptr cloud_;
-  pcl::SACSegmentation<pcl::PointXYZ> ransac_;
 };
 
 }  // namespace
 
-FloorEstimate SearchFloor(const std::vector<Eigen::Vector3f>& points_in_camera,
-                          const FloorOptions& options) {
+namespace {
+
+// The floor search on the points that pass `keep`: RANSAC on a fixed
+// subsample (every k-th of them, about options.sample_points) keeps it fast
+// and deterministic. The subsample is taken in one pass, without copying
+// the kept points first.
+template <class Keep>
+FloorEstimate SearchFloorAmong(const std::vector<Eigen::Vector3f>& points_in_camera,
+                               const FloorOptions& options,
+                               Keep&& keep) {
   options.Check();
-  std::vector<Eigen::Vector3f> finite;
-  finite.reserve(points_in_camera.size());
-  for (const Eigen::Vector3f& p : points_in_camera) {
-    if (p.allFinite()) finite.push_back(p);
-  }
+  size_t kept = 0;
+  for (const Eigen::Vector3f& p : points_in_camera) kept += keep(p);
   FloorEstimate estimate;
-  if (finite.size() < 100) {
+  if (kept < 100) {
     estimate.message =
-        "floor: " + std::to_string(finite.size()) + " finite points; at least 100 are needed";
+        "floor: " + std::to_string(kept) + " finite points; at least 100 are needed";
     return estimate;
   }
-  // RANSAC on a fixed subsample keeps it fast and deterministic.
-  const size_t stride =
-      std::max<size_t>(1, finite.size() / static_cast<size_t>(options.sample_points));
+  const size_t stride = std::max<size_t>(1, kept / static_cast<size_t>(options.sample_points));
   std::vector<Eigen::Vector3f> sample;
-  for (size_t i = 0; i < finite.size(); i += stride) sample.push_back(finite[i]);
+  sample.reserve(kept / stride + 1);
+  size_t k = 0;
+  for (const Eigen::Vector3f& p : points_in_camera) {
+    if (!keep(p)) continue;
+    if (k++ % stride == 0) sample.push_back(p);
+  }
   FloorSearch search(sample, options);
   std::optional<Eigen::Isometry3d> floor = search.Among(std::vector<bool>(sample.size(), true));
   // A small floor among large walls (a real room seen level) is rarely drawn
@@ -205,6 +297,14 @@ FloorEstimate SearchFloor(const std::vector<Eigen::Vector3f>& points_in_camera,
   return estimate;
 }
 
+}  // namespace
+
+FloorEstimate SearchFloor(const std::vector<Eigen::Vector3f>& points_in_camera,
+                          const FloorOptions& options) {
+  return SearchFloorAmong(
+      points_in_camera, options, [](const Eigen::Vector3f& p) { return p.allFinite(); });
+}
+
 Eigen::Isometry3d FindFloor(const std::vector<Eigen::Vector3f>& points_in_camera,
                             const FloorOptions& options) {
   const FloorEstimate estimate = SearchFloor(points_in_camera, options);
@@ -216,12 +316,9 @@ FloorEstimate EstimateFloor(const std::vector<Eigen::Vector3f>& points_in_camera
                             const FloorOptions& options,
                             double search_range_m) {
   const float range2 = static_cast<float>(search_range_m * search_range_m);
-  std::vector<Eigen::Vector3f> near;
-  near.reserve(points_in_camera.size());
-  for (const Eigen::Vector3f& p : points_in_camera) {
-    if (p.allFinite() && p.squaredNorm() > 0 && p.squaredNorm() <= range2) near.push_back(p);
-  }
-  return SearchFloor(near, options);
+  return SearchFloorAmong(points_in_camera, options, [range2](const Eigen::Vector3f& p) {
+    return p.allFinite() && p.squaredNorm() > 0 && p.squaredNorm() <= range2;
+  });
 }
 
 }  // namespace furn

@@ -1,6 +1,10 @@
 // The floor finder on analytic scans: the floor and camera height, and why none is found.
 #include <gtest/gtest.h>
 
+#include <pcl/point_cloud.h>
+#include <pcl/point_types.h>
+#include <pcl/sample_consensus/sac_model_plane.h>
+
 #include <algorithm>
 #include <cmath>
 
@@ -96,6 +100,54 @@ TEST(FindFloor, SampleSizeIsAnOptionWithinItsRange) {
     EXPECT_EQ(testing::ErrorOf([&] { FindFloor(scan, options); }),
               "floor sample points " + std::to_string(bad) + " must be in 1000..1000000");
   }
+}
+
+// The floor RANSAC's inlier count is PCL's to the point (so the floor found
+// is the one PCL's SACSegmentation found): on points placed within a few
+// float steps of the threshold on either side, for planes of every
+// direction, CountNearPlane and PCL's plane model agree; summing the
+// products in another order does not (the test can tell).
+TEST(CountNearPlane, CountsAsPclsPlaneModelDoesAtTheThreshold) {
+  Rng rng(3);
+  constexpr double kThreshold = 0.02;
+  size_t planes_where_order_matters = 0;
+  for (int trial = 0; trial < 300; ++trial) {
+    Eigen::Vector3f normal(static_cast<float>(rng.Uniform(-1, 1)),
+                           static_cast<float>(rng.Uniform(-1, 1)),
+                           static_cast<float>(rng.Uniform(-1, 1)));
+    normal.normalize();
+    const float offset = static_cast<float>(rng.Uniform(-3, 3));
+    auto cloud = pcl::make_shared<pcl::PointCloud<pcl::PointXYZ>>();
+    std::vector<float> x, y, z;
+    for (int i = 0; i < 1003; ++i) {  // not a multiple of four: the tail too
+      Eigen::Vector3f on_plane(static_cast<float>(rng.Uniform(-4, 4)),
+                               static_cast<float>(rng.Uniform(-4, 4)),
+                               static_cast<float>(rng.Uniform(-4, 4)));
+      on_plane -= (normal.dot(on_plane) + offset) * normal;
+      const double side = i % 2 == 0 ? 1 : -1;
+      const double step = rng.Uniform(-4e-7, 4e-7);
+      const Eigen::Vector3f p = on_plane + static_cast<float>(side * (kThreshold + step)) * normal;
+      cloud->push_back(pcl::PointXYZ(p.x(), p.y(), p.z()));
+      x.push_back(p.x());
+      y.push_back(p.y());
+      z.push_back(p.z());
+    }
+    pcl::SampleConsensusModelPlane<pcl::PointXYZ> model(cloud);
+    Eigen::VectorXf coefficients(4);
+    coefficients << normal.x(), normal.y(), normal.z(), offset;
+    const size_t pcl_count = model.countWithinDistance(coefficients, kThreshold);
+    ASSERT_GT(pcl_count, 0u);
+    ASSERT_LT(pcl_count, x.size());
+    ASSERT_EQ(CountNearPlane(x, y, z, coefficients.head<4>(), kThreshold), pcl_count)
+        << "plane " << trial;
+    size_t in_order = 0;
+    for (size_t i = 0; i < x.size(); ++i) {
+      const float d = normal.x() * x[i] + normal.y() * y[i] + normal.z() * z[i] + offset;
+      in_order += std::abs(d) < kThreshold;
+    }
+    planes_where_order_matters += in_order != pcl_count;
+  }
+  EXPECT_GT(planes_where_order_matters, 0u);
 }
 
 }  // namespace
