@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <numeric>
 
 #include "core/geometry/neighbour_grid.h"
 #include "core/util/error.h"
@@ -28,12 +27,15 @@ std::vector<std::vector<int>> GrowRegions(const PointCloud& cloud,
   const float delta = static_cast<float>(options.delta_m);
   const NeighbourGrid grid(cloud.points, delta);
 
-  // Seeds by increasing curvature; ties by index, so the result is deterministic.
+  // Seeds by increasing curvature; ties by index, so the result is
+  // deterministic (pairs sorted once: the order a stable sort by curvature
+  // gives).
+  std::vector<std::pair<float, int>> by_curvature(cloud.size());
+  for (size_t i = 0; i < cloud.size(); ++i)
+    by_curvature[i] = {cloud.curvature[i], static_cast<int>(i)};
+  std::sort(by_curvature.begin(), by_curvature.end());
   std::vector<int> order(cloud.size());
-  std::iota(order.begin(), order.end(), 0);
-  std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
-    return cloud.curvature[a] < cloud.curvature[b];
-  });
+  for (size_t i = 0; i < cloud.size(); ++i) order[i] = by_curvature[i].second;
   const float min_cosine = static_cast<float>(std::cos(options.alpha_deg * M_PI / 180));
   std::vector<int> label(cloud.size(), -1);
   int next_label = 0;

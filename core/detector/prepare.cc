@@ -93,7 +93,7 @@ std::vector<char> FindStructure(const ViewSegments& view,
 namespace {
 
 // A finite point within the range (squared) of the sensor (camera frame).
-bool InRange(const Eigen::Vector3f& p, float max_range2) {
+inline bool InRange(const Eigen::Vector3f& p, float max_range2) {
   return p.allFinite() && p.squaredNorm() > 0 && p.squaredNorm() <= max_range2;
 }
 
@@ -234,6 +234,7 @@ void Detector::SegmentScan(const DetectionInput& input,
   const float max_range2 = SquaredRange(options.max_range_m);
   std::vector<Eigen::Vector3f> world, above_floor;
   world.reserve(scan.input_points);
+  above_floor.reserve(scan.input_points);
   for (const Eigen::Vector3f& p : input.points) {
     if (!InRange(p, max_range2)) continue;
     world.push_back(rotation * p + translation);
