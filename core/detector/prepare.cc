@@ -93,7 +93,7 @@ std::vector<char> FindStructure(const ViewSegments& view,
 namespace {
 
 // A finite point within the range (squared) of the sensor (camera frame).
-inline bool InRange(const Eigen::Vector3f& p, float max_range2) {
+bool InRange(const Eigen::Vector3f& p, float max_range2) {
   return p.allFinite() && p.squaredNorm() > 0 && p.squaredNorm() <= max_range2;
 }
 

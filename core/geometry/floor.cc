@@ -94,7 +94,8 @@ namespace {
 // PCL's plane perpendicular to an axis, with its inlier count (RANSAC's
 // inner loop: every iteration counts the points within the threshold)
 // by CountNearPlane over a copy of the points in three arrays.
-class CountedPerpendicularPlane : public pcl::SampleConsensusModelPerpendicularPlane<pcl::PointXYZ> {
+class CountedPerpendicularPlane
+    : public pcl::SampleConsensusModelPerpendicularPlane<pcl::PointXYZ> {
  public:
   CountedPerpendicularPlane(const pcl::PointCloud<pcl::PointXYZ>::ConstPtr& cloud,
                             const pcl::Indices& indices)
@@ -247,10 +248,6 @@ class FloorSearch {
   pcl::PointCloud<pcl::PointXYZ>::Ptr cloud_;
 };
 
-}  // namespace
-
-namespace {
-
 // The floor search on the points that pass `keep`: RANSAC on a fixed
 // subsample (every k-th of them, about options.sample_points) keeps it fast
 // and deterministic. The subsample is taken in one pass, without copying
@@ -264,8 +261,7 @@ FloorEstimate SearchFloorAmong(const std::vector<Eigen::Vector3f>& points_in_cam
   for (const Eigen::Vector3f& p : points_in_camera) kept += keep(p);
   FloorEstimate estimate;
   if (kept < 100) {
-    estimate.message =
-        "floor: " + std::to_string(kept) + " finite points; at least 100 are needed";
+    estimate.message = "floor: " + std::to_string(kept) + " finite points; at least 100 are needed";
     return estimate;
   }
   const size_t stride = std::max<size_t>(1, kept / static_cast<size_t>(options.sample_points));

@@ -20,10 +20,10 @@
 namespace furn {
 
 struct FloorOptions {
-  double distance_m = 0.02;          // RANSAC inlier distance (m, 0.002..0.2)
-  int iterations = 300;              // RANSAC iterations (10..100000)
-  int sample_points = 20000;         // RANSAC draws from every k-th point, about this many (1000..1000000)
-  double max_tilt_deg = 45;          // largest angle between the floor normal and camera up (1..89)
+  double distance_m = 0.02;   // RANSAC inlier distance (m, 0.002..0.2)
+  int iterations = 300;       // RANSAC iterations (10..100000)
+  int sample_points = 20000;  // RANSAC draws from every k-th point, about this many (1000..1000000)
+  double max_tilt_deg = 45;   // largest angle between the floor normal and camera up (1..89)
   double min_fraction = 0.01;        // the floor's share of the points lower than the camera (0..1)
   double min_camera_height_m = 0.2;  // a floor closer to the camera than this is rejected ...
   double max_camera_height_m = 3.0;  // ... and one farther below it (m): no sensor mount is higher

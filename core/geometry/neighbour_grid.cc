@@ -31,7 +31,7 @@ NeighbourGrid::NeighbourGrid(const std::vector<Eigen::Vector3f>& points, float c
   }
   // A cell's occupied neighbours in the order dz, dy, dx (outer to inner).
   // Within the grid's range a neighbour's key is the cell's key plus a
-  // fixed step (the key packs x, y, z into separate bit fields, z lowest),
+  // fixed step (VoxelKey packs x, y, z into separate bit fields, z lowest),
   // so the three cells of a (dx, dy) column are consecutive keys, and as
   // the cells go up in key each column's first key does too: one forward
   // cursor per column.
@@ -39,11 +39,9 @@ NeighbourGrid::NeighbourGrid(const std::vector<Eigen::Vector3f>& points, float c
   std::array<uint64_t, kColumns> step;  // from a cell's key to its column's lowest (dz = -1)
   std::array<size_t, kColumns> cursor{};
   for (int dy = -1; dy <= 1; ++dy) {
-    for (int dx = -1; dx <= 1; ++dx) {
-      step[(dy + 1) * 3 + (dx + 1)] = (static_cast<uint64_t>(static_cast<int64_t>(dx)) << 42) +
-                                      (static_cast<uint64_t>(static_cast<int64_t>(dy)) << 21) -
-                                      1;
-    }
+    for (int dx = -1; dx <= 1; ++dx)
+      step[(dy + 1) * 3 + (dx + 1)] =
+          Key(Eigen::Vector3i(dx, dy, -1)) - Key(Eigen::Vector3i::Zero());
   }
   const size_t cells = cell_keys_.size();
   neighbour_begin_.reserve(cells + 1);

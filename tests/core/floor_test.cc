@@ -91,9 +91,9 @@ TEST(FindFloor, SampleSizeIsAnOptionWithinItsRange) {
   const Eigen::Isometry3d full = FindFloor(scan, FloorOptions{});
   const Eigen::Isometry3d sampled = FindFloor(scan, small);
   EXPECT_NEAR(sampled.translation().z(), full.translation().z(), 0.01);
-  EXPECT_GT((sampled.linear() * Eigen::Vector3d::UnitZ())
-                .dot(full.linear() * Eigen::Vector3d::UnitZ()),
-            std::cos(0.5 * M_PI / 180));
+  EXPECT_GT(
+      (sampled.linear() * Eigen::Vector3d::UnitZ()).dot(full.linear() * Eigen::Vector3d::UnitZ()),
+      std::cos(0.5 * M_PI / 180));
   for (int bad : {999, 1000001}) {
     FloorOptions options;
     options.sample_points = bad;
