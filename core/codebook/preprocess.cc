@@ -1,14 +1,11 @@
 #include "core/codebook/preprocess.h"
 
-#include <pcl/filters/voxel_grid.h>
-#include <pcl/point_cloud.h>
-#include <pcl/point_types.h>
-
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
 
 #include "core/geometry/neighbour_grid.h"
+#include "core/geometry/voxel_grid.h"
 #include "core/util/error.h"
 #include "core/util/parallel.h"
 
@@ -33,57 +30,53 @@ struct Fitted {
   float curvature = 0;
 };
 
-// The finite points, thinned by PCL's voxel grid when voxel_size_m > 0.
+// The finite points, thinned by the voxel grid when voxel_size_m > 0.
 std::vector<Eigen::Vector3f> VoxelThinned(const std::vector<Eigen::Vector3f>& points,
                                           double voxel_size_m) {
-  auto input = pcl::make_shared<pcl::PointCloud<pcl::PointXYZ>>();
-  input->reserve(points.size());
+  if (voxel_size_m > 0) return VoxelCentroids(points, static_cast<float>(voxel_size_m));
+  std::vector<Eigen::Vector3f> finite;
+  finite.reserve(points.size());
   for (const Eigen::Vector3f& p : points) {
-    if (p.allFinite()) input->push_back(pcl::PointXYZ(p.x(), p.y(), p.z()));
+    if (p.allFinite()) finite.push_back(p);
   }
-  if (input->empty()) return {};
-  auto sampled = pcl::make_shared<pcl::PointCloud<pcl::PointXYZ>>();
-  if (voxel_size_m > 0) {
-    pcl::VoxelGrid<pcl::PointXYZ> grid;
-    const float leaf = static_cast<float>(voxel_size_m);
-    grid.setLeafSize(leaf, leaf, leaf);
-    grid.setInputCloud(input);
-    grid.filter(*sampled);
-  } else {
-    sampled = input;
-  }
-  std::vector<Eigen::Vector3f> base;
-  base.reserve(sampled->size());
-  for (const pcl::PointXYZ& p : *sampled) base.emplace_back(p.x, p.y, p.z);
-  return base;
+  return finite;
 }
 
+// A point's neighbours as offsets from their mean (double), with their
+// squared distances to the point; reused by every point a thread fits.
+struct Neighbourhood {
+  std::vector<std::pair<int, float>> found;  // (index, squared distance)
+  std::vector<Eigen::Vector3d> offsets;      // base[j] - mean, in the order found
+};
+
 // The quadric w = c0 + c1 u + c2 v + c3 u^2 + c4 u v + c5 v^2 over the plane
-// (u, v, normal) through `mean`, weighted least squares with Gaussian
-// weights exp(-d^2 / r^2); its height and slopes at (u, v), or the plane
-// (zeros) when it is ill-posed.
-Eigen::Vector3d QuadricAt(const std::vector<Eigen::Vector3f>& base,
-                          const std::vector<std::pair<int, float>>& neighbours,
-                          const Eigen::Vector3d& mean,
+// (u, v, normal) through the neighbours' mean, weighted least squares with
+// Gaussian weights exp(-d^2 / r^2); its height and slopes at (u, v), or the
+// plane (zeros) when it is ill-posed. Only the normal matrix's lower
+// triangle is summed: it is all LDLT reads (each entry the same sum of
+// (w b_r) b_c as the full outer product's).
+Eigen::Vector3d QuadricAt(const Neighbourhood& near,
                           const Eigen::Vector3d& normal,
                           const Eigen::Vector3d& u_axis,
                           const Eigen::Vector3d& v_axis,
                           double inverse_h2,
                           double u,
                           double v) {
+  if (near.found.size() < 6) return Eigen::Vector3d::Zero();
   Eigen::Matrix<double, 6, 6> normal_matrix = Eigen::Matrix<double, 6, 6>::Zero();
   Eigen::Matrix<double, 6, 1> rhs = Eigen::Matrix<double, 6, 1>::Zero();
-  for (const auto& [j, d2] : neighbours) {
-    const Eigen::Vector3d d = base[j].cast<double>() - mean;
+  for (size_t k = 0; k < near.found.size(); ++k) {
+    const Eigen::Vector3d& d = near.offsets[k];
     const double du = d.dot(u_axis), dv = d.dot(v_axis), dw = d.dot(normal);
-    const double weight = std::exp(-d2 * inverse_h2);
-    Eigen::Matrix<double, 6, 1> basis;
-    basis << 1, du, dv, du * du, du * dv, dv * dv;
-    normal_matrix += weight * basis * basis.transpose();
-    rhs += weight * dw * basis;
+    const double weight = std::exp(-near.found[k].second * inverse_h2);
+    const double basis[6] = {1, du, dv, du * du, du * dv, dv * dv};
+    for (int c = 0; c < 6; ++c) {
+      for (int r = c; r < 6; ++r) normal_matrix(r, c) += (weight * basis[r]) * basis[c];
+    }
+    const double weighted_height = weight * dw;
+    for (int r = 0; r < 6; ++r) rhs[r] += weighted_height * basis[r];
   }
-  if (neighbours.size() < 6) return Eigen::Vector3d::Zero();
-  const Eigen::LDLT<Eigen::Matrix<double, 6, 6>> ldlt(normal_matrix);
+  const Eigen::LDLT<Eigen::Matrix<double, 6, 6>, Eigen::Lower> ldlt(normal_matrix);
   if (ldlt.info() != Eigen::Success || !ldlt.isPositive()) return Eigen::Vector3d::Zero();
   const Eigen::Matrix<double, 6, 1> c = ldlt.solve(rhs);
   if (!c.allFinite()) return Eigen::Vector3d::Zero();
@@ -96,19 +89,22 @@ Eigen::Vector3d QuadricAt(const std::vector<Eigen::Vector3f>& base,
 // smallest eigenvalue / sum), then its MLS quadric over that plane.
 Fitted FitPoint(const std::vector<Eigen::Vector3f>& base,
                 size_t i,
-                const std::vector<std::pair<int, float>>& neighbours,
+                Neighbourhood* near,
                 float radius,
                 const Eigen::Vector3f& sensor_origin) {
   Fitted out;
+  const double count = static_cast<double>(near->found.size());
   Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-  for (const auto& [j, d2] : neighbours) mean += base[j].cast<double>();
-  mean /= static_cast<double>(neighbours.size());
+  for (const auto& [j, d2] : near->found) mean += base[j].cast<double>();
+  mean /= count;
+  near->offsets.clear();
   Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
-  for (const auto& [j, d2] : neighbours) {
+  for (const auto& [j, d2] : near->found) {
     const Eigen::Vector3d d = base[j].cast<double>() - mean;
+    near->offsets.push_back(d);
     covariance += d * d.transpose();
   }
-  covariance /= static_cast<double>(neighbours.size());
+  covariance /= count;
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver;
   solver.computeDirect(covariance);
   const Eigen::Vector3d eigenvalues = solver.eigenvalues().cwiseMax(0.0);  // ascending
@@ -120,8 +116,7 @@ Fitted FitPoint(const std::vector<Eigen::Vector3f>& base,
   const Eigen::Vector3d q = base[i].cast<double>() - mean;
   const double u = q.dot(u_axis), v = q.dot(v_axis);
   const double inverse_h2 = 1.0 / (static_cast<double>(radius) * radius);
-  const Eigen::Vector3d w =
-      QuadricAt(base, neighbours, mean, normal, u_axis, v_axis, inverse_h2, u, v);
+  const Eigen::Vector3d w = QuadricAt(*near, normal, u_axis, v_axis, inverse_h2, u, v);
   const Eigen::Vector3d projected = mean + u * u_axis + v * v_axis + w[0] * normal;
   Eigen::Vector3d surface_normal = (normal - w[1] * u_axis - w[2] * v_axis).normalized();
   if (!projected.allFinite() || !surface_normal.allFinite()) return out;
@@ -149,14 +144,14 @@ PointCloud Preprocess(const std::vector<Eigen::Vector3f>& points,
   std::vector<Fitted> fitted(base.size());
   constexpr int kChunk = 256;
   ParallelFor(0, static_cast<int>((base.size() + kChunk - 1) / kChunk), [&](int chunk) {
-    std::vector<std::pair<int, float>> neighbours;
+    Neighbourhood near;
     const size_t end = std::min(base.size(), static_cast<size_t>(chunk + 1) * kChunk);
     for (size_t i = static_cast<size_t>(chunk) * kChunk; i < end; ++i) {
-      neighbours.clear();
+      near.found.clear();
       grid.ForEachNeighbourOf(
-          static_cast<int>(i), radius, [&](int j, float d2) { neighbours.emplace_back(j, d2); });
-      if (static_cast<int>(neighbours.size()) < options.min_neighbours) continue;
-      fitted[i] = FitPoint(base, i, neighbours, radius, sensor_origin);
+          static_cast<int>(i), radius, [&](int j, float d2) { near.found.emplace_back(j, d2); });
+      if (static_cast<int>(near.found.size()) < options.min_neighbours) continue;
+      fitted[i] = FitPoint(base, i, &near, radius, sensor_origin);
     }
   });
   for (const Fitted& f : fitted) {

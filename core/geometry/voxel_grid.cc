@@ -1,0 +1,84 @@
+#include "core/geometry/voxel_grid.h"
+
+#include <algorithm>
+#include <boost/sort/spreadsort/integer_sort.hpp>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+
+namespace furn {
+namespace {
+
+// A point and its cell: the pair PCL sorts (the cell alone orders it).
+struct CellOfPoint {
+  unsigned int cell;
+  unsigned int point;
+  bool operator<(const CellOfPoint& other) const { return cell < other.cell; }
+};
+
+// floor(t) as an integer, for |t| < 2^23 (where a float's integer part is
+// exact and PCL's float subtraction of the grid's corner is too).
+inline int64_t FloorOf(float t) {
+  const int64_t truncated = static_cast<int64_t>(t);
+  return static_cast<float>(truncated) > t ? truncated - 1 : truncated;
+}
+
+}  // namespace
+
+std::vector<Eigen::Vector3f> VoxelCentroids(const std::vector<Eigen::Vector3f>& points,
+                                            float leaf_m) {
+  std::vector<unsigned int> finite;  // the points PCL would see, in order
+  finite.reserve(points.size());
+  Eigen::Array3f low = Eigen::Array3f::Constant(std::numeric_limits<float>::max());
+  Eigen::Array3f high = Eigen::Array3f::Constant(-std::numeric_limits<float>::max());
+  for (size_t i = 0; i < points.size(); ++i) {
+    if (!points[i].allFinite()) continue;
+    finite.push_back(static_cast<unsigned int>(i));
+    low = low.min(points[i].array());
+    high = high.max(points[i].array());
+  }
+  std::vector<Eigen::Vector3f> centroids;
+  if (finite.empty()) return centroids;
+  const float inverse = 1.0f / leaf_m;
+  double cells = 1;  // PCL's 64-bit count, exact in a double below 2^53
+  for (int a = 0; a < 3; ++a) cells *= static_cast<double>((high[a] - low[a]) * inverse) + 1;
+  if (!(cells <= std::numeric_limits<int32_t>::max())) {
+    for (unsigned int i : finite) centroids.push_back(points[i]);
+    return centroids;
+  }
+  int64_t corner[3], stride[3];
+  for (int a = 0; a < 3; ++a) corner[a] = static_cast<int64_t>(std::floor(low[a] * inverse));
+  stride[0] = 1;
+  stride[1] = static_cast<int64_t>(std::floor(high[0] * inverse)) - corner[0] + 1;
+  stride[2] = stride[1] * (static_cast<int64_t>(std::floor(high[1] * inverse)) - corner[1] + 1);
+  const float reach = std::max(low.abs().maxCoeff(), high.abs().maxCoeff()) * inverse;
+  const bool exact_integers = reach < 8388608.0f;  // 2^23
+  std::vector<CellOfPoint> keyed(finite.size());
+  for (size_t k = 0; k < finite.size(); ++k) {
+    const Eigen::Vector3f& p = points[finite[k]];
+    int64_t cell = 0;
+    for (int a = 0; a < 3; ++a) {
+      const float t = p[a] * inverse;
+      const int64_t offset = exact_integers
+                                 ? FloorOf(t) - corner[a]
+                                 : static_cast<int>(std::floor(t) - static_cast<float>(corner[a]));
+      cell += offset * stride[a];
+    }
+    keyed[k] = {static_cast<unsigned int>(cell), finite[k]};
+  }
+  boost::sort::spreadsort::integer_sort(
+      keyed.begin(), keyed.end(), [](const CellOfPoint& x, unsigned offset) {
+        return x.cell >> offset;
+      });
+  for (size_t first = 0; first < keyed.size();) {
+    size_t last = first + 1;
+    while (last < keyed.size() && keyed[last].cell == keyed[first].cell) ++last;
+    Eigen::Vector3f sum = Eigen::Vector3f::Zero();
+    for (size_t k = first; k < last; ++k) sum += points[keyed[k].point];
+    centroids.push_back(sum / static_cast<float>(last - first));
+    first = last;
+  }
+  return centroids;
+}
+
+}  // namespace furn
