@@ -55,6 +55,10 @@ class OccupancyHandoff {
   // After both threads ended.
   std::optional<OccupancyGrid> Take() { return std::move(grid_); }
 
+  // Set before both start when the network's branch keeps the scan's depth
+  // image (it needs no segments): SegmentScan then leaves it.
+  bool depth_image_elsewhere = false;
+
  private:
   std::atomic<bool> offered_{false}, claimed_{false};
   std::vector<Eigen::Vector3f> world_;
@@ -62,6 +66,10 @@ class OccupancyHandoff {
   double voxel_m_ = 0;
   std::optional<OccupancyGrid> grid_;
 };
+
+// An organised scan's depth image and intrinsics, which render-and-compare
+// needs; nothing for unorganised scans.
+void KeepDepthImage(const DetectionInput& input, double max_range_m, PreparedScan* scan);
 
 struct Detector::Impl {
   TrainedModel model;

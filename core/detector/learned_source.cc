@@ -1,6 +1,7 @@
 #include "core/detector/learned_source.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <map>
 
@@ -228,15 +229,27 @@ Proposals LearnedSource::Propose(const DetectionInput& input,
     network_timer.Lap(DetectionStage::kMaxima);
   };
   if (options.learned_fit && options.torch_threads == 1) {
-    // The branch that ends first builds the occupancy grid.
+    // The branch that ends first builds the occupancy grid; the network's
+    // (the shorter on real frames) keeps the depth image.
     OccupancyHandoff handoff;
+    handoff.depth_image_elsewhere = true;
+    double depth_image_ms = 0;
     RunBeside(
         [&] {
           network();
+          const auto start = std::chrono::steady_clock::now();
+          KeepDepthImage(input, options.max_range_m, prepared);
+          depth_image_ms =
+              std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+                  .count();
           handoff.BuildIfFree(&network_ms);
         },
         [&] { detector_.SegmentScan(input, prepared, &handoff); });
     prepared->occupancy = handoff.Take();
+    for (StageTime& stage :
+         prepared->timings_ms.stages) {  // the segment stage's, as in SegmentScan
+      if (stage.stage == DetectionStage::kSegment) stage.ms += depth_image_ms;
+    }
   } else {  // a network on every core has none to share (measured: slower beside)
     network();
     if (options.learned_fit) detector_.SegmentScan(input, prepared);

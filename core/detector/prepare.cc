@@ -5,10 +5,8 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
-#include <unordered_set>
 
 #include "core/detector/detector_impl.h"
-#include "core/geometry/voxel_key.h"
 #include "core/util/error.h"
 
 namespace furn {
@@ -19,16 +17,6 @@ Eigen::AlignedBox3f SegmentBox(const PointCloud& cloud, const std::vector<int>& 
   Eigen::AlignedBox3f box;
   for (int i : segment) box.extend(cloud.points[i]);
   return box;
-}
-
-// One point per voxel (the first): the ray ends of the occupancy grid.
-std::vector<Eigen::Vector3f> ThinOut(const std::vector<Eigen::Vector3f>& points, double voxel_m) {
-  std::unordered_set<uint64_t> taken;
-  std::vector<Eigen::Vector3f> kept;
-  for (const Eigen::Vector3f& p : points) {
-    if (taken.insert(VoxelKey(p, voxel_m)).second) kept.push_back(p);
-  }
-  return kept;
 }
 
 }  // namespace
@@ -142,8 +130,8 @@ bool KeepIntrinsics(const DetectionInput& input, PreparedScan* scan) {
   return true;
 }
 
-// An organised scan's depth image and intrinsics, which render-and-compare
-// needs; nothing for unorganised scans.
+}  // namespace
+
 void KeepDepthImage(const DetectionInput& input, double max_range_m, PreparedScan* scan) {
   if (!KeepIntrinsics(input, scan)) return;
   const float max_range2 = SquaredRange(max_range_m);
@@ -153,8 +141,6 @@ void KeepDepthImage(const DetectionInput& input, double max_range_m, PreparedSca
     if (p.allFinite() && p.z() > 0 && p.squaredNorm() <= max_range2) scan->depth[i] = p.z();
   }
 }
-
-}  // namespace
 
 PreparedScan Detector::Prepare(const DetectionInput& input) const {
   PreparedScan scan = PlaceScan(input);
@@ -211,7 +197,7 @@ bool OccupancyHandoff::BuildIfFree(StageTimings* timings) {
   if (!offered_.load(std::memory_order_acquire) || claimed_.exchange(true)) return false;
   StageTimer timer(timings);
   // Occupancy for verification, from every point in range (floor included).
-  grid_.emplace(ThinOut(world_, voxel_m_), sensor_, voxel_m_);
+  grid_.emplace(FirstPointPerVoxel(world_, voxel_m_), sensor_, voxel_m_);
   timer.Lap(DetectionStage::kOccupancy);
   return true;
 }
@@ -264,7 +250,7 @@ void Detector::SegmentScan(const DetectionInput& input,
   // against one).
   scan.structure = FindStructure(
       scan.view, options.max_segment_extent_m, impl.structure_height_m, &scan.structure_segment);
-  KeepDepthImage(input, options.max_range_m, &scan);
+  if (!handoff->depth_image_elsewhere) KeepDepthImage(input, options.max_range_m, &scan);
   scan.timings_ms.stages[segment_entry].ms +=
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - segmented)
           .count();

@@ -16,6 +16,7 @@ NeighbourGrid::NeighbourGrid(const std::vector<Eigen::Vector3f>& points, float c
     keyed[i] = {Key(CellOf(points[i])), static_cast<int>(i)};
   std::sort(keyed.begin(), keyed.end());
   order_.resize(points.size());
+  ordered_points_.resize(points.size());
   cell_of_point_.resize(points.size());
   for (size_t k = 0; k < keyed.size();) {
     size_t end = k + 1;
@@ -25,6 +26,7 @@ NeighbourGrid::NeighbourGrid(const std::vector<Eigen::Vector3f>& points, float c
     cell_keys_.push_back(keyed[k].first);
     for (size_t m = k; m < end; ++m) {
       order_[m] = keyed[m].second;
+      ordered_points_[m] = points[keyed[m].second];
       cell_of_point_[keyed[m].second] = cell;
     }
     k = end;

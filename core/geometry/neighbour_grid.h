@@ -57,7 +57,7 @@ class NeighbourGrid {
       for (int k = begin; k < end; ++k) {
         const int j = order_[k];
         if (skip_point(j)) continue;
-        const float d2 = (points_[j] - p).squaredNorm();
+        const float d2 = (ordered_points_[k] - p).squaredNorm();
         if (d2 <= radius2) visit(j, d2);
       }
     }
@@ -79,9 +79,8 @@ class NeighbourGrid {
           if (cell < 0) continue;
           const auto& [begin, end] = ranges_[cell];
           for (int k = begin; k < end; ++k) {
-            const int j = order_[k];
-            const float d2 = (points_[j] - p).squaredNorm();
-            if (d2 <= radius2) visit(j, d2);
+            const float d2 = (ordered_points_[k] - p).squaredNorm();
+            if (d2 <= radius2) visit(order_[k], d2);
           }
         }
       }
@@ -90,9 +89,9 @@ class NeighbourGrid {
 
  private:
   Eigen::Vector3i CellOf(const Eigen::Vector3f& p) const {
-    return Eigen::Vector3i(static_cast<int>(std::floor(p.x() * inverse_cell_)),
-                           static_cast<int>(std::floor(p.y() * inverse_cell_)),
-                           static_cast<int>(std::floor(p.z() * inverse_cell_)));
+    return Eigen::Vector3i(FloorToInt(p.x() * inverse_cell_),
+                           FloorToInt(p.y() * inverse_cell_),
+                           FloorToInt(p.z() * inverse_cell_));
   }
   static uint64_t Key(const Eigen::Vector3i& c) { return VoxelKey(c); }
   // The index of an occupied cell, or -1.
@@ -100,12 +99,13 @@ class NeighbourGrid {
 
   const std::vector<Eigen::Vector3f>& points_;
   float inverse_cell_;
-  std::vector<int> order_;                   // point indices, grouped by cell
-  std::vector<std::pair<int, int>> ranges_;  // per occupied cell: [begin, end) in order_
-  std::vector<uint64_t> cell_keys_;          // per cell, ascending: its key
-  std::vector<int> cell_of_point_;           // index into ranges_
-  std::vector<int> neighbour_begin_;         // per cell, into neighbour_cells_ (+1 sentinel)
-  std::vector<int> neighbour_cells_;         // occupied cells among the 27 around each
+  std::vector<int> order_;                       // point indices, grouped by cell
+  std::vector<Eigen::Vector3f> ordered_points_;  // points_[order_[k]]: a cell's points side by side
+  std::vector<std::pair<int, int>> ranges_;      // per occupied cell: [begin, end) in order_
+  std::vector<uint64_t> cell_keys_;              // per cell, ascending: its key
+  std::vector<int> cell_of_point_;               // index into ranges_
+  std::vector<int> neighbour_begin_;             // per cell, into neighbour_cells_ (+1 sentinel)
+  std::vector<int> neighbour_cells_;             // occupied cells among the 27 around each
 };
 
 }  // namespace furn

@@ -2,7 +2,9 @@
 
 #include <cmath>
 #include <limits>
+#include <unordered_set>
 
+#include "core/geometry/voxel_key.h"
 #include "core/util/error.h"
 
 namespace furn {
@@ -136,6 +138,43 @@ VisibilityCounts CountVisibility(const OccupancyGrid& grid,
     }
   }
   return counts;
+}
+
+// The voxels taken are bits over the points' bounding box (a room at 5 cm:
+// a few hundred kilobytes), a hash set when that box is too large.
+std::vector<Eigen::Vector3f> FirstPointPerVoxel(const std::vector<Eigen::Vector3f>& points,
+                                                double voxel_m) {
+  std::vector<Eigen::Vector3f> kept;
+  if (points.empty()) return kept;
+  std::vector<Eigen::Vector3i> cells(points.size());
+  Eigen::Vector3i low = VoxelCell(points[0], voxel_m), high = low;
+  for (size_t i = 0; i < points.size(); ++i) {
+    cells[i] = VoxelCell(points[i], voxel_m);
+    low = low.cwiseMin(cells[i]);
+    high = high.cwiseMax(cells[i]);
+  }
+  const Eigen::Array3d size = (high - low).cast<double>().array() + 1;
+  constexpr double kMaxBits = 1 << 28;  // 32 MB
+  constexpr int kKeyField = 1 << 21;    // VoxelKey's field: two cells in range never share a key
+  if (size.prod() > kMaxBits || size.maxCoeff() > kKeyField) {
+    std::unordered_set<uint64_t> taken;
+    for (size_t i = 0; i < points.size(); ++i) {
+      if (taken.insert(VoxelKey(cells[i])).second) kept.push_back(points[i]);
+    }
+    return kept;
+  }
+  const int64_t nx = static_cast<int64_t>(size.x()), ny = static_cast<int64_t>(size.y());
+  std::vector<uint64_t> taken((static_cast<size_t>(size.prod()) + 63) / 64, 0);
+  for (size_t i = 0; i < points.size(); ++i) {
+    const Eigen::Vector3i c = cells[i] - low;
+    const uint64_t bit = static_cast<uint64_t>((c.z() * ny + c.y()) * nx + c.x());
+    uint64_t& word = taken[bit / 64];
+    const uint64_t mask = uint64_t{1} << (bit % 64);
+    if (word & mask) continue;
+    word |= mask;
+    kept.push_back(points[i]);
+  }
+  return kept;
 }
 
 }  // namespace furn

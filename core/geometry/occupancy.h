@@ -15,6 +15,12 @@ namespace furn {
 
 enum class Occupancy : uint8_t { kUnknown = 0, kFree = 1, kOccupied = 2 };
 
+// The first point of each voxel of `voxel_m` (VoxelKey's cells), in the
+// points' order: the ray ends an occupancy grid needs (points must be
+// finite).
+std::vector<Eigen::Vector3f> FirstPointPerVoxel(const std::vector<Eigen::Vector3f>& points,
+                                                double voxel_m);
+
 class OccupancyGrid {
  public:
   // Points (world frame) and the sensor position; voxel edge in metres.

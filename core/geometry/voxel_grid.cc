@@ -6,6 +6,8 @@
 #include <cstdint>
 #include <limits>
 
+#include "core/geometry/voxel_key.h"
+
 namespace furn {
 namespace {
 
@@ -15,13 +17,6 @@ struct CellOfPoint {
   unsigned int point;
   bool operator<(const CellOfPoint& other) const { return cell < other.cell; }
 };
-
-// floor(t) as an integer, for |t| < 2^23 (where a float's integer part is
-// exact and PCL's float subtraction of the grid's corner is too).
-inline int64_t FloorOf(float t) {
-  const int64_t truncated = static_cast<int64_t>(t);
-  return static_cast<float>(truncated) > t ? truncated - 1 : truncated;
-}
 
 }  // namespace
 
@@ -52,7 +47,9 @@ std::vector<Eigen::Vector3f> VoxelCentroids(const std::vector<Eigen::Vector3f>& 
   stride[1] = static_cast<int64_t>(std::floor(high[0] * inverse)) - corner[0] + 1;
   stride[2] = stride[1] * (static_cast<int64_t>(std::floor(high[1] * inverse)) - corner[1] + 1);
   const float reach = std::max(low.abs().maxCoeff(), high.abs().maxCoeff()) * inverse;
-  const bool exact_integers = reach < 8388608.0f;  // 2^23
+  // Below 2^23 cells from the origin a float's integer part is exact, and so
+  // is PCL's float subtraction of the grid's corner: integers do the same.
+  const bool exact_integers = reach < 8388608.0f;
   std::vector<CellOfPoint> keyed(finite.size());
   for (size_t k = 0; k < finite.size(); ++k) {
     const Eigen::Vector3f& p = points[finite[k]];
@@ -60,7 +57,7 @@ std::vector<Eigen::Vector3f> VoxelCentroids(const std::vector<Eigen::Vector3f>& 
     for (int a = 0; a < 3; ++a) {
       const float t = p[a] * inverse;
       const int64_t offset = exact_integers
-                                 ? FloorOf(t) - corner[a]
+                                 ? FloorToInt(t) - corner[a]
                                  : static_cast<int>(std::floor(t) - static_cast<float>(corner[a]));
       cell += offset * stride[a];
     }

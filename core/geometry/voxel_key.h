@@ -12,11 +12,20 @@
 
 namespace furn {
 
+// static_cast<int>(std::floor(t)), without libm's floor (x86-64 without
+// SSE4.1 has no rounding instruction: a call per coordinate): the same
+// value wherever that cast is defined (|t| < 2^31), std::floor elsewhere.
+template <class Real>
+inline int FloorToInt(Real t) {
+  if (!(std::abs(t) < Real(2147483648.0))) return static_cast<int>(std::floor(t));
+  const int truncated = static_cast<int>(t);  // towards zero; exact as a Real
+  return static_cast<Real>(truncated) > t ? truncated - 1 : truncated;
+}
+
 // The cell of `p` on a grid of `voxel_m` cubes with a corner at the origin.
 inline Eigen::Vector3i VoxelCell(const Eigen::Vector3f& p, double voxel_m) {
-  return Eigen::Vector3i(static_cast<int>(std::floor(p.x() / voxel_m)),
-                         static_cast<int>(std::floor(p.y() / voxel_m)),
-                         static_cast<int>(std::floor(p.z() / voxel_m)));
+  return Eigen::Vector3i(
+      FloorToInt(p.x() / voxel_m), FloorToInt(p.y() / voxel_m), FloorToInt(p.z() / voxel_m));
 }
 
 inline uint64_t VoxelKey(const Eigen::Vector3i& cell) {

@@ -3,9 +3,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <unordered_set>
 
 #include "core/geometry/occupancy.h"
 #include "core/geometry/pose_fit.h"
+#include "core/geometry/voxel_key.h"
+#include "core/util/random.h"
 #include "tests/test_util.h"
 
 namespace furn {
@@ -42,6 +45,40 @@ TEST(OccupancyGrid, FreeBeforeASurfaceOccupiedOnItUnknownBehind) {
 
 // Camera-frame points of a floor 1.3 m below a camera pitched down 25
 // degrees, plus a box standing on it.
+
+// The ray ends: the first point of each VoxelKey cell, in order, as a hash
+// set of keys keeps them; the box of bits and both of its fallbacks (a box
+// of too many cells, an axis past VoxelKey's 21-bit field, where two cells
+// share a key).
+std::vector<Eigen::Vector3f> FirstPointPerKey(const std::vector<Eigen::Vector3f>& points,
+                                              double voxel_m) {
+  std::unordered_set<uint64_t> taken;
+  std::vector<Eigen::Vector3f> kept;
+  for (const Eigen::Vector3f& p : points) {
+    if (taken.insert(VoxelKey(p, voxel_m)).second) kept.push_back(p);
+  }
+  return kept;
+}
+
+TEST(FirstPointPerVoxel, IsTheFirstPointOfEachKeyInOrder) {
+  Rng random(3);
+  std::vector<Eigen::Vector3f> room, far_apart, long_axis;
+  for (int i = 0; i < 30000; ++i) {
+    const Eigen::Vector3f p(static_cast<float>(random.Uniform(-4, 3)),
+                            static_cast<float>(random.Uniform(-1, 6)),
+                            static_cast<float>(random.Uniform(0, 2.6)));
+    room.push_back(p);
+    far_apart.push_back(i % 2 ? p : p + Eigen::Vector3f(9000, 9000, 900));  // 2^32 cells
+    const Eigen::Vector3f on_line(p.x(), 0.01f, 0.01f);  // a box of few cells, one long axis
+    long_axis.push_back(i % 2 ? on_line : on_line + Eigen::Vector3f(0.05f * (1 << 21), 0, 0));
+  }
+  for (const auto* points : {&room, &far_apart, &long_axis}) {
+    const std::vector<Eigen::Vector3f> kept = FirstPointPerVoxel(*points, 0.05);
+    EXPECT_LT(kept.size(), points->size());
+    EXPECT_EQ(kept, FirstPointPerKey(*points, 0.05));
+  }
+  EXPECT_TRUE(FirstPointPerVoxel({}, 0.05).empty());
+}
 
 }  // namespace
 }  // namespace furn

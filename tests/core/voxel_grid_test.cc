@@ -16,6 +16,7 @@
 #include <map>
 
 #include "core/geometry/voxel_grid.h"
+#include "core/geometry/voxel_key.h"
 #include "core/util/random.h"
 
 namespace furn {
@@ -117,6 +118,35 @@ TEST(VoxelGrid, NothingFiniteGivesNothing) {
   EXPECT_TRUE(VoxelCentroids({}, 0.02f).empty());
   const float nan = std::numeric_limits<float>::quiet_NaN();
   EXPECT_TRUE(VoxelCentroids({{nan, 0, 0}, {0, nan, 1}}, 0.02f).empty());
+}
+
+TEST(FloorToInt, IsTheCastOfStdFloor) {
+  Rng random(11);
+  for (int i = 0; i < 200000; ++i) {
+    const double scale = std::pow(10.0, random.Uniform(-3, 9));  // up to 1e9 < 2^31
+    const double t = random.Uniform(-1, 1) * scale;
+    EXPECT_EQ(FloorToInt(static_cast<float>(t)),
+              static_cast<int>(std::floor(static_cast<float>(t))));
+    EXPECT_EQ(FloorToInt(t), static_cast<int>(std::floor(t)));
+  }
+  for (float t : {0.0f,
+                  -0.0f,
+                  1.0f,
+                  -1.0f,
+                  -0.5f,
+                  0.5f,
+                  -1e-30f,
+                  1e-30f,
+                  8388607.5f,
+                  -8388607.5f,
+                  1e9f,
+                  -1e9f}) {
+    EXPECT_EQ(FloorToInt(t), static_cast<int>(std::floor(t))) << t;
+    EXPECT_EQ(FloorToInt(std::nextafter(t, 1.0f)),
+              static_cast<int>(std::floor(std::nextafter(t, 1.0f))));
+    EXPECT_EQ(FloorToInt(std::nextafter(t, -1.0f)),
+              static_cast<int>(std::floor(std::nextafter(t, -1.0f))));
+  }
 }
 
 }  // namespace
