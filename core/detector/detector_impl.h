@@ -40,12 +40,13 @@ class StageTimer {
   Clock::time_point last_ = start_;
 };
 
-// A scan's occupancy grid, built by whichever of two threads is free first:
-// Detect's segmentation branch offers the scan's points in the world frame
-// before it segments them; the network's branch, when it ends first (real
-// frames: the segmentation is the longer), builds the grid, else the
-// segmentation branch does once it is done. The grid is the same whoever
-// builds it (its construction is serial or split-independent).
+// A scan's occupancy grid and depth image, made by whichever of two threads
+// is free first: Detect's segmentation branch offers the scan's points in
+// the world frame before it segments them; the network's branch, when it
+// ends first (real frames: the segmentation is the longer), keeps the depth
+// image and builds the grid, else the segmentation branch does once it is
+// done (dataset frames). Both are the same whoever makes them (the grid's
+// construction is serial or split-independent).
 class OccupancyHandoff {
  public:
   void Offer(std::vector<Eigen::Vector3f> world, const Eigen::Vector3f& sensor, double voxel_m);
@@ -55,12 +56,11 @@ class OccupancyHandoff {
   // After both threads ended.
   std::optional<OccupancyGrid> Take() { return std::move(grid_); }
 
-  // Set before both start when the network's branch keeps the scan's depth
-  // image (it needs no segments): SegmentScan then leaves it.
-  bool depth_image_elsewhere = false;
+  // True for the first thread to ask: it keeps the scan's depth image.
+  bool ClaimDepthImage() { return !depth_image_claimed_.exchange(true); }
 
  private:
-  std::atomic<bool> offered_{false}, claimed_{false};
+  std::atomic<bool> offered_{false}, claimed_{false}, depth_image_claimed_{false};
   std::vector<Eigen::Vector3f> world_;
   Eigen::Vector3f sensor_ = Eigen::Vector3f::Zero();
   double voxel_m_ = 0;

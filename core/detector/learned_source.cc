@@ -229,25 +229,26 @@ Proposals LearnedSource::Propose(const DetectionInput& input,
     network_timer.Lap(DetectionStage::kMaxima);
   };
   if (options.learned_fit && options.torch_threads == 1) {
-    // The branch that ends first builds the occupancy grid; the network's
-    // (the shorter on real frames) keeps the depth image.
+    // The branch that ends first keeps the depth image and builds the
+    // occupancy grid.
     OccupancyHandoff handoff;
-    handoff.depth_image_elsewhere = true;
     double depth_image_ms = 0;
     RunBeside(
         [&] {
           network();
-          const auto start = std::chrono::steady_clock::now();
-          KeepDepthImage(input, options.max_range_m, prepared);
-          depth_image_ms =
-              std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
-                  .count();
+          if (handoff.ClaimDepthImage()) {
+            const auto start = std::chrono::steady_clock::now();
+            KeepDepthImage(input, options.max_range_m, prepared);
+            depth_image_ms =
+                std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+                    .count();
+          }
           handoff.BuildIfFree(&network_ms);
         },
         [&] { detector_.SegmentScan(input, prepared, &handoff); });
     prepared->occupancy = handoff.Take();
-    for (StageTime& stage :
-         prepared->timings_ms.stages) {  // the segment stage's, as in SegmentScan
+    // The depth image's time is the segment stage's, as in SegmentScan.
+    for (StageTime& stage : prepared->timings_ms.stages) {
       if (stage.stage == DetectionStage::kSegment) stage.ms += depth_image_ms;
     }
   } else {  // a network on every core has none to share (measured: slower beside)

@@ -250,7 +250,7 @@ void Detector::SegmentScan(const DetectionInput& input,
   // against one).
   scan.structure = FindStructure(
       scan.view, options.max_segment_extent_m, impl.structure_height_m, &scan.structure_segment);
-  if (!handoff->depth_image_elsewhere) KeepDepthImage(input, options.max_range_m, &scan);
+  if (handoff->ClaimDepthImage()) KeepDepthImage(input, options.max_range_m, &scan);
   scan.timings_ms.stages[segment_entry].ms +=
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - segmented)
           .count();
