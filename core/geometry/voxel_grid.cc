@@ -1,6 +1,7 @@
 #include "core/geometry/voxel_grid.h"
 
 #include <algorithm>
+#include <boost/sort/spreadsort/integer_sort.hpp>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -10,28 +11,12 @@
 namespace furn {
 namespace {
 
-// A point and its cell.
+// A point and its cell: the pair PCL sorts (the cell alone orders it).
 struct CellOfPoint {
   unsigned int cell;
   unsigned int point;
+  bool operator<(const CellOfPoint& other) const { return cell < other.cell; }
 };
-
-// A stable sort by cell (least significant digit first, 11 bits a pass, as
-// many passes as the largest cell needs): a cell's points stay in the
-// points' order. Three times faster than the spreadsort PCL uses on a
-// 640x480 frame.
-void SortByCell(unsigned int largest, std::vector<CellOfPoint>* keyed) {
-  constexpr int kBits = 11;
-  constexpr unsigned int kDigits = 1u << kBits;
-  std::vector<CellOfPoint> sorted(keyed->size());
-  for (int shift = 0; shift < 32 && (largest >> shift) != 0; shift += kBits) {
-    std::vector<size_t> start(kDigits + 1, 0);
-    for (const CellOfPoint& e : *keyed) ++start[((e.cell >> shift) & (kDigits - 1)) + 1];
-    for (unsigned int d = 0; d < kDigits; ++d) start[d + 1] += start[d];
-    for (const CellOfPoint& e : *keyed) sorted[start[(e.cell >> shift) & (kDigits - 1)]++] = e;
-    keyed->swap(sorted);
-  }
-}
 
 }  // namespace
 
@@ -66,7 +51,6 @@ std::vector<Eigen::Vector3f> VoxelCentroids(const std::vector<Eigen::Vector3f>& 
   // is PCL's float subtraction of the grid's corner: integers do the same.
   const bool exact_integers = reach < 8388608.0f;
   std::vector<CellOfPoint> keyed(finite.size());
-  unsigned int largest = 0;
   for (size_t k = 0; k < finite.size(); ++k) {
     const Eigen::Vector3f& p = points[finite[k]];
     int64_t cell = 0;
@@ -78,9 +62,11 @@ std::vector<Eigen::Vector3f> VoxelCentroids(const std::vector<Eigen::Vector3f>& 
       cell += offset * stride[a];
     }
     keyed[k] = {static_cast<unsigned int>(cell), finite[k]};
-    largest = std::max(largest, keyed[k].cell);
   }
-  SortByCell(largest, &keyed);
+  boost::sort::spreadsort::integer_sort(
+      keyed.begin(), keyed.end(), [](const CellOfPoint& x, unsigned offset) {
+        return x.cell >> offset;
+      });
   for (size_t first = 0; first < keyed.size();) {
     size_t last = first + 1;
     while (last < keyed.size() && keyed[last].cell == keyed[first].cell) ++last;
