@@ -1,10 +1,11 @@
 // Preprocessing shared by training and detection (SPEC.md §7.2): voxel
 // downsampling (PCL's VoxelGrid to the bit, core/geometry/voxel_grid.h),
-// normals from a local quadric fit (moving least squares, polynomial order 2, Gaussian weights;
-// points projected onto the quadric) oriented towards the sensor, and curvature = smallest
-// eigenvalue / sum of eigenvalues of the local covariance. The fit is our own, on a neighbour grid
-// and all cores: PCL's MovingLeastSquares plus NormalEstimation took 10 us a point, five times the
-// detection budget allows.
+// normals from a local quadric fit (moving least squares, polynomial order
+// 2, Gaussian weights; points projected onto the quadric) oriented towards
+// the sensor, and curvature = smallest eigenvalue / sum of eigenvalues of
+// the local covariance. The fit is our own, on a neighbour grid and all
+// cores: PCL's MovingLeastSquares plus NormalEstimation took 10 us a point,
+// five times the detection budget allows.
 //
 //   PreprocessOptions options;                      // 2 cm voxels, 3 cm radius
 //   PointCloud cloud = Preprocess(points, sensor_origin, options);

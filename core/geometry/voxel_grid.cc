@@ -22,23 +22,25 @@ struct CellOfPoint {
 
 std::vector<Eigen::Vector3f> VoxelCentroids(const std::vector<Eigen::Vector3f>& points,
                                             float leaf_m) {
-  std::vector<unsigned int> finite;  // the points PCL would see, in order
-  finite.reserve(points.size());
+  // The finite points are those PCL would see, in order.
+  size_t finite = 0;
   Eigen::Array3f low = Eigen::Array3f::Constant(std::numeric_limits<float>::max());
   Eigen::Array3f high = Eigen::Array3f::Constant(-std::numeric_limits<float>::max());
-  for (size_t i = 0; i < points.size(); ++i) {
-    if (!points[i].allFinite()) continue;
-    finite.push_back(static_cast<unsigned int>(i));
-    low = low.min(points[i].array());
-    high = high.max(points[i].array());
+  for (const Eigen::Vector3f& p : points) {
+    if (!p.allFinite()) continue;
+    ++finite;
+    low = low.min(p.array());
+    high = high.max(p.array());
   }
   std::vector<Eigen::Vector3f> centroids;
-  if (finite.empty()) return centroids;
+  if (finite == 0) return centroids;
   const float inverse = 1.0f / leaf_m;
   double cells = 1;  // PCL's 64-bit count, exact in a double below 2^53
   for (int a = 0; a < 3; ++a) cells *= static_cast<double>((high[a] - low[a]) * inverse) + 1;
   if (!(cells <= std::numeric_limits<int32_t>::max())) {
-    for (unsigned int i : finite) centroids.push_back(points[i]);
+    for (const Eigen::Vector3f& p : points) {
+      if (p.allFinite()) centroids.push_back(p);
+    }
     return centroids;
   }
   int64_t corner[3], stride[3];
@@ -50,9 +52,11 @@ std::vector<Eigen::Vector3f> VoxelCentroids(const std::vector<Eigen::Vector3f>& 
   // Below 2^23 cells from the origin a float's integer part is exact, and so
   // is PCL's float subtraction of the grid's corner: integers do the same.
   const bool exact_integers = reach < 8388608.0f;
-  std::vector<CellOfPoint> keyed(finite.size());
-  for (size_t k = 0; k < finite.size(); ++k) {
-    const Eigen::Vector3f& p = points[finite[k]];
+  std::vector<CellOfPoint> keyed;
+  keyed.reserve(finite);
+  for (size_t i = 0; i < points.size(); ++i) {
+    const Eigen::Vector3f& p = points[i];
+    if (!p.allFinite()) continue;
     int64_t cell = 0;
     for (int a = 0; a < 3; ++a) {
       const float t = p[a] * inverse;
@@ -61,7 +65,7 @@ std::vector<Eigen::Vector3f> VoxelCentroids(const std::vector<Eigen::Vector3f>& 
                                  : static_cast<int>(std::floor(t) - static_cast<float>(corner[a]));
       cell += offset * stride[a];
     }
-    keyed[k] = {static_cast<unsigned int>(cell), finite[k]};
+    keyed.push_back({static_cast<unsigned int>(cell), static_cast<unsigned int>(i)});
   }
   boost::sort::spreadsort::integer_sort(
       keyed.begin(), keyed.end(), [](const CellOfPoint& x, unsigned offset) {
