@@ -510,9 +510,7 @@ BevOutput VoteNet::Predict(const BevImage& image, bool mirror_average) const {
     for (int k = m; k < passes; k += members) batch.push_back(k % views == 0 ? input : mirrored);
     const UNet& net = m == 0 ? impl_->net : impl_->partners[m - 1];
     torch::Tensor out = net.ptr()->forward(batch.size() == 1 ? batch[0] : torch::cat(batch, 0));
-    out.slice(1, ch::kHeat.first, ch::kHeat.end()).sigmoid_();
-    out.slice(1, ch::kMembership.first, ch::kMembership.end()).sigmoid_();
-    for (int k = m, i = 0; k < passes; k += members, ++i) answers[k] = out[i];
+    for (int k = m, i = 0; k < passes; k += members, ++i) answers[k] = ActivatedAnswer(out[i]);
   }
   // Heat, membership, offset and footprint (and edge distances) are
   // averaged over the passes, each mirror's answer turned back first; the
@@ -530,12 +528,25 @@ BevOutput VoteNet::Predict(const BevImage& image, bool mirror_average) const {
     for (const BevSlice& slice : averaged)
       output.slice(0, slice.first, slice.end()).mul_(1.0 / passes);
   }
-  output = output.contiguous();
+  return BevOutputOf(output, image, impl_->options.coder);
+}
+
+torch::Tensor ActivatedAnswer(torch::Tensor answer) {
+  namespace ch = bev_channels;
+  answer.slice(0, ch::kHeat.first, ch::kHeat.end()).sigmoid_();
+  answer.slice(0, ch::kMembership.first, ch::kMembership.end()).sigmoid_();
+  return answer;
+}
+
+BevOutput BevOutputOf(const torch::Tensor& answer,
+                      const BevImage& image,
+                      const BevCoderOptions& coder) {
+  const torch::Tensor values = answer.contiguous();
   BevOutput out;
   out.spec = image.spec;
-  out.dense_votes = impl_->options.coder.dense_votes;
-  out.edge_votes = impl_->options.coder.edge_votes;
-  out.values.assign(output.data_ptr<float>(), output.data_ptr<float>() + output.numel());
+  out.dense_votes = coder.dense_votes;
+  out.edge_votes = coder.edge_votes;
+  out.values.assign(values.data_ptr<float>(), values.data_ptr<float>() + values.numel());
   return out;
 }
 

@@ -65,6 +65,14 @@ torch::Tensor StackPlanes(const std::vector<const std::vector<float>*>& planes,
                           const BevGridSpec& spec);
 torch::Tensor ImageTensor(const std::vector<const BevImage*>& images, const BevGridSpec& spec);
 
+// One image's answer (channels x rows x cols, a view of the network's
+// output) with its heat and membership turned into probabilities, in place.
+torch::Tensor ActivatedAnswer(torch::Tensor answer);
+// An activated answer as the BevOutput of `image` (VoteNet::Predict's).
+BevOutput BevOutputOf(const torch::Tensor& answer,
+                      const BevImage& image,
+                      const BevCoderOptions& coder);
+
 // A batch's targets as tensors: values N x channels x rows x cols, votes,
 // weight and (with edge votes; else undefined) edges N x rows x cols.
 struct TargetTensors {

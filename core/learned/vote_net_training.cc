@@ -453,13 +453,23 @@ NormalisationShift AdaptNormalisation(VoteNet* net,
 
 VoteNetLoss EvaluateVoteNetLoss(const VoteNet& net,
                                 const TrainingBatch& batch,
-                                const VoteNetLossWeights& weights) {
+                                const VoteNetLossWeights& weights,
+                                std::vector<BevOutput>* outputs) {
   Require(!net.empty(), "an empty vote network has no loss");
+  Require(outputs == nullptr || net.Members() == 1,
+          "a batch's outputs with its loss are a single network's, not an ensemble's");
   const VoteNet::Impl& impl = VoteNetAccess::Of(net);
   torch::NoGradGuard no_grad;
   const torch::Tensor input = ImageTensor(Pointers(batch.images), impl.options.grid);
   const TargetTensors targets = TargetTensorsOf(Pointers(batch.targets), impl.options.grid);
-  return VoteNetLossOf(impl.net.ptr()->forward(input), targets, weights, nullptr);
+  const torch::Tensor output = impl.net.ptr()->forward(input);
+  const VoteNetLoss loss = VoteNetLossOf(output, targets, weights, nullptr);
+  for (size_t i = 0; outputs != nullptr && i < batch.images.size(); ++i) {
+    outputs->push_back(BevOutputOf(ActivatedAnswer(output[static_cast<int64_t>(i)].clone()),
+                                   batch.images[i],
+                                   impl.options.coder));
+  }
+  return loss;
 }
 
 }  // namespace furn

@@ -159,9 +159,13 @@ NormalisationShift AdaptNormalisation(VoteNet* net,
                                       int batch_size,
                                       double blend);
 
-// The loss of a batch without a step (evaluation mode).
+// The loss of a batch without a step (evaluation mode). With `outputs`
+// (a single network only), each image's answer is appended to it as
+// VoteNet::Predict gives it (one forward pass for both; a batch's
+// convolutions may round the last bit otherwise than one image's).
 VoteNetLoss EvaluateVoteNetLoss(const VoteNet& net,
                                 const TrainingBatch& batch,
-                                const VoteNetLossWeights& weights);
+                                const VoteNetLossWeights& weights,
+                                std::vector<BevOutput>* outputs = nullptr);
 
 }  // namespace furn

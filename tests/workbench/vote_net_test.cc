@@ -185,6 +185,57 @@ TEST(VoteNet, MirrorAverageTurnsTheMirrorsAnswerBack) {
   EXPECT_GT(largest_difference, 1e-3);  // the average did change something
 }
 
+// Validation takes its loss and the answers it decodes from one forward pass
+// of a batch (EvaluateVoteNetLoss with outputs): each answer is Predict's for
+// that image within float rounding (oneDNN sums a batch of 8 in another
+// order than one image: 3e-8 at most here), on one and two threads, for the toy grid
+// and the product's (72 x 96, width 16, batch 8); an ensemble's answers are
+// refused (its members differ from the first).
+TEST(VoteNet, TheLossPassAnswersAsPredictDoes) {
+  VoteNetTrainingOptions options = SmallTraining();
+  VoteNetOptions product;  // the default grid and width
+  float largest_difference = 0;
+  for (const VoteNetOptions& net_options : {options.net, product}) {
+    std::vector<BevSample> rooms;
+    for (int i = 0; i < 8; ++i) rooms.push_back(SyntheticRoom(200 + i, net_options.grid));
+    for (const int threads : {1, 2}) {
+      SetTorchThreads(threads);
+      const VoteNet net = VoteNet::Create(net_options, /*seed=*/5);
+      const TrainingBatch batch =
+          MakeTrainingBatch(rooms, {0, 1, 2, 3, 4, 5, 6, 7}, {}, net_options.coder);
+      std::vector<BevOutput> answers;
+      const VoteNetLoss with = EvaluateVoteNetLoss(net, batch, {}, &answers);
+      EXPECT_EQ(with.Total(), EvaluateVoteNetLoss(net, batch, {}).Total());
+      ASSERT_EQ(answers.size(), rooms.size());
+      for (size_t i = 0; i < answers.size(); ++i) {
+        const BevOutput own = net.Predict(rooms[i].image);
+        ASSERT_EQ(answers[i].values.size(), own.values.size());
+        float largest = 0;
+        for (size_t k = 0; k < own.values.size(); ++k)
+          largest = std::max(largest, std::abs(answers[i].values[k] - own.values[k]));
+        EXPECT_LE(largest, 1e-6f) << "image " << i << ", width " << net_options.width << ", "
+                                  << threads << " threads";
+        largest_difference = std::max(largest_difference, largest);
+        EXPECT_EQ(answers[i].spec.rows, own.spec.rows);
+        EXPECT_EQ(answers[i].edge_votes, own.edge_votes);
+      }
+    }
+  }
+  std::printf("largest difference of a batch's answer from Predict's: %g\n", largest_difference);
+  SetTorchThreads(1);
+  const std::vector<BevSample> rooms = Rooms(1);
+  std::vector<VoteNet> members;
+  members.push_back(VoteNet::Create(options.net, 1));
+  members.push_back(VoteNet::Create(options.net, 2));
+  const VoteNet ensemble = VoteNet::Ensemble(std::move(members), "test");
+  std::vector<BevOutput> answers;
+  EXPECT_NE(testing::ErrorOf([&] {
+              EvaluateVoteNetLoss(
+                  ensemble, MakeTrainingBatch(rooms, {0}, {}, options.net.coder), {}, &answers);
+            }).find("not an ensemble"),
+            std::string::npos);
+}
+
 TEST(VoteNet, BytesRoundTripAndDamageIsOneLine) {
   const std::vector<BevSample> rooms = Rooms(2);
   VoteNetTrainingOptions options = SmallTraining();

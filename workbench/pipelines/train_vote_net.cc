@@ -16,6 +16,7 @@
 #include "core/detector/learned_source.h"
 #include "core/geometry/scan_fusion.h"
 #include "core/util/error.h"
+#include "core/util/parallel.h"
 #include "core/util/progress.h"
 #include "core/util/random.h"
 #include "db/dataset_db.h"
@@ -60,9 +61,12 @@ void AddObjectsSeenBy(const RoomRecord& room,
   }
 }
 
+// The validation frames' mean loss; with `outputs`, each frame's answer too
+// (the same forward pass).
 VoteNetLoss ValidationLoss(const VoteNet& net,
                            const std::vector<BevSample>& validation,
-                           const VoteNetTrainingOptions& options) {
+                           const VoteNetTrainingOptions& options,
+                           std::vector<BevOutput>* outputs = nullptr) {
   const size_t batch_size = options.batch_size;
   VoteNetLoss sum;
   int batches = 0;
@@ -71,7 +75,7 @@ VoteNetLoss ValidationLoss(const VoteNet& net,
     for (size_t i = start; i < std::min(validation.size(), start + batch_size); ++i)
       indices.push_back(i);
     sum += EvaluateVoteNetLoss(
-        net, MakeTrainingBatch(validation, indices, {}, options.net.coder), options.loss);
+        net, MakeTrainingBatch(validation, indices, {}, options.net.coder), options.loss, outputs);
     ++batches;
   }
   return batches > 0 ? sum.Scaled(1.0 / batches) : sum;
@@ -87,10 +91,15 @@ VoteNetLoss ValidationLoss(const VoteNet& net,
 // averaging"). Objects seen too little to be targets count as "ignore" when
 // `ignore_non_targets`, else are left out. `decode` says how far maxima
 // are kept (detection's range for the operating point, every one for AP).
+// `outputs` (empty: the network predicts each frame) are the frames' answers.
 std::vector<FrameOutcome> DecodedFrames(const VoteNet& net,
                                         const std::vector<BevSample>& validation,
                                         const BevDecodeOptions& decode,
-                                        bool ignore_non_targets) {
+                                        bool ignore_non_targets,
+                                        const std::vector<BevOutput>& outputs = {}) {
+  Require(outputs.empty() || outputs.size() == validation.size(),
+          "decoded frames: " + std::to_string(outputs.size()) + " answers for " +
+              std::to_string(validation.size()) + " frames");
   std::vector<FrameOutcome> frames;
   for (size_t i = 0; i < validation.size(); ++i) {
     const BevSample& sample = validation[i];
@@ -109,7 +118,9 @@ std::vector<FrameOutcome> DecodedFrames(const VoteNet& net,
       truth.distance_m = (object.Centre() - sample.image.frame.origin).norm();
       frame.truth.push_back(truth);
     }
-    for (const BevPeak& peak : DecodeBevOutput(sample.image, net.Predict(sample.image), decode)) {
+    const BevOutput answer = outputs.empty() ? net.Predict(sample.image) : BevOutput();
+    for (const BevPeak& peak :
+         DecodeBevOutput(sample.image, outputs.empty() ? answer : outputs[i], decode)) {
       if (peak.suppressed) continue;
       frame.detections.push_back(ScoredDetectionOf(LearnedSource::DetectionOf(peak),
                                                    BevYawSymmetry(peak.furniture_class)));
@@ -128,10 +139,12 @@ EvaluationOptions ValidationEvaluation() {
 
 // mAP@10cm of the network's decoded maxima on the validation frames (every
 // target a labelled object; protocol B's matching).
-double ValidationMeanAp(const VoteNet& net, const std::vector<BevSample>& validation) {
+double ValidationMeanAp(const VoteNet& net,
+                        const std::vector<BevSample>& validation,
+                        const std::vector<BevOutput>& outputs = {}) {
   const BevDecodeOptions decode;  // its floor is low: AP sweeps the score
-  const EvaluationResult result =
-      EvaluateFrames(DecodedFrames(net, validation, decode, false), ValidationEvaluation());
+  const EvaluationResult result = EvaluateFrames(
+      DecodedFrames(net, validation, decode, false, outputs), ValidationEvaluation());
   return MetricOrNan(result.metrics, MetricId::MeanAp(0.10));
 }
 
@@ -499,19 +512,25 @@ void ReadBevSamples(const std::string& db_path,
     }
     const auto read_start = std::chrono::steady_clock::now();
     const RoomRecord room = db.ReadRoom(rooms[k], /*with_images=*/true);
-    std::vector<DetectionInput> scans;
+    const int frames = static_cast<int>(room.frames.size());
+    // The room's frames decoded, then rasterised, each on the pool: every
+    // sample a pure function of its frame (and its room-mates when fused),
+    // kept in the frames' order.
+    std::vector<DetectionInput> scans(room.frames.size());
     std::vector<const FrameRecord*> room_frames;
-    for (const FrameRecord& frame : room.frames) {
-      scans.push_back(DetectionInputOf(frame, db_path + " frame " + std::to_string(frame.id)));
-      room_frames.push_back(&frame);
-    }
+    for (const FrameRecord& frame : room.frames) room_frames.push_back(&frame);
+    ParallelFor(0, frames, [&](int f) {
+      const FrameRecord& frame = room.frames[f];
+      scans[f] = DetectionInputOf(frame, db_path + " frame " + std::to_string(frame.id));
+    });
     const auto raster_start = std::chrono::steady_clock::now();
     if (stages != nullptr)
       stages->read_s += std::chrono::duration<double>(raster_start - read_start).count();
-    for (size_t f = 0; f < room.frames.size(); ++f) {
+    std::vector<BevSample> samples(room.frames.size());
+    ParallelFor(0, frames, [&](int f) {
       const FrameRecord& frame = room.frames[f];
       const bool fused = options.FusesFrame(frame.id);
-      BevSample sample;
+      BevSample& sample = samples[f];
       sample.image =
           RasteriseScan(fused ? FusedScan(scans, room, f, fusion).points : scans[f].points,
                         frame.world_from_camera,
@@ -521,6 +540,8 @@ void ReadBevSamples(const std::string& db_path,
                        fused ? room_frames : std::vector<const FrameRecord*>{&frame},
                        options.min_visibility,
                        &sample);
+    });
+    for (BevSample& sample : samples) {
       if (out == training && share != nullptr)
         share->local_of.push_back(static_cast<int64_t>(training->size()));
       out->push_back(std::move(sample));
@@ -570,9 +591,12 @@ void ValidateEpoch(const VoteNet& kept,
                    VoteNetEpoch* record) {
   record->last_weights_map = std::nan("");
   if (validation.empty()) return;
-  record->validation_terms = ValidationLoss(kept, validation, options);
+  // One forward pass a frame gives the loss and the answers the mAP decodes.
+  std::vector<BevOutput> answers;
+  const bool single = kept.Members() == 1;
+  record->validation_terms = ValidationLoss(kept, validation, options, single ? &answers : nullptr);
   record->validation_loss = record->validation_terms.Total();
-  record->validation_map = ValidationMeanAp(kept, validation);
+  record->validation_map = ValidationMeanAp(kept, validation, answers);
   if (last != nullptr) record->last_weights_map = ValidationMeanAp(*last, validation);
 }
 
