@@ -61,73 +61,83 @@ void AddObjectsSeenBy(const RoomRecord& room,
   }
 }
 
-// The validation frames' mean loss; with `outputs`, each frame's answer too
-// (the same forward pass).
-VoteNetLoss ValidationLoss(const VoteNet& net,
-                           const std::vector<BevSample>& validation,
-                           const VoteNetTrainingOptions& options,
-                           std::vector<BevOutput>* outputs = nullptr) {
-  const size_t batch_size = options.batch_size;
-  VoteNetLoss sum;
-  int batches = 0;
-  for (size_t start = 0; start < validation.size(); start += batch_size) {
-    std::vector<size_t> indices;
-    for (size_t i = start; i < std::min(validation.size(), start + batch_size); ++i)
-      indices.push_back(i);
-    sum += EvaluateVoteNetLoss(
-        net, MakeTrainingBatch(validation, indices, {}, options.net.coder), options.loss, outputs);
-    ++batches;
-  }
-  return batches > 0 ? sum.Scaled(1.0 / batches) : sum;
-}
-
-// The network's decoded maxima on the validation frames as evaluation
-// frames, each the detection it stands for as detection decodes it
-// (LearnedSource::DetectionOf) and scored as evaluate scores it, from its
-// plain output: not mirror-averaged, though detection is by
+// A validation frame's decoded maxima as an evaluation frame, each the
+// detection it stands for as detection decodes it
+// (LearnedSource::DetectionOf) and scored as evaluate scores it, from the
+// network's plain answer: not mirror-averaged, though detection is by
 // default. F1 is flat over the mirror's scores, and its best lies lower
 // (chair 0.32 against 0.40): twice the false detections at the same F1 on
 // seen-model rooms (docs/learned-voting.md, "fold seed 3 and mirror
 // averaging"). Objects seen too little to be targets count as "ignore" when
 // `ignore_non_targets`, else are left out. `decode` says how far maxima
 // are kept (detection's range for the operating point, every one for AP).
-// `outputs` (empty: the network predicts each frame) are the frames' answers.
+FrameOutcome DecodedFrame(const BevSample& sample,
+                          size_t index,
+                          const BevOutput& answer,
+                          const BevDecodeOptions& decode,
+                          bool ignore_non_targets) {
+  FrameOutcome frame;
+  frame.frame_id = static_cast<int64_t>(index);
+  for (size_t k = 0; k < sample.objects.size(); ++k) {
+    const BevObject& object = sample.objects[k];
+    if (!object.target && !ignore_non_targets) continue;
+    TruthObject truth;
+    truth.furniture_class = object.furniture_class;
+    truth.box() = object.box();
+    // As evaluation counts them: the object's visibility (a non-target
+    // one below any min_visibility: ignore), its distance from the camera.
+    truth.visibility = k < sample.visibility.size() ? sample.visibility[k] : 1;
+    if (!object.target) truth.visibility = std::min(truth.visibility, 0.01);
+    truth.distance_m = (object.Centre() - sample.image.frame.origin).norm();
+    frame.truth.push_back(truth);
+  }
+  for (const BevPeak& peak : DecodeBevOutput(sample.image, answer, decode)) {
+    if (peak.suppressed) continue;
+    frame.detections.push_back(
+        ScoredDetectionOf(LearnedSource::DetectionOf(peak), BevYawSymmetry(peak.furniture_class)));
+  }
+  return frame;
+}
+
+// Every validation frame decoded (DecodedFrame) from the network's answer.
 std::vector<FrameOutcome> DecodedFrames(const VoteNet& net,
                                         const std::vector<BevSample>& validation,
                                         const BevDecodeOptions& decode,
-                                        bool ignore_non_targets,
-                                        const std::vector<BevOutput>& outputs = {}) {
-  Require(outputs.empty() || outputs.size() == validation.size(),
-          "decoded frames: " + std::to_string(outputs.size()) + " answers for " +
-              std::to_string(validation.size()) + " frames");
+                                        bool ignore_non_targets) {
   std::vector<FrameOutcome> frames;
   for (size_t i = 0; i < validation.size(); ++i) {
-    const BevSample& sample = validation[i];
-    FrameOutcome frame;
-    frame.frame_id = static_cast<int64_t>(i);
-    for (size_t k = 0; k < sample.objects.size(); ++k) {
-      const BevObject& object = sample.objects[k];
-      if (!object.target && !ignore_non_targets) continue;
-      TruthObject truth;
-      truth.furniture_class = object.furniture_class;
-      truth.box() = object.box();
-      // As evaluation counts them: the object's visibility (a non-target
-      // one below any min_visibility: ignore), its distance from the camera.
-      truth.visibility = k < sample.visibility.size() ? sample.visibility[k] : 1;
-      if (!object.target) truth.visibility = std::min(truth.visibility, 0.01);
-      truth.distance_m = (object.Centre() - sample.image.frame.origin).norm();
-      frame.truth.push_back(truth);
-    }
-    const BevOutput answer = outputs.empty() ? net.Predict(sample.image) : BevOutput();
-    for (const BevPeak& peak :
-         DecodeBevOutput(sample.image, outputs.empty() ? answer : outputs[i], decode)) {
-      if (peak.suppressed) continue;
-      frame.detections.push_back(ScoredDetectionOf(LearnedSource::DetectionOf(peak),
-                                                   BevYawSymmetry(peak.furniture_class)));
-    }
-    frames.push_back(std::move(frame));
+    frames.push_back(DecodedFrame(
+        validation[i], i, net.Predict(validation[i].image), decode, ignore_non_targets));
   }
   return frames;
+}
+
+// The validation frames' mean loss; with `decoded` (a single network), each
+// frame decoded for AP (DecodedFrame, every maximum kept) from the same
+// forward pass, a batch's answers dropped once decoded.
+VoteNetLoss ValidationLoss(const VoteNet& net,
+                           const std::vector<BevSample>& validation,
+                           const VoteNetTrainingOptions& options,
+                           std::vector<FrameOutcome>* decoded = nullptr) {
+  const size_t batch_size = options.batch_size;
+  const BevDecodeOptions decode;  // its floor is low: AP sweeps the score
+  VoteNetLoss sum;
+  int batches = 0;
+  for (size_t start = 0; start < validation.size(); start += batch_size) {
+    std::vector<size_t> indices;
+    for (size_t i = start; i < std::min(validation.size(), start + batch_size); ++i)
+      indices.push_back(i);
+    std::vector<BevOutput> answers;
+    sum += EvaluateVoteNetLoss(net,
+                               MakeTrainingBatch(validation, indices, {}, options.net.coder),
+                               options.loss,
+                               decoded != nullptr ? &answers : nullptr);
+    for (size_t k = 0; k < answers.size(); ++k)
+      decoded->push_back(
+          DecodedFrame(validation[indices[k]], indices[k], answers[k], decode, false));
+    ++batches;
+  }
+  return batches > 0 ? sum.Scaled(1.0 / batches) : sum;
 }
 
 // The samples' objects are all in the network's view.
@@ -137,15 +147,16 @@ EvaluationOptions ValidationEvaluation() {
   return options;
 }
 
-// mAP@10cm of the network's decoded maxima on the validation frames (every
-// target a labelled object; protocol B's matching).
-double ValidationMeanAp(const VoteNet& net,
-                        const std::vector<BevSample>& validation,
-                        const std::vector<BevOutput>& outputs = {}) {
-  const BevDecodeOptions decode;  // its floor is low: AP sweeps the score
-  const EvaluationResult result = EvaluateFrames(
-      DecodedFrames(net, validation, decode, false, outputs), ValidationEvaluation());
+// mAP@10cm of decoded validation frames (every target a labelled object;
+// protocol B's matching).
+double ValidationMeanAp(const std::vector<FrameOutcome>& decoded) {
+  const EvaluationResult result = EvaluateFrames(decoded, ValidationEvaluation());
   return MetricOrNan(result.metrics, MetricId::MeanAp(0.10));
+}
+
+// The same of the network's decoded maxima on the validation frames.
+double ValidationMeanAp(const VoteNet& net, const std::vector<BevSample>& validation) {
+  return ValidationMeanAp(DecodedFrames(net, validation, BevDecodeOptions{}, false));
 }
 
 // What `generate` makes the training rooms with: the training catalog's
@@ -591,12 +602,11 @@ void ValidateEpoch(const VoteNet& kept,
                    VoteNetEpoch* record) {
   record->last_weights_map = std::nan("");
   if (validation.empty()) return;
-  // One forward pass a frame gives the loss and the answers the mAP decodes.
-  std::vector<BevOutput> answers;
-  const bool single = kept.Members() == 1;
-  record->validation_terms = ValidationLoss(kept, validation, options, single ? &answers : nullptr);
+  // One forward pass a frame gives the loss and the maxima the mAP scores.
+  std::vector<FrameOutcome> decoded;
+  record->validation_terms = ValidationLoss(kept, validation, options, &decoded);
   record->validation_loss = record->validation_terms.Total();
-  record->validation_map = ValidationMeanAp(kept, validation, answers);
+  record->validation_map = ValidationMeanAp(decoded);
   if (last != nullptr) record->last_weights_map = ValidationMeanAp(*last, validation);
 }
 
