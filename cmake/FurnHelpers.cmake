@@ -38,7 +38,7 @@ endfunction()
 # too. ISA_FILTER (a gtest filter) limits those repetitions to the tests it names: an
 # end-to-end suite repeats one representative run, not every case (the suite's time).
 function(furn_add_test)
-  cmake_parse_arguments(ARG "WHOLE" "FOLDER;NAME;TIMEOUT;ISA_FILTER" "SOURCES;LINKS;LABELS;EMBREE_ISAS;TORCH_ISAS" ${ARGN})
+  cmake_parse_arguments(ARG "WHOLE" "FOLDER;NAME;TIMEOUT;ISA_FILTER;PRECISION_FILTER" "SOURCES;LINKS;LABELS;EMBREE_ISAS;TORCH_ISAS;PRECISIONS" ${ARGN})
   set(target ${ARG_FOLDER}_${ARG_NAME}_test)
   add_executable(${target} ${ARG_SOURCES})
   target_link_libraries(${target} PRIVATE ${ARG_LINKS} furn_test_main GTest::gtest GTest::gmock)
@@ -85,6 +85,20 @@ function(furn_add_test)
       PROPERTIES LABELS "${ARG_LABELS}" TIMEOUT ${ARG_TIMEOUT}
                  ENVIRONMENT "FURN_TORCH_ISA=${isa}"
       TEST_FILTER "${ARG_ISA_FILTER}"
+      DISCOVERY_TIMEOUT 60)
+  endforeach()
+  # The vote network's arithmetic: the suite pins fp32 (tests/test_main.cc);
+  # a [bf16] variant runs PRECISION_FILTER's tests with auto meaning bf16
+  # (skipped on a CPU without it). Select them with ctest -R '\[bf16\]'.
+  if(NOT ARG_PRECISION_FILTER)
+    set(ARG_PRECISION_FILTER "*")
+  endif()
+  foreach(precision IN LISTS ARG_PRECISIONS)
+    gtest_discover_tests(${target}
+      TEST_PREFIX "${ARG_FOLDER}/${ARG_NAME}[${precision}]."
+      PROPERTIES LABELS "${ARG_LABELS}" TIMEOUT ${ARG_TIMEOUT}
+                 ENVIRONMENT "FURN_NETWORK_PRECISION=${precision}"
+      TEST_FILTER "${ARG_PRECISION_FILTER}"
       DISCOVERY_TIMEOUT 60)
   endforeach()
 endfunction()

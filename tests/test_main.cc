@@ -2,13 +2,15 @@
 // C library generator, so no test depends on the order tests run in. Tests
 // take their randomness from furn::Rng with fixed seeds. The mesh cache is off
 // (tests that exercise it set FURN_MESH_CACHE themselves), so tests neither
-// read nor fill the user's cache.
+// read nor fill the user's cache. The vote network computes in float unless
+// FURN_NETWORK_PRECISION is set (vote_net.h).
 #include <gtest/gtest.h>
 
 #include <cstdio>
 #include <cstdlib>
 #include <string>
 
+#include "core/learned/vote_net.h"
 #include "core/util/leak_suppressions.h"
 
 namespace {
@@ -27,6 +29,9 @@ class ForcedIsaEnvironment : public ::testing::Environment {
     if (const char* torch = std::getenv("FURN_TORCH_ISA");
         torch != nullptr && !__builtin_cpu_supports("avx2"))
       GTEST_SKIP() << "this CPU lacks the ISA of FURN_TORCH_ISA=" << torch;
+    if (const char* precision = std::getenv("FURN_NETWORK_PRECISION");
+        precision != nullptr && std::string(precision) == "bf16" && !furn::CpuHasBf16())
+      GTEST_SKIP() << "this CPU has no bfloat16 instructions (FURN_NETWORK_PRECISION=bf16)";
     const char* config = std::getenv("FURN_EMBREE_CONFIG");
     if (config == nullptr) return;
     const std::string text = config;
@@ -64,6 +69,10 @@ int main(int argc, char** argv) {
     return 2;
   }
   setenv("FURN_MESH_CACHE", "off", 1);
+  // The network's reference arithmetic on every machine (auto would be
+  // bfloat16 on a CPU with AMX-BF16): the tests of bfloat16 ask for it, and
+  // the [bf16] variants set FURN_NETWORK_PRECISION=bf16 themselves.
+  setenv("FURN_NETWORK_PRECISION", "fp32", 0);
   ::testing::UnitTest::GetInstance()->listeners().Append(new ReseedListener);
   ::testing::AddGlobalTestEnvironment(new ForcedIsaEnvironment);
   return RUN_ALL_TESTS();

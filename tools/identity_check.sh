@@ -10,6 +10,9 @@
 #   diff before.txt after.txt
 # (BUILD is a build folder, or a folder holding a copied workbench binary.)
 set -euo pipefail
+# The vote network's reference arithmetic (auto would be bf16 on a CPU with
+# AMX-BF16, and builds before the option knew only float).
+export FURN_NETWORK_PRECISION="${FURN_NETWORK_PRECISION:-fp32}"
 repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build="$1"
 out="$2"

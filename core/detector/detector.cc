@@ -55,6 +55,7 @@ void DetectorOptions::Check() const {
           "scorer max seen through must be in 0..1");
   LearnedDecode().Check();
   Require(torch_threads >= 0 && torch_threads <= 256, "torch threads must be in 0..256");
+  ResolvePrecision(network_precision);  // bf16 asked of a CPU without it
   Require(learned_fit_agree_m > 0 && learned_fit_agree_m <= 2,
           "learned fit agreement radius " + std::to_string(learned_fit_agree_m) +
               " must be in (0, 2] m");
@@ -122,8 +123,10 @@ Detector::Detector(TrainedModel model, const DetectorOptions& options)
   impl.scored = options.use_scorer && !impl.scorer.empty();
   if (!m.render_meshes.empty())
     impl.mesh_caster = std::make_unique<ModelMeshCaster>(&impl.model.render_meshes);
-  if (!m.vote_net.empty())
+  if (!m.vote_net.empty()) {
     impl.vote_net = VoteNet::Deserialize(m.vote_net, "the model's vote network");
+    impl.vote_net.SetPrecision(options.network_precision);
+  }
   Require(options.voting != VotingMode::kLearned || !impl.vote_net.empty(),
           "voting learned: the model holds no vote network (train one into it, or vote with "
           "the codebook)");

@@ -59,6 +59,7 @@
 #include "core/geometry/render_compare.h"
 #include "core/learned/bev_box_coder.h"
 #include "core/learned/bev_extent.h"
+#include "core/learned/vote_net.h"
 #include "core/model/furniture_box.h"
 #include "core/model/operating_point.h"
 #include "core/model/trained_model.h"
@@ -172,6 +173,10 @@ struct DetectorOptions {
   // votes; max_distance_m is ignored (LearnedDecode sets max_range_m).
   BevDecodeOptions learned_decode;
   int torch_threads = 1;
+  // The network's arithmetic (vote_net.h): auto is bfloat16 on a CPU with
+  // AMX-BF16 (protocol E, the real set and NYU's train frames within 0.006
+  // AP of float's, the network 2.6 times faster), float elsewhere.
+  NetworkPrecision network_precision = NetworkPrecision::kAuto;
   // The paper's stages after the learned vote: each detection's CAD models
   // ranked by the VFH part subsets of the segments inside its box (top_models
   // of them) and fitted by 3-DOF RANSAC; where the best fit's reference point

@@ -1,9 +1,13 @@
 #include "core/learned/vote_net.h"
 
+#include <ATen/autocast_mode.h>
+
 #include "core/learned/vote_net_module.h"
 #include "core/learned/vote_net_upgrade.h"
 
+#include <cstdlib>
 #include <cstring>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <utility>
@@ -308,7 +312,41 @@ torch::Tensor Up(const torch::Tensor& x, const torch::Tensor& like) {
 
 }  // namespace
 
+// Torch's CPU autocast to bfloat16 on this thread for the guard's life (the
+// state is thread-local), restored after; the casts it caches are dropped
+// when the outermost guard ends, as torch.autocast's exit does.
+class Bf16Autocast {
+ public:
+  Bf16Autocast()
+      : was_enabled_(at::autocast::is_cpu_enabled()),
+        was_type_(at::autocast::get_autocast_cpu_dtype()) {
+    at::autocast::set_autocast_cpu_dtype(at::kBFloat16);
+    at::autocast::set_cpu_enabled(true);
+    at::autocast::increment_nesting();
+  }
+  ~Bf16Autocast() {
+    if (at::autocast::decrement_nesting() == 0) at::autocast::clear_cache();
+    at::autocast::set_cpu_enabled(was_enabled_);
+    at::autocast::set_autocast_cpu_dtype(was_type_);
+  }
+  Bf16Autocast(const Bf16Autocast&) = delete;
+  Bf16Autocast& operator=(const Bf16Autocast&) = delete;
+
+ private:
+  bool was_enabled_;
+  at::ScalarType was_type_;
+};
+
 torch::Tensor UNetImpl::forward(const torch::Tensor& x) {
+  if (!bf16) return Layers(x);
+  // Channels-last activations: oneDNN's bfloat16 convolutions take them as
+  // they are (in torch's default layout each convolution reorders its input
+  // and output, which cost more than the convolutions themselves).
+  Bf16Autocast autocast;
+  return Layers(x.contiguous(torch::MemoryFormat::ChannelsLast)).to(torch::kFloat32).contiguous();
+}
+
+torch::Tensor UNetImpl::Layers(const torch::Tensor& x) {
   std::vector<torch::Tensor> skips;
   torch::Tensor y = x;
   for (size_t i = 0; i < encoders.size(); ++i) {
@@ -485,6 +523,7 @@ VoteNet VoteNet::Ensemble(std::vector<VoteNet> members, const std::string& what)
   VoteNet ensemble = std::move(members[0]);
   for (size_t m = 1; m < members.size(); ++m)
     ensemble.impl_->partners.push_back(members[m].impl_->net);
+  ensemble.SetPrecision(ensemble.precision());  // every member in the first's arithmetic
   return ensemble;
 }
 
@@ -548,6 +587,68 @@ BevOutput BevOutputOf(const torch::Tensor& answer,
   out.edge_votes = coder.edge_votes;
   out.values.assign(values.data_ptr<float>(), values.data_ptr<float>() + values.numel());
   return out;
+}
+
+void VoteNet::SetPrecision(NetworkPrecision requested) {
+  Require(impl_ != nullptr, "an empty vote network has no precision");
+  impl_->precision = ResolvePrecision(requested);
+  const bool bf16 = impl_->precision == NetworkPrecision::kBfloat16;
+  impl_->net->bf16 = bf16;
+  for (UNet& partner : impl_->partners) partner->bf16 = bf16;
+}
+
+NetworkPrecision VoteNet::precision() const {
+  return impl_ == nullptr ? NetworkPrecision::kFloat32 : impl_->precision;
+}
+
+// Whether oneDNN may use an instruction set whose DNNL_MAX_CPU_ISA name
+// contains `marker`: no cap (or ALL), or a cap naming it (AVX512_CORE_AMX
+// for AMX, AVX512_CORE_BF16 and above for bfloat16).
+bool OneDnnMayUse(const char* marker) {
+  for (const char* name : {"ONEDNN_MAX_CPU_ISA", "DNNL_MAX_CPU_ISA"}) {
+    const char* cap = std::getenv(name);
+    if (cap == nullptr || *cap == '\0') continue;
+    const std::string text = cap;
+    return text == "ALL" || text.find(marker) != std::string::npos;
+  }
+  return true;
+}
+
+bool CpuHasAmxBf16() {
+  // GCC's test counts AMX only where the operating system saves the tile
+  // state (XCR0); oneDNN asks Linux for the permission itself.
+  __builtin_cpu_init();
+  return __builtin_cpu_supports("amx-bf16") && __builtin_cpu_supports("amx-tile") &&
+         OneDnnMayUse("AMX");
+}
+
+bool CpuHasBf16() {
+  __builtin_cpu_init();
+  return CpuHasAmxBf16() ||
+         (__builtin_cpu_supports("avx512bf16") && (OneDnnMayUse("BF16") || OneDnnMayUse("AMX")));
+}
+
+NetworkPrecision ResolvePrecision(NetworkPrecision requested) {
+  if (requested == NetworkPrecision::kAuto) {
+    if (const char* text = std::getenv("FURN_NETWORK_PRECISION"); text != nullptr && *text) {
+      const std::optional<NetworkPrecision> chosen = TryParseEnum<NetworkPrecision>(text);
+      Require(chosen.has_value(),
+              std::string("FURN_NETWORK_PRECISION='") + text + "' must be auto, fp32 or bf16");
+      requested = *chosen;
+    }
+  }
+  switch (requested) {
+    case NetworkPrecision::kAuto:
+      return CpuHasAmxBf16() ? NetworkPrecision::kBfloat16 : NetworkPrecision::kFloat32;
+    case NetworkPrecision::kBfloat16:
+      Require(CpuHasBf16(),
+              "network precision bf16: this CPU has neither AMX-BF16 nor AVX512-BF16 "
+              "instructions (use auto or fp32)");
+      return requested;
+    case NetworkPrecision::kFloat32:
+      return requested;
+  }
+  return NetworkPrecision::kFloat32;
 }
 
 void SetTorchThreads(int threads) {

@@ -22,8 +22,42 @@
 
 #include "core/learned/bev_box_coder.h"
 #include "core/learned/bev_grid.h"
+#include "core/util/enum_text.h"
 
 namespace furn {
+
+// The arithmetic of the network's passes (issue 70). kFloat32: float
+// tensors in torch's default layout, the reference (a seed gives the same
+// answers and the same trained bytes as before the option). kBfloat16:
+// torch's CPU autocast to bfloat16 around the convolutions, with the
+// activations channels-last (oneDNN's AMX kernels without a reorder per
+// convolution; the weights and the answers stay float): 2.6 times faster
+// predictions and 1.7 to 2.2 times faster training steps on a CPU with
+// AMX-BF16, answers within bfloat16's rounding of float's
+// (docs/learned-voting.md). kAuto is kBfloat16 on a CPU with AMX-BF16 and
+// kFloat32 elsewhere (ResolvePrecision).
+enum class NetworkPrecision { kAuto, kFloat32, kBfloat16 };
+template <>
+struct EnumText<NetworkPrecision> {
+  static constexpr const char* kKind = "network precision";
+  static constexpr EnumEntry<NetworkPrecision> kEntries[] = {
+      {NetworkPrecision::kAuto, "auto"},
+      {NetworkPrecision::kFloat32, "fp32"},
+      {NetworkPrecision::kBfloat16, "bf16"},
+  };
+};
+
+// Whether this CPU (and its operating system) runs AMX-BF16 tile
+// instructions: what kAuto's bfloat16 needs to pay off.
+bool CpuHasAmxBf16();
+// Whether it has bfloat16 instructions at all (AVX512-BF16 or AMX-BF16),
+// which an explicit kBfloat16 needs.
+bool CpuHasBf16();
+// kAuto resolved for this CPU; kFloat32 as asked; kBfloat16 as asked, or an
+// InputError naming the CPU's lack when it has no bfloat16 instructions.
+// FURN_NETWORK_PRECISION (auto, fp32 or bf16), when set, replaces kAuto
+// (the test suite pins fp32 with it; a bad value is an InputError).
+NetworkPrecision ResolvePrecision(NetworkPrecision requested);
 
 // The most cells a vote network's grid may hold (the default holds 6912).
 inline constexpr int64_t kMaxGridCells = 65536;
@@ -82,6 +116,11 @@ class VoteNet {
   // cost what one network with it does, member 1 answering the mirror. The
   // yaw is always the first pass's (member 0 on the image).
   BevOutput Predict(const BevImage& image, bool mirror_average = false) const;
+
+  // The arithmetic of Predict and of training steps (every member's):
+  // ResolvePrecision(requested). kFloat32 until set.
+  void SetPrecision(NetworkPrecision requested);
+  NetworkPrecision precision() const;
 
   struct Impl;  // vote_net_module.h: torch's module, for the learned library's own files
 

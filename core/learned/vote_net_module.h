@@ -30,11 +30,18 @@ TORCH_MODULE(ConvBlock);
 // head, so three levels keep the names of the networks before the option.
 struct UNetImpl : torch::nn::Module {
   UNetImpl(int in, int w, int out, int levels);
+  // Float in and out whatever the precision: with `bf16`, the passes run in
+  // torch's CPU autocast to bfloat16 on channels-last activations, and the
+  // answer comes back as a float tensor in the default layout.
   torch::Tensor forward(const torch::Tensor& x);
+  bool bf16 = false;                // VoteNet::SetPrecision's
   std::vector<ConvBlock> encoders;  // e1..eL
   ConvBlock bottom{nullptr};
   std::vector<ConvBlock> decoders;  // d1..dL (decoders[i] is d(i+1))
   torch::nn::Conv2d head{nullptr};
+
+ private:
+  torch::Tensor Layers(const torch::Tensor& x);
 };
 TORCH_MODULE(UNet);
 
@@ -44,6 +51,7 @@ struct VoteNet::Impl {
   // An ensemble's further members (VoteNet::Ensemble), each of `options`;
   // empty for one network. Only Predict and the file use them.
   std::vector<UNet> partners;
+  NetworkPrecision precision = NetworkPrecision::kFloat32;  // resolved: never kAuto
 };
 
 // The learned library's access to a network's module.

@@ -335,6 +335,7 @@ void VoteNetOptimizer::RestoreState(const VoteNet& weights,
 VoteNetWeightAverage::VoteNetWeightAverage(const VoteNet& net, double decay)
     : average_(VoteNet::Deserialize(net.Serialize(), "the network's weights")), decay_(decay) {
   Require(decay >= 0 && decay < 1, "a weight average's decay must be in [0, 1)");
+  average_.SetPrecision(net.precision());  // validated in the arithmetic it trains in
 }
 
 void VoteNetWeightAverage::Update(const VoteNet& net) {

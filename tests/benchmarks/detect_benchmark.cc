@@ -84,12 +84,23 @@ std::vector<LoadedScan> EveryThirdFrame(const std::string& db_path, const FrameF
   return scans;
 }
 
+// The network's arithmetic: bf16 (skipped on a CPU without it) or fp32.
+bool SetPrecision(bool bf16, DetectorOptions* options, benchmark::State* state) {
+  if (bf16 && !CpuHasBf16()) {
+    state->SkipWithError("this CPU has no bfloat16 instructions");
+    return false;
+  }
+  options->network_precision = bf16 ? NetworkPrecision::kBfloat16 : NetworkPrecision::kFloat32;
+  return true;
+}
+
 void BM_DetectFrame(benchmark::State& state) {
   std::string model_path, db_path;
   if (!FindModelAndDataset(state, &model_path, &db_path)) return;
   DetectorOptions options;
   options.torch_threads = static_cast<int>(state.range(0));  // the learned path's network
   options.learned_mirror_average = state.range(1) != 0;
+  if (!SetPrecision(state.range(2) != 0, &options, &state)) return;
   const Detector detector(LoadTrainedModel(model_path), options);
   DetectInTurn(detector, EveryThirdFrame(db_path, FrameFusion{}), state);
 }
@@ -161,14 +172,16 @@ BENCHMARK(BM_RegisterRoomFrames)
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime()
     ->Iterations(27);
-// Args: the network's torch threads and --mirror-average (learned voting;
-// the codebook path ignores both).
+// Args: the network's torch threads, --mirror-average and bf16 (the
+// network's arithmetic: 1 bf16, 0 fp32; learned voting; the codebook path
+// ignores them).
 BENCHMARK(BM_DetectFrame)
-    ->Args({1, 0})
-    ->Args({2, 0})
-    ->Args({1, 1})
-    ->Args({2, 1})
-    ->ArgNames({"torch_threads", "mirror_average"})
+    ->Args({1, 0, 0})
+    ->Args({2, 0, 0})
+    ->Args({1, 1, 0})
+    ->Args({1, 1, 1})
+    ->Args({2, 1, 0})
+    ->ArgNames({"torch_threads", "mirror_average", "bf16"})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime()
     ->Iterations(81);
@@ -201,7 +214,7 @@ BENCHMARK(BM_RasteriseScan)->Unit(benchmark::kMillisecond)->UseRealTime()->Itera
 // a 640x480 real frame, 2 cores), each loaded as `detect` would: the floor
 // searched where the pose is unknown, which synthetic frames never need.
 // Arg 1: the organised 640x480 scans only (the target's frames); 0: all.
-// Second arg: the network's torch threads.
+// Second arg: the network's torch threads; third: bf16 (1) or fp32 (0).
 void BM_DetectRealFrame(benchmark::State& state) {
   const std::string model_path = FromEnv("FURN_BENCH_MODEL", FURN_SOURCE_DIR "/out/model.fcm");
   const std::string labels = FromEnv("FURN_BENCH_REAL", FURN_SOURCE_DIR "/data/real/labels.json");
@@ -211,6 +224,7 @@ void BM_DetectRealFrame(benchmark::State& state) {
   }
   DetectorOptions options;
   options.torch_threads = static_cast<int>(state.range(1));
+  if (!SetPrecision(state.range(2) != 0, &options, &state)) return;
   const Detector detector(LoadTrainedModel(model_path), options);
   std::vector<LoadedScan> scans;
   for (const RealScan& scan : ReadRealSet(labels).scans) {
@@ -221,10 +235,11 @@ void BM_DetectRealFrame(benchmark::State& state) {
   DetectInTurn(detector, scans, state);
 }
 BENCHMARK(BM_DetectRealFrame)
-    ->Args({1, 1})
-    ->Args({1, 2})
-    ->Args({0, 1})
-    ->ArgNames({"organised640", "torch_threads"})
+    ->Args({1, 1, 0})
+    ->Args({1, 1, 1})
+    ->Args({1, 2, 0})
+    ->Args({0, 1, 0})
+    ->ArgNames({"organised640", "torch_threads", "bf16"})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime()
     ->Iterations(44);

@@ -43,7 +43,8 @@ BENCHMARK(BM_TrainDefaultCatalog)->Unit(benchmark::kSecond)->UseRealTime()->Iter
 
 // The vote network (issue 30): one training step and one inference on the
 // default grid (72 x 96 cells), random images. Args: batch, width, torch
-// threads. Counters: frames per second through training.
+// threads, bf16 (1: NetworkPrecision::kBfloat16, skipped on a CPU without
+// it; 0: float). Counters: frames per second through training.
 BevImage RandomImage(std::mt19937_64* random) {
   BevImage image;
   image.values.resize(static_cast<size_t>(kBevChannels) * image.spec.rows * image.spec.cols);
@@ -52,12 +53,24 @@ BevImage RandomImage(std::mt19937_64* random) {
   return image;
 }
 
+// The network in bfloat16 (or float); false, with the benchmark skipped,
+// on a CPU without bfloat16 instructions.
+bool SetBenchmarkPrecision(bool bf16, VoteNet* net, benchmark::State* state) {
+  if (bf16 && !CpuHasBf16()) {
+    state->SkipWithError("this CPU has no bfloat16 instructions");
+    return false;
+  }
+  net->SetPrecision(bf16 ? NetworkPrecision::kBfloat16 : NetworkPrecision::kFloat32);
+  return true;
+}
+
 void BM_VoteNetTrainStep(benchmark::State& state) {
   const int batch = static_cast<int>(state.range(0));
   VoteNetOptions options;
   options.width = static_cast<int>(state.range(1));
   SetTorchThreads(static_cast<int>(state.range(2)));
   VoteNet net = VoteNet::Create(options, 1);
+  if (!SetBenchmarkPrecision(state.range(3) != 0, &net, &state)) return;
   VoteNetOptimizer optimizer(&net, VoteNetLossWeights{});
   std::mt19937_64 random(1);
   TrainingBatch training;
@@ -72,12 +85,14 @@ void BM_VoteNetTrainStep(benchmark::State& state) {
   state.counters["parameters"] = static_cast<double>(net.Parameters());
 }
 BENCHMARK(BM_VoteNetTrainStep)
-    ->Args({16, 16, 2})
-    ->Args({16, 16, 1})
-    ->Args({4, 16, 2})
-    ->Args({16, 12, 2})
-    ->Args({16, 8, 2})
-    ->ArgNames({"batch", "width", "threads"})
+    ->Args({16, 16, 2, 0})
+    ->Args({16, 16, 2, 1})
+    ->Args({16, 16, 1, 0})
+    ->Args({16, 16, 1, 1})
+    ->Args({4, 16, 2, 0})
+    ->Args({16, 12, 2, 0})
+    ->Args({16, 8, 2, 0})
+    ->ArgNames({"batch", "width", "threads", "bf16"})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 
@@ -100,15 +115,18 @@ void BM_VoteNetPredict(benchmark::State& state) {
   VoteNetOptions options;
   options.width = static_cast<int>(state.range(0));
   SetTorchThreads(static_cast<int>(state.range(1)));
-  const VoteNet net = VoteNet::Create(options, 1);
+  VoteNet net = VoteNet::Create(options, 1);
+  if (!SetBenchmarkPrecision(state.range(2) != 0, &net, &state)) return;
   std::mt19937_64 random(1);
   const BevImage image = RandomImage(&random);
   for (auto _ : state) benchmark::DoNotOptimize(net.Predict(image).values.size());
 }
 BENCHMARK(BM_VoteNetPredict)
-    ->Args({16, 1})
-    ->Args({16, 2})
-    ->ArgNames({"width", "threads"})
+    ->Args({16, 1, 0})
+    ->Args({16, 1, 1})
+    ->Args({16, 2, 0})
+    ->Args({16, 2, 1})
+    ->ArgNames({"width", "threads", "bf16"})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 

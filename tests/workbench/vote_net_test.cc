@@ -8,7 +8,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <optional>
 #include <random>
+#include <string>
 
 #include <filesystem>
 #include <set>
@@ -22,6 +24,7 @@
 #include "tests/test_util.h"
 #include "workbench/pipelines/train.h"
 #include "workbench/pipelines/train_vote_net.h"
+#include "workbench/pipelines/vote_net_checkpoint.h"
 
 namespace furn {
 namespace {
@@ -566,6 +569,176 @@ TEST(VoteNet, SameSeedAndThreadsSameWeights) {
   const VoteNet two = TrainVoteNetOnSamples(rooms, {}, options, &d_summary);
   const VoteNet one = VoteNet::Deserialize(a, "a");
   EXPECT_LT(LargestDifference(one.Predict(rooms[0].image), two.Predict(rooms[0].image)), 1e-3);
+}
+
+// An environment variable set for a scope, restored after (unset if it was).
+class ScopedEnv {
+ public:
+  ScopedEnv(const char* name, const char* value) : name_(name) {
+    if (const char* old = std::getenv(name)) old_ = old;
+    if (value != nullptr) {
+      setenv(name, value, 1);
+    } else {
+      unsetenv(name);
+    }
+  }
+  ~ScopedEnv() {
+    if (old_) {
+      setenv(name_, old_->c_str(), 1);
+    } else {
+      unsetenv(name_);
+    }
+  }
+
+ private:
+  const char* name_;
+  std::optional<std::string> old_;
+};
+
+// Issue 70: auto is bfloat16 exactly where the CPU has AMX-BF16 (and
+// oneDNN may use it), FURN_NETWORK_PRECISION replaces auto (the suite pins
+// fp32 with it), and bf16 asked of a CPU without it is one clear line.
+TEST(NetworkPrecision, AutoFollowsTheCpuAndTheEnvironment) {
+  EXPECT_EQ(ResolvePrecision(NetworkPrecision::kFloat32), NetworkPrecision::kFloat32);
+  {
+    const ScopedEnv unset("FURN_NETWORK_PRECISION", nullptr);
+    EXPECT_EQ(ResolvePrecision(NetworkPrecision::kAuto),
+              CpuHasAmxBf16() ? NetworkPrecision::kBfloat16 : NetworkPrecision::kFloat32);
+    {
+      const ScopedEnv capped("DNNL_MAX_CPU_ISA", "AVX2");  // as the [torch-avx2] variants run
+      EXPECT_FALSE(CpuHasAmxBf16());
+      EXPECT_FALSE(CpuHasBf16());
+      EXPECT_EQ(ResolvePrecision(NetworkPrecision::kAuto), NetworkPrecision::kFloat32);
+      EXPECT_NE(testing::ErrorOf([] {
+                  ResolvePrecision(NetworkPrecision::kBfloat16);
+                }).find("neither AMX-BF16 nor AVX512-BF16"),
+                std::string::npos);
+    }
+  }
+  {
+    const ScopedEnv fp32("FURN_NETWORK_PRECISION", "fp32");
+    EXPECT_EQ(ResolvePrecision(NetworkPrecision::kAuto), NetworkPrecision::kFloat32);
+  }
+  {
+    const ScopedEnv bad("FURN_NETWORK_PRECISION", "fast");
+    EXPECT_EQ(testing::ErrorOf([] { ResolvePrecision(NetworkPrecision::kAuto); }),
+              "FURN_NETWORK_PRECISION='fast' must be auto, fp32 or bf16");
+    // An explicit choice does not read it.
+    EXPECT_EQ(ResolvePrecision(NetworkPrecision::kFloat32), NetworkPrecision::kFloat32);
+  }
+  EXPECT_EQ(ParseEnum<NetworkPrecision>("bf16"), NetworkPrecision::kBfloat16);
+  EXPECT_EQ(EnumName(NetworkPrecision::kFloat32), std::string("fp32"));
+  // A network computes in float until told otherwise.
+  VoteNet net = VoteNet::Create(SmallTraining().net, 1);
+  EXPECT_EQ(net.precision(), NetworkPrecision::kFloat32);
+  net.SetPrecision(NetworkPrecision::kFloat32);
+  EXPECT_EQ(net.precision(), NetworkPrecision::kFloat32);
+}
+
+// Skips a test on a CPU without bfloat16 instructions.
+#define SKIP_WITHOUT_BF16()                                                   \
+  if (!CpuHasBf16()) GTEST_SKIP() << "this CPU has no bfloat16 instructions"; \
+  static_assert(true)
+
+// A trained network's bfloat16 answers are its float answers within
+// bfloat16's rounding: the same maxima where the heat is clear, with and
+// without the mirror, for one network and an ensemble; the answers are
+// float tensors of the same shape, repeatable, and a copy keeps computing
+// in float until it is told.
+TEST(NetworkPrecision, Bf16AnswersAreFloatsWithinItsRounding) {
+  SKIP_WITHOUT_BF16();
+  const std::vector<BevSample> rooms = Rooms(8);
+  VoteNetTrainingOptions options = SmallTraining();
+  options.epochs = 40;
+  options.precision = NetworkPrecision::kFloat32;
+  VoteNetTrainingSummary summary;
+  const VoteNet trained = TrainVoteNetOnSamples(rooms, {}, options, &summary);
+  EXPECT_EQ(summary.precision, NetworkPrecision::kFloat32);
+  VoteNet bf16 = VoteNet::Deserialize(trained.Serialize(), "copy");
+  EXPECT_EQ(bf16.precision(), NetworkPrecision::kFloat32);
+  bf16.SetPrecision(NetworkPrecision::kBfloat16);
+  EXPECT_EQ(bf16.precision(), NetworkPrecision::kBfloat16);
+  EXPECT_EQ(bf16.Serialize(), trained.Serialize()) << "the weights stay float";
+  SetTorchThreads(1);
+  double largest_heat = 0;
+  int same_peaks = 0, peaks = 0;
+  for (const BevSample& room : rooms) {
+    for (const bool mirror : {false, true}) {
+      const BevOutput reference = trained.Predict(room.image, mirror);
+      const BevOutput fast = bf16.Predict(room.image, mirror);
+      ASSERT_EQ(fast.values.size(), reference.values.size());
+      EXPECT_EQ(fast.values, bf16.Predict(room.image, mirror).values) << "repeatable";
+      for (const BevObject& object : room.objects) {
+        const int k = static_cast<int>(object.furniture_class);
+        const Eigen::Vector2d cell = room.image.frame.CellOf(object.Centre(), room.image.spec);
+        auto peak = [&](const BevOutput& out) {
+          std::pair<float, int> best{-1.0f, -1};
+          for (int r = std::max(0, static_cast<int>(cell.x()) - 3);
+               r <= std::min(31, static_cast<int>(cell.x()) + 3);
+               ++r) {
+            for (int c = std::max(0, static_cast<int>(cell.y()) - 3);
+                 c <= std::min(31, static_cast<int>(cell.y()) + 3);
+                 ++c)
+              best = std::max(best, {out.At(k, r, c), r * 32 + c});
+          }
+          return best.second;
+        };
+        ++peaks;
+        same_peaks += peak(reference) == peak(fast);
+      }
+      for (int row = 0; row < 32; ++row) {
+        for (int col = 0; col < 32; ++col) {
+          for (int k = 0; k < kBevClasses; ++k)
+            largest_heat = std::max(
+                largest_heat,
+                static_cast<double>(std::abs(fast.At(k, row, col) - reference.At(k, row, col))));
+        }
+      }
+    }
+  }
+  std::printf("bf16 against fp32: largest heat difference %.4f, %d of %d peaks in the same cell\n",
+              largest_heat,
+              same_peaks,
+              peaks);
+  EXPECT_LT(largest_heat, 0.05);
+  EXPECT_GE(same_peaks, peaks - 1);
+  // An ensemble computes in its first member's arithmetic, every member.
+  std::vector<VoteNet> members;
+  members.push_back(VoteNet::Deserialize(trained.Serialize(), "a"));
+  members.push_back(VoteNet::Deserialize(trained.Serialize(), "b"));
+  members[0].SetPrecision(NetworkPrecision::kBfloat16);
+  const VoteNet ensemble = VoteNet::Ensemble(std::move(members), "test");
+  EXPECT_EQ(ensemble.precision(), NetworkPrecision::kBfloat16);
+  EXPECT_EQ(ensemble.Predict(rooms[0].image).values, bf16.Predict(rooms[0].image).values)
+      << "two copies of one network (both in bf16) answer as the network";
+}
+
+// Training in bfloat16: the same seed gives the same bytes, it learns the
+// rooms as float does, its summary says so, and a checkpoint of it does not
+// resume a float training.
+TEST(NetworkPrecision, Bf16TrainingIsRepeatableAndLearns) {
+  SKIP_WITHOUT_BF16();
+  const std::vector<BevSample> rooms = Rooms(8);
+  VoteNetTrainingOptions options = SmallTraining();
+  options.precision = NetworkPrecision::kBfloat16;
+  VoteNetTrainingSummary summary, again;
+  const VoteNet net = TrainVoteNetOnSamples(rooms, rooms, options, &summary);
+  EXPECT_EQ(summary.precision, NetworkPrecision::kBfloat16);
+  EXPECT_EQ(net.precision(), NetworkPrecision::kBfloat16);
+  options.epochs = 3;
+  EXPECT_EQ(TrainVoteNetOnSamples(rooms, {}, options, &again).Serialize(),
+            TrainVoteNetOnSamples(rooms, {}, options, &again).Serialize());
+  const double first = summary.epochs.front().train_loss;
+  const double last = summary.epochs.back().validation_loss;
+  EXPECT_LT(last, first / 5) << "loss " << first << " -> " << last;
+  const OperatingPoint point = VoteNetOperatingPoint(net, rooms);
+  for (FurnitureClass c : {FurnitureClass::kChair, FurnitureClass::kTable})
+    EXPECT_GE(point.classes[static_cast<size_t>(c)].f1, 0.9) << ClassName(c);
+  VoteNet as_float = VoteNet::Create(options.net, options.WeightSeed());
+  VoteNet as_bf16 = VoteNet::Create(options.net, options.WeightSeed());
+  as_bf16.SetPrecision(NetworkPrecision::kBfloat16);
+  EXPECT_NE(TrainingFingerprint(rooms, {}, options, as_float),
+            TrainingFingerprint(rooms, {}, options, as_bf16));
 }
 
 // The weight average's arithmetic, seen through the networks' outputs: at

@@ -271,6 +271,11 @@ void AddVoteNetScheduleFlags(CLI::App* app, VoteNetTrainingOptions* options) {
       ->capture_default_str();
   app->add_option("--vote-threads", o.threads, "Vote network: torch threads while training")
       ->capture_default_str();
+  AddEnumOption(app,
+                "--vote-precision",
+                &o.precision,
+                "Vote network: the arithmetic of its training: auto (bf16 on a CPU with "
+                "AMX-BF16, else fp32), fp32 or bf16");
 }
 
 }  // namespace

@@ -56,13 +56,14 @@ void PrintTrainSummary(const std::string& out,
   if (summary.vote_net) {
     const VoteNetTrainingSummary& v = summary.vote_net_training;
     std::printf(
-        "  vote net: %d rooms, %d frames (%d objects), %d validation frames, %lld parameters; "
-        "generate %.1f s, rasterise %.1f s, train %.1f s; validation loss %.3f\n",
+        "  vote net: %d rooms, %d frames (%d objects), %d validation frames, %lld parameters "
+        "(%s); generate %.1f s, rasterise %.1f s, train %.1f s; validation loss %.3f\n",
         v.rooms,
         v.frames,
         v.objects,
         v.validation_frames,
         static_cast<long long>(v.parameters),
+        EnumName(v.precision),
         v.generate_s,
         v.raster_s,
         v.train_s,

@@ -164,6 +164,11 @@ void ForEachDetectorOption(Options* options, Visit&& visit) {
                            "--torch-threads",
                            "Learned voting: the network's threads (0: the library's default)"},
         o.torch_threads);
+  visit(DetectorOptionInfo{"network_precision",
+                           "--network-precision",
+                           "Learned voting: the network's arithmetic: auto (bf16 on a CPU with "
+                           "AMX-BF16, else fp32), fp32 or bf16"},
+        o.network_precision);
   visit(
       DetectorOptionInfo{
           "learned_fit",

@@ -232,6 +232,7 @@ AdaptSummary AdaptModel(const AdaptOptions& options) {
   Require(!model.vote_net.empty(),
           options.model_path + ": has no vote network to adapt (a codebook model)");
   VoteNet net = VoteNet::Deserialize(model.vote_net, options.model_path);
+  net.SetPrecision(options.detector.network_precision);
   DetectorOptions prepare = options.detector;
   prepare.voting = VotingMode::kLearned;  // the points as the network's grid takes them
   const Detector detector(model, prepare);

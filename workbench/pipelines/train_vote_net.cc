@@ -310,6 +310,7 @@ void VoteNetTrainingOptions::Check() const {
   Require(batch_size >= 1 && batch_size <= 512, "vote-net batch size must be in 1..512");
   Require(learning_rate > 0 && learning_rate <= 1, "vote-net learning rate must be in (0, 1]");
   Require(threads >= 0 && threads <= 256, "vote-net threads must be in 0..256");
+  ResolvePrecision(precision);  // bf16 asked of a CPU without it fails here, before the rooms
   Require(min_visibility >= 0 && min_visibility <= 1, "vote-net min visibility must be in 0..1");
   Require(validation_share >= 0 && validation_share < 1,
           "vote-net validation share must be in [0, 1)");
@@ -752,11 +753,13 @@ VoteNet TrainVoteNetOnSamples(const std::vector<BevSample>& training,
   VoteNet net = tune_from != nullptr
                     ? VoteNet::Deserialize(tune_from->Serialize(), "the network to tune")
                     : VoteNet::Create(options.net, options.WeightSeed());
+  net.SetPrecision(options.precision);
   VoteNetOptimizer optimizer(&net, options.loss);
   optimizer.JoinGroup(group);
   std::optional<VoteNetWeightAverage> average;
   if (options.weight_average > 0) average.emplace(net, options.weight_average);
   summary->parameters = net.Parameters();
+  summary->precision = net.precision();
   summary->frames = static_cast<int>(total);
   summary->validation_frames = static_cast<int>(validation.size());
   summary->objects = CountTargets(training, group);
@@ -832,6 +835,7 @@ VoteNet TrainVoteNetEnsemble(const std::vector<BevSample>& training,
   }
   VoteNet ensemble = VoteNet::Ensemble(std::move(members), "the vote network's ensemble");
   summary->parameters = ensemble.Parameters();
+  summary->precision = ensemble.precision();
   if (!validation.empty()) {
     summary->ensemble_validation_map = ValidationMeanAp(ensemble, validation);
     if (!options.quiet)
@@ -862,7 +866,8 @@ OperatingPoint VoteNetOperatingPointOnRooms(const TrainedModel& model,
                                             const std::string& rooms_path) {
   Require(!model.vote_net.empty(),
           model_path + ": has no vote network (--training-rooms needs one)");
-  const VoteNet net = VoteNet::Deserialize(model.vote_net, model_path);
+  VoteNet net = VoteNet::Deserialize(model.vote_net, model_path);
+  net.SetPrecision(NetworkPrecision::kAuto);  // as detection runs it here
   VoteNetTrainingOptions rooms;
   rooms.net = net.options();
   std::vector<BevSample> validation;
@@ -958,8 +963,9 @@ std::string TrainVoteNet(const Catalog& catalog,
   if (!validation.empty()) summary->operating_point = VoteNetOperatingPoint(net, validation);
   summary->stages.operating_point_s = Seconds(start);
   if (!validation.empty() && !summary->last_weights.empty()) {
-    summary->last_operating_point = VoteNetOperatingPoint(
-        VoteNet::Deserialize(summary->last_weights, "the last weights"), validation);
+    VoteNet last = VoteNet::Deserialize(summary->last_weights, "the last weights");
+    last.SetPrecision(summary->precision);
+    summary->last_operating_point = VoteNetOperatingPoint(last, validation);
   }
   if (!options.keep_rooms && options.rooms_cache.empty()) RemoveDatabaseFiles(rooms_db);
   if (!options.curve_png.empty()) WriteCurve(*summary, !validation.empty(), options.curve_png);

@@ -129,6 +129,9 @@ std::string TrainingFingerprint(const std::vector<BevSample>& training,
                          options.loss.membership,
                          options.loss.edges};
   hasher.Update(loop, sizeof(loop));
+  // A bfloat16 training resumes only in bfloat16 (float's fingerprint is
+  // the one it had before the option).
+  if (initial.precision() == NetworkPrecision::kBfloat16) hasher.Update("bf16", 4);
   return hasher.HexDigest();
 }
 
