@@ -496,6 +496,10 @@ struct HypothesisFit {
   double second_score = 0;                             // the best score of the other candidates
   int fits = 0;                                        // candidates that gave a pose
   std::vector<DetectionDebug::Hypothesis::Fit> tried;  // every pose, for reports
+
+  // A candidate's pose counted, recorded, and kept when it beats the best
+  // so far (candidates are added in rank order).
+  void Add(CandidateFit candidate);
 };
 
 // Stage 7 (verify): what the scan says of the best fit.
@@ -572,6 +576,23 @@ class Detector {
   HypothesisFit FitHypothesis(const PreparedScan& scan,
                               const DetectionDebug::Hypothesis& hypothesis,
                               int hypothesis_index) const;
+  // FitHypothesis of hypotheses[indices[k]] for every k, with every
+  // (hypothesis, candidate) pair fitted on its own across the cores: the
+  // same fits to the bit.
+  std::vector<HypothesisFit> FitHypotheses(
+      const PreparedScan& scan,
+      const std::vector<DetectionDebug::Hypothesis>& hypotheses,
+      const std::vector<int>& indices) const;
+  // FitHypothesis's pieces: the scene around a hypothesis, and one candidate
+  // (`rank` into its candidate models) fitted there (none when RANSAC found
+  // no pose).
+  HypothesisRegion RegionOf(const PreparedScan& scan,
+                            const DetectionDebug::Hypothesis& hypothesis) const;
+  std::optional<CandidateFit> FitCandidate(const PreparedScan& scan,
+                                           const DetectionDebug::Hypothesis& hypothesis,
+                                           const HypothesisRegion& region,
+                                           int hypothesis_index,
+                                           int rank) const;
   // Stage 7: the best fit verified (`fit.best` must be set).
   FitVerification VerifyFit(const PreparedScan& scan, const HypothesisFit& fit) const;
   // Stage 8: features, probability, gates and outcome of a verified fit.

@@ -5,6 +5,7 @@
 #include <map>
 
 #include "core/detector/detector_impl.h"
+#include "core/util/parallel.h"
 #include "core/util/random.h"
 
 namespace furn {
@@ -105,61 +106,111 @@ double Detector::Impl::ExplainedOwnPoints(const PreparedScan& scan,
   return own_inside > 0 ? static_cast<double>(own_covered) / own_inside : 0;
 }
 
+std::optional<CandidateFit> Detector::FitCandidate(const PreparedScan& scan,
+                                                   const DetectionDebug::Hypothesis& hypothesis,
+                                                   const HypothesisRegion& region,
+                                                   int hypothesis_index,
+                                                   int rank) const {
+  const Impl& impl = *impl_;
+  const DetectorOptions& options = impl.options;
+  const Eigen::Vector2f hint(static_cast<float>(hypothesis.x), static_cast<float>(hypothesis.y));
+  CandidateFit candidate;
+  candidate.model = hypothesis.candidate_models[rank];
+  candidate.rank = rank;
+  candidate.fit = impl.fitters[candidate.model].Fit(
+      region.fit_points,
+      region.fit_normals,
+      hint,
+      DeriveSeed(options.seed, static_cast<uint64_t>(hypothesis_index) * 64 + rank));
+  if (!candidate.fit.found) return std::nullopt;
+  candidate.covered = options.own_segment_share > 0
+                          ? impl.ExplainedOwnPoints(scan,
+                                                    candidate.model,
+                                                    candidate.fit.pose,
+                                                    region.fit_points,
+                                                    region.fit_cloud_index)
+                          : candidate.fit.Explained();
+  const std::vector<Eigen::Vector3f>& shape_points =
+      impl.model.model_shapes[candidate.model].points;
+  candidate.posed.reserve(shape_points.size());
+  const PlanarTransform transform(candidate.fit.pose);
+  for (const Eigen::Vector3f& p : shape_points) candidate.posed.push_back(transform.Apply(p));
+  candidate.counts =
+      CountVisibility(*scan.occupancy, candidate.posed, static_cast<float>(options.floor_band_m));
+  candidate.verification = candidate.counts.Score(options.occupied_weight);
+  candidate.score = candidate.verification * candidate.covered * candidate.counts.SeenOccupied();
+  return candidate;
+}
+
+void HypothesisFit::Add(CandidateFit candidate) {
+  ++fits;
+  const PlanarPose& pose = candidate.fit.pose;
+  tried.push_back({candidate.model,
+                   pose.x,
+                   pose.y,
+                   pose.yaw,
+                   candidate.covered,
+                   candidate.verification,
+                   candidate.score});
+  const double best_score = best ? best->score : -1;
+  if (candidate.score <= best_score) {
+    second_score = std::max(second_score, candidate.score);
+    return;
+  }
+  second_score = std::max(second_score, best_score);
+  best = std::move(candidate);
+}
+
+HypothesisRegion Detector::RegionOf(const PreparedScan& scan,
+                                    const DetectionDebug::Hypothesis& hypothesis) const {
+  return RegionAround(
+      scan,
+      hypothesis,
+      Reach(impl_->model, hypothesis.candidate_models, impl_->options.fit.max_offset_m));
+}
+
 HypothesisFit Detector::FitHypothesis(const PreparedScan& scan,
                                       const DetectionDebug::Hypothesis& hypothesis,
                                       int hypothesis_index) const {
-  const Impl& impl = *impl_;
-  const DetectorOptions& options = impl.options;
   HypothesisFit result;
   if (hypothesis.candidate_models.empty()) return result;
-  result.region = RegionAround(
-      scan, hypothesis, Reach(impl.model, hypothesis.candidate_models, options.fit.max_offset_m));
-  const HypothesisRegion& region = result.region;
-  const Eigen::Vector2f hint(static_cast<float>(hypothesis.x), static_cast<float>(hypothesis.y));
+  result.region = RegionOf(scan, hypothesis);
   for (size_t c = 0; c < hypothesis.candidate_models.size(); ++c) {
-    CandidateFit candidate;
-    candidate.model = hypothesis.candidate_models[c];
-    candidate.rank = static_cast<int>(c);
-    candidate.fit = impl.fitters[candidate.model].Fit(
-        region.fit_points,
-        region.fit_normals,
-        hint,
-        DeriveSeed(options.seed, static_cast<uint64_t>(hypothesis_index) * 64 + c));
-    if (!candidate.fit.found) continue;
-    ++result.fits;
-    candidate.covered = options.own_segment_share > 0
-                            ? impl.ExplainedOwnPoints(scan,
-                                                      candidate.model,
-                                                      candidate.fit.pose,
-                                                      region.fit_points,
-                                                      region.fit_cloud_index)
-                            : candidate.fit.Explained();
-    const std::vector<Eigen::Vector3f>& shape_points =
-        impl.model.model_shapes[candidate.model].points;
-    candidate.posed.reserve(shape_points.size());
-    const PlanarTransform transform(candidate.fit.pose);
-    for (const Eigen::Vector3f& p : shape_points) candidate.posed.push_back(transform.Apply(p));
-    candidate.counts =
-        CountVisibility(*scan.occupancy, candidate.posed, static_cast<float>(options.floor_band_m));
-    candidate.verification = candidate.counts.Score(options.occupied_weight);
-    candidate.score = candidate.verification * candidate.covered * candidate.counts.SeenOccupied();
-    const PlanarPose& pose = candidate.fit.pose;
-    result.tried.push_back({candidate.model,
-                            pose.x,
-                            pose.y,
-                            pose.yaw,
-                            candidate.covered,
-                            candidate.verification,
-                            candidate.score});
-    const double best_score = result.best ? result.best->score : -1;
-    if (candidate.score <= best_score) {
-      result.second_score = std::max(result.second_score, candidate.score);
-      continue;
-    }
-    result.second_score = std::max(result.second_score, best_score);
-    result.best = std::move(candidate);
+    std::optional<CandidateFit> candidate =
+        FitCandidate(scan, hypothesis, result.region, hypothesis_index, static_cast<int>(c));
+    if (candidate) result.Add(std::move(*candidate));
   }
   return result;
+}
+
+std::vector<HypothesisFit> Detector::FitHypotheses(
+    const PreparedScan& scan,
+    const std::vector<DetectionDebug::Hypothesis>& hypotheses,
+    const std::vector<int>& indices) const {
+  std::vector<HypothesisFit> results(indices.size());
+  // Regions first, then every (hypothesis, candidate) pair on its own: a
+  // frame of one hypothesis and three candidates fits on three cores, not
+  // one. Each pair's RANSAC is seeded by its own indices and the candidates
+  // are added in rank order, so the fits are FitHypothesis's to the bit.
+  std::vector<std::pair<int, int>> pairs;  // (position in indices, rank)
+  for (size_t k = 0; k < indices.size(); ++k) {
+    const size_t candidates = hypotheses[indices[k]].candidate_models.size();
+    for (size_t c = 0; c < candidates; ++c)
+      pairs.emplace_back(static_cast<int>(k), static_cast<int>(c));
+  }
+  ParallelFor(0, static_cast<int>(indices.size()), [&](int k) {
+    const DetectionDebug::Hypothesis& hypothesis = hypotheses[indices[k]];
+    if (!hypothesis.candidate_models.empty()) results[k].region = RegionOf(scan, hypothesis);
+  });
+  std::vector<std::optional<CandidateFit>> fitted(pairs.size());
+  ParallelFor(0, static_cast<int>(pairs.size()), [&](int p) {
+    const auto [k, rank] = pairs[p];
+    fitted[p] = FitCandidate(scan, hypotheses[indices[k]], results[k].region, indices[k], rank);
+  });
+  for (size_t p = 0; p < pairs.size(); ++p) {
+    if (fitted[p]) results[pairs[p].first].Add(std::move(*fitted[p]));
+  }
+  return results;
 }
 
 }  // namespace furn

@@ -130,19 +130,28 @@ void LearnedSource::FitCandidates(const PreparedScan& scan, Proposals* proposals
     for (const auto& [segment, weight] : supports[k]) hypothesis.segments.push_back(segment);
   }
   const std::vector<std::vector<int>> neighbours = impl.SegmentNeighbours(scan, supports);
-  ParallelFor(0, static_cast<int>(candidates.size()), [&](int k) {
-    const int index = candidates[k].hypothesis;
-    DetectionDebug::Hypothesis& hypothesis = proposals->hypotheses[index];
-    if (supports[k].empty()) return;
-    impl.Rank(supports[k], neighbours, &hypothesis);  // with support: sets no outcome
-    HypothesisFit fit = detector_.FitHypothesis(scan, hypothesis, index);
+  std::vector<int> supported;  // into candidates
+  for (size_t k = 0; k < candidates.size(); ++k) {
+    if (!supports[k].empty()) supported.push_back(static_cast<int>(k));
+  }
+  ParallelFor(0, static_cast<int>(supported.size()), [&](int s) {
+    const int k = supported[s];  // with support, Rank sets no outcome
+    impl.Rank(supports[k], neighbours, &proposals->hypotheses[candidates[k].hypothesis]);
+  });
+  std::vector<int> indices;  // into the hypotheses
+  for (int k : supported) indices.push_back(candidates[k].hypothesis);
+  std::vector<HypothesisFit> fits = detector_.FitHypotheses(scan, proposals->hypotheses, indices);
+  for (size_t s = 0; s < supported.size(); ++s) {
+    const int k = supported[s];
+    DetectionDebug::Hypothesis& hypothesis = proposals->hypotheses[indices[s]];
+    HypothesisFit& fit = fits[s];
     hypothesis.fits = std::move(fit.tried);
-    if (!fit.best) return;
+    if (!fit.best) continue;
     const PlanarPose& pose = fit.best->fit.pose;
     hypothesis.fit_x = pose.x;
     hypothesis.fit_y = pose.y;
     if (std::hypot(pose.x - hypothesis.x, pose.y - hypothesis.y) > impl.options.learned_fit_agree_m)
-      return;
+      continue;
     // The fit's yaw and CAD model; the network's position and footprint,
     // which protocol E measured as at least as good as the fit's (a CAD
     // model of another size, fitted to a partial view, shifts its centre).
@@ -153,7 +162,7 @@ void LearnedSource::FitCandidates(const PreparedScan& scan, Proposals* proposals
     d.model_name = impl.model.model_names[fit.best->model];
     d.verification = fit.best->verification;
     d.covered_fraction = fit.best->covered;
-  });
+  }
 }
 
 Detection LearnedSource::DetectionOf(const BevPeak& peak) {

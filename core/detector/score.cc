@@ -129,10 +129,15 @@ Detection DetectionOf(const DetectionDebug::Hypothesis& hypothesis,
 std::vector<FittedHypothesis> Detector::FitAndVerify(
     const PreparedScan& scan, std::vector<DetectionDebug::Hypothesis>* hypotheses) const {
   std::vector<FittedHypothesis> out(hypotheses->size());
-  ParallelFor(0, static_cast<int>(hypotheses->size()), [&](int h) {
+  std::vector<int> ranked;  // the others had no support, or the same as another
+  for (size_t h = 0; h < hypotheses->size(); ++h) {
+    if (!(*hypotheses)[h].candidate_models.empty()) ranked.push_back(static_cast<int>(h));
+  }
+  std::vector<HypothesisFit> fits = FitHypotheses(scan, *hypotheses, ranked);
+  ParallelFor(0, static_cast<int>(ranked.size()), [&](int k) {
+    const int h = ranked[k];
     DetectionDebug::Hypothesis& hypothesis = (*hypotheses)[h];
-    if (hypothesis.candidate_models.empty()) return;  // no support, or the same as another
-    HypothesisFit fit = FitHypothesis(scan, hypothesis, h);
+    HypothesisFit& fit = fits[k];
     hypothesis.fits = std::move(fit.tried);
     hypothesis.outcome = HypothesisOutcome::kNoFit;
     if (!fit.best) return;

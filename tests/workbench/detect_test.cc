@@ -275,6 +275,33 @@ TEST_F(DetectTest, EachStageAloneOnOneChair) {
   EXPECT_LT(std::hypot(fit.best->fit.pose.x - 0.2, fit.best->fit.pose.y - 0.1), 0.05);
   EXPECT_LE(fit.second_score, fit.best->score);
 
+  // Every (hypothesis, candidate) pair fitted on its own gives the same
+  // fits, to the bit, as one hypothesis after another.
+  std::vector<int> ranked;
+  for (size_t h = 0; h < hypotheses.size(); ++h) {
+    if (!hypotheses[h].candidate_models.empty()) ranked.push_back(static_cast<int>(h));
+  }
+  ASSERT_GE(ranked.size(), 1u);
+  const std::vector<HypothesisFit> together = detector.FitHypotheses(scan, hypotheses, ranked);
+  ASSERT_EQ(together.size(), ranked.size());
+  for (size_t k = 0; k < ranked.size(); ++k) {
+    const HypothesisFit alone = detector.FitHypothesis(scan, hypotheses[ranked[k]], ranked[k]);
+    ASSERT_EQ(together[k].fits, alone.fits) << "hypothesis " << ranked[k];
+    ASSERT_EQ(together[k].best.has_value(), alone.best.has_value());
+    EXPECT_EQ(together[k].second_score, alone.second_score);
+    EXPECT_EQ(together[k].region.cloud_index, alone.region.cloud_index);
+    for (size_t t = 0; t < alone.tried.size(); ++t) {
+      EXPECT_EQ(together[k].tried[t].model_index, alone.tried[t].model_index);
+      EXPECT_EQ(together[k].tried[t].yaw, alone.tried[t].yaw);
+      EXPECT_EQ(together[k].tried[t].score, alone.tried[t].score);
+    }
+    if (alone.best) {
+      EXPECT_EQ(together[k].best->model, alone.best->model);
+      EXPECT_EQ(together[k].best->fit.pose.x, alone.best->fit.pose.x);
+      EXPECT_EQ(together[k].best->posed, alone.best->posed);
+    }
+  }
+
   const FitVerification verification = detector.VerifyFit(scan, fit);
   EXPECT_GE(verification.covered, 0.75);
   EXPECT_GE(verification.verification, 0.6);
