@@ -62,16 +62,18 @@ Eigen::Isometry3d FindFloor(const std::vector<Eigen::Vector3f>& points_in_camera
                             const FloorOptions& options);
 
 // The points (x[i], y[i], z[i]) within `threshold` of the plane
-// c0 x + c1 y + c2 z + c3 = 0: the floor RANSAC's inner loop, four points at
-// a time. The same count as PCL's plane model to the point: PCL's distance
-// is Eigen's dot product of the coefficients with (x, y, z, 1), which sums
-// the products as (c0 x + c2 z) + (c1 y + c3), and `|d| < threshold` compares
-// the float with a double; the same sums here, against the largest float
-// below the threshold (tested against PCL's count at the threshold).
+// c0 x + c1 y + c2 z + c3 = 0: the floor RANSAC's inner loop. The same count as PCL's plane model
+// to the point: PCL's distance is Eigen's dot product of the coefficients with (x, y, z, 1), which
+// sums the products as (c0 x + c2 z) + (c1 y + c3), and `|d| < threshold` compares the float with a
+// double; the same sums here, against the largest float below the threshold (tested against PCL's
+// count at the threshold). Eight points at a time where the CPU has AVX2 (kBest), four elsewhere:
+// the same count either way; `path` forces one (kAvx2 on a CPU without AVX2 is an error).
+enum class SimdPath { kBest, kSse2, kAvx2 };
 size_t CountNearPlane(const std::vector<float>& x,
                       const std::vector<float>& y,
                       const std::vector<float>& z,
                       const Eigen::Vector4f& coefficients,
-                      double threshold);
+                      double threshold,
+                      SimdPath path = SimdPath::kBest);
 
 }  // namespace furn

@@ -19,6 +19,7 @@
 #include <map>
 
 #include "core/detector/detector.h"
+#include "core/geometry/floor.h"
 #include "core/geometry/scan_fusion.h"
 #include "core/learned/bev_grid.h"
 #include "core/learned/vote_net.h"
@@ -243,6 +244,59 @@ BENCHMARK(BM_DetectRealFrame)
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime()
     ->Iterations(44);
+
+// The floor RANSAC's inner loop on its sample's size (20000 points, the
+// default FloorOptions::sample_points), by each code path: arg 0 SSE2 (four
+// points at a time), 1 AVX2 (eight; skipped on a CPU without it). The same
+// counts (tests/core/floor_test.cc).
+void BM_CountNearPlane(benchmark::State& state) {
+  const SimdPath path = state.range(0) == 0 ? SimdPath::kSse2 : SimdPath::kAvx2;
+  if (path == SimdPath::kAvx2 && !__builtin_cpu_supports("avx2")) {
+    state.SkipWithError("this CPU has no AVX2");
+    return;
+  }
+  constexpr size_t kPoints = 20000;
+  std::vector<float> x(kPoints), y(kPoints), z(kPoints);
+  for (size_t i = 0; i < kPoints; ++i) {  // a floor 1.2 m below, and other points
+    x[i] = static_cast<float>(i % 200) * 0.02f - 2;
+    z[i] = static_cast<float>(i / 200) * 0.04f + 0.5f;
+    y[i] = i % 3 == 0 ? 1.2f : static_cast<float>(i % 97) * 0.02f - 1;
+  }
+  const Eigen::Vector4f plane(0.05f, -0.998f, 0.03f, 1.19f);
+  size_t count = 0;
+  for (auto _ : state) {
+    count += CountNearPlane(x, y, z, plane, 0.02, path);
+    benchmark::DoNotOptimize(count);
+  }
+  state.SetItemsProcessed(static_cast<int64_t>(state.iterations() * kPoints));
+}
+BENCHMARK(BM_CountNearPlane)->Arg(0)->Arg(1)->ArgName("avx2")->Unit(benchmark::kMicrosecond);
+
+// The floor found in each organised real 640x480 frame of data/real/ (what
+// `detect` does first when the camera's pose is not given).
+void BM_EstimateFloorRealFrame(benchmark::State& state) {
+  const std::string labels = FromEnv("FURN_BENCH_REAL", FURN_SOURCE_DIR "/data/real/labels.json");
+  std::vector<LoadedScan> scans;
+  for (const RealScan& scan : ReadRealSet(labels).scans) {
+    LoadedScan loaded = LoadScan(scan.source);
+    if (loaded.input.width == 640 && loaded.input.height == 480) scans.push_back(std::move(loaded));
+  }
+  const DetectorOptions options;
+  size_t next = 0, found = 0;
+  for (auto _ : state) {
+    const FloorEstimate floor = EstimateFloor(scans[next].input.points,
+                                              options.floor,
+                                              std::max(kFloorSearchRangeM, options.max_range_m));
+    found += floor.found;
+    next = (next + 1) % scans.size();
+  }
+  state.counters["frames"] = static_cast<double>(scans.size());
+  state.counters["found"] = static_cast<double>(found) / static_cast<double>(state.iterations());
+}
+BENCHMARK(BM_EstimateFloorRealFrame)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->Iterations(45);
 
 // Loading the model file, and loading it into a ready detector (what every
 // `detect` process pays once). Target (issue 17): <= 200 ms for the default

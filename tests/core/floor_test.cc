@@ -140,6 +140,16 @@ TEST(CountNearPlane, CountsAsPclsPlaneModelDoesAtTheThreshold) {
     ASSERT_LT(pcl_count, x.size());
     ASSERT_EQ(CountNearPlane(x, y, z, coefficients.head<4>(), kThreshold), pcl_count)
         << "plane " << trial;
+    // Both code paths, whichever the CPU would pick (1003 points: both
+    // vector loops and their tails).
+    ASSERT_EQ(CountNearPlane(x, y, z, coefficients.head<4>(), kThreshold, SimdPath::kSse2),
+              pcl_count)
+        << "plane " << trial << ", SSE2";
+    if (__builtin_cpu_supports("avx2")) {
+      ASSERT_EQ(CountNearPlane(x, y, z, coefficients.head<4>(), kThreshold, SimdPath::kAvx2),
+                pcl_count)
+          << "plane " << trial << ", AVX2";
+    }
     size_t in_order = 0;
     for (size_t i = 0; i < x.size(); ++i) {
       const float d = normal.x() * x[i] + normal.y() * y[i] + normal.z() * z[i] + offset;
