@@ -130,16 +130,16 @@ void LearnedSource::FitCandidates(const PreparedScan& scan, Proposals* proposals
     for (const auto& [segment, weight] : supports[k]) hypothesis.segments.push_back(segment);
   }
   const std::vector<std::vector<int>> neighbours = impl.SegmentNeighbours(scan, supports);
-  std::vector<int> supported;  // into candidates
+  std::vector<int> supported, indices;  // the candidates with support, and their hypotheses
   for (size_t k = 0; k < candidates.size(); ++k) {
-    if (!supports[k].empty()) supported.push_back(static_cast<int>(k));
+    if (supports[k].empty()) continue;
+    supported.push_back(static_cast<int>(k));
+    indices.push_back(candidates[k].hypothesis);
   }
   ParallelFor(0, static_cast<int>(supported.size()), [&](int s) {
-    const int k = supported[s];  // with support, Rank sets no outcome
-    impl.Rank(supports[k], neighbours, &proposals->hypotheses[candidates[k].hypothesis]);
+    // With support, Rank sets no outcome.
+    impl.Rank(supports[supported[s]], neighbours, &proposals->hypotheses[indices[s]]);
   });
-  std::vector<int> indices;  // into the hypotheses
-  for (int k : supported) indices.push_back(candidates[k].hypothesis);
   std::vector<HypothesisFit> fits = detector_.FitHypotheses(scan, proposals->hypotheses, indices);
   for (size_t s = 0; s < supported.size(); ++s) {
     const int k = supported[s];

@@ -24,6 +24,7 @@
 #include "core/learned/bev_grid.h"
 #include "core/learned/vote_net.h"
 #include "db/dataset_db.h"
+#include "tests/benchmarks/benchmark_precision.h"
 #include "workbench/formats/scan_file.h"
 #include "workbench/pipelines/import_real.h"
 
@@ -85,14 +86,24 @@ std::vector<LoadedScan> EveryThirdFrame(const std::string& db_path, const FrameF
   return scans;
 }
 
-// The network's arithmetic: bf16 (skipped on a CPU without it) or fp32.
-bool SetPrecision(bool bf16, DetectorOptions* options, benchmark::State* state) {
-  if (bf16 && !CpuHasBf16()) {
-    state->SkipWithError("this CPU has no bfloat16 instructions");
-    return false;
+// The network's arithmetic from a benchmark argument (false: skipped).
+bool SetPrecision(int64_t bf16_arg, DetectorOptions* options, benchmark::State* state) {
+  const std::optional<NetworkPrecision> precision = BenchmarkPrecision(bf16_arg, state);
+  if (precision) options->network_precision = *precision;
+  return precision.has_value();
+}
+
+// The real scans of data/real/ (FURN_BENCH_REAL), loaded as `detect` loads
+// them; only the organised 640x480 ones when `organised640`.
+std::vector<LoadedScan> RealScans(bool organised640) {
+  const std::string labels = FromEnv("FURN_BENCH_REAL", FURN_SOURCE_DIR "/data/real/labels.json");
+  std::vector<LoadedScan> scans;
+  for (const RealScan& scan : ReadRealSet(labels).scans) {
+    LoadedScan loaded = LoadScan(scan.source);
+    if (!organised640 || (loaded.input.width == 640 && loaded.input.height == 480))
+      scans.push_back(std::move(loaded));
   }
-  options->network_precision = bf16 ? NetworkPrecision::kBfloat16 : NetworkPrecision::kFloat32;
-  return true;
+  return scans;
 }
 
 void BM_DetectFrame(benchmark::State& state) {
@@ -101,7 +112,7 @@ void BM_DetectFrame(benchmark::State& state) {
   DetectorOptions options;
   options.torch_threads = static_cast<int>(state.range(0));  // the learned path's network
   options.learned_mirror_average = state.range(1) != 0;
-  if (!SetPrecision(state.range(2) != 0, &options, &state)) return;
+  if (!SetPrecision(state.range(2), &options, &state)) return;
   const Detector detector(LoadTrainedModel(model_path), options);
   DetectInTurn(detector, EveryThirdFrame(db_path, FrameFusion{}), state);
 }
@@ -218,22 +229,15 @@ BENCHMARK(BM_RasteriseScan)->Unit(benchmark::kMillisecond)->UseRealTime()->Itera
 // Second arg: the network's torch threads; third: bf16 (1) or fp32 (0).
 void BM_DetectRealFrame(benchmark::State& state) {
   const std::string model_path = FromEnv("FURN_BENCH_MODEL", FURN_SOURCE_DIR "/out/model.fcm");
-  const std::string labels = FromEnv("FURN_BENCH_REAL", FURN_SOURCE_DIR "/data/real/labels.json");
   if (!std::filesystem::exists(model_path)) {
     state.SkipWithError(("needs " + model_path + " (run the main job)").c_str());
     return;
   }
   DetectorOptions options;
   options.torch_threads = static_cast<int>(state.range(1));
-  if (!SetPrecision(state.range(2) != 0, &options, &state)) return;
+  if (!SetPrecision(state.range(2), &options, &state)) return;
   const Detector detector(LoadTrainedModel(model_path), options);
-  std::vector<LoadedScan> scans;
-  for (const RealScan& scan : ReadRealSet(labels).scans) {
-    LoadedScan loaded = LoadScan(scan.source);
-    if (state.range(0) == 0 || (loaded.input.width == 640 && loaded.input.height == 480))
-      scans.push_back(std::move(loaded));
-  }
-  DetectInTurn(detector, scans, state);
+  DetectInTurn(detector, RealScans(state.range(0) != 0), state);
 }
 BENCHMARK(BM_DetectRealFrame)
     ->Args({1, 1, 0})
@@ -275,28 +279,19 @@ BENCHMARK(BM_CountNearPlane)->Arg(0)->Arg(1)->ArgName("avx2")->Unit(benchmark::k
 // The floor found in each organised real 640x480 frame of data/real/ (what
 // `detect` does first when the camera's pose is not given).
 void BM_EstimateFloorRealFrame(benchmark::State& state) {
-  const std::string labels = FromEnv("FURN_BENCH_REAL", FURN_SOURCE_DIR "/data/real/labels.json");
-  std::vector<LoadedScan> scans;
-  for (const RealScan& scan : ReadRealSet(labels).scans) {
-    LoadedScan loaded = LoadScan(scan.source);
-    if (loaded.input.width == 640 && loaded.input.height == 480) scans.push_back(std::move(loaded));
-  }
+  const std::vector<LoadedScan> scans = RealScans(true);
   const DetectorOptions options;
   size_t next = 0, found = 0;
   for (auto _ : state) {
-    const FloorEstimate floor = EstimateFloor(scans[next].input.points,
-                                              options.floor,
-                                              std::max(kFloorSearchRangeM, options.max_range_m));
+    const FloorEstimate floor = EstimateFloor(
+        scans[next].input.points, options.floor, std::max(kFloorSearchRangeM, options.max_range_m));
     found += floor.found;
     next = (next + 1) % scans.size();
   }
   state.counters["frames"] = static_cast<double>(scans.size());
   state.counters["found"] = static_cast<double>(found) / static_cast<double>(state.iterations());
 }
-BENCHMARK(BM_EstimateFloorRealFrame)
-    ->Unit(benchmark::kMillisecond)
-    ->UseRealTime()
-    ->Iterations(45);
+BENCHMARK(BM_EstimateFloorRealFrame)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(45);
 
 // Loading the model file, and loading it into a ready detector (what every
 // `detect` process pays once). Target (issue 17): <= 200 ms for the default

@@ -16,6 +16,7 @@
 #include "core/learned/vote_net_training.h"
 #include "core/util/progress.h"
 #include "db/dataset_db.h"
+#include "tests/benchmarks/benchmark_precision.h"
 #include "workbench/pipelines/train.h"
 #include "workbench/pipelines/train_vote_net.h"
 
@@ -53,15 +54,11 @@ BevImage RandomImage(std::mt19937_64* random) {
   return image;
 }
 
-// The network in bfloat16 (or float); false, with the benchmark skipped,
-// on a CPU without bfloat16 instructions.
-bool SetBenchmarkPrecision(bool bf16, VoteNet* net, benchmark::State* state) {
-  if (bf16 && !CpuHasBf16()) {
-    state->SkipWithError("this CPU has no bfloat16 instructions");
-    return false;
-  }
-  net->SetPrecision(bf16 ? NetworkPrecision::kBfloat16 : NetworkPrecision::kFloat32);
-  return true;
+// The network in the arithmetic of a benchmark argument (false: skipped).
+bool SetBenchmarkPrecision(int64_t bf16_arg, VoteNet* net, benchmark::State* state) {
+  const std::optional<NetworkPrecision> precision = BenchmarkPrecision(bf16_arg, state);
+  if (precision) net->SetPrecision(*precision);
+  return precision.has_value();
 }
 
 void BM_VoteNetTrainStep(benchmark::State& state) {
@@ -70,7 +67,7 @@ void BM_VoteNetTrainStep(benchmark::State& state) {
   options.width = static_cast<int>(state.range(1));
   SetTorchThreads(static_cast<int>(state.range(2)));
   VoteNet net = VoteNet::Create(options, 1);
-  if (!SetBenchmarkPrecision(state.range(3) != 0, &net, &state)) return;
+  if (!SetBenchmarkPrecision(state.range(3), &net, &state)) return;
   VoteNetOptimizer optimizer(&net, VoteNetLossWeights{});
   std::mt19937_64 random(1);
   TrainingBatch training;
@@ -116,7 +113,7 @@ void BM_VoteNetPredict(benchmark::State& state) {
   options.width = static_cast<int>(state.range(0));
   SetTorchThreads(static_cast<int>(state.range(1)));
   VoteNet net = VoteNet::Create(options, 1);
-  if (!SetBenchmarkPrecision(state.range(2) != 0, &net, &state)) return;
+  if (!SetBenchmarkPrecision(state.range(2), &net, &state)) return;
   std::mt19937_64 random(1);
   const BevImage image = RandomImage(&random);
   for (auto _ : state) benchmark::DoNotOptimize(net.Predict(image).values.size());

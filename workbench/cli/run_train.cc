@@ -333,6 +333,40 @@ ArrayJob TrainArrayJob(const ClusterFlags& cluster,
   return job;
 }
 
+// The vote network's options in this process (none with --no-vote-net):
+// in one process without --vote-threads torch gets the CPUs the run may use
+// (--threads, FURN_THREADS, the affinity mask, SLURM_CPUS_PER_TASK), as the
+// pool does; with --vote-workers this process leads the workers.
+std::optional<VoteNetTrainingOptions> ThisProcessVoteNetOptions(
+    const VoteNetTrainingOptions* resolved,
+    const VoteWorkerFlags& workers,
+    bool threads_given,
+    int argc,
+    char** argv) {
+  if (workers.workers != 1) {
+    Require(resolved != nullptr, "--vote-workers trains the vote network: not with --no-vote-net");
+    VoteNetTrainingOptions led = workers.Leader(*resolved, threads_given, argc, argv);
+    led.Check();
+    return led;
+  }
+  if (resolved == nullptr) return std::nullopt;
+  VoteNetTrainingOptions options = *resolved;
+  if (!threads_given) options.threads = ParallelThreads();
+  return options;
+}
+
+// A --scorer file's bytes, checked to hold a hypothesis scorer ("" for no
+// file).
+std::string ReadCheckedScorer(const std::string& path) {
+  if (path.empty()) return "";
+  const std::string scorer = ReadFileBytes(path);
+  if (!scorer.empty()) {
+    Require(!HypothesisScorer::Deserialize(scorer, path).empty(),
+            path + ": holds no hypothesis scorer");
+  }
+  return scorer;
+}
+
 }  // namespace
 
 int RunTrain(int argc, char** argv) {
@@ -385,40 +419,25 @@ int RunTrain(int argc, char** argv) {
                        workers.rooms);
     return 0;
   }
-  VoteNetTrainingOptions led;
-  if (vote_net_options != nullptr && workers.workers == 1 && app.count("--vote-threads") == 0) {
-    // One process: torch gets the CPUs the run may use (--threads,
-    // FURN_THREADS, the affinity mask, SLURM_CPUS_PER_TASK), as the pool does.
-    led = *vote_net_options;
-    led.threads = ParallelThreads();
-    vote_net_options = &led;
-  }
-  if (workers.workers != 1) {
-    Require(vote_net_options != nullptr,
-            "--vote-workers trains the vote network: not with --no-vote-net");
-    led = workers.Leader(*vote_net_options, app.count("--vote-threads") > 0, argc, argv);
-    led.Check();
-    vote_net_options = &led;
-  }
+  std::optional<VoteNetTrainingOptions> process_options = ThisProcessVoteNetOptions(
+      vote_net_options, workers, app.count("--vote-threads") > 0, argc, argv);
   const Catalog catalog = OpenCatalog(catalog_flags.spec, MakeOpenOptions(catalog_flags));
   for (const std::string& warning : catalog.warnings())
     std::fprintf(stderr, "warning: %s\n", warning.c_str());
   // The scorer is read before training, so a bad file costs no training time.
-  const std::string scorer = scorer_file.empty() ? "" : ReadFileBytes(scorer_file);
-  if (!scorer.empty()) {
-    Require(!HypothesisScorer::Deserialize(scorer, scorer_file).empty(),
-            scorer_file + ": holds no hypothesis scorer");
-  }
-  if (!room_shards.shard.empty()) return GenerateRoomShard(catalog, *vote_net_options, room_shards);
-  VoteNetTrainingOptions with_shards;
+  const std::string scorer = ReadCheckedScorer(scorer_file);
+  if (!room_shards.shard.empty()) return GenerateRoomShard(catalog, *process_options, room_shards);
   if (!room_shards.from.empty()) {  // the final job of `train --shards`
-    CheckRoomShardsHoldEveryRoom(room_shards.from, vote_net_options->rooms);
-    with_shards = *vote_net_options;
-    with_shards.room_shards = room_shards.from;
-    vote_net_options = &with_shards;
+    CheckRoomShardsHoldEveryRoom(room_shards.from, process_options->rooms);
+    process_options->room_shards = room_shards.from;
   }
-  const TrainSummary summary =
-      TrainFromCatalog(catalog, training.scan, training.trainer, out, {}, scorer, vote_net_options);
+  const TrainSummary summary = TrainFromCatalog(catalog,
+                                                training.scan,
+                                                training.trainer,
+                                                out,
+                                                {},
+                                                scorer,
+                                                process_options ? &*process_options : nullptr);
   PrintTrainSummary(out, training.trainer, summary);
   return 0;
 }
