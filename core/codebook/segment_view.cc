@@ -27,7 +27,8 @@ ViewSegments SegmentView(const std::vector<Eigen::Vector3f>& points,
                          const Eigen::Vector3f& sensor_origin,
                          const TrainerOptions& options,
                          SegmentTimings* timings,
-                         bool features) {
+                         bool features,
+                         const std::function<void()>& preprocessed) {
   using Clock = std::chrono::steady_clock;
   auto lap = [last = Clock::now()](double* ms) mutable {
     const auto now = Clock::now();
@@ -37,6 +38,7 @@ ViewSegments SegmentView(const std::vector<Eigen::Vector3f>& points,
   ViewSegments view;
   view.cloud = Preprocess(points, sensor_origin, options.preprocess);
   lap(timings ? &timings->preprocess_ms : nullptr);
+  if (preprocessed) preprocessed();
   if (view.cloud.size() == 0) return view;
   view.segments = GrowRegions(view.cloud, options.region_growing);
   lap(timings ? &timings->segment_ms : nullptr);

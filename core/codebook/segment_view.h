@@ -2,6 +2,8 @@
 // preprocessing, region growing and SGFs (SPEC §5).
 #pragma once
 
+#include <functional>
+
 #include <Eigen/Core>
 #include <vector>
 
@@ -16,11 +18,14 @@ struct SegmentTimings {
 };
 // With `features` false the segments' SGFs are left empty (what learned
 // voting's fits need: segments and centroids, no codebook words).
+// `preprocessed`, when given, is called once the preprocessing (the MLS fit,
+// on every core) is over, before region growing (serial).
 ViewSegments SegmentView(const std::vector<Eigen::Vector3f>& points,
                          const Eigen::Vector3f& sensor_origin,
                          const TrainerOptions& options,
                          SegmentTimings* timings = nullptr,
-                         bool features = true);
+                         bool features = true,
+                         const std::function<void()>& preprocessed = {});
 
 // The cloud indices of the points of some of a view's segments.
 std::vector<int> PointsOfSegments(const ViewSegments& view, const std::vector<int>& segments);

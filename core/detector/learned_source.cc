@@ -252,6 +252,7 @@ Proposals LearnedSource::Propose(const DetectionInput& input,
                 std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
                     .count();
           }
+          handoff.WaitUntilPreprocessed();  // the grid beside region growing, not the MLS
           handoff.BuildIfFree(&network_ms);
         },
         [&] { detector_.SegmentScan(input, prepared, &handoff); });

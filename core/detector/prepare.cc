@@ -202,6 +202,19 @@ bool OccupancyHandoff::BuildIfFree(StageTimings* timings) {
   return true;
 }
 
+void OccupancyHandoff::MarkPreprocessed() {
+  {
+    std::lock_guard<std::mutex> lock(preprocessed_mutex_);
+    preprocessed_ = true;
+  }
+  preprocessed_changed_.notify_all();
+}
+
+void OccupancyHandoff::WaitUntilPreprocessed() {
+  std::unique_lock<std::mutex> lock(preprocessed_mutex_);
+  preprocessed_changed_.wait(lock, [&] { return preprocessed_; });
+}
+
 void Detector::SegmentScan(const DetectionInput& input, PreparedScan* scan) const {
   OccupancyHandoff handoff;
   SegmentScan(input, scan, &handoff);
@@ -214,6 +227,11 @@ void Detector::SegmentScan(const DetectionInput& input,
   const Impl& impl = *impl_;
   const DetectorOptions& options = impl.options;
   PreparedScan& scan = *scan_out;
+  // On every way out, exceptions included: the other branch may wait for it.
+  struct MarkOnExit {
+    OccupancyHandoff* handoff;
+    ~MarkOnExit() { handoff->MarkPreprocessed(); }
+  } mark_on_exit{handoff};
   const auto start = std::chrono::steady_clock::now();
   const Eigen::Matrix3f rotation = scan.world_from_camera.linear().cast<float>();
   const Eigen::Vector3f translation = scan.world_from_camera.translation().cast<float>();
@@ -233,8 +251,10 @@ void Detector::SegmentScan(const DetectionInput& input,
   // Segments and features, exactly as in training (learned voting's fits
   // use no features: no codebook words).
   SegmentTimings segment_timings;
-  scan.view =
-      SegmentView(above_floor, scan.sensor, impl.model.options, &segment_timings, !impl.learned);
+  scan.view = SegmentView(
+      above_floor, scan.sensor, impl.model.options, &segment_timings, !impl.learned, [handoff] {
+        handoff->MarkPreprocessed();
+      });
   const auto segmented = std::chrono::steady_clock::now();
   scan.timings_ms.Add(DetectionStage::kPreprocess, to_world_ms + segment_timings.preprocess_ms);
   scan.timings_ms.Add(DetectionStage::kSegment, segment_timings.segment_ms);

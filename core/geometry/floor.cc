@@ -15,6 +15,7 @@
 
 #include "core/geometry/pcl_conversion.h"
 #include "core/util/error.h"
+#include "core/util/parallel.h"
 
 namespace furn {
 
@@ -195,6 +196,36 @@ std::optional<RansacPlane> FindRansacPlane(const pcl::PointCloud<pcl::PointXYZ>:
 // Planes RANSAC draws, one after another with the last one's points removed.
 constexpr int kPlaneAttempts = 6;
 
+// FacingUpPoints on a PCL cloud of finite points.
+std::vector<bool> FacingUpAmong(const pcl::PointCloud<pcl::PointXYZ>::ConstPtr& cloud,
+                                double max_tilt_deg) {
+  constexpr int kNeighbours = 12;           // NormalEstimation's setKSearch
+  pcl::search::KdTree<pcl::PointXYZ> tree;  // sorted results, as NormalEstimation's
+  tree.setInputCloud(cloud);
+  const double cos_tilt = std::cos(max_tilt_deg * M_PI / 180);  // compared as double, as before
+  const int count = static_cast<int>(cloud->size());
+  std::vector<char> facing_up(cloud->size(), 0);  // not vector<bool>: threads write neighbours
+  constexpr int kChunk = 256;
+  ParallelFor(0, (count + kChunk - 1) / kChunk, [&](int chunk) {
+    pcl::Indices neighbours(kNeighbours);
+    std::vector<float> squared_distances(kNeighbours);
+    EIGEN_ALIGN16 Eigen::Matrix3f covariance;
+    Eigen::Vector4f centroid;
+    for (int i = chunk * kChunk; i < std::min(count, (chunk + 1) * kChunk); ++i) {
+      // NormalEstimation::computeFeature and computePointNormal, step by
+      // step (the sign its viewpoint flip chooses does not matter here).
+      if (tree.nearestKSearch(*cloud, i, kNeighbours, neighbours, squared_distances) == 0 ||
+          neighbours.size() < 3 ||
+          pcl::computeMeanAndCovarianceMatrix(*cloud, neighbours, covariance, centroid) == 0)
+        continue;
+      float nx, ny, nz, curvature;
+      pcl::solvePlaneParameters(covariance, nx, ny, nz, curvature);
+      facing_up[i] = std::isfinite(ny) && std::abs(ny) >= cos_tilt;
+    }
+  });
+  return std::vector<bool>(facing_up.begin(), facing_up.end());
+}
+
 // Planes found largest first by RANSAC among a fixed subsample; walls and
 // table tops are skipped by the axis test or by lying above other points.
 class FloorSearch {
@@ -270,21 +301,7 @@ class FloorSearch {
   }
 
   // The sample points whose surface faces up (within the tilt).
-  std::vector<bool> FacingUp() const {
-    pcl::NormalEstimation<pcl::PointXYZ, pcl::Normal> estimation;
-    estimation.setInputCloud(cloud_);
-    estimation.setSearchMethod(pcl::make_shared<pcl::search::KdTree<pcl::PointXYZ>>());
-    estimation.setKSearch(12);
-    pcl::PointCloud<pcl::Normal> normals;
-    estimation.compute(normals);
-    const double cos_tilt = std::cos(options_.max_tilt_deg * M_PI / 180);
-    std::vector<bool> facing_up(sample_.size(), false);
-    for (size_t i = 0; i < sample_.size(); ++i) {
-      const pcl::Normal& n = normals[i];
-      facing_up[i] = std::isfinite(n.normal_y) && std::abs(n.normal_y) >= cos_tilt;
-    }
-    return facing_up;
-  }
+  std::vector<bool> FacingUp() const { return FacingUpAmong(cloud_, options_.max_tilt_deg); }
 
  private:
   const std::vector<Eigen::Vector3f>& sample_;
@@ -350,6 +367,12 @@ Eigen::Isometry3d FindFloor(const std::vector<Eigen::Vector3f>& points_in_camera
   const FloorEstimate estimate = SearchFloor(points_in_camera, options);
   if (!estimate.found) throw InputError(estimate.message);
   return estimate.world_from_camera;
+}
+
+std::vector<bool> FacingUpPoints(const std::vector<Eigen::Vector3f>& points, double max_tilt_deg) {
+  for (const Eigen::Vector3f& p : points)
+    Require(p.allFinite(), "FacingUpPoints: every point must be finite");
+  return FacingUpAmong(ToPclPoints(points), max_tilt_deg);
 }
 
 FloorEstimate EstimateFloor(const std::vector<Eigen::Vector3f>& points_in_camera,

@@ -1,9 +1,12 @@
 // The floor finder on analytic scans: the floor and camera height, and why none is found.
 #include <gtest/gtest.h>
 
+#include <pcl/features/normal_3d.h>
+#include <pcl/io/pcd_io.h>
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
 #include <pcl/sample_consensus/sac_model_plane.h>
+#include <pcl/search/kdtree.h>
 
 #include <algorithm>
 #include <cmath>
@@ -158,6 +161,58 @@ TEST(CountNearPlane, CountsAsPclsPlaneModelDoesAtTheThreshold) {
     planes_where_order_matters += in_order != pcl_count;
   }
   EXPECT_GT(planes_where_order_matters, 0u);
+}
+
+// The floor's facing-up pass (a room seen level) marks the points PCL's
+// NormalEstimation (12 nearest, k-d tree) marked, on every real scan of the
+// repository subsampled as the floor search does, and on the analytic scan.
+std::vector<bool> PclFacingUp(const std::vector<Eigen::Vector3f>& points, double max_tilt_deg) {
+  auto cloud = pcl::make_shared<pcl::PointCloud<pcl::PointXYZ>>();
+  for (const Eigen::Vector3f& p : points) cloud->push_back(pcl::PointXYZ(p.x(), p.y(), p.z()));
+  pcl::NormalEstimation<pcl::PointXYZ, pcl::Normal> estimation;
+  estimation.setInputCloud(cloud);
+  estimation.setSearchMethod(pcl::make_shared<pcl::search::KdTree<pcl::PointXYZ>>());
+  estimation.setKSearch(12);
+  pcl::PointCloud<pcl::Normal> normals;
+  estimation.compute(normals);
+  const double cos_tilt = std::cos(max_tilt_deg * M_PI / 180);
+  std::vector<bool> facing_up(points.size(), false);
+  for (size_t i = 0; i < points.size(); ++i)
+    facing_up[i] = std::isfinite(normals[i].normal_y) && std::abs(normals[i].normal_y) >= cos_tilt;
+  return facing_up;
+}
+
+TEST(FacingUpPoints, MarksThePointsPclsNormalEstimationMarks) {
+  std::vector<std::vector<Eigen::Vector3f>> scans = {FloorScan(true)};
+  for (int k = 1; k <= 5; ++k) {
+    pcl::PointCloud<pcl::PointXYZ> cloud;
+    const std::string path =
+        std::string(FURN_SOURCE_DIR "/data/real/pcl/capture000") + std::to_string(k) + ".pcd";
+    ASSERT_EQ(pcl::io::loadPCDFile(path, cloud), 0) << path;
+    std::vector<Eigen::Vector3f> finite;
+    for (const pcl::PointXYZ& p : cloud) {
+      if (std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z))
+        finite.push_back(p.getVector3fMap());
+    }
+    std::vector<Eigen::Vector3f> sample;  // every k-th, about 20,000: the floor's sample
+    const size_t stride = std::max<size_t>(1, finite.size() / 20000);
+    for (size_t i = 0; i < finite.size(); i += stride) sample.push_back(finite[i]);
+    scans.push_back(sample);
+  }
+  for (size_t s = 0; s < scans.size(); ++s) {
+    for (double tilt : {10.0, 30.0}) {  // the analytic camera is pitched 25 degrees
+      const std::vector<bool> ours = FacingUpPoints(scans[s], tilt);
+      const std::vector<bool> pcl = PclFacingUp(scans[s], tilt);
+      const size_t up = static_cast<size_t>(std::count(ours.begin(), ours.end(), true));
+      if (tilt == 30.0) {
+        EXPECT_GT(up, 0u) << "scan " << s;
+      }
+      EXPECT_LT(up, ours.size()) << "scan " << s;
+      EXPECT_TRUE(ours == pcl) << "scan " << s << ", tilt " << tilt;
+    }
+  }
+  EXPECT_EQ(testing::ErrorOf([] { FacingUpPoints({Eigen::Vector3f(0, 0, std::nanf(""))}, 10); }),
+            "FacingUpPoints: every point must be finite");
 }
 
 }  // namespace
