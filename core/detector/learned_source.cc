@@ -245,6 +245,8 @@ Proposals LearnedSource::Propose(const DetectionInput& input,
     RunBeside(
         [&] {
           network();
+          // The depth image and the grid beside region growing, not the MLS.
+          handoff.WaitUntilPreprocessed();
           if (handoff.ClaimDepthImage()) {
             const auto start = std::chrono::steady_clock::now();
             KeepDepthImage(input, options.max_range_m, prepared);
@@ -252,7 +254,6 @@ Proposals LearnedSource::Propose(const DetectionInput& input,
                 std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
                     .count();
           }
-          handoff.WaitUntilPreprocessed();  // the grid beside region growing, not the MLS
           handoff.BuildIfFree(&network_ms);
         },
         [&] { detector_.SegmentScan(input, prepared, &handoff); });
