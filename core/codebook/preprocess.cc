@@ -63,18 +63,31 @@ Eigen::Vector3d QuadricAt(const Neighbourhood& near,
                           double u,
                           double v) {
   if (near.found.size() < 6) return Eigen::Vector3d::Zero();
-  Eigen::Matrix<double, 6, 6> normal_matrix = Eigen::Matrix<double, 6, 6>::Zero();
-  Eigen::Matrix<double, 6, 1> rhs = Eigen::Matrix<double, 6, 1>::Zero();
+  // The 21 sums in locals, unrolled (registers; summed into the matrix's
+  // memory they were a chain of stores and reloads per neighbour).
+  double lower[21] = {};  // column by column: (0,0), (1,0), ..., (5,0), (1,1), ...
+  double sums[6] = {};
   for (size_t k = 0; k < near.found.size(); ++k) {
     const Eigen::Vector3d& d = near.offsets[k];
     const double du = d.dot(u_axis), dv = d.dot(v_axis), dw = d.dot(normal);
     const double weight = std::exp(-near.found[k].second * inverse_h2);
     const double basis[6] = {1, du, dv, du * du, du * dv, dv * dv};
+    int entry = 0;
+#pragma GCC unroll 6
     for (int c = 0; c < 6; ++c) {
-      for (int r = c; r < 6; ++r) normal_matrix(r, c) += (weight * basis[r]) * basis[c];
+#pragma GCC unroll 6
+      for (int r = c; r < 6; ++r) lower[entry++] += (weight * basis[r]) * basis[c];
     }
     const double weighted_height = weight * dw;
-    for (int r = 0; r < 6; ++r) rhs[r] += weighted_height * basis[r];
+#pragma GCC unroll 6
+    for (int r = 0; r < 6; ++r) sums[r] += weighted_height * basis[r];
+  }
+  Eigen::Matrix<double, 6, 6> normal_matrix = Eigen::Matrix<double, 6, 6>::Zero();
+  Eigen::Matrix<double, 6, 1> rhs;
+  int entry = 0;
+  for (int c = 0; c < 6; ++c) {
+    for (int r = c; r < 6; ++r) normal_matrix(r, c) = lower[entry++];
+    rhs[c] = sums[c];
   }
   const Eigen::LDLT<Eigen::Matrix<double, 6, 6>, Eigen::Lower> ldlt(normal_matrix);
   if (ldlt.info() != Eigen::Success || !ldlt.isPositive()) return Eigen::Vector3d::Zero();
@@ -98,12 +111,21 @@ Fitted FitPoint(const std::vector<Eigen::Vector3f>& base,
   for (const auto& [j, d2] : near->found) mean += base[j].cast<double>();
   mean /= count;
   near->offsets.clear();
-  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
+  // The covariance's six sums of d_r d_c in locals (Eigen's d * d^T went
+  // through a temporary on the stack whose reloads stalled on its stores).
+  double xx = 0, yx = 0, zx = 0, yy = 0, zy = 0, zz = 0;
   for (const auto& [j, d2] : near->found) {
     const Eigen::Vector3d d = base[j].cast<double>() - mean;
     near->offsets.push_back(d);
-    covariance += d * d.transpose();
+    xx += d.x() * d.x();
+    yx += d.y() * d.x();
+    zx += d.z() * d.x();
+    yy += d.y() * d.y();
+    zy += d.z() * d.y();
+    zz += d.z() * d.z();
   }
+  Eigen::Matrix3d covariance;
+  covariance << xx, yx, zx, yx, yy, zy, zx, zy, zz;
   covariance /= count;
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver;
   solver.computeDirect(covariance);
