@@ -48,25 +48,34 @@ class NeighbourGrid {
   template <class SkipCell, class SkipPoint, class Visit>
   void ForEachNeighbourOf(
       int i, float radius, SkipCell&& skip_cell, SkipPoint&& skip_point, Visit&& visit) const {
-    const float radius2 = radius * radius;
-    const Eigen::Vector3f& p = points_[i];
-    const int cell = cell_of_point_[i];
-    for (int n = neighbour_begin_[cell]; n < neighbour_begin_[cell + 1]; ++n) {
-      if (skip_cell(neighbour_cells_[n])) continue;
-      const auto& [begin, end] = ranges_[neighbour_cells_[n]];
-      for (int k = begin; k < end; ++k) {
-        const int j = order_[k];
-        if (skip_point(j)) continue;
-        const float d2 = (ordered_points_[k] - p).squaredNorm();
-        if (d2 <= radius2) visit(j, d2);
-      }
-    }
+    VisitAround(
+        points_[i],
+        cell_of_point_[i],
+        radius,
+        skip_cell,
+        [&](int k) { return skip_point(order_[k]); },
+        [&](int k, float d2) { visit(order_[k], d2); });
+  }
+
+  // The same in slots: the points numbered in the grid's order (a cell's
+  // points side by side, by index within a cell), for callers that keep
+  // their own per-point data in that order and so read it in sequence
+  // (region growing). skip_slot(k) and visit(k, squared distance) get
+  // slots; the visits come in the same order as ForEachNeighbourOf's.
+  template <class SkipCell, class SkipSlot, class Visit>
+  void ForEachNeighbourOfSlot(
+      int slot, float radius, SkipCell&& skip_cell, SkipSlot&& skip_slot, Visit&& visit) const {
+    VisitAround(
+        ordered_points_[slot], cell_of_point_[order_[slot]], radius, skip_cell, skip_slot, visit);
   }
 
   // The occupied cell holding point i, in 0..NumCells().
   int CellOfPoint(int i) const { return cell_of_point_[i]; }
   int NumCells() const { return static_cast<int>(ranges_.size()); }
   int CellSize(int cell) const { return ranges_[cell].second - ranges_[cell].first; }
+  // Slots: the point in slot k (0..size), and a cell's slots [first, end).
+  int PointOfSlot(int k) const { return order_[k]; }
+  std::pair<int, int> SlotsOfCell(int cell) const { return ranges_[cell]; }
 
   template <class Visit>
   void ForEachWithin(const Eigen::Vector3f& p, float radius, Visit&& visit) const {
@@ -88,6 +97,26 @@ class NeighbourGrid {
   }
 
  private:
+  // The slots within `radius` of p, a point of `cell`, cell by cell.
+  template <class SkipCell, class SkipSlot, class Visit>
+  void VisitAround(const Eigen::Vector3f& p,
+                   int cell,
+                   float radius,
+                   SkipCell&& skip_cell,
+                   SkipSlot&& skip_slot,
+                   Visit&& visit) const {
+    const float radius2 = radius * radius;
+    for (int n = neighbour_begin_[cell]; n < neighbour_begin_[cell + 1]; ++n) {
+      if (skip_cell(neighbour_cells_[n])) continue;
+      const auto& [begin, end] = ranges_[neighbour_cells_[n]];
+      for (int k = begin; k < end; ++k) {
+        if (skip_slot(k)) continue;
+        const float d2 = (ordered_points_[k] - p).squaredNorm();
+        if (d2 <= radius2) visit(k, d2);
+      }
+    }
+  }
+
   Eigen::Vector3i CellOf(const Eigen::Vector3f& p) const {
     return Eigen::Vector3i(FloorToInt(p.x() * inverse_cell_),
                            FloorToInt(p.y() * inverse_cell_),

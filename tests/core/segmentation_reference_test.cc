@@ -1,7 +1,7 @@
-// The MLS fit of Preprocess against its definition written plainly (Eigen's
-// outer products, the full normal matrix): the same points, normals and
-// curvatures to the bit on a real scan and a sphere, so that speeding the
-// fit up can never move a segment.
+// Preprocess and region growing against their definitions written plainly
+// (Eigen's outer products and the full normal matrix; growth over point
+// indices): the same points, normals, curvatures and segments to the bit on
+// real scans, so that speeding either up can never move a segment.
 #include <gtest/gtest.h>
 
 #include <pcl/io/pcd_io.h>
@@ -10,10 +10,12 @@
 
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 
 #include "core/codebook/preprocess.h"
+#include "core/codebook/region_growing.h"
 #include "core/geometry/neighbour_grid.h"
 #include "core/geometry/voxel_grid.h"
 
@@ -133,6 +135,64 @@ TEST(Preprocess, TheFitIsItsPlainDefinitionToTheBit) {
     EXPECT_TRUE(SameBits(ours.points, reference.points));
     EXPECT_TRUE(SameBits(ours.normals, reference.normals));
     EXPECT_TRUE(SameBits(ours.curvature, reference.curvature));
+  }
+}
+
+// Region growing as SPEC §7.3 states it, over point indices: seeds by
+// increasing curvature (ties by index), each grown through neighbours within
+// delta whose normal is within alpha of the seed's.
+std::vector<std::vector<int>> ReferenceRegions(const PointCloud& cloud,
+                                               const RegionGrowingOptions& options) {
+  const float delta = static_cast<float>(options.delta_m);
+  const NeighbourGrid grid(cloud.points, delta);
+  std::vector<std::pair<float, int>> by_curvature;
+  for (size_t i = 0; i < cloud.size(); ++i)
+    by_curvature.emplace_back(cloud.curvature[i], static_cast<int>(i));
+  std::sort(by_curvature.begin(), by_curvature.end());
+  const float min_cosine = static_cast<float>(std::cos(options.alpha_deg * M_PI / 180));
+  std::vector<int> label(cloud.size(), -1);
+  std::vector<std::vector<int>> segments;
+  int next_label = 0;
+  for (const auto& [curvature, seed] : by_curvature) {
+    if (label[seed] != -1) continue;
+    std::vector<int> segment = {seed};
+    label[seed] = next_label;
+    for (size_t head = 0; head < segment.size(); ++head) {
+      grid.ForEachNeighbourOf(segment[head], delta, [&](int q, float) {
+        if (label[q] != -1 || cloud.normals[q].dot(cloud.normals[seed]) < min_cosine) return;
+        label[q] = next_label;
+        segment.push_back(q);
+      });
+    }
+    ++next_label;
+    if (static_cast<int>(segment.size()) < options.min_segment_size) continue;
+    std::sort(segment.begin(), segment.end());
+    segments.push_back(std::move(segment));
+  }
+  std::stable_sort(segments.begin(), segments.end(), [](const auto& a, const auto& b) {
+    return a.size() != b.size() ? a.size() > b.size() : a.front() < b.front();
+  });
+  return segments;
+}
+
+TEST(GrowRegions, IsItsPlainDefinitionOnRealScans) {
+  PreprocessOptions preprocess;
+  RegionGrowingOptions options;
+  for (int k = 1; k <= 5; ++k) {
+    pcl::PointCloud<pcl::PointXYZ> scan;
+    const std::string path =
+        std::string(FURN_SOURCE_DIR "/data/real/pcl/capture000") + std::to_string(k) + ".pcd";
+    ASSERT_EQ(pcl::io::loadPCDFile(path, scan), 0) << path;
+    std::vector<Eigen::Vector3f> points;
+    for (const pcl::PointXYZ& p : scan) points.push_back(p.getVector3fMap());
+    const PointCloud cloud = Preprocess(points, Eigen::Vector3f::Zero(), preprocess);
+    for (double alpha : {5.0, options.alpha_deg, 30.0}) {
+      RegionGrowingOptions grow = options;
+      grow.alpha_deg = alpha;
+      const std::vector<std::vector<int>> segments = GrowRegions(cloud, grow);
+      ASSERT_GT(segments.size(), 5u) << path;
+      EXPECT_TRUE(segments == ReferenceRegions(cloud, grow)) << path << ", alpha " << alpha;
+    }
   }
 }
 
