@@ -69,11 +69,9 @@ class NeighbourGrid {
         ordered_points_[slot], cell_of_point_[order_[slot]], radius, skip_cell, skip_slot, visit);
   }
 
-  // The occupied cell holding point i, in 0..NumCells().
-  int CellOfPoint(int i) const { return cell_of_point_[i]; }
+  // The occupied cells, 0..NumCells(). Slots: the point in slot k (0..size),
+  // and a cell's slots [first, end).
   int NumCells() const { return static_cast<int>(ranges_.size()); }
-  int CellSize(int cell) const { return ranges_[cell].second - ranges_[cell].first; }
-  // Slots: the point in slot k (0..size), and a cell's slots [first, end).
   int PointOfSlot(int k) const { return order_[k]; }
   std::pair<int, int> SlotsOfCell(int cell) const { return ranges_[cell]; }
 

@@ -2,7 +2,6 @@
 #include <gtest/gtest.h>
 
 #include <pcl/features/normal_3d.h>
-#include <pcl/io/pcd_io.h>
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
 #include <pcl/sample_consensus/sac_model_plane.h>
@@ -14,6 +13,7 @@
 #include "core/geometry/floor.h"
 #include "core/util/error.h"
 #include "core/util/random.h"
+#include "tests/core/real_captures.h"
 #include "tests/test_util.h"
 
 namespace furn {
@@ -184,15 +184,11 @@ std::vector<bool> PclFacingUp(const std::vector<Eigen::Vector3f>& points, double
 
 TEST(FacingUpPoints, MarksThePointsPclsNormalEstimationMarks) {
   std::vector<std::vector<Eigen::Vector3f>> scans = {FloorScan(true)};
-  for (int k = 1; k <= 5; ++k) {
-    pcl::PointCloud<pcl::PointXYZ> cloud;
-    const std::string path =
-        std::string(FURN_SOURCE_DIR "/data/real/pcl/capture000") + std::to_string(k) + ".pcd";
-    ASSERT_EQ(pcl::io::loadPCDFile(path, cloud), 0) << path;
-    std::vector<Eigen::Vector3f> finite;
-    for (const pcl::PointXYZ& p : cloud) {
-      if (std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z))
-        finite.push_back(p.getVector3fMap());
+  for (int k = 1; k <= kRealCaptures; ++k) {
+    std::vector<Eigen::Vector3f> points, finite;
+    ASSERT_TRUE(LoadRealCapture(k, &points)) << RealCapturePath(k);
+    for (const Eigen::Vector3f& p : points) {
+      if (p.allFinite()) finite.push_back(p);
     }
     std::vector<Eigen::Vector3f> sample;  // every k-th, about 20,000: the floor's sample
     const size_t stride = std::max<size_t>(1, finite.size() / 20000);

@@ -4,10 +4,6 @@
 // real scans, so that speeding either up can never move a segment.
 #include <gtest/gtest.h>
 
-#include <pcl/io/pcd_io.h>
-#include <pcl/point_cloud.h>
-#include <pcl/point_types.h>
-
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <algorithm>
@@ -18,6 +14,7 @@
 #include "core/codebook/region_growing.h"
 #include "core/geometry/neighbour_grid.h"
 #include "core/geometry/voxel_grid.h"
+#include "tests/core/real_captures.h"
 
 namespace furn {
 namespace {
@@ -114,10 +111,8 @@ bool SameBits(const std::vector<T>& a, const std::vector<T>& b) {
 }
 
 TEST(Preprocess, TheFitIsItsPlainDefinitionToTheBit) {
-  pcl::PointCloud<pcl::PointXYZ> scan;
-  ASSERT_EQ(pcl::io::loadPCDFile(FURN_SOURCE_DIR "/data/real/pcl/capture0002.pcd", scan), 0);
   std::vector<Eigen::Vector3f> real;
-  for (const pcl::PointXYZ& p : scan) real.push_back(p.getVector3fMap());
+  ASSERT_TRUE(LoadRealCapture(2, &real)) << RealCapturePath(2);
   std::vector<Eigen::Vector3f> sphere;  // curved everywhere: the quadric's terms all count
   for (int a = 0; a < 400; ++a) {
     for (int b = 0; b < 200; ++b) {
@@ -178,13 +173,10 @@ std::vector<std::vector<int>> ReferenceRegions(const PointCloud& cloud,
 TEST(GrowRegions, IsItsPlainDefinitionOnRealScans) {
   PreprocessOptions preprocess;
   RegionGrowingOptions options;
-  for (int k = 1; k <= 5; ++k) {
-    pcl::PointCloud<pcl::PointXYZ> scan;
-    const std::string path =
-        std::string(FURN_SOURCE_DIR "/data/real/pcl/capture000") + std::to_string(k) + ".pcd";
-    ASSERT_EQ(pcl::io::loadPCDFile(path, scan), 0) << path;
+  for (int k = 1; k <= kRealCaptures; ++k) {
+    const std::string path = RealCapturePath(k);
     std::vector<Eigen::Vector3f> points;
-    for (const pcl::PointXYZ& p : scan) points.push_back(p.getVector3fMap());
+    ASSERT_TRUE(LoadRealCapture(k, &points)) << path;
     const PointCloud cloud = Preprocess(points, Eigen::Vector3f::Zero(), preprocess);
     for (double alpha : {5.0, options.alpha_deg, 30.0}) {
       RegionGrowingOptions grow = options;

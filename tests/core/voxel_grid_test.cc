@@ -6,7 +6,6 @@
 #include <gtest/gtest.h>
 
 #include <pcl/filters/voxel_grid.h>
-#include <pcl/io/pcd_io.h>
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
 
@@ -18,6 +17,7 @@
 #include "core/geometry/voxel_grid.h"
 #include "core/geometry/voxel_key.h"
 #include "core/util/random.h"
+#include "tests/core/real_captures.h"
 
 namespace furn {
 namespace {
@@ -42,14 +42,13 @@ bool SameBits(const std::vector<Eigen::Vector3f>& a, const std::vector<Eigen::Ve
 }
 
 std::vector<Eigen::Vector3f> RealScan() {
-  pcl::PointCloud<pcl::PointXYZ> cloud;
-  EXPECT_EQ(pcl::io::loadPCDFile(FURN_SOURCE_DIR "/data/real/pcl/capture0001.pcd", cloud), 0);
+  std::vector<Eigen::Vector3f> points;
+  EXPECT_TRUE(LoadRealCapture(1, &points)) << RealCapturePath(1);
   // Into a world frame: pitched, turned, lifted and moved (negative cells).
   const Eigen::Affine3f world = Eigen::Translation3f(-3.7f, 12.2f, 1.31f) *
                                 Eigen::AngleAxisf(0.7f, Eigen::Vector3f::UnitZ()) *
                                 Eigen::AngleAxisf(-1.9f, Eigen::Vector3f::UnitX());
-  std::vector<Eigen::Vector3f> points;
-  for (const pcl::PointXYZ& p : cloud) points.push_back(world * p.getVector3fMap());
+  for (Eigen::Vector3f& p : points) p = world * p;
   return points;
 }
 
